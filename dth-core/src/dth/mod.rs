@@ -1,0 +1,1 @@
+//! The DTH stepper (placeholder: filled by the stepper issue).

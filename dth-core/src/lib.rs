@@ -1,0 +1,19 @@
+//! Discrete-Time Hamiltonian dynamics (Shibberu 1992, 1998): the [`Hamiltonian`] trait, the
+//! DTH stepper, the peer integrators it is compared with, and diagnostics.
+//!
+//! Phase-space convention: `z = (q1..qn, p1..pn)`, `D = 2n`, `J = [[0, I], [-I, 0]]`.
+//! A time-dependent Hamiltonian lives in the extended phase space of the paper's Theorem 1,
+//! `z = (q1..qn, t, p1..pn, p_t)`, `D = 2n + 2`, with `calH = p_t + H(t, q, p)`.
+#![warn(missing_docs)]
+
+pub mod diagnostics;
+pub mod dth;
+pub mod error;
+pub mod hamiltonian;
+pub mod kepler;
+pub mod methods;
+pub mod systems;
+
+pub use error::Error;
+pub use hamiltonian::{j_times, psi_from, Derivatives, Hamiltonian};
+pub use nalgebra;

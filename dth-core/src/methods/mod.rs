@@ -1,0 +1,1 @@
+//! Peer integrators, one per module (placeholder: filled by the stepper issue).

@@ -1,0 +1,42 @@
+use nalgebra::{Matrix2, Vector2};
+
+use crate::Hamiltonian;
+
+/// The harmonic oscillator `H = p^2 / (2 m) + k q^2 / 2`, `z = (q, p)`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct HarmonicOscillator {
+    /// Mass `m`.
+    pub mass: f64,
+    /// Spring constant `k`.
+    pub k: f64,
+}
+
+impl Hamiltonian<2> for HarmonicOscillator {
+    const SEPARABLE: bool = true;
+
+    fn value(&self, z: &Vector2<f64>) -> f64 {
+        z[1] * z[1] / (2.0 * self.mass) + 0.5 * self.k * z[0] * z[0]
+    }
+
+    fn gradient(&self, z: &Vector2<f64>) -> Vector2<f64> {
+        Vector2::new(self.k * z[0], z[1] / self.mass)
+    }
+
+    fn hessian(&self, _z: &Vector2<f64>) -> Matrix2<f64> {
+        Matrix2::new(self.k, 0.0, 0.0, 1.0 / self.mass)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn psi_is_positive_and_matches_closed_form() {
+        // Psi = k p^2/m^2 * ... : J grad H = (p/m, -k q); Psi = k (p/m)^2 + (k q)^2 / m.
+        let h = HarmonicOscillator { mass: 2.0, k: 3.0 };
+        let z = Vector2::new(0.5, -1.5);
+        let expected = 3.0 * (-1.5f64 / 2.0).powi(2) + (3.0f64 * 0.5).powi(2) / 2.0;
+        assert!((h.psi(&z) - expected).abs() <= 4.0 * f64::EPSILON * expected);
+    }
+}

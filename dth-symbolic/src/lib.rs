@@ -1,0 +1,2 @@
+//! The symbolic engine behind `hamiltonian!` (placeholder: filled by the macro issue).
+#![warn(missing_docs)]
