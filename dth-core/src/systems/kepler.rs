@@ -66,3 +66,17 @@ impl Hamiltonian<4> for Kepler {
         )
     }
 }
+
+impl crate::systems::CentralForce<4> for Kepler {
+    fn mass(&self) -> f64 {
+        self.mass
+    }
+
+    fn phi(&self, r: f64) -> f64 {
+        -self.k / r
+    }
+
+    fn dphi(&self, r: f64) -> f64 {
+        self.k / (r * r)
+    }
+}
