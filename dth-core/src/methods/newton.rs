@@ -4,18 +4,24 @@
 //! Let `delta_i` be the `i`-th Newton update and `rho_i = |delta_i|_inf / s` its size relative
 //! to the scale `s` of the state (the caller's `scale`, or `|x|_inf` if larger). The iteration
 //! stops with success only when
-//! 1. `rho_i <= 4 eps`: the update is at the spacing of floating-point numbers near the state,
-//!    so further iterations cannot change the answer beyond roundoff; or
+//! 1. `rho_i = 0`: the update changed nothing; or
 //! 2. `rho_i <= stall_tolerance` **and** `rho_i > rho_{i-1} / 2`: the updates have stopped
 //!    shrinking (Newton converges quadratically, the quasi-Newton variants linearly with a
 //!    contraction of `O(dt^2)`), so what is left is the noise of evaluating the residual in
 //!    floating point.
 //!
+//! Stopping as soon as `rho_i <= 4 eps` is *not* enough: a linearly converging iteration then
+//! leaves a remainder of a consistent sign, and the discrete-gradient energy drifted linearly
+//! (3.6e-17 per step on the thesis Kepler orbit, 3.6e-13 after 10^4 steps); iterating to the
+//! noise floor turns that into a random walk (3.5e-14 after 10^4 steps) for about one extra
+//! iteration per step.
+//!
 //! Updates that stop shrinking above `stall_tolerance` are *not* accepted: the iteration goes on
 //! and fails with [`Error::MethodNotConverged`] at `max_iterations`, reporting the residual.
 //! A failed linear solve is [`Error::MethodSingularMatrix`], a NaN or infinity is
 //! [`Error::MethodNonFinite`]. So a returned value is always converged to roundoff (up to
-//! `stall_tolerance`, whose default is `1024 eps`).
+//! `stall_tolerance`, whose default is `1024 eps`, and then only where the updates had already
+//! stopped shrinking).
 
 use nalgebra::SMatrix;
 
@@ -123,7 +129,7 @@ pub(crate) fn solve<const R: usize, const C: usize>(
             });
         }
         let rho = size / scale.max(x.amax()).max(f64::MIN_POSITIVE);
-        if rho <= 4.0 * f64::EPSILON || (rho <= options.stall_tolerance && rho > 0.5 * previous) {
+        if rho == 0.0 || (rho <= options.stall_tolerance && rho > 0.5 * previous) {
             return Ok((x, iteration));
         }
         previous = rho;
