@@ -15,6 +15,9 @@ use crate::{j_times, Error, Hamiltonian};
 /// `O(dt |z1 - z0|)`: the iteration contracts by `O(dt^2)` per step and is run to roundoff by
 /// the shared stopping rule.
 ///
+/// On an extended phase space (time-dependent `H`) the Gonzalez correction moves the `t`
+/// coordinate by `O(dt^3)` per step relative to `dt`; the state stays second-order accurate.
+///
 /// # References
 /// O. Gonzalez, *Time integration and discrete Hamiltonian systems*, J. Nonlinear Sci. 6 (1996)
 /// 449-467, eq. (3.6); R. McLachlan, G. Quispel, N. Robidoux, *Geometric integration using

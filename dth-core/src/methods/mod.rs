@@ -20,7 +20,11 @@
 //! = 1`: the extended flow *is* the time-dependent flow with `t` as a coordinate, and every
 //! method here integrates it unchanged (the stage times of RK4 and Gauss-Legendre come out of
 //! the `t` coordinate of the stages). The driver's clock `t0 + k dt` then equals the `t`
-//! coordinate of the state up to roundoff.
+//! coordinate of the state up to roundoff, except for [`DiscreteGradient`] with Gonzalez's
+//! discrete gradient, whose correction is along `z1 - z0` (which has a `t` component): there
+//! the `t` coordinate differs from the clock by `O(dt^2)`, consistently with second order.
+//! (Tested on [`ForcedOscillator`](crate::systems::ForcedOscillator) in
+//! `tests/methods_order.rs`.)
 //!
 //! ```
 //! use dth_core::methods::{run, ImplicitMidpoint, Recorder};
