@@ -27,7 +27,7 @@ use crate::{j_times, Error};
 ///
 /// # References
 /// D. Greenspan, *Conservative numerical methods for x'' = f(x)*, J. Comput. Phys. 56 (1984)
-/// 28-41 (the thesis's ref. [5]); thesis Chapter I and Table 4.1 ("Discrete Mechanics").
+/// 28-41 (the thesis's ref. \[5\]); thesis Chapter I and Table 4.1 ("Discrete Mechanics").
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct DiscreteMechanics {
     /// Newton settings.
