@@ -39,6 +39,12 @@ pub trait CentralForce<const D: usize>: Hamiltonian<D> {
 /// (`G (r1 - r0) = phi(r1) - phi(r0)` to roundoff) and the fallback's defect
 /// `|phi'''| |r1 - r0|^3 / 24 <= eps r^3 |phi'''| / 24` is itself at roundoff. A test on
 /// `|r1 - r0|` alone with an absolute threshold would be wrong for radii far from 1.
+///
+/// The switch is also the widest at which the fallback still conserves energy to roundoff, so
+/// it is not widened for potentials whose values are large compared with their variation
+/// (`|phi| >> |phi'| r`, e.g. a large constant offset): there the quotient's noise
+/// `eps |phi| / |r1 - r0|` is larger, but trading it for an energy defect would defeat the
+/// method. Subtract such constants from `phi`.
 pub fn guarded_divided_difference(
     phi: impl Fn(f64) -> f64,
     dphi: impl Fn(f64) -> f64,
