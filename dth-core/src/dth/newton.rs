@@ -17,11 +17,13 @@
 //! `(h lambda/2) gradH^T J HessH z_lambda` (the dropped term `(h/2) gradH^T J gradH` is exactly
 //! zero), which keeps full relative accuracy.
 //!
-//! Stopping rule: iterate until the relative update `max(|dz|/|z|, |dlambda|/|lambda|)` is below
-//! `4 eps`, or is below the stall tolerance and no longer halves (roundoff noise); then the
-//! scaled residual must be below the residual tolerance, else the step fails with
-//! [`Error::NewtonDiverged`]. The iteration limit also fails with that error. Nothing is
-//! accepted on the update size alone.
+//! Stopping rule, on the relative update `u = max(|dz|/|z|, |dlambda|/|lambda|)`: stop when
+//! `u <= 4 eps`, when the error left after it, predicted from the contraction
+//! `theta = u_i / u_{i-1}` as `u theta / (1 - theta)`, is at most `4 eps`, or when `u` is below the
+//! stall tolerance and no longer halves (roundoff noise). In every case the scaled residual
+//! at the final iterate must be below the residual tolerance: otherwise Newton continues, and
+//! fails with [`Error::NewtonDiverged`] when `u <= 4 eps` or at the iteration limit. Nothing
+//! is accepted on the update size alone.
 
 use nalgebra::{SMatrix, SVector};
 
@@ -163,17 +165,29 @@ impl Updates {
         self.previous = self.last;
         self.last = Some(u);
     }
-    /// `Some(true)`: stopped on a tiny update; `Some(false)`: stalled at roundoff;
-    /// `None`: keep iterating.
+    /// `Some(true)`: the update is at most `4 eps` (nothing left to gain: a residual above
+    /// tolerance is then a failure); `Some(false)`: the error left after the update, predicted
+    /// from the observed contraction `theta = u_i / u_{i-1}`, is at most `4 eps`, or the update stalled at roundoff (below the stall tolerance and no
+    /// longer halving): stop if the residual passes, else keep iterating; `None`: keep
+    /// iterating.
     fn stopped(&self, stall: f64) -> Option<bool> {
         let u = self.last?;
         if u <= TIGHT {
             return Some(true);
         }
-        match self.previous {
-            Some(p) if u <= stall && u > 0.5 * p => Some(false),
-            _ => None,
+        let p = self.previous?;
+        let theta = u / p;
+        // Error left after this update, bounded as for a linear contraction. (A quadratic model
+        // `u theta^2` would save one iteration per step, but stops with a truncation error of
+        // ~1e-18 that is systematic, not random: on the thesis Kepler run it drifted the vertex
+        // angular momentum to 4.6e-14 over 10^4 steps, against 2.5e-15 with this bound.)
+        if theta < 0.5 && u * theta / (1.0 - theta) <= TIGHT {
+            return Some(false);
         }
+        if u <= stall && theta >= 0.5 {
+            return Some(false);
+        }
+        None
     }
 }
 

@@ -244,11 +244,16 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
         let h = self.options.dtau();
         let step = self.k + 1;
         let v = self.right_vertex();
-        // Predict lambda by linear extrapolation (the law of time makes it smooth); fall back
-        // to lambda_k if that is not positive.
-        let lambda_guess = match self.lambda_previous {
-            Some(lp) if 2.0 * self.lambda - lp > 0.0 => 2.0 * self.lambda - lp,
-            _ => self.lambda,
+        // Predict lambda from the asymptotic law of time (paper Theorem 5):
+        // lambda psi^(1/3) ~ const, with psi at an explicit predictor of zbar_{k+1}; fall back
+        // to lambda_k where psi changes sign or vanishes.
+        let z1 = predict(&self.hamiltonian, &v, self.lambda, h);
+        let psi1 = self.hamiltonian.psi(&z1);
+        let ratio = self.psi / psi1;
+        let lambda_guess = if ratio.is_finite() && ratio > 0.0 {
+            self.lambda * ratio.cbrt()
+        } else {
+            self.lambda
         };
         let z0 = predict(&self.hamiltonian, &v, lambda_guess, h);
         let s = solve_segment(
@@ -315,6 +320,9 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
     /// # Errors
     /// [`RunError`] with the first failing step's error and the trajectory up to the last
     /// accepted step.
+    // A run fails at most once, so the size of the `Err` (the partial trajectory's vectors)
+    // costs nothing per step; boxing it would only make callers unwrap a box.
+    #[allow(clippy::result_large_err)]
     pub fn trajectory(&mut self, steps: usize) -> Result<Trajectory<D>, RunError<Trajectory<D>>> {
         self.reported = false;
         let mut t = Trajectory::new();
@@ -349,6 +357,7 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
 /// # Errors
 /// [`RunError`] with the construction error and an empty trajectory, or the first failing
 /// step's error and the trajectory up to the last accepted step.
+#[allow(clippy::result_large_err)] // see `Dth::trajectory`
 pub fn integrate<H: Hamiltonian<D>, const D: usize>(
     hamiltonian: H,
     zbar0: SVector<f64, D>,

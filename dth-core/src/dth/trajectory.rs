@@ -12,35 +12,41 @@ use super::observer::{Observer, StepRecord};
 /// [`Dth::trajectory`](super::Dth::trajectory) / [`integrate`](super::integrate).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Trajectory<const D: usize> {
-    records: Vec<StepRecord<D>>,
     midpoints: Vec<SVector<f64, D>>,
     lambdas: Vec<f64>,
     midpoint_times: Vec<f64>,
     vertices: Vec<SVector<f64, D>>,
     vertex_times: Vec<f64>,
+    psis: Vec<f64>,
+    iterations: Vec<u32>,
+    factorizations: Vec<u32>,
     closed: bool,
+    first_k: usize,
 }
 
 impl<const D: usize> Trajectory<D> {
     /// An empty trajectory.
     pub fn new() -> Self {
         Trajectory {
-            records: Vec::new(),
             midpoints: Vec::new(),
             lambdas: Vec::new(),
             midpoint_times: Vec::new(),
             vertices: Vec::new(),
             vertex_times: Vec::new(),
+            psis: Vec::new(),
+            iterations: Vec::new(),
+            factorizations: Vec::new(),
             closed: false,
+            first_k: 0,
         }
     }
     /// Number of midpoints `N`.
     pub fn len(&self) -> usize {
-        self.records.len()
+        self.midpoints.len()
     }
     /// `true` when no midpoint is stored.
     pub fn is_empty(&self) -> bool {
-        self.records.is_empty()
+        self.midpoints.is_empty()
     }
     /// Midpoints `zbar_0 .. zbar_{N-1}`.
     pub fn midpoints(&self) -> &[SVector<f64, D>] {
@@ -63,17 +69,42 @@ impl<const D: usize> Trajectory<D> {
     pub fn vertex_times(&self) -> &[f64] {
         &self.vertex_times
     }
-    /// The per-midpoint records (midpoint, multiplier, times, left vertex, Psi, Newton counts).
-    pub fn records(&self) -> &[StepRecord<D>] {
-        &self.records
+    /// `Psi(zbar_k)` at each midpoint.
+    pub fn psis(&self) -> &[f64] {
+        &self.psis
     }
-    /// Newton iterations of each midpoint (0 for the initial one).
-    pub fn iterations(&self) -> impl Iterator<Item = u32> + '_ {
-        self.records.iter().map(|r| r.iterations)
+    /// Newton iterations of each midpoint (0 for the initial one; outer iterations for the
+    /// nested solver).
+    pub fn iterations(&self) -> &[u32] {
+        &self.iterations
+    }
+    /// LU factorizations of each midpoint.
+    pub fn factorizations(&self) -> &[u32] {
+        &self.factorizations
+    }
+    /// The record of midpoint `k`, if stored.
+    pub fn get(&self, k: usize) -> Option<StepRecord<D>> {
+        let index = k.checked_sub(self.first_k())?;
+        Some(StepRecord {
+            k,
+            zbar: *self.midpoints.get(index)?,
+            lambda: self.lambdas[index],
+            tbar: self.midpoint_times[index],
+            vertex: self.vertices[index],
+            vertex_time: self.vertex_times[index],
+            psi: self.psis[index],
+            iterations: self.iterations[index],
+            factorizations: self.factorizations[index],
+        })
+    }
+    /// Index `k` of the first stored midpoint (0 unless recording started mid-run).
+    pub fn first_k(&self) -> usize {
+        self.first_k
     }
     /// Iterate over the per-midpoint records.
-    pub fn iter(&self) -> std::slice::Iter<'_, StepRecord<D>> {
-        self.records.iter()
+    pub fn iter(&self) -> impl Iterator<Item = StepRecord<D>> + '_ {
+        let first = self.first_k;
+        (0..self.len()).filter_map(move |i| self.get(first + i))
     }
 
     /// Write the midpoints as CSV: `k,tbar,lambda,zbar_1..zbar_D,t_vertex,vertex_1..vertex_D,
@@ -88,7 +119,7 @@ impl<const D: usize> Trajectory<D> {
             write!(out, ",vertex_{i}")?;
         }
         writeln!(out, ",psi,iterations")?;
-        for r in &self.records {
+        for r in self.iter() {
             write!(out, "{},{:e},{:e}", r.k, r.tbar, r.lambda)?;
             for x in r.zbar.iter() {
                 write!(out, ",{x:e}")?;
@@ -103,14 +134,6 @@ impl<const D: usize> Trajectory<D> {
     }
 }
 
-impl<'a, const D: usize> IntoIterator for &'a Trajectory<D> {
-    type Item = &'a StepRecord<D>;
-    type IntoIter = std::slice::Iter<'a, StepRecord<D>>;
-    fn into_iter(self) -> Self::IntoIter {
-        self.records.iter()
-    }
-}
-
 impl<const D: usize> Observer<D> for Trajectory<D> {
     fn on_step(&mut self, r: &StepRecord<D>) {
         if self.closed {
@@ -119,15 +142,20 @@ impl<const D: usize> Observer<D> for Trajectory<D> {
             self.vertex_times.pop();
             self.closed = false;
         }
-        self.records.push(*r);
+        if self.midpoints.is_empty() {
+            self.first_k = r.k;
+        }
         self.midpoints.push(r.zbar);
         self.lambdas.push(r.lambda);
         self.midpoint_times.push(r.tbar);
         self.vertices.push(r.vertex);
         self.vertex_times.push(r.vertex_time);
+        self.psis.push(r.psi);
+        self.iterations.push(r.iterations);
+        self.factorizations.push(r.factorizations);
     }
     fn on_finish(&mut self, last_vertex: &SVector<f64, D>, last_vertex_time: f64) {
-        if !self.closed && !self.records.is_empty() {
+        if !self.closed && !self.midpoints.is_empty() {
             self.vertices.push(*last_vertex);
             self.vertex_times.push(last_vertex_time);
             self.closed = true;
