@@ -31,7 +31,8 @@ pub enum Error {
     NewtonDiverged {
         /// Index `k + 1` of the midpoint being computed.
         step: usize,
-        /// Newton iterations spent.
+        /// Newton iterations spent (for the nested solver: all inner iterations, i.e. LU
+        /// factorizations).
         iterations: u32,
         /// Last scaled residual (dimensionless, relative to the size of the terms).
         residual: f64,

@@ -308,7 +308,7 @@ fn nested<H: Hamiltonian<D>, const D: usize>(
                 if tiny {
                     return Err(Error::NewtonDiverged {
                         step,
-                        iterations: outer,
+                        iterations: factorizations,
                         residual: e.residual,
                     });
                 }
@@ -316,7 +316,7 @@ fn nested<H: Hamiltonian<D>, const D: usize>(
             if inner >= options.max_iterations() {
                 return Err(Error::NewtonDiverged {
                     step,
-                    iterations: outer,
+                    iterations: factorizations,
                     residual: e.residual,
                 });
             }
@@ -342,14 +342,14 @@ fn nested<H: Hamiltonian<D>, const D: usize>(
                     zbar: z,
                     lambda,
                     derivatives: e.d,
-                    iterations: outer,
+                    iterations: factorizations,
                     factorizations,
                 });
             }
             if tiny {
                 return Err(Error::NewtonDiverged {
                     step,
-                    iterations: outer,
+                    iterations: factorizations,
                     residual: e.residual,
                 });
             }
@@ -357,7 +357,7 @@ fn nested<H: Hamiltonian<D>, const D: usize>(
         if outer >= options.max_iterations() {
             return Err(Error::NewtonDiverged {
                 step,
-                iterations: outer,
+                iterations: factorizations,
                 residual: e.residual,
             });
         }

@@ -81,7 +81,6 @@ pub struct Dth<H, const D: usize> {
     zbar: SVector<f64, D>,
     lambda: f64,
     tbar: f64,
-    lambda_previous: Option<f64>,
     energy: f64,
     gradient: SVector<f64, D>,
     psi: f64,
@@ -145,6 +144,10 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
         } else {
             0.0
         };
+        // Every midpoint is solved against this level: H(zbar_0) for autonomous H (eq. 30,
+        // not the previous midpoint, so the energy cannot random-walk); exactly 0 for calH
+        // (eq. 11).
+        let energy = if H::TIME_DEPENDENT { 0.0 } else { d.value };
         Ok(Dth {
             hamiltonian,
             options,
@@ -152,8 +155,7 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
             zbar: zbar0,
             lambda: options.lambda0(),
             tbar,
-            lambda_previous: None,
-            energy: d.value,
+            energy,
             gradient: d.gradient,
             psi: d.psi,
             iterations: 0,
@@ -202,7 +204,8 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
     pub fn tbar(&self) -> f64 {
         self.tbar
     }
-    /// The conserved midpoint energy `H(zbar_0)` every step is solved against.
+    /// The level every midpoint is solved against: `H(zbar_0)` (autonomous), or 0 for the
+    /// extended-phase-space `calH`.
     pub fn energy(&self) -> f64 {
         self.energy
     }
@@ -272,7 +275,6 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
             });
         }
         self.tbar += 0.5 * h * (self.lambda + s.lambda);
-        self.lambda_previous = Some(self.lambda);
         self.lambda = s.lambda;
         self.zbar = s.zbar;
         self.gradient = s.derivatives.gradient;

@@ -21,7 +21,7 @@ pub struct Trajectory<const D: usize> {
     iterations: Vec<u32>,
     factorizations: Vec<u32>,
     closed: bool,
-    first_k: usize,
+    ks: Vec<usize>,
 }
 
 impl<const D: usize> Trajectory<D> {
@@ -37,7 +37,7 @@ impl<const D: usize> Trajectory<D> {
             iterations: Vec::new(),
             factorizations: Vec::new(),
             closed: false,
-            first_k: 0,
+            ks: Vec::new(),
         }
     }
     /// Number of midpoints `N`.
@@ -82,12 +82,16 @@ impl<const D: usize> Trajectory<D> {
     pub fn factorizations(&self) -> &[u32] {
         &self.factorizations
     }
-    /// The record of midpoint `k`, if stored.
-    pub fn get(&self, k: usize) -> Option<StepRecord<D>> {
-        let index = k.checked_sub(self.first_k())?;
+    /// Midpoint indices `k` of the stored midpoints (consecutive unless some steps were run
+    /// with another observer).
+    pub fn ks(&self) -> &[usize] {
+        &self.ks
+    }
+    /// The record of the `index`-th stored midpoint.
+    pub fn record(&self, index: usize) -> Option<StepRecord<D>> {
         Some(StepRecord {
-            k,
-            zbar: *self.midpoints.get(index)?,
+            k: *self.ks.get(index)?,
+            zbar: self.midpoints[index],
             lambda: self.lambdas[index],
             tbar: self.midpoint_times[index],
             vertex: self.vertices[index],
@@ -97,14 +101,13 @@ impl<const D: usize> Trajectory<D> {
             factorizations: self.factorizations[index],
         })
     }
-    /// Index `k` of the first stored midpoint (0 unless recording started mid-run).
-    pub fn first_k(&self) -> usize {
-        self.first_k
+    /// The record of midpoint `k`, if stored.
+    pub fn get(&self, k: usize) -> Option<StepRecord<D>> {
+        self.record(self.ks.binary_search(&k).ok()?)
     }
     /// Iterate over the per-midpoint records.
     pub fn iter(&self) -> impl Iterator<Item = StepRecord<D>> + '_ {
-        let first = self.first_k;
-        (0..self.len()).filter_map(move |i| self.get(first + i))
+        (0..self.len()).filter_map(move |i| self.record(i))
     }
 
     /// Write the midpoints as CSV: `k,tbar,lambda,zbar_1..zbar_D,t_vertex,vertex_1..vertex_D,
@@ -142,9 +145,7 @@ impl<const D: usize> Observer<D> for Trajectory<D> {
             self.vertex_times.pop();
             self.closed = false;
         }
-        if self.midpoints.is_empty() {
-            self.first_k = r.k;
-        }
+        self.ks.push(r.k);
         self.midpoints.push(r.zbar);
         self.lambdas.push(r.lambda);
         self.midpoint_times.push(r.tbar);
