@@ -159,3 +159,19 @@ fn runs_resume_and_a_no_op_observer_stores_nothing() {
     assert_eq!(text.lines().count(), 27);
     assert!(text.starts_with("k,tbar,lambda,zbar_1,"));
 }
+
+#[test]
+fn negative_lambda_root_is_rejected_as_spurious() {
+    // Kepler with q = (0.5, 0), p = (0, 1.38): e ~ 0.90, beyond sqrt(5/8) where Psi changes
+    // sign along the orbit (NOTES.md), and dtau = 0.2: the step has no positive root near
+    // lambda_0 and the joint Newton converges to a negative one. It must not be accepted.
+    let options = DthOptions::default().with_dtau(0.2).expect("valid");
+    let z0 = Vector4::new(0.5, 0.0, 0.0, 1.38);
+    let e = integrate(Kepler::thesis(), z0, options, 100).expect_err("no positive root");
+    assert!(
+        matches!(e.error, Error::SpuriousRoot { step: 1, lambda } if lambda < 0.0),
+        "{:?}",
+        e.error
+    );
+    assert_eq!(e.partial.len(), 1, "zbar_0 is kept");
+}

@@ -3,6 +3,15 @@
 
 use nalgebra::{SMatrix, SVector};
 
+/// Why a factorization failed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Pivot {
+    /// A pivot column was exactly zero: the matrix is singular.
+    Zero,
+    /// A pivot was NaN or infinite.
+    NonFinite,
+}
+
 /// `P A = L U`, stored in place (unit lower `L` below the diagonal, `U` on and above).
 pub(crate) struct Lu<const D: usize> {
     lu: SMatrix<f64, D, D>,
@@ -10,9 +19,9 @@ pub(crate) struct Lu<const D: usize> {
 }
 
 impl<const D: usize> Lu<D> {
-    /// Factor `a`; `None` when a pivot is exactly zero or not finite (singular as a value,
-    /// like nalgebra's `lu().solve()`).
-    pub(crate) fn factor(a: &SMatrix<f64, D, D>) -> Option<Self> {
+    /// Factor `a`; `Err(Pivot::Zero)` when a pivot is exactly zero (singular as a value, like
+    /// nalgebra's `lu().solve()`), `Err(Pivot::NonFinite)` when elimination overflowed.
+    pub(crate) fn factor(a: &SMatrix<f64, D, D>) -> Result<Self, Pivot> {
         let mut lu = *a;
         let mut perm = [0usize; D];
         for (i, p) in perm.iter_mut().enumerate() {
@@ -28,8 +37,11 @@ impl<const D: usize> Lu<D> {
                     piv = i;
                 }
             }
-            if best == 0.0 || !best.is_finite() {
-                return None;
+            if !best.is_finite() {
+                return Err(Pivot::NonFinite);
+            }
+            if best == 0.0 {
+                return Err(Pivot::Zero);
             }
             if piv != k {
                 lu.swap_rows(piv, k);
@@ -44,7 +56,7 @@ impl<const D: usize> Lu<D> {
                 }
             }
         }
-        Some(Lu { lu, perm })
+        Ok(Lu { lu, perm })
     }
 
     /// Solve `A x = b`.
@@ -83,6 +95,8 @@ mod tests {
         // Backward-stable LU on a well-conditioned 3x3: error a few eps times |x|.
         assert!(err <= 16.0 * f64::EPSILON * x.amax(), "err {err}");
         let s = Matrix3::new(1.0, 2.0, 3.0, 2.0, 4.0, 6.0, 0.0, 0.0, 1.0);
-        assert!(Lu::factor(&s).is_none());
+        assert!(matches!(Lu::factor(&s), Err(Pivot::Zero)));
+        let n = Matrix3::new(f64::NAN, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0);
+        assert!(matches!(Lu::factor(&n), Err(Pivot::NonFinite)));
     }
 }

@@ -27,7 +27,7 @@
 
 use nalgebra::{SMatrix, SVector};
 
-use super::linalg::Lu;
+use super::linalg::{Lu, Pivot};
 use super::options::{DthOptions, Solver};
 use crate::{j_times, Derivatives, Error, Hamiltonian};
 
@@ -64,6 +64,16 @@ struct Eval<const D: usize> {
     r: f64,
     /// max(|f| / scale_f, |r| / scale_r).
     residual: f64,
+}
+
+fn factor<const D: usize>(a: &SMatrix<f64, D, D>, step: usize) -> Result<Lu<D>, Error> {
+    Lu::factor(a).map_err(|p| match p {
+        Pivot::Zero => Error::SingularMatrix { step },
+        Pivot::NonFinite => Error::NonFinite {
+            step,
+            what: "Newton matrix A = I - (h lambda/2) J Hess H",
+        },
+    })
 }
 
 fn all_finite<const D: usize>(v: &SVector<f64, D>) -> bool {
@@ -132,7 +142,7 @@ fn linearize<const D: usize>(
 ) -> Result<Linearization<D>, Error> {
     let jhess = j_times_matrix(&e.d.hessian);
     let a = SMatrix::<f64, D, D>::identity() - jhess * (0.5 * h * lambda);
-    let lu = Lu::factor(&a).ok_or(Error::SingularMatrix { step })?;
+    let lu = factor(&a, step)?;
     let z_lambda = lu.solve(&(e.jg * (0.5 * h)));
     // Cancellation-free g_lambda = (h lambda/2) gradH^T J HessH z_lambda
     //                          = -(h lambda/2) (J gradH)^T HessH z_lambda.
@@ -322,7 +332,7 @@ fn nested<H: Hamiltonian<D>, const D: usize>(
             }
             let jhess = j_times_matrix(&e.d.hessian);
             let a = SMatrix::<f64, D, D>::identity() - jhess * (0.5 * h * lambda);
-            let lu = Lu::factor(&a).ok_or(Error::SingularMatrix { step })?;
+            let lu = factor(&a, step)?;
             factorizations += 1;
             let dz = lu.solve(&(-e.f));
             z += dz;
