@@ -107,7 +107,10 @@ fn quadratic_positive_definite_is_trapezoid_and_midpoint_theorem_6() {
         "Theorem 6: max |lambda - 1| {worst_lambda:.2e}; DTH vs trapezoid: midpoints \
          {worst_mid:.2e}, vertices {worst_vert:.2e}"
     );
-    println!("lambda: max per-step change {worst_lambda_step:.2e} (bound {per_step:.2e}), drift bound {lambda_bound:.2e}");
+    println!(
+        "lambda: max per-step change {worst_lambda_step:.2e} (bound {per_step:.2e}), \
+         drift bound {lambda_bound:.2e}"
+    );
     assert!(worst_lambda_step < per_step, "{worst_lambda_step:e}");
     assert!(worst_lambda < lambda_bound, "{worst_lambda:e}");
     // The sequences differ only through that lambda noise: a step of h lambda instead of h
@@ -214,7 +217,10 @@ fn law_of_time_dt_dtau_psi_cube_root_tends_to_constant_theorem_5() {
     let dtaus = [0.06277, 0.06277 / 2.0, 0.06277 / 4.0, 0.06277 / 8.0];
     let spreads: Vec<f64> = dtaus.iter().map(|&d| law_of_time_spread(d)).collect();
     let rates: Vec<f64> = spreads.windows(2).map(|w| (w[0] / w[1]).log2()).collect();
-    println!("Theorem 5: spread of lambda Psi^(1/3) over an orbit per dtau {dtaus:?}: {spreads:?}; observed rates {rates:.3?}");
+    println!(
+        "Theorem 5: spread of lambda Psi^(1/3) over an orbit per dtau {dtaus:?}: \
+         {spreads:?}; observed rates {rates:.3?}"
+    );
     for w in spreads.windows(2) {
         assert!(w[1] < w[0], "spread must shrink as dtau -> 0: {spreads:?}");
     }

@@ -1,8 +1,8 @@
 //! Newton solvers for one DTH segment.
 //!
 //! The step equation (paper eq. 28, thesis 2.3.5) from midpoint `zbar_k` with multiplier
-//! `lambda_k` says that the right vertex of segment `k`, `v = zbar_k + (h/2) lambda_k J gradH(zbar_k)`,
-//! is also the left vertex of segment `k + 1`:
+//! `lambda_k` says that the right vertex of segment `k`,
+//! `v = zbar_k + (h/2) lambda_k J gradH(zbar_k)`, is also the left vertex of segment `k + 1`:
 //!
 //! ```text
 //! f(z, lambda) = z - v - (h/2) lambda J gradH(z) = 0,      r(z) = H(z) - E = 0,
@@ -176,10 +176,10 @@ impl Updates {
         self.last = Some(u);
     }
     /// `Some(true)`: the update is at most `4 eps` (nothing left to gain: a residual above
-    /// tolerance is then a failure); `Some(false)`: the error left after the update, predicted
-    /// from the observed contraction `theta = u_i / u_{i-1}`, is at most `4 eps`, or the update stalled at roundoff (below the stall tolerance and no
-    /// longer halving): stop if the residual passes, else keep iterating; `None`: keep
-    /// iterating.
+    /// tolerance is then a failure). `Some(false)`: the error left after the update,
+    /// predicted from the observed contraction `theta = u_i / u_{i-1}`, is at most `4 eps`,
+    /// or the update stalled at roundoff (below the stall tolerance and no longer halving):
+    /// stop if the residual passes, else keep iterating. `None`: keep iterating.
     fn stopped(&self, stall: f64) -> Option<bool> {
         let u = self.last?;
         if u <= TIGHT {
