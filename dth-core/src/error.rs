@@ -25,6 +25,49 @@ pub enum Error {
         /// The offending value.
         value: f64,
     },
+    /// The Newton iteration of a DTH step did not converge: it hit the iteration limit, or its
+    /// update stalled at roundoff level while the residual stayed above tolerance.
+    #[error("newton did not converge at step {step} after {iterations} iterations (scaled residual {residual:e})")]
+    NewtonDiverged {
+        /// Index `k + 1` of the midpoint being computed.
+        step: usize,
+        /// Newton iterations spent (for the nested solver: all inner iterations, i.e. LU
+        /// factorizations).
+        iterations: u32,
+        /// Last scaled residual (dimensionless, relative to the size of the terms).
+        residual: f64,
+    },
+    /// Newton converged to a root with `lambda <= 0` (for example the spurious root
+    /// `lambda_{k+1} = -lambda_k`, `zbar_{k+1} = zbar_k`, where time stands still).
+    #[error("step {step} converged to a non-physical root with lambda = {lambda:e} (must be > 0)")]
+    SpuriousRoot {
+        /// Index `k + 1` of the midpoint being computed.
+        step: usize,
+        /// The rejected multiplier.
+        lambda: f64,
+    },
+    /// A Newton matrix was exactly singular (zero pivot), or the Schur complement
+    /// `g_lambda` of the bordered system was zero.
+    #[error("singular newton matrix at step {step}")]
+    SingularMatrix {
+        /// Index `k + 1` of the midpoint being computed.
+        step: usize,
+    },
+    /// A NaN or infinity appeared during a step.
+    #[error("non-finite value at step {step}: {what}")]
+    NonFinite {
+        /// Index of the midpoint being computed (0 for the initial midpoint).
+        step: usize,
+        /// Which quantity.
+        what: &'static str,
+    },
+    /// A time-dependent (extended phase space) start with `calH(zbar_0) != 0`; set `p_t` with
+    /// `dth::set_momentum_of_time` first (paper Theorem 1: `calH(zbar_k) = 0` for all `k`).
+    #[error("extended-phase-space start has calH(zbar_0) = {value:e}, must be 0 (set p_t = -H)")]
+    ExtendedEnergyNotZero {
+        /// `calH(zbar_0)`.
+        value: f64,
+    },
     /// A peer method's Newton iteration did not reach roundoff within the iteration limit (or
     /// diverged); `residual` is the infinity norm of the nonlinear residual at the last iterate.
     #[error("{method}: Newton did not converge at step {step} after {iterations} iterations (residual {residual:e})")]

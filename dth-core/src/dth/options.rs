@@ -1,0 +1,194 @@
+//! [`DthOptions`]: step size, initial multiplier and Newton settings, validated on construction.
+
+use crate::Error;
+
+/// Which Newton iteration solves the step equations.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[non_exhaustive]
+pub enum Solver {
+    /// One Newton iteration on `(zbar_{k+1}, lambda_{k+1})` jointly; the bordered Jacobian
+    /// `[[A, -(h/2) J grad H], [grad H^T, 0]]` is solved by block elimination with two solves
+    /// against `A = I - (h lambda / 2) J Hess H` (the default).
+    #[default]
+    Joint,
+    /// The thesis's nested algorithm (Section 4.1): an inner Newton for `zbar_{k+1}` at fixed
+    /// `lambda` (eq. 4.1.2) inside an outer Newton on `g(lambda) = H(z(h, lambda)) - H_0`
+    /// (eq. 4.1.1).
+    Nested,
+}
+
+/// Options of the DTH stepper. Build with [`Default`] and the `with_*` methods, each of which
+/// validates its argument.
+///
+/// ```
+/// use dth_core::dth::{DthOptions, Solver};
+/// let options = DthOptions::default()
+///     .with_dtau(0.06277)?
+///     .with_lambda0(1.0)?
+///     .with_solver(Solver::Nested);
+/// assert_eq!(options.dtau(), 0.06277);
+/// assert!(DthOptions::default().with_dtau(-1.0).is_err());
+/// # Ok::<(), dth_core::Error>(())
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[non_exhaustive]
+pub struct DthOptions {
+    dtau: f64,
+    lambda0: f64,
+    solver: Solver,
+    max_iterations: u32,
+    residual_tolerance: f64,
+    stall_tolerance: f64,
+}
+
+impl Default for DthOptions {
+    /// The thesis's Kepler settings (`dtau = 0.06277`, `lambda0 = 1`), joint Newton,
+    /// at most 50 iterations, residual tolerance `64 eps`, stall tolerance `2^-40`.
+    fn default() -> Self {
+        DthOptions {
+            dtau: 0.06277,
+            lambda0: 1.0,
+            solver: Solver::Joint,
+            max_iterations: 50,
+            residual_tolerance: 64.0 * f64::EPSILON,
+            stall_tolerance: 2f64.powi(-40),
+        }
+    }
+}
+
+fn positive_finite(name: &'static str, value: f64) -> Result<f64, Error> {
+    if value.is_finite() && value > 0.0 {
+        Ok(value)
+    } else {
+        Err(Error::InvalidOption {
+            name,
+            value,
+            reason: "must be positive and finite",
+        })
+    }
+}
+
+impl DthOptions {
+    /// The fixed step `dtau` (`h`) in the parameter `tau`. Default `0.06277` (thesis Table 4.1:
+    /// 25 points per orbit of its Kepler problem). Must be positive and finite.
+    pub fn with_dtau(mut self, dtau: f64) -> Result<Self, Error> {
+        self.dtau = positive_finite("dtau", dtau)?;
+        Ok(self)
+    }
+
+    /// The multiplier `lambda_0 = dt/dtau` of the first segment. Default `1` (the thesis's
+    /// choice). Must be positive and finite.
+    pub fn with_lambda0(mut self, lambda0: f64) -> Result<Self, Error> {
+        self.lambda0 = positive_finite("lambda0", lambda0)?;
+        Ok(self)
+    }
+
+    /// The Newton variant. Default [`Solver::Joint`].
+    pub fn with_solver(mut self, solver: Solver) -> Self {
+        self.solver = solver;
+        self
+    }
+
+    /// Maximum Newton iterations per step (outer iterations for [`Solver::Nested`], which uses
+    /// the same limit for each inner solve). Default 50. Must be at least 1.
+    pub fn with_max_iterations(mut self, max_iterations: u32) -> Result<Self, Error> {
+        if max_iterations == 0 {
+            return Err(Error::InvalidOption {
+                name: "max_iterations",
+                value: 0.0,
+                reason: "must be at least 1",
+            });
+        }
+        self.max_iterations = max_iterations;
+        Ok(self)
+    }
+
+    /// Largest accepted scaled residual at convergence: each equation's residual divided by the
+    /// magnitude of its terms (`|z|`, `|H|`, `sum |z_i dH/dz_i|`), so roundoff gives a few `eps`.
+    /// Default `64 eps` (about `1.4e-14`). Must lie in `[eps, 1)`.
+    pub fn with_residual_tolerance(mut self, tolerance: f64) -> Result<Self, Error> {
+        if !(f64::EPSILON..1.0).contains(&tolerance) {
+            return Err(Error::InvalidOption {
+                name: "residual_tolerance",
+                value: tolerance,
+                reason: "must lie in [f64::EPSILON, 1)",
+            });
+        }
+        self.residual_tolerance = tolerance;
+        Ok(self)
+    }
+
+    /// Relative update size below which an update that no longer halves counts as stalled at
+    /// roundoff (Newton then stops; the residual must still pass
+    /// [`with_residual_tolerance`](Self::with_residual_tolerance) or the step fails). Updates
+    /// below `4 eps` always stop. Default `2^-40` (about `9.1e-13`). Must lie in `[eps, 1)`.
+    pub fn with_stall_tolerance(mut self, tolerance: f64) -> Result<Self, Error> {
+        if !(f64::EPSILON..1.0).contains(&tolerance) {
+            return Err(Error::InvalidOption {
+                name: "stall_tolerance",
+                value: tolerance,
+                reason: "must lie in [f64::EPSILON, 1)",
+            });
+        }
+        self.stall_tolerance = tolerance;
+        Ok(self)
+    }
+
+    /// `dtau`.
+    pub fn dtau(&self) -> f64 {
+        self.dtau
+    }
+    /// `lambda_0`.
+    pub fn lambda0(&self) -> f64 {
+        self.lambda0
+    }
+    /// The Newton variant.
+    pub fn solver(&self) -> Solver {
+        self.solver
+    }
+    /// Maximum Newton iterations per step.
+    pub fn max_iterations(&self) -> u32 {
+        self.max_iterations
+    }
+    /// Residual tolerance (scaled, dimensionless).
+    pub fn residual_tolerance(&self) -> f64 {
+        self.residual_tolerance
+    }
+    /// Stall tolerance (relative update).
+    pub fn stall_tolerance(&self) -> f64 {
+        self.stall_tolerance
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rejects_non_positive_and_non_finite() {
+        let o = DthOptions::default();
+        for bad in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+            assert!(matches!(
+                o.with_dtau(bad),
+                Err(Error::InvalidOption { name: "dtau", .. })
+            ));
+            assert!(matches!(
+                o.with_lambda0(bad),
+                Err(Error::InvalidOption {
+                    name: "lambda0",
+                    ..
+                })
+            ));
+        }
+        assert!(matches!(
+            o.with_max_iterations(0),
+            Err(Error::InvalidOption {
+                name: "max_iterations",
+                ..
+            })
+        ));
+        assert!(o.with_residual_tolerance(0.0).is_err());
+        assert!(o.with_stall_tolerance(1.0).is_err());
+        assert_eq!(o.with_dtau(0.1).map(|o| o.dtau()), Ok(0.1));
+    }
+}

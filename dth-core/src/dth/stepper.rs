@@ -1,0 +1,376 @@
+//! The DTH stepper [`Dth`], the one-call [`integrate`], and [`RunError`].
+
+use nalgebra::SVector;
+
+use super::newton::{predict, solve_segment};
+use super::observer::{NoObserver, Observer, StepRecord};
+use super::options::DthOptions;
+use super::trajectory::Trajectory;
+use crate::{j_times, Error, Hamiltonian};
+
+/// A failed run: the error and everything computed before it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RunError<T> {
+    /// Why the run stopped.
+    pub error: Error,
+    /// What was computed up to the last accepted step.
+    pub partial: T,
+}
+
+impl<T> std::fmt::Display for RunError<T> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "DTH run stopped")
+    }
+}
+
+impl<T: std::fmt::Debug> std::error::Error for RunError<T> {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        Some(&self.error)
+    }
+}
+
+/// The autonomous DTH stepper (paper Corollary 1, eqs. 28-30), monomorphized over the
+/// Hamiltonian: no `dyn`, no heap allocation per step.
+///
+/// State: midpoint `zbar_k`, multiplier `lambda_k`, midpoint time `tbar_k`. A step finds
+/// `zbar_{k+1}` and `lambda_{k+1} > 0` with
+///
+/// ```text
+/// zbar_{k+1} - zbar_k = (h/2) J [lambda_{k+1} gradH(zbar_{k+1}) + lambda_k gradH(zbar_k)],
+/// H(zbar_{k+1}) = H(zbar_0),
+/// ```
+///
+/// and `tbar_{k+1} = tbar_k + h (lambda_{k+1} + lambda_k) / 2`. Vertices:
+/// `z^(k) = zbar_k - (h/2) zbar'_k`, `z^(k+1) = zbar_k + (h/2) zbar'_k` with the slope
+/// `zbar'_k = lambda_k J gradH(zbar_k)`; vertex times `t^(k) = tbar_k - h lambda_k / 2`.
+///
+/// A time-dependent Hamiltonian (`H::TIME_DEPENDENT`) lives in the extended phase space
+/// (paper Theorem 1, eqs. 9-11) with `calH(zbar_0) = 0`; there `tbar_0` is read from the `t`
+/// coordinate `zbar_0[D/2 - 1]`.
+///
+/// ```
+/// use dth_core::dth::{Dth, DthOptions, NoObserver};
+/// use dth_core::nalgebra::Vector4;
+/// use dth_core::systems::Kepler;
+///
+/// let kepler = Kepler::thesis();
+/// let zbar0 = Vector4::new(0.5, 0.0, 0.0, 1.2);
+/// let mut dth = Dth::new(kepler, zbar0, DthOptions::default())?;
+/// let trajectory = dth.trajectory(100).map_err(|e| e.error)?;
+/// assert_eq!(trajectory.len(), 101); // zbar_0 .. zbar_100
+/// assert_eq!(trajectory.vertices().len(), 102);
+/// // Energy at the midpoints is exact to roundoff (Theorem 4).
+/// let e0 = -0.56;
+/// for zbar in trajectory.midpoints() {
+///     assert!((dth_core::Hamiltonian::value(&kepler, zbar) - e0).abs() < 1e-14);
+/// }
+/// // Keep going with an observer that stores nothing.
+/// dth.run(100, &mut NoObserver)?;
+/// assert_eq!(dth.k(), 200);
+/// # Ok::<(), dth_core::Error>(())
+/// ```
+///
+/// # References
+/// Shibberu (1998), Corollary 1 (eqs. 28-30), Theorem 1 (eqs. 9-11); thesis eqs. 2.2.3-2.2.5,
+/// 2.3.1-2.3.7, Section 4.1.
+#[derive(Clone, Debug)]
+pub struct Dth<H, const D: usize> {
+    hamiltonian: H,
+    options: DthOptions,
+    k: usize,
+    zbar: SVector<f64, D>,
+    lambda: f64,
+    tbar: f64,
+    energy: f64,
+    gradient: SVector<f64, D>,
+    psi: f64,
+    iterations: u32,
+    factorizations: u32,
+    reported: bool,
+}
+
+impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
+    /// A stepper at the initial midpoint `zbar_0` with `lambda_0 = options.lambda0()` and
+    /// `tbar_0 = 0` (extended phase space: `tbar_0 = zbar_0[D/2 - 1]`).
+    ///
+    /// Hamiltonians with `PSI_IDENTICALLY_ZERO` are rejected at compile time: DTH is
+    /// undetermined for them.
+    ///
+    /// ```compile_fail
+    /// use dth_core::{dth::{Dth, DthOptions}, Hamiltonian, nalgebra::{Matrix2, Vector2}};
+    /// struct Linear;
+    /// impl Hamiltonian<2> for Linear {
+    ///     const PSI_IDENTICALLY_ZERO: bool = true;
+    ///     fn value(&self, z: &Vector2<f64>) -> f64 { z[0] + z[1] }
+    ///     fn gradient(&self, _: &Vector2<f64>) -> Vector2<f64> { Vector2::new(1.0, 1.0) }
+    ///     fn hessian(&self, _: &Vector2<f64>) -> Matrix2<f64> { Matrix2::zeros() }
+    /// }
+    /// let _ = Dth::new(Linear, Vector2::new(0.0, 1.0), DthOptions::default());
+    /// ```
+    ///
+    /// # Errors
+    /// [`Error::NonFiniteInitialState`] for a NaN or infinite component of `zbar_0`;
+    /// [`Error::NonFinite`] (step 0) when `H`, its gradient or Hessian is not finite there;
+    /// [`Error::ExtendedEnergyNotZero`] for a time-dependent `H` with `calH(zbar_0) != 0`.
+    pub fn new(hamiltonian: H, zbar0: SVector<f64, D>, options: DthOptions) -> Result<Self, Error> {
+        const {
+            assert!(
+                !H::PSI_IDENTICALLY_ZERO,
+                "DTH needs Psi = (J gradH)^T HessH (J gradH) != 0: with Psi identically zero \
+                 the energy condition does not determine lambda (thesis Section 3.4, paper \
+                 Theorem 2); integrate this Hamiltonian with a peer method instead"
+            )
+        };
+        if let Some((index, &value)) = zbar0.iter().enumerate().find(|(_, x)| !x.is_finite()) {
+            return Err(Error::NonFiniteInitialState { index, value });
+        }
+        let d = hamiltonian.derivatives(&zbar0);
+        if !d.value.is_finite()
+            || !d.gradient.iter().all(|x| x.is_finite())
+            || !d.hessian.iter().all(|x| x.is_finite())
+        {
+            return Err(Error::NonFinite {
+                step: 0,
+                what: "H, grad H or Hess H at zbar_0",
+            });
+        }
+        let tbar = if H::TIME_DEPENDENT {
+            // calH(zbar_0) must vanish (Theorem 1, eq. 11) to roundoff of its terms.
+            let scale = zbar0.component_mul(&d.gradient).abs().sum().max(1.0);
+            if d.value.abs() > options.residual_tolerance() * scale {
+                return Err(Error::ExtendedEnergyNotZero { value: d.value });
+            }
+            zbar0[D / 2 - 1]
+        } else {
+            0.0
+        };
+        // Every midpoint is solved against this level: H(zbar_0) for autonomous H (eq. 30,
+        // not the previous midpoint, so the energy cannot random-walk); exactly 0 for calH
+        // (eq. 11).
+        let energy = if H::TIME_DEPENDENT { 0.0 } else { d.value };
+        Ok(Dth {
+            hamiltonian,
+            options,
+            k: 0,
+            zbar: zbar0,
+            lambda: options.lambda0(),
+            tbar,
+            energy,
+            gradient: d.gradient,
+            psi: d.psi,
+            iterations: 0,
+            factorizations: 0,
+            reported: false,
+        })
+    }
+
+    /// Start the clock at `tbar_0` instead of 0 (autonomous `H`).
+    ///
+    /// # Errors
+    /// [`Error::InvalidOption`] (`tbar0`) when not finite.
+    pub fn with_tbar0(mut self, tbar0: f64) -> Result<Self, Error> {
+        if !tbar0.is_finite() {
+            return Err(Error::InvalidOption {
+                name: "tbar0",
+                value: tbar0,
+                reason: "must be finite",
+            });
+        }
+        self.tbar = tbar0;
+        Ok(self)
+    }
+
+    /// The Hamiltonian.
+    pub fn hamiltonian(&self) -> &H {
+        &self.hamiltonian
+    }
+    /// The options.
+    pub fn options(&self) -> &DthOptions {
+        &self.options
+    }
+    /// Index `k` of the current midpoint.
+    pub fn k(&self) -> usize {
+        self.k
+    }
+    /// Current midpoint `zbar_k`.
+    pub fn zbar(&self) -> &SVector<f64, D> {
+        &self.zbar
+    }
+    /// Current multiplier `lambda_k`.
+    pub fn lambda(&self) -> f64 {
+        self.lambda
+    }
+    /// Current midpoint time `tbar_k`.
+    pub fn tbar(&self) -> f64 {
+        self.tbar
+    }
+    /// The level every midpoint is solved against: `H(zbar_0)` (autonomous), or 0 for the
+    /// extended-phase-space `calH`.
+    pub fn energy(&self) -> f64 {
+        self.energy
+    }
+    /// Slope `zbar'_k = lambda_k J gradH(zbar_k)` of the current segment.
+    pub fn slope(&self) -> SVector<f64, D> {
+        j_times(&self.gradient) * self.lambda
+    }
+    /// Left vertex `z^(k) = zbar_k - (h/2) zbar'_k` of the current segment.
+    pub fn left_vertex(&self) -> SVector<f64, D> {
+        self.zbar - self.slope() * (0.5 * self.options.dtau())
+    }
+    /// Right vertex `z^(k+1) = zbar_k + (h/2) zbar'_k` of the current segment.
+    pub fn right_vertex(&self) -> SVector<f64, D> {
+        self.zbar + self.slope() * (0.5 * self.options.dtau())
+    }
+    /// The record of the current midpoint.
+    pub fn record(&self) -> StepRecord<D> {
+        let h = self.options.dtau();
+        StepRecord {
+            k: self.k,
+            zbar: self.zbar,
+            lambda: self.lambda,
+            tbar: self.tbar,
+            vertex: self.left_vertex(),
+            vertex_time: self.tbar - 0.5 * h * self.lambda,
+            psi: self.psi,
+            iterations: self.iterations,
+            factorizations: self.factorizations,
+        }
+    }
+
+    /// Advance one step: solve for `zbar_{k+1}`, `lambda_{k+1}`. On error the state is
+    /// unchanged (still at step `k`).
+    ///
+    /// # Errors
+    /// [`Error::NewtonDiverged`], [`Error::SingularMatrix`], [`Error::NonFinite`] from Newton;
+    /// [`Error::SpuriousRoot`] when it converges to `lambda_{k+1} <= 0`.
+    pub fn step(&mut self) -> Result<StepRecord<D>, Error> {
+        let h = self.options.dtau();
+        let step = self.k + 1;
+        let v = self.right_vertex();
+        // Predict lambda from the asymptotic law of time (paper Theorem 5):
+        // lambda psi^(1/3) ~ const, with psi at an explicit predictor of zbar_{k+1}; fall back
+        // to lambda_k where psi changes sign or vanishes.
+        let z1 = predict(&self.hamiltonian, &v, self.lambda, h);
+        let psi1 = self.hamiltonian.psi(&z1);
+        let ratio = self.psi / psi1;
+        let lambda_guess = if ratio.is_finite() && ratio > 0.0 {
+            self.lambda * ratio.cbrt()
+        } else {
+            self.lambda
+        };
+        let z0 = predict(&self.hamiltonian, &v, lambda_guess, h);
+        let s = solve_segment(
+            &self.hamiltonian,
+            &v,
+            self.energy,
+            z0,
+            lambda_guess,
+            &self.options,
+            step,
+        )?;
+        if s.lambda <= 0.0 {
+            return Err(Error::SpuriousRoot {
+                step,
+                lambda: s.lambda,
+            });
+        }
+        self.tbar += 0.5 * h * (self.lambda + s.lambda);
+        self.lambda = s.lambda;
+        self.zbar = s.zbar;
+        self.gradient = s.derivatives.gradient;
+        self.psi = s.derivatives.psi;
+        self.iterations = s.iterations;
+        self.factorizations = s.factorizations;
+        self.k = step;
+        self.reported = false;
+        Ok(self.record())
+    }
+
+    /// Take `steps` steps, reporting to `observer`: first the current midpoint if not reported
+    /// yet, then each new one, and finally (also after a failure) the right vertex of the last
+    /// accepted segment. On error the stepper stays at the last accepted step and the
+    /// observer holds everything before it.
+    ///
+    /// # Errors
+    /// The first failing step's error (see [`Dth::step`]).
+    pub fn run<O: Observer<D>>(&mut self, steps: usize, observer: &mut O) -> Result<(), Error> {
+        if !self.reported {
+            observer.on_step(&self.record());
+            self.reported = true;
+        }
+        let mut result = Ok(());
+        for _ in 0..steps {
+            match self.step() {
+                Ok(r) => {
+                    observer.on_step(&r);
+                    self.reported = true;
+                }
+                Err(e) => {
+                    result = Err(e);
+                    break;
+                }
+            }
+        }
+        let t_end = self.tbar + 0.5 * self.options.dtau() * self.lambda;
+        observer.on_finish(&self.right_vertex(), t_end);
+        result
+    }
+
+    /// Take `steps` steps and return them as a [`Trajectory`] (starting with the current
+    /// midpoint), or the error with the partial trajectory.
+    ///
+    /// # Errors
+    /// [`RunError`] with the first failing step's error and the trajectory up to the last
+    /// accepted step.
+    // A run fails at most once, so the size of the `Err` (the partial trajectory's vectors)
+    // costs nothing per step; boxing it would only make callers unwrap a box.
+    #[allow(clippy::result_large_err)]
+    pub fn trajectory(&mut self, steps: usize) -> Result<Trajectory<D>, RunError<Trajectory<D>>> {
+        self.reported = false;
+        let mut t = Trajectory::new();
+        match self.run(steps, &mut t) {
+            Ok(()) => Ok(t),
+            Err(error) => Err(RunError { error, partial: t }),
+        }
+    }
+
+    /// Take `steps` steps without storing anything.
+    ///
+    /// # Errors
+    /// As [`Dth::run`].
+    pub fn advance(&mut self, steps: usize) -> Result<(), Error> {
+        self.run(steps, &mut NoObserver)
+    }
+}
+
+/// Integrate `steps` DTH steps from the initial midpoint `zbar0`: the [`Trajectory`] of
+/// `steps + 1` midpoints and `steps + 2` vertices.
+///
+/// ```
+/// use dth_core::{dth::{integrate, DthOptions}, nalgebra::Vector4, systems::Kepler};
+/// let options = DthOptions::default().with_dtau(0.06277)?.with_lambda0(1.0)?;
+/// let t = integrate(Kepler::thesis(), Vector4::new(0.5, 0.0, 0.0, 1.2), options, 1000)
+///     .map_err(|e| e.error)?;
+/// let mean_lambda = t.lambdas().iter().sum::<f64>() / t.len() as f64;
+/// assert!((mean_lambda - 2.39).abs() < 0.05); // thesis: 25 points per orbit
+/// # Ok::<(), dth_core::Error>(())
+/// ```
+///
+/// # Errors
+/// [`RunError`] with the construction error and an empty trajectory, or the first failing
+/// step's error and the trajectory up to the last accepted step.
+#[allow(clippy::result_large_err)] // see `Dth::trajectory`
+pub fn integrate<H: Hamiltonian<D>, const D: usize>(
+    hamiltonian: H,
+    zbar0: SVector<f64, D>,
+    options: DthOptions,
+    steps: usize,
+) -> Result<Trajectory<D>, RunError<Trajectory<D>>> {
+    match Dth::new(hamiltonian, zbar0, options) {
+        Ok(mut dth) => dth.trajectory(steps),
+        Err(error) => Err(RunError {
+            error,
+            partial: Trajectory::new(),
+        }),
+    }
+}

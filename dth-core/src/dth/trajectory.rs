@@ -1,0 +1,165 @@
+//! [`Trajectory`]: a stored DTH run (midpoints, vertices, multipliers, times, Newton counts).
+
+use std::io::{self, Write};
+
+use nalgebra::SVector;
+
+use super::observer::{Observer, StepRecord};
+
+/// A DTH trajectory with `N` midpoints and (once the run has finished) `N + 1` vertices.
+///
+/// It is an [`Observer`]: pass it to [`Dth::run`](super::Dth::run), or get one from
+/// [`Dth::trajectory`](super::Dth::trajectory) / [`integrate`](super::integrate).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Trajectory<const D: usize> {
+    midpoints: Vec<SVector<f64, D>>,
+    lambdas: Vec<f64>,
+    midpoint_times: Vec<f64>,
+    vertices: Vec<SVector<f64, D>>,
+    vertex_times: Vec<f64>,
+    psis: Vec<f64>,
+    iterations: Vec<u32>,
+    factorizations: Vec<u32>,
+    closed: bool,
+    ks: Vec<usize>,
+}
+
+impl<const D: usize> Trajectory<D> {
+    /// An empty trajectory.
+    pub fn new() -> Self {
+        Trajectory {
+            midpoints: Vec::new(),
+            lambdas: Vec::new(),
+            midpoint_times: Vec::new(),
+            vertices: Vec::new(),
+            vertex_times: Vec::new(),
+            psis: Vec::new(),
+            iterations: Vec::new(),
+            factorizations: Vec::new(),
+            closed: false,
+            ks: Vec::new(),
+        }
+    }
+    /// Number of midpoints `N`.
+    pub fn len(&self) -> usize {
+        self.midpoints.len()
+    }
+    /// `true` when no midpoint is stored.
+    pub fn is_empty(&self) -> bool {
+        self.midpoints.is_empty()
+    }
+    /// Midpoints `zbar_0 .. zbar_{N-1}`.
+    pub fn midpoints(&self) -> &[SVector<f64, D>] {
+        &self.midpoints
+    }
+    /// Multipliers `lambda_0 .. lambda_{N-1}`.
+    pub fn lambdas(&self) -> &[f64] {
+        &self.lambdas
+    }
+    /// Midpoint times `tbar_0 .. tbar_{N-1}`.
+    pub fn midpoint_times(&self) -> &[f64] {
+        &self.midpoint_times
+    }
+    /// Vertices `z^(0) .. z^(N)` (`z^(k)` is the left vertex of segment `k`; the last is the
+    /// right vertex of the last segment). `N + 1` entries after a run has finished.
+    pub fn vertices(&self) -> &[SVector<f64, D>] {
+        &self.vertices
+    }
+    /// Vertex times `t^(0) .. t^(N)`.
+    pub fn vertex_times(&self) -> &[f64] {
+        &self.vertex_times
+    }
+    /// `Psi(zbar_k)` at each midpoint.
+    pub fn psis(&self) -> &[f64] {
+        &self.psis
+    }
+    /// Newton iterations of each midpoint (0 for the initial one; outer iterations for the
+    /// nested solver).
+    pub fn iterations(&self) -> &[u32] {
+        &self.iterations
+    }
+    /// LU factorizations of each midpoint.
+    pub fn factorizations(&self) -> &[u32] {
+        &self.factorizations
+    }
+    /// Midpoint indices `k` of the stored midpoints (consecutive unless some steps were run
+    /// with another observer).
+    pub fn ks(&self) -> &[usize] {
+        &self.ks
+    }
+    /// The record of the `index`-th stored midpoint.
+    pub fn record(&self, index: usize) -> Option<StepRecord<D>> {
+        Some(StepRecord {
+            k: *self.ks.get(index)?,
+            zbar: self.midpoints[index],
+            lambda: self.lambdas[index],
+            tbar: self.midpoint_times[index],
+            vertex: self.vertices[index],
+            vertex_time: self.vertex_times[index],
+            psi: self.psis[index],
+            iterations: self.iterations[index],
+            factorizations: self.factorizations[index],
+        })
+    }
+    /// The record of midpoint `k`, if stored.
+    pub fn get(&self, k: usize) -> Option<StepRecord<D>> {
+        self.record(self.ks.binary_search(&k).ok()?)
+    }
+    /// Iterate over the per-midpoint records.
+    pub fn iter(&self) -> impl Iterator<Item = StepRecord<D>> + '_ {
+        (0..self.len()).filter_map(move |i| self.record(i))
+    }
+
+    /// Write the midpoints as CSV: `k,tbar,lambda,zbar_1..zbar_D,t_vertex,vertex_1..vertex_D,
+    /// psi,iterations`, one line per midpoint, with a header.
+    pub fn write_csv<W: Write>(&self, mut out: W) -> io::Result<()> {
+        write!(out, "k,tbar,lambda")?;
+        for i in 1..=D {
+            write!(out, ",zbar_{i}")?;
+        }
+        write!(out, ",t_vertex")?;
+        for i in 1..=D {
+            write!(out, ",vertex_{i}")?;
+        }
+        writeln!(out, ",psi,iterations")?;
+        for r in self.iter() {
+            write!(out, "{},{:e},{:e}", r.k, r.tbar, r.lambda)?;
+            for x in r.zbar.iter() {
+                write!(out, ",{x:e}")?;
+            }
+            write!(out, ",{:e}", r.vertex_time)?;
+            for x in r.vertex.iter() {
+                write!(out, ",{x:e}")?;
+            }
+            writeln!(out, ",{:e},{}", r.psi, r.iterations)?;
+        }
+        Ok(())
+    }
+}
+
+impl<const D: usize> Observer<D> for Trajectory<D> {
+    fn on_step(&mut self, r: &StepRecord<D>) {
+        if self.closed {
+            // The stored right end of the previous run is this segment's left vertex.
+            self.vertices.pop();
+            self.vertex_times.pop();
+            self.closed = false;
+        }
+        self.ks.push(r.k);
+        self.midpoints.push(r.zbar);
+        self.lambdas.push(r.lambda);
+        self.midpoint_times.push(r.tbar);
+        self.vertices.push(r.vertex);
+        self.vertex_times.push(r.vertex_time);
+        self.psis.push(r.psi);
+        self.iterations.push(r.iterations);
+        self.factorizations.push(r.factorizations);
+    }
+    fn on_finish(&mut self, last_vertex: &SVector<f64, D>, last_vertex_time: f64) {
+        if !self.closed && !self.midpoints.is_empty() {
+            self.vertices.push(*last_vertex);
+            self.vertex_times.push(last_vertex_time);
+            self.closed = true;
+        }
+    }
+}

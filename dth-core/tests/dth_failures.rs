@@ -1,0 +1,180 @@
+//! Every failure path of the DTH stepper returns its typed error, with data, and keeps what
+//! was computed.
+
+use dth_core::dth::{integrate, Dth, DthOptions, NoObserver, Solver, StepRecord, Trajectory};
+use dth_core::nalgebra::{Matrix2, Vector2, Vector4};
+use dth_core::systems::Kepler;
+use dth_core::{Error, Hamiltonian};
+
+fn kepler_z0() -> Vector4<f64> {
+    Vector4::new(0.5, 0.0, 0.0, 1.2)
+}
+
+#[test]
+fn non_finite_initial_state_is_rejected_with_its_index() {
+    let mut z = kepler_z0();
+    z[2] = f64::NAN;
+    let r = Dth::new(Kepler::thesis(), z, DthOptions::default());
+    assert!(matches!(
+        r,
+        Err(Error::NonFiniteInitialState { index: 2, .. })
+    ));
+    z[2] = f64::INFINITY;
+    let r = integrate(Kepler::thesis(), z, DthOptions::default(), 10);
+    let e = r.expect_err("infinite component");
+    assert!(matches!(
+        e.error,
+        Error::NonFiniteInitialState { index: 2, .. }
+    ));
+    assert!(e.partial.is_empty());
+}
+
+#[test]
+fn non_finite_hamiltonian_at_zbar0_is_rejected() {
+    // Kepler at the origin: H = -inf.
+    let r = Dth::new(Kepler::thesis(), Vector4::zeros(), DthOptions::default());
+    assert!(matches!(r, Err(Error::NonFinite { step: 0, .. })));
+}
+
+#[test]
+fn iteration_limit_gives_newton_diverged_with_data() {
+    let options = DthOptions::default().with_max_iterations(1).expect("valid");
+    for solver in [Solver::Joint, Solver::Nested] {
+        let mut dth = Dth::new(Kepler::thesis(), kepler_z0(), options.with_solver(solver))
+            .expect("valid start");
+        let r = dth.step();
+        let diverged = matches!(
+            r,
+            Err(Error::NewtonDiverged { step: 1, iterations: 1, residual }) if residual > 0.0
+        );
+        assert!(diverged, "{solver:?}: {r:?}");
+        // The state is unchanged.
+        assert_eq!(dth.k(), 0);
+        assert_eq!(dth.zbar(), &kepler_z0());
+    }
+}
+
+/// `H = (q^2 - p^2) / 2`: a saddle, `Psi = p^2 - q^2`.
+struct Saddle;
+
+impl Hamiltonian<2> for Saddle {
+    fn value(&self, z: &Vector2<f64>) -> f64 {
+        0.5 * (z[0] * z[0] - z[1] * z[1])
+    }
+    fn gradient(&self, z: &Vector2<f64>) -> Vector2<f64> {
+        Vector2::new(z[0], -z[1])
+    }
+    fn hessian(&self, _z: &Vector2<f64>) -> Matrix2<f64> {
+        Matrix2::new(1.0, 0.0, 0.0, -1.0)
+    }
+}
+
+#[test]
+fn singular_newton_matrix_is_reported() {
+    // From zbar_0 = (0, 1) with h = 2, lambda_0 = 1 (all exact in binary): the explicit
+    // predictor lands on q = -3, p = 3 where Psi = 0, so the law-of-time lambda predictor
+    // falls back to lambda = 1, and A = I - (h lambda / 2) J Hess = [[1, 1], [1, 1]] is
+    // exactly singular.
+    let options = DthOptions::default().with_dtau(2.0).expect("valid");
+    for solver in [Solver::Joint, Solver::Nested] {
+        let mut dth =
+            Dth::new(Saddle, Vector2::new(0.0, 1.0), options.with_solver(solver)).expect("start");
+        let r = dth.step();
+        assert!(
+            matches!(r, Err(Error::SingularMatrix { step: 1 })),
+            "{solver:?}: {r:?}"
+        );
+    }
+}
+
+/// The harmonic oscillator `H = (q^2 + p^2) / 2`, undefined (NaN) for `q > 1`.
+struct Walled;
+
+impl Hamiltonian<2> for Walled {
+    fn value(&self, z: &Vector2<f64>) -> f64 {
+        if z[0] > 1.0 {
+            f64::NAN
+        } else {
+            0.5 * (z[0] * z[0] + z[1] * z[1])
+        }
+    }
+    fn gradient(&self, z: &Vector2<f64>) -> Vector2<f64> {
+        if z[0] > 1.0 {
+            Vector2::repeat(f64::NAN)
+        } else {
+            Vector2::new(z[0], z[1])
+        }
+    }
+    fn hessian(&self, _z: &Vector2<f64>) -> Matrix2<f64> {
+        Matrix2::identity()
+    }
+}
+
+#[test]
+fn non_finite_value_mid_run_stops_and_keeps_the_partial_trajectory() {
+    // Amplitude 1.2 > 1: the orbit reaches the wall after about a quarter period.
+    let options = DthOptions::default().with_dtau(0.1).expect("valid");
+    let z0 = Vector2::new(0.0, 1.2);
+    let e = integrate(Walled, z0, options, 1_000).expect_err("must hit the wall");
+    let Error::NonFinite { step, .. } = e.error else {
+        panic!("expected NonFinite, got {:?}", e.error);
+    };
+    let t = &e.partial;
+    println!("stopped at step {step} with {} midpoints kept", t.len());
+    assert!(step > 1, "ran some steps first");
+    assert_eq!(t.len(), step, "midpoints 0..step-1 are kept");
+    assert_eq!(
+        t.vertices().len(),
+        step + 1,
+        "closed by the last right vertex"
+    );
+    // What was kept is a valid DTH trajectory: energy exact at its midpoints (Thm 4).
+    for zbar in t.midpoints() {
+        assert!((Walled.value(zbar) - 0.72).abs() < 64.0 * f64::EPSILON);
+    }
+    // The stepper API keeps its state at the last accepted step.
+    let mut dth = Dth::new(Walled, z0, options).expect("start");
+    let mut seen = 0usize;
+    let mut count = |_: &StepRecord<2>| seen += 1;
+    let r = dth.run(1_000, &mut count);
+    assert!(matches!(r, Err(Error::NonFinite { step: s, .. }) if s == step));
+    assert_eq!(dth.k(), step - 1);
+    assert_eq!(seen, step);
+}
+
+#[test]
+fn runs_resume_and_a_no_op_observer_stores_nothing() {
+    let options = DthOptions::default();
+    let mut dth = Dth::new(Kepler::thesis(), kepler_z0(), options).expect("start");
+    let mut t = Trajectory::new();
+    dth.run(10, &mut t).expect("run");
+    dth.run(5, &mut NoObserver).expect("run");
+    dth.run(10, &mut t).expect("run");
+    // 0..=10 then 16..=25 (11..=15 went to the no-op observer).
+    assert_eq!(t.len(), 21);
+    assert_eq!(t.vertices().len(), 22);
+    let whole = integrate(Kepler::thesis(), kepler_z0(), options, 25).expect("run");
+    assert_eq!(whole.get(25), t.iter().last());
+    assert_eq!(whole.get(10), t.get(10));
+    let mut csv = Vec::new();
+    whole.write_csv(&mut csv).expect("in-memory write");
+    let text = String::from_utf8(csv).expect("utf8");
+    assert_eq!(text.lines().count(), 27);
+    assert!(text.starts_with("k,tbar,lambda,zbar_1,"));
+}
+
+#[test]
+fn negative_lambda_root_is_rejected_as_spurious() {
+    // Kepler with q = (0.5, 0), p = (0, 1.38): e ~ 0.90, beyond sqrt(5/8) where Psi changes
+    // sign along the orbit (NOTES.md), and dtau = 0.2: the step has no positive root near
+    // lambda_0 and the joint Newton converges to a negative one. It must not be accepted.
+    let options = DthOptions::default().with_dtau(0.2).expect("valid");
+    let z0 = Vector4::new(0.5, 0.0, 0.0, 1.38);
+    let e = integrate(Kepler::thesis(), z0, options, 100).expect_err("no positive root");
+    assert!(
+        matches!(e.error, Error::SpuriousRoot { step: 1, lambda } if lambda < 0.0),
+        "{:?}",
+        e.error
+    );
+    assert_eq!(e.partial.len(), 1, "zbar_0 is kept");
+}
