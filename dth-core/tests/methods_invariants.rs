@@ -207,7 +207,7 @@ fn verlet_refuses_a_non_separable_hamiltonian() {
         err.error,
         Error::NotSeparable { method: "verlet" }
     ));
-    assert_eq!(err.completed.steps, 0);
+    assert_eq!(err.partial.steps, 0);
     // The implicit methods take it.
     assert!(run(
         &mut ImplicitMidpoint::new(),
@@ -241,7 +241,7 @@ fn newton_failure_names_the_step_and_keeps_the_states() {
         &mut |_, _, _: &Vector4<f64>| seen += 1,
     )
     .unwrap_err();
-    eprintln!("{:?} after {} steps", err.error, err.completed.steps);
+    eprintln!("{:?} after {} steps", err.error, err.partial.steps);
     match err.error {
         Error::MethodNotConverged {
             method: "trapezoidal",
@@ -249,11 +249,11 @@ fn newton_failure_names_the_step_and_keeps_the_states() {
             iterations: 3,
             residual,
         } => {
-            assert_eq!(step, err.completed.steps + 1);
+            assert_eq!(step, err.partial.steps + 1);
             assert!(residual > 0.0 && residual.is_finite());
         }
-        Error::MethodSingularMatrix { step, .. } => assert_eq!(step, err.completed.steps + 1),
+        Error::MethodSingularMatrix { step, .. } => assert_eq!(step, err.partial.steps + 1),
         ref other => panic!("unexpected {other:?}"),
     }
-    assert_eq!(seen, err.completed.steps + 1);
+    assert_eq!(seen, err.partial.steps + 1);
 }

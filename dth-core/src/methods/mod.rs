@@ -38,7 +38,7 @@
 //! assert_eq!(recorder.z.len(), 101); // the initial state and one per step
 //! let l = Kepler::angular_momentum(&end.z);
 //! assert!((l - 0.6).abs() < 1e-14); // midpoint keeps quadratic invariants
-//! # Ok::<(), dth_core::methods::RunFailure<4>>(())
+//! # Ok::<(), dth_core::methods::RunError<dth_core::methods::RunEnd<4>>>(())
 //! ```
 
 pub mod discrete_gradient;
@@ -62,6 +62,9 @@ pub use verlet::StormerVerlet;
 
 use nalgebra::{SMatrix, SVector};
 
+/// A run that stopped early: the error, and in `partial` the last good [`RunEnd`] (the
+/// observer has seen it and every state before it). The same type as the DTH stepper's.
+pub use crate::dth::RunError;
 use crate::{Error, Hamiltonian};
 
 /// A fixed-step one-step method for the Hamiltonian `H` on `R^D`.
@@ -135,37 +138,12 @@ pub struct RunEnd<const D: usize> {
     pub steps: usize,
 }
 
-/// A run that stopped early: everything computed before the failure, and why.
-#[derive(Clone, Debug, PartialEq)]
-pub struct RunFailure<const D: usize> {
-    /// The last good state (the observer has seen it and all before it).
-    pub completed: RunEnd<D>,
-    /// The error of the failing step (its `step` field is the failing step's index).
-    pub error: Error,
-}
-
-impl<const D: usize> std::fmt::Display for RunFailure<D> {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(
-            f,
-            "run stopped after {} steps at t = {}",
-            self.completed.steps, self.completed.t
-        )
-    }
-}
-
-impl<const D: usize> std::error::Error for RunFailure<D> {
-    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
-        Some(&self.error)
-    }
-}
-
 /// Integrates `steps` steps of size `dt` from `z0` at time `t0`, calling `observer` on the
 /// initial state and after each step.
 ///
 /// `dt` must be finite and non-zero (negative integrates backwards) and `z0` finite; a state
 /// that becomes non-finite is [`Error::MethodNonFinite`]. On failure the states already
-/// computed are kept: the observer has seen them and [`RunFailure::completed`] holds the last.
+/// computed are kept: the observer has seen them and [`RunError::partial`] holds the last.
 pub fn run<const D: usize, H, M, O>(
     method: &mut M,
     h: &H,
@@ -174,7 +152,7 @@ pub fn run<const D: usize, H, M, O>(
     dt: f64,
     steps: usize,
     observer: &mut O,
-) -> Result<RunEnd<D>, RunFailure<D>>
+) -> Result<RunEnd<D>, RunError<RunEnd<D>>>
 where
     H: Hamiltonian<D>,
     M: OneStepMethod<D, H>,
@@ -186,9 +164,9 @@ where
         steps: 0,
     };
     let fail = |end: RunEnd<D>, error| {
-        Err(RunFailure {
-            completed: end,
+        Err(RunError {
             error,
+            partial: end,
         })
     };
     if !dt.is_finite() || dt == 0.0 {
@@ -311,7 +289,7 @@ mod tests {
         let z0 = Vector2::new(1.0, 0.0);
         let err = run(&mut Rk4, &h, &z0, 0.0, 0.0, 10, &mut ()).unwrap_err();
         assert!(matches!(err.error, Error::InvalidOption { name: "dt", .. }));
-        assert_eq!(err.completed.z, z0);
+        assert_eq!(err.partial.z, z0);
         let bad = Vector2::new(f64::NAN, 0.0);
         let err = run(&mut Rk4, &h, &bad, 0.0, 0.1, 10, &mut ()).unwrap_err();
         assert!(matches!(
@@ -351,9 +329,9 @@ mod tests {
         .unwrap_err();
         assert!(matches!(
             err.error,
-            Error::MethodNonFinite { method: "rk4", step, .. } if step == err.completed.steps + 1
+            Error::MethodNonFinite { method: "rk4", step, .. } if step == err.partial.steps + 1
         ));
-        assert_eq!(count, err.completed.steps + 1);
-        assert!(err.completed.steps > 10 && err.completed.z[0] >= 0.0);
+        assert_eq!(count, err.partial.steps + 1);
+        assert!(err.partial.steps > 10 && err.partial.z[0] >= 0.0);
     }
 }
