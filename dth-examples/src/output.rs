@@ -21,8 +21,29 @@ pub const MARKER: &str = ".dth-output";
 /// A temporary folder that becomes the output folder on [`Staging::commit`].
 #[derive(Debug)]
 pub struct Staging {
-    tmp: TempDir,
+    tmp: Option<TempDir>,
     target: PathBuf,
+    /// The outermost folder this staging created for the target's parent (removed again,
+    /// if still empty, when the staging is dropped without a commit).
+    created: Option<PathBuf>,
+}
+
+impl Drop for Staging {
+    fn drop(&mut self) {
+        if let Some(tmp) = self.tmp.take() {
+            drop(tmp);
+            if let Some(top) = &self.created {
+                let mut dir = self.target.parent().map(Path::to_path_buf);
+                while let Some(d) = dir {
+                    // `remove_dir` removes only empty folders: nothing else is touched.
+                    if std::fs::remove_dir(&d).is_err() || d == *top {
+                        break;
+                    }
+                    dir = d.parent().map(Path::to_path_buf);
+                }
+            }
+        }
+    }
 }
 
 fn io<'a>(what: &'static str, path: &'a Path) -> impl FnOnce(std::io::Error) -> Error + 'a {
@@ -66,6 +87,11 @@ impl Staging {
             Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
             _ => PathBuf::from("."),
         };
+        let created = parent
+            .ancestors()
+            .take_while(|a| !a.as_os_str().is_empty() && !a.exists())
+            .last()
+            .map(Path::to_path_buf);
         std::fs::create_dir_all(&parent).map_err(io("cannot create folder", &parent))?;
         let name = target
             .file_name()
@@ -76,14 +102,18 @@ impl Staging {
             .tempdir_in(&parent)
             .map_err(io("cannot create temporary folder in", &parent))?;
         Ok(Staging {
-            tmp,
+            tmp: Some(tmp),
             target: target.to_path_buf(),
+            created,
         })
     }
 
     /// Where to write.
     pub fn path(&self) -> &Path {
-        self.tmp.path()
+        match &self.tmp {
+            Some(t) => t.path(),
+            None => &self.target,
+        }
     }
 
     /// The final location.
@@ -92,19 +122,22 @@ impl Staging {
     }
 
     /// Moves the finished folder into place (replacing an old output folder) and returns it.
-    pub fn commit(self) -> Result<PathBuf, Error> {
-        let marker = self.tmp.path().join(MARKER);
+    pub fn commit(mut self) -> Result<PathBuf, Error> {
+        let marker = self.path().join(MARKER);
         std::fs::write(&marker, "written by the dth command\n")
             .map_err(io("cannot write", &marker))?;
         check_target(&self.target)?;
         let old = if self.target.exists() {
-            let name = self.tmp.path().with_extension("old");
+            let name = self.path().with_extension("old");
             std::fs::rename(&self.target, &name).map_err(io("cannot move aside", &self.target))?;
             Some(name)
         } else {
             None
         };
-        let tmp = self.tmp.keep();
+        let Some(tmp) = self.tmp.take() else {
+            return Ok(self.target.clone());
+        };
+        let tmp = tmp.keep();
         if let Err(source) = std::fs::rename(&tmp, &self.target) {
             if let Some(old) = &old {
                 let _ = std::fs::rename(old, &self.target);
@@ -119,7 +152,7 @@ impl Staging {
         if let Some(old) = old {
             std::fs::remove_dir_all(&old).map_err(io("cannot remove the previous output", &old))?;
         }
-        Ok(self.target)
+        Ok(self.target.clone())
     }
 }
 
@@ -147,6 +180,10 @@ mod tests {
         assert!(target.join("y.txt").exists() && !target.join("z.txt").exists());
         let leftovers = std::fs::read_dir(target.parent().ok_or("parent")?)?.count();
         assert_eq!(leftovers, 1);
+        // Parent folders created for a staging that is dropped are removed again.
+        let deep = dir.path().join("x/y/z/out");
+        drop(Staging::new(&deep)?);
+        assert!(!dir.path().join("x").exists());
         // A foreign non-empty folder is refused.
         let foreign = dir.path().join("home");
         std::fs::create_dir(&foreign)?;

@@ -205,3 +205,30 @@ fn list_and_help_describe_everything() {
     // --help must not create output.
     assert!(entries(dir.path()).is_empty());
 }
+
+/// No arguments runs the embedded thesis scene into `dth-out/thesis-kepler`. Until the real
+/// methods are wired into `method::run_method` it must fail cleanly (exit 1, which method,
+/// nothing left behind); when they are, this test must change to expect the full output.
+#[test]
+fn no_arguments_runs_the_embedded_default_scene() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = dth(&[], dir.path());
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("method `trapezoidal` is not available in this build"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(
+        entries(dir.path()).is_empty(),
+        "left behind: {:?}",
+        entries(dir.path())
+    );
+    let o = dth(&["--out", "elsewhere/run"], dir.path());
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(
+        entries(dir.path()).is_empty(),
+        "left behind: {:?}",
+        entries(dir.path())
+    );
+}
