@@ -42,6 +42,8 @@ pub struct SystemInfo<'a> {
     pub time_dependent: bool,
     /// `true` when the system can give an orbit period (durations in `orbits`).
     pub has_period: bool,
+    /// `true` when the system has an exact solution (method `exact`).
+    pub has_exact: bool,
 }
 
 /// What a scene needs from a system beyond [`Hamiltonian`]: its quadratic invariants (for the
@@ -63,6 +65,16 @@ pub trait SceneSystem<const D: usize>: Hamiltonian<D> {
         let _ = (z, out);
     }
 
+    /// `true` when [`SceneSystem::exact_solution`] is implemented.
+    const HAS_EXACT: bool = false;
+
+    /// The exact solution at time `t` after the state `z0`, or `None` when it cannot be
+    /// computed (not implemented, or outside its domain).
+    fn exact_solution(&self, z0: &SVector<f64, D>, t: f64) -> Option<SVector<f64, D>> {
+        let _ = (z0, t);
+        None
+    }
+
     /// Orbit period from the initial state, if known.
     fn period(&self, z0: &SVector<f64, D>) -> Option<f64> {
         let _ = z0;
@@ -72,6 +84,13 @@ pub trait SceneSystem<const D: usize>: Hamiltonian<D> {
 
 impl SceneSystem<4> for Kepler {
     const HAS_PERIOD: bool = true;
+    const HAS_EXACT: bool = true;
+
+    /// Plug-in point for the exact Kepler solution (`dth_core::kepler`, issue 3): until it is
+    /// merged this returns `None` and method `exact` reports that it is not available.
+    fn exact_solution(&self, _z0: &SVector<f64, 4>, _t: f64) -> Option<SVector<f64, 4>> {
+        None
+    }
 
     fn invariant_names(&self) -> &'static [&'static str] {
         &["angular_momentum"]
@@ -109,6 +128,7 @@ pub struct SystemEntry {
     params: Vec<ParamSpec>,
     time_dependent: bool,
     has_period: bool,
+    has_exact: bool,
     run: Option<Box<RunFn>>,
     unavailable: &'static str,
 }
@@ -161,6 +181,7 @@ impl SystemEntry {
             params: params.to_vec(),
             time_dependent: S::TIME_DEPENDENT,
             has_period: S::HAS_PERIOD,
+            has_exact: S::HAS_EXACT,
             run: Some(Box::new(move |scene, out, options| {
                 let system = build(&scene.params).map_err(|reason| Error::NotAvailable {
                     what: "system",
@@ -191,6 +212,7 @@ impl SystemEntry {
             params: params.to_vec(),
             time_dependent,
             has_period,
+            has_exact: false,
             run: None,
             unavailable: reason,
         }
@@ -213,6 +235,7 @@ impl SystemEntry {
             params: &self.params,
             time_dependent: self.time_dependent,
             has_period: self.has_period,
+            has_exact: self.has_exact,
         }
     }
 

@@ -179,6 +179,10 @@ struct PhaseSamples {
     x: Coord,
     y: Coord,
     every: usize,
+    /// Absolute end time (`t0 + until`).
+    t_end: f64,
+    t0: Option<f64>,
+    until: f64,
     points: Vec<(f64, f64)>,
 }
 
@@ -280,10 +284,13 @@ impl<'s, const D: usize, S: SceneSystem<D>> Effects<'s, D, S> {
                     previous: None,
                     crossings: Vec::new(),
                 }),
-                EffectSpec::PhasePlot { x, y, every } => e.phase.push(PhaseSamples {
+                EffectSpec::PhasePlot { x, y, every, until } => e.phase.push(PhaseSamples {
                     x,
                     y,
                     every,
+                    t_end: f64::INFINITY,
+                    t0: None,
+                    until: until.unwrap_or(f64::INFINITY),
                     points: Vec::new(),
                 }),
             }
@@ -405,7 +412,11 @@ impl<const D: usize, S: SceneSystem<D>> Observer<D> for Effects<'_, D, S> {
             s.previous = Some((v.t, *v.z));
         }
         for p in &mut self.phase {
-            if v.step.is_multiple_of(p.every) {
+            if p.t0.is_none() {
+                p.t0 = Some(v.t);
+                p.t_end = v.t + p.until;
+            }
+            if v.step.is_multiple_of(p.every) && v.t <= p.t_end {
                 p.points
                     .push((coord_value(p.x, v.t, v.z), coord_value(p.y, v.t, v.z)));
             }

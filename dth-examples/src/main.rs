@@ -35,7 +35,7 @@ enum Command {
     Run {
         /// The scene file (TOML).
         scene: PathBuf,
-        /// Output folder (default: dth-out/<scene file stem>).
+        /// Output folder (default: dth-out/STEM, STEM the scene file name without `.toml`).
         #[arg(long)]
         out: Option<PathBuf>,
     },

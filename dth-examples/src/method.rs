@@ -7,10 +7,13 @@
 //! hand every state to the observer) and replace the matching `not_available` arm. Until then
 //! those arms return [`Error::NotAvailable`], and the only runnable method is
 //! [`TestProbeEuler`], which exists solely so the scene pipeline can be tested end to end.
+//! Method `exact` ([`ExactSampler`]) is complete here; it runs once a system implements
+//! [`SceneSystem::exact_solution`] (Kepler's waits for `dth_core::kepler`).
 
 use dth::nalgebra::SVector;
 use dth::Hamiltonian;
 
+use crate::catalogue::SceneSystem;
 use crate::error::Error;
 use crate::scene::{MethodKind, MethodSpec, StepSpec};
 
@@ -166,8 +169,54 @@ impl<const D: usize, H: Hamiltonian<D>> MethodRunner<D, H> for TestProbeEuler {
     }
 }
 
+/// The system's exact solution sampled at `t0 + k dt` ([`SceneSystem::exact_solution`]).
+#[derive(Debug, Clone, Copy)]
+pub struct ExactSampler {
+    /// Sampling interval.
+    pub dt: f64,
+}
+
+impl ExactSampler {
+    fn run<const D: usize, S: SceneSystem<D>, O: Observer<D>>(
+        &self,
+        system: &S,
+        z0: SVector<f64, D>,
+        t0: f64,
+        stop: Stop,
+        observer: &mut O,
+    ) -> Result<RunEnd, MethodFailure> {
+        let mut k = 0;
+        let mut t = t0;
+        observer.observe(&StepView {
+            step: 0,
+            t,
+            z: &z0,
+            lambda: None,
+            vertex: None,
+        });
+        while !stop.done(k, t) {
+            k += 1;
+            t = t0 + k as f64 * self.dt;
+            let z = system
+                .exact_solution(&z0, t - t0)
+                .ok_or_else(|| MethodFailure {
+                    step: k,
+                    reason: format!("the exact solution is not available at t = {t}"),
+                })?;
+            observer.observe(&StepView {
+                step: k,
+                t,
+                z: &z,
+                lambda: None,
+                vertex: None,
+            });
+        }
+        Ok(RunEnd { steps: k, t })
+    }
+}
+
 /// Runs the method a scene names. The single dispatch point (see the module docs).
-pub fn run_method<const D: usize, H: Hamiltonian<D>, O: Observer<D>>(
+pub fn run_method<const D: usize, H: SceneSystem<D>, O: Observer<D>>(
     spec: &MethodSpec,
     system: &H,
     z0: SVector<f64, D>,
@@ -183,6 +232,14 @@ pub fn run_method<const D: usize, H: Hamiltonian<D>, O: Observer<D>>(
     match (spec.kind, spec.step) {
         (MethodKind::TestProbeEuler, StepSpec::Fixed { dt }) => {
             Ok(TestProbeEuler { dt }.run(system, z0, t0, stop, observer))
+        }
+        (MethodKind::Exact, StepSpec::Fixed { dt }) => {
+            if !H::HAS_EXACT || system.exact_solution(&z0, 0.0).is_none() {
+                return Err(not_available(
+                    "this system's exact solution is not implemented yet (Kepler: dth_core::kepler, not merged into this branch)",
+                ));
+            }
+            Ok(ExactSampler { dt }.run(system, z0, t0, stop, observer))
         }
         // Plug-in point for the DTH stepper (dth_core::dth, issue 3).
         (MethodKind::Dth, _) => Err(not_available(
@@ -201,8 +258,8 @@ pub fn run_method<const D: usize, H: Hamiltonian<D>, O: Observer<D>>(
         ) => Err(not_available(
             "the peer methods (dth_core::methods) are not merged into this branch yet",
         )),
-        (MethodKind::TestProbeEuler, StepSpec::Dth { .. }) => Err(not_available(
-            "`test_probe_euler` takes a fixed step `dt`, not DTH's `dtau`",
-        )),
+        (MethodKind::TestProbeEuler | MethodKind::Exact, StepSpec::Dth { .. }) => Err(
+            not_available("this method takes a fixed step `dt`, not DTH's `dtau`"),
+        ),
     }
 }

@@ -102,6 +102,7 @@ struct RawEffect {
     coordinate: Option<Spanned<String>>,
     value: Option<Spanned<f64>>,
     direction: Option<Spanned<String>>,
+    until: Option<Spanned<f64>>,
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -190,13 +191,16 @@ pub enum MethodKind {
     GaussLegendre2,
     /// Energy-preserving discrete-gradient method.
     DiscreteGradient,
+    /// The system's exact solution sampled every `dt` (systems that have one, e.g. Kepler).
+    Exact,
     /// Explicit Euler: exists ONLY to exercise the scene pipeline in tests; not for science.
     TestProbeEuler,
 }
 
 impl MethodKind {
     /// Every method, in the order `dth list` shows them.
-    pub const ALL: [MethodKind; 9] = [
+    pub const ALL: [MethodKind; 10] = [
+        MethodKind::Exact,
         MethodKind::Dth,
         MethodKind::Trapezoidal,
         MethodKind::Midpoint,
@@ -220,6 +224,7 @@ impl MethodKind {
             MethodKind::GaussLegendre2 => "gauss_legendre2",
             MethodKind::DiscreteGradient => "discrete_gradient",
             MethodKind::TestProbeEuler => "test_probe_euler",
+            MethodKind::Exact => "exact",
         }
     }
 
@@ -234,6 +239,7 @@ impl MethodKind {
             MethodKind::Rk4 => "classical Runge-Kutta 4; key dt",
             MethodKind::GaussLegendre2 => "2-stage Gauss-Legendre (order 4, symplectic); key dt",
             MethodKind::DiscreteGradient => "energy-preserving discrete gradient; key dt",
+            MethodKind::Exact => "the system's exact solution sampled every dt (systems that have one: kepler); key dt",
             MethodKind::TestProbeEuler => "explicit Euler; ONLY for testing the scene pipeline, not for science; key dt",
         }
     }
@@ -325,7 +331,7 @@ pub enum EffectSpec {
         /// Sampling stride.
         every: usize,
     },
-    /// A phase plot of `y` against `x` for all methods.
+    /// A phase plot of `y` against `x` for all methods (`x = "t"` gives a time series).
     PhasePlot {
         /// Horizontal axis.
         x: Coord,
@@ -333,6 +339,8 @@ pub enum EffectSpec {
         y: Coord,
         /// Sampling stride.
         every: usize,
+        /// Only states with `t <= t0 + until` (e.g. one orbit); `None`: all.
+        until: Option<f64>,
     },
     /// A table of mean/max energy and invariant deviations of all methods.
     ComparisonTable,
@@ -346,7 +354,7 @@ pub const EFFECTS: [(&str, &str); 8] = [
     ("invariants", "deviation of the system's quadratic invariants; key every"),
     ("poincare", "section crossings; keys coordinate, value (default 0), direction = \"up\" | \"down\" | \"both\", x, y"),
     ("time_law", "t and lambda against the step (CSV, figure); key every"),
-    ("phase_plot", "figure of y against x for all methods; keys x, y, every"),
+    ("phase_plot", "figure of y against x for all methods (x = \"t\": a time series); keys x, y, every, until (time span from t0)"),
     ("comparison_table", "table of mean/max energy and invariant deviations of all methods"),
 ];
 
@@ -537,6 +545,12 @@ fn validate(raw: RawScene, catalogue: &Catalogue, cx: &mut Ctxt<'_>) -> Option<S
             for m in ms.into_inner() {
                 let span = m.get_ref().kind.span();
                 if let Some(spec) = validate_method(m, cx) {
+                    if spec.kind == MethodKind::Exact && info.is_some_and(|i| !i.has_exact) {
+                        cx.error(
+                            span.clone(),
+                            format!("system `{name}` has no exact solution: remove method `exact`"),
+                        );
+                    }
                     if methods.iter().any(|o: &MethodSpec| o.label == spec.label) {
                         cx.error(
                             span,
@@ -767,7 +781,7 @@ fn validate_effect(
     let allowed: &[&str] = match kind {
         "final_state" | "comparison_table" => &[],
         "trajectory" | "energy_deviation" | "invariants" | "time_law" => &["every"],
-        "phase_plot" => &["x", "y", "every"],
+        "phase_plot" => &["x", "y", "every", "until"],
         "poincare" => &["coordinate", "value", "direction", "x", "y"],
         _ => {
             let names: Vec<_> = EFFECTS.iter().map(|(n, _)| *n).collect();
@@ -781,7 +795,8 @@ fn validate_effect(
             return None;
         }
     };
-    let present: [(&str, Option<Range<usize>>); 6] = [
+    let present: [(&str, Option<Range<usize>>); 7] = [
+        ("until", e.until.as_ref().map(|v| v.span())),
         ("every", e.every.as_ref().map(|v| v.span())),
         ("x", e.x.as_ref().map(|v| v.span())),
         ("y", e.y.as_ref().map(|v| v.span())),
@@ -837,10 +852,15 @@ fn validate_effect(
         "phase_plot" => {
             let x = need(&e.x, "x", cx);
             let y = need(&e.y, "y", cx);
+            let until = match &e.until {
+                None => Some(None),
+                Some(u) => positive(u, "until", cx).map(Some),
+            };
             EffectSpec::PhasePlot {
                 x: x?,
                 y: y?,
                 every: every?,
+                until: until?,
             }
         }
         "poincare" => {

@@ -47,9 +47,15 @@ pub fn compute_table(options: &RunOptions) -> Result<Table, Error> {
     let mut scene =
         crate::check_scene(crate::DEFAULT_SCENE, crate::DEFAULT_SCENE_NAME, &catalogue)?;
     scene.effects = vec![EffectSpec::ComparisonTable];
-    scene
-        .methods
-        .retain(|m| m.kind != MethodKind::TestProbeEuler);
+    scene.methods.retain(|m| {
+        matches!(
+            m.kind,
+            MethodKind::Trapezoidal
+                | MethodKind::Midpoint
+                | MethodKind::DiscreteMechanics
+                | MethodKind::Dth
+        )
+    });
     let kepler = Kepler {
         mass: scene.params.get("mass").copied().unwrap_or(0.5),
         k: scene.params.get("k").copied().unwrap_or(1.0),

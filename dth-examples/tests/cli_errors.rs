@@ -147,12 +147,23 @@ fn unknown_method() {
     rejects(
         &BASE.replace("test_probe_euler", "leapfrog"),
         "7:8",
-        "unknown method `leapfrog`: expected one of dth,",
+        "unknown method `leapfrog`: expected one of exact, dth,",
     );
     rejects(
         &BASE.replace("dt = 0.001", "dtau = 0.001"),
         "8:8",
         "`dtau` is a key of method `dth` only",
+    );
+}
+
+#[test]
+fn exact_solution_only_where_one_exists() {
+    rejects(
+        &BASE
+            .replace("\"kepler\"", "\"henon_heiles\"")
+            .replace("test_probe_euler", "exact"),
+        "7:8",
+        "system `henon_heiles` has no exact solution",
     );
 }
 

@@ -47,6 +47,19 @@ fn good_scene_runs_and_writes_every_file() {
     let html = std::fs::read_to_string(out.join("index.html")).unwrap();
     assert!(html.contains("<img src=\"phase1.png\""));
     assert!(!html.contains("http://") && !html.contains("https://") && !html.contains("<script"));
+    // `until = 1.0` keeps the time series to t <= 1 (steps 0..=1000 at dt = 0.001).
+    let series = std::fs::read_to_string(out.join("test_probe_euler_phase2.csv")).unwrap();
+    assert_eq!(series.lines().count(), 1 + 1001);
+    let last_t: f64 = series
+        .lines()
+        .last()
+        .unwrap()
+        .split(',')
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!(last_t <= 1.0 && last_t > 0.999, "{last_t}");
     // PNGs are PNGs.
     let png = std::fs::read(out.join("phase1.png")).unwrap();
     assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
@@ -215,7 +228,7 @@ fn no_arguments_runs_the_embedded_default_scene() {
     let o = dth(&[], dir.path());
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
     assert!(
-        stderr(&o).contains("method `trapezoidal` is not available in this build"),
+        stderr(&o).contains("method `exact` is not available in this build"),
         "{}",
         stderr(&o)
     );
