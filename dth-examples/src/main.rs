@@ -71,7 +71,7 @@ fn default_out(scene: &Path) -> PathBuf {
     Path::new(DEFAULT_OUT).join(stem)
 }
 
-fn run(text: &str, file: &str, out: &Path) -> Result<ExitCode, Error> {
+fn run(text: &str, file: &str, out: &Path, thesis_table: bool) -> Result<ExitCode, Error> {
     let report = dth_examples::run_scene(
         text,
         file,
@@ -79,6 +79,17 @@ fn run(text: &str, file: &str, out: &Path) -> Result<ExitCode, Error> {
         out,
         &RunOptions::default(),
     )?;
+    let deviations = report.deviation_markdown();
+    if !deviations.is_empty() {
+        println!("{deviations}");
+    }
+    if thesis_table {
+        let table = dth_examples::table41::rows_from(&report.methods);
+        if !table.rows.is_empty() {
+            println!("Table 4.1 (average absolute deviation over 10,000 steps):\n");
+            println!("{}", dth_examples::table41::markdown(&table));
+        }
+    }
     println!(
         "{}: wrote {} files to {}",
         report.title,
@@ -156,12 +167,12 @@ fn main_inner(cli: Cli) -> Result<ExitCode, Error> {
             let out = cli
                 .out
                 .unwrap_or_else(|| default_out(Path::new("thesis-kepler.toml")));
-            run(DEFAULT_SCENE, DEFAULT_SCENE_NAME, &out)
+            run(DEFAULT_SCENE, DEFAULT_SCENE_NAME, &out, true)
         }
         Some(Command::Run { scene, out }) => {
             let text = dth_examples::read_scene(&scene)?;
             let out = out.unwrap_or_else(|| default_out(&scene));
-            run(&text, &scene.display().to_string(), &out)
+            run(&text, &scene.display().to_string(), &out, false)
         }
         Some(Command::Check { scene }) => {
             let text = dth_examples::read_scene(&scene)?;

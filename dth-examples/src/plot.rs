@@ -70,6 +70,9 @@ pub struct Figure {
     pub log_y: bool,
     /// Size in pixels (default 900 x 650).
     pub size: (u32, u32),
+    /// Longer series are drawn with a uniform stride so that at most this many points are
+    /// drawn (keeps SVGs small; the data files keep every point). Default 50,000.
+    pub max_points_per_series: usize,
 }
 
 /// Colour-blind-friendly palette (Okabe-Ito, then Tableau), cycled over series.
@@ -156,6 +159,7 @@ impl Figure {
             log_x: false,
             log_y: false,
             size: (900, 650),
+            max_points_per_series: 50_000,
         }
     }
 
@@ -191,8 +195,10 @@ impl Figure {
         self.series
             .iter()
             .map(|s| {
+                let stride = s.points.len().div_ceil(self.max_points_per_series.max(1));
                 s.points
                     .iter()
+                    .step_by(stride.max(1))
                     .filter_map(|&(x, y)| Some((tx(x)?, ty(y)?)))
                     .filter(|(x, y)| x.is_finite() && y.is_finite())
                     .collect()
@@ -344,5 +350,17 @@ mod tests {
                 [(1.0, 0.0), (10.0, 100.0), (-1.0, 1.0)],
             ));
         assert_eq!(f.transformed(), vec![vec![(1.0, 2.0)]]);
+    }
+
+    #[test]
+    fn long_series_are_strided_for_drawing() {
+        let mut f = Figure::new("t", "x", "y").with_series(Series::new(
+            "s",
+            Mark::Line,
+            (0..10).map(|i| (f64::from(i), 0.0)),
+        ));
+        f.max_points_per_series = 4;
+        let xs: Vec<f64> = f.transformed()[0].iter().map(|p| p.0).collect();
+        assert_eq!(xs, [0.0, 3.0, 6.0, 9.0]);
     }
 }

@@ -110,6 +110,28 @@ pub struct RunReport {
 }
 
 impl RunReport {
+    /// Mean and max deviations of every method as a markdown table (empty when no method
+    /// has statistics, i.e. no `energy_deviation`, `invariants` or `comparison_table`).
+    pub fn deviation_markdown(&self) -> String {
+        let mut s = String::new();
+        for m in &self.methods {
+            for d in m.energy.iter().chain(&m.invariants) {
+                if s.is_empty() {
+                    s.push_str("| method | quantity | mean | max | vertices mean | vertices max |\n|---|---|---:|---:|---:|---:|\n");
+                }
+                let (vm, vx) = d.vertices.map_or(("-".to_string(), "-".to_string()), |v| {
+                    (format!("{:.3e}", v.mean), format!("{:.3e}", v.max))
+                });
+                let _ = writeln!(
+                    s,
+                    "| {} | {} | {:.3e} | {:.3e} | {vm} | {vx} |",
+                    m.label, d.name, d.points.mean, d.points.max
+                );
+            }
+        }
+        s
+    }
+
     /// The methods that failed mid-run.
     pub fn failures(&self) -> impl Iterator<Item = &MethodSummary> {
         self.methods.iter().filter(|m| m.failure.is_some())
@@ -197,13 +219,17 @@ fn progress_bar(m: &MethodSpec, stop: Stop, options: &RunOptions) -> ProgressBar
         (Stop::Time { t_end, .. }, StepSpec::Fixed { dt }) => Some((t_end / dt).ceil() as u64),
         _ => None,
     };
-    let bar = match len {
-        Some(n) => ProgressBar::new(n),
-        None => ProgressBar::new_spinner(),
+    let (bar, template) = match len {
+        Some(n) => (
+            ProgressBar::new(n),
+            "{prefix:>20} [{bar:40}] {pos}/{len} steps {elapsed}",
+        ),
+        None => (
+            ProgressBar::new_spinner(),
+            "{prefix:>20} {spinner} {pos} steps {elapsed}",
+        ),
     };
-    if let Ok(style) =
-        ProgressStyle::with_template("{prefix:>20} [{bar:40}] {pos}/{len} steps {elapsed}")
-    {
+    if let Ok(style) = ProgressStyle::with_template(template) {
         bar.set_style(style.progress_chars("=> "));
     }
     bar.set_prefix(m.label.clone());

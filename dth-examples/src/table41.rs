@@ -11,7 +11,7 @@ use serde::Serialize;
 
 use crate::catalogue::Catalogue;
 use crate::error::Error;
-use crate::run::{compute, RunOptions};
+use crate::run::{compute, MethodSummary, RunOptions};
 use crate::scene::{EffectSpec, MethodKind};
 
 /// The thesis's values (NOTES.md): `(method, energy, angular momentum)`.
@@ -61,16 +61,26 @@ pub fn compute_table(options: &RunOptions) -> Result<Table, Error> {
         k: scene.params.get("k").copied().unwrap_or(1.0),
     };
     let results = compute(&kepler, &scene, options)?;
+    let summaries: Vec<MethodSummary> = results.into_iter().map(|r| r.summary).collect();
+    if let Some(s) = summaries.iter().find(|s| s.failure.is_some()) {
+        let f = s
+            .failure
+            .as_ref()
+            .map_or((0, String::new()), |f| (f.step, f.reason.clone()));
+        return Err(Error::MethodFailed {
+            method: s.label.clone(),
+            step: f.0,
+            reason: f.1,
+        });
+    }
+    Ok(rows_from(&summaries))
+}
+
+/// The table's rows from a run's method summaries (methods without energy and angular
+/// momentum statistics, or not in the thesis's table, are skipped; DTH gives two rows).
+pub fn rows_from(methods: &[MethodSummary]) -> Table {
     let mut rows = Vec::new();
-    for r in &results {
-        let s = &r.summary;
-        if let Some(f) = &s.failure {
-            return Err(Error::MethodFailed {
-                method: s.label.clone(),
-                step: f.step,
-                reason: f.reason.clone(),
-            });
-        }
+    for s in methods {
         let (Some(e), Some(l)) = (&s.energy, s.invariants.first()) else {
             continue;
         };
@@ -87,7 +97,7 @@ pub fn compute_table(options: &RunOptions) -> Result<Table, Error> {
                     angular_momentum: lv.mean,
                 });
             }
-        } else {
+        } else if THESIS.iter().any(|t| t.0 == s.kind) {
             rows.push(Row {
                 method: s.kind.clone(),
                 energy: e.points.mean,
@@ -95,7 +105,7 @@ pub fn compute_table(options: &RunOptions) -> Result<Table, Error> {
             });
         }
     }
-    Ok(Table { rows })
+    Table { rows }
 }
 
 /// The table as markdown, ours beside the thesis's.
