@@ -16,7 +16,7 @@ use crate::error::Error;
 use crate::method::{run_method, Observer, StepView, Stop};
 use crate::output::Staging;
 use crate::plot::{Figure, Mark, Series as PlotSeries};
-use crate::scene::{Duration, EffectSpec, MethodSpec, Scene, StepSpec};
+use crate::scene::{Coord, Duration, EffectSpec, Ensemble, MethodSpec, Scene, StepSpec};
 
 /// How to run.
 #[derive(Debug, Clone)]
@@ -83,6 +83,17 @@ pub struct MethodSummary {
     pub final_state: Option<FinalState>,
 }
 
+/// One member of an ensemble after its run.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EnsembleMember {
+    /// Initial value of the ensemble's `x` coordinate.
+    pub x0: f64,
+    /// Initial value of the ensemble's `y` coordinate.
+    pub y0: f64,
+    /// Final time and state, or why the member failed.
+    pub end: Result<(f64, Vec<f64>), Failure>,
+}
+
 /// One method's results in memory.
 #[derive(Debug, Clone, PartialEq)]
 pub struct MethodResult {
@@ -90,6 +101,70 @@ pub struct MethodResult {
     pub summary: MethodSummary,
     /// Everything the effects produced.
     pub outputs: EffectOutputs,
+    /// The scene's ensemble (thesis Figures 4.10-4.13), when it has one.
+    pub ensemble: Option<Vec<EnsembleMember>>,
+}
+
+/// Keeps only the last state of a run.
+struct LastState<const D: usize>(Option<(f64, SVector<f64, D>)>);
+
+impl<const D: usize> Observer<D> for LastState<D> {
+    fn observe(&mut self, view: &StepView<'_, D>) {
+        self.0 = Some((view.t, *view.z));
+    }
+}
+
+fn coord_index<const D: usize>(c: Coord) -> Option<usize> {
+    match c {
+        Coord::Q(i) => Some(i),
+        Coord::P(i) => Some(D / 2 + i),
+        Coord::T => None,
+    }
+}
+
+fn run_ensemble<const D: usize, S: SceneSystem<D>>(
+    system: &S,
+    m: &MethodSpec,
+    e: &Ensemble,
+    z0: &SVector<f64, D>,
+    t0: f64,
+) -> Result<Vec<EnsembleMember>, Error> {
+    let (Some(ix), Some(iy)) = (coord_index::<D>(e.x), coord_index::<D>(e.y)) else {
+        return Ok(Vec::new());
+    };
+    let mut members = Vec::with_capacity(e.per_side * e.per_side);
+    let h = 2.0 * e.half_width / (e.per_side - 1) as f64;
+    for i in 0..e.per_side {
+        for j in 0..e.per_side {
+            let mut z = *z0;
+            z[ix] += -e.half_width + i as f64 * h;
+            z[iy] += -e.half_width + j as f64 * h;
+            if S::TIME_DEPENDENT {
+                // Keep calH = 0 for the shifted state.
+                z[D - 1] = 0.0;
+                z[D - 1] = -system.value(&z);
+            }
+            let mut last = LastState(None);
+            let end = run_method(m, system, z, t0, Stop::Steps(e.steps), &mut last)?;
+            let end = match (end, last.0) {
+                (Ok(_), Some((t, zf))) => Ok((t, zf.iter().copied().collect())),
+                (Err(f), _) => Err(Failure {
+                    step: f.step,
+                    reason: f.reason,
+                }),
+                (Ok(_), None) => Err(Failure {
+                    step: 0,
+                    reason: "the method reported no state".into(),
+                }),
+            };
+            members.push(EnsembleMember {
+                x0: z[ix],
+                y0: z[iy],
+                end,
+            });
+        }
+    }
+    Ok(members)
 }
 
 /// What a run produced (`summary.json` is this, serialized).
@@ -314,7 +389,15 @@ pub fn compute<const D: usize, S: SceneSystem<D>>(
                 .unwrap_or_default(),
             final_state: outputs.final_state.clone(),
         };
-        results.push(MethodResult { summary, outputs });
+        let ensemble = match &scene.ensemble {
+            Some(e) => Some(run_ensemble(system, m, e, &z0, scene.t0)?),
+            None => None,
+        };
+        results.push(MethodResult {
+            summary,
+            outputs,
+            ensemble,
+        });
     }
     Ok(results)
 }
@@ -468,6 +551,35 @@ fn write_outputs(
                 let _ = writeln!(s, "{t:e},{x:e},{y:e}");
             }
             put(format!("{l}_poincare{}.csv", i + 1), s, &mut files)?;
+        }
+        if let Some(members) = &r.ensemble {
+            let d = members
+                .iter()
+                .find_map(|m| m.end.as_ref().ok().map(|e| e.1.len()))
+                .unwrap_or(0);
+            let mut s = format!("x0,y0,t,{},failure\n", coord_names(scene, d).join(","));
+            for m in members {
+                let _ = write!(s, "{:e},{:e}", m.x0, m.y0);
+                match &m.end {
+                    Ok((t, z)) => {
+                        let _ = write!(s, ",{t:e}");
+                        for x in z {
+                            let _ = write!(s, ",{x:e}");
+                        }
+                        s.push_str(",\n");
+                    }
+                    Err(f) => {
+                        let _ = writeln!(
+                            s,
+                            ",{}step {}: {}",
+                            ",".repeat(d + 1),
+                            f.step,
+                            f.reason.replace(',', ";")
+                        );
+                    }
+                }
+            }
+            put(format!("{l}_ensemble.csv"), s, &mut files)?;
         }
         for (i, pts) in o.phase.iter().enumerate() {
             let mut s = String::from("x,y\n");
@@ -633,6 +745,40 @@ fn write_figures(
                 figs.push((format!("phase{phase_i}"), f));
             }
             _ => {}
+        }
+    }
+    if let Some(e) = &scene.ensemble {
+        for r in results {
+            let Some(members) = &r.ensemble else { continue };
+            let (ix, iy) = (e.x, e.y);
+            let idx = |c: Coord, z: &[f64]| match c {
+                Coord::Q(i) => z.get(i).copied(),
+                Coord::P(i) => z.get(z.len() / 2 + i).copied(),
+                Coord::T => None,
+            };
+            let finals = members.iter().filter_map(|m| {
+                let z = &m.end.as_ref().ok()?.1;
+                Some((idx(ix, z)?, idx(iy, z)?))
+            });
+            let f = Figure::new(
+                &format!(
+                    "{}: {}, square of initial conditions after {} steps",
+                    scene.title, r.summary.label, e.steps
+                ),
+                &ix.name(),
+                &iy.name(),
+            )
+            .with_series(PlotSeries::new(
+                "initial",
+                Mark::Points,
+                members.iter().map(|m| (m.x0, m.y0)),
+            ))
+            .with_series(PlotSeries::new(
+                &format!("after {} steps", e.steps),
+                Mark::Points,
+                finals,
+            ));
+            figs.push((format!("ensemble_{}", r.summary.label), f));
         }
     }
     let mut files = Vec::new();

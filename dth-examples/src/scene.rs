@@ -55,6 +55,17 @@ struct RawScene {
     duration: Spanned<RawDuration>,
     #[serde(rename = "effect", default)]
     effects: Vec<Spanned<RawEffect>>,
+    ensemble: Option<Spanned<RawEnsemble>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawEnsemble {
+    x: Spanned<String>,
+    y: Spanned<String>,
+    half_width: Spanned<f64>,
+    per_side: Spanned<i64>,
+    steps: Spanned<i64>,
 }
 
 #[derive(Deserialize)]
@@ -131,6 +142,25 @@ pub struct Scene {
     pub duration: Duration,
     /// Requested effects, in scene order (nothing else is computed).
     pub effects: Vec<EffectSpec>,
+    /// A square of initial conditions run for a few steps (thesis Figures 4.10-4.13).
+    pub ensemble: Option<Ensemble>,
+}
+
+/// A square of initial conditions around the scene's initial state, in the plane of two of
+/// its coordinates (`per_side x per_side` points spaced evenly over
+/// `[-half_width, half_width]^2`), each run for `steps` steps by every method.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Ensemble {
+    /// First varied coordinate.
+    pub x: Coord,
+    /// Second varied coordinate.
+    pub y: Coord,
+    /// Half the side of the square.
+    pub half_width: f64,
+    /// Points per side (at least 2).
+    pub per_side: usize,
+    /// Steps each member runs.
+    pub steps: usize,
 }
 
 /// A method and its step.
@@ -611,6 +641,44 @@ fn validate(raw: RawScene, catalogue: &Catalogue, cx: &mut Ctxt<'_>) -> Option<S
         }
     }
 
+    let ensemble = raw.ensemble.and_then(|e| {
+        let e = e.into_inner();
+        let x = coord(&e.x, n, "x", cx);
+        let y = coord(&e.y, n, "y", cx);
+        for c in [(&e.x, x), (&e.y, y)] {
+            if c.1 == Some(Coord::T) {
+                cx.error(
+                    c.0.span(),
+                    "the ensemble varies q or p coordinates: expected q1..qn or p1..pn, not t",
+                );
+            }
+        }
+        if x.is_some() && x == y {
+            cx.error(e.y.span(), "the ensemble's `x` and `y` must differ");
+        }
+        let half_width = positive(&e.half_width, "half_width", cx);
+        let count = |v: &Spanned<i64>, what: &str, min: i64, cx: &mut Ctxt<'_>| {
+            if *v.get_ref() >= min {
+                Some(*v.get_ref() as usize)
+            } else {
+                cx.error(
+                    v.span(),
+                    format!("`{what}` = {}: expected an integer >= {min}", v.get_ref()),
+                );
+                None
+            }
+        };
+        let per_side = count(&e.per_side, "per_side", 2, cx);
+        let steps = count(&e.steps, "steps", 1, cx);
+        Some(Ensemble {
+            x: x?,
+            y: y?,
+            half_width: half_width?,
+            per_side: per_side?,
+            steps: steps?,
+        })
+    });
+
     Some(Scene {
         title: raw.title.unwrap_or_else(|| name.clone()),
         description: raw.description.unwrap_or_default(),
@@ -622,6 +690,7 @@ fn validate(raw: RawScene, catalogue: &Catalogue, cx: &mut Ctxt<'_>) -> Option<S
         methods,
         duration: duration?,
         effects,
+        ensemble,
     })
 }
 

@@ -180,6 +180,20 @@ fn unknown_parameter() {
 }
 
 #[test]
+fn bad_ensemble() {
+    rejects(
+        &format!("{BASE}[ensemble]\nx = \"q1\"\ny = \"q1\"\nhalf_width = 0.1\nper_side = 1\nsteps = 25\n"),
+        "15:12",
+        "`per_side` = 1: expected an integer >= 2",
+    );
+    rejects(
+        &format!("{BASE}[ensemble]\nx = \"q1\"\ny = \"p1\"\nhalf_width = 0.1\nper_side = 3\n"),
+        "11:1",
+        "missing field `steps`",
+    );
+}
+
+#[test]
 fn toml_syntax_error() {
     rejects("x = [1\n", "1:7", "unclosed array");
 }

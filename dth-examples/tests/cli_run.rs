@@ -60,6 +60,14 @@ fn good_scene_runs_and_writes_every_file() {
         .parse()
         .unwrap();
     assert!(last_t <= 1.0 && last_t > 0.999, "{last_t}");
+    // The ensemble: 4 x 4 members, each after 25 steps of dt = 0.001 (t = 0.025).
+    let ens = std::fs::read_to_string(out.join("test_probe_euler_ensemble.csv")).unwrap();
+    assert_eq!(ens.lines().count(), 1 + 16);
+    for line in ens.lines().skip(1) {
+        let t: f64 = line.split(',').nth(2).unwrap().parse().unwrap();
+        assert!((t - 0.025).abs() < 1e-12, "{line}");
+    }
+    assert!(files.contains(&"ensemble_euler_coarse.png".to_string()));
     // PNGs are PNGs.
     let png = std::fs::read(out.join("phase1.png")).unwrap();
     assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
