@@ -131,6 +131,7 @@ struct Section<const D: usize> {
     coordinate: Coord,
     value: f64,
     direction: Direction,
+    interpolate: bool,
     x: Coord,
     y: Coord,
     previous: Option<(f64, SVector<f64, D>)>,
@@ -273,12 +274,14 @@ impl<'s, const D: usize, S: SceneSystem<D>> Effects<'s, D, S> {
                     coordinate,
                     value,
                     direction,
+                    interpolate,
                     x,
                     y,
                 } => e.sections.push(Section {
                     coordinate,
                     value,
                     direction,
+                    interpolate,
                     x,
                     y,
                     previous: None,
@@ -399,7 +402,12 @@ impl<const D: usize, S: SceneSystem<D>> Observer<D> for Effects<'_, D, S> {
                     Direction::Down => down,
                     Direction::Both => up || down,
                 };
-                if hit {
+                if hit && !s.interpolate {
+                    // The thesis's sections (Section 4.2): the state just after the crossing,
+                    // projected onto the section (its other coordinates kept).
+                    s.crossings
+                        .push((v.t, coord_value(s.x, v.t, v.z), coord_value(s.y, v.t, v.z)));
+                } else if hit {
                     // Linear interpolation between the two consecutive observed states (for
                     // DTH these are midpoints, not the vertices of its piecewise-linear path).
                     let a = c0 / (c0 - c1);
@@ -421,5 +429,60 @@ impl<const D: usize, S: SceneSystem<D>> Observer<D> for Effects<'_, D, S> {
                     .push((coord_value(p.x, v.t, v.z), coord_value(p.y, v.t, v.z)));
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use dth::systems::HarmonicOscillator;
+
+    /// Feeds the exact oscillator solution q = cos t, p = -sin t at t = k h to a Poincare
+    /// section q1 = 0 (upward: t = 3 pi / 2, where p = 1).
+    fn section(interpolate: bool, h: f64) -> Crossings {
+        let sys = HarmonicOscillator { mass: 1.0, k: 1.0 };
+        let spec = [EffectSpec::Poincare {
+            coordinate: Coord::Q(0),
+            value: 0.0,
+            direction: Direction::Up,
+            interpolate,
+            x: Coord::T,
+            y: Coord::P(0),
+        }];
+        let mut e = Effects::new(&sys, &spec).unwrap();
+        for k in 0..=(6.0 / h) as usize {
+            let t = k as f64 * h;
+            let z = SVector::<f64, 2>::new(t.cos(), -t.sin());
+            e.observe(&StepView {
+                step: k,
+                t,
+                z: &z,
+                lambda: None,
+                vertex: None,
+            });
+        }
+        e.finish().poincare.remove(0)
+    }
+
+    #[test]
+    fn interpolated_crossing_is_second_order_accurate() {
+        let h = 0.01;
+        let c = section(true, h);
+        assert_eq!(c.len(), 1);
+        let t_exact = 1.5 * std::f64::consts::PI;
+        // Linear interpolation of cos near its zero: error O(h^2), here below h^2.
+        assert!((c[0].0 - t_exact).abs() < h * h, "{:?}", c);
+        assert!((c[0].2 - 1.0).abs() < h * h, "{:?}", c);
+    }
+
+    #[test]
+    fn projected_crossing_is_the_first_state_past_the_section() {
+        let h = 0.01;
+        let c = section(false, h);
+        assert_eq!(c.len(), 1);
+        let t_exact = 1.5 * std::f64::consts::PI;
+        let k = (t_exact / h).ceil();
+        assert_eq!(c[0].0, k * h);
+        assert_eq!(c[0].1, k * h);
     }
 }

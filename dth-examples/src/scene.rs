@@ -114,6 +114,7 @@ struct RawEffect {
     value: Option<Spanned<f64>>,
     direction: Option<Spanned<String>>,
     until: Option<Spanned<f64>>,
+    crossing: Option<Spanned<String>>,
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -351,6 +352,10 @@ pub enum EffectSpec {
         value: f64,
         /// Which crossings count.
         direction: Direction,
+        /// `true`: linear interpolation between the two states either side of the section;
+        /// `false`: the thesis's way (Section 4.2), the state just after the crossing,
+        /// projected onto the section.
+        interpolate: bool,
         /// Horizontal axis of the figure.
         x: Coord,
         /// Vertical axis of the figure.
@@ -382,7 +387,7 @@ pub const EFFECTS: [(&str, &str); 8] = [
     ("trajectory", "states every `every` steps (CSV); key every (default 1)"),
     ("energy_deviation", "|H - H0| per step: mean/max, CSV, figure; key every"),
     ("invariants", "deviation of the system's quadratic invariants; key every"),
-    ("poincare", "section crossings; keys coordinate, value (default 0), direction = \"up\" | \"down\" | \"both\", x, y"),
+    ("poincare", "section crossings; keys coordinate, value (default 0), direction = \"up\" | \"down\" | \"both\", crossing = \"interpolate\" | \"project\" (thesis), x, y"),
     ("time_law", "t and lambda against the step (CSV, figure); key every"),
     ("phase_plot", "figure of y against x for all methods (x = \"t\": a time series); keys x, y, every, until (time span from t0)"),
     ("comparison_table", "table of mean/max energy and invariant deviations of all methods"),
@@ -851,7 +856,7 @@ fn validate_effect(
         "final_state" | "comparison_table" => &[],
         "trajectory" | "energy_deviation" | "invariants" | "time_law" => &["every"],
         "phase_plot" => &["x", "y", "every", "until"],
-        "poincare" => &["coordinate", "value", "direction", "x", "y"],
+        "poincare" => &["coordinate", "value", "direction", "crossing", "x", "y"],
         _ => {
             let names: Vec<_> = EFFECTS.iter().map(|(n, _)| *n).collect();
             cx.error(
@@ -864,7 +869,8 @@ fn validate_effect(
             return None;
         }
     };
-    let present: [(&str, Option<Range<usize>>); 7] = [
+    let present: [(&str, Option<Range<usize>>); 8] = [
+        ("crossing", e.crossing.as_ref().map(|v| v.span())),
         ("until", e.until.as_ref().map(|v| v.span())),
         ("every", e.every.as_ref().map(|v| v.span())),
         ("x", e.x.as_ref().map(|v| v.span())),
@@ -959,7 +965,22 @@ fn validate_effect(
                     0.0
                 }
             };
+            let interpolate = match &e.crossing {
+                None => Some(true),
+                Some(c) => match c.get_ref().as_str() {
+                    "interpolate" => Some(true),
+                    "project" => Some(false),
+                    other => {
+                        cx.error(
+                            c.span(),
+                            format!("unknown crossing `{other}`: expected \"interpolate\" or \"project\""),
+                        );
+                        None
+                    }
+                },
+            };
             EffectSpec::Poincare {
+                interpolate: interpolate?,
                 coordinate: coordinate?,
                 value,
                 direction: direction?,
