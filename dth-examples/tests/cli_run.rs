@@ -253,3 +253,25 @@ fn no_arguments_runs_the_embedded_default_scene() {
         entries(dir.path())
     );
 }
+
+/// `table41` and `workprecision` need the stepper and peers; until they are wired in, both
+/// must say so and exit 1 without writing anything. (When they are, replace this test.)
+#[test]
+fn table41_and_workprecision_report_what_they_wait_for() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = dth(&["table41", "--json", "t.json"], dir.path());
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("is not available in this build"),
+        "{}",
+        stderr(&o)
+    );
+    let o = dth(&["workprecision", "--quick", "--out", "wp"], dir.path());
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(stderr(&o).contains("issue 5"), "{}", stderr(&o));
+    assert!(
+        entries(dir.path()).is_empty(),
+        "left behind: {:?}",
+        entries(dir.path())
+    );
+}
