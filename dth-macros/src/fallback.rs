@@ -40,8 +40,9 @@ pub fn declaration(input: &Input, params: &[Ident]) -> (TokenStream, Ident) {
     }
 }
 
-/// The declaration and a never-run implementation for every `D`.
-pub fn stub(input: &Input, params: &[Ident]) -> TokenStream {
+/// The errors, the declaration and a never-run implementation for every `D`. In the
+/// expression form everything sits in one block so the expansion stays one expression.
+pub fn stub(input: &Input, params: &[Ident], errors: Option<TokenStream>) -> TokenStream {
     let (decl, name) = declaration(input, params);
     let nalgebra = quote!(::dth::__private::nalgebra);
     let imp = quote! {
@@ -58,7 +59,7 @@ pub fn stub(input: &Input, params: &[Ident]) -> TokenStream {
         }
     };
     match &input.item {
-        Some(_) => quote! { #decl const _: () = { #imp }; },
-        None => quote! {{ #decl #imp #name }},
+        Some(_) => quote! { #errors #decl const _: () = { #imp }; },
+        None => quote! {{ #errors #decl #imp #name }},
     }
 }

@@ -69,7 +69,9 @@ fn header(input: ParseStream) -> syn::Result<Header> {
     let attrs = input.call(Attribute::parse_outer)?;
     let vis: Visibility = input.parse()?;
     input.parse::<Token![struct]>()?;
-    let ident: Ident = input.parse()?;
+    let ident: Ident = input
+        .parse()
+        .map_err(|e| syn::Error::new(e.span(), "expected the type's name after `struct`"))?;
     if input.peek(Token![<]) {
         return Err(input.error("a Hamiltonian type takes no generic parameters: declare named `f64` parameters in `{ ... }`"));
     }
@@ -97,16 +99,12 @@ fn header(input: ParseStream) -> syn::Result<Header> {
     } else if input.peek(syn::token::Paren) {
         return Err(input.error("expected named parameters `{ name: f64, ... }`: tuple structs cannot name their parameters in the Hamiltonian"));
     }
-    let lookahead = input.lookahead1();
-    if !lookahead.peek(Token![=]) {
-        let mut e = lookahead.error();
-        e.combine(syn::Error::new(
-            input.span(),
-            "the item form is `struct Name { param: f64, .. } = <Hamiltonian>`",
-        ));
-        return Err(e);
-    }
-    input.parse::<Token![=]>()?;
+    input.parse::<Token![=]>().map_err(|e| {
+        syn::Error::new(
+            e.span(),
+            "expected `=` and the Hamiltonian: the item form is `struct Name { param: f64, .. } = <Hamiltonian>`",
+        )
+    })?;
     Ok(Header {
         attrs,
         vis,
@@ -138,7 +136,7 @@ impl Body {
                         Delimiter::None => (g.span(), g.span()),
                         Delimiter::Bracket | Delimiter::Brace => {
                             self.errors.push(syn::Error::new(
-                                g.span_open(),
+                                g.span(),
                                 "use parentheses `( )` for grouping: brackets and braces are not part of the grammar",
                             ));
                             (g.span_open(), g.span_close())

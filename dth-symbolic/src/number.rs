@@ -17,9 +17,11 @@ pub enum Fault {
 impl fmt::Display for Fault {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            Fault::DivisionByZero => f.write_str("division by zero"),
+            Fault::DivisionByZero => {
+                f.write_str("division by zero: this divisor is (or simplifies to) 0")
+            }
             Fault::Undefined(what) => write!(f, "{what}"),
-            Fault::NonFinite => f.write_str("constant overflows f64"),
+            Fault::NonFinite => f.write_str("this constant overflows f64 when folded"),
         }
     }
 }
