@@ -11,7 +11,9 @@ mod expand;
 mod fallback;
 mod parse;
 
-/// See `dth::hamiltonian!`.
+/// Generates a type implementing `dth::Hamiltonian<D>` from a Hamiltonian written as a math
+/// literal, with exact compiled derivatives. The grammar is documented in the `Grammar`
+/// section of the `dth` crate.
 #[proc_macro]
 pub fn hamiltonian(input: TokenStream) -> TokenStream {
     syn::parse::<parse::Input>(input)
