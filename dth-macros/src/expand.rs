@@ -170,15 +170,15 @@ fn body(
             }
             Op::Sqrt(a) => {
                 let a = v(a);
-                quote!(f64::sqrt(#a))
+                quote!(::core::primitive::f64::sqrt(#a))
             }
             Op::Powf(a, e) => {
                 let (a, e) = (v(a), constant(e));
-                quote!(f64::powf(#a, #e))
+                quote!(::core::primitive::f64::powf(#a, #e))
             }
             Op::Call(f, a) => {
                 let (a, f) = (v(a), format_ident!("{}", f.name()));
-                quote!(f64::#f(#a))
+                quote!(::core::primitive::f64::#f(#a))
             }
         };
         quote!(let #lhs: f64 = #rhs;)
