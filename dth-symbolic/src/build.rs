@@ -4,8 +4,9 @@
 use crate::arena::{Arena, Id, Var};
 use crate::check::{resolve, Name};
 use crate::error::{Error, ErrorKind};
-use crate::number::{parse_literal, LiteralError, Num};
+use crate::number::{parse_literal, Fault, LiteralError, Num};
 use crate::parser::{Ast, BinOp};
+use crate::span::Span;
 
 pub(crate) struct Builder<'a> {
     pub src: &'a str,
@@ -102,32 +103,57 @@ impl Builder<'_> {
                 self.arena.span = span;
                 self.arena.neg(x)
             }
-            Ast::Binary { op, lhs, rhs, .. } => {
+            Ast::Chain { first, rest } => return self.chain(first, rest, span),
+            Ast::Binary { lhs, rhs, .. } => {
                 let (a, b) = (self.build(lhs), self.build(rhs));
                 let (a, b) = (a?, b?);
                 self.arena.span = span;
-                let r = match op {
-                    BinOp::Add => self.arena.add(&[a, b]),
-                    BinOp::Sub => self.arena.sub(a, b),
-                    BinOp::Mul => self.arena.mul(&[a, b]),
-                    BinOp::Div => self.arena.div(a, b),
-                    BinOp::Pow => self.arena.pow_general(a, b),
-                };
-                // A division by zero is the divisor's fault; other faults belong to the operation.
-                return match r {
-                    Ok(id) => Some(id),
-                    Err(fault) => {
-                        let at = match (op, fault) {
-                            (BinOp::Div, crate::number::Fault::DivisionByZero) => rhs.span(),
-                            _ => lhs.span().to(rhs.span()),
-                        };
-                        self.errors.push(Error::new(ErrorKind::Fault(fault), at));
-                        None
-                    }
-                };
+                self.arena.pow_general(a, b)
             }
         };
         match result {
+            Ok(id) => Some(id),
+            Err(fault) => {
+                self.errors.push(Error::new(ErrorKind::Fault(fault), span));
+                None
+            }
+        }
+    }
+}
+
+impl Builder<'_> {
+    /// A sum or product chain, built with one n-ary constructor call.
+    fn chain(&mut self, first: &Ast, rest: &[(BinOp, Span, Ast)], span: Span) -> Option<Id> {
+        let a = self.build(first);
+        let operands: Vec<Option<Id>> = rest.iter().map(|(_, _, x)| self.build(x)).collect();
+        let mut parts = vec![a?];
+        for ((op, _, x), id) in rest.iter().zip(operands) {
+            let id = id?;
+            self.arena.span = x.span();
+            let part = match op {
+                BinOp::Sub => self.arena.neg(id),
+                // A division by zero is the divisor's fault.
+                BinOp::Div if self.arena.is_zero(id) => Err(Fault::DivisionByZero),
+                BinOp::Div => self.arena.pow(id, Num::int(-1)),
+                _ => Ok(id),
+            };
+            match part {
+                Ok(p) => parts.push(p),
+                Err(fault) => {
+                    self.errors
+                        .push(Error::new(ErrorKind::Fault(fault), x.span()));
+                    return None;
+                }
+            }
+        }
+        self.arena.span = span;
+        let sum = matches!(rest.first(), Some((BinOp::Add | BinOp::Sub, _, _)));
+        let r = if sum {
+            self.arena.add(&parts)
+        } else {
+            self.arena.mul(&parts)
+        };
+        match r {
             Ok(id) => Some(id),
             Err(fault) => {
                 self.errors.push(Error::new(ErrorKind::Fault(fault), span));

@@ -52,7 +52,15 @@ pub enum Ast {
         /// From the sign to the end of the operand.
         span: Span,
     },
-    /// `lhs op rhs`.
+    /// `first op x op x ...` at one precedence level (`+ -` or `* /`), left to right. Kept
+    /// flat so a long sum neither recurses deeply nor rebuilds its prefix at every term.
+    Chain {
+        /// The first operand.
+        first: Box<Ast>,
+        /// Each operator, its token and its right operand.
+        rest: Vec<(BinOp, Span, Ast)>,
+    },
+    /// `lhs ^ rhs` (the only binary node: `^` is right-associative).
     Binary {
         /// The operator.
         op: BinOp,
@@ -79,6 +87,10 @@ impl Ast {
             Ast::Number(s) | Ast::Name(s) => *s,
             Ast::Call { span, .. } | Ast::Unary { span, .. } | Ast::Paren { span, .. } => *span,
             Ast::Binary { lhs, rhs, .. } => lhs.span().to(rhs.span()),
+            Ast::Chain { first, rest } => match rest.last() {
+                Some((_, _, last)) => first.span().to(last.span()),
+                None => first.span(),
+            },
         }
     }
 }
@@ -139,14 +151,8 @@ impl<'a> Parser<'a> {
     }
 
     fn expr(&mut self) -> Result<Ast, Error> {
-        self.depth += 1;
-        if self.depth > MAX_DEPTH {
-            let span = self
-                .peek()
-                .map_or(Span::new(self.src.len(), self.src.len()), |t| t.span);
-            return Err(Error::new(ErrorKind::TooDeep, span));
-        }
-        let mut lhs = self.term()?;
+        let first = self.term()?;
+        let mut rest = Vec::new();
         while let Some(t) = self.peek() {
             let op = match t.kind {
                 TokenKind::Plus => BinOp::Add,
@@ -154,20 +160,21 @@ impl<'a> Parser<'a> {
                 _ => break,
             };
             self.pos += 1;
-            let rhs = self.term()?;
-            lhs = Ast::Binary {
-                op,
-                op_span: t.span,
-                lhs: Box::new(lhs),
-                rhs: Box::new(rhs),
-            };
+            rest.push((op, t.span, self.term()?));
         }
-        self.depth -= 1;
-        Ok(lhs)
+        Ok(if rest.is_empty() {
+            first
+        } else {
+            Ast::Chain {
+                first: Box::new(first),
+                rest,
+            }
+        })
     }
 
     fn term(&mut self) -> Result<Ast, Error> {
-        let mut lhs = self.unary()?;
+        let first = self.unary()?;
+        let mut rest = Vec::new();
         while let Some(t) = self.peek() {
             let op = match t.kind {
                 TokenKind::Star => BinOp::Mul,
@@ -175,18 +182,33 @@ impl<'a> Parser<'a> {
                 _ => break,
             };
             self.pos += 1;
-            let rhs = self.unary()?;
-            lhs = Ast::Binary {
-                op,
-                op_span: t.span,
-                lhs: Box::new(lhs),
-                rhs: Box::new(rhs),
-            };
+            rest.push((op, t.span, self.unary()?));
         }
-        Ok(lhs)
+        Ok(if rest.is_empty() {
+            first
+        } else {
+            Ast::Chain {
+                first: Box::new(first),
+                rest,
+            }
+        })
     }
 
+    /// Every level of nesting (parentheses, signs, exponents) passes here: the depth limit.
     fn unary(&mut self) -> Result<Ast, Error> {
+        self.depth += 1;
+        if self.depth > MAX_DEPTH {
+            let span = self
+                .peek()
+                .map_or(Span::new(self.src.len(), self.src.len()), |t| t.span);
+            return Err(Error::new(ErrorKind::TooDeep, span));
+        }
+        let r = self.signed();
+        self.depth -= 1;
+        r
+    }
+
+    fn signed(&mut self) -> Result<Ast, Error> {
         if let Some(t) = self.peek() {
             if matches!(t.kind, TokenKind::Minus | TokenKind::Plus) {
                 self.pos += 1;

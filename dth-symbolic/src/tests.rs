@@ -306,3 +306,29 @@ fn bad_parameters() {
     let e = compile("p1^2", &["q1", "m", "m", "sin"]).unwrap_err().0;
     assert_eq!(e.len(), 3);
 }
+
+#[test]
+fn deep_nesting_is_an_error_not_a_stack_overflow() {
+    let parens = format!("p1^2 + {}q1{}", "(".repeat(300), ")".repeat(300));
+    assert!(matches!(kinds(&parens)[..], [ErrorKind::TooDeep]));
+    let signs = format!("p1^2 + {}q1", "-".repeat(100_000));
+    assert!(matches!(kinds(&signs)[..], [ErrorKind::TooDeep]));
+    let powers = format!("p1^2 + q1{}", "^q1".repeat(100_000));
+    assert!(matches!(kinds(&powers)[..], [ErrorKind::TooDeep]));
+    let ok = format!("p1^2 + {}q1{}", "(".repeat(200), ")".repeat(200));
+    assert!(compile(&ok, &[]).is_ok());
+}
+
+#[test]
+fn long_sums_build_flat() {
+    // 20000 terms: the parser keeps sums flat, so neither building (recursion) nor collecting
+    // like terms (one n-ary call, not one per term) grows with the length of the chain.
+    let src = format!(
+        "p1^2{}",
+        (0..20_000)
+            .map(|i| format!(" + q{}^2", i % 50 + 1))
+            .collect::<String>()
+    );
+    let h = compile(&src, &[]).unwrap();
+    assert_eq!(h.expr(h.gradient()[0]).to_string(), "800*q1");
+}
