@@ -102,3 +102,18 @@ fn delimiters_and_flags() {
         (true, false, false)
     );
 }
+
+dth::hamiltonian! {
+    /// A unit struct: no parameters, no braces.
+    #[derive(Clone, Copy, Debug, Default)]
+    pub struct Pendulum = p1^2/2 - cos(q1)
+}
+
+#[test]
+fn item_form_without_parameters_is_a_unit_struct() {
+    let z = dth::nalgebra::Vector2::new(0.3, -0.4);
+    // H = p^2/2 - cos q: two terms of size <= 1, a couple of roundings each.
+    let expected = 0.08 - 0.3f64.cos();
+    assert!((Pendulum.value(&z) - expected).abs() <= 4.0 * f64::EPSILON);
+    assert_eq!(Pendulum.hessian(&z)[(0, 0)], 0.3f64.cos());
+}

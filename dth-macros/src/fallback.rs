@@ -21,10 +21,12 @@ pub fn declaration(input: &Input, params: &[Ident]) -> (TokenStream, Ident) {
                 };
                 quote!(#(#fattrs)* #fvis #p: f64)
             });
-            (
-                quote!(#(#attrs)* #vis struct #ident { #(#fields),* }),
-                ident.clone(),
-            )
+            let decl = if h.braced {
+                quote!(#(#attrs)* #vis struct #ident { #(#fields),* })
+            } else {
+                quote!(#(#attrs)* #vis struct #ident;)
+            };
+            (decl, ident.clone())
         }
         None => {
             let name = format_ident!("GeneratedHamiltonian");

@@ -22,6 +22,8 @@ pub struct Header {
     pub vis: Visibility,
     pub ident: Ident,
     pub params: Vec<Param>,
+    /// `false` for `struct Name = ...`, declared as a unit struct.
+    pub braced: bool,
 }
 
 /// One declared parameter `vis name: ty`.
@@ -76,7 +78,8 @@ fn header(input: ParseStream) -> syn::Result<Header> {
         return Err(input.error("a Hamiltonian type takes no generic parameters: declare named `f64` parameters in `{ ... }`"));
     }
     let mut params = Vec::new();
-    if input.peek(syn::token::Brace) {
+    let braced = input.peek(syn::token::Brace);
+    if braced {
         let content;
         syn::braced!(content in input);
         while !content.is_empty() {
@@ -110,6 +113,7 @@ fn header(input: ParseStream) -> syn::Result<Header> {
         vis,
         ident,
         params,
+        braced,
     })
 }
 
