@@ -17,7 +17,7 @@ pub fn expand(input: Input) -> TokenStream {
     let system = check::system(&input, &params, &mut errors);
     match (check::combine(errors), system) {
         (None, Some(system)) => implementation(&input, &params, &system),
-        (error, _) => fallback::stub(&input, &params, error.map(|e| e.to_compile_error())),
+        (error, _) => fallback::stub(&input, error.map(|e| e.to_compile_error())),
     }
 }
 

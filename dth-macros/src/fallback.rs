@@ -44,8 +44,16 @@ pub fn declaration(input: &Input, params: &[Ident]) -> (TokenStream, Ident) {
 
 /// The errors, the declaration and a never-run implementation for every `D`. In the
 /// expression form everything sits in one block so the expansion stays one expression.
-pub fn stub(input: &Input, params: &[Ident], errors: Option<TokenStream>) -> TokenStream {
-    let (decl, name) = declaration(input, params);
+/// Every declared field name is kept (once, as `f64`), even one the grammar rejects, so code
+/// constructing the struct adds no error of its own.
+pub fn stub(input: &Input, errors: Option<TokenStream>) -> TokenStream {
+    let mut fields: Vec<Ident> = Vec::new();
+    for p in input.item.iter().flat_map(|h| &h.params) {
+        if !fields.contains(&p.ident) {
+            fields.push(p.ident.clone());
+        }
+    }
+    let (decl, name) = declaration(input, &fields);
     let nalgebra = quote!(::dth::__private::nalgebra);
     let imp = quote! {
         impl<const D: usize> ::dth::__private::dth_core::Hamiltonian<D> for #name {
