@@ -180,10 +180,10 @@ impl fmt::Display for Error {
                 "parameter `{name}` {reason}: parameters need their own names"
             ),
             NoMomentum => f.write_str(
-                "the Hamiltonian uses no momentum p1..pN: its flow would not move q (H must depend on at least one p)",
+                "the Hamiltonian does not depend on any momentum p1..pN (after simplification): its flow would not move q",
             ),
             ConstantHamiltonian => f.write_str(
-                "the Hamiltonian is constant: it must depend on the coordinates q1..qN, p1..pN",
+                "the Hamiltonian is constant (after simplification): it must depend on q1..qN, p1..pN",
             ),
         }
     }

@@ -131,6 +131,32 @@ impl Program {
     }
 }
 
+/// One line per operation (`v3 = v1 * v2`), then the outputs: for reading and debugging.
+impl std::fmt::Display for Program {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        for (i, op) in self.ops.iter().enumerate() {
+            write!(f, "v{i} = ")?;
+            match op {
+                Op::Input(k) => writeln!(f, "z[{k}]")?,
+                Op::Param(k) => writeln!(f, "param[{k}]")?,
+                Op::Const(c) => writeln!(f, "{c:?}")?,
+                Op::Add(a, b) => writeln!(f, "v{a} + v{b}")?,
+                Op::Sub(a, b) => writeln!(f, "v{a} - v{b}")?,
+                Op::Mul(a, b) => writeln!(f, "v{a} * v{b}")?,
+                Op::Div(a, b) => writeln!(f, "v{a} / v{b}")?,
+                Op::Neg(a) => writeln!(f, "-v{a}")?,
+                Op::Sqrt(a) => writeln!(f, "sqrt(v{a})")?,
+                Op::Powf(a, e) => writeln!(f, "powf(v{a}, {e:?})")?,
+                Op::Call(g, a) => writeln!(f, "{}(v{a})", g.name())?,
+            }
+        }
+        for (out, s) in &self.outputs {
+            writeln!(f, "{out:?} = v{s}")?;
+        }
+        Ok(())
+    }
+}
+
 struct Lowerer<'a> {
     arena: &'a Arena,
     coords: HashMap<Var, u32>,

@@ -213,10 +213,7 @@ fn programs_compute_only_what_they_need() {
 fn kepler_fused_program_is_small() {
     let h = compile("p1^2 + p2^2 - (q1^2+q2^2)^(-1/2)", &[]).unwrap();
     let p = h.program(Method::All);
-    for (i, op) in p.ops.iter().enumerate() {
-        println!("v{i} = {op:?}");
-    }
-    println!("{:?}", p.outputs);
+    println!("{p}");
     // Hand-written value+gradient+Hessian+Psi needs about 40 flops; allow modest slack.
     assert!(p.stats().ops < 60, "{:?}", p.stats());
 }
@@ -331,4 +328,11 @@ fn long_sums_build_flat() {
     );
     let h = compile(&src, &[]).unwrap();
     assert_eq!(h.expr(h.gradient()[0]).to_string(), "800*q1");
+}
+
+#[test]
+fn programs_print_one_line_per_operation() {
+    let h = compile("p1^2/2 + q1^3", &[]).unwrap();
+    let text = h.program(Method::Gradient).to_string();
+    assert_eq!(text, "v0 = z[0]\nv1 = v0 * v0\nv2 = 3.0\nv3 = v2 * v1\nv4 = z[1]\nGradient(0) = v3\nGradient(1) = v4\n");
 }
