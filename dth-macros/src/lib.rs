@@ -1,8 +1,8 @@
 //! The `hamiltonian!` proc macro. Use it through the `dth` crate, which documents the grammar.
 //!
-//! Routing only: [`parse`] reads the input (expression or item form) and maps the expression's
-//! tokens to a source string for the engine, [`check`] runs the engine and the item-form rules,
-//! [`expand`] emits the trait implementation, [`fallback`] emits a stub beside the errors.
+//! Routing only: `parse` reads the input (expression or item form) and maps the expression's
+//! tokens to a source string for the engine, `check` runs the engine and the item-form rules,
+//! `expand` emits the trait implementation, `fallback` emits a stub beside the errors.
 
 use proc_macro::TokenStream;
 
