@@ -120,7 +120,15 @@ fn derive(mut arena: Arena, h: Id) -> Result<System, (Fault, Span)> {
     // Faults here would need a constant to fold badly, and constants were folded while
     // building; they are still reported (on the node being differentiated), never hidden.
     let arena = &mut arena;
-    let vars = arena.vars(h);
+    // The dimension and time dependence follow the source text, not what survives
+    // simplification: `p1^2 + 0*q2` is a 2-degree-of-freedom system, as written. Every
+    // variable node in the arena at this point was named in the source.
+    let vars: Vec<Var> = (0..arena.len())
+        .filter_map(|i| match arena.node(Id(i as u32)) {
+            Node::Var(v) => Some(*v),
+            _ => None,
+        })
+        .collect();
     let n = vars
         .iter()
         .filter_map(|v| match v {

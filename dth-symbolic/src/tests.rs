@@ -336,3 +336,12 @@ fn programs_print_one_line_per_operation() {
     let text = h.program(Method::Gradient).to_string();
     assert_eq!(text, "v0 = z[0]\nv1 = v0 * v0\nv2 = 3.0\nv3 = v2 * v1\nv4 = z[1]\nGradient(0) = v3\nGradient(1) = v4\n");
 }
+
+#[test]
+fn dimension_and_time_dependence_follow_the_source() {
+    let h = compile("p1^2 + 0*q2", &[]).unwrap();
+    assert_eq!((h.n(), h.dim()), (2, 4));
+    let h = compile("p1^2 + q1^2 + t - t", &[]).unwrap();
+    assert!(h.time_dependent());
+    assert_eq!(h.dim(), 4);
+}
