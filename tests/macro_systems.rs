@@ -534,12 +534,12 @@ fn toda_fixed_ends_source(n: usize) -> String {
 /// gradient and Hessian, an addition into each of two gradient entries and two diagonal
 /// entries, a negation for the off-diagonal one, and per nonzero `H_ij` one Psi term
 /// `H_ij w_i w_j` (at most three multiplications and an addition); per momentum a load, a
-/// square, an addition. That is at most 8 operations per nonzero for the fused program. Each of
-/// the other four programs computes a subset of the fused one's outputs from the same arena,
-/// so it emits at most as many operations: the five together at most 5 times the fused
-/// program (measured: 2.8 times; shared work such as the `exp`s is redone in each). A quadratic term (Psi
-/// expanded as a product of sums, a dense Hessian for a banded H) would make the ratio grow
-/// with `n`, so it must not grow from `n = 10` to `n = 20` either.
+/// square, an addition. That is at most 8 operations per nonzero for the fused program. Each
+/// of the other four programs computes a subset of the fused one's outputs from the same
+/// arena, so it emits at most as many operations: the five together at most 5 times the
+/// fused program (measured: 2.8 times; shared work such as the `exp`s is redone in each). A
+/// quadratic term (Psi expanded as a product of sums, a dense Hessian for a banded H) would
+/// make the ratio grow with `n`, so it must not grow from `n = 10` to `n = 20` either.
 #[test]
 fn emitted_code_grows_linearly_in_the_hessian_nonzeros() {
     use dth_symbolic::{compile, Method};
