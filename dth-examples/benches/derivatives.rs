@@ -375,12 +375,13 @@ fn forced_fused(z: &SVector<f64, 4>) -> Derivatives<4> {
     }
 }
 
-/// Short windows: the machine has 2 cores shared with other builds; 20 samples over 2 s per
-/// function keep the whole run near a minute while each estimate covers ~10^5-10^7 evaluations.
+/// Short windows: the machine has 2 cores shared with other builds; 20 samples over 4 s per
+/// function keep the whole run near two minutes while each estimate covers ~10^6-10^8
+/// evaluations (long enough to average over the load of the shared machine).
 fn config() -> Criterion {
     Criterion::default()
         .warm_up_time(Duration::from_millis(500))
-        .measurement_time(Duration::from_secs(2))
+        .measurement_time(Duration::from_secs(4))
         .sample_size(20)
 }
 
