@@ -198,7 +198,7 @@ fn error_bounds(p: &Program, z: &[f64], a: f64) -> Vec<f64> {
     for op in &p.ops {
         let g = |s: u32| (v[s as usize], m[s as usize]);
         let (x, e) = match *op {
-            Op::Input(k) => (z[k as usize], 0.0),
+            Op::Input(k) | Op::Input1(k) => (z[k as usize], 0.0),
             Op::Param(_) => (a, 0.0),
             Op::Const(c) => (c, c.abs()),
             Op::Add(s, t) => {
@@ -249,6 +249,7 @@ fn error_bounds(p: &Program, z: &[f64], a: f64) -> Vec<f64> {
                 };
                 (y, dy.abs() * mx + 2.0 * y.abs())
             }
+            Op::Kernel(..) => unreachable!("one-point programs have no divided-difference kernels"),
         };
         v.push(x);
         m.push(e);

@@ -1,0 +1,478 @@
+//! Exact, cancellation-free discrete gradients by symbolic divided differences.
+//!
+//! For `H` and two points `z0`, `z1` with step `d = z1 - z0`, the discrete gradient
+//! `gbar(z0, z1)` satisfies `gbar . d = H(z1) - H(z0)` exactly (in exact arithmetic) and
+//! `gbar(z, z) = grad H(z)`. It is built by structural recursion over the expression: every
+//! node `a` gets a vector `Delta[a]` with `Delta[a] . d = a(z1) - a(z0)` and, computed by the
+//! same rules, the scalar `delta[a] = a(z1) - a(z0)` itself. With `a0 = a(z0)`, `a1 = a(z1)`,
+//! `mean(a) = (a0 + a1)/2`:
+//!
+//! | node | `Delta` |
+//! |---|---|
+//! | `z_i` | `e_i` (and `delta = d_i = z1_i - z0_i`, the only subtraction of inputs) |
+//! | constant, parameter | `0` |
+//! | `a + b` | `Delta[a] + Delta[b]` |
+//! | `a * b` | `Delta[a] mean(b) + mean(a) Delta[b]` (n-ary: folded left to right) |
+//! | `a^k`, `k >= 1` | `Delta[a] sum_j a1^j a0^(k-1-j)` (by halving `k`) |
+//! | `a^-k` | `u = 1/a`: `Delta[u] = -Delta[a] u0 u1`, then `u^k` |
+//! | `a^(k/2)` | `s = sqrt a`: `Delta[s] = Delta[a] / (s0 + s1)`, then `s^k` |
+//! | `a^r`, other `r` | `Delta[a] a0^r expm1(r ln1p(delta/a0)) / delta` |
+//! | `exp a` | `Delta[a] exp(a0) expm1(delta)/delta` |
+//! | `ln a` | `Delta[a] ln1p(delta/a0)/delta` |
+//! | `sin a`, `cos a` | `Delta[a] (cos, -sin)(mean a) sinc(delta/2)` |
+//! | `sinh a`, `cosh a` | `Delta[a] (cosh, sinh)(mean a) sinhc(delta/2)` |
+//! | `tan a`, `tanh a` | `Delta[a] (sinc, sinhc)(delta) / ((cos, cosh)(a0) (cos, cosh)(a1))` |
+//! | `atan a` | `Delta[a] atan2(delta, 1 + a0 a1)/delta` |
+//!
+//! where `delta = delta[a]` and each `g(x)/x` is a [`Kernel`] with its limit at `x = 0`.
+//!
+//! **Why no cancellation.** The inputs are subtracted once, `d_i = z1_i - z0_i` (exact when
+//! `z1_i` and `z0_i` are within a factor 2 of each other, Sterbenz). Every other sum in the
+//! rules is either a sum the expression itself contains (which the gradient has too) or a sum
+//! of two values of one subexpression at `z0` and at `z1` (`a0 + a1`, `s0 + s1`,
+//! `a0^j + a1^j`, `1 + a0 a1` for `atan`), and those have one sign when `z1` is near `z0`. So
+//! each component of `gbar` is as accurate as the gradient itself, and `gbar . d` (or `delta`
+//! at the root) carries relative accuracy a few `eps` of `sum_i |gbar_i d_i|`, however small
+//! `d` is; the plain `H(z1) - H(z0)` carries an absolute error of `eps |H|`, which relative to
+//! the difference is `eps |H| / (|grad H| |d|)`.
+//!
+//! **Why the symmetric product rule.** `Delta[a b] = Delta[a] b1 + a0 Delta[b]` is exact too
+//! and one operation cheaper, but not symmetric: it makes `gbar(z0, z1) - grad H(zbar)` of first
+//! order in `d`, where the symmetric rule (every rule above is symmetric in `z0`, `z1`) gives
+//! `gbar(z0, z1) = gbar(z1, z0) = grad H(zbar) + O(|d|^2)`, `zbar` the midpoint, as for the
+//! midpoint discrete gradient of Gonzalez (1996). A symmetric discrete gradient keeps a scheme
+//! built on it symmetric (time-reversible).
+//!
+//! # References
+//! O. Gonzalez, Time integration and discrete Hamiltonian systems, J. Nonlinear Sci. 6 (1996)
+//! (discrete gradients); R. I. McLachlan, G. R. W. Quispel, N. Robidoux, Geometric integration
+//! using discrete gradients, Phil. Trans. R. Soc. A 357 (1999) (divided differences, symmetric
+//! discrete gradients).
+
+use std::collections::{BTreeMap, HashMap};
+
+use crate::arena::{Arena, Func, Id, Node, Var};
+use crate::lower::{Lowerer, Op, Output, Program, Slot};
+use crate::number::Num;
+
+/// A divided-difference kernel `k(x, y)`: a quotient by `x` written so it has no cancellation
+/// and a finite value at `x = 0` (its limit, returned exactly when `x == 0`). `x` is the
+/// difference `delta = a1 - a0` of a subexpression, `y` a base (ignored by the first three).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Kernel {
+    /// `expm1(x)/x`, 1 at 0.
+    Exprel,
+    /// `sin(x)/x`, 1 at 0.
+    Sinc,
+    /// `sinh(x)/x`, 1 at 0.
+    Sinhc,
+    /// `ln1p(x/y)/x = (ln(y + x) - ln y)/x`, `1/y` at 0.
+    LnRatio,
+    /// `atan2(x, y)/x`, `1/y` at 0.
+    AtanRatio,
+    /// `expm1(r ln1p(x/y))/x = ((y + x)^r - y^r)/(x y^r)`, `r/y` at 0.
+    PowRatio(f64),
+}
+
+impl Kernel {
+    /// The name used when printing programs.
+    pub fn name(self) -> &'static str {
+        match self {
+            Kernel::Exprel => "exprel",
+            Kernel::Sinc => "sinc",
+            Kernel::Sinhc => "sinhc",
+            Kernel::LnRatio => "ln_ratio",
+            Kernel::AtanRatio => "atan_ratio",
+            Kernel::PowRatio(_) => "pow_ratio",
+        }
+    }
+
+    /// `k(x, y)` in `f64`. The generated code of `hamiltonian!` spells out the same formulas.
+    ///
+    /// ```
+    /// use dth_symbolic::Kernel;
+    /// assert_eq!(Kernel::Exprel.apply(0.0, 0.0), 1.0);
+    /// let x = 1e-9;
+    /// // (exp(x) - 1)/x to full precision, where the plain quotient keeps ~7 digits.
+    /// assert!((Kernel::Exprel.apply(x, 0.0) - (1.0 + x / 2.0)).abs() < 1e-16);
+    /// assert!((Kernel::LnRatio.apply(0.0, 4.0) - 0.25).abs() == 0.0);
+    /// ```
+    pub fn apply(self, x: f64, y: f64) -> f64 {
+        match self {
+            Kernel::Exprel if x == 0.0 => 1.0,
+            Kernel::Exprel => x.exp_m1() / x,
+            Kernel::Sinc if x == 0.0 => 1.0,
+            Kernel::Sinc => x.sin() / x,
+            Kernel::Sinhc if x == 0.0 => 1.0,
+            Kernel::Sinhc => x.sinh() / x,
+            Kernel::LnRatio => {
+                let u = x / y;
+                if u == 0.0 {
+                    1.0 / y
+                } else {
+                    u.ln_1p() / x
+                }
+            }
+            Kernel::AtanRatio if x == 0.0 => 1.0 / y,
+            Kernel::AtanRatio => x.atan2(y) / x,
+            Kernel::PowRatio(r) => {
+                let u = x / y;
+                if u == 0.0 {
+                    r / y
+                } else {
+                    (r * u.ln_1p()).exp_m1() / x
+                }
+            }
+        }
+    }
+}
+
+/// `Delta[a]` of one node: `delta = a(z1) - a(z0)` (`None`: identically 0) and the nonzero
+/// components of the vector, by coordinate.
+#[derive(Clone, Debug, Default)]
+struct Diff {
+    delta: Option<Slot>,
+    grad: Vec<(u32, Slot)>,
+}
+
+impl Diff {
+    fn is_zero(&self) -> bool {
+        self.delta.is_none() && self.grad.is_empty()
+    }
+}
+
+/// Lowers the discrete gradient of `root` to a two-point program (inputs `z0` through
+/// [`Op::Input`], `z1` through [`Op::Input1`]) with outputs [`Output::DiscreteGradient`] and
+/// [`Output::EnergyDifference`].
+pub(crate) fn lower(arena: &Arena, coordinates: &[Var], root: Id) -> Program {
+    let mut l = Lowerer::new(arena, coordinates);
+    let one = l.konst(1.0);
+    let mut dd = Divided {
+        l,
+        one,
+        memo: HashMap::new(),
+        mean: HashMap::new(),
+        factor: HashMap::new(),
+    };
+    let r = dd.diff(root);
+    let mut outputs: Vec<(Output, Slot)> = r
+        .grad
+        .iter()
+        .map(|&(k, s)| (Output::DiscreteGradient(k as usize), s))
+        .collect();
+    let delta = match r.delta {
+        Some(s) => s,
+        None => dd.l.konst(0.0),
+    };
+    outputs.push((Output::EnergyDifference, delta));
+    Program {
+        ops: dd.l.ops,
+        outputs,
+        dim: coordinates.len(),
+        params: arena.params().len(),
+    }
+}
+
+struct Divided<'a> {
+    l: Lowerer<'a>,
+    one: Slot,
+    memo: HashMap<Id, Diff>,
+    mean: HashMap<(Slot, Slot), Slot>,
+    factor: HashMap<(Slot, Slot, i128), Slot>,
+}
+
+impl Divided<'_> {
+    fn arena(&self) -> &Arena {
+        self.l.arena
+    }
+
+    /// `a(z0)`.
+    fn val0(&mut self, id: Id) -> Slot {
+        self.l.at_z1 = false;
+        self.l.value(id)
+    }
+
+    /// `a(z1)`; the same slot as `a(z0)` when `a` does not depend on `z`.
+    fn val1(&mut self, id: Id) -> Slot {
+        if self.diff(id).is_zero() {
+            return self.val0(id);
+        }
+        self.l.at_z1 = true;
+        let s = self.l.value(id);
+        self.l.at_z1 = false;
+        s
+    }
+
+    fn mul(&mut self, a: Slot, b: Slot) -> Slot {
+        if a == self.one {
+            b
+        } else if b == self.one {
+            a
+        } else {
+            self.l.emit(Op::Mul(a, b))
+        }
+    }
+
+    fn add(&mut self, a: Slot, b: Slot) -> Slot {
+        self.l.emit(Op::Add(a, b))
+    }
+
+    /// `(a + b)/2` (halving is exact).
+    fn mean(&mut self, a: Slot, b: Slot) -> Slot {
+        if a == b {
+            return a;
+        }
+        if let Some(&m) = self.mean.get(&(a, b)) {
+            return m;
+        }
+        let s = self.add(a, b);
+        let half = self.l.konst(0.5);
+        let m = self.l.emit(Op::Mul(half, s));
+        self.mean.insert((a, b), m);
+        m
+    }
+
+    /// `Delta` scaled by the slot `f`.
+    fn scaled(&mut self, d: &Diff, f: Slot) -> Diff {
+        Diff {
+            delta: d.delta.map(|s| self.mul(f, s)),
+            grad: d.grad.iter().map(|&(k, s)| (k, self.mul(f, s))).collect(),
+        }
+    }
+
+    /// The sum of several `Delta`s, component by component.
+    fn sum(&mut self, parts: &[Diff]) -> Diff {
+        let mut deltas = Vec::new();
+        let mut grad: BTreeMap<u32, Vec<Slot>> = BTreeMap::new();
+        for p in parts {
+            deltas.extend(p.delta);
+            for &(k, s) in &p.grad {
+                grad.entry(k).or_default().push(s);
+            }
+        }
+        let fold =
+            |this: &mut Self, v: &[Slot]| v[1..].iter().fold(v[0], |acc, &s| this.add(acc, s));
+        Diff {
+            delta: (!deltas.is_empty()).then(|| fold(self, &deltas)),
+            grad: grad.into_iter().map(|(k, v)| (k, fold(self, &v))).collect(),
+        }
+    }
+
+    fn diff(&mut self, id: Id) -> Diff {
+        if let Some(d) = self.memo.get(&id) {
+            return d.clone();
+        }
+        let d = self.rule(id);
+        self.memo.insert(id, d.clone());
+        d
+    }
+
+    fn rule(&mut self, id: Id) -> Diff {
+        match self.arena().node(id).clone() {
+            Node::Num(_) | Node::Var(Var::Param(_)) => Diff::default(),
+            Node::Var(v) => {
+                let k = self.l.coords.get(&v).copied().unwrap_or(0);
+                let (z0, z1) = (self.val0(id), {
+                    self.l.at_z1 = true;
+                    let s = self.l.value(id);
+                    self.l.at_z1 = false;
+                    s
+                });
+                let step = self.l.emit(Op::Sub(z1, z0));
+                Diff {
+                    delta: Some(step),
+                    grad: vec![(k, self.one)],
+                }
+            }
+            Node::Add(terms) => {
+                let parts: Vec<Diff> = terms.iter().map(|&t| self.diff(t)).collect();
+                self.sum(&parts)
+            }
+            Node::Mul(factors) => self.product(&factors),
+            Node::Pow(b, e) => {
+                let db = self.diff(b);
+                if db.is_zero() {
+                    return db;
+                }
+                let f = self.power_factor(id, b, e, &db);
+                self.scaled(&db, f)
+            }
+            Node::Func(f, u) => {
+                let du = self.diff(u);
+                if du.is_zero() {
+                    return du;
+                }
+                let f = self.func_factor(id, f, u, &du);
+                self.scaled(&du, f)
+            }
+        }
+    }
+
+    /// `Delta` of a product: a constant coefficient scales; the other factors fold with the
+    /// symmetric product rule `Delta[P F] = Delta[P] mean(F) + mean(P) Delta[F]`.
+    fn product(&mut self, factors: &[Id]) -> Diff {
+        let coef = factors
+            .iter()
+            .find_map(|&f| self.arena().as_num(f))
+            .unwrap_or(Num::ONE);
+        let rest: Vec<Id> = factors
+            .iter()
+            .copied()
+            .filter(|&f| self.arena().as_num(f).is_none())
+            .collect();
+        let mut acc = self.diff(rest[0]);
+        let (mut p0, mut p1) = (self.val0(rest[0]), self.val1(rest[0]));
+        for (i, &f) in rest.iter().enumerate().skip(1) {
+            let df = self.diff(f);
+            let (f0, f1) = (self.val0(f), self.val1(f));
+            let mut parts = Vec::new();
+            if !acc.is_zero() {
+                let mf = self.mean(f0, f1);
+                parts.push(self.scaled(&acc, mf));
+            }
+            if !df.is_zero() {
+                let mp = self.mean(p0, p1);
+                parts.push(self.scaled(&df, mp));
+            }
+            acc = self.sum(&parts);
+            if i + 1 < rest.len() {
+                let same = p0 == p1 && f0 == f1;
+                p0 = self.mul(p0, f0);
+                p1 = if same { p0 } else { self.mul(p1, f1) };
+            }
+        }
+        let c = coef.to_f64();
+        if c == 1.0 {
+            return acc;
+        }
+        let neg = |this: &mut Self, s: Slot| {
+            if c == -1.0 {
+                this.l.emit(Op::Neg(s))
+            } else {
+                let k = this.l.konst(c);
+                this.l.emit(Op::Mul(k, s))
+            }
+        };
+        Diff {
+            delta: acc.delta.map(|s| neg(self, s)),
+            grad: acc.grad.iter().map(|&(k, s)| (k, neg(self, s))).collect(),
+        }
+    }
+
+    /// `sum_{j=0}^{k-1} a1^j a0^(k-1-j) = (a1^k - a0^k)/(a1 - a0)`, `k >= 1`: halving `k`
+    /// (`F_2m = F_m (a0^m + a1^m)`), or peeling one factor (`F_k = F_(k-1) a1 + a0^(k-1)`).
+    /// Every term has the sign of `a0^(k-1)` when `a1` is near `a0`.
+    fn power_sum(&mut self, a0: Slot, a1: Slot, k: i128) -> Slot {
+        if k == 1 {
+            return self.one;
+        }
+        if let Some(&s) = self.factor.get(&(a0, a1, k)) {
+            return s;
+        }
+        let s = if k % 2 == 0 {
+            let h = self.power_sum(a0, a1, k / 2);
+            let (x0, x1) = (self.l.powi(a0, k / 2), self.l.powi(a1, k / 2));
+            let s = self.add(x0, x1);
+            self.mul(h, s)
+        } else {
+            let h = self.power_sum(a0, a1, k - 1);
+            let t = self.mul(h, a1);
+            let x0 = self.l.powi(a0, k - 1);
+            self.add(t, x0)
+        };
+        self.factor.insert((a0, a1, k), s);
+        s
+    }
+
+    /// `(u1^k - u0^k)/(a1 - a0)` for `u = 1/a`, `k >= 1`: `-u0 u1 F_k(u0, u1)`.
+    fn recip_power_sum(&mut self, u0: Slot, u1: Slot, k: i128) -> Slot {
+        let f = self.power_sum(u0, u1, k);
+        let uu = self.mul(u0, u1);
+        let g = self.mul(f, uu);
+        self.l.emit(Op::Neg(g))
+    }
+
+    /// `(b1^e - b0^e)/(b1 - b0)` for the node `id = b^e`.
+    fn power_factor(&mut self, id: Id, b: Id, e: Num, db: &Diff) -> Slot {
+        let (b0, b1) = (self.val0(b), self.val1(b));
+        match e.as_rational() {
+            Some(r) if r.is_integer() && r.numer() > 0 => self.power_sum(b0, b1, r.numer()),
+            Some(r) if r.is_integer() => {
+                let (u0, u1) = (self.l.recip(b0), self.l.recip(b1));
+                self.recip_power_sum(u0, u1, -r.numer())
+            }
+            Some(r) if r.denom() == 2 => {
+                // s = sqrt(b): (s1^k - s0^k)/(s1 - s0) times (s1 - s0)/(b1 - b0) = 1/(s0 + s1).
+                let (s0, s1) = (self.l.sqrt(b0), self.l.sqrt(b1));
+                let k = r.numer();
+                let f = if k > 0 {
+                    self.power_sum(s0, s1, k)
+                } else {
+                    // 1/s = (1/b) s, sharing the division 1/b with the value.
+                    let (r0, r1) = (self.l.recip(b0), self.l.recip(b1));
+                    let (t0, t1) = (self.mul(r0, s0), self.mul(r1, s1));
+                    self.recip_power_sum(t0, t1, -k)
+                };
+                let ss = self.add(s0, s1);
+                let one = self.one;
+                let g = self.l.emit(Op::Div(one, ss));
+                self.mul(f, g)
+            }
+            _ => {
+                let delta = db.delta.unwrap_or(self.one);
+                let k = self
+                    .l
+                    .emit(Op::Kernel(Kernel::PowRatio(e.to_f64()), delta, b0));
+                let v0 = self.val0(id);
+                self.mul(v0, k)
+            }
+        }
+    }
+
+    /// `(f(u1) - f(u0))/(u1 - u0)` for the node `id = f(u)`.
+    fn func_factor(&mut self, id: Id, f: Func, u: Id, du: &Diff) -> Slot {
+        let delta = du.delta.unwrap_or(self.one);
+        let (u0, u1) = (self.val0(u), self.val1(u));
+        let half_delta = |this: &mut Self| {
+            let h = this.l.konst(0.5);
+            this.l.emit(Op::Mul(h, delta))
+        };
+        // g(mean u) * kernel(delta/2): sin, cos, sinh, cosh.
+        let mid = |this: &mut Self, g: Func, k: Kernel, negate: bool| {
+            let m = this.mean(u0, u1);
+            let gm = this.l.emit(Op::Call(g, m));
+            let gm = if negate { this.l.emit(Op::Neg(gm)) } else { gm };
+            let hd = half_delta(this);
+            let kk = this.l.emit(Op::Kernel(k, hd, hd));
+            this.mul(gm, kk)
+        };
+        // kernel(delta) / (g(u0) g(u1)): tan, tanh.
+        let quotient = |this: &mut Self, g: Func, k: Kernel| {
+            let kk = this.l.emit(Op::Kernel(k, delta, delta));
+            let g0 = this.l.emit(Op::Call(g, u0));
+            let g1 = this.l.emit(Op::Call(g, u1));
+            let gg = this.mul(g0, g1);
+            this.l.emit(Op::Div(kk, gg))
+        };
+        match f {
+            Func::Exp => {
+                let e0 = self.val0(id);
+                let k = self.l.emit(Op::Kernel(Kernel::Exprel, delta, delta));
+                self.mul(e0, k)
+            }
+            Func::Ln => self.l.emit(Op::Kernel(Kernel::LnRatio, delta, u0)),
+            Func::Sin => mid(self, Func::Cos, Kernel::Sinc, false),
+            Func::Cos => mid(self, Func::Sin, Kernel::Sinc, true),
+            Func::Sinh => mid(self, Func::Cosh, Kernel::Sinhc, false),
+            Func::Cosh => mid(self, Func::Sinh, Kernel::Sinhc, false),
+            Func::Tan => quotient(self, Func::Cos, Kernel::Sinc),
+            Func::Tanh => quotient(self, Func::Cosh, Kernel::Sinhc),
+            Func::Atan => {
+                let uu = self.mul(u0, u1);
+                let one = self.one;
+                let c = self.add(one, uu);
+                self.l.emit(Op::Kernel(Kernel::AtanRatio, delta, c))
+            }
+        }
+    }
+}
