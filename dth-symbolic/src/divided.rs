@@ -476,3 +476,251 @@ impl Divided<'_> {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    //! One test per rule: the identity `gbar . d = H(z1) - H(z0)` at a large step (against the
+    //! plain difference, accurate there), at a step of 1e-9 (against Gauss-Legendre quadrature
+    //! of the exact gradient along the segment), `gbar(z, z) = grad H(z)`, and symmetry.
+
+    use crate::{compile, Method, Op};
+
+    const EPS: f64 = f64::EPSILON;
+
+    fn dot(a: &[f64], b: &[f64]) -> f64 {
+        a.iter().zip(b).map(|(x, y)| x * y).sum()
+    }
+
+    /// `sum_i |a_i b_i|`: the size of the terms of `a . b`.
+    fn dot_abs(a: &[f64], b: &[f64]) -> f64 {
+        a.iter().zip(b).map(|(x, y)| (x * y).abs()).sum()
+    }
+
+    /// Checks every property for `src` (plus a kinetic term) at `z0` along `dir`.
+    fn check(src: &str, z0: &[f64], dir: &[f64], params: &[f64]) {
+        let names: Vec<&str> = ["a", "b"][..params.len()].to_vec();
+        let h = compile(src, &names).unwrap_or_else(|e| panic!("{src}: {e}"));
+        let (pair, all) = (h.program(Method::DiscreteGradient), h.program(Method::All));
+        let at = |z: &[f64]| all.eval(z, params).unwrap();
+        let dg = |z0: &[f64], z1: &[f64]| pair.eval_pair(z0, z1, params).unwrap();
+        let step = |s: f64| -> Vec<f64> { z0.iter().zip(dir).map(|(z, d)| z + s * d).collect() };
+        let diff = |z1: &[f64]| -> Vec<f64> { z1.iter().zip(z0).map(|(a, b)| a - b).collect() };
+
+        // A large step: the plain difference has error ~ eps (|H0| + |H1|), the divided
+        // difference a few eps of its terms; a few dozen roundings of each are allowed.
+        let z1 = step(0.3);
+        let d = diff(&z1);
+        let e = dg(z0, &z1);
+        let (h0, h1) = (at(z0).value, at(&z1).value);
+        let terms = dot_abs(&e.discrete_gradient, &d);
+        let tol = 64.0 * EPS * (h0.abs() + h1.abs() + terms);
+        assert!(
+            (e.energy_difference - (h1 - h0)).abs() <= tol,
+            "{src}: delta {} vs H1 - H0 = {}",
+            e.energy_difference,
+            h1 - h0
+        );
+        assert!(
+            (dot(&e.discrete_gradient, &d) - e.energy_difference).abs() <= 64.0 * EPS * terms,
+            "{src}: gbar . d {} vs delta {}",
+            dot(&e.discrete_gradient, &d),
+            e.energy_difference
+        );
+        // Symmetry: gbar(z0, z1) = gbar(z1, z0) up to rounding of the same terms.
+        let back = dg(&z1, z0);
+        let scale = e
+            .discrete_gradient
+            .iter()
+            .fold(1.0f64, |m, g| m.max(g.abs()));
+        for (a, b) in e.discrete_gradient.iter().zip(&back.discrete_gradient) {
+            assert!(
+                (a - b).abs() <= 64.0 * EPS * scale,
+                "{src}: not symmetric: {a} vs {b}"
+            );
+        }
+
+        // A tiny step: three-point Gauss-Legendre quadrature of grad H . d along the segment
+        // has truncation error O(|d|^7), far below rounding; both sides then carry a few eps
+        // of sum |g_i d_i|. The plain difference is reported for contrast.
+        let z1 = step(1e-9);
+        let d = diff(&z1);
+        let e = dg(z0, &z1);
+        let nodes = [
+            (0.5, 4.0 / 9.0),
+            (0.5 - 0.6f64.sqrt() / 2.0, 5.0 / 18.0),
+            (0.5 + 0.6f64.sqrt() / 2.0, 5.0 / 18.0),
+        ];
+        let reference: f64 = nodes
+            .iter()
+            .map(|&(s, w)| {
+                let zs: Vec<f64> = z0.iter().zip(&d).map(|(z, d)| z + s * d).collect();
+                w * dot(&at(&zs).gradient, &d)
+            })
+            .sum();
+        let terms = dot_abs(&at(z0).gradient, &d);
+        let err = (e.energy_difference - reference).abs();
+        assert!(
+            err <= 32.0 * EPS * terms,
+            "{src}: delta {} vs quadrature {reference}: error {:.1} eps of the terms",
+            e.energy_difference,
+            err / (EPS * terms)
+        );
+        assert!((dot(&e.discrete_gradient, &d) - reference).abs() <= 32.0 * EPS * terms);
+
+        // gbar(z, z) = grad H(z): the rules reduce to the chain rule, up to rounding.
+        let e = dg(z0, z0);
+        let g = at(z0).gradient;
+        let scale = g.iter().fold(1.0f64, |m, g| m.max(g.abs()));
+        for (i, (a, b)) in e.discrete_gradient.iter().zip(&g).enumerate() {
+            assert!(
+                (a - b).abs() <= 16.0 * EPS * scale,
+                "{src}: gbar(z, z)_{i} = {a} vs grad {b}"
+            );
+        }
+        assert_eq!(e.energy_difference, 0.0, "{src}: H(z) - H(z)");
+    }
+
+    const Z: [f64; 2] = [0.7, -0.4];
+    const DIR: [f64; 2] = [0.9, 0.5];
+
+    #[test]
+    fn variables_and_sums() {
+        check("p1 + q1 - 2*q1 + 3", &Z, &DIR, &[]);
+    }
+
+    #[test]
+    fn products_are_symmetric() {
+        check("q1*p1 - 3*q1*p1^2*sin(p1)", &Z, &DIR, &[]);
+    }
+
+    #[test]
+    fn parameters_are_constants() {
+        check("a*q1^2 + b*p1^2", &Z, &DIR, &[1.5, 0.25]);
+    }
+
+    #[test]
+    fn positive_integer_powers() {
+        for k in [2, 3, 4, 5, 7, 12] {
+            check(&format!("p1^2 + q1^{k}"), &Z, &DIR, &[]);
+        }
+    }
+
+    #[test]
+    fn negative_integer_powers() {
+        for k in [1, 2, 3, 6] {
+            check(&format!("p1^2 + (2 + q1)^(-{k})"), &Z, &DIR, &[]);
+        }
+    }
+
+    #[test]
+    fn half_integer_powers() {
+        for r in ["1/2", "3/2", "5/2", "-1/2", "-3/2", "-5/2"] {
+            check(&format!("p1^2 + (2 + q1)^({r})"), &Z, &DIR, &[]);
+        }
+    }
+
+    #[test]
+    fn real_powers() {
+        for r in ["1/3", "-2/3", "pi", "7/5"] {
+            check(&format!("p1^2 + (2 + q1)^({r})"), &Z, &DIR, &[]);
+        }
+    }
+
+    #[test]
+    fn variable_exponent() {
+        check("p1^2 + (2 + q1)^p1", &Z, &DIR, &[]);
+    }
+
+    #[test]
+    fn functions() {
+        for f in [
+            "exp(q1)",
+            "ln(2 + q1)",
+            "sin(q1)",
+            "cos(q1)",
+            "tan(q1)",
+            "sinh(q1)",
+            "cosh(q1)",
+            "tanh(q1)",
+            "atan(q1)",
+            "atan(3*q1*p1)",
+            "cos(5*q1)",
+            "exp(-q1^2)",
+        ] {
+            check(&format!("p1^2/2 + {f}"), &Z, &DIR, &[]);
+        }
+    }
+
+    #[test]
+    fn kepler_and_time_dependence() {
+        check(
+            "p1^2 + p2^2 - (q1^2 + q2^2)^(-1/2)",
+            &[0.5, 0.0, 0.0, 1.2],
+            &[0.1, 0.9, -0.8, 0.2],
+            &[],
+        );
+        // z = (q1, t, p1, p_t).
+        check(
+            "p1^2/2 + q1^2/2 - a*q1*cos(2*t)",
+            &[0.3, 1.0, -0.2, 0.1],
+            &[0.5, 0.9, 0.4, -0.3],
+            &[0.7],
+        );
+    }
+
+    /// The program of `p1^2`, in full: the only subtraction is the step `d`.
+    #[test]
+    fn square_lowers_to_sum_times_step() {
+        let h = compile("p1^2", &[]).unwrap();
+        assert_eq!(
+            h.program(Method::DiscreteGradient).to_string(),
+            "v0 = 1.0\nv1 = z[1]\nv2 = z1[1]\nv3 = v2 - v1\nv4 = v1 + v2\nv5 = v4 * v3\n\
+             DiscreteGradient(1) = v4\nEnergyDifference = v5\n"
+        );
+    }
+
+    /// `1/x`: `Delta = -Delta[x]/(x0 x1)`, sharing `1/x0`, `1/x1` with the values.
+    #[test]
+    fn reciprocal_form() {
+        let h = compile("p1^2 + 1/q1", &[]).unwrap();
+        let e = h
+            .program(Method::DiscreteGradient)
+            .eval_pair(&[2.0, 1.0], &[4.0, 3.0], &[])
+            .unwrap();
+        // (1/4 - 1/2)/(4 - 2) = -1/8; (9 - 1)/(3 - 1) = 4; H1 - H0 = -1/4 + 8.
+        assert_eq!(e.discrete_gradient, vec![-0.125, 4.0]);
+        assert_eq!(e.energy_difference, 7.75);
+    }
+
+    /// `sqrt(x)`: `Delta = Delta[x]/(sqrt x0 + sqrt x1)`.
+    #[test]
+    fn square_root_form() {
+        let h = compile("p1^2 + sqrt(q1)", &[]).unwrap();
+        let e = h
+            .program(Method::DiscreteGradient)
+            .eval_pair(&[4.0, 0.0], &[16.0, 0.0], &[])
+            .unwrap();
+        assert_eq!(e.discrete_gradient[0], 1.0 / 6.0);
+        assert_eq!(e.energy_difference, 2.0);
+    }
+
+    /// A polynomial with positive coefficients subtracts nothing but the steps `d_i`.
+    #[test]
+    fn no_subtraction_but_the_steps() {
+        let h = compile("p1^2 + p2^2 + (q1^2 + q2^2)^3 + q1*q2*p1", &[]).unwrap();
+        let p = h.program(Method::DiscreteGradient);
+        let subs: Vec<_> = p
+            .ops
+            .iter()
+            .filter(|op| matches!(op, Op::Sub(..) | Op::Neg(_)))
+            .collect();
+        assert_eq!(subs.len(), 4, "{p}");
+        for op in subs {
+            let Op::Sub(a, b) = *op else { panic!("{op:?}") };
+            assert!(
+                matches!(p.ops[a as usize], Op::Input1(_))
+                    && matches!(p.ops[b as usize], Op::Input(_))
+            );
+        }
+    }
+}
