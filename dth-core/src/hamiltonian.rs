@@ -75,6 +75,16 @@ pub trait Hamiltonian<const D: usize> {
         let defect = self.value(z1) - self.value(z0) - g.dot(&d);
         g + d * (defect / dd)
     }
+
+    /// `H(z1) - H(z0)`.
+    ///
+    /// The default is the plain difference, whose absolute error is about `eps |H|` however
+    /// close `z1` is to `z0`. Generated code overrides it with exact divided differences
+    /// (`discrete_gradient(z0, z1) . (z1 - z0)`, computed without cancellation), accurate to a
+    /// few `eps` of `|grad H| |z1 - z0|`.
+    fn energy_difference(&self, z0: &SVector<f64, D>, z1: &SVector<f64, D>) -> f64 {
+        self.value(z1) - self.value(z0)
+    }
 }
 
 /// `J v` for `J = [[0, I], [-I, 0]]`: `(v_p, -v_q)`.
