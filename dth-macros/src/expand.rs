@@ -275,7 +275,16 @@ fn kernel(k: Kernel, x: &Ident, y: &Ident) -> TokenStream {
         }}
     };
     match k {
-        Kernel::Exprel => quotient(quote!(exp_m1)),
+        Kernel::ExpRatio => quote! {{
+            let (x, y): (f64, f64) = (#x, #y);
+            if x == 0.0 {
+                #f::exp(y)
+            } else if x < 0.0 {
+                #f::exp(y) * (#f::exp_m1(x) / x)
+            } else {
+                #f::exp(y + x) * (#f::exp_m1(-x) / -x)
+            }
+        }},
         Kernel::Sinc => quotient(quote!(sin)),
         Kernel::Sinhc => quotient(quote!(sinh)),
         Kernel::LnRatio => quote! {{

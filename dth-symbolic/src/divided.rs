@@ -17,7 +17,7 @@
 //! | `a^-k` | `u = 1/a`: `Delta[u] = -Delta[a] u0 u1`, then `u^k` |
 //! | `a^(k/2)` | `s = sqrt a`: `Delta[s] = Delta[a] / (s0 + s1)`, then `s^k` |
 //! | `a^r`, other `r` | `Delta[a] a0^r expm1(r ln1p(delta/a0)) / delta` |
-//! | `exp a` | `Delta[a] exp(a0) expm1(delta)/delta` |
+//! | `exp a` | `Delta[a] exp(a0) expm1(delta)/delta` (from the larger end, see [`Kernel`]) |
 //! | `ln a` | `Delta[a] ln1p(delta/a0)/delta` |
 //! | `sin a`, `cos a` | `Delta[a] (cos, -sin)(mean a) sinc(delta/2)` |
 //! | `sinh a`, `cosh a` | `Delta[a] (cosh, sinh)(mean a) sinhc(delta/2)` |
@@ -57,11 +57,13 @@ use crate::number::Num;
 
 /// A divided-difference kernel `k(x, y)`: a quotient by `x` written so it has no cancellation
 /// and a finite value at `x = 0` (its limit, returned exactly when `x == 0`). `x` is the
-/// difference `delta = a1 - a0` of a subexpression, `y` a base (ignored by the first three).
+/// difference `delta = a1 - a0` of a subexpression, `y` a base (ignored by `sinc`, `sinhc`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Kernel {
-    /// `expm1(x)/x`, 1 at 0.
-    Exprel,
+    /// `(exp(y + x) - exp(y))/x`, `exp(y)` at 0: `exp(y) expm1(x)/x` for `x <= 0`, and
+    /// `exp(y + x) expm1(-x)/(-x)` for `x > 0`, so the exponential is taken at the larger end
+    /// and the quotient stays in (0, 1]: no `0 * inf` when `exp(y)` underflows and `x` is large.
+    ExpRatio,
     /// `sin(x)/x`, 1 at 0.
     Sinc,
     /// `sinh(x)/x`, 1 at 0.
@@ -78,7 +80,7 @@ impl Kernel {
     /// The name used when printing programs.
     pub fn name(self) -> &'static str {
         match self {
-            Kernel::Exprel => "exprel",
+            Kernel::ExpRatio => "exp_ratio",
             Kernel::Sinc => "sinc",
             Kernel::Sinhc => "sinhc",
             Kernel::LnRatio => "ln_ratio",
@@ -91,16 +93,20 @@ impl Kernel {
     ///
     /// ```
     /// use dth_symbolic::Kernel;
-    /// assert_eq!(Kernel::Exprel.apply(0.0, 0.0), 1.0);
+    /// assert_eq!(Kernel::ExpRatio.apply(0.0, 0.0), 1.0);
     /// let x = 1e-9;
     /// // (exp(x) - 1)/x to full precision, where the plain quotient keeps ~7 digits.
-    /// assert!((Kernel::Exprel.apply(x, 0.0) - (1.0 + x / 2.0)).abs() < 1e-16);
+    /// assert!((Kernel::ExpRatio.apply(x, 0.0) - (1.0 + x / 2.0)).abs() < 1e-16);
+    /// // (exp(100) - exp(-800))/900, though exp(-800) underflows and expm1(900) overflows.
+    /// let r = Kernel::ExpRatio.apply(900.0, -800.0);
+    /// assert!((r / (100f64.exp() / 900.0) - 1.0).abs() < 1e-13);
     /// assert!((Kernel::LnRatio.apply(0.0, 4.0) - 0.25).abs() == 0.0);
     /// ```
     pub fn apply(self, x: f64, y: f64) -> f64 {
         match self {
-            Kernel::Exprel if x == 0.0 => 1.0,
-            Kernel::Exprel => x.exp_m1() / x,
+            Kernel::ExpRatio if x == 0.0 => y.exp(),
+            Kernel::ExpRatio if x < 0.0 => y.exp() * (x.exp_m1() / x),
+            Kernel::ExpRatio => (y + x).exp() * ((-x).exp_m1() / -x),
             Kernel::Sinc if x == 0.0 => 1.0,
             Kernel::Sinc => x.sin() / x,
             Kernel::Sinhc if x == 0.0 => 1.0,
@@ -302,7 +308,7 @@ impl Divided<'_> {
                 if du.is_zero() {
                     return du;
                 }
-                let f = self.func_factor(id, f, u, &du);
+                let f = self.func_factor(f, u, &du);
                 self.scaled(&du, f)
             }
         }
@@ -429,8 +435,8 @@ impl Divided<'_> {
         }
     }
 
-    /// `(f(u1) - f(u0))/(u1 - u0)` for the node `id = f(u)`.
-    fn func_factor(&mut self, id: Id, f: Func, u: Id, du: &Diff) -> Slot {
+    /// `(f(u1) - f(u0))/(u1 - u0)` for the node `f(u)`.
+    fn func_factor(&mut self, f: Func, u: Id, du: &Diff) -> Slot {
         let delta = du.delta.unwrap_or(self.one);
         let (u0, u1) = (self.val0(u), self.val1(u));
         let half_delta = |this: &mut Self| {
@@ -455,11 +461,7 @@ impl Divided<'_> {
             this.l.emit(Op::Div(kk, gg))
         };
         match f {
-            Func::Exp => {
-                let e0 = self.val0(id);
-                let k = self.l.emit(Op::Kernel(Kernel::Exprel, delta, delta));
-                self.mul(e0, k)
-            }
+            Func::Exp => self.l.emit(Op::Kernel(Kernel::ExpRatio, delta, u0)),
             Func::Ln => self.l.emit(Op::Kernel(Kernel::LnRatio, delta, u0)),
             Func::Sin => mid(self, Func::Cos, Kernel::Sinc, false),
             Func::Cos => mid(self, Func::Sin, Kernel::Sinc, true),
@@ -666,6 +668,21 @@ mod tests {
             &[0.5, 0.9, 0.4, -0.3],
             &[0.7],
         );
+    }
+
+    /// A Gaussian well left from far away: `exp(-q1^2)` underflows at `z0`, and the step in
+    /// its argument (875) overflows `expm1`; the divided difference is still finite and exact.
+    #[test]
+    fn exponential_from_underflow() {
+        let h = compile("p1^2/2 + exp(-q1^2)", &[]).unwrap();
+        let (z0, z1) = ([30.0, 0.0], [5.0, 0.0]);
+        let e = h
+            .program(Method::DiscreteGradient)
+            .eval_pair(&z0, &z1, &[])
+            .unwrap();
+        let exact = (-25f64).exp();
+        assert!((e.energy_difference - exact).abs() <= 4.0 * EPS * exact);
+        assert!((e.discrete_gradient[0] * -25.0 - exact).abs() <= 4.0 * EPS * exact);
     }
 
     /// The program of `p1^2`, in full: the only subtraction is the step `d`.
