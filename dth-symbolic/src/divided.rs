@@ -157,7 +157,7 @@ pub(crate) fn lower(arena: &Arena, coordinates: &[Var], root: Id) -> Program {
         l,
         one,
         memo: HashMap::new(),
-        mean: HashMap::new(),
+        ops: HashMap::new(),
         factor: HashMap::new(),
     };
     let r = dd.diff(root);
@@ -183,7 +183,7 @@ struct Divided<'a> {
     l: Lowerer<'a>,
     one: Slot,
     memo: HashMap<Id, Diff>,
-    mean: HashMap<(Slot, Slot), Slot>,
+    ops: HashMap<(bool, Slot, Slot), Slot>,
     factor: HashMap<(Slot, Slot, i128), Slot>,
 }
 
@@ -215,12 +215,24 @@ impl Divided<'_> {
         } else if b == self.one {
             a
         } else {
-            self.l.emit(Op::Mul(a, b))
+            self.shared(true, a, b)
         }
     }
 
     fn add(&mut self, a: Slot, b: Slot) -> Slot {
-        self.l.emit(Op::Add(a, b))
+        self.shared(false, a, b)
+    }
+
+    /// `a * b` or `a + b`, emitted once per pair of operands (either order: both commute
+    /// exactly in floating point).
+    fn shared(&mut self, mul: bool, a: Slot, b: Slot) -> Slot {
+        let key = (mul, a.min(b), a.max(b));
+        if let Some(&s) = self.ops.get(&key) {
+            return s;
+        }
+        let s = self.l.emit(if mul { Op::Mul(a, b) } else { Op::Add(a, b) });
+        self.ops.insert(key, s);
+        s
     }
 
     /// `(a + b)/2` (halving is exact).
@@ -228,14 +240,9 @@ impl Divided<'_> {
         if a == b {
             return a;
         }
-        if let Some(&m) = self.mean.get(&(a, b)) {
-            return m;
-        }
         let s = self.add(a, b);
         let half = self.l.konst(0.5);
-        let m = self.l.emit(Op::Mul(half, s));
-        self.mean.insert((a, b), m);
-        m
+        self.mul(half, s)
     }
 
     /// `Delta` scaled by the slot `f`.
@@ -327,8 +334,13 @@ impl Divided<'_> {
             .filter(|&f| self.arena().as_num(f).is_none())
             .collect();
         let mut acc = self.diff(rest[0]);
-        let (mut p0, mut p1) = (self.val0(rest[0]), self.val1(rest[0]));
+        // Values of the partial product at z0 and z1, emitted only when a factor follows.
+        let mut partial: Option<(Slot, Slot)> = None;
         for (i, &f) in rest.iter().enumerate().skip(1) {
+            let (p0, p1) = match partial {
+                Some(p) => p,
+                None => (self.val0(rest[0]), self.val1(rest[0])),
+            };
             let df = self.diff(f);
             let (f0, f1) = (self.val0(f), self.val1(f));
             let mut parts = Vec::new();
@@ -343,8 +355,8 @@ impl Divided<'_> {
             acc = self.sum(&parts);
             if i + 1 < rest.len() {
                 let same = p0 == p1 && f0 == f1;
-                p0 = self.mul(p0, f0);
-                p1 = if same { p0 } else { self.mul(p1, f1) };
+                let q0 = self.mul(p0, f0);
+                partial = Some((q0, if same { q0 } else { self.mul(p1, f1) }));
             }
         }
         let c = coef.to_f64();
