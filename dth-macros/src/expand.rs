@@ -296,6 +296,15 @@ fn kernel(k: Kernel, x: &Ident, y: &Ident) -> TokenStream {
             let (x, y): (f64, f64) = (#x, #y);
             if x == 0.0 { 1.0 / y } else { #f::atan2(x, y) / x }
         }},
+        Kernel::TanhRatio => quote! {{
+            let (x, y): (f64, f64) = (#x, #y);
+            if #f::abs(x) > 700.0 {
+                (#f::tanh(y + x) - #f::tanh(y)) / x
+            } else {
+                let s = if x == 0.0 { 1.0 } else { #f::sinh(x) / x };
+                s / (#f::cosh(y) * #f::cosh(y + x))
+            }
+        }},
         Kernel::PowRatio(r) => {
             let r = constant(r);
             quote! {{

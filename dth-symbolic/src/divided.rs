@@ -21,7 +21,8 @@
 //! | `ln a` | `Delta[a] ln1p(delta/a0)/delta` |
 //! | `sin a`, `cos a` | `Delta[a] (cos, -sin)(mean a) sinc(delta/2)` |
 //! | `sinh a`, `cosh a` | `Delta[a] (cosh, sinh)(mean a) sinhc(delta/2)` |
-//! | `tan a`, `tanh a` | `Delta[a] (sinc, sinhc)(delta) / ((cos, cosh)(a0) (cos, cosh)(a1))` |
+//! | `tan a` | `Delta[a] sinc(delta) / (cos(a0) cos(a1))` |
+//! | `tanh a` | `Delta[a] sinhc(delta) / (cosh(a0) cosh(a0 + delta))` |
 //! | `atan a` | `Delta[a] atan2(delta, 1 + a0 a1)/delta` |
 //!
 //! where `delta = delta[a]` and each `g(x)/x` is a [`Kernel`] with its limit at `x = 0`.
@@ -74,6 +75,10 @@ pub enum Kernel {
     AtanRatio,
     /// `expm1(r ln1p(x/y))/x = ((y + x)^r - y^r)/(x y^r)`, `r/y` at 0.
     PowRatio(f64),
+    /// `(tanh(y + x) - tanh y)/x`, `1 - tanh^2 y` at 0: `sinhc(x)/(cosh(y) cosh(y + x))`, or
+    /// the plain quotient once `|x| > 700` (where `sinh x` would overflow and the two values
+    /// are far apart, so the difference does not cancel).
+    TanhRatio,
 }
 
 impl Kernel {
@@ -86,6 +91,7 @@ impl Kernel {
             Kernel::LnRatio => "ln_ratio",
             Kernel::AtanRatio => "atan_ratio",
             Kernel::PowRatio(_) => "pow_ratio",
+            Kernel::TanhRatio => "tanh_ratio",
         }
     }
 
@@ -129,6 +135,8 @@ impl Kernel {
                     (r * u.ln_1p()).exp_m1() / x
                 }
             }
+            Kernel::TanhRatio if x.abs() > 700.0 => ((y + x).tanh() - y.tanh()) / x,
+            Kernel::TanhRatio => Kernel::Sinhc.apply(x, x) / (y.cosh() * (y + x).cosh()),
         }
     }
 }
@@ -464,11 +472,11 @@ impl Divided<'_> {
             let kk = this.l.emit(Op::Kernel(k, hd, hd));
             this.mul(gm, kk)
         };
-        // kernel(delta) / (g(u0) g(u1)): tan, tanh.
-        let quotient = |this: &mut Self, g: Func, k: Kernel| {
-            let kk = this.l.emit(Op::Kernel(k, delta, delta));
-            let g0 = this.l.emit(Op::Call(g, u0));
-            let g1 = this.l.emit(Op::Call(g, u1));
+        // sinc(delta) / (cos(u0) cos(u1)): tan.
+        let quotient = |this: &mut Self| {
+            let kk = this.l.emit(Op::Kernel(Kernel::Sinc, delta, delta));
+            let g0 = this.l.emit(Op::Call(Func::Cos, u0));
+            let g1 = this.l.emit(Op::Call(Func::Cos, u1));
             let gg = this.mul(g0, g1);
             this.l.emit(Op::Div(kk, gg))
         };
@@ -479,8 +487,8 @@ impl Divided<'_> {
             Func::Cos => mid(self, Func::Sin, Kernel::Sinc, true),
             Func::Sinh => mid(self, Func::Cosh, Kernel::Sinhc, false),
             Func::Cosh => mid(self, Func::Sinh, Kernel::Sinhc, false),
-            Func::Tan => quotient(self, Func::Cos, Kernel::Sinc),
-            Func::Tanh => quotient(self, Func::Cosh, Kernel::Sinhc),
+            Func::Tan => quotient(self),
+            Func::Tanh => self.l.emit(Op::Kernel(Kernel::TanhRatio, delta, u0)),
             Func::Atan => {
                 let uu = self.mul(u0, u1);
                 let one = self.one;
@@ -695,6 +703,23 @@ mod tests {
         let exact = (-25f64).exp();
         assert!((e.energy_difference - exact).abs() <= 4.0 * EPS * exact);
         assert!((e.discrete_gradient[0] * -25.0 - exact).abs() <= 4.0 * EPS * exact);
+    }
+
+    /// `tanh` whose argument jumps by 800: `sinh(800)` overflows, the kernel falls back to
+    /// the plain quotient (no cancellation between values that far apart).
+    #[test]
+    fn hyperbolic_tangent_across_a_large_jump() {
+        let h = compile("p1^2/2 + tanh(q1^3)", &[]).unwrap();
+        let (z0, z1) = ([-0.5, 0.0], [(800.0f64 - 0.125).cbrt(), 0.0]);
+        let e = h
+            .program(Method::DiscreteGradient)
+            .eval_pair(&z0, &z1, &[])
+            .unwrap();
+        let exact = 1.0 - (-0.125f64).tanh();
+        assert!(
+            (e.energy_difference - exact).abs() <= 8.0 * EPS * exact,
+            "{e:?}"
+        );
     }
 
     /// The program of `p1^2`, in full: the only subtraction is the step `d`.

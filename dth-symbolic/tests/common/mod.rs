@@ -7,7 +7,7 @@
 
 use std::f64::consts::PI;
 
-use dth_symbolic::{Func, Op, Program, Var};
+use dth_symbolic::{Func, Kernel, Op, Program, Var};
 use proptest::prelude::*;
 
 /// Oracle coordinates: x = (q1, q2, t, p1, p2, p_t).
@@ -219,7 +219,12 @@ pub fn error_bounds_pair(p: &Program, z: &[f64], z1: &[f64], a: f64) -> Vec<f64>
             Op::Kernel(kernel, s, t) => {
                 let ((x, mx), (y, my)) = (g(s), g(t));
                 let k = kernel.apply(x, y);
-                // The scale on which a kernel varies: 1 for the unary ones, the base |y|.
+                // The scale on which a kernel varies: the base |y| for the ratios of logarithms,
+                // powers and arctangents, 1 for the others.
+                let scale = match kernel {
+                    Kernel::LnRatio | Kernel::PowRatio(_) | Kernel::AtanRatio => y.abs(),
+                    _ => 1.0,
+                };
                 let partial = |f: &dyn Fn(f64) -> f64, at: f64, scale: f64| {
                     let h = 1e-4 * at.abs().max(scale);
                     2.0 * ((f(at + h) - f(at - h)) / (2.0 * h)).abs()
@@ -228,8 +233,8 @@ pub fn error_bounds_pair(p: &Program, z: &[f64], z1: &[f64], a: f64) -> Vec<f64>
                     (partial(&|x| kernel.apply(x, x), x, 1.0), 0.0)
                 } else {
                     (
-                        partial(&|x| kernel.apply(x, y), x, y.abs()),
-                        partial(&|y| kernel.apply(x, y), y, y.abs()),
+                        partial(&|x| kernel.apply(x, y), x, scale),
+                        partial(&|y| kernel.apply(x, y), y, scale),
                     )
                 };
                 (k, dx * mx + dy * my + 4.0 * k.abs())
