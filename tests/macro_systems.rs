@@ -528,27 +528,33 @@ fn toda_fixed_ends_source(n: usize) -> String {
 /// Emitted code size is linear in the Hessian's nonzeros, the quantity that blows up in
 /// derivative compilers that expand the Hessian or Psi as trees.
 ///
-/// Counted in straight-line operations (one `let` each in the macro's output) of the five
-/// programs the macro emits. Per nonzero Hessian entry the fused program needs a bounded
-/// amount of work: for a bond `exp(q_i - q_j)` one subtraction and one `exp` shared by value,
-/// gradient and Hessian, an addition into each of two gradient entries and two diagonal
-/// entries, a negation for the off-diagonal one, and per nonzero `H_ij` one Psi term
-/// `H_ij w_i w_j` (at most three multiplications and an addition); per momentum a load, a
-/// square, an addition. That is at most 8 operations per nonzero for the fused program. Each
-/// of the other four programs computes a subset of the fused one's outputs from the same
-/// arena, so it emits at most as many operations: the five together at most 5 times the
-/// fused program (measured: 2.8 times; shared work such as the `exp`s is redone in each). A
-/// quadratic term (Psi expanded as a product of sums, a dense Hessian for a banded H) would
-/// make the ratio grow with `n`, so it must not grow from `n = 10` to `n = 20` either.
+/// Counted in straight-line operations (one `let` each in the macro's output) of the programs
+/// the macro emits: value, gradient, Hessian, Psi, the fused `derivatives`, and the two-point
+/// discrete gradient (emitted twice, in `discrete_gradient` and `energy_difference`). Per
+/// nonzero Hessian entry the fused program needs a bounded amount of work: for a bond
+/// `exp(q_i - q_j)` one subtraction and one `exp` shared by value, gradient and Hessian, an
+/// addition into each of two gradient entries and two diagonal entries, a negation for the
+/// off-diagonal one, and per nonzero `H_ij` one Psi term `H_ij w_i w_j` (at most three
+/// multiplications and an addition); per momentum a load, a square, an addition. That is at
+/// most 8 operations per nonzero for the fused program. Each of the other four one-point
+/// programs computes a subset of the fused one's outputs from the same arena, so it emits at
+/// most as many operations. The discrete gradient is a divided difference of `H`, so its size
+/// follows the terms of `H` (`2n + 1` here, against `3n - 1` nonzeros): per term the
+/// coordinates at both points (two loads, shared), the argument's difference and its value at
+/// one point (two or three operations), one divided-difference kernel, a product, and an
+/// accumulation into at most two components and the energy difference; per momentum two
+/// loads, a difference, a sum, a product, a halving, an accumulation: at most 10 per term.
+/// A quadratic term (Psi expanded as a product of sums, a dense Hessian for a banded H) would
+/// make the operations per nonzero grow with `n`, so they must not grow from `n = 10` to
+/// `n = 20`.
 #[test]
 fn emitted_code_grows_linearly_in_the_hessian_nonzeros() {
     use dth_symbolic::{compile, Method};
-    let methods = [
+    let one_point = [
         Method::Value,
         Method::Gradient,
         Method::Hessian,
         Method::Psi,
-        Method::All,
     ];
     let mut per_nonzero = Vec::new();
     for n in 2..=20 {
@@ -561,17 +567,24 @@ fn emitted_code_grows_linearly_in_the_hessian_nonzeros() {
         // Tridiagonal q-block plus the identity on p: 2n - 1 + n entries.
         assert_eq!(nnz, 3 * n - 1, "n = {n}");
         let fused = system.program(Method::All).ops.len();
-        let total: usize = methods.iter().map(|&m| system.program(m).ops.len()).sum();
+        let pair = system.program(Method::DiscreteGradient).ops.len();
         assert!(
             fused <= 8 * nnz,
             "n = {n}: {fused} fused ops for {nnz} nonzeros"
         );
-        for m in methods {
+        let terms = 2 * n + 1;
+        assert!(
+            pair <= 10 * terms,
+            "n = {n}: {pair} discrete-gradient ops for {terms} terms"
+        );
+        let mut total = fused + 2 * pair;
+        for m in one_point {
             let ops = system.program(m).ops.len();
             assert!(
                 ops <= fused,
                 "n = {n}: {m:?} emits {ops} ops, the fused program {fused}"
             );
+            total += ops;
         }
         per_nonzero.push(total as f64 / nnz as f64);
     }
