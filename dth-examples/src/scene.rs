@@ -224,13 +224,11 @@ pub enum MethodKind {
     DiscreteGradient,
     /// The system's exact solution sampled every `dt` (systems that have one, e.g. Kepler).
     Exact,
-    /// Explicit Euler: exists ONLY to exercise the scene pipeline in tests; not for science.
-    TestProbeEuler,
 }
 
 impl MethodKind {
     /// Every method, in the order `dth list` shows them.
-    pub const ALL: [MethodKind; 10] = [
+    pub const ALL: [MethodKind; 9] = [
         MethodKind::Exact,
         MethodKind::Dth,
         MethodKind::Trapezoidal,
@@ -240,7 +238,6 @@ impl MethodKind {
         MethodKind::Rk4,
         MethodKind::GaussLegendre2,
         MethodKind::DiscreteGradient,
-        MethodKind::TestProbeEuler,
     ];
 
     /// The name used in scene files.
@@ -254,7 +251,6 @@ impl MethodKind {
             MethodKind::Rk4 => "rk4",
             MethodKind::GaussLegendre2 => "gauss_legendre2",
             MethodKind::DiscreteGradient => "discrete_gradient",
-            MethodKind::TestProbeEuler => "test_probe_euler",
             MethodKind::Exact => "exact",
         }
     }
@@ -271,7 +267,6 @@ impl MethodKind {
             MethodKind::GaussLegendre2 => "2-stage Gauss-Legendre (order 4, symplectic); key dt",
             MethodKind::DiscreteGradient => "energy-preserving discrete gradient; key dt",
             MethodKind::Exact => "the system's exact solution sampled every dt (systems that have one: kepler); key dt",
-            MethodKind::TestProbeEuler => "explicit Euler; ONLY for testing the scene pipeline, not for science; key dt",
         }
     }
 
@@ -584,6 +579,21 @@ fn validate(raw: RawScene, catalogue: &Catalogue, cx: &mut Ctxt<'_>) -> Option<S
                         cx.error(
                             span.clone(),
                             format!("system `{name}` has no exact solution: remove method `exact`"),
+                        );
+                    }
+                    if spec.kind == MethodKind::DiscreteMechanics
+                        && info.is_some_and(|i| !i.central_force)
+                    {
+                        cx.error(
+                            span.clone(),
+                            format!("method `discrete_mechanics` needs a central-force system H = |p|^2/(2m) + phi(|q|), which `{name}` is not: expected another method"),
+                        );
+                    }
+                    if spec.kind == MethodKind::StormerVerlet && info.is_some_and(|i| !i.separable)
+                    {
+                        cx.error(
+                            span.clone(),
+                            format!("method `stormer_verlet` needs a separable H = T(p) + V(q), which `{name}` is not: expected another method"),
                         );
                     }
                     if methods.iter().any(|o: &MethodSpec| o.label == spec.label) {

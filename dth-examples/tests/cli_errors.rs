@@ -11,7 +11,7 @@ name = \"kepler\"
 q = [0.5, 0.0]
 p = [0.0, 1.2]
 [[method]]
-kind = \"test_probe_euler\"
+kind = \"midpoint\"
 dt = 0.001
 [duration]
 steps = 100
@@ -108,7 +108,7 @@ fn negative_or_zero_step() {
         "`dt` = 0: expected a positive",
     );
     let dth = BASE.replace(
-        "kind = \"test_probe_euler\"\ndt = 0.001",
+        "kind = \"midpoint\"\ndt = 0.001",
         "kind = \"dth\"\ndtau = -0.06",
     );
     rejects(&dth, "8:8", "`dtau` = -0.06: expected a positive");
@@ -145,7 +145,7 @@ fn unknown_effect() {
 #[test]
 fn unknown_method() {
     rejects(
-        &BASE.replace("test_probe_euler", "leapfrog"),
+        &BASE.replace("midpoint", "leapfrog"),
         "7:8",
         "unknown method `leapfrog`: expected one of exact, dth,",
     );
@@ -157,11 +157,29 @@ fn unknown_method() {
 }
 
 #[test]
+fn methods_only_where_they_apply() {
+    rejects(
+        &BASE
+            .replace("\"kepler\"", "\"henon_heiles\"")
+            .replace("midpoint", "discrete_mechanics"),
+        "7:8",
+        "method `discrete_mechanics` needs a central-force system",
+    );
+    rejects(
+        &BASE
+            .replace("\"kepler\"", "\"double_pendulum\"")
+            .replace("midpoint", "stormer_verlet"),
+        "7:8",
+        "method `stormer_verlet` needs a separable H",
+    );
+}
+
+#[test]
 fn exact_solution_only_where_one_exists() {
     rejects(
         &BASE
             .replace("\"kepler\"", "\"henon_heiles\"")
-            .replace("test_probe_euler", "exact"),
+            .replace("midpoint", "exact"),
         "7:8",
         "system `henon_heiles` has no exact solution",
     );
