@@ -56,6 +56,7 @@ struct RawScene {
     #[serde(rename = "effect", default)]
     effects: Vec<Spanned<RawEffect>>,
     ensemble: Option<Spanned<RawEnsemble>>,
+    thesis_figures: Option<Spanned<bool>>,
 }
 
 #[derive(Deserialize)]
@@ -145,6 +146,10 @@ pub struct Scene {
     pub effects: Vec<EffectSpec>,
     /// A square of initial conditions run for a few steps (thesis Figures 4.10-4.13).
     pub ensemble: Option<Ensemble>,
+    /// Draw the thesis's Figures 4.1-4.15 and Table 4.1 ([`crate::thesis`]): a planar system
+    /// with a period and an exact solution (Kepler), and the methods exact, trapezoidal,
+    /// midpoint, discrete_mechanics and dth.
+    pub thesis_figures: bool,
 }
 
 /// A square of initial conditions around the scene's initial state, in the plane of two of
@@ -694,6 +699,33 @@ fn validate(raw: RawScene, catalogue: &Catalogue, cx: &mut Ctxt<'_>) -> Option<S
         })
     });
 
+    let thesis_figures = match raw.thesis_figures {
+        Some(t) if *t.get_ref() => {
+            if info.is_some_and(|i| i.n != 2 || i.time_dependent || !i.has_period || !i.has_exact) {
+                cx.error(
+                    t.span(),
+                    format!("`thesis_figures` draws the thesis's Kepler figures: expected a planar system with a period and an exact solution (kepler), not `{name}`"),
+                );
+            }
+            let missing: Vec<&str> = crate::thesis::REQUIRED
+                .iter()
+                .filter(|k| !methods.iter().any(|m: &MethodSpec| m.kind == **k))
+                .map(|k| k.name())
+                .collect();
+            if !missing.is_empty() {
+                cx.error(
+                    t.span(),
+                    format!(
+                        "`thesis_figures` needs the methods exact, trapezoidal, midpoint, discrete_mechanics and dth: add {}",
+                        missing.join(", ")
+                    ),
+                );
+            }
+            true
+        }
+        _ => false,
+    };
+
     Some(Scene {
         title: raw.title.unwrap_or_else(|| name.clone()),
         description: raw.description.unwrap_or_default(),
@@ -706,6 +738,7 @@ fn validate(raw: RawScene, catalogue: &Catalogue, cx: &mut Ctxt<'_>) -> Option<S
         duration: duration?,
         effects,
         ensemble,
+        thesis_figures,
     })
 }
 

@@ -241,3 +241,20 @@ fn missing_scene_file_is_bad_input() {
     assert!(stderr(&o).contains("cannot read scene `nope.toml`"));
     assert!(stderr(&o).contains("caused by:"));
 }
+
+#[test]
+fn thesis_figures_need_kepler_and_the_thesis_methods() {
+    rejects(
+        &format!("thesis_figures = true\n{BASE}"),
+        "1:18",
+        "`thesis_figures` needs the methods exact, trapezoidal, midpoint, discrete_mechanics and dth: add exact, trapezoidal, discrete_mechanics, dth",
+    );
+    rejects(
+        &format!(
+            "thesis_figures = true\n{}",
+            BASE.replace("\"kepler\"", "\"henon_heiles\"")
+        ),
+        "1:18",
+        "expected a planar system with a period and an exact solution (kepler), not `henon_heiles`",
+    );
+}

@@ -265,3 +265,71 @@ fn every_shipped_scene_runs() {
     }
     assert!(n >= 5, "{n} scenes");
 }
+
+/// No arguments runs the embedded thesis scene (the full run, 10,000 steps per method plus the
+/// refined runs of Figures 4.14 and 4.15: a few seconds in the dev profile) into
+/// `dth-out/thesis-kepler`: Table 4.1 on stdout, Figures 4.1-4.15 as PNG and SVG, CSV data,
+/// `summary.json`, `table41.json` and `index.html`.
+#[test]
+fn no_arguments_runs_the_thesis_experiment_with_every_figure() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = dth(&[], dir.path());
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let out = dir.path().join("dth-out/thesis-kepler");
+    let files = entries(&out);
+    let numbers: Vec<String> = (1..=15).map(|i| format!("4.{i}")).collect();
+    for i in 1..=15 {
+        for ext in ["png", "svg"] {
+            let f = format!("fig4_{i}.{ext}");
+            assert!(files.contains(&f), "missing {f} in {files:?}");
+        }
+        let png = std::fs::read(out.join(format!("fig4_{i}.png"))).unwrap();
+        assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
+    }
+    for f in [
+        "index.html",
+        "summary.json",
+        "table41.json",
+        "dth_trajectory.csv",
+        "exact_trajectory.csv",
+        "trapezoidal_energy.csv",
+        "dth_poincare1.csv",
+    ] {
+        assert!(files.contains(&f.to_string()), "missing {f} in {files:?}");
+    }
+    // Table 4.1 is printed with the thesis's values beside ours.
+    let s = stdout(&o);
+    assert!(s.contains("Table 4.1"), "{s}");
+    assert!(
+        s.contains("| dth_vertices |") && s.contains("1.750e-2"),
+        "{s}"
+    );
+    // The summary lists the figures in the thesis's order, and the table's five rows.
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let listed: Vec<&str> = summary["thesis_figures"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|f| f["number"].as_str().unwrap())
+        .collect();
+    assert_eq!(listed, numbers);
+    assert_eq!(summary["table41"]["rows"].as_array().unwrap().len(), 5);
+    for m in summary["methods"].as_array().unwrap() {
+        assert!(m["failure"].is_null(), "{m}");
+        assert_eq!(m["steps"], 10_000, "{m}");
+    }
+    // The page shows Table 4.1 and every figure by relative path, with nothing from the network.
+    let html = std::fs::read_to_string(out.join("index.html")).unwrap();
+    assert!(html.contains("<h2>Table 4.1</h2>"));
+    for i in 1..=15 {
+        assert!(
+            html.contains(&format!("<img src=\"fig4_{i}.png\"")),
+            "fig4_{i}"
+        );
+    }
+    assert!(!html.contains("http://") && !html.contains("https://") && !html.contains("<script"));
+    // Only the output folder was created.
+    assert_eq!(entries(dir.path()), ["dth-out"]);
+    assert_eq!(entries(&dir.path().join("dth-out")), ["thesis-kepler"]);
+}
