@@ -49,6 +49,9 @@ pub struct Series {
     /// Palette index of the colour (default: the series' position in the figure), so one
     /// method keeps its colour across figures.
     pub color: Option<usize>,
+    /// Points only: shade from light (first point) to full colour (last), so that the order
+    /// of the points (e.g. time) is visible.
+    pub shaded: bool,
 }
 
 impl Series {
@@ -59,7 +62,14 @@ impl Series {
             mark,
             points: points.into_iter().collect(),
             color: None,
+            shaded: false,
         }
+    }
+
+    /// Shades the points from light to full colour in their order (see [`Series::shaded`]).
+    pub fn with_shading(mut self) -> Self {
+        self.shaded = true;
+        self
     }
 
     /// Uses palette colour `i` (see [`PALETTE`]).
@@ -104,6 +114,8 @@ pub enum Legend {
     UpperRight,
     /// Upper left corner.
     UpperLeft,
+    /// Top, centred.
+    UpperMiddle,
     /// Lower left corner.
     LowerLeft,
     /// Lower right corner.
@@ -321,7 +333,13 @@ impl Figure {
             let color = PALETTE[s.color.unwrap_or(i) % PALETTE.len()];
             let anno = match s.mark {
                 Mark::Line | Mark::ThinLine | Mark::LinePoints => {
-                    let width = if s.mark == Mark::ThinLine { 1 } else { 2 };
+                    // Dense lines are drawn 1 px wide: plotters' bitmap backend draws wide
+                    // polylines with miter joins, which spike far out at sharp turns.
+                    let width = if s.mark == Mark::ThinLine || pts.len() > 300 {
+                        1
+                    } else {
+                        2
+                    };
                     if s.mark == Mark::LinePoints {
                         chart.draw_series(
                             pts.iter()
@@ -342,11 +360,23 @@ impl Figure {
                 }
                 Mark::Points | Mark::SmallPoints => {
                     let r = if s.mark == Mark::Points { 2 } else { 1 };
+                    let n = pts.len().max(2) - 1;
+                    let shaded = s.shaded;
+                    // Shade i of n: from 15% of the colour on white to the full colour.
+                    let shade = move |i: usize| {
+                        if !shaded {
+                            return color;
+                        }
+                        let w = 0.15 + 0.85 * i as f64 / n as f64;
+                        let mix = |c: u8| (255.0 - w * (255.0 - f64::from(c))).round() as u8;
+                        RGBColor(mix(color.0), mix(color.1), mix(color.2))
+                    };
                     chart
                         .draw_series(
                             pts.iter()
-                                .filter(|p| inside(p))
-                                .map(move |&p| Circle::new(p, r, color.filled())),
+                                .enumerate()
+                                .filter(|(_, p)| inside(p))
+                                .map(move |(i, &p)| Circle::new(p, r, shade(i).filled())),
                         )?
                         .legend(move |(x, y)| Circle::new((x + 10, y), 4, color.filled()))
                 }
@@ -357,6 +387,7 @@ impl Figure {
             let position = match legend {
                 Legend::UpperRight => SeriesLabelPosition::UpperRight,
                 Legend::UpperLeft => SeriesLabelPosition::UpperLeft,
+                Legend::UpperMiddle => SeriesLabelPosition::UpperMiddle,
                 Legend::LowerLeft => SeriesLabelPosition::LowerLeft,
                 Legend::LowerRight => SeriesLabelPosition::LowerRight,
             };

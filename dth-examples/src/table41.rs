@@ -3,8 +3,7 @@
 //!
 //! The settings are the embedded default scene's (`scenes/thesis-kepler.toml`); the numbers
 //! come from the same pipeline as `dth run` ([`crate::run::compute`] with the
-//! `comparison_table` effect only), so they need the real methods wired into
-//! [`crate::method::run_method`].
+//! `comparison_table` effect only, through [`crate::method::run_method`]).
 
 use dth::systems::Kepler;
 use serde::Serialize;

@@ -596,14 +596,16 @@ pub fn figures<const D: usize, S: SceneSystem<D>>(
                 "p1",
             )
             .with_series(
-                Series::new(label, Mark::SmallPoints, points.iter().copied()).with_color(*color),
+                Series::new(label, Mark::SmallPoints, points.iter().copied())
+                    .with_color(*color)
+                    .with_shading(),
             )
             .with_ranges(rx, ry)
             .with_legend(None),
         );
     }
     Grid::new(
-        "Figure 4.15: Kepler problem, Poincare sections q2 = 0, 100 points per orbit, 3,500 orbits",
+        "Figure 4.15: Kepler problem, Poincare sections q2 = 0, 100 points per orbit, 3,500 orbits (light: early, dark: late)",
         (2, 2),
         panels,
     )
@@ -612,7 +614,7 @@ pub fn figures<const D: usize, S: SceneSystem<D>>(
         "4.15",
         "fig4_15",
         format!(
-            "Kepler problem, Poincare sections (q1 vs p1 at q2 = 0, projected), 100 points per orbit (dt / 4, dtau / 4), 3,500 orbits; same axes in every panel; the pericentre advance per orbit is measured from the direction of successive pericentres (local minima of |q|). {}.",
+            "Kepler problem, Poincare sections (q1 vs p1 at q2 = 0, projected), 100 points per orbit (dt / 4, dtau / 4), 3,500 orbits; same axes in every panel; points shaded from light (first orbits) to dark (last orbits), so a section that precesses once around shows one smooth gradient; the pericentre advance per orbit is measured from the direction of successive pericentres (local minima of |q|). {}.",
             counts.join("; ")
         ),
     );
