@@ -46,6 +46,9 @@ pub fn compute_table(options: &RunOptions) -> Result<Table, Error> {
     let mut scene =
         crate::check_scene(crate::DEFAULT_SCENE, crate::DEFAULT_SCENE_NAME, &catalogue)?;
     scene.effects = vec![EffectSpec::ComparisonTable];
+    // The table needs neither the square of initial conditions nor the figures.
+    scene.ensemble = None;
+    scene.thesis_figures = false;
     scene.methods.retain(|m| {
         matches!(
             m.kind,
