@@ -293,7 +293,7 @@ pub fn figures<const D: usize, S: SceneSystem<D>>(
                 Legend::LowerLeft,
                 Legend::UpperRight,
                 Legend::UpperLeft,
-                Legend::LowerLeft,
+                Legend::UpperMiddle,
             ][c],
         ));
         for (spec, label, color, states) in &runs {

@@ -94,7 +94,9 @@ fn rerun_replaces_an_old_output_folder_only_after_success() {
     std::fs::remove_file(dir.path().join("unbound.toml")).unwrap();
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
     assert!(
-        stderr(&o).contains("method `exact` is not available"),
+        stderr(&o).contains(
+            "method `exact` cannot run: this system has no exact solution for this initial state"
+        ),
         "{}",
         stderr(&o)
     );
