@@ -537,6 +537,13 @@ mod tests {
             ]
         );
         assert_eq!(c.info("kepler").map(|i| i.n), Some(2));
+        assert!(c.entries().iter().all(SystemEntry::is_runnable));
+        // What validation checks methods against.
+        let info = |name| c.info(name).unwrap();
+        assert!(info("kepler").central_force && info("kepler").has_exact);
+        assert!(!info("double_pendulum").separable && info("henon_heiles").separable);
+        assert!(info("forced_oscillator").time_dependent);
+        assert_eq!(info("toda_chain").n, 4);
     }
 
     #[test]
