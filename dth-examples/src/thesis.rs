@@ -498,11 +498,14 @@ pub fn figures<const D: usize, S: SceneSystem<D>>(
     }
 
     // Figure 4.14: DTH's time coordinate at 200 points per orbit over one orbit.
-    if let Some((spec, label, color, _)) = runs.iter().find(|r| r.0.kind == MethodKind::Dth) {
-        let fine = refined(spec, FIG_4_14_POINTS_PER_ORBIT / POINTS_PER_ORBIT);
-        let StepSpec::Dth { dtau, .. } = fine.step else {
-            unreachable!("a DTH method has a DTH step")
-        };
+    let dth = runs.iter().find_map(|r| {
+        let fine = refined(r.0, FIG_4_14_POINTS_PER_ORBIT / POINTS_PER_ORBIT);
+        match fine.step {
+            StepSpec::Dth { dtau, .. } => Some((r.0, r.1, r.2, fine, dtau)),
+            StepSpec::Fixed { .. } => None,
+        }
+    });
+    if let Some((spec, label, color, fine, dtau)) = dth {
         let mut record = Record(Vec::new());
         let stop = Stop::Time {
             t_end: scene.t0 + period,
@@ -530,7 +533,7 @@ pub fn figures<const D: usize, S: SceneSystem<D>>(
                 Mark::Line,
                 pts.iter().copied(),
             )
-            .with_color(*color),
+            .with_color(color),
         )
         .with_series(
             Series::new(
