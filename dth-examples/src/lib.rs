@@ -26,6 +26,7 @@ pub mod plot;
 pub mod run;
 pub mod scene;
 pub mod table41;
+pub mod thesis;
 
 pub use error::Error;
 
