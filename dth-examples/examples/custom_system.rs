@@ -1,48 +1,37 @@
 //! Run a scene on your own system, from your own crate.
 //!
-//! 1. Define the Hamiltonian (with `dth::hamiltonian!` once the macro lands; here by hand).
-//! 2. Implement `SceneSystem` (its quadratic invariants and period, if any; both optional);
-//!    the system must be `Clone` (the DTH stepper owns a copy).
-//! 3. Register it under a name in a `Catalogue` (the built-in one, or an empty one).
-//! 4. Run scene text that names it.
+//! 1. Define the Hamiltonian with `dth::hamiltonian!`: its fields are its parameters, and the
+//!    gradient, Hessian, Psi and discrete gradient are derived at compile time.
+//! 2. Implement `SceneSystem` for it: its quadratic invariants and period, if any (both
+//!    optional; the empty `impl` takes the defaults). The type must be `Clone`.
+//! 3. Register it under a name in a `Catalogue` (the built-in one, or `Catalogue::new()`),
+//!    with its parameters and a function that builds it from a scene's `params`.
+//! 4. Run scene text (or a file) that names it.
 //!
 //! `cargo run -p dth-examples --example custom_system` writes `dth-out/duffing/`.
+//! `tests/custom_system.rs` runs this same file's `run` (it includes it as a module).
 
 use std::path::Path;
 
-use dth::nalgebra::{Matrix2, Vector2};
-use dth::Hamiltonian;
 use dth_examples::catalogue::{Catalogue, ParamSpec, SceneSystem, SystemEntry};
-use dth_examples::run::RunOptions;
+use dth_examples::run::{RunOptions, RunReport};
 
-/// Duffing oscillator `H = p^2/2 + a q^2/2 + b q^4/4`, `z = (q, p)`.
-#[derive(Clone)]
-struct Duffing {
-    a: f64,
-    b: f64,
-}
-
-impl Hamiltonian<2> for Duffing {
-    const SEPARABLE: bool = true;
-
-    fn value(&self, z: &Vector2<f64>) -> f64 {
-        let q2 = z[0] * z[0];
-        0.5 * z[1] * z[1] + 0.5 * self.a * q2 + 0.25 * self.b * q2 * q2
-    }
-
-    fn gradient(&self, z: &Vector2<f64>) -> Vector2<f64> {
-        Vector2::new(self.a * z[0] + self.b * z[0].powi(3), z[1])
-    }
-
-    fn hessian(&self, z: &Vector2<f64>) -> Matrix2<f64> {
-        Matrix2::new(self.a + 3.0 * self.b * z[0] * z[0], 0.0, 0.0, 1.0)
-    }
+dth::hamiltonian! {
+    /// The Duffing oscillator `H = p^2/2 + a q^2/2 + b q^4/4`, `z = (q, p)`.
+    #[derive(Clone, Copy, Debug)]
+    pub struct Duffing {
+        /// Linear stiffness.
+        pub a: f64,
+        /// Cubic stiffness (of the force).
+        pub b: f64,
+    } = p1^2/2 + a*q1^2/2 + b*q1^4/4
 }
 
 /// No quadratic invariants, no closed-form period: the defaults.
 impl SceneSystem<2> for Duffing {}
 
-const SCENE: &str = r#"
+/// The scene: DTH beside Stormer-Verlet (allowed: `hamiltonian!` found `H` separable).
+pub const SCENE: &str = r#"
 title = "Duffing oscillator"
 
 [system]
@@ -75,11 +64,12 @@ y = "p1"
 every = 1
 "#;
 
-fn main() -> Result<(), Box<dyn std::error::Error>> {
+/// The built-in catalogue with `duffing` added.
+pub fn catalogue() -> Result<Catalogue, dth_examples::Error> {
     let mut catalogue = Catalogue::builtin();
     catalogue.register(SystemEntry::runnable::<2, Duffing, _>(
         "duffing",
-        "Duffing oscillator H = p^2/2 + a q^2/2 + b q^4/4, n = 1",
+        "Duffing oscillator H = p1^2/2 + a q1^2/2 + b q1^4/4, n = 1",
         &[
             ParamSpec {
                 name: "a",
@@ -93,6 +83,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             },
         ],
         |p| {
+            // Validation filled in every declared parameter (given or default).
             let (a, b) = (p["a"], p["b"]);
             if a > 0.0 && b >= 0.0 {
                 Ok(Duffing { a, b })
@@ -103,13 +94,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             }
         },
     ))?;
-    let report = dth_examples::run_scene(
-        SCENE,
-        "custom_system.rs",
-        &catalogue,
-        Path::new("dth-out/duffing"),
-        &RunOptions::default(),
-    )?;
+    Ok(catalogue)
+}
+
+/// Runs [`SCENE`] on the registered Duffing oscillator into `out` (staged, moved into place
+/// on success, like `dth run`).
+pub fn run(out: &Path, options: &RunOptions) -> Result<RunReport, dth_examples::Error> {
+    dth_examples::run_scene(SCENE, "custom_system.rs", &catalogue()?, out, options)
+}
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let report = run(Path::new("dth-out/duffing"), &RunOptions::default())?;
     for m in &report.methods {
         if let Some(e) = &m.energy {
             println!(

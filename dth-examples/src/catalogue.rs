@@ -5,26 +5,30 @@
 //! parameters and runs the scene on it. Validation ([`crate::scene::parse`]) needs only the
 //! metadata ([`SystemInfo`]); running needs the builder.
 //!
-//! A user's own system (a `hamiltonian!` type or a hand-written [`Hamiltonian`]) implements
-//! [`SceneSystem`] and is registered with [`SystemEntry::runnable`] and
-//! [`Catalogue::register`]; see `examples/custom_system.rs`.
+//! The built-in systems are the `hamiltonian!` types of [`crate::systems`]. A user's own
+//! system (a `hamiltonian!` type or a hand-written [`Hamiltonian`]) implements [`SceneSystem`]
+//! and is registered the same way, with [`SystemEntry::runnable`] and [`Catalogue::register`];
+//! see `examples/custom_system.rs`.
+//!
+//! A system whose `Psi` is identically zero (`Hamiltonian::PSI_IDENTICALLY_ZERO`, e.g. a free
+//! particle) cannot run DTH: the stepper's constructor rejects it at compile time (thesis
+//! Section 3.4). Register it with [`SystemEntry::runnable_without_dth`]: every peer method
+//! runs, and a scene naming `dth` for it is rejected by validation.
 
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use dth::kepler::KeplerOrbit;
-use dth::methods::DiscreteMechanics;
-use dth::nalgebra::SVector;
-use dth::systems::{
-    DoublePendulum, ForcedOscillator, HarmonicOscillator, HenonHeiles, Kepler, Pendulum,
-    TodaBoundary, TodaChain,
-};
+use dth::nalgebra::{SMatrix, SVector};
 use dth::Hamiltonian;
 
 use crate::error::Error;
-use crate::method::{run_peer, MethodFailure, Observer, RunEnd, Stop};
+use crate::method::{DthRunner, MethodFailure, MethodRunner, Observer, RunEnd, Stop};
 use crate::run::{run_system, RunOptions, RunReport};
 use crate::scene::Scene;
+use crate::systems::{
+    DoublePendulum, ForcedOscillator, FreeParticle, HarmonicOscillator, HenonHeiles, Kepler,
+    Pendulum, TodaChain10, TodaChain4,
+};
 
 /// A named parameter of a catalogue system.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -54,6 +58,11 @@ pub struct SystemInfo<'a> {
     pub separable: bool,
     /// `true` for a central force `|p|^2/(2m) + phi(|q|)` (method `discrete_mechanics`).
     pub central_force: bool,
+    /// `true` when method `dth` can run (entries made with [`SystemEntry::runnable`]).
+    pub dth: bool,
+    /// `true` when `Psi` is identically zero (`Hamiltonian::PSI_IDENTICALLY_ZERO`): the reason
+    /// DTH is not offered, when it is not.
+    pub psi_identically_zero: bool,
 }
 
 /// What a scene needs from a system beyond [`Hamiltonian`]: its quadratic invariants (for the
@@ -112,84 +121,129 @@ pub trait SceneSystem<const D: usize>: Hamiltonian<D> + Clone {
         let _ = (dt, z0, t0, stop, observer);
         None
     }
-}
 
-impl SceneSystem<4> for Kepler {
-    const HAS_PERIOD: bool = true;
-    const HAS_EXACT: bool = true;
-
-    const CENTRAL_FORCE: bool = true;
-
-    /// Kepler's equation (`dth::kepler::KeplerOrbit`); `None` for orbits that are not
-    /// elliptic.
-    fn exact_solution(&self, z0: &SVector<f64, 4>, t: f64) -> Option<SVector<f64, 4>> {
-        KeplerOrbit::new(self, z0).ok().map(|o| o.state_at(t))
-    }
-
-    fn run_discrete_mechanics<O: Observer<4>>(
+    /// Runs the DTH stepper (`runner`) on this system. Keep the default: it is the only place
+    /// the scene runner instantiates the stepper for `Self`, so a system whose `Psi` is
+    /// identically zero (rejected by the stepper at compile time) runs through [`WithoutDth`]
+    /// instead, which returns `None` here ([`SystemEntry::runnable_without_dth`] does that).
+    fn run_dth<O: Observer<D>>(
         &self,
-        dt: f64,
-        z0: SVector<f64, 4>,
+        runner: &DthRunner,
+        z0: SVector<f64, D>,
         t0: f64,
         stop: Stop,
         observer: &mut O,
     ) -> Option<Result<RunEnd, MethodFailure>> {
-        Some(run_peer(
-            &mut DiscreteMechanics::new(),
-            self,
-            dt,
-            z0,
-            t0,
-            stop,
-            observer,
-        ))
+        Some(runner.run(self, z0, t0, stop, observer))
     }
+}
+
+/// A system run without DTH: every [`Hamiltonian`] and [`SceneSystem`] item forwards to `S`,
+/// except [`SceneSystem::run_dth`], which returns `None` without instantiating the DTH stepper
+/// for `S`. This is how systems whose `Psi` is identically zero run scenes (the stepper rejects
+/// them at compile time); [`SystemEntry::runnable_without_dth`] registers them with it.
+///
+/// ```
+/// use dth_examples::catalogue::{Catalogue, WithoutDth};
+/// use dth_examples::run::{compute, RunOptions};
+/// use dth_examples::systems::FreeParticle;
+/// let scene = dth_examples::check_scene(
+///     "[system]\nname = \"free_particle\"\n[initial]\nq = [0.0, 0.0]\np = [1.0, 0.5]\n\
+///      [[method]]\nkind = \"midpoint\"\ndt = 0.1\n[duration]\nsteps = 10\n\
+///      [[effect]]\nkind = \"final_state\"\n",
+///     "free.toml",
+///     &Catalogue::builtin(),
+/// )?;
+/// let system = WithoutDth(FreeParticle { m: 2.0 });
+/// let results = compute(&system, &scene, &RunOptions::default().with_progress(false))?;
+/// // q(t) = q0 + p t / m, exactly enough for the midpoint rule: t = 1, q1 = 0.5.
+/// let z = &results[0].summary.final_state.as_ref().unwrap().z;
+/// assert!((z[0] - 0.5).abs() < 1e-14);
+/// # Ok::<(), dth_examples::Error>(())
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WithoutDth<S>(pub S);
+
+impl<const D: usize, S: Hamiltonian<D>> Hamiltonian<D> for WithoutDth<S> {
+    const TIME_DEPENDENT: bool = S::TIME_DEPENDENT;
+    const SEPARABLE: bool = S::SEPARABLE;
+    const PSI_IDENTICALLY_ZERO: bool = S::PSI_IDENTICALLY_ZERO;
+
+    #[inline]
+    fn value(&self, z: &SVector<f64, D>) -> f64 {
+        self.0.value(z)
+    }
+    #[inline]
+    fn gradient(&self, z: &SVector<f64, D>) -> SVector<f64, D> {
+        self.0.gradient(z)
+    }
+    #[inline]
+    fn hessian(&self, z: &SVector<f64, D>) -> SMatrix<f64, D, D> {
+        self.0.hessian(z)
+    }
+    #[inline]
+    fn psi(&self, z: &SVector<f64, D>) -> f64 {
+        self.0.psi(z)
+    }
+    #[inline]
+    fn derivatives(&self, z: &SVector<f64, D>) -> dth::Derivatives<D> {
+        self.0.derivatives(z)
+    }
+    #[inline]
+    fn discrete_gradient(&self, z0: &SVector<f64, D>, z1: &SVector<f64, D>) -> SVector<f64, D> {
+        self.0.discrete_gradient(z0, z1)
+    }
+    #[inline]
+    fn energy_difference(&self, z0: &SVector<f64, D>, z1: &SVector<f64, D>) -> f64 {
+        self.0.energy_difference(z0, z1)
+    }
+}
+
+impl<const D: usize, S: SceneSystem<D>> SceneSystem<D> for WithoutDth<S> {
+    const HAS_PERIOD: bool = S::HAS_PERIOD;
+    const HAS_EXACT: bool = S::HAS_EXACT;
+    const CENTRAL_FORCE: bool = S::CENTRAL_FORCE;
 
     fn invariant_names(&self) -> &'static [&'static str] {
-        &["angular_momentum"]
+        self.0.invariant_names()
     }
 
-    fn invariants(&self, z: &SVector<f64, 4>, out: &mut [f64]) {
-        out[0] = Kepler::angular_momentum(z);
+    fn invariants(&self, z: &SVector<f64, D>, out: &mut [f64]) {
+        self.0.invariants(z, out);
     }
 
-    /// `T = 2 pi sqrt(m a^3 / k)` with `a = -k / (2 H)`, for `H < 0`.
-    fn period(&self, z0: &SVector<f64, 4>) -> Option<f64> {
-        let h = self.value(z0);
-        (h < 0.0).then(|| {
-            let a = -self.k / (2.0 * h);
-            2.0 * std::f64::consts::PI * (self.mass * a * a * a / self.k).sqrt()
-        })
-    }
-}
-
-impl SceneSystem<2> for HarmonicOscillator {
-    const HAS_PERIOD: bool = true;
-
-    fn period(&self, _z0: &SVector<f64, 2>) -> Option<f64> {
-        Some(2.0 * std::f64::consts::PI * (self.mass / self.k).sqrt())
-    }
-}
-
-impl SceneSystem<2> for Pendulum {}
-
-impl SceneSystem<4> for HenonHeiles {}
-
-impl SceneSystem<4> for DoublePendulum {}
-
-/// The periodic Toda chain of the catalogue (4 particles): its total momentum is conserved
-/// (a linear invariant, reported under `invariants`).
-impl SceneSystem<8> for TodaChain<4> {
-    fn invariant_names(&self) -> &'static [&'static str] {
-        &["total_momentum"]
+    fn exact_solution(&self, z0: &SVector<f64, D>, t: f64) -> Option<SVector<f64, D>> {
+        self.0.exact_solution(z0, t)
     }
 
-    fn invariants(&self, z: &SVector<f64, 8>, out: &mut [f64]) {
-        out[0] = z[4] + z[5] + z[6] + z[7];
+    fn period(&self, z0: &SVector<f64, D>) -> Option<f64> {
+        self.0.period(z0)
+    }
+
+    fn run_discrete_mechanics<O: Observer<D>>(
+        &self,
+        dt: f64,
+        z0: SVector<f64, D>,
+        t0: f64,
+        stop: Stop,
+        observer: &mut O,
+    ) -> Option<Result<RunEnd, MethodFailure>> {
+        self.0.run_discrete_mechanics(dt, z0, t0, stop, observer)
+    }
+
+    /// `None`: DTH is not offered (see [`WithoutDth`]).
+    fn run_dth<O: Observer<D>>(
+        &self,
+        runner: &DthRunner,
+        z0: SVector<f64, D>,
+        t0: f64,
+        stop: Stop,
+        observer: &mut O,
+    ) -> Option<Result<RunEnd, MethodFailure>> {
+        let _ = (runner, z0, t0, stop, observer);
+        None
     }
 }
-
-impl SceneSystem<4> for ForcedOscillator {}
 
 type RunFn = dyn Fn(&Scene, &Path, &RunOptions) -> Result<RunReport, Error> + Send + Sync + 'static;
 
@@ -204,6 +258,8 @@ pub struct SystemEntry {
     has_exact: bool,
     separable: bool,
     central_force: bool,
+    dth: bool,
+    psi_identically_zero: bool,
     run: Option<Box<RunFn>>,
     unavailable: &'static str,
 }
@@ -229,14 +285,77 @@ fn param(params: &Params, name: &str) -> f64 {
 
 impl SystemEntry {
     /// A runnable entry: `build` makes the Hamiltonian from the scene's parameters (returning a
-    /// message for an invalid combination), and scenes naming `name` run on it.
+    /// message for an invalid combination), and scenes naming `name` run on it with every
+    /// method that applies, DTH included.
     ///
     /// `D` must be `2 n` (or `2 n + 2` for a time-dependent `S`); a mismatch is reported by
-    /// [`Catalogue::register`].
+    /// [`Catalogue::register`]. A system whose `Psi` is identically zero does not compile here
+    /// (DTH is undetermined for it): use [`SystemEntry::runnable_without_dth`].
     pub fn runnable<const D: usize, S, F>(
         name: &str,
         doc: &str,
         params: &[ParamSpec],
+        build: F,
+    ) -> Self
+    where
+        S: SceneSystem<D> + 'static,
+        F: Fn(&Params) -> Result<S, String> + Send + Sync + 'static,
+    {
+        const {
+            assert!(
+                !S::PSI_IDENTICALLY_ZERO,
+                "this system's Psi is identically zero, so DTH cannot run on it (thesis Section \
+                 3.4): register it with SystemEntry::runnable_without_dth"
+            )
+        };
+        Self::with_runner::<D, S, F>(name, doc, params, true, build)
+    }
+
+    /// A runnable entry that offers every peer method but not DTH: for systems whose `Psi` is
+    /// identically zero (`Hamiltonian::PSI_IDENTICALLY_ZERO`, e.g. a free particle), which the
+    /// DTH stepper rejects at compile time. The system runs as [`WithoutDth`]`<S>`, so the
+    /// stepper is never instantiated for it; validation rejects a scene naming method `dth`
+    /// for it (file, line and column, and why).
+    ///
+    /// ```
+    /// use dth_examples::catalogue::{Catalogue, ParamSpec, SystemEntry};
+    /// use dth_examples::systems::FreeParticle;
+    /// let mut c = Catalogue::new();
+    /// c.register(SystemEntry::runnable_without_dth::<4, FreeParticle, _>(
+    ///     "particle",
+    ///     "H = |p|^2/(2 m)",
+    ///     &[ParamSpec { name: "m", default: Some(1.0), doc: "mass" }],
+    ///     |p| Ok(FreeParticle { m: p["m"] }),
+    /// ))?;
+    /// let text = "[system]\nname = \"particle\"\n[initial]\nq = [0.0, 0.0]\np = [1.0, 0.0]\n\
+    ///             [[method]]\nkind = \"dth\"\ndtau = 0.1\n[duration]\nsteps = 10\n";
+    /// let err = dth_examples::check_scene(text, "p.toml", &c).unwrap_err().to_string();
+    /// assert!(err.contains("p.toml:7:8: method `dth` cannot integrate system `particle`"), "{err}");
+    /// # Ok::<(), dth_examples::Error>(())
+    /// ```
+    pub fn runnable_without_dth<const D: usize, S, F>(
+        name: &str,
+        doc: &str,
+        params: &[ParamSpec],
+        build: F,
+    ) -> Self
+    where
+        S: SceneSystem<D> + 'static,
+        F: Fn(&Params) -> Result<S, String> + Send + Sync + 'static,
+    {
+        let mut entry =
+            Self::with_runner::<D, WithoutDth<S>, _>(name, doc, params, false, move |p| {
+                build(p).map(WithoutDth)
+            });
+        entry.psi_identically_zero = S::PSI_IDENTICALLY_ZERO;
+        entry
+    }
+
+    fn with_runner<const D: usize, S, F>(
+        name: &str,
+        doc: &str,
+        params: &[ParamSpec],
+        dth: bool,
         build: F,
     ) -> Self
     where
@@ -259,6 +378,8 @@ impl SystemEntry {
             has_exact: S::HAS_EXACT,
             separable: S::SEPARABLE,
             central_force: S::CENTRAL_FORCE,
+            dth,
+            psi_identically_zero: S::PSI_IDENTICALLY_ZERO,
             run: Some(Box::new(move |scene, out, options| {
                 let system = build(&scene.params).map_err(|reason| Error::NotAvailable {
                     what: "system",
@@ -292,6 +413,8 @@ impl SystemEntry {
             has_exact: false,
             separable: false,
             central_force: false,
+            dth: true,
+            psi_identically_zero: false,
             run: None,
             unavailable: reason,
         }
@@ -317,6 +440,8 @@ impl SystemEntry {
             has_exact: self.has_exact,
             separable: self.separable,
             central_force: self.central_force,
+            dth: self.dth,
+            psi_identically_zero: self.psi_identically_zero,
         }
     }
 
@@ -338,57 +463,61 @@ impl Catalogue {
         Self::default()
     }
 
-    /// The built-in systems.
+    /// The built-in systems: the `hamiltonian!` types of [`crate::systems`], under the names
+    /// and with the parameters `dth list` shows.
     pub fn builtin() -> Self {
         let mut c = Catalogue::new();
+        let positive = |system: &str, values: &[(&str, f64)]| {
+            if values.iter().all(|&(_, v)| v > 0.0) {
+                Ok(())
+            } else {
+                let got: Vec<String> = values.iter().map(|(n, v)| format!("{n} = {v}")).collect();
+                let names: Vec<&str> = values.iter().map(|&(n, _)| n).collect();
+                Err(format!(
+                    "{system} needs {} > 0 (got {})",
+                    names.join(", "),
+                    got.join(", ")
+                ))
+            }
+        };
         let entries = [
             SystemEntry::runnable::<4, Kepler, _>(
                 "kepler",
-                "planar Kepler H = |p|^2/(2 mass) - k/|q| (thesis: mass 0.5, k 1), n = 2",
+                "planar Kepler H = (p1^2 + p2^2)/(2 m) - k (q1^2 + q2^2)^(-1/2) (thesis: m = 1/2, k = 1), n = 2",
                 &[
-                    ParamSpec { name: "mass", default: Some(0.5), doc: "mass m" },
-                    ParamSpec { name: "k", default: Some(1.0), doc: "force constant k" },
+                    ParamSpec { name: "m", default: Some(0.5), doc: "mass" },
+                    ParamSpec { name: "k", default: Some(1.0), doc: "force constant" },
                 ],
-                |p| {
-                    let (mass, k) = (param(p, "mass"), param(p, "k"));
-                    if mass > 0.0 && k > 0.0 {
-                        Ok(Kepler { mass, k })
-                    } else {
-                        Err(format!("kepler needs mass > 0 and k > 0 (got mass = {mass}, k = {k})"))
-                    }
+                move |p| {
+                    let (m, k) = (param(p, "m"), param(p, "k"));
+                    positive("kepler", &[("m", m), ("k", k)]).map(|()| Kepler { m, k })
                 },
             ),
             SystemEntry::runnable::<2, HarmonicOscillator, _>(
                 "harmonic_oscillator",
-                "H = p^2/(2 mass) + k q^2/2, n = 1",
+                "H = p1^2/(2 m) + k q1^2/2, n = 1",
                 &[
-                    ParamSpec { name: "mass", default: Some(1.0), doc: "mass m" },
-                    ParamSpec { name: "k", default: Some(1.0), doc: "spring constant k" },
+                    ParamSpec { name: "m", default: Some(1.0), doc: "mass" },
+                    ParamSpec { name: "k", default: Some(1.0), doc: "spring constant" },
                 ],
-                |p| {
-                    let (mass, k) = (param(p, "mass"), param(p, "k"));
-                    if mass > 0.0 && k > 0.0 {
-                        Ok(HarmonicOscillator { mass, k })
-                    } else {
-                        Err(format!("harmonic_oscillator needs mass > 0 and k > 0 (got mass = {mass}, k = {k})"))
-                    }
+                move |p| {
+                    let (m, k) = (param(p, "m"), param(p, "k"));
+                    positive("harmonic_oscillator", &[("m", m), ("k", k)])
+                        .map(|()| HarmonicOscillator { m, k })
                 },
             ),
             SystemEntry::runnable::<2, Pendulum, _>(
                 "pendulum",
-                "H = p^2/(2 m l^2) - m g l cos q, n = 1",
+                "H = p1^2/(2 m l^2) - m g l cos(q1), n = 1",
                 &[
                     ParamSpec { name: "m", default: Some(1.0), doc: "mass" },
                     ParamSpec { name: "l", default: Some(1.0), doc: "length" },
                     ParamSpec { name: "g", default: Some(1.0), doc: "gravity" },
                 ],
-                |p| {
-                    let (mass, length, gravity) = (param(p, "m"), param(p, "l"), param(p, "g"));
-                    if mass > 0.0 && length > 0.0 && gravity > 0.0 {
-                        Ok(Pendulum { mass, length, gravity })
-                    } else {
-                        Err(format!("pendulum needs m, l, g > 0 (got m = {mass}, l = {length}, g = {gravity})"))
-                    }
+                move |p| {
+                    let (m, l, g) = (param(p, "m"), param(p, "l"), param(p, "g"));
+                    positive("pendulum", &[("m", m), ("l", l), ("g", g)])
+                        .map(|()| Pendulum { m, l, g })
                 },
             ),
             SystemEntry::runnable::<4, HenonHeiles, _>(
@@ -399,7 +528,7 @@ impl Catalogue {
             ),
             SystemEntry::runnable::<4, DoublePendulum, _>(
                 "double_pendulum",
-                "planar double pendulum, masses m1, m2, lengths l1, l2, angles q1, q2 from the downward vertical, n = 2",
+                "planar double pendulum in canonical coordinates: masses m1, m2, lengths l1, l2, angles q1, q2 from the downward vertical, n = 2",
                 &[
                     ParamSpec { name: "m1", default: Some(1.0), doc: "upper bob mass" },
                     ParamSpec { name: "m2", default: Some(1.0), doc: "lower bob mass" },
@@ -407,42 +536,45 @@ impl Catalogue {
                     ParamSpec { name: "l2", default: Some(1.0), doc: "lower rod length" },
                     ParamSpec { name: "g", default: Some(1.0), doc: "gravity" },
                 ],
-                |p| {
-                    let d = DoublePendulum {
-                        m1: param(p, "m1"),
-                        m2: param(p, "m2"),
-                        l1: param(p, "l1"),
-                        l2: param(p, "l2"),
-                        g: param(p, "g"),
-                    };
-                    if [d.m1, d.m2, d.l1, d.l2, d.g].iter().all(|&x| x > 0.0) {
-                        Ok(d)
-                    } else {
-                        Err(format!("double_pendulum needs m1, m2, l1, l2, g > 0 (got {d:?})"))
-                    }
+                move |p| {
+                    let [m1, m2, l1, l2, g] = ["m1", "m2", "l1", "l2", "g"].map(|n| param(p, n));
+                    positive("double_pendulum", &[("m1", m1), ("m2", m2), ("l1", l1), ("l2", l2), ("g", g)])
+                        .map(|()| DoublePendulum { m1, m2, l1, l2, g })
                 },
             ),
-            SystemEntry::runnable::<8, TodaChain<4>, _>(
+            SystemEntry::runnable::<8, TodaChain4, _>(
                 "toda_chain",
-                "periodic Toda chain of 4 particles, H = sum p_i^2/2 + sum exp(q_i - q_{i+1}), n = 4",
+                "periodic Toda chain of 4 particles, H = sum p_i^2/2 + sum exp(q_i - q_{i+1}), q5 = q1, n = 4",
                 &[],
-                |_| Ok(TodaChain::new(TodaBoundary::Periodic)),
+                |_| Ok(TodaChain4),
+            ),
+            SystemEntry::runnable::<20, TodaChain10, _>(
+                "toda_chain_10",
+                "periodic Toda chain of 10 particles, H = sum p_i^2/2 + sum exp(q_i - q_{i+1}), q11 = q1, n = 10",
+                &[],
+                |_| Ok(TodaChain10),
             ),
             SystemEntry::runnable::<4, ForcedOscillator, _>(
                 "forced_oscillator",
-                "time-dependent H = p^2/2 + omega0^2 q^2/2 - f q cos(omega t), n = 1 (extended phase space)",
+                "time-dependent H = p1^2/2 + omega0^2 q1^2/2 - f q1 cos(omega t), n = 1 (extended phase space)",
                 &[
                     ParamSpec { name: "omega0", default: Some(1.0), doc: "natural frequency" },
                     ParamSpec { name: "f", default: Some(0.1), doc: "forcing amplitude" },
                     ParamSpec { name: "omega", default: Some(1.3), doc: "forcing frequency" },
                 ],
-                |p| {
-                    let (omega0, force, omega) = (param(p, "omega0"), param(p, "f"), param(p, "omega"));
-                    if omega0 > 0.0 && omega.is_finite() && force.is_finite() {
-                        Ok(ForcedOscillator { omega0, force, omega })
-                    } else {
-                        Err(format!("forced_oscillator needs omega0 > 0 (got omega0 = {omega0})"))
-                    }
+                move |p| {
+                    let (omega0, f, omega) = (param(p, "omega0"), param(p, "f"), param(p, "omega"));
+                    positive("forced_oscillator", &[("omega0", omega0)])
+                        .map(|()| ForcedOscillator { omega0, f, omega })
+                },
+            ),
+            SystemEntry::runnable_without_dth::<4, FreeParticle, _>(
+                "free_particle",
+                "free particle H = (p1^2 + p2^2)/(2 m), n = 2; every method but dth (Psi is identically zero, thesis Section 3.4)",
+                &[ParamSpec { name: "m", default: Some(1.0), doc: "mass" }],
+                move |p| {
+                    let m = param(p, "m");
+                    positive("free_particle", &[("m", m)]).map(|()| FreeParticle { m })
                 },
             ),
         ];
@@ -533,25 +665,43 @@ mod tests {
                 "henon_heiles",
                 "double_pendulum",
                 "toda_chain",
-                "forced_oscillator"
+                "toda_chain_10",
+                "forced_oscillator",
+                "free_particle"
             ]
         );
         assert_eq!(c.info("kepler").map(|i| i.n), Some(2));
         assert!(c.entries().iter().all(SystemEntry::is_runnable));
-        // What validation checks methods against.
+        // What validation checks methods against, from the generated types' flags.
         let info = |name| c.info(name).unwrap();
         assert!(info("kepler").central_force && info("kepler").has_exact);
         assert!(!info("double_pendulum").separable && info("henon_heiles").separable);
         assert!(info("forced_oscillator").time_dependent);
         assert_eq!(info("toda_chain").n, 4);
+        assert_eq!(info("toda_chain_10").n, 10);
+        // DTH everywhere but on the free particle, whose Psi is identically zero.
+        for e in c.entries() {
+            let i = e.info();
+            assert_eq!(i.dth, e.name() != "free_particle", "{}", e.name());
+            assert_eq!(i.psi_identically_zero, !i.dth, "{}", e.name());
+        }
     }
 
     #[test]
-    fn kepler_period_is_the_thesis_period() {
-        // NOTES.md: period 3.7483 for q = (0.5, 0), p = (0, 1.2).
-        let t = Kepler::thesis()
-            .period(&SVector::<f64, 4>::new(0.5, 0.0, 0.0, 1.2))
-            .unwrap_or(f64::NAN);
-        assert!((t - 3.7483).abs() < 1e-4, "{t}");
+    fn invalid_parameters_are_named() {
+        let c = Catalogue::builtin();
+        let text = "[system]\nname = \"kepler\"\nparams = { m = -1.0 }\n[initial]\nq = [0.5, 0.0]\n\
+                    p = [0.0, 1.2]\n[[method]]\nkind = \"midpoint\"\ndt = 0.1\n[duration]\nsteps = 1\n";
+        let scene = crate::check_scene(text, "bad.toml", &c).unwrap();
+        let dir = std::env::temp_dir().join("dth-catalogue-invalid-parameters");
+        let err = c
+            .run(&scene, &dir, &RunOptions::default().with_progress(false))
+            .unwrap_err();
+        assert!(
+            err.to_string()
+                .contains("kepler needs m, k > 0 (got m = -1, k = 1)"),
+            "{err}"
+        );
+        assert!(!dir.exists());
     }
 }

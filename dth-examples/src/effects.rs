@@ -435,12 +435,12 @@ impl<const D: usize, S: SceneSystem<D>> Observer<D> for Effects<'_, D, S> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use dth::systems::HarmonicOscillator;
+    use crate::systems::HarmonicOscillator;
 
     /// Feeds the exact oscillator solution q = cos t, p = -sin t at t = k h to a Poincare
     /// section q1 = 0 (upward: t = 3 pi / 2, where p = 1).
     fn section(interpolate: bool, h: f64) -> Crossings {
-        let sys = HarmonicOscillator { mass: 1.0, k: 1.0 };
+        let sys = HarmonicOscillator { m: 1.0, k: 1.0 };
         let spec = [EffectSpec::Poincare {
             coordinate: Coord::Q(0),
             value: 0.0,

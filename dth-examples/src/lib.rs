@@ -25,6 +25,7 @@ pub mod output;
 pub mod plot;
 pub mod run;
 pub mod scene;
+pub mod systems;
 pub mod table41;
 pub mod thesis;
 

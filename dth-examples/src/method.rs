@@ -2,7 +2,8 @@
 //! [`MethodRunner`] and drives it with the scene's [`Observer`].
 //!
 //! Every arm calls a `dth_core` integrator: the DTH stepper ([`DthRunner`], both Newton
-//! solvers), the fixed-step peers of `dth_core::methods` ([`run_peer`]), Greenspan's discrete
+//! solvers, through [`SceneSystem::run_dth`] so that systems run without DTH never
+//! instantiate it), the fixed-step peers of `dth_core::methods` ([`run_peer`]), Greenspan's discrete
 //! mechanics through [`SceneSystem::run_discrete_mechanics`] (central-force systems only), and
 //! the system's exact solution ([`ExactSampler`]).
 
@@ -339,7 +340,15 @@ pub fn run_method<const D: usize, H: SceneSystem<D>, O: Observer<D>>(
         ) => {
             let runner =
                 DthRunner::new(dtau, lambda0, solver).map_err(|e| not_available(&e.to_string()))?;
-            return Ok(runner.run(system, z0, t0, stop, observer));
+            return system
+                .run_dth(&runner, z0, t0, stop, observer)
+                .ok_or_else(|| {
+                    not_available(if H::PSI_IDENTICALLY_ZERO {
+                        "this system's Psi = (J gradH)^T HessH (J gradH) is identically zero, so the energy condition does not determine lambda (thesis Section 3.4): use a peer method"
+                    } else {
+                        "this system was registered without DTH (SystemEntry::runnable_without_dth)"
+                    })
+                });
         }
         (_, StepSpec::Fixed { dt }) => dt,
         (_, StepSpec::Dth { .. }) => {

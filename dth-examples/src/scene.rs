@@ -9,7 +9,7 @@
 //!
 //! [system]
 //! name = "kepler"
-//! params = { mass = 0.5, k = 1.0 }
+//! params = { m = 0.5, k = 1.0 }
 //!
 //! [initial]
 //! q = [0.5, 0.0]
@@ -592,6 +592,16 @@ fn validate(raw: RawScene, catalogue: &Catalogue, cx: &mut Ctxt<'_>) -> Option<S
                         cx.error(
                             span.clone(),
                             format!("method `discrete_mechanics` needs a central-force system H = |p|^2/(2m) + phi(|q|), which `{name}` is not: expected another method"),
+                        );
+                    }
+                    if let Some(i) = info.filter(|i| spec.kind == MethodKind::Dth && !i.dth) {
+                        cx.error(
+                            span.clone(),
+                            if i.psi_identically_zero {
+                                format!("method `dth` cannot integrate system `{name}`: its Psi = (J gradH)^T HessH (J gradH) is identically zero, so the energy condition does not determine lambda = dt/dtau (thesis Section 3.4): expected a peer method (midpoint, trapezoidal, rk4, gauss_legendre2, discrete_gradient, ...)")
+                            } else {
+                                format!("method `dth` is not offered for system `{name}` (registered without DTH): expected a peer method")
+                            },
                         );
                     }
                     if spec.kind == MethodKind::StormerVerlet && info.is_some_and(|i| !i.separable)

@@ -5,13 +5,13 @@
 //! come from the same pipeline as `dth run` ([`crate::run::compute`] with the
 //! `comparison_table` effect only, through [`crate::method::run_method`]).
 
-use dth::systems::Kepler;
 use serde::Serialize;
 
 use crate::catalogue::Catalogue;
 use crate::error::Error;
 use crate::run::{compute, MethodSummary, RunOptions};
 use crate::scene::{EffectSpec, MethodKind};
+use crate::systems::Kepler;
 
 /// The thesis's values (NOTES.md): `(method, energy, angular momentum)`.
 pub const THESIS: [(&str, f64, f64); 5] = [
@@ -58,8 +58,10 @@ pub fn compute_table(options: &RunOptions) -> Result<Table, Error> {
                 | MethodKind::Dth
         )
     });
+    // The catalogue's `hamiltonian!` Kepler with the scene's parameters (validation filled in
+    // the defaults, m = 1/2 and k = 1).
     let kepler = Kepler {
-        mass: scene.params.get("mass").copied().unwrap_or(0.5),
+        m: scene.params.get("m").copied().unwrap_or(0.5),
         k: scene.params.get("k").copied().unwrap_or(1.0),
     };
     let results = compute(&kepler, &scene, options)?;

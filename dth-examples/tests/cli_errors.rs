@@ -193,7 +193,7 @@ fn unknown_parameter() {
             "name = \"kepler\"\nparams = { mas = 1.0 }",
         ),
         "3:12",
-        "unknown parameter `mas` of system `kepler`: expected one of mass, k",
+        "unknown parameter `mas` of system `kepler`: expected one of m, k",
     );
 }
 

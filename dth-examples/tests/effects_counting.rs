@@ -7,11 +7,11 @@
 use std::cell::Cell;
 
 use dth::nalgebra::{SMatrix, SVector};
-use dth::systems::Kepler;
 use dth::Hamiltonian;
 use dth_examples::catalogue::{Catalogue, SceneSystem};
 use dth_examples::effects::EffectOutputs;
 use dth_examples::run::{compute, RunOptions};
+use dth_examples::systems::Kepler;
 
 #[derive(Clone)]
 struct CountingKepler {
@@ -39,7 +39,7 @@ impl SceneSystem<4> for CountingKepler {
     }
     fn invariants(&self, z: &SVector<f64, 4>, out: &mut [f64]) {
         self.invariants.set(self.invariants.get() + 1);
-        out[0] = Kepler::angular_momentum(z);
+        out[0] = z[0] * z[3] - z[1] * z[2];
     }
 }
 

@@ -3,9 +3,9 @@
 
 use dth::kepler::KeplerOrbit;
 use dth::nalgebra::Vector4;
-use dth::systems::{ForcedOscillator, Kepler};
 use dth_examples::catalogue::Catalogue;
 use dth_examples::run::{compute, MethodResult, RunOptions};
+use dth_examples::systems::{ForcedOscillator, Kepler};
 
 const Z0: [f64; 4] = [0.5, 0.0, 0.0, 1.2];
 
@@ -78,7 +78,7 @@ fn every_peer_follows_the_exact_kepler_orbit_at_a_small_step() {
     ];
     let m: String = kinds.iter().map(|k| method(k, "dt = 0.001")).collect();
     let r = run_kepler(&m, 3748); // one period 3.7483 at dt = 0.001
-    let orbit = KeplerOrbit::new(&Kepler::thesis(), &Vector4::from(Z0)).unwrap();
+    let orbit = KeplerOrbit::new(&Kepler::thesis().reference(), &Vector4::from(Z0)).unwrap();
     for (res, kind) in r.iter().zip(kinds) {
         let (t, z) = final_z(res);
         assert!((t - 3.748).abs() < 1e-12, "{kind}: t = {t}");
@@ -104,16 +104,23 @@ fn every_peer_follows_the_exact_kepler_orbit_at_a_small_step() {
 
 #[test]
 fn dth_runs_the_forced_oscillator_in_the_extended_phase_space() {
+    // dtau = 0.025, not 0.02: on main's stepper the Newton stop rule fails at dtau <= 0.02 on
+    // this orbit for the generated and the hand-written H alike (0.01: step 156 / 104;
+    // 0.015: 612 / 119; 0.02: 525 / passes by luck), with a scaled residual of 7e-17 after 50
+    // iterations: lambda's roundoff (eps/dtau^2, NOTES.md "The energy residual is
+    // ill-conditioned") stays above the stall tolerance 2^-40. That is the stepper's (hard
+    // cases) to fix, not this wiring test's.
     let text = "[system]\nname = \"forced_oscillator\"\n[initial]\nq = [1.0]\np = [0.0]\nt = 0.5\n\
-                [[method]]\nkind = \"dth\"\ndtau = 0.02\n[duration]\ntime = 10.0\n\
+                [[method]]\nkind = \"dth\"\ndtau = 0.025\n[duration]\ntime = 10.0\n\
                 [[effect]]\nkind = \"final_state\"\n[[effect]]\nkind = \"energy_deviation\"\n";
     let scene = dth_examples::check_scene(text, "forced.toml", &Catalogue::builtin()).unwrap();
     let sys = ForcedOscillator {
         omega0: 1.0,
-        force: 0.1,
+        f: 0.1,
         omega: 1.3,
     };
     let r = compute(&sys, &scene, &RunOptions::default().with_progress(false)).unwrap();
+    assert!(r[0].summary.failure.is_none(), "{:?}", r[0].summary.failure);
     let f = r[0].summary.final_state.as_ref().unwrap();
     // The clock is tbar (started at t0 = 0.5) and equals the state's t coordinate.
     assert!(f.t >= 10.5 && f.t < 10.6, "{}", f.t);
@@ -135,7 +142,7 @@ fn dth_runs_the_forced_oscillator_in_the_extended_phase_space() {
         p += h / 6.0 * (k1p + 2.0 * k2p + 2.0 * k3p + k4p);
         t += h;
     }
-    // DTH with dtau = 0.02 and lambda ~ 1: error O(dtau^2) ~ 4e-4 over ten time units.
+    // DTH with dtau = 0.025 and lambda ~ 1: error O(dtau^2) ~ 6e-4 over ten time units.
     let err = (f.z[0] - q).abs().max((f.z[2] - p).abs());
     assert!(err < 2e-3, "{:?} vs {q} {p}", f.z);
 }

@@ -1,0 +1,448 @@
+//! The catalogue's systems, compiled with `dth::hamiltonian!`: value, gradient, Hessian, Psi
+//! and the discrete gradient of each are derived at compile time from the formula on its
+//! type. Each type's fields are its parameters, under the names scenes use in `params`.
+//!
+//! What a formula does not say is written here by hand, from the parameters: the quadratic
+//! (and linear) invariants, orbit periods, Kepler's exact solution
+//! (`dth::kepler::KeplerOrbit`) and the central-force description Greenspan's discrete
+//! mechanics needs (`dth::systems::CentralForce`).
+//!
+//! ```
+//! use dth::Hamiltonian;
+//! use dth_examples::systems::Kepler;
+//! let z = dth::nalgebra::Vector4::new(0.5, 0.0, 0.0, 1.2);
+//! // The thesis's orbit: H = 1.2^2 - 1/0.5 = -0.56.
+//! assert!((Kepler::thesis().value(&z) + 0.56).abs() < 1e-15);
+//! ```
+
+use dth::kepler::KeplerOrbit;
+use dth::methods::DiscreteMechanics;
+use dth::nalgebra::SVector;
+use dth::systems::CentralForce;
+use dth::Hamiltonian;
+
+use crate::catalogue::SceneSystem;
+use crate::method::{run_peer, MethodFailure, Observer, RunEnd, Stop};
+
+dth::hamiltonian! {
+    /// The planar Kepler problem `H = |p|^2/(2 m) - k/|q|`, `z = (q1, q2, p1, p2)`. The
+    /// thesis's form `p1^2 + p2^2 - (q1^2 + q2^2)^(-1/2)` is `m = 1/2`, `k = 1`
+    /// ([`Kepler::thesis`]).
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    pub struct Kepler {
+        /// Mass `m`.
+        pub m: f64,
+        /// Force constant `k`.
+        pub k: f64,
+    } = (p1^2 + p2^2)/(2*m) - k*(q1^2 + q2^2)^(-1/2)
+}
+
+impl Kepler {
+    /// The thesis's Kepler problem: `m = 1/2`, `k = 1`.
+    pub const fn thesis() -> Self {
+        Kepler { m: 0.5, k: 1.0 }
+    }
+
+    /// The hand-written reference type with the same parameters (what
+    /// `dth::kepler::KeplerOrbit` takes).
+    pub const fn reference(&self) -> dth::systems::Kepler {
+        dth::systems::Kepler {
+            mass: self.m,
+            k: self.k,
+        }
+    }
+}
+
+/// `L = q1 p2 - q2 p1` of a planar state `(q1, q2, p1, p2)`.
+fn angular_momentum(z: &SVector<f64, 4>) -> f64 {
+    z[0] * z[3] - z[1] * z[2]
+}
+
+impl SceneSystem<4> for Kepler {
+    const HAS_PERIOD: bool = true;
+    const HAS_EXACT: bool = true;
+    const CENTRAL_FORCE: bool = true;
+
+    fn invariant_names(&self) -> &'static [&'static str] {
+        &["angular_momentum"]
+    }
+
+    fn invariants(&self, z: &SVector<f64, 4>, out: &mut [f64]) {
+        out[0] = angular_momentum(z);
+    }
+
+    /// Kepler's equation (`dth::kepler::KeplerOrbit`); `None` for orbits that are not
+    /// elliptic.
+    fn exact_solution(&self, z0: &SVector<f64, 4>, t: f64) -> Option<SVector<f64, 4>> {
+        KeplerOrbit::new(&self.reference(), z0)
+            .ok()
+            .map(|o| o.state_at(t))
+    }
+
+    /// `T = 2 pi sqrt(m a^3 / k)` with `a = -k / (2 H)`, for `H < 0`.
+    fn period(&self, z0: &SVector<f64, 4>) -> Option<f64> {
+        let h = self.value(z0);
+        (h < 0.0).then(|| {
+            let a = -self.k / (2.0 * h);
+            std::f64::consts::TAU * (self.m * a * a * a / self.k).sqrt()
+        })
+    }
+
+    fn run_discrete_mechanics<O: Observer<4>>(
+        &self,
+        dt: f64,
+        z0: SVector<f64, 4>,
+        t0: f64,
+        stop: Stop,
+        observer: &mut O,
+    ) -> Option<Result<RunEnd, MethodFailure>> {
+        Some(run_peer(
+            &mut DiscreteMechanics::new(),
+            self,
+            dt,
+            z0,
+            t0,
+            stop,
+            observer,
+        ))
+    }
+}
+
+/// `phi(r) = -k / r`.
+impl CentralForce<4> for Kepler {
+    fn mass(&self) -> f64 {
+        self.m
+    }
+
+    fn phi(&self, r: f64) -> f64 {
+        -self.k / r
+    }
+
+    fn dphi(&self, r: f64) -> f64 {
+        self.k / (r * r)
+    }
+
+    /// `(-k/r1 + k/r0) / (r1 - r0) = k / (r0 r1)` exactly: no cancellation, no guard needed.
+    fn phi_divided_difference(&self, r0: f64, r1: f64) -> f64 {
+        self.k / (r0 * r1)
+    }
+}
+
+dth::hamiltonian! {
+    /// The harmonic oscillator `H = p^2/(2 m) + k q^2/2`.
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    pub struct HarmonicOscillator {
+        /// Mass `m`.
+        pub m: f64,
+        /// Spring constant `k`.
+        pub k: f64,
+    } = p1^2/(2*m) + k*q1^2/2
+}
+
+impl SceneSystem<2> for HarmonicOscillator {
+    const HAS_PERIOD: bool = true;
+
+    /// `2 pi sqrt(m / k)`, whatever the amplitude.
+    fn period(&self, _z0: &SVector<f64, 2>) -> Option<f64> {
+        Some(std::f64::consts::TAU * (self.m / self.k).sqrt())
+    }
+}
+
+dth::hamiltonian! {
+    /// The plane pendulum `H = p^2/(2 m l^2) - m g l cos q`, `q` the angle from the downward
+    /// vertical.
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    pub struct Pendulum {
+        /// Bob mass `m`.
+        pub m: f64,
+        /// Rod length `l`.
+        pub l: f64,
+        /// Gravity `g`.
+        pub g: f64,
+    } = p1^2/(2*m*l^2) - m*g*l*cos(q1)
+}
+
+impl SceneSystem<2> for Pendulum {}
+
+dth::hamiltonian! {
+    /// The Henon-Heiles system
+    /// `H = (p1^2 + p2^2)/2 + (q1^2 + q2^2)/2 + q1^2 q2 - q2^3/3`.
+    #[derive(Clone, Copy, Debug, Default, PartialEq)]
+    pub struct HenonHeiles = (p1^2 + p2^2)/2 + (q1^2 + q2^2)/2 + q1^2*q2 - q2^3/3
+}
+
+impl SceneSystem<4> for HenonHeiles {}
+
+dth::hamiltonian! {
+    /// The planar double pendulum in canonical coordinates: angles `q1`, `q2` from the
+    /// downward vertical and their conjugate momenta.
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    pub struct DoublePendulum {
+        /// Upper bob mass.
+        pub m1: f64,
+        /// Lower bob mass.
+        pub m2: f64,
+        /// Upper rod length.
+        pub l1: f64,
+        /// Lower rod length.
+        pub l2: f64,
+        /// Gravity.
+        pub g: f64,
+    } = (m2*l2^2*p1^2 + (m1 + m2)*l1^2*p2^2 - 2*m2*l1*l2*p1*p2*cos(q1 - q2))
+            / (2*m2*l1^2*l2^2*(m1 + m2*sin(q1 - q2)^2))
+        - (m1 + m2)*g*l1*cos(q1) - m2*g*l2*cos(q2)
+}
+
+impl SceneSystem<4> for DoublePendulum {}
+
+dth::hamiltonian! {
+    /// The periodic Toda chain of 4 unit masses: bonds `(i, i+1)` with `q5 = q1`.
+    #[derive(Clone, Copy, Debug, Default, PartialEq)]
+    pub struct TodaChain4 =
+        (p1^2 + p2^2 + p3^2 + p4^2)/2
+        + exp(q1 - q2) + exp(q2 - q3) + exp(q3 - q4) + exp(q4 - q1)
+}
+
+dth::hamiltonian! {
+    /// The periodic Toda chain of 10 unit masses: bonds `(i, i+1)` with `q11 = q1`.
+    #[derive(Clone, Copy, Debug, Default, PartialEq)]
+    pub struct TodaChain10 =
+        (p1^2 + p2^2 + p3^2 + p4^2 + p5^2 + p6^2 + p7^2 + p8^2 + p9^2 + p10^2)/2
+        + exp(q1 - q2) + exp(q2 - q3) + exp(q3 - q4) + exp(q4 - q5) + exp(q5 - q6)
+        + exp(q6 - q7) + exp(q7 - q8) + exp(q8 - q9) + exp(q9 - q10) + exp(q10 - q1)
+}
+
+/// A periodic chain's total momentum `sum p_i` (a linear invariant: the potential depends
+/// on differences only), reported under `invariants`.
+fn total_momentum<const D: usize>(z: &SVector<f64, D>) -> f64 {
+    z.rows(D / 2, D / 2).sum()
+}
+
+impl SceneSystem<8> for TodaChain4 {
+    fn invariant_names(&self) -> &'static [&'static str] {
+        &["total_momentum"]
+    }
+
+    fn invariants(&self, z: &SVector<f64, 8>, out: &mut [f64]) {
+        out[0] = total_momentum(z);
+    }
+}
+
+impl SceneSystem<20> for TodaChain10 {
+    fn invariant_names(&self) -> &'static [&'static str] {
+        &["total_momentum"]
+    }
+
+    fn invariants(&self, z: &SVector<f64, 20>, out: &mut [f64]) {
+        out[0] = total_momentum(z);
+    }
+}
+
+dth::hamiltonian! {
+    /// The periodically forced oscillator `H = p^2/2 + omega0^2 q^2/2 - f q cos(omega t)`,
+    /// on the extended phase space `z = (q, t, p, p_t)` (`calH = p_t + H`).
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    pub struct ForcedOscillator {
+        /// Natural frequency `omega0`.
+        pub omega0: f64,
+        /// Forcing amplitude `f`.
+        pub f: f64,
+        /// Forcing frequency `omega`.
+        pub omega: f64,
+    } = p1^2/2 + omega0^2*q1^2/2 - f*q1*cos(omega*t)
+}
+
+impl SceneSystem<4> for ForcedOscillator {}
+
+dth::hamiltonian! {
+    /// A free particle in the plane, `H = (p1^2 + p2^2)/(2 m)`.
+    ///
+    /// `Psi = (J gradH)^T HessH (J gradH)` is identically zero (`J gradH = (p/m, 0)` and the
+    /// Hessian has only its `p`-`p` block), so DTH's energy condition does not determine
+    /// `lambda` (thesis Section 3.4): the catalogue registers it with
+    /// [`SystemEntry::runnable_without_dth`](crate::catalogue::SystemEntry::runnable_without_dth).
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    pub struct FreeParticle {
+        /// Mass `m`.
+        pub m: f64,
+    } = (p1^2 + p2^2)/(2*m)
+}
+
+impl SceneSystem<4> for FreeParticle {
+    const HAS_EXACT: bool = true;
+    const CENTRAL_FORCE: bool = true;
+
+    /// Momentum is conserved (`p1`, `p2`: linear invariants), and so is `L`.
+    fn invariant_names(&self) -> &'static [&'static str] {
+        &["p1", "p2", "angular_momentum"]
+    }
+
+    fn invariants(&self, z: &SVector<f64, 4>, out: &mut [f64]) {
+        out[0] = z[2];
+        out[1] = z[3];
+        out[2] = angular_momentum(z);
+    }
+
+    /// `q(t) = q0 + p0 t / m`, `p(t) = p0`.
+    fn exact_solution(&self, z0: &SVector<f64, 4>, t: f64) -> Option<SVector<f64, 4>> {
+        let s = t / self.m;
+        Some(SVector::<f64, 4>::new(
+            z0[0] + s * z0[2],
+            z0[1] + s * z0[3],
+            z0[2],
+            z0[3],
+        ))
+    }
+
+    fn run_discrete_mechanics<O: Observer<4>>(
+        &self,
+        dt: f64,
+        z0: SVector<f64, 4>,
+        t0: f64,
+        stop: Stop,
+        observer: &mut O,
+    ) -> Option<Result<RunEnd, MethodFailure>> {
+        Some(run_peer(
+            &mut DiscreteMechanics::new(),
+            self,
+            dt,
+            z0,
+            t0,
+            stop,
+            observer,
+        ))
+    }
+}
+
+/// `phi = 0`: a central force without force.
+impl CentralForce<4> for FreeParticle {
+    fn mass(&self) -> f64 {
+        self.m
+    }
+
+    fn phi(&self, _r: f64) -> f64 {
+        0.0
+    }
+
+    fn dphi(&self, _r: f64) -> f64 {
+        0.0
+    }
+
+    fn phi_divided_difference(&self, _r0: f64, _r1: f64) -> f64 {
+        0.0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The generated types agree with the hand-written references of `dth::systems` (same
+    /// formula, different evaluation order): values, gradients and Hessians to a few eps of
+    /// their size.
+    #[test]
+    fn generated_systems_match_the_hand_written_references() {
+        fn close<const D: usize>(
+            a: &impl Hamiltonian<D>,
+            b: &impl Hamiltonian<D>,
+            z: &SVector<f64, D>,
+        ) {
+            let tol = |x: f64| 1e-14 * x.abs().max(1.0);
+            assert!(
+                (a.value(z) - b.value(z)).abs() <= tol(a.value(z)),
+                "value at {z}"
+            );
+            let (ga, gb) = (a.gradient(z), b.gradient(z));
+            assert!((ga - gb).amax() <= tol(ga.amax()), "{ga} vs {gb}");
+            let (ha, hb) = (a.hessian(z), b.hessian(z));
+            assert!((ha - hb).amax() <= tol(ha.amax()), "{ha} vs {hb}");
+        }
+        let z4 = SVector::<f64, 4>::new(0.5, -0.3, 0.2, 1.1);
+        let z2 = SVector::<f64, 2>::new(0.7, -0.4);
+        close(
+            &Kepler { m: 0.7, k: 1.3 },
+            &dth::systems::Kepler { mass: 0.7, k: 1.3 },
+            &z4,
+        );
+        close(
+            &HarmonicOscillator { m: 2.0, k: 3.0 },
+            &dth::systems::HarmonicOscillator { mass: 2.0, k: 3.0 },
+            &z2,
+        );
+        close(
+            &Pendulum {
+                m: 1.5,
+                l: 0.8,
+                g: 9.81,
+            },
+            &dth::systems::Pendulum {
+                mass: 1.5,
+                length: 0.8,
+                gravity: 9.81,
+            },
+            &z2,
+        );
+        close(&HenonHeiles, &dth::systems::HenonHeiles, &z4);
+        let (m1, m2, l1, l2, g) = (1.0, 2.0, 0.5, 1.5, 9.81);
+        close(
+            &DoublePendulum { m1, m2, l1, l2, g },
+            &dth::systems::DoublePendulum { m1, m2, l1, l2, g },
+            &z4,
+        );
+        let z8 = SVector::<f64, 8>::from_fn(|i, _| 0.1 * i as f64 - 0.3);
+        close(
+            &TodaChain4,
+            &dth::systems::TodaChain::<4>::new(dth::systems::TodaBoundary::Periodic),
+            &z8,
+        );
+        let z20 = SVector::<f64, 20>::from_fn(|i, _| 0.05 * (i as f64).sin());
+        close(
+            &TodaChain10,
+            &dth::systems::TodaChain::<10>::new(dth::systems::TodaBoundary::Periodic),
+            &z20,
+        );
+        close(
+            &ForcedOscillator {
+                omega0: 1.2,
+                f: 0.3,
+                omega: 1.7,
+            },
+            &dth::systems::ForcedOscillator {
+                omega0: 1.2,
+                force: 0.3,
+                omega: 1.7,
+            },
+            &z4,
+        );
+    }
+
+    // The flags validation relies on, as `hamiltonian!` derived them from the formulas
+    // (checked when the tests compile).
+    const _: () = {
+        assert!(FreeParticle::PSI_IDENTICALLY_ZERO && FreeParticle::SEPARABLE);
+        assert!(!Kepler::PSI_IDENTICALLY_ZERO && Kepler::SEPARABLE);
+        assert!(!DoublePendulum::SEPARABLE);
+        assert!(ForcedOscillator::TIME_DEPENDENT && !Kepler::TIME_DEPENDENT);
+    };
+
+    #[test]
+    fn kepler_period_is_the_thesis_period() {
+        // NOTES.md: period 3.7483 for q = (0.5, 0), p = (0, 1.2).
+        let t = Kepler::thesis()
+            .period(&SVector::<f64, 4>::new(0.5, 0.0, 0.0, 1.2))
+            .unwrap_or(f64::NAN);
+        assert!((t - 3.7483).abs() < 1e-4, "{t}");
+    }
+
+    #[test]
+    fn kepler_central_force_is_its_hamiltonian() {
+        // H = |p|^2/(2m) + phi(|q|) at a point, and the divided difference of phi is exact.
+        let k = Kepler { m: 0.7, k: 1.3 };
+        let z = SVector::<f64, 4>::new(0.3, 0.4, 0.2, -0.1);
+        let by_parts = (0.04 + 0.01) / (2.0 * 0.7) + k.phi(0.5);
+        assert!((k.value(&z) - by_parts).abs() < 1e-15);
+        let (r0, r1) = (0.5, 0.75);
+        let dd = (k.phi(r1) - k.phi(r0)) / (r1 - r0);
+        assert!((k.phi_divided_difference(r0, r1) - dd).abs() < 1e-14 * dd.abs());
+    }
+}
