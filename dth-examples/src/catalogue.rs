@@ -291,6 +291,15 @@ impl SystemEntry {
     /// `D` must be `2 n` (or `2 n + 2` for a time-dependent `S`); a mismatch is reported by
     /// [`Catalogue::register`]. A system whose `Psi` is identically zero does not compile here
     /// (DTH is undetermined for it): use [`SystemEntry::runnable_without_dth`].
+    ///
+    /// ```compile_fail
+    /// use dth_examples::catalogue::SystemEntry;
+    /// use dth_examples::systems::FreeParticle;
+    /// // error: this system's Psi is identically zero, so DTH cannot run on it ...
+    /// let _ = SystemEntry::runnable::<4, FreeParticle, _>("particle", "", &[], |_| {
+    ///     Ok(FreeParticle { m: 1.0 })
+    /// });
+    /// ```
     pub fn runnable<const D: usize, S, F>(
         name: &str,
         doc: &str,
