@@ -68,4 +68,17 @@ pub enum Error {
         /// `calH(zbar_0)`.
         value: f64,
     },
+    /// The cancellation-free energy solve converged, but the plain check against the first
+    /// midpoint failed: `H(zbar_{k+1}) - H(zbar_0)` exceeds the residual tolerance. It means the
+    /// Hamiltonian's `discrete_gradient` / `discrete_gradient_defect` are inconsistent with its
+    /// `value` (a wrong override), or `H` is too ill-conditioned there.
+    #[error("energy check failed at step {step}: H(zbar) - H(zbar_0) = {deviation:e} (scaled {scaled:e})")]
+    EnergyCheckFailed {
+        /// Index `k + 1` of the midpoint being computed.
+        step: usize,
+        /// `H(zbar_{k+1}) - H(zbar_0)`.
+        deviation: f64,
+        /// The deviation relative to the size of the terms of `H`.
+        scaled: f64,
+    },
 }

@@ -21,6 +21,6 @@ mod trajectory;
 pub use extended::{lift, set_momentum_of_time, Extended};
 pub use newton::{segment_from_vertex, Segment};
 pub use observer::{NoObserver, Observer, StepRecord};
-pub use options::{DthOptions, Solver};
+pub use options::{DthOptions, EnergyResidual, Solver};
 pub use stepper::{integrate, Dth, RunError};
 pub use trajectory::Trajectory;

@@ -2,9 +2,10 @@
 
 use nalgebra::SVector;
 
-use super::newton::{predict, solve_segment};
+use super::newton::{predict, solve_segment, Anchor, Previous};
 use super::observer::{NoObserver, Observer, StepRecord};
 use super::options::DthOptions;
+use super::options::EnergyResidual;
 use super::trajectory::Trajectory;
 use crate::{j_times, Error, Hamiltonian};
 
@@ -180,6 +181,17 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
         Ok(self)
     }
 
+    /// `true` when steps solve the energy equation in the cancellation-free form
+    /// ([`EnergyResidual`](super::EnergyResidual); `Auto` resolves on
+    /// `H::EXACT_DIVIDED_DIFFERENCES`).
+    pub fn cancellation_free(&self) -> bool {
+        match self.options.energy_residual() {
+            EnergyResidual::Plain => false,
+            EnergyResidual::CancellationFree => true,
+            _ => H::EXACT_DIVIDED_DIFFERENCES,
+        }
+    }
+
     /// The Hamiltonian.
     pub fn hamiltonian(&self) -> &H {
         &self.hamiltonian
@@ -259,10 +271,19 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
             self.lambda
         };
         let z0 = predict(&self.hamiltonian, &v, lambda_guess, h);
+        let previous = self.cancellation_free().then_some(Previous {
+            zbar: self.zbar,
+            gradient: self.gradient,
+            lambda: self.lambda,
+        });
+        let anchor = Anchor {
+            v,
+            energy: self.energy,
+            previous,
+        };
         let s = solve_segment(
             &self.hamiltonian,
-            &v,
-            self.energy,
+            &anchor,
             z0,
             lambda_guess,
             &self.options,
