@@ -15,12 +15,13 @@ mod linalg;
 mod newton;
 mod observer;
 mod options;
+mod robust;
 mod stepper;
 mod trajectory;
 
 pub use extended::{lift, set_momentum_of_time, Extended};
 pub use newton::{segment_from_vertex, Segment};
-pub use observer::{NoObserver, Observer, StepRecord};
+pub use observer::{NoObserver, Observer, StepKind, StepRecord};
 pub use options::{DthOptions, EnergyResidual, Solver};
 pub use stepper::{integrate, Dth, RunError};
 pub use trajectory::Trajectory;

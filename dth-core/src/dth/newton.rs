@@ -51,7 +51,7 @@ pub struct Segment<const D: usize> {
 }
 
 /// `J M` for `J = [[0, I], [-I, 0]]`.
-fn j_times_matrix<const D: usize>(m: &SMatrix<f64, D, D>) -> SMatrix<f64, D, D> {
+pub(crate) fn j_times_matrix<const D: usize>(m: &SMatrix<f64, D, D>) -> SMatrix<f64, D, D> {
     let n = D / 2;
     SMatrix::<f64, D, D>::from_fn(|i, j| if i < n { m[(i + n, j)] } else { -m[(i - n, j)] })
 }
@@ -142,7 +142,7 @@ impl<const D: usize> Eval<D> {
     }
 }
 
-fn factor<const D: usize>(a: &SMatrix<f64, D, D>, step: usize) -> Result<Lu<D>, Error> {
+pub(crate) fn factor<const D: usize>(a: &SMatrix<f64, D, D>, step: usize) -> Result<Lu<D>, Error> {
     Lu::factor(a).map_err(|p| match p {
         Pivot::Zero => Error::SingularMatrix { step },
         Pivot::NonFinite => Error::NonFinite {
@@ -152,7 +152,7 @@ fn factor<const D: usize>(a: &SMatrix<f64, D, D>, step: usize) -> Result<Lu<D>, 
     })
 }
 
-fn all_finite<const D: usize>(v: &SVector<f64, D>) -> bool {
+pub(crate) fn all_finite<const D: usize>(v: &SVector<f64, D>) -> bool {
     v.iter().all(|x| x.is_finite())
 }
 
@@ -270,13 +270,13 @@ fn linearize<const D: usize>(
 
 /// Convergence bookkeeping on the relative update sizes.
 #[derive(Default)]
-struct Updates {
+pub(crate) struct Updates {
     last: Option<f64>,
     previous: Option<f64>,
 }
 
 impl Updates {
-    fn push(&mut self, u: f64) {
+    pub(crate) fn push(&mut self, u: f64) {
         self.previous = self.last;
         self.last = Some(u);
     }
@@ -285,7 +285,7 @@ impl Updates {
     /// predicted from the observed contraction `theta = u_i / u_{i-1}`, is at most `4 eps`,
     /// or the update stalled at roundoff (below the stall tolerance and no longer halving):
     /// stop if the residual passes, else keep iterating. `None`: keep iterating.
-    fn stopped(&self, stall: f64) -> Option<bool> {
+    pub(crate) fn stopped(&self, stall: f64) -> Option<bool> {
         let u = self.last?;
         if u <= TIGHT {
             return Some(true);
@@ -306,7 +306,7 @@ impl Updates {
     }
 }
 
-fn relative_update<const D: usize>(
+pub(crate) fn relative_update<const D: usize>(
     dz: &SVector<f64, D>,
     z: &SVector<f64, D>,
     dl: f64,
@@ -338,9 +338,7 @@ pub(crate) fn solve_segment<H: Hamiltonian<D>, const D: usize>(
     }
 }
 
-/// Check a cancellation-free solution against the energy level `E` with the plain residual and
-/// move it onto `H = E` along `grad H` (one Newton step of `H(z) = E` in that direction). The
-/// move is a few ulps of `z`, inside the roundoff of the step equation.
+/// Check a cancellation-free solution against the energy level `E`.
 fn project<H: Hamiltonian<D>, const D: usize>(
     ham: &H,
     energy: f64,
@@ -348,15 +346,36 @@ fn project<H: Hamiltonian<D>, const D: usize>(
     options: &DthOptions,
     step: usize,
 ) -> Result<Segment<D>, Error> {
-    let d = &s.derivatives;
+    let (z, d) = project_onto_energy(ham, energy, s.zbar, s.derivatives, 0.0, options, step)?;
+    s.zbar = z;
+    s.derivatives = d;
+    Ok(s)
+}
+
+/// Check `z` (with its derivatives `d`) against the energy level `E` with the plain residual
+/// ([`Error::EnergyCheckFailed`] beyond the residual tolerance) and move it onto `H = E` along
+/// `grad H` (one Newton step of `H(z) = E` in that direction). The move is a few ulps of `z`,
+/// inside the roundoff of the equation that produced `z`; it keeps the roundoff of successive
+/// energy-difference solves from random-walking.
+/// `explained` is a part of the deviation that the caller knows the size of (the fallback
+/// step's `gbar . f`), allowed on top of the tolerance.
+pub(crate) fn project_onto_energy<H: Hamiltonian<D>, const D: usize>(
+    ham: &H,
+    energy: f64,
+    z: SVector<f64, D>,
+    d: Derivatives<D>,
+    explained: f64,
+    options: &DthOptions,
+    step: usize,
+) -> Result<(SVector<f64, D>, Derivatives<D>), Error> {
     let deviation = d.value - energy;
     let scale = energy
         .abs()
         .max(d.value.abs())
-        .max(s.zbar.component_mul(&d.gradient).abs().sum())
+        .max(z.component_mul(&d.gradient).abs().sum())
         .max(f64::MIN_POSITIVE);
     let scaled = deviation.abs() / scale;
-    if scaled > options.residual_tolerance() {
+    if deviation.abs() > options.residual_tolerance() * scale + 2.0 * explained.abs() {
         return Err(Error::EnergyCheckFailed {
             step,
             deviation,
@@ -365,21 +384,19 @@ fn project<H: Hamiltonian<D>, const D: usize>(
     }
     let gg = d.gradient.norm_squared();
     if deviation != 0.0 && gg > 0.0 {
-        let z = s.zbar - d.gradient * (deviation / gg);
-        let dz = ham.derivatives(&z);
-        if dz.value.is_finite()
-            && all_finite(&dz.gradient)
-            && dz.hessian.iter().all(|x| x.is_finite())
+        let zp = z - d.gradient * (deviation / gg);
+        let dp = ham.derivatives(&zp);
+        // Keep the projection only if it does not make things worse (it cannot, beyond
+        // evaluation roundoff).
+        if dp.value.is_finite()
+            && all_finite(&dp.gradient)
+            && dp.hessian.iter().all(|x| x.is_finite())
+            && (dp.value - energy).abs() <= deviation.abs()
         {
-            // Keep the projection only if it does not make things worse (it cannot, beyond
-            // evaluation roundoff; this keeps the step's result monotone in quality).
-            if (dz.value - energy).abs() <= deviation.abs() {
-                s.zbar = z;
-                s.derivatives = dz;
-            }
+            return Ok((zp, dp));
         }
     }
-    Ok(s)
+    Ok((z, d))
 }
 
 fn joint<H: Hamiltonian<D>, const D: usize>(

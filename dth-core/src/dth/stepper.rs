@@ -3,11 +3,16 @@
 use nalgebra::SVector;
 
 use super::newton::{predict, solve_segment, Anchor, Previous};
-use super::observer::{NoObserver, Observer, StepRecord};
+use super::observer::{NoObserver, Observer, StepKind, StepRecord};
 use super::options::DthOptions;
 use super::options::EnergyResidual;
+use super::robust::fallback_step;
 use super::trajectory::Trajectory;
 use crate::{j_times, Error, Hamiltonian};
+
+fn all_finite<const D: usize>(v: &SVector<f64, D>) -> bool {
+    v.iter().all(|x| x.is_finite())
+}
 
 /// A failed run: the error and everything computed before it.
 #[derive(Clone, Debug, PartialEq)]
@@ -88,6 +93,26 @@ pub struct Dth<H, const D: usize> {
     iterations: u32,
     factorizations: u32,
     reported: bool,
+    /// `Some` while the robust mode is taking fallback steps.
+    fallback: Option<Fallback>,
+    kind: StepKind,
+    /// The law-of-time constant `lambda^3 Psi` of the run (paper Theorem 5), set at the first
+    /// midpoint with `Psi != 0`; the robust mode resumes DTH with `lambda = (law / Psi)^(1/3)`
+    /// so that the resolution the user chose with `lambda_0` is kept across excursions.
+    law: f64,
+}
+
+/// Largest number of times a robust-mode fallback step halves its `dt` before giving up.
+const MAX_FALLBACK_HALVINGS: u32 = 20;
+
+/// State of a robust-mode excursion.
+#[derive(Clone, Copy, Debug)]
+struct Fallback {
+    /// Physical step `dt = lambda_k dtau` of the last DTH segment (halved where the fallback
+    /// Newton fails).
+    dt: f64,
+    /// `Psi` at the previous fallback node, to see it move away from zero.
+    psi_last: f64,
 }
 
 impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
@@ -162,6 +187,9 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
             iterations: 0,
             factorizations: 0,
             reported: false,
+            fallback: None,
+            kind: StepKind::Dth,
+            law: options.lambda0().powi(3) * d.psi,
         })
     }
 
@@ -225,13 +253,29 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
     pub fn slope(&self) -> SVector<f64, D> {
         j_times(&self.gradient) * self.lambda
     }
-    /// Left vertex `z^(k) = zbar_k - (h/2) zbar'_k` of the current segment.
+    /// Left vertex `z^(k) = zbar_k - (h/2) zbar'_k` of the current segment (the node itself
+    /// after a robust-mode fallback step).
     pub fn left_vertex(&self) -> SVector<f64, D> {
-        self.zbar - self.slope() * (0.5 * self.options.dtau())
+        match self.kind {
+            StepKind::Fallback => self.zbar,
+            _ => self.zbar - self.slope() * (0.5 * self.options.dtau()),
+        }
     }
-    /// Right vertex `z^(k+1) = zbar_k + (h/2) zbar'_k` of the current segment.
+    /// Right vertex `z^(k+1) = zbar_k + (h/2) zbar'_k` of the current segment (the node itself
+    /// after a robust-mode fallback step).
     pub fn right_vertex(&self) -> SVector<f64, D> {
-        self.zbar + self.slope() * (0.5 * self.options.dtau())
+        match self.kind {
+            StepKind::Fallback => self.zbar,
+            _ => self.zbar + self.slope() * (0.5 * self.options.dtau()),
+        }
+    }
+    /// What produced the current midpoint.
+    pub fn kind(&self) -> StepKind {
+        self.kind
+    }
+    /// `true` while the robust mode is taking fallback steps.
+    pub fn in_fallback(&self) -> bool {
+        self.fallback.is_some()
     }
     /// The record of the current midpoint.
     pub fn record(&self) -> StepRecord<D> {
@@ -242,31 +286,157 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
             lambda: self.lambda,
             tbar: self.tbar,
             vertex: self.left_vertex(),
-            vertex_time: self.tbar - 0.5 * h * self.lambda,
+            vertex_time: match self.kind {
+                StepKind::Fallback => self.tbar,
+                _ => self.tbar - 0.5 * h * self.lambda,
+            },
             psi: self.psi,
             iterations: self.iterations,
             factorizations: self.factorizations,
+            kind: self.kind,
         }
     }
 
-    /// Advance one step: solve for `zbar_{k+1}`, `lambda_{k+1}`. On error the state is
-    /// unchanged (still at step `k`).
+    /// Advance one step: solve for `zbar_{k+1}`, `lambda_{k+1}` (in robust mode, possibly a
+    /// fallback step instead; see [`DthOptions::with_robust`]). On error the state is unchanged
+    /// (still at step `k`). A failed step is not retried with a smaller `dtau`: the step
+    /// equations depend on `h` only through `h lambda_k` and `h lambda_{k+1}`, so a smaller `h`
+    /// that keeps the shared vertex `z^(k+1)` gives the same step, and one that does not breaks
+    /// the continuity the vertex invariants (Theorems 3, 7) rest on. Where DTH has no positive
+    /// root the robust mode is the way through; otherwise rerun with a smaller `dtau`.
     ///
     /// # Errors
+    /// [`Error::Breakdown`] when `Psi` changes sign at the predicted midpoint or the predicted
+    /// (or converged) `lambda_{k+1} / lambda_k` exceeds [`DthOptions::max_lambda_ratio`];
     /// [`Error::NewtonDiverged`], [`Error::SingularMatrix`], [`Error::NonFinite`] from Newton;
-    /// [`Error::SpuriousRoot`] when it converges to `lambda_{k+1} <= 0`.
+    /// [`Error::SpuriousRoot`] when it converges to `lambda_{k+1} <= 0`;
+    /// [`Error::EnergyCheckFailed`] (cancellation-free residual, robust fallback).
+    /// In robust mode only the last three stop a run.
     pub fn step(&mut self) -> Result<StepRecord<D>, Error> {
+        if let Some(fb) = self.fallback {
+            return self.fallback_step(fb);
+        }
+        match self.dth_step() {
+            Ok(r) => Ok(r),
+            // A non-finite value inside Newton means it wandered (into a singularity of H, say);
+            // the fallback step re-evaluates from the accepted midpoint and stops the run if H
+            // itself is the problem.
+            Err(
+                Error::Breakdown { .. }
+                | Error::NewtonDiverged { .. }
+                | Error::SpuriousRoot { .. }
+                | Error::SingularMatrix { .. }
+                | Error::NonFinite { .. },
+            ) if self.options.robust() => {
+                let fb = Fallback {
+                    dt: self.lambda * self.options.dtau(),
+                    psi_last: self.psi,
+                };
+                self.fallback_step(fb)
+            }
+            Err(e) => Err(e),
+        }
+    }
+
+    /// One fallback step of the robust mode from the current midpoint; resume DTH at the node
+    /// reached when `Psi` allows.
+    fn fallback_step(&mut self, mut fb: Fallback) -> Result<StepRecord<D>, Error> {
+        let step = self.k + 1;
+        // The fallback step is not bound to a tau grid: where its Newton fails (a step too
+        // large near a close approach), halve dt, up to 2^-20 of the DTH step, and keep the
+        // smaller step for the rest of the excursion.
+        let mut halvings = 0;
+        let s = loop {
+            match fallback_step(
+                &self.hamiltonian,
+                &self.zbar,
+                fb.dt,
+                self.energy,
+                &self.options,
+                step,
+            ) {
+                Ok(s) => break s,
+                Err(
+                    Error::NewtonDiverged { .. }
+                    | Error::SingularMatrix { .. }
+                    | Error::NonFinite { .. },
+                ) if halvings < MAX_FALLBACK_HALVINGS => {
+                    fb.dt *= 0.5;
+                    halvings += 1;
+                }
+                Err(e) => return Err(e),
+            }
+        };
+        let psi = s.derivatives.psi;
+        self.zbar = s.z;
+        self.gradient = s.derivatives.gradient;
+        self.psi = psi;
+        self.tbar += fb.dt;
+        self.lambda = fb.dt / self.options.dtau();
+        self.iterations = s.iterations;
+        self.factorizations = s.iterations;
+        self.k = step;
+        self.kind = StepKind::Fallback;
+        self.reported = false;
+        let record = self.record();
+        // Resume DTH when Psi has the sign of the run's law of time again, moves away from zero,
+        // and the law gives a lambda within the breakdown ratio of the fallback's.
+        let ratio = self.law / psi;
+        let lambda = ratio.cbrt();
+        let resume = ratio > 0.0
+            && psi.abs() > fb.psi_last.abs()
+            && lambda.is_finite()
+            && lambda <= self.options.max_lambda_ratio() * self.lambda;
+        if resume {
+            self.fallback = None;
+            self.lambda = lambda;
+            self.kind = StepKind::Dth;
+        } else {
+            self.fallback = Some(Fallback {
+                psi_last: psi,
+                ..fb
+            });
+        }
+        Ok(record)
+    }
+
+    /// One DTH step with breakdown detection.
+    fn dth_step(&mut self) -> Result<StepRecord<D>, Error> {
         let h = self.options.dtau();
         let step = self.k + 1;
         let v = self.right_vertex();
         // Predict lambda from the asymptotic law of time (paper Theorem 5):
         // lambda psi^(1/3) ~ const, with psi at an explicit predictor of zbar_{k+1}; fall back
-        // to lambda_k where psi changes sign or vanishes.
+        // to lambda_k where psi vanishes. A sign change of psi, or a predicted lambda that blows
+        // up, means the step has no positive root near lambda_k: stop before Newton wanders.
         let z1 = predict(&self.hamiltonian, &v, self.lambda, h);
         let psi1 = self.hamiltonian.psi(&z1);
+        if !psi1.is_finite() || !all_finite(&z1) {
+            return Err(Error::NonFinite {
+                step,
+                what: "Psi at the predicted midpoint",
+            });
+        }
         let ratio = self.psi / psi1;
-        let lambda_guess = if ratio.is_finite() && ratio > 0.0 {
-            self.lambda * ratio.cbrt()
+        let predicted = self.lambda * ratio.cbrt();
+        let (time, psi_previous, lambda) = (self.tbar, self.psi, self.lambda);
+        let breakdown = |lambda_predicted| Error::Breakdown {
+            step,
+            time,
+            psi: psi1,
+            psi_previous,
+            lambda,
+            lambda_predicted,
+        };
+        // Psi exactly zero at either point (ratio 0, infinite or NaN) is no verdict: Newton
+        // decides from lambda_k.
+        if ratio < 0.0
+            || (ratio.is_finite() && predicted > self.options.max_lambda_ratio() * self.lambda)
+        {
+            return Err(breakdown(predicted));
+        }
+        let lambda_guess = if predicted.is_finite() && predicted > 0.0 {
+            predicted
         } else {
             self.lambda
         };
@@ -295,6 +465,9 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
                 lambda: s.lambda,
             });
         }
+        if s.lambda > self.options.max_lambda_ratio() * self.lambda {
+            return Err(breakdown(s.lambda));
+        }
         self.tbar += 0.5 * h * (self.lambda + s.lambda);
         self.lambda = s.lambda;
         self.zbar = s.zbar;
@@ -303,7 +476,11 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
         self.iterations = s.iterations;
         self.factorizations = s.factorizations;
         self.k = step;
+        self.kind = StepKind::Dth;
         self.reported = false;
+        if self.law == 0.0 {
+            self.law = self.lambda.powi(3) * self.psi;
+        }
         Ok(self.record())
     }
 
