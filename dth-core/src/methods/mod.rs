@@ -1,1 +1,336 @@
-//! Peer integrators, one per module (placeholder: filled by the stepper issue).
+//! Fixed-step peer integrators, one per module, behind one trait and one driver.
+//!
+//! Every method implements [`OneStepMethod`] for the Hamiltonians it applies to (generic and
+//! monomorphized: no `dyn`, no heap allocation per step); [`run`] takes `N` steps and calls an
+//! [`Observer`] after each one, storing nothing unless the observer does ([`Recorder`]).
+//!
+//! | module | method | order | exact invariants |
+//! |---|---|---|---|
+//! | [`trapezoidal`] | trapezoidal rule | 2 | none |
+//! | [`midpoint`] | implicit midpoint | 2 | quadratic (angular momentum) |
+//! | [`discrete_mechanics`] | Greenspan's discrete mechanics (central force) | 2 | energy, angular momentum |
+//! | [`verlet`] | Stormer-Verlet (separable H) | 2 | none (symplectic) |
+//! | [`rk4`] | classical Runge-Kutta | 4 | none |
+//! | [`gauss_legendre`] | 2-stage Gauss-Legendre | 4 | quadratic (symplectic) |
+//! | [`discrete_gradient`] | Gonzalez midpoint discrete gradient | 2 | energy |
+//!
+//! # Time-dependent Hamiltonians
+//! A time-dependent `H(t, q, p)` implements [`Hamiltonian`] on the extended phase space
+//! `z = (q, t, p, p_t)` with value `calH = p_t + H` (paper Theorem 1). Then `dt/ds = dcalH/dp_t
+//! = 1`: the extended flow *is* the time-dependent flow with `t` as a coordinate, and every
+//! method here integrates it unchanged (the stage times of RK4 and Gauss-Legendre come out of
+//! the `t` coordinate of the stages). The driver's clock `t0 + k dt` then equals the `t`
+//! coordinate of the state up to roundoff, except for [`DiscreteGradient`] with Gonzalez's
+//! discrete gradient, whose correction is along `z1 - z0` (which has a `t` component): there
+//! the `t` coordinate differs from the clock by `O(dt^2)`, consistently with second order.
+//! (Tested on [`ForcedOscillator`](crate::systems::ForcedOscillator) in
+//! `tests/methods_order.rs`.)
+//!
+//! ```
+//! use dth_core::methods::{run, ImplicitMidpoint, Recorder};
+//! use dth_core::systems::Kepler;
+//! use dth_core::nalgebra::Vector4;
+//!
+//! let z0 = Vector4::new(0.5, 0.0, 0.0, 1.2);
+//! let mut recorder = Recorder::new();
+//! let end = run(&mut ImplicitMidpoint::new(), &Kepler::thesis(), &z0, 0.0, 0.15, 100, &mut recorder)?;
+//! assert_eq!(end.steps, 100);
+//! assert_eq!(recorder.z.len(), 101); // the initial state and one per step
+//! let l = Kepler::angular_momentum(&end.z);
+//! assert!((l - 0.6).abs() < 1e-14); // midpoint keeps quadratic invariants
+//! # Ok::<(), dth_core::methods::RunError<dth_core::methods::RunEnd<4>>>(())
+//! ```
+
+pub mod discrete_gradient;
+pub mod discrete_mechanics;
+pub mod gauss_legendre;
+pub mod midpoint;
+mod newton;
+pub mod rk4;
+pub mod trapezoidal;
+pub mod verlet;
+
+pub use discrete_gradient::DiscreteGradient;
+pub use discrete_mechanics::DiscreteMechanics;
+pub use gauss_legendre::GaussLegendre2;
+pub use midpoint::ImplicitMidpoint;
+pub use newton::NewtonOptions;
+pub use rk4::Rk4;
+pub use trapezoidal::Trapezoidal;
+pub use verlet::StormerVerlet;
+
+use nalgebra::{SMatrix, SVector};
+
+/// A run that stopped early: the error, and in `partial` the last good [`RunEnd`] (the
+/// observer has seen it and every state before it). The same type as the DTH stepper's.
+pub use crate::dth::RunError;
+use crate::{Error, Hamiltonian};
+
+/// A fixed-step one-step method for the Hamiltonian `H` on `R^D`.
+pub trait OneStepMethod<const D: usize, H: Hamiltonian<D>> {
+    /// Short name, used in errors and tables (`"midpoint"`, `"rk4"`, ...).
+    const NAME: &'static str;
+    /// Classical order of accuracy.
+    const ORDER: u32;
+
+    /// Advances `z` by `dt`. Errors report `step: 0`; [`run`] fills in the step index.
+    fn step(&mut self, h: &H, z: &SVector<f64, D>, dt: f64) -> Result<SVector<f64, D>, Error>;
+
+    /// Newton iterations spent by this method value so far (0 for explicit methods).
+    fn newton_iterations(&self) -> usize {
+        0
+    }
+}
+
+/// A per-step hook of [`run`]: called with `(k, t_k, z_k)` for `k = 0` (the initial state) and
+/// after each step `k = 1..=N`. `()` observes nothing; closures `FnMut(usize, f64, &SVector)`
+/// are observers.
+pub trait Observer<const D: usize> {
+    /// Sees state `k`, at time `t`.
+    fn observe(&mut self, k: usize, t: f64, z: &SVector<f64, D>) {
+        let _ = (k, t, z);
+    }
+}
+
+impl<const D: usize> Observer<D> for () {}
+
+impl<const D: usize, F: FnMut(usize, f64, &SVector<f64, D>)> Observer<D> for F {
+    fn observe(&mut self, k: usize, t: f64, z: &SVector<f64, D>) {
+        self(k, t, z)
+    }
+}
+
+/// An [`Observer`] that stores every time and state.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Recorder<const D: usize> {
+    /// Times `t_0, t_1, ...`.
+    pub t: Vec<f64>,
+    /// States `z_0, z_1, ...`.
+    pub z: Vec<SVector<f64, D>>,
+}
+
+impl<const D: usize> Recorder<D> {
+    /// An empty recorder.
+    pub fn new() -> Self {
+        Recorder {
+            t: Vec::new(),
+            z: Vec::new(),
+        }
+    }
+}
+
+impl<const D: usize> Observer<D> for Recorder<D> {
+    fn observe(&mut self, _k: usize, t: f64, z: &SVector<f64, D>) {
+        self.t.push(t);
+        self.z.push(*z);
+    }
+}
+
+/// Where a run ended: the last state computed, its time and the number of steps taken.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RunEnd<const D: usize> {
+    /// The last state.
+    pub z: SVector<f64, D>,
+    /// Its time `t0 + steps * dt`.
+    pub t: f64,
+    /// Steps taken.
+    pub steps: usize,
+}
+
+/// Integrates `steps` steps of size `dt` from `z0` at time `t0`, calling `observer` on the
+/// initial state and after each step.
+///
+/// `dt` must be finite and non-zero (negative integrates backwards) and `z0` finite; a state
+/// that becomes non-finite is [`Error::MethodNonFinite`]. On failure the states already
+/// computed are kept: the observer has seen them and [`RunError::partial`] holds the last.
+pub fn run<const D: usize, H, M, O>(
+    method: &mut M,
+    h: &H,
+    z0: &SVector<f64, D>,
+    t0: f64,
+    dt: f64,
+    steps: usize,
+    observer: &mut O,
+) -> Result<RunEnd<D>, RunError<RunEnd<D>>>
+where
+    H: Hamiltonian<D>,
+    M: OneStepMethod<D, H>,
+    O: Observer<D>,
+{
+    let mut end = RunEnd {
+        z: *z0,
+        t: t0,
+        steps: 0,
+    };
+    let fail = |end: RunEnd<D>, error| {
+        Err(RunError {
+            error,
+            partial: end,
+        })
+    };
+    if !dt.is_finite() || dt == 0.0 {
+        return fail(
+            end,
+            Error::InvalidOption {
+                name: "dt",
+                value: dt,
+                reason: "must be finite and non-zero",
+            },
+        );
+    }
+    if let Some((index, &value)) = z0.iter().enumerate().find(|(_, v)| !v.is_finite()) {
+        return fail(end, Error::NonFiniteInitialState { index, value });
+    }
+    if !t0.is_finite() {
+        return fail(
+            end,
+            Error::InvalidOption {
+                name: "t0",
+                value: t0,
+                reason: "must be finite",
+            },
+        );
+    }
+    observer.observe(0, t0, z0);
+    for k in 1..=steps {
+        let z = match method.step(h, &end.z, dt) {
+            Ok(z) if z.iter().all(|v| v.is_finite()) => z,
+            Ok(_) => {
+                return fail(
+                    end,
+                    Error::MethodNonFinite {
+                        method: M::NAME,
+                        step: k,
+                        what: "state",
+                    },
+                )
+            }
+            Err(error) => return fail(end, at_step(error, k)),
+        };
+        // t0 + k dt, not a running sum: no accumulated rounding in the clock.
+        end = RunEnd {
+            z,
+            t: t0 + k as f64 * dt,
+            steps: k,
+        };
+        observer.observe(k, end.t, &end.z);
+    }
+    Ok(end)
+}
+
+/// Fills in the step index of a method error.
+fn at_step(error: Error, k: usize) -> Error {
+    match error {
+        Error::MethodNotConverged {
+            method,
+            iterations,
+            residual,
+            ..
+        } => Error::MethodNotConverged {
+            method,
+            step: k,
+            iterations,
+            residual,
+        },
+        Error::MethodSingularMatrix {
+            method,
+            iteration,
+            residual,
+            ..
+        } => Error::MethodSingularMatrix {
+            method,
+            step: k,
+            iteration,
+            residual,
+        },
+        Error::MethodNonFinite { method, what, .. } => Error::MethodNonFinite {
+            method,
+            step: k,
+            what,
+        },
+        other => other,
+    }
+}
+
+/// `J M` for `J = [[0, I], [-I, 0]]`: rows `(M_p, -M_q)`.
+pub(crate) fn j_times_matrix<const D: usize>(m: &SMatrix<f64, D, D>) -> SMatrix<f64, D, D> {
+    let n = D / 2;
+    SMatrix::<f64, D, D>::from_fn(|i, j| if i < n { m[(i + n, j)] } else { -m[(i - n, j)] })
+}
+
+/// `I - c J Hess`, the Newton matrix of the one-stage implicit methods.
+pub(crate) fn newton_matrix<const D: usize>(
+    c: f64,
+    hessian: &SMatrix<f64, D, D>,
+) -> SMatrix<f64, D, D> {
+    SMatrix::<f64, D, D>::identity() - j_times_matrix(hessian) * c
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::systems::HarmonicOscillator;
+    use nalgebra::{Matrix2, Vector2};
+
+    #[test]
+    fn j_times_matrix_matches_j_times_columns() {
+        let m = Matrix2::new(1.0, 2.0, 3.0, 4.0);
+        let jm = j_times_matrix(&m);
+        for c in 0..2 {
+            let col: Vector2<f64> = m.column(c).into();
+            assert_eq!(jm.column(c).into_owned(), crate::j_times(&col));
+        }
+    }
+
+    #[test]
+    fn run_rejects_bad_input_and_keeps_the_start() {
+        let h = HarmonicOscillator { mass: 1.0, k: 1.0 };
+        let z0 = Vector2::new(1.0, 0.0);
+        let err = run(&mut Rk4, &h, &z0, 0.0, 0.0, 10, &mut ()).unwrap_err();
+        assert!(matches!(err.error, Error::InvalidOption { name: "dt", .. }));
+        assert_eq!(err.partial.z, z0);
+        let bad = Vector2::new(f64::NAN, 0.0);
+        let err = run(&mut Rk4, &h, &bad, 0.0, 0.1, 10, &mut ()).unwrap_err();
+        assert!(matches!(
+            err.error,
+            Error::NonFiniteInitialState { index: 0, .. }
+        ));
+    }
+
+    /// `H = p^2/2 + 2 q^(3/2)`: defined for `q >= 0` only, NaN beyond. A particle released at
+    /// `q = 1` falls to `q < 0` in finite time.
+    struct HalfLine;
+    impl Hamiltonian<2> for HalfLine {
+        fn value(&self, z: &Vector2<f64>) -> f64 {
+            0.5 * z[1] * z[1] + 2.0 * z[0].powf(1.5)
+        }
+        fn gradient(&self, z: &Vector2<f64>) -> Vector2<f64> {
+            Vector2::new(3.0 * z[0].sqrt(), z[1])
+        }
+        fn hessian(&self, z: &Vector2<f64>) -> Matrix2<f64> {
+            Matrix2::new(1.5 / z[0].sqrt(), 0.0, 0.0, 1.0)
+        }
+    }
+
+    #[test]
+    fn failure_keeps_what_was_computed_and_names_the_step() {
+        let z0 = Vector2::new(1.0, 0.0);
+        let mut count = 0;
+        let err = run(
+            &mut Rk4,
+            &HalfLine,
+            &z0,
+            0.0,
+            0.01,
+            100_000,
+            &mut |_, _, _: &_| count += 1,
+        )
+        .unwrap_err();
+        assert!(matches!(
+            err.error,
+            Error::MethodNonFinite { method: "rk4", step, .. } if step == err.partial.steps + 1
+        ));
+        assert_eq!(count, err.partial.steps + 1);
+        assert!(err.partial.steps > 10 && err.partial.z[0] >= 0.0);
+    }
+}

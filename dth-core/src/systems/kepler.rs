@@ -160,3 +160,22 @@ mod tests {
         assert!((a - b).amax() <= 1e-5 * a.amax(), "{a:?} vs {b:?}");
     }
 }
+
+impl crate::systems::CentralForce<4> for Kepler {
+    fn mass(&self) -> f64 {
+        self.mass
+    }
+
+    fn phi(&self, r: f64) -> f64 {
+        -self.k / r
+    }
+
+    fn dphi(&self, r: f64) -> f64 {
+        self.k / (r * r)
+    }
+
+    /// `(-k/r1 + k/r0) / (r1 - r0) = k / (r0 r1)` exactly: no cancellation, no guard needed.
+    fn phi_divided_difference(&self, r0: f64, r1: f64) -> f64 {
+        self.k / (r0 * r1)
+    }
+}

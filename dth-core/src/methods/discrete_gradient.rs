@@ -1,0 +1,76 @@
+//! An energy-preserving discrete-gradient method.
+
+use nalgebra::SVector;
+
+use super::newton::{self, Evaluation, NewtonOptions};
+use super::{newton_matrix, OneStepMethod};
+use crate::linalg as linear;
+use crate::{j_times, Error, Hamiltonian};
+
+/// The discrete-gradient method `z1 = z0 + dt J gbar(z0, z1)`, with `gbar` the Hamiltonian's
+/// [`Hamiltonian::discrete_gradient`] (Gonzalez's midpoint discrete gradient by default).
+///
+/// Second order and symmetric; since `gbar . (z1 - z0) = H(z1) - H(z0)` and `gbar^T J gbar = 0`,
+/// the energy is conserved exactly (to roundoff once the nonlinear equation is solved to
+/// roundoff). The Newton matrix is `I - (dt/2) J Hess H((z0 + z1)/2)`, the Jacobian up to
+/// `O(dt |z1 - z0|)`: the iteration contracts by `O(dt^2)` per step and is run to roundoff by
+/// the shared stopping rule.
+///
+/// On an extended phase space (time-dependent `H`) the Gonzalez correction moves the `t`
+/// coordinate by `O(dt^3)` per step relative to `dt`; the state stays second-order accurate.
+///
+/// # References
+/// O. Gonzalez, *Time integration and discrete Hamiltonian systems*, J. Nonlinear Sci. 6 (1996)
+/// 449-467, eq. (3.6); R. McLachlan, G. Quispel, N. Robidoux, *Geometric integration using
+/// discrete gradients*, Phil. Trans. R. Soc. A 357 (1999) 1021-1045. Compared with DTH, which
+/// conserves energy at midpoints (thesis eq. 2.3.7).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct DiscreteGradient {
+    /// Newton settings.
+    pub newton: NewtonOptions,
+    iterations: usize,
+}
+
+impl DiscreteGradient {
+    /// With default Newton settings.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// With the given Newton settings.
+    pub fn with_newton(newton: NewtonOptions) -> Self {
+        DiscreteGradient {
+            newton,
+            iterations: 0,
+        }
+    }
+}
+
+impl<const D: usize, H: Hamiltonian<D>> OneStepMethod<D, H> for DiscreteGradient {
+    const NAME: &'static str = "discrete_gradient";
+    const ORDER: u32 = 2;
+
+    fn step(&mut self, h: &H, z0: &SVector<f64, D>, dt: f64) -> Result<SVector<f64, D>, Error> {
+        let predictor = z0 + j_times(&h.gradient(z0)) * dt;
+        let (z1, iterations) = newton::solve(
+            <Self as OneStepMethod<D, H>>::NAME,
+            &self.newton,
+            predictor,
+            z0.amax(),
+            |z1| {
+                let residual = z1 - z0 - j_times(&h.discrete_gradient(z0, z1)) * dt;
+                let delta = linear::solve(
+                    newton_matrix(0.5 * dt, &h.hessian(&((z0 + z1) * 0.5))),
+                    residual,
+                );
+                Evaluation { residual, delta }
+            },
+        )?;
+        self.iterations += iterations;
+        Ok(z1)
+    }
+
+    fn newton_iterations(&self) -> usize {
+        self.iterations
+    }
+}

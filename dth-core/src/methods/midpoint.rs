@@ -1,0 +1,66 @@
+//! The implicit midpoint rule, one of the thesis's comparisons.
+
+use nalgebra::SVector;
+
+use super::newton::{self, Evaluation, NewtonOptions};
+use super::{newton_matrix, OneStepMethod};
+use crate::linalg as linear;
+use crate::{j_times, Error, Hamiltonian};
+
+/// The implicit midpoint rule `z1 = z0 + dt J grad H((z0 + z1)/2)`.
+///
+/// Second order, symmetric and symplectic; conserves every quadratic invariant exactly (the
+/// angular momentum of a central force to roundoff), not the energy. Solved by Newton with the
+/// matrix `I - (dt/2) J Hess H((z0 + z1)/2)` from an explicit Euler predictor.
+///
+/// # References
+/// Thesis Section 3.5 (eq. 2.3.6 with `lambda_k = 1` is the midpoint rule) and Table 4.1;
+/// Hairer, Lubich, Wanner, *Geometric Numerical Integration*, Sections VI.3 and IV.2.1.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ImplicitMidpoint {
+    /// Newton settings.
+    pub newton: NewtonOptions,
+    iterations: usize,
+}
+
+impl ImplicitMidpoint {
+    /// With default Newton settings.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// With the given Newton settings.
+    pub fn with_newton(newton: NewtonOptions) -> Self {
+        ImplicitMidpoint {
+            newton,
+            iterations: 0,
+        }
+    }
+}
+
+impl<const D: usize, H: Hamiltonian<D>> OneStepMethod<D, H> for ImplicitMidpoint {
+    const NAME: &'static str = "midpoint";
+    const ORDER: u32 = 2;
+
+    fn step(&mut self, h: &H, z0: &SVector<f64, D>, dt: f64) -> Result<SVector<f64, D>, Error> {
+        let predictor = z0 + j_times(&h.gradient(z0)) * dt;
+        let (z1, iterations) = newton::solve(
+            <Self as OneStepMethod<D, H>>::NAME,
+            &self.newton,
+            predictor,
+            z0.amax(),
+            |z1| {
+                let zbar = (z0 + z1) * 0.5;
+                let residual = z1 - z0 - j_times(&h.gradient(&zbar)) * dt;
+                let delta = linear::solve(newton_matrix(0.5 * dt, &h.hessian(&zbar)), residual);
+                Evaluation { residual, delta }
+            },
+        )?;
+        self.iterations += iterations;
+        Ok(z1)
+    }
+
+    fn newton_iterations(&self) -> usize {
+        self.iterations
+    }
+}

@@ -1,0 +1,66 @@
+//! The trapezoidal rule, one of the thesis's comparisons.
+
+use nalgebra::SVector;
+
+use super::newton::{self, Evaluation, NewtonOptions};
+use super::{newton_matrix, OneStepMethod};
+use crate::linalg as linear;
+use crate::{j_times, Error, Hamiltonian};
+
+/// The trapezoidal rule `z1 = z0 + (dt/2) J (grad H(z0) + grad H(z1))`.
+///
+/// Second order, symmetric, not symplectic; conserves neither energy nor angular momentum in
+/// general. For `H = z^T A z / 2` with `A` positive definite it coincides with DTH at
+/// `lambda = 1`. Solved by Newton with the matrix `I - (dt/2) J Hess H(z1)` from an explicit
+/// Euler predictor.
+///
+/// # References
+/// Thesis Section 3.5 (eq. 2.3.5 with `lambda_k = 1` is the trapezoidal rule) and Table 4.1.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Trapezoidal {
+    /// Newton settings.
+    pub newton: NewtonOptions,
+    iterations: usize,
+}
+
+impl Trapezoidal {
+    /// With default Newton settings.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// With the given Newton settings.
+    pub fn with_newton(newton: NewtonOptions) -> Self {
+        Trapezoidal {
+            newton,
+            iterations: 0,
+        }
+    }
+}
+
+impl<const D: usize, H: Hamiltonian<D>> OneStepMethod<D, H> for Trapezoidal {
+    const NAME: &'static str = "trapezoidal";
+    const ORDER: u32 = 2;
+
+    fn step(&mut self, h: &H, z0: &SVector<f64, D>, dt: f64) -> Result<SVector<f64, D>, Error> {
+        let g0 = h.gradient(z0);
+        let predictor = z0 + j_times(&g0) * dt;
+        let (z1, iterations) = newton::solve(
+            <Self as OneStepMethod<D, H>>::NAME,
+            &self.newton,
+            predictor,
+            z0.amax(),
+            |z1| {
+                let residual = z1 - z0 - j_times(&(g0 + h.gradient(z1))) * (0.5 * dt);
+                let delta = linear::solve(newton_matrix(0.5 * dt, &h.hessian(z1)), residual);
+                Evaluation { residual, delta }
+            },
+        )?;
+        self.iterations += iterations;
+        Ok(z1)
+    }
+
+    fn newton_iterations(&self) -> usize {
+        self.iterations
+    }
+}
