@@ -115,6 +115,25 @@ impl Hamiltonian<4> for Kepler {
     }
 }
 
+impl crate::systems::CentralForce<4> for Kepler {
+    fn mass(&self) -> f64 {
+        self.mass
+    }
+
+    fn phi(&self, r: f64) -> f64 {
+        -self.k / r
+    }
+
+    fn dphi(&self, r: f64) -> f64 {
+        self.k / (r * r)
+    }
+
+    /// `(-k/r1 + k/r0) / (r1 - r0) = k / (r0 r1)` exactly: no cancellation, no guard needed.
+    fn phi_divided_difference(&self, r0: f64, r1: f64) -> f64 {
+        self.k / (r0 * r1)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -158,24 +177,5 @@ mod tests {
         // The rounding of z1 = z0 + dir s is part of the exact input, so use a loose but
         // roundoff-free bound: O(s) = 1e-6 relative difference.
         assert!((a - b).amax() <= 1e-5 * a.amax(), "{a:?} vs {b:?}");
-    }
-}
-
-impl crate::systems::CentralForce<4> for Kepler {
-    fn mass(&self) -> f64 {
-        self.mass
-    }
-
-    fn phi(&self, r: f64) -> f64 {
-        -self.k / r
-    }
-
-    fn dphi(&self, r: f64) -> f64 {
-        self.k / (r * r)
-    }
-
-    /// `(-k/r1 + k/r0) / (r1 - r0) = k / (r0 r1)` exactly: no cancellation, no guard needed.
-    fn phi_divided_difference(&self, r0: f64, r1: f64) -> f64 {
-        self.k / (r0 * r1)
     }
 }
