@@ -102,6 +102,13 @@ pub struct Dth<H, const D: usize> {
     law: f64,
 }
 
+/// Largest relative energy error of a predicted midpoint whose `Psi` is trusted for breakdown
+/// detection (the predictor's error is `O(h^3)`: about 1e-4 at the thesis's step).
+const PREDICTOR_TRUST: f64 = 1e-2;
+
+/// How many orbit steps [`Dth::diagnose`] looks ahead for a sign change of `Psi`.
+const DIAGNOSE_STEPS: usize = 3;
+
 /// Largest number of times a robust-mode fallback step halves its `dt` before giving up.
 const MAX_FALLBACK_HALVINGS: u32 = 20;
 
@@ -357,8 +364,9 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
             ) {
                 Ok(s) => break s,
                 Err(
-                    Error::NewtonDiverged { .. }
-                    | Error::SingularMatrix { .. }
+                    Error::MethodNotConverged { .. }
+                    | Error::MethodSingularMatrix { .. }
+                    | Error::MethodNonFinite { .. }
                     | Error::NonFinite { .. },
                 ) if halvings < MAX_FALLBACK_HALVINGS => {
                     fb.dt *= 0.5;
@@ -400,6 +408,59 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
         Ok(record)
     }
 
+    /// A Newton failure (or a root with `lambda <= 0`) where `Psi` changes sign just ahead on
+    /// the orbit is the method's breakdown, not the solver's: walk up to
+    /// [`DIAGNOSE_STEPS`] energy-conserving discrete-gradient steps of the current physical
+    /// size `lambda_k dtau` from `zbar_k` (points on the orbit, unlike an explicit predictor
+    /// with a large step) and report [`Error::Breakdown`] at the first sign change of `Psi`;
+    /// otherwise keep the solver's error. Runs only after a failure.
+    fn diagnose(&self, error: Error, time: f64) -> Error {
+        let step = match error {
+            Error::NewtonDiverged { step, .. }
+            | Error::SingularMatrix { step }
+            | Error::SpuriousRoot { step, .. } => step,
+            _ => return error,
+        };
+        let dt = self.lambda * self.options.dtau();
+        let mut z = self.zbar;
+        for _ in 0..DIAGNOSE_STEPS {
+            let Ok(s) = fallback_step(&self.hamiltonian, &z, dt, self.energy, &self.options, step)
+            else {
+                break;
+            };
+            let psi = s.derivatives.psi;
+            if self.psi * psi < 0.0 {
+                return Error::Breakdown {
+                    step,
+                    time,
+                    psi,
+                    psi_previous: self.psi,
+                    lambda: self.lambda,
+                    lambda_predicted: self.lambda * (self.psi / psi).cbrt(),
+                };
+            }
+            z = s.z;
+        }
+        error
+    }
+
+    /// `Psi` at a predicted midpoint, if finite and if the prediction lies on the energy
+    /// surface to within [`PREDICTOR_TRUST`] of the size of the terms of `H` (a predictor for a
+    /// step far too large for the orbit lands elsewhere in phase space, where `Psi` says
+    /// nothing about this orbit).
+    fn trusted_psi(&self, z: &SVector<f64, D>) -> Option<f64> {
+        if !all_finite(z) {
+            return None;
+        }
+        let d = self.hamiltonian.derivatives(z);
+        let scale = self
+            .energy
+            .abs()
+            .max(z.component_mul(&d.gradient).abs().sum());
+        ((d.value - self.energy).abs() <= PREDICTOR_TRUST * scale && d.psi.is_finite())
+            .then_some(d.psi)
+    }
+
     /// One DTH step with breakdown detection.
     fn dth_step(&mut self) -> Result<StepRecord<D>, Error> {
         let h = self.options.dtau();
@@ -410,37 +471,34 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
         // to lambda_k where psi vanishes. A sign change of psi, or a predicted lambda that blows
         // up, means the step has no positive root near lambda_k: stop before Newton wanders.
         let z1 = predict(&self.hamiltonian, &v, self.lambda, h);
-        let psi1 = self.hamiltonian.psi(&z1);
-        if !psi1.is_finite() || !all_finite(&z1) {
-            return Err(Error::NonFinite {
-                step,
-                what: "Psi at the predicted midpoint",
-            });
-        }
-        let ratio = self.psi / psi1;
-        let predicted = self.lambda * ratio.cbrt();
         let (time, psi_previous, lambda) = (self.tbar, self.psi, self.lambda);
-        let breakdown = |lambda_predicted| Error::Breakdown {
-            step,
-            time,
-            psi: psi1,
-            psi_previous,
-            lambda,
-            lambda_predicted,
+        let max_ratio = self.options.max_lambda_ratio();
+        // Psi exactly zero at either point (ratio 0, infinite or NaN), or a predictor too far
+        // off the energy surface to say where the orbit goes, is no verdict: Newton decides
+        // (and a failure is diagnosed along the orbit).
+        let verdict = |psi: Option<f64>| -> Result<Option<f64>, Error> {
+            let Some(psi) = psi else { return Ok(None) };
+            let ratio = psi_previous / psi;
+            let predicted = lambda * ratio.cbrt();
+            if ratio < 0.0 || (ratio.is_finite() && predicted > max_ratio * lambda) {
+                return Err(Error::Breakdown {
+                    step,
+                    time,
+                    psi,
+                    psi_previous,
+                    lambda,
+                    lambda_predicted: predicted,
+                });
+            }
+            Ok((predicted.is_finite() && predicted > 0.0).then_some(predicted))
         };
-        // Psi exactly zero at either point (ratio 0, infinite or NaN) is no verdict: Newton
-        // decides from lambda_k.
-        if ratio < 0.0
-            || (ratio.is_finite() && predicted > self.options.max_lambda_ratio() * self.lambda)
-        {
-            return Err(breakdown(predicted));
-        }
-        let lambda_guess = if predicted.is_finite() && predicted > 0.0 {
-            predicted
-        } else {
-            self.lambda
-        };
+        let lambda_guess = verdict(self.trusted_psi(&z1))?.unwrap_or(self.lambda);
         let z0 = predict(&self.hamiltonian, &v, lambda_guess, h);
+        if lambda_guess != self.lambda {
+            // Look again where the law of time says the midpoint will be (further out when
+            // lambda grows, as it does towards Psi = 0).
+            verdict(self.trusted_psi(&z0))?;
+        }
         let previous = self.cancellation_free().then_some(Previous {
             zbar: self.zbar,
             gradient: self.gradient,
@@ -458,15 +516,26 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
             lambda_guess,
             &self.options,
             step,
-        )?;
+        )
+        .map_err(|e| self.diagnose(e, time))?;
         if s.lambda <= 0.0 {
-            return Err(Error::SpuriousRoot {
-                step,
-                lambda: s.lambda,
-            });
+            return Err(self.diagnose(
+                Error::SpuriousRoot {
+                    step,
+                    lambda: s.lambda,
+                },
+                time,
+            ));
         }
         if s.lambda > self.options.max_lambda_ratio() * self.lambda {
-            return Err(breakdown(s.lambda));
+            return Err(Error::Breakdown {
+                step,
+                time,
+                psi: s.derivatives.psi,
+                psi_previous,
+                lambda,
+                lambda_predicted: s.lambda,
+            });
         }
         self.tbar += 0.5 * h * (self.lambda + s.lambda);
         self.lambda = s.lambda;
