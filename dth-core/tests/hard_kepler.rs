@@ -263,3 +263,20 @@ fn kepler_e09_e099_e0999_break_down_then_run_through_in_robust_mode() {
     robust_run(0.99, dtau, 20_000);
     robust_run(0.999, dtau, 20_000);
 }
+
+#[test]
+fn robust_mode_changes_nothing_where_dth_works() {
+    // Zero cost where no step breaks down: the same steps, bit for bit, all marked DTH.
+    let options = DthOptions::default();
+    let plain = integrate(Kepler::thesis(), start(0.44), options, 2_000).expect("thesis orbit");
+    let robust = integrate(
+        Kepler::thesis(),
+        start(0.44),
+        options.with_robust(true),
+        2_000,
+    )
+    .expect("thesis orbit");
+    assert_eq!(plain, robust);
+    assert_eq!(robust.fallback_steps(), 0);
+    assert!(robust.kinds().iter().all(|k| *k == StepKind::Dth));
+}
