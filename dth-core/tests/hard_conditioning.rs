@@ -99,3 +99,36 @@ fn lambda_is_machine_precision_from_thesis_dtau_down_to_1e_minus_6() {
     let plain_1e4 = errors[3].2;
     assert!(plain_1e4 > 1e-10, "plain residual at 1e-4: {plain_1e4:e}");
 }
+
+/// Max over k of |lambda_{k+1} - 2 lambda_k + lambda_{k-1}| / lambda_k.
+fn lambda_roughness<H: dth_core::Hamiltonian<D> + Copy, const D: usize>(
+    h: H,
+    z0: dth_core::nalgebra::SVector<f64, D>,
+    dtau: f64,
+    residual: EnergyResidual,
+) -> f64 {
+    let options = DthOptions::default()
+        .with_dtau(dtau)
+        .expect("valid")
+        .with_energy_residual(residual);
+    let t = integrate(h, z0, options, 300).unwrap_or_else(|e| panic!("{}", e.error));
+    t.lambdas()
+        .windows(3)
+        .map(|w| (w[2] - 2.0 * w[1] + w[0]).abs() / w[1])
+        .fold(0.0, f64::max)
+}
+
+#[test]
+fn pendulum_lambda_is_smooth_with_exact_divided_differences() {
+    // No double-double pendulum here: lambda(tau) is smooth, so its second differences at
+    // dtau = 1e-6 are h^2 lambda'' ~ 1e-12 (lambda ~ 1 varying on the orbit's time scale ~ 1)
+    // plus the roundoff of each lambda. With the pendulum's exact divided differences
+    // (sinc forms) that roundoff is ~eps; the plain residual's is ~eps / h^2 ~ 1e-4.
+    let pendulum = dth_core::systems::Pendulum::normalized();
+    let z0 = dth_core::nalgebra::Vector2::new(0.3, 1.0);
+    let cf = lambda_roughness(pendulum, z0, 1e-6, EnergyResidual::Auto);
+    let plain = lambda_roughness(pendulum, z0, 1e-6, EnergyResidual::Plain);
+    println!("pendulum, dtau 1e-6: max |second difference of lambda| / lambda: exact divided differences {cf:.2e}, plain {plain:.2e}");
+    assert!(cf <= 1e-11, "{cf:e}");
+    assert!(plain >= 1e-7, "{plain:e}");
+}

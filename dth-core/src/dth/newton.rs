@@ -318,8 +318,8 @@ pub(crate) fn relative_update<const D: usize>(
 
 /// Solve one segment from `anchor` (left vertex, energy, previous midpoint for the
 /// cancellation-free form), starting Newton from the predictor `(z0, lambda0)`. `step` labels
-/// errors. The cancellation-free form ends with the check and projection against the energy
-/// level described in [`EnergyResidual`](super::EnergyResidual).
+/// errors. For the cancellation-free form the caller finishes with [`project`] (after
+/// rejecting roots with the wrong `lambda`, whose energy check would misreport them).
 pub(crate) fn solve_segment<H: Hamiltonian<D>, const D: usize>(
     ham: &H,
     anchor: &Anchor<D>,
@@ -328,18 +328,15 @@ pub(crate) fn solve_segment<H: Hamiltonian<D>, const D: usize>(
     options: &DthOptions,
     step: usize,
 ) -> Result<Segment<D>, Error> {
-    let s = match options.solver() {
+    match options.solver() {
         Solver::Joint => joint(ham, anchor, z0, lambda0, options, step),
         Solver::Nested => nested(ham, anchor, z0, lambda0, options, step),
-    }?;
-    match anchor.previous {
-        None => Ok(s),
-        Some(_) => project(ham, anchor.energy, s, options, step),
     }
 }
 
-/// Check a cancellation-free solution against the energy level `E`.
-fn project<H: Hamiltonian<D>, const D: usize>(
+/// Check a cancellation-free solution against the energy level `E` and project it onto it
+/// (see [`EnergyResidual`](super::EnergyResidual)).
+pub(crate) fn project<H: Hamiltonian<D>, const D: usize>(
     ham: &H,
     energy: f64,
     mut s: Segment<D>,

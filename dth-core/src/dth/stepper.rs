@@ -2,7 +2,7 @@
 
 use nalgebra::SVector;
 
-use super::newton::{predict, solve_segment, Anchor, Previous};
+use super::newton::{predict, project, solve_segment, Anchor, Previous};
 use super::observer::{NoObserver, Observer, StepKind, StepRecord};
 use super::options::DthOptions;
 use super::options::EnergyResidual;
@@ -537,6 +537,11 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
                 lambda_predicted: s.lambda,
             });
         }
+        let s = if anchor.previous.is_some() {
+            project(&self.hamiltonian, self.energy, s, &self.options, step)?
+        } else {
+            s
+        };
         self.tbar += 0.5 * h * (self.lambda + s.lambda);
         self.lambda = s.lambda;
         self.zbar = s.zbar;
