@@ -57,7 +57,23 @@ pub(crate) fn fallback_step<H: Hamiltonian<D>, const D: usize>(
     // H(z) - H(z0) = gbar . (z - z0) = gbar . f exactly: the energy error the solve's own
     // residual explains, allowed in the check before projecting.
     let gbar = ham.discrete_gradient(z0, &z);
-    let f = (z - z0) - j_times(&gbar) * dt;
+    let move_ = j_times(&gbar) * dt;
+    let f = (z - z0) - move_;
+    // The peer's Newton accepts on its update size; insist on the residual too, relative to the
+    // terms it is a difference of (a near-collision step can stall far from the solution).
+    let scale = z
+        .amax()
+        .max(z0.amax())
+        .max(move_.amax())
+        .max(f64::MIN_POSITIVE);
+    if !(f.amax() <= options.residual_tolerance() * scale) {
+        return Err(Error::MethodNotConverged {
+            method: "discrete_gradient",
+            step,
+            iterations,
+            residual: f.amax(),
+        });
+    }
     let (z, derivatives) = project_onto_energy(ham, energy, z, d, gbar.dot(&f), options, step)?;
     Ok(FallbackStep {
         z,

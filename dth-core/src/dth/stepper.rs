@@ -109,15 +109,24 @@ const PREDICTOR_TRUST: f64 = 1e-2;
 /// How many orbit steps [`Dth::diagnose`] looks ahead for a sign change of `Psi`.
 const DIAGNOSE_STEPS: usize = 3;
 
+/// Consecutive successful fallback steps after which a halved fallback `dt` is doubled back
+/// (towards the last DTH step's size).
+const FALLBACK_REGROW: u32 = 4;
+
 /// Largest number of times a robust-mode fallback step halves its `dt` before giving up.
 const MAX_FALLBACK_HALVINGS: u32 = 20;
 
 /// State of a robust-mode excursion.
 #[derive(Clone, Copy, Debug)]
 struct Fallback {
-    /// Physical step `dt = lambda_k dtau` of the last DTH segment (halved where the fallback
-    /// Newton fails).
+    /// Physical step of the next fallback step: `dt = lambda_k dtau` of the last DTH segment,
+    /// halved where the fallback Newton fails, doubled back towards it after
+    /// [`FALLBACK_REGROW`] successes in a row.
     dt: f64,
+    /// `lambda_k dtau` of the last DTH segment: the size fallback steps aim for.
+    dt_entry: f64,
+    /// Successful fallback steps since `dt` last changed.
+    successes: u32,
     /// `Psi` at the previous fallback node, to see it move away from zero.
     psi_last: f64,
 }
@@ -335,8 +344,11 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
                 | Error::SingularMatrix { .. }
                 | Error::NonFinite { .. },
             ) if self.options.robust() => {
+                let dt = self.lambda * self.options.dtau();
                 let fb = Fallback {
-                    dt: self.lambda * self.options.dtau(),
+                    dt,
+                    dt_entry: dt,
+                    successes: 0,
                     psi_last: self.psi,
                 };
                 self.fallback_step(fb)
@@ -370,6 +382,7 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
                     | Error::NonFinite { .. },
                 ) if halvings < MAX_FALLBACK_HALVINGS => {
                     fb.dt *= 0.5;
+                    fb.successes = 0;
                     halvings += 1;
                 }
                 Err(e) => return Err(e),
@@ -400,10 +413,16 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
             self.lambda = lambda;
             self.kind = StepKind::Dth;
         } else {
-            self.fallback = Some(Fallback {
+            let mut next = Fallback {
                 psi_last: psi,
+                successes: fb.successes + 1,
                 ..fb
-            });
+            };
+            if next.successes >= FALLBACK_REGROW && next.dt < next.dt_entry {
+                next.dt = (2.0 * next.dt).min(next.dt_entry);
+                next.successes = 0;
+            }
+            self.fallback = Some(next);
         }
         Ok(record)
     }
