@@ -66,12 +66,13 @@ pub(crate) fn fallback_step<H: Hamiltonian<D>, const D: usize>(
         .max(z0.amax())
         .max(move_.amax())
         .max(f64::MIN_POSITIVE);
-    if !(f.amax() <= options.residual_tolerance() * scale) {
+    let residual = f.amax();
+    if residual.is_nan() || residual > options.residual_tolerance() * scale {
         return Err(Error::MethodNotConverged {
             method: "discrete_gradient",
             step,
             iterations,
-            residual: f.amax(),
+            residual,
         });
     }
     let (z, derivatives) = project_onto_energy(ham, energy, z, d, gbar.dot(&f), options, step)?;
