@@ -289,3 +289,49 @@ fn start_where_psi_is_exactly_zero_then_changes_sign() {
     }
     assert_eq!(t.kinds()[0], StepKind::Dth);
 }
+
+/// The harmonic oscillator `H = (q^2 + p^2) / 2`, undefined (NaN) for `q > 1`.
+struct Walled;
+
+impl Hamiltonian<2> for Walled {
+    fn value(&self, z: &Vector2<f64>) -> f64 {
+        if z[0] > 1.0 {
+            f64::NAN
+        } else {
+            0.5 * (z[0] * z[0] + z[1] * z[1])
+        }
+    }
+    fn gradient(&self, z: &Vector2<f64>) -> Vector2<f64> {
+        if z[0] > 1.0 {
+            Vector2::repeat(f64::NAN)
+        } else {
+            Vector2::new(z[0], z[1])
+        }
+    }
+    fn hessian(&self, _z: &Vector2<f64>) -> Matrix2<f64> {
+        Matrix2::identity()
+    }
+}
+
+#[test]
+fn robust_mode_stops_with_the_fallback_error_where_the_orbit_cannot_be_followed() {
+    // The orbit of amplitude 1.2 runs into q > 1 where H is NaN. The robust mode turns the DTH
+    // failure into fallback steps, halves them towards the wall down to 2^-20 of their size,
+    // then stops with the fallback's typed error; everything before is kept and marked.
+    let options = DthOptions::default()
+        .with_dtau(0.1)
+        .expect("valid")
+        .with_robust(true);
+    let e = integrate(Walled, Vector2::new(0.0, 1.2), options, 1_000).expect_err("wall");
+    assert!(
+        matches!(e.error, Error::MethodNonFinite { method: "discrete_gradient", step, .. } if step == e.partial.len()),
+        "{}",
+        e.error
+    );
+    let t = &e.partial;
+    assert!(t.fallback_steps() > 0);
+    assert!(t
+        .midpoints()
+        .iter()
+        .all(|z| z[0] <= 1.0 && (Walled.value(z) - 0.72).abs() <= 8.0 * f64::EPSILON));
+}

@@ -217,14 +217,21 @@ impl DthOptions {
 
     /// Robust mode (opt-in, default off). Where a DTH step breaks down ([`Error::Breakdown`],
     /// or Newton fails: [`Error::NewtonDiverged`], [`Error::SpuriousRoot`],
-    /// [`Error::SingularMatrix`], [`Error::NonFinite`] at a Newton iterate), take instead an energy-conserving discrete-gradient step in
-    /// `(q, p)` from the current midpoint, of the physical size `dt = lambda_k dtau` of the
-    /// last DTH step, with energy checked and projected against `H(zbar_0)`; keep doing so
-    /// until `Psi` has the sign it had under DTH again, moves away from zero, and the law of
-    /// time gives `lambda = lambda_k (Psi_k / Psi)^(1/3)` within the ratio above; then resume
-    /// DTH with that midpoint and `lambda`. Fallback steps are marked
-    /// [`StepKind::Fallback`](super::StepKind::Fallback). A fallback step that fails (its
-    /// Newton, a non-finite `H`, its energy check) stops the run with that error.
+    /// [`Error::SingularMatrix`], [`Error::NonFinite`] at a Newton iterate), take instead an
+    /// energy-conserving discrete-gradient step in `(q, p)` from the current midpoint
+    /// ([`methods::DiscreteGradient`](crate::methods::DiscreteGradient), with the
+    /// Hamiltonian's exact divided differences where it has them), with energy checked and
+    /// projected against `H(zbar_0)`. Its physical size: the first one `dt = lambda_k dtau` of
+    /// the last DTH step; then what DTH's law of time gives at the node,
+    /// `dtau (lambda_0^3 Psi_0 / |Psi|)^(1/3)`, capped by the largest DTH step of the run (the
+    /// law blows up as `Psi -> 0`) and growing at most 2x per step; halved where its Newton
+    /// fails, down to `2^-20` of that size. DTH resumes at a node where `Psi` has its initial
+    /// sign again, moves away from zero, and the law of time gives `lambda` within the
+    /// breakdown ratio of the fallback's; it resumes with that `lambda`. Fallback steps are
+    /// marked [`StepKind::Fallback`](super::StepKind::Fallback). A fallback step that fails
+    /// (its Newton at the smallest size, a non-finite `H`, its energy check) stops the run
+    /// with that error. Where no step breaks down the run is bit-identical to one without
+    /// robust mode.
     pub fn with_robust(mut self, robust: bool) -> Self {
         self.robust = robust;
         self

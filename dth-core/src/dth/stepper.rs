@@ -100,6 +100,9 @@ pub struct Dth<H, const D: usize> {
     /// midpoint with `Psi != 0`; the robust mode resumes DTH with `lambda = (law / Psi)^(1/3)`
     /// so that the resolution the user chose with `lambda_0` is kept across excursions.
     law: f64,
+    /// Largest `lambda` of an accepted DTH step (at least `lambda_0`): caps the size of
+    /// robust-mode fallback steps where the law of time would let them blow up (`Psi -> 0`).
+    lambda_max: f64,
 }
 
 /// Largest relative energy error of a predicted midpoint whose `Psi` is trusted for breakdown
@@ -109,24 +112,16 @@ const PREDICTOR_TRUST: f64 = 1e-2;
 /// How many orbit steps [`Dth::diagnose`] looks ahead for a sign change of `Psi`.
 const DIAGNOSE_STEPS: usize = 3;
 
-/// Consecutive successful fallback steps after which a halved fallback `dt` is doubled back
-/// (towards the last DTH step's size).
-const FALLBACK_REGROW: u32 = 4;
-
-/// Largest number of times a robust-mode fallback step halves its `dt` before giving up.
+/// A robust-mode fallback step halves its `dt` down to `2^-MAX_FALLBACK_HALVINGS` of the last
+/// DTH step's before giving up.
 const MAX_FALLBACK_HALVINGS: u32 = 20;
 
 /// State of a robust-mode excursion.
 #[derive(Clone, Copy, Debug)]
 struct Fallback {
-    /// Physical step of the next fallback step: `dt = lambda_k dtau` of the last DTH segment,
-    /// halved where the fallback Newton fails, doubled back towards it after
-    /// [`FALLBACK_REGROW`] successes in a row.
+    /// Physical step of the last fallback step (at entry: `lambda_k dtau` of the last DTH
+    /// segment).
     dt: f64,
-    /// `lambda_k dtau` of the last DTH segment: the size fallback steps aim for.
-    dt_entry: f64,
-    /// Successful fallback steps since `dt` last changed.
-    successes: u32,
     /// `Psi` at the previous fallback node, to see it move away from zero.
     psi_last: f64,
 }
@@ -206,6 +201,7 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
             fallback: None,
             kind: StepKind::Dth,
             law: options.lambda0().powi(3) * d.psi,
+            lambda_max: options.lambda0(),
         })
     }
 
@@ -344,11 +340,8 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
                 | Error::SingularMatrix { .. }
                 | Error::NonFinite { .. },
             ) if self.options.robust() => {
-                let dt = self.lambda * self.options.dtau();
                 let fb = Fallback {
-                    dt,
-                    dt_entry: dt,
-                    successes: 0,
+                    dt: self.lambda * self.options.dtau(),
                     psi_last: self.psi,
                 };
                 self.fallback_step(fb)
@@ -361,10 +354,24 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
     /// reached when `Psi` allows.
     fn fallback_step(&mut self, mut fb: Fallback) -> Result<StepRecord<D>, Error> {
         let step = self.k + 1;
-        // The fallback step is not bound to a tau grid: where its Newton fails (a step too
-        // large near a close approach), halve dt, up to 2^-20 of the DTH step, and keep the
-        // smaller step for the rest of the excursion.
-        let mut halvings = 0;
+        // Size: what DTH's law of time would give here, lambda = (law / |Psi|)^(1/3), capped
+        // by the largest DTH lambda of the run (the law blows up as Psi -> 0) and growing at
+        // most 2x per step; the first fallback step has the last DTH step's size. The fallback
+        // is not bound to a tau grid: where its Newton fails (a step too large near a close
+        // approach), halve dt, down to 2^-20 of that size; below that the run stops with the
+        // fallback's error (the orbit cannot be followed, e.g. into a region where H is not
+        // finite).
+        let h = self.options.dtau();
+        let law = (self.law / self.psi).abs().cbrt();
+        let target = h * if law.is_finite() && law > 0.0 {
+            law.min(self.lambda_max)
+        } else {
+            self.lambda_max
+        };
+        if self.kind == StepKind::Fallback {
+            fb.dt = target.min(2.0 * fb.dt);
+        }
+        let dt_min = target * 0.5f64.powi(MAX_FALLBACK_HALVINGS as i32);
         let s = loop {
             match fallback_step(
                 &self.hamiltonian,
@@ -380,10 +387,8 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
                     | Error::MethodSingularMatrix { .. }
                     | Error::MethodNonFinite { .. }
                     | Error::NonFinite { .. },
-                ) if halvings < MAX_FALLBACK_HALVINGS => {
+                ) if 0.5 * fb.dt >= dt_min => {
                     fb.dt *= 0.5;
-                    fb.successes = 0;
-                    halvings += 1;
                 }
                 Err(e) => return Err(e),
             }
@@ -413,16 +418,10 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
             self.lambda = lambda;
             self.kind = StepKind::Dth;
         } else {
-            let mut next = Fallback {
+            self.fallback = Some(Fallback {
                 psi_last: psi,
-                successes: fb.successes + 1,
                 ..fb
-            };
-            if next.successes >= FALLBACK_REGROW && next.dt < next.dt_entry {
-                next.dt = (2.0 * next.dt).min(next.dt_entry);
-                next.successes = 0;
-            }
-            self.fallback = Some(next);
+            });
         }
         Ok(record)
     }
@@ -571,6 +570,7 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
         self.k = step;
         self.kind = StepKind::Dth;
         self.reported = false;
+        self.lambda_max = self.lambda_max.max(self.lambda);
         if self.law == 0.0 {
             self.law = self.lambda.powi(3) * self.psi;
         }
