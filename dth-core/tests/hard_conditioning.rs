@@ -16,6 +16,18 @@ const EPS: f64 = f64::EPSILON;
 /// around the thesis orbit, against the double-double solve of the same step (same f64 inputs
 /// zbar_k, lambda_k).
 fn worst_lambda_error(dtau: f64, residual: EnergyResidual, solver: Solver, steps: usize) -> f64 {
+    worst_lambda_error_of(Kepler::thesis(), dtau, residual, solver, steps)
+}
+
+/// As [`worst_lambda_error`] for any implementation of the thesis's Kepler `H` (the reference
+/// solve is Kepler's in double-double).
+fn worst_lambda_error_of<H: dth_core::Hamiltonian<4> + Copy>(
+    system: H,
+    dtau: f64,
+    residual: EnergyResidual,
+    solver: Solver,
+    steps: usize,
+) -> f64 {
     let kepler = Kepler::thesis();
     let orbit = integrate(
         kepler,
@@ -34,7 +46,7 @@ fn worst_lambda_error(dtau: f64, residual: EnergyResidual, solver: Solver, steps
     // in between.
     for start in orbit.iter().step_by(4) {
         let mut dth = Dth::new(
-            kepler,
+            system,
             start.zbar,
             options.with_lambda0(start.lambda).expect("lambda > 0"),
         )
@@ -131,4 +143,50 @@ fn pendulum_lambda_is_smooth_with_exact_divided_differences() {
     println!("pendulum, dtau 1e-6: max |second difference of lambda| / lambda: exact divided differences {cf:.2e}, plain {plain:.2e}");
     assert!(cf <= 1e-11, "{cf:e}");
     assert!(plain >= 1e-7, "{plain:e}");
+}
+
+/// Kepler with its exact discrete gradient but the trait's default (plain) defect
+/// `t = g0 + g1 - 2 gbar`: what a Hamiltonian generated with exact `discrete_gradient` alone
+/// gives the cancellation-free residual (forced with `EnergyResidual::CancellationFree`: it does
+/// not declare `EXACT_DIVIDED_DIFFERENCES`, which promises both).
+#[derive(Clone, Copy)]
+struct GbarOnly(Kepler);
+
+impl dth_core::Hamiltonian<4> for GbarOnly {
+    fn value(&self, z: &Vector4<f64>) -> f64 {
+        self.0.value(z)
+    }
+    fn gradient(&self, z: &Vector4<f64>) -> Vector4<f64> {
+        self.0.gradient(z)
+    }
+    fn hessian(&self, z: &Vector4<f64>) -> dth_core::nalgebra::Matrix4<f64> {
+        self.0.hessian(z)
+    }
+    fn discrete_gradient(&self, z0: &Vector4<f64>, z1: &Vector4<f64>) -> Vector4<f64> {
+        self.0.discrete_gradient(z0, z1)
+    }
+}
+
+#[test]
+fn exact_discrete_gradient_without_exact_defect_leaves_lambda_error_like_eps_over_dtau() {
+    // Why the defect needs its own cancellation-free form: with it plain, its absolute error
+    // eps |grad H| enters lambda as ~eps / dtau (still far better than the plain residual's
+    // eps / dtau^2).
+    let mut errors = Vec::new();
+    for dtau in [1e-2, 1e-4, 1e-6] {
+        let e = worst_lambda_error_of(
+            GbarOnly(Kepler::thesis()),
+            dtau,
+            EnergyResidual::CancellationFree,
+            Solver::Joint,
+            8,
+        );
+        println!("exact gbar, plain defect: dtau {dtau:.0e}: max relative lambda error {e:.2e}");
+        errors.push(e);
+    }
+    assert!(errors[2] > 1e3 * EPS, "{errors:?}");
+    assert!(
+        errors[2] / errors[1] > 10.0,
+        "grows as dtau shrinks: {errors:?}"
+    );
 }

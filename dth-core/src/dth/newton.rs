@@ -85,6 +85,11 @@ struct CancellationFree<const D: usize> {
     r_cf: f64,
     /// Size of the terms `r_cf` is a sum of: `(h/4)(lambda + lambda_k) sum |gbar_i (g - g_k)_i|`.
     scale: f64,
+    /// Roundoff scale of the energy residual when the Hamiltonian does not declare exact
+    /// divided differences (the cancellation-free form forced on it): the plain residual's
+    /// `|terms of H|`, which bounds the noise of a plain-difference `gbar` or defect. Zero for
+    /// Hamiltonians with `EXACT_DIVIDED_DIFFERENCES`.
+    inexact_scale: f64,
 }
 
 /// Everything the Newton loops need at one iterate.
@@ -119,7 +124,7 @@ impl<const D: usize> Eval<D> {
         let energy = match (&self.cf, last) {
             (Some(c), Some((lu, g_lambda))) => {
                 let u = lu.solve(&(-self.f));
-                let scale = c.scale.max((g_lambda * lambda).abs());
+                let scale = c.scale.max((g_lambda * lambda).abs()).max(c.inexact_scale);
                 (c.r_cf + (c.gbar.dot(&self.f) + self.d.gradient.dot(&u))).abs() / scale
             }
             (Some(_), None) => f64::INFINITY,
@@ -131,11 +136,17 @@ impl<const D: usize> Eval<D> {
     /// The stall tolerance for this iterate: the option, raised for the plain residual to the
     /// relative noise its roundoff puts into `lambda`, `eps |terms of H| / |g_lambda lambda|`
     /// (`~eps / h^2`): below that, updates are noise and can never settle.
+    /// The same holds for the cancellation-free form forced on a Hamiltonian without exact
+    /// divided differences; with them the option stands.
     fn stall(&self, options: &DthOptions, last: Option<&(Lu<D>, f64)>, lambda: f64) -> f64 {
-        match (&self.cf, last) {
-            (None, Some((_, g_lambda))) => options
+        let noise = match &self.cf {
+            None => self.scale_r,
+            Some(c) => c.inexact_scale,
+        };
+        match last {
+            Some((_, g_lambda)) if noise > 0.0 => options
                 .stall_tolerance()
-                .max(8.0 * f64::EPSILON * self.scale_r / (g_lambda * lambda).abs())
+                .max(8.0 * f64::EPSILON * noise / (g_lambda * lambda).abs())
                 .min(0.5),
             _ => options.stall_tolerance(),
         }
@@ -216,7 +227,21 @@ fn evaluate<H: Hamiltonian<D>, const D: usize>(
                 });
             }
             let r = r_cf + gbar.dot(&f);
-            (f, r, Some(CancellationFree { gbar, r_cf, scale }))
+            let inexact_scale = if H::EXACT_DIVIDED_DIFFERENCES {
+                0.0
+            } else {
+                scale_r
+            };
+            (
+                f,
+                r,
+                Some(CancellationFree {
+                    gbar,
+                    r_cf,
+                    scale,
+                    inexact_scale,
+                }),
+            )
         }
     };
     let f_residual = f.amax() / scale_f;
