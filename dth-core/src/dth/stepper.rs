@@ -399,7 +399,13 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
         self.zbar = s.z;
         self.gradient = s.derivatives.gradient;
         self.psi = psi;
-        self.tbar += fb.dt;
+        // Extended phase space: time is the t coordinate (Gonzalez's discrete gradient moves it
+        // by dt (1 + O(dt^2)), not exactly dt).
+        self.tbar = if H::TIME_DEPENDENT {
+            self.zbar[D / 2 - 1]
+        } else {
+            self.tbar + fb.dt
+        };
         self.lambda = fb.dt / self.options.dtau();
         self.iterations = s.iterations;
         self.factorizations = s.iterations;
