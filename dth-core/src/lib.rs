@@ -11,6 +11,7 @@ pub mod dth;
 pub mod error;
 pub mod hamiltonian;
 pub mod kepler;
+mod linalg;
 pub mod methods;
 pub mod systems;
 

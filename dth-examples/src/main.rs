@@ -1,5 +1,234 @@
-//! The `dth` command (placeholder: filled by the scenes issue).
+//! The `dth` command. Thin: parsing arguments and printing; the work is in the library.
 
-fn main() {
-    println!("dth: scenes are not implemented yet");
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+use dth_examples::catalogue::Catalogue;
+use dth_examples::run::RunOptions;
+use dth_examples::scene::{MethodKind, EFFECTS};
+use dth_examples::{Error, DEFAULT_OUT, DEFAULT_SCENE, DEFAULT_SCENE_NAME};
+
+/// Discrete-Time Hamiltonian dynamics: run scenes, check them, reproduce the thesis.
+///
+/// Without a subcommand, runs the embedded default scene (the thesis's Kepler experiment,
+/// scenes/thesis-kepler.toml) into dth-out/thesis-kepler/ (change with --out).
+#[derive(Parser)]
+#[command(name = "dth", version, about, long_about)]
+struct Cli {
+    #[command(subcommand)]
+    command: Option<Command>,
+    /// Output folder for the default run (default: dth-out/thesis-kepler).
+    #[arg(long, global = false)]
+    out: Option<PathBuf>,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Run a scene file and write CSV, JSON summary, figures (PNG, SVG) and index.html.
+    ///
+    /// The output is written to a temporary folder next to the target and moved into place
+    /// only when the run succeeds. An existing target is replaced (after success) only if it
+    /// is empty or is a dth output folder (it holds a .dth-output marker); otherwise the run is
+    /// refused. Exit codes: 0 success, 2 bad input (scene errors, refused output folder),
+    /// 1 run failures (a method failed mid-run: what it computed is still written).
+    Run {
+        /// The scene file (TOML).
+        scene: PathBuf,
+        /// Output folder (default: dth-out/STEM, STEM the scene file name without `.toml`).
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
+    /// Validate a scene file without running it (exit 2 and file:line:column on errors).
+    Check {
+        /// The scene file (TOML).
+        scene: PathBuf,
+    },
+    /// List the systems (with parameters), methods and effects scenes can name.
+    List,
+    /// Print the thesis's Table 4.1 beside ours (markdown); --json also writes it as JSON.
+    Table41 {
+        /// Also write {"rows": [{"method", "energy", "angular_momentum"}, ...]} here.
+        #[arg(long)]
+        json: Option<PathBuf>,
+    },
+    /// Work-precision diagrams for every method (issue 5).
+    Workprecision {
+        /// Output folder (default: dth-out/workprecision).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// A quick smoke-test variant.
+        #[arg(long)]
+        quick: bool,
+    },
+}
+
+fn default_out(scene: &Path) -> PathBuf {
+    let stem = scene
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "scene".into());
+    Path::new(DEFAULT_OUT).join(stem)
+}
+
+fn run(text: &str, file: &str, out: &Path, thesis_table: bool) -> Result<ExitCode, Error> {
+    let report = dth_examples::run_scene(
+        text,
+        file,
+        &Catalogue::builtin(),
+        out,
+        &RunOptions::default(),
+    )?;
+    let deviations = report.deviation_markdown();
+    if !deviations.is_empty() {
+        println!("{deviations}");
+    }
+    if thesis_table {
+        let table = dth_examples::table41::rows_from(&report.methods);
+        if !table.rows.is_empty() {
+            println!("Table 4.1 (average absolute deviation over 10,000 steps):\n");
+            println!("{}", dth_examples::table41::markdown(&table));
+        }
+    }
+    println!(
+        "{}: wrote {} files to {}",
+        report.title,
+        report.files.len(),
+        report.out.display()
+    );
+    println!("open {}", report.out.join("index.html").display());
+    let mut failed = false;
+    for m in report.failures() {
+        failed = true;
+        if let Some(f) = &m.failure {
+            eprintln!(
+                "error: method `{}` failed at step {}: {} (its results up to there are in the output)",
+                m.label, f.step, f.reason
+            );
+        }
+    }
+    Ok(if failed {
+        ExitCode::from(1)
+    } else {
+        ExitCode::SUCCESS
+    })
+}
+
+fn list() {
+    let c = Catalogue::builtin();
+    println!("Systems:");
+    for e in c.entries() {
+        let info = e.info();
+        let params: Vec<String> = info
+            .params
+            .iter()
+            .map(|p| match p.default {
+                Some(d) => format!("{} = {d} ({})", p.name, p.doc),
+                None => format!("{} (required; {})", p.name, p.doc),
+            })
+            .collect();
+        println!(
+            "  {:<20} n = {}{}{}\n  {:<20} {}\n  {:<20} params: {}",
+            e.name(),
+            info.n,
+            if info.time_dependent {
+                ", time-dependent"
+            } else {
+                ""
+            },
+            if e.is_runnable() {
+                ""
+            } else {
+                "  [not runnable in this build]"
+            },
+            "",
+            e.doc(),
+            "",
+            if params.is_empty() {
+                "none".into()
+            } else {
+                params.join(", ")
+            }
+        );
+    }
+    println!("\nMethods:");
+    for k in MethodKind::ALL {
+        println!("  {:<20} {}", k.name(), k.doc());
+    }
+    println!("\nEffects:");
+    for (name, doc) in EFFECTS {
+        println!("  {name:<20} {doc}");
+    }
+}
+
+fn main_inner(cli: Cli) -> Result<ExitCode, Error> {
+    match cli.command {
+        None => {
+            let out = cli
+                .out
+                .unwrap_or_else(|| default_out(Path::new("thesis-kepler.toml")));
+            run(DEFAULT_SCENE, DEFAULT_SCENE_NAME, &out, true)
+        }
+        Some(Command::Run { scene, out }) => {
+            let text = dth_examples::read_scene(&scene)?;
+            let out = out.unwrap_or_else(|| default_out(&scene));
+            run(&text, &scene.display().to_string(), &out, false)
+        }
+        Some(Command::Check { scene }) => {
+            let text = dth_examples::read_scene(&scene)?;
+            let s = dth_examples::check_scene(&text, &scene.display().to_string(), &Catalogue::builtin())?;
+            println!(
+                "{}: ok ({}, {} method{}, {} effect{})",
+                scene.display(),
+                s.system,
+                s.methods.len(),
+                if s.methods.len() == 1 { "" } else { "s" },
+                s.effects.len(),
+                if s.effects.len() == 1 { "" } else { "s" }
+            );
+            Ok(ExitCode::SUCCESS)
+        }
+        Some(Command::List) => {
+            list();
+            Ok(ExitCode::SUCCESS)
+        }
+        Some(Command::Table41 { json }) => {
+            let table = dth_examples::table41::compute_table(&RunOptions::default())?;
+            print!("{}", dth_examples::table41::markdown(&table));
+            if let Some(path) = json {
+                let text = serde_json::to_string_pretty(&table).map_err(|e| Error::Io {
+                    what: "cannot serialize",
+                    path: path.clone(),
+                    source: std::io::Error::other(e),
+                })?;
+                std::fs::write(&path, text).map_err(|source| Error::Io {
+                    what: "cannot write",
+                    path,
+                    source,
+                })?;
+            }
+            Ok(ExitCode::SUCCESS)
+        }
+        Some(Command::Workprecision { .. }) => Err(Error::NotAvailable {
+            what: "command",
+            name: "workprecision".into(),
+            reason: "issue 5 builds it on the DTH stepper and the peer methods, which are not merged into this branch yet".into(),
+        }),
+    }
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match main_inner(cli) {
+        Ok(code) => code,
+        Err(e) => {
+            eprintln!("error: {e}");
+            let mut source = std::error::Error::source(&e);
+            while let Some(s) = source {
+                eprintln!("  caused by: {s}");
+                source = s.source();
+            }
+            ExitCode::from(e.exit_code() as u8)
+        }
+    }
 }

@@ -58,10 +58,20 @@ fn quick_sweep_runs_and_writes_its_files() {
             assert!(r.vertex_error.is_some() && r.newton_per_step.is_some());
         }
     }
-    assert!(summary
-        .records
-        .iter()
-        .any(|r| r.method == "discrete_mechanics" && r.system == "kepler_e044"));
+    for method in [
+        "discrete_mechanics",
+        "dth_joint_generated",
+        "midpoint_generated",
+        "gauss_legendre2_generated",
+    ] {
+        assert!(
+            summary
+                .records
+                .iter()
+                .any(|r| r.method == method && r.system == "kepler_e044" && r.failure.is_none()),
+            "{method}"
+        );
+    }
 
     for name in ["workprecision.json", "workprecision.csv", "summary.md"] {
         let path = dir.path().join(name);

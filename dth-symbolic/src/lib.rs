@@ -1,2 +1,60 @@
-//! The symbolic engine behind `hamiltonian!` (placeholder: filled by the macro issue).
+//! The symbolic engine behind `dth::hamiltonian!`, in plain Rust so it is tested without a
+//! compiler and can serve a run-time path.
+//!
+//! One module per stage: [`lexer`] and [`parser`] (`&str` to a syntax tree with byte spans),
+//! [`build`](crate::compile) (names resolved by [`check`], nodes built in the hash-consed
+//! [`arena`] through the simplifying constructors of [`simplify`]), [`diff`] (symbolic
+//! derivatives), [`system`] (gradient, Hessian upper triangle, Psi), [`lower`] (straight-line
+//! programs, one per trait method) and [`eval`] (an interpreter for those programs).
+//!
+//! ```
+//! use dth_symbolic::{compile, Method};
+//!
+//! let kepler = compile("p1^2 + p2^2 - (q1^2 + q2^2)^(-1/2)", &[]).unwrap();
+//! assert_eq!((kepler.dim(), kepler.separable(), kepler.time_dependent()), (4, true, false));
+//! assert_eq!(kepler.expr(kepler.gradient()[2]).to_string(), "2*p1");
+//! let e = kepler.program(Method::All).eval(&[0.5, 0.0, 0.0, 1.2], &[]).unwrap();
+//! assert!((e.value - (1.44 - 2.0)).abs() < 1e-15);
+//! ```
+//!
+//! Errors come all at once, each with the byte range of the smallest offending piece:
+//!
+//! ```
+//! let errors = dth_symbolic::compile("x1 + p1^2 + q0", &[]).unwrap_err();
+//! assert_eq!(errors.0.len(), 2);
+//! assert_eq!(errors.0[0].to_string(),
+//!     "unknown variable `x1`: expected q1..qN, p1..pN, t, or a declared parameter");
+//! assert_eq!(errors.0[1].span.range(), 12..14);
+//! ```
 #![warn(missing_docs)]
+
+pub mod arena;
+mod build;
+pub mod check;
+pub mod diff;
+pub mod display;
+pub mod error;
+pub mod eval;
+pub mod lexer;
+pub mod lower;
+pub mod number;
+pub mod parser;
+pub mod simplify;
+pub mod span;
+pub mod system;
+
+pub use arena::{Arena, Func, Id, Node, Var};
+pub use check::reserved_name;
+pub use error::{Error, ErrorKind, Errors, EvalError};
+pub use eval::Evaluation;
+pub use lower::{Op, Output, Program, Slot, Stats};
+pub use number::{Num, Rational};
+pub use span::Span;
+pub use system::{compile, expression, Method, System};
+
+/// The largest coordinate index accepted (`q256`): a typo like `q1000` would otherwise
+/// silently produce a 2000-dimensional system.
+pub const MAX_INDEX: usize = 256;
+
+#[cfg(test)]
+mod tests;

@@ -11,7 +11,6 @@
 //! (Theorem 1, Corollary 1).
 
 mod extended;
-mod linalg;
 mod newton;
 mod observer;
 mod options;

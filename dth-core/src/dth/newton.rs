@@ -27,8 +27,8 @@
 
 use nalgebra::{SMatrix, SVector};
 
-use super::linalg::{Lu, Pivot};
 use super::options::{DthOptions, Solver};
+use crate::linalg::{Lu, Pivot};
 use crate::{j_times, Derivatives, Error, Hamiltonian};
 
 /// Updates below this relative size always count as converged (they change `z` by at most a
@@ -68,7 +68,7 @@ struct Eval<const D: usize> {
 
 fn factor<const D: usize>(a: &SMatrix<f64, D, D>, step: usize) -> Result<Lu<D>, Error> {
     Lu::factor(a).map_err(|p| match p {
-        Pivot::Zero => Error::SingularMatrix { step },
+        Pivot::Singular => Error::SingularMatrix { step },
         Pivot::NonFinite => Error::NonFinite {
             step,
             what: "Newton matrix A = I - (h lambda/2) J Hess H",

@@ -3,7 +3,8 @@
 use nalgebra::SVector;
 
 use super::newton::{self, Evaluation, NewtonOptions};
-use super::{linear, newton_matrix, OneStepMethod};
+use super::{newton_matrix, OneStepMethod};
+use crate::linalg as linear;
 use crate::{j_times, Error, Hamiltonian};
 
 /// The discrete-gradient method `z1 = z0 + dt J gbar(z0, z1)`, with `gbar` the Hamiltonian's

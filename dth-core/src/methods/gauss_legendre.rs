@@ -3,7 +3,8 @@
 use nalgebra::{SMatrix, SVector};
 
 use super::newton::{self, Evaluation, NewtonOptions};
-use super::{j_times_matrix, linear, OneStepMethod};
+use super::{j_times_matrix, OneStepMethod};
+use crate::linalg as linear;
 use crate::{j_times, Error, Hamiltonian};
 
 const S3: f64 = 0.288_675_134_594_812_9; // sqrt(3)/6

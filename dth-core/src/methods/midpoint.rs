@@ -3,7 +3,8 @@
 use nalgebra::SVector;
 
 use super::newton::{self, Evaluation, NewtonOptions};
-use super::{linear, newton_matrix, OneStepMethod};
+use super::{newton_matrix, OneStepMethod};
+use crate::linalg as linear;
 use crate::{j_times, Error, Hamiltonian};
 
 /// The implicit midpoint rule `z1 = z0 + dt J grad H((z0 + z1)/2)`.

@@ -44,7 +44,6 @@
 pub mod discrete_gradient;
 pub mod discrete_mechanics;
 pub mod gauss_legendre;
-mod linear;
 pub mod midpoint;
 mod newton;
 pub mod rk4;

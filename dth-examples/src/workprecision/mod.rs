@@ -145,13 +145,8 @@ pub enum Error {
     #[error("cannot serialize the results to JSON")]
     Json(#[from] serde_json::Error),
     /// Drawing a diagram failed.
-    #[error("cannot draw `{}`: {message}", path.display())]
-    Plot {
-        /// The file.
-        path: PathBuf,
-        /// The drawing backend's message.
-        message: String,
-    },
+    #[error("cannot draw a work-precision diagram")]
+    Plot(#[from] crate::error::Error),
     /// The reference solution of a problem could not be computed or did not converge.
     #[error("reference solution of `{system}`: {message}")]
     Reference {

@@ -121,7 +121,7 @@ pub(crate) fn sweep_peer<H, M, const D: usize>(
     for &dt_target in &ladder.dt {
         let steps = (t_end / dt_target).round().max(1.0) as usize;
         let dt = t_end / steps as f64;
-        let mut record = blank(problem.info.name, M::NAME, "dt", dt);
+        let mut record = blank(problem.info.name, (problem.rename)(M::NAME), "dt", dt);
         record.steps = steps;
         record.mean_dt = dt;
         let mut energy = MaxDeviation::new(h.value(z0));
@@ -211,7 +211,7 @@ pub(crate) fn sweep_dth<H: Hamiltonian<D> + Clone, const D: usize>(
         .collect::<Vec<_>>()
         .iter()
     {
-        let mut record = blank(problem.info.name, name, "dtau", dtau);
+        let mut record = blank(problem.info.name, (problem.rename)(name), "dtau", dtau);
         let dth_options = match base.with_dtau(dtau) {
             Ok(o) => o,
             Err(e) => {

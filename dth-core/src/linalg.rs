@@ -1,13 +1,15 @@
 //! Small dense LU with partial pivoting on `SMatrix<f64, D, D>`, generic over `const D` without
 //! the `DimMin` bounds nalgebra's `lu()` would push onto every caller. No heap allocation.
+//! Shared by the DTH Newton solvers and the implicit peer methods.
 
-use nalgebra::{SMatrix, SVector};
+use nalgebra::SMatrix;
 
 /// Why a factorization failed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum Pivot {
-    /// A pivot column was exactly zero: the matrix is singular.
-    Zero,
+    /// A pivot is at or below `D eps max|A_ij|`: the matrix is numerically singular (a solve
+    /// would carry no correct digits).
+    Singular,
     /// A pivot was NaN or infinite.
     NonFinite,
 }
@@ -19,10 +21,12 @@ pub(crate) struct Lu<const D: usize> {
 }
 
 impl<const D: usize> Lu<D> {
-    /// Factor `a`; `Err(Pivot::Zero)` when a pivot is exactly zero (singular as a value, like
-    /// nalgebra's `lu().solve()`), `Err(Pivot::NonFinite)` when elimination overflowed.
+    /// Factor `a`; `Err(Pivot::Singular)` when a pivot is at or below `D eps max|A_ij|`
+    /// (singular as a value, like nalgebra's `lu().solve()`), `Err(Pivot::NonFinite)` when
+    /// elimination overflowed.
     pub(crate) fn factor(a: &SMatrix<f64, D, D>) -> Result<Self, Pivot> {
         let mut lu = *a;
+        let tiny = D as f64 * f64::EPSILON * a.amax();
         let mut perm = [0usize; D];
         for (i, p) in perm.iter_mut().enumerate() {
             *p = i;
@@ -40,8 +44,8 @@ impl<const D: usize> Lu<D> {
             if !best.is_finite() {
                 return Err(Pivot::NonFinite);
             }
-            if best == 0.0 {
-                return Err(Pivot::Zero);
+            if best <= tiny || best == 0.0 {
+                return Err(Pivot::Singular);
             }
             if piv != k {
                 lu.swap_rows(piv, k);
@@ -59,31 +63,51 @@ impl<const D: usize> Lu<D> {
         Ok(Lu { lu, perm })
     }
 
-    /// Solve `A x = b`.
-    pub(crate) fn solve(&self, b: &SVector<f64, D>) -> SVector<f64, D> {
-        let mut x = SVector::<f64, D>::from_fn(|i, _| b[self.perm[i]]);
-        for i in 0..D {
-            let mut s = x[i];
-            for j in 0..i {
-                s -= self.lu[(i, j)] * x[j];
+    /// Solve `A X = B` for `C` right-hand sides (`C = 1`: a vector).
+    pub(crate) fn solve<const C: usize>(&self, b: &SMatrix<f64, D, C>) -> SMatrix<f64, D, C> {
+        let mut x = SMatrix::<f64, D, C>::from_fn(|i, j| b[(self.perm[i], j)]);
+        for c in 0..C {
+            for i in 0..D {
+                let mut s = x[(i, c)];
+                for j in 0..i {
+                    s -= self.lu[(i, j)] * x[(j, c)];
+                }
+                x[(i, c)] = s;
             }
-            x[i] = s;
-        }
-        for i in (0..D).rev() {
-            let mut s = x[i];
-            for j in i + 1..D {
-                s -= self.lu[(i, j)] * x[j];
+            for i in (0..D).rev() {
+                let mut s = x[(i, c)];
+                for j in i + 1..D {
+                    s -= self.lu[(i, j)] * x[(j, c)];
+                }
+                x[(i, c)] = s / self.lu[(i, i)];
             }
-            x[i] = s / self.lu[(i, i)];
         }
         x
     }
+}
+
+/// Solve `A X = B` once; `None` when `A` is numerically singular or not finite.
+pub(crate) fn solve<const D: usize, const C: usize>(
+    a: SMatrix<f64, D, D>,
+    b: SMatrix<f64, D, C>,
+) -> Option<SMatrix<f64, D, C>> {
+    Lu::factor(&a).ok().map(|lu| lu.solve(&b))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use nalgebra::{Matrix3, Vector3};
+
+    #[test]
+    fn solves_several_right_hand_sides() {
+        let a = Matrix3::new(4.0, 1.0, 0.0, 1.0, 3.0, 1.0, 0.0, 1.0, 2.0);
+        let x = nalgebra::Matrix3x2::new(1.0, 2.0, -1.0, 0.5, 3.0, -4.0);
+        let got = solve(a, a * x).expect("nonsingular");
+        // Well-conditioned (cond ~ 4): a few eps times |x|.
+        assert!((got - x).amax() <= 32.0 * f64::EPSILON * x.amax(), "{got}");
+        assert!(solve(Matrix3::zeros(), x).is_none());
+    }
 
     #[test]
     fn solves_a_pivoting_system_and_flags_singular() {
@@ -95,7 +119,7 @@ mod tests {
         // Backward-stable LU on a well-conditioned 3x3: error a few eps times |x|.
         assert!(err <= 16.0 * f64::EPSILON * x.amax(), "err {err}");
         let s = Matrix3::new(1.0, 2.0, 3.0, 2.0, 4.0, 6.0, 0.0, 0.0, 1.0);
-        assert!(matches!(Lu::factor(&s), Err(Pivot::Zero)));
+        assert!(matches!(Lu::factor(&s), Err(Pivot::Singular)));
         let n = Matrix3::new(f64::NAN, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0);
         assert!(matches!(Lu::factor(&n), Err(Pivot::NonFinite)));
     }

@@ -1,0 +1,488 @@
+//! Effects: observers built only for what a scene requests.
+//!
+//! [`Effects::new`] constructs one observer per requested effect and nothing else; a scene with
+//! no effects never builds an [`Effects`] at all (the runner passes `()`, which the compiler
+//! erases). [`Effects::observer_calls`] and [`Effects::stored_values`] count what was done so
+//! tests can prove it.
+
+use dth::nalgebra::SVector;
+use serde::Serialize;
+
+use crate::catalogue::SceneSystem;
+use crate::method::{Observer, StepView};
+use crate::scene::{Coord, Direction, EffectSpec};
+
+/// Mean and max of `|Q_k - Q_ref|` over `k = 1..N` (Table 4.1's "average absolute deviation").
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
+pub struct Deviation {
+    /// Mean over the states after the initial one.
+    pub mean: f64,
+    /// Maximum.
+    pub max: f64,
+    /// Number of states averaged.
+    pub count: usize,
+}
+
+#[derive(Debug, Clone, Default)]
+struct Accumulator {
+    reference: Option<f64>,
+    sum: f64,
+    max: f64,
+    count: usize,
+}
+
+impl Accumulator {
+    /// Adds `value`; the first value seen is the reference. Returns the deviation.
+    fn add(&mut self, value: f64) -> f64 {
+        match self.reference {
+            None => {
+                self.reference = Some(value);
+                0.0
+            }
+            Some(r) => {
+                let d = (value - r).abs();
+                self.sum += d;
+                self.max = self.max.max(d);
+                self.count += 1;
+                d
+            }
+        }
+    }
+
+    fn finish(&self) -> Deviation {
+        Deviation {
+            mean: if self.count > 0 {
+                self.sum / self.count as f64
+            } else {
+                0.0
+            },
+            max: self.max,
+            count: self.count,
+        }
+    }
+}
+
+/// Deviation statistics of one quantity at the states (DTH: midpoints) and, for DTH, at the
+/// vertices (reference: the first vertex `z^(0)`, as NOTES.md explains for Table 4.1).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct DeviationStats {
+    /// Quantity name (`energy` or an invariant's name).
+    pub name: String,
+    /// At the states (DTH: midpoints).
+    pub points: Deviation,
+    /// At the vertices (DTH only).
+    pub vertices: Option<Deviation>,
+}
+
+/// A sampled series `(step, t, value)` (e.g. an energy deviation) for CSV and figures.
+pub type Series = Vec<(usize, f64, f64)>;
+
+struct Tracked {
+    name: String,
+    points: Accumulator,
+    vertices: Accumulator,
+    saw_vertex: bool,
+    every: usize,
+    series: Series,
+    vertex_series: Series,
+}
+
+impl Tracked {
+    fn new(name: &str, every: usize) -> Self {
+        Tracked {
+            name: name.to_string(),
+            points: Accumulator::default(),
+            vertices: Accumulator::default(),
+            saw_vertex: false,
+            every,
+            series: Vec::new(),
+            vertex_series: Vec::new(),
+        }
+    }
+
+    fn add(&mut self, step: usize, t: f64, value: f64, vertex: Option<(f64, f64)>) {
+        let d = self.points.add(value);
+        let sample = self.every > 0 && step.is_multiple_of(self.every);
+        if sample {
+            self.series.push((step, t, d));
+        }
+        if let Some((tv, v)) = vertex {
+            self.saw_vertex = true;
+            let dv = self.vertices.add(v);
+            if sample {
+                self.vertex_series.push((step, tv, dv));
+            }
+        }
+    }
+
+    fn stats(&self) -> DeviationStats {
+        DeviationStats {
+            name: self.name.clone(),
+            points: self.points.finish(),
+            vertices: self.saw_vertex.then(|| self.vertices.finish()),
+        }
+    }
+}
+
+/// A Poincare section's crossings `(t, x, y)`.
+pub type Crossings = Vec<(f64, f64, f64)>;
+
+struct Section<const D: usize> {
+    coordinate: Coord,
+    value: f64,
+    direction: Direction,
+    interpolate: bool,
+    x: Coord,
+    y: Coord,
+    previous: Option<(f64, SVector<f64, D>)>,
+    crossings: Crossings,
+}
+
+/// The value of a named coordinate in a state (`t` is the state's time).
+pub fn coord_value<const D: usize>(c: Coord, t: f64, z: &SVector<f64, D>) -> f64 {
+    match c {
+        Coord::Q(i) => z[i],
+        Coord::P(i) => z[D / 2 + i],
+        Coord::T => t,
+    }
+}
+
+/// The state of a method at the end of its run.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct FinalState {
+    /// Steps taken.
+    pub step: usize,
+    /// Physical time.
+    pub t: f64,
+    /// Full phase-space state (extended for time-dependent systems).
+    pub z: Vec<f64>,
+    /// `lambda` of the last segment (DTH).
+    pub lambda: Option<f64>,
+}
+
+/// One row of the `trajectory` effect.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TrajectoryRow {
+    /// Step index.
+    pub step: usize,
+    /// Physical time.
+    pub t: f64,
+    /// Full phase-space state.
+    pub z: Vec<f64>,
+    /// `lambda` (DTH).
+    pub lambda: Option<f64>,
+}
+
+/// One row of the `time_law` effect (`lambda` NaN for fixed-step methods).
+pub type TimeLawRow = (usize, f64, f64);
+
+struct PhaseSamples {
+    x: Coord,
+    y: Coord,
+    every: usize,
+    /// Absolute end time (`t0 + until`).
+    t_end: f64,
+    t0: Option<f64>,
+    until: f64,
+    points: Vec<(f64, f64)>,
+}
+
+/// What the effects of one method produced.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct EffectOutputs {
+    /// `final_state`.
+    pub final_state: Option<FinalState>,
+    /// `trajectory` rows.
+    pub trajectory: Option<Vec<TrajectoryRow>>,
+    /// `energy_deviation` (or `comparison_table`) statistics and sampled series.
+    pub energy: Option<(DeviationStats, Series, Series)>,
+    /// `invariants` (or `comparison_table`): per invariant, statistics and sampled series.
+    pub invariants: Option<Vec<(DeviationStats, Series, Series)>>,
+    /// `time_law`: `(step, t, lambda)` rows (`lambda` NaN for fixed-step methods).
+    pub time_law: Option<Vec<TimeLawRow>>,
+    /// `poincare`: one list of crossings per requested section, in scene order.
+    pub poincare: Vec<Crossings>,
+    /// `phase_plot`: one list of `(x, y)` per requested plot, in scene order.
+    pub phase: Vec<Vec<(f64, f64)>>,
+}
+
+/// The observers of one method's run, one per requested effect.
+pub struct Effects<'s, const D: usize, S: SceneSystem<D>> {
+    system: &'s S,
+    final_state: Option<Option<FinalState>>,
+    trajectory: Option<(usize, Vec<TrajectoryRow>)>,
+    energy: Option<Tracked>,
+    invariants: Option<Vec<Tracked>>,
+    invariant_buf: Vec<f64>,
+    vertex_buf: Vec<f64>,
+    time_law: Option<(usize, Vec<TimeLawRow>)>,
+    sections: Vec<Section<D>>,
+    phase: Vec<PhaseSamples>,
+    calls: usize,
+}
+
+impl<'s, const D: usize, S: SceneSystem<D>> Effects<'s, D, S> {
+    /// Observers for `specs` only. Returns `None` when `specs` is empty: then there is nothing
+    /// to observe and the runner uses `()`.
+    pub fn new(system: &'s S, specs: &[EffectSpec]) -> Option<Self> {
+        if specs.is_empty() {
+            return None;
+        }
+        let mut e = Effects {
+            system,
+            final_state: None,
+            trajectory: None,
+            energy: None,
+            invariants: None,
+            invariant_buf: Vec::new(),
+            vertex_buf: Vec::new(),
+            time_law: None,
+            sections: Vec::new(),
+            phase: Vec::new(),
+            calls: 0,
+        };
+        let names = system.invariant_names();
+        let want_invariants = |every: usize, e: &mut Self| {
+            if e.invariants.is_none() {
+                e.invariants = Some(names.iter().map(|n| Tracked::new(n, every)).collect());
+                e.invariant_buf = vec![0.0; names.len()];
+                e.vertex_buf = vec![0.0; names.len()];
+            } else if every > 0 {
+                for t in e.invariants.iter_mut().flatten() {
+                    t.every = every;
+                }
+            }
+        };
+        for spec in specs {
+            match *spec {
+                EffectSpec::FinalState => e.final_state = Some(None),
+                EffectSpec::Trajectory { every } => e.trajectory = Some((every, Vec::new())),
+                EffectSpec::EnergyDeviation { every } => match &mut e.energy {
+                    Some(t) => t.every = every,
+                    None => e.energy = Some(Tracked::new("energy", every)),
+                },
+                EffectSpec::Invariants { every } => want_invariants(every, &mut e),
+                // The table needs only the statistics: series stride 0 stores no samples.
+                EffectSpec::ComparisonTable => {
+                    if e.energy.is_none() {
+                        e.energy = Some(Tracked::new("energy", 0));
+                    }
+                    want_invariants(0, &mut e);
+                }
+                EffectSpec::TimeLaw { every } => e.time_law = Some((every, Vec::new())),
+                EffectSpec::Poincare {
+                    coordinate,
+                    value,
+                    direction,
+                    interpolate,
+                    x,
+                    y,
+                } => e.sections.push(Section {
+                    coordinate,
+                    value,
+                    direction,
+                    interpolate,
+                    x,
+                    y,
+                    previous: None,
+                    crossings: Vec::new(),
+                }),
+                EffectSpec::PhasePlot { x, y, every, until } => e.phase.push(PhaseSamples {
+                    x,
+                    y,
+                    every,
+                    t_end: f64::INFINITY,
+                    t0: None,
+                    until: until.unwrap_or(f64::INFINITY),
+                    points: Vec::new(),
+                }),
+            }
+        }
+        Some(e)
+    }
+
+    /// How many states were observed.
+    pub fn observer_calls(&self) -> usize {
+        self.calls
+    }
+
+    /// How many numbers are stored (all samples, series, rows and crossings).
+    pub fn stored_values(&self) -> usize {
+        let d = D;
+        let series = |t: &Tracked| 3 * (t.series.len() + t.vertex_series.len());
+        self.final_state
+            .as_ref()
+            .map_or(0, |f| f.as_ref().map_or(0, |f| f.z.len() + 3))
+            + self
+                .trajectory
+                .as_ref()
+                .map_or(0, |(_, rows)| rows.len() * (d + 3))
+            + self.energy.as_ref().map_or(0, series)
+            + self
+                .invariants
+                .as_ref()
+                .map_or(0, |v| v.iter().map(series).sum())
+            + self.time_law.as_ref().map_or(0, |(_, r)| 3 * r.len())
+            + self
+                .sections
+                .iter()
+                .map(|s| 3 * s.crossings.len())
+                .sum::<usize>()
+            + self.phase.iter().map(|p| 2 * p.points.len()).sum::<usize>()
+    }
+
+    /// Ends observation and hands over the results.
+    pub fn finish(self) -> EffectOutputs {
+        EffectOutputs {
+            final_state: self.final_state.flatten(),
+            trajectory: self.trajectory.map(|(_, r)| r),
+            energy: self
+                .energy
+                .map(|t| (t.stats(), t.series.clone(), t.vertex_series.clone())),
+            invariants: self.invariants.map(|v| {
+                v.into_iter()
+                    .map(|t| (t.stats(), t.series.clone(), t.vertex_series.clone()))
+                    .collect()
+            }),
+            time_law: self.time_law.map(|(_, r)| r),
+            poincare: self.sections.into_iter().map(|s| s.crossings).collect(),
+            phase: self.phase.into_iter().map(|p| p.points).collect(),
+        }
+    }
+}
+
+impl<const D: usize, S: SceneSystem<D>> Observer<D> for Effects<'_, D, S> {
+    fn observe(&mut self, v: &StepView<'_, D>) {
+        self.calls += 1;
+        if let Some(f) = &mut self.final_state {
+            *f = Some(FinalState {
+                step: v.step,
+                t: v.t,
+                z: v.z.iter().copied().collect(),
+                lambda: v.lambda,
+            });
+        }
+        if let Some((every, rows)) = &mut self.trajectory {
+            if v.step.is_multiple_of(*every) {
+                rows.push(TrajectoryRow {
+                    step: v.step,
+                    t: v.t,
+                    z: v.z.iter().copied().collect(),
+                    lambda: v.lambda,
+                });
+            }
+        }
+        if let Some(t) = &mut self.energy {
+            let vertex = v.vertex.map(|(tv, zv)| (tv, self.system.value(zv)));
+            t.add(v.step, v.t, self.system.value(v.z), vertex);
+        }
+        if let Some(inv) = &mut self.invariants {
+            self.system.invariants(v.z, &mut self.invariant_buf);
+            if let Some((_, zv)) = v.vertex {
+                self.system.invariants(zv, &mut self.vertex_buf);
+            }
+            for (i, t) in inv.iter_mut().enumerate() {
+                let vertex = v.vertex.map(|(tv, _)| (tv, self.vertex_buf[i]));
+                t.add(v.step, v.t, self.invariant_buf[i], vertex);
+            }
+        }
+        if let Some((every, rows)) = &mut self.time_law {
+            if v.step.is_multiple_of(*every) {
+                rows.push((v.step, v.t, v.lambda.unwrap_or(f64::NAN)));
+            }
+        }
+        for s in &mut self.sections {
+            let c1 = coord_value(s.coordinate, v.t, v.z) - s.value;
+            if let Some((t0, z0)) = &s.previous {
+                let c0 = coord_value(s.coordinate, *t0, z0) - s.value;
+                let up = c0 < 0.0 && c1 >= 0.0;
+                let down = c0 > 0.0 && c1 <= 0.0;
+                let hit = match s.direction {
+                    Direction::Up => up,
+                    Direction::Down => down,
+                    Direction::Both => up || down,
+                };
+                if hit && !s.interpolate {
+                    // The thesis's sections (Section 4.2): the state just after the crossing,
+                    // projected onto the section (its other coordinates kept).
+                    s.crossings
+                        .push((v.t, coord_value(s.x, v.t, v.z), coord_value(s.y, v.t, v.z)));
+                } else if hit {
+                    // Linear interpolation between the two consecutive observed states (for
+                    // DTH these are midpoints, not the vertices of its piecewise-linear path).
+                    let a = c0 / (c0 - c1);
+                    let z = z0 + (v.z - z0) * a;
+                    let t = t0 + (v.t - t0) * a;
+                    s.crossings
+                        .push((t, coord_value(s.x, t, &z), coord_value(s.y, t, &z)));
+                }
+            }
+            s.previous = Some((v.t, *v.z));
+        }
+        for p in &mut self.phase {
+            if p.t0.is_none() {
+                p.t0 = Some(v.t);
+                p.t_end = v.t + p.until;
+            }
+            if v.step.is_multiple_of(p.every) && v.t <= p.t_end {
+                p.points
+                    .push((coord_value(p.x, v.t, v.z), coord_value(p.y, v.t, v.z)));
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use dth::systems::HarmonicOscillator;
+
+    /// Feeds the exact oscillator solution q = cos t, p = -sin t at t = k h to a Poincare
+    /// section q1 = 0 (upward: t = 3 pi / 2, where p = 1).
+    fn section(interpolate: bool, h: f64) -> Crossings {
+        let sys = HarmonicOscillator { mass: 1.0, k: 1.0 };
+        let spec = [EffectSpec::Poincare {
+            coordinate: Coord::Q(0),
+            value: 0.0,
+            direction: Direction::Up,
+            interpolate,
+            x: Coord::T,
+            y: Coord::P(0),
+        }];
+        let mut e = Effects::new(&sys, &spec).unwrap();
+        for k in 0..=(6.0 / h) as usize {
+            let t = k as f64 * h;
+            let z = SVector::<f64, 2>::new(t.cos(), -t.sin());
+            e.observe(&StepView {
+                step: k,
+                t,
+                z: &z,
+                lambda: None,
+                vertex: None,
+            });
+        }
+        e.finish().poincare.remove(0)
+    }
+
+    #[test]
+    fn interpolated_crossing_is_second_order_accurate() {
+        let h = 0.01;
+        let c = section(true, h);
+        assert_eq!(c.len(), 1);
+        let t_exact = 1.5 * std::f64::consts::PI;
+        // Linear interpolation of cos near its zero: error O(h^2), here below h^2.
+        assert!((c[0].0 - t_exact).abs() < h * h, "{:?}", c);
+        assert!((c[0].2 - 1.0).abs() < h * h, "{:?}", c);
+    }
+
+    #[test]
+    fn projected_crossing_is_the_first_state_past_the_section() {
+        let h = 0.01;
+        let c = section(false, h);
+        assert_eq!(c.len(), 1);
+        let t_exact = 1.5 * std::f64::consts::PI;
+        let k = (t_exact / h).ceil();
+        assert_eq!(c[0].0, k * h);
+        assert_eq!(c[0].1, k * h);
+    }
+}

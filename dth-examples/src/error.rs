@@ -1,0 +1,127 @@
+//! The crate's one error type, and the exit code each kind maps to.
+
+use std::path::PathBuf;
+
+use thiserror::Error;
+
+/// One problem found in a scene file, located at `file:line:column` (1-based).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct SceneDiagnostic {
+    /// The scene's file name as given by the caller (`<embedded>` for the default scene).
+    pub file: String,
+    /// 1-based line.
+    pub line: usize,
+    /// 1-based column (in characters).
+    pub column: usize,
+    /// What is wrong and what was expected, lowercase.
+    pub message: String,
+}
+
+impl std::fmt::Display for SceneDiagnostic {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{}:{}:{}: {}",
+            self.file, self.line, self.column, self.message
+        )
+    }
+}
+
+/// Every diagnostic of one scene file (validation reports all independent problems at once).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct SceneErrors(pub Vec<SceneDiagnostic>);
+
+impl std::fmt::Display for SceneErrors {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        for (i, d) in self.0.iter().enumerate() {
+            if i > 0 {
+                writeln!(f)?;
+            }
+            write!(f, "{d}")?;
+        }
+        Ok(())
+    }
+}
+
+/// Everything that can go wrong when checking or running a scene.
+#[derive(Debug, Error)]
+#[non_exhaustive]
+pub enum Error {
+    /// The scene file is invalid (exit code 2).
+    #[error("invalid scene:\n{0}")]
+    Scene(SceneErrors),
+    /// The scene file cannot be read (exit code 2: the user's argument is wrong).
+    #[error("cannot read scene `{}`", path.display())]
+    SceneUnreadable {
+        /// The path given.
+        path: PathBuf,
+        /// The cause.
+        #[source]
+        source: std::io::Error,
+    },
+    /// A file could not be read or written.
+    #[error("{what} `{}`", path.display())]
+    Io {
+        /// What was being done (lowercase, e.g. "cannot read scene").
+        what: &'static str,
+        /// The path involved.
+        path: PathBuf,
+        /// The cause.
+        #[source]
+        source: std::io::Error,
+    },
+    /// A method failed during a run; what was computed up to `step` is kept in the output.
+    #[error("method `{method}` failed at step {step}: {reason}")]
+    MethodFailed {
+        /// The method's label in the scene.
+        method: String,
+        /// The step that failed (the state before it is the last one kept).
+        step: usize,
+        /// Why.
+        reason: String,
+    },
+    /// The scene names a method or system that this build cannot run yet.
+    #[error("{what} `{name}` is not available in this build: {reason}")]
+    NotAvailable {
+        /// "method" or "system".
+        what: &'static str,
+        /// Its name in the scene.
+        name: String,
+        /// Why, and what it waits for.
+        reason: String,
+    },
+    /// The output folder cannot be used (exit code 2: the user's argument is wrong).
+    #[error("refusing to write to `{}`: {reason}", path.display())]
+    OutputRefused {
+        /// The requested output folder.
+        path: PathBuf,
+        /// Why.
+        reason: String,
+    },
+    /// A figure could not be rendered.
+    #[error("cannot render figure `{name}`: {reason}")]
+    Plot {
+        /// The figure's file stem.
+        name: String,
+        /// The backend's message.
+        reason: String,
+    },
+    /// A system registration is invalid (e.g. a duplicate name).
+    #[error("invalid system registration `{name}`: {reason}")]
+    Registration {
+        /// The system's name.
+        name: String,
+        /// The rule it breaks.
+        reason: String,
+    },
+}
+
+impl Error {
+    /// The process exit code for this error: 2 for bad input (scene errors), 1 otherwise.
+    pub fn exit_code(&self) -> i32 {
+        match self {
+            Error::Scene(_) | Error::SceneUnreadable { .. } | Error::OutputRefused { .. } => 2,
+            _ => 1,
+        }
+    }
+}

@@ -1,0 +1,153 @@
+//! The static `index.html` of an output folder: tables and figures by relative path, no
+//! scripts, no network.
+
+use std::fmt::Write as _;
+
+use crate::run::RunReport;
+use crate::scene::Scene;
+
+/// Escapes text for HTML.
+pub fn escape(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
+}
+
+fn num(x: f64) -> String {
+    if x.is_nan() {
+        "-".into()
+    } else {
+        format!("{x:.4e}")
+    }
+}
+
+/// The page for one run.
+pub fn index(scene: &Scene, report: &RunReport) -> String {
+    let mut h = String::new();
+    let _ = write!(
+        h,
+        "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>{t}</title>\n\
+         <style>body{{font-family:sans-serif;max-width:1000px;margin:2em auto;padding:0 1em}}\
+         table{{border-collapse:collapse;margin:1em 0}}td,th{{border:1px solid #999;padding:.25em .6em;text-align:right}}\
+         th{{background:#eee}}td:first-child{{text-align:left}}img{{max-width:100%;border:1px solid #ddd}}\
+         .fail{{color:#b00}}</style></head><body>\n<h1>{t}</h1>\n",
+        t = escape(&report.title)
+    );
+    if !scene.description.is_empty() {
+        let _ = writeln!(h, "<p>{}</p>", escape(&scene.description));
+    }
+    let params: Vec<String> = report
+        .params
+        .iter()
+        .map(|(k, v)| format!("{k} = {v}"))
+        .collect();
+    let _ = writeln!(
+        h,
+        "<p>System <b>{}</b> ({}); q = {:?}, p = {:?}, t0 = {}; duration {:?}.</p>",
+        escape(&report.system),
+        escape(&params.join(", ")),
+        scene.q,
+        scene.p,
+        scene.t0,
+        scene.duration
+    );
+    h.push_str("<h2>Methods</h2>\n<table><tr><th>method</th><th>kind</th><th>step</th><th>steps</th><th>t end</th><th>status</th></tr>\n");
+    for m in &report.methods {
+        let step: Vec<String> = m.step.iter().map(|(k, v)| format!("{k} = {v}")).collect();
+        let status = match &m.failure {
+            None => "ok".to_string(),
+            Some(f) => format!(
+                "<span class=\"fail\">failed at step {}: {}</span>",
+                f.step,
+                escape(&f.reason)
+            ),
+        };
+        let _ = writeln!(
+            h,
+            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+            escape(&m.label),
+            escape(&m.kind),
+            escape(&step.join(", ")),
+            m.steps,
+            num(m.t_end),
+            status
+        );
+    }
+    h.push_str("</table>\n");
+
+    let has_stats = report
+        .methods
+        .iter()
+        .any(|m| m.energy.is_some() || !m.invariants.is_empty());
+    if has_stats {
+        h.push_str("<h2>Deviations</h2>\n<p>Mean and maximum of |Q_k - Q_ref| over k = 1..N; for DTH at midpoints (reference zbar_0) and at vertices (reference the first vertex).</p>\n<table><tr><th>method</th><th>quantity</th><th>mean</th><th>max</th><th>vertices mean</th><th>vertices max</th></tr>\n");
+        for m in &report.methods {
+            for s in m.energy.iter().chain(&m.invariants) {
+                let (vm, vx) = s.vertices.map_or(("-".to_string(), "-".to_string()), |v| {
+                    (num(v.mean), num(v.max))
+                });
+                let _ = writeln!(
+                    h,
+                    "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+                    escape(&m.label),
+                    escape(&s.name),
+                    num(s.points.mean),
+                    num(s.points.max),
+                    vm,
+                    vx
+                );
+            }
+        }
+        h.push_str("</table>\n");
+    }
+
+    let finals: Vec<_> = report
+        .methods
+        .iter()
+        .filter_map(|m| m.final_state.as_ref().map(|f| (m, f)))
+        .collect();
+    if !finals.is_empty() {
+        h.push_str("<h2>Final states</h2>\n<table><tr><th>method</th><th>step</th><th>t</th><th>z</th></tr>\n");
+        for (m, f) in finals {
+            let z: Vec<String> = f.z.iter().map(|x| format!("{x:.10e}")).collect();
+            let _ = writeln!(
+                h,
+                "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+                escape(&m.label),
+                f.step,
+                num(f.t),
+                z.join(", ")
+            );
+        }
+        h.push_str("</table>\n");
+    }
+
+    let figures: Vec<&String> = report
+        .files
+        .iter()
+        .filter(|f| f.ends_with(".png"))
+        .collect();
+    if !figures.is_empty() {
+        h.push_str("<h2>Figures</h2>\n");
+        for f in figures {
+            let svg = f.trim_end_matches(".png");
+            let _ = writeln!(
+                h,
+                "<figure><img src=\"{f}\" alt=\"{svg}\"><figcaption>{svg} (<a href=\"{svg}.svg\">SVG</a>)</figcaption></figure>",
+                f = escape(f),
+                svg = escape(svg)
+            );
+        }
+    }
+    h.push_str("<h2>Data</h2>\n<ul>\n");
+    for f in report
+        .files
+        .iter()
+        .filter(|f| f.ends_with(".csv") || f.ends_with(".json"))
+    {
+        let _ = writeln!(h, "<li><a href=\"{f}\">{f}</a></li>", f = escape(f));
+    }
+    h.push_str("</ul>\n</body></html>\n");
+    h
+}

@@ -1,0 +1,366 @@
+//! Line and scatter figures rendered to PNG and SVG with plotters, text through the pure-Rust
+//! font path (the embedded DejaVu Sans registered as "sans-serif"; no system fonts needed).
+//!
+//! ```
+//! use dth_examples::plot::{Figure, Mark, Series};
+//! let dir = tempfile::tempdir().unwrap();
+//! let fig = Figure::new("circle", "q1", "p1").with_series(Series::new(
+//!     "exact",
+//!     Mark::Line,
+//!     (0..100).map(|i| (f64::from(i) * 0.0628).cos()).zip((0..100).map(|i| (f64::from(i) * 0.0628).sin())),
+//! ));
+//! let files = fig.render(dir.path(), "circle").unwrap();
+//! assert!(files.iter().all(|f| f.exists()));
+//! ```
+
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use plotters::style::FontStyle;
+
+use crate::error::Error;
+
+/// How a series is drawn.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Mark {
+    /// Connected line.
+    Line,
+    /// Unconnected dots (scatter, Poincare sections).
+    Points,
+}
+
+/// One named series of `(x, y)` points.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Series {
+    /// Legend entry.
+    pub name: String,
+    /// Line or dots.
+    pub mark: Mark,
+    /// The points.
+    pub points: Vec<(f64, f64)>,
+}
+
+impl Series {
+    /// A series from any iterator of points.
+    pub fn new(name: &str, mark: Mark, points: impl IntoIterator<Item = (f64, f64)>) -> Self {
+        Series {
+            name: name.to_string(),
+            mark,
+            points: points.into_iter().collect(),
+        }
+    }
+}
+
+/// A figure: title, labelled axes (optionally logarithmic), any number of series with a legend.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Figure {
+    /// Title.
+    pub title: String,
+    /// Horizontal axis label.
+    pub x_label: String,
+    /// Vertical axis label.
+    pub y_label: String,
+    /// Series, drawn in order with distinct colours.
+    pub series: Vec<Series>,
+    /// Logarithmic horizontal axis (non-positive x are dropped).
+    pub log_x: bool,
+    /// Logarithmic vertical axis (non-positive y are dropped).
+    pub log_y: bool,
+    /// Size in pixels (default 900 x 650).
+    pub size: (u32, u32),
+    /// Longer series are drawn with a uniform stride so that at most this many points are
+    /// drawn (keeps SVGs small; the data files keep every point). Default 50,000.
+    pub max_points_per_series: usize,
+}
+
+/// Colour-blind-friendly palette (Okabe-Ito, then Tableau), cycled over series.
+const PALETTE: [RGBColor; 10] = [
+    RGBColor(0, 114, 178),
+    RGBColor(213, 94, 0),
+    RGBColor(0, 158, 115),
+    RGBColor(204, 121, 167),
+    RGBColor(230, 159, 0),
+    RGBColor(86, 180, 233),
+    RGBColor(0, 0, 0),
+    RGBColor(140, 86, 75),
+    RGBColor(127, 127, 127),
+    RGBColor(188, 189, 34),
+];
+
+/// Registers the embedded DejaVu Sans as "sans-serif" (once per process).
+fn ensure_font() -> Result<(), Error> {
+    static REGISTERED: OnceLock<Result<(), String>> = OnceLock::new();
+    REGISTERED
+        .get_or_init(|| {
+            plotters::style::register_font("sans-serif", FontStyle::Normal, dejavu::sans::regular())
+                .map_err(|_| "the embedded DejaVu Sans font was rejected".to_string())
+        })
+        .clone()
+        .map_err(|reason| Error::Plot {
+            name: "(font)".into(),
+            reason,
+        })
+}
+
+fn axis_range(values: impl Iterator<Item = f64>) -> std::ops::Range<f64> {
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for v in values.filter(|v| v.is_finite()) {
+        lo = lo.min(v);
+        hi = hi.max(v);
+    }
+    if !lo.is_finite() {
+        return 0.0..1.0;
+    }
+    let span = hi - lo;
+    let pad = if span > 0.0 {
+        0.05 * span
+    } else {
+        0.1 * lo.abs().max(1.0)
+    };
+    (lo - pad)..(hi + pad)
+}
+
+/// A tick label; `span` is the axis length (ticks within `1e-9 span` of zero print as 0,
+/// since the tick generator's multiples of the step carry roundoff of that relative size).
+fn tick_label(v: f64, log: bool, span: f64) -> String {
+    if !log && v.abs() <= 1e-9 * span {
+        return "0".into();
+    }
+    if log {
+        let r = v.round();
+        if (v - r).abs() < 1e-9 {
+            format!("1e{r}")
+        } else {
+            format!("{:.1e}", 10f64.powf(v))
+        }
+    } else if v != 0.0 && (v.abs() < 1e-3 || v.abs() >= 1e5) {
+        format!("{v:.1e}")
+    } else {
+        let s = format!("{v:.4}");
+        let s = s.trim_end_matches('0').trim_end_matches('.');
+        if s == "-0" {
+            "0".into()
+        } else {
+            s.into()
+        }
+    }
+}
+
+impl Figure {
+    /// An empty figure with a title and axis labels.
+    pub fn new(title: &str, x_label: &str, y_label: &str) -> Self {
+        Figure {
+            title: title.into(),
+            x_label: x_label.into(),
+            y_label: y_label.into(),
+            series: Vec::new(),
+            log_x: false,
+            log_y: false,
+            size: (900, 650),
+            max_points_per_series: 50_000,
+        }
+    }
+
+    /// Adds a series.
+    pub fn with_series(mut self, s: Series) -> Self {
+        self.series.push(s);
+        self
+    }
+
+    /// Sets logarithmic axes (e.g. both for work-precision diagrams).
+    pub fn with_log(mut self, log_x: bool, log_y: bool) -> Self {
+        self.log_x = log_x;
+        self.log_y = log_y;
+        self
+    }
+
+    /// The series as drawn: logarithmic axes take `log10`, dropping non-positive values.
+    fn transformed(&self) -> Vec<Vec<(f64, f64)>> {
+        let tx = |v: f64| {
+            if self.log_x {
+                (v > 0.0).then(|| v.log10())
+            } else {
+                Some(v)
+            }
+        };
+        let ty = |v: f64| {
+            if self.log_y {
+                (v > 0.0).then(|| v.log10())
+            } else {
+                Some(v)
+            }
+        };
+        self.series
+            .iter()
+            .map(|s| {
+                let stride = s.points.len().div_ceil(self.max_points_per_series.max(1));
+                s.points
+                    .iter()
+                    .step_by(stride.max(1))
+                    .filter_map(|&(x, y)| Some((tx(x)?, ty(y)?)))
+                    .filter(|(x, y)| x.is_finite() && y.is_finite())
+                    .collect()
+            })
+            .collect()
+    }
+
+    fn draw<DB: DrawingBackend>(
+        &self,
+        root: &DrawingArea<DB, Shift>,
+        data: &[Vec<(f64, f64)>],
+    ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+        let xr = axis_range(data.iter().flatten().map(|p| p.0));
+        let yr = axis_range(data.iter().flatten().map(|p| p.1));
+        root.fill(&WHITE)?;
+        let mut chart = ChartBuilder::on(root)
+            .caption(&self.title, ("sans-serif", 22))
+            .margin(15)
+            .x_label_area_size(50)
+            .y_label_area_size(80)
+            .build_cartesian_2d(xr.clone(), yr.clone())?;
+        let (lx, ly) = (self.log_x, self.log_y);
+        let (sx, sy) = (xr.end - xr.start, yr.end - yr.start);
+        let fx = move |v: &f64| tick_label(*v, lx, sx);
+        let fy = move |v: &f64| tick_label(*v, ly, sy);
+        let suffix = |log: bool| if log { " (log scale)" } else { "" };
+        chart
+            .configure_mesh()
+            .x_desc(format!("{}{}", self.x_label, suffix(lx)))
+            .y_desc(format!("{}{}", self.y_label, suffix(ly)))
+            .x_label_formatter(&fx)
+            .y_label_formatter(&fy)
+            .label_style(("sans-serif", 14))
+            .axis_desc_style(("sans-serif", 16))
+            .light_line_style(RGBColor(235, 235, 235))
+            .draw()?;
+        for (i, (s, pts)) in self.series.iter().zip(data).enumerate() {
+            let color = PALETTE[i % PALETTE.len()];
+            match s.mark {
+                Mark::Line => {
+                    chart
+                        .draw_series(LineSeries::new(pts.iter().copied(), color.stroke_width(2)))?
+                        .label(s.name.as_str())
+                        .legend(move |(x, y)| {
+                            PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
+                        });
+                }
+                Mark::Points => {
+                    chart
+                        .draw_series(pts.iter().map(|&p| Circle::new(p, 2, color.filled())))?
+                        .label(s.name.as_str())
+                        .legend(move |(x, y)| Circle::new((x + 10, y), 4, color.filled()));
+                }
+            }
+        }
+        if !self.series.is_empty() {
+            chart
+                .configure_series_labels()
+                .background_style(WHITE.mix(0.85))
+                .border_style(BLACK)
+                .label_font(("sans-serif", 14))
+                .position(SeriesLabelPosition::UpperRight)
+                .draw()?;
+        }
+        root.present()?;
+        Ok(())
+    }
+
+    /// Writes `dir/stem.png` and `dir/stem.svg`; returns their paths.
+    pub fn render(&self, dir: &Path, stem: &str) -> Result<Vec<PathBuf>, Error> {
+        ensure_font()?;
+        let plot_err = |reason: String| Error::Plot {
+            name: stem.to_string(),
+            reason,
+        };
+        let data = self.transformed();
+        let (w, h) = self.size;
+
+        let mut svg = String::new();
+        {
+            let root = SVGBackend::with_string(&mut svg, (w, h)).into_drawing_area();
+            self.draw(&root, &data)
+                .map_err(|e| plot_err(e.to_string()))?;
+        }
+        let svg_path = dir.join(format!("{stem}.svg"));
+        std::fs::write(&svg_path, svg).map_err(|source| Error::Io {
+            what: "cannot write figure",
+            path: svg_path.clone(),
+            source,
+        })?;
+
+        let mut buf = vec![0u8; (w as usize) * (h as usize) * 3];
+        {
+            let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
+            self.draw(&root, &data)
+                .map_err(|e| plot_err(e.to_string()))?;
+        }
+        let png_path = dir.join(format!("{stem}.png"));
+        write_png(&png_path, &buf, w, h).map_err(|e| match e {
+            PngError::Io(source) => Error::Io {
+                what: "cannot write figure",
+                path: png_path.clone(),
+                source,
+            },
+            PngError::Encode(reason) => plot_err(reason),
+        })?;
+        Ok(vec![png_path, svg_path])
+    }
+}
+
+enum PngError {
+    Io(std::io::Error),
+    Encode(String),
+}
+
+fn write_png(path: &Path, rgb: &[u8], w: u32, h: u32) -> Result<(), PngError> {
+    let file = std::fs::File::create(path).map_err(PngError::Io)?;
+    let mut enc = png::Encoder::new(std::io::BufWriter::new(file), w, h);
+    enc.set_color(png::ColorType::Rgb);
+    enc.set_depth(png::BitDepth::Eight);
+    let mut writer = enc
+        .write_header()
+        .map_err(|e| PngError::Encode(e.to_string()))?;
+    writer
+        .write_image_data(rgb)
+        .map_err(|e| PngError::Encode(e.to_string()))?;
+    writer.finish().map_err(|e| PngError::Encode(e.to_string()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn tick_labels_read_as_numbers() {
+        assert_eq!(tick_label(-3.0, true, 5.0), "1e-3");
+        assert_eq!(tick_label(0.25, false, 1.0), "0.25");
+        assert_eq!(tick_label(3.5e-18, false, 0.03), "0");
+        assert_eq!(tick_label(1e-15, false, 1e-14), "1.0e-15");
+    }
+
+    #[test]
+    fn log_axes_drop_non_positive_values() {
+        let f = Figure::new("t", "x", "y")
+            .with_log(true, true)
+            .with_series(Series::new(
+                "s",
+                Mark::Line,
+                [(1.0, 0.0), (10.0, 100.0), (-1.0, 1.0)],
+            ));
+        assert_eq!(f.transformed(), vec![vec![(1.0, 2.0)]]);
+    }
+
+    #[test]
+    fn long_series_are_strided_for_drawing() {
+        let mut f = Figure::new("t", "x", "y").with_series(Series::new(
+            "s",
+            Mark::Line,
+            (0..10).map(|i| (f64::from(i), 0.0)),
+        ));
+        f.max_points_per_series = 4;
+        let xs: Vec<f64> = f.transformed()[0].iter().map(|p| p.0).collect();
+        assert_eq!(xs, [0.0, 3.0, 6.0, 9.0]);
+    }
+}

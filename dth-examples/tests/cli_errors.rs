@@ -1,0 +1,225 @@
+//! Each class of bad scene: exit code 2, `file:line:column` and what was expected, and no
+//! output folder.
+
+mod common;
+
+use common::*;
+
+const BASE: &str = "[system]
+name = \"kepler\"
+[initial]
+q = [0.5, 0.0]
+p = [0.0, 1.2]
+[[method]]
+kind = \"test_probe_euler\"
+dt = 0.001
+[duration]
+steps = 100
+";
+
+/// Writes `scene` as `bad.toml`, runs `dth run` and `dth check` on it, and checks both exit
+/// with 2, name `bad.toml:line:col` and `expected`, and leave no output behind.
+fn rejects(scene: &str, line_col: &str, expected: &str) {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("bad.toml"), scene).unwrap();
+    for args in [
+        &["check", "bad.toml"][..],
+        &["run", "bad.toml", "--out", "out"],
+    ] {
+        let o = dth(args, dir.path());
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+        assert!(
+            err.contains(&format!("bad.toml:{line_col}: ")),
+            "{args:?}: want {line_col} in {err}"
+        );
+        assert!(
+            err.contains(expected),
+            "{args:?}: want `{expected}` in {err}"
+        );
+        assert_eq!(entries(dir.path()), ["bad.toml"], "output left behind");
+    }
+}
+
+#[test]
+fn the_base_scene_is_valid() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("good.toml"), BASE).unwrap();
+    let o = dth(&["check", "good.toml"], dir.path());
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+}
+
+#[test]
+fn unknown_key() {
+    rejects(
+        &format!("{BASE}[[effect]]\nkind = \"energy_deviation\"\nevry = 3\n"),
+        "13:1",
+        "unknown field `evry`, expected one of",
+    );
+    rejects(
+        &format!("{BASE}[extra]\na = 1\n"),
+        "11:2",
+        "unknown field `extra`",
+    );
+}
+
+#[test]
+fn wrong_type() {
+    rejects(
+        &BASE.replace("steps = 100", "steps = \"many\""),
+        "10:9",
+        "expected i64",
+    );
+    rejects(
+        &BASE.replace("q = [0.5, 0.0]", "q = 0.5"),
+        "4:5",
+        "expected a sequence",
+    );
+}
+
+#[test]
+fn missing_initial_value() {
+    rejects(
+        &BASE.replace("p = [0.0, 1.2]\n", ""),
+        "3:1",
+        "missing initial value `p`: expected an array of 2 numbers",
+    );
+}
+
+#[test]
+fn dimension_mismatch() {
+    rejects(
+        &BASE.replace("q = [0.5, 0.0]", "q = [0.5, 0.0, 1.0]"),
+        "4:5",
+        "initial `q` has 3 values, but system `kepler` has n = 2 degrees of freedom: expected 2",
+    );
+}
+
+#[test]
+fn negative_or_zero_step() {
+    rejects(
+        &BASE.replace("dt = 0.001", "dt = -0.1"),
+        "8:6",
+        "`dt` = -0.1: expected a positive",
+    );
+    rejects(
+        &BASE.replace("dt = 0.001", "dt = 0.0"),
+        "8:6",
+        "`dt` = 0: expected a positive",
+    );
+    let dth = BASE.replace(
+        "kind = \"test_probe_euler\"\ndt = 0.001",
+        "kind = \"dth\"\ndtau = -0.06",
+    );
+    rejects(&dth, "8:8", "`dtau` = -0.06: expected a positive");
+    rejects(
+        &BASE.replace("steps = 100", "steps = 0"),
+        "10:9",
+        "expected a positive integer",
+    );
+}
+
+#[test]
+fn unknown_system() {
+    rejects(
+        &BASE.replace("\"kepler\"", "\"keplr\""),
+        "2:8",
+        "unknown system `keplr`: expected one of kepler,",
+    );
+}
+
+#[test]
+fn unknown_effect() {
+    rejects(
+        &format!("{BASE}[[effect]]\nkind = \"energy\"\n"),
+        "12:8",
+        "unknown effect `energy`: expected one of final_state,",
+    );
+    rejects(
+        &format!("{BASE}[[effect]]\nkind = \"phase_plot\"\nx = \"q3\"\ny = \"p1\"\n"),
+        "13:5",
+        "unknown coordinate `q3` for `x`: expected q1..q2, p1..p2 or t",
+    );
+}
+
+#[test]
+fn unknown_method() {
+    rejects(
+        &BASE.replace("test_probe_euler", "leapfrog"),
+        "7:8",
+        "unknown method `leapfrog`: expected one of exact, dth,",
+    );
+    rejects(
+        &BASE.replace("dt = 0.001", "dtau = 0.001"),
+        "8:8",
+        "`dtau` is a key of method `dth` only",
+    );
+}
+
+#[test]
+fn exact_solution_only_where_one_exists() {
+    rejects(
+        &BASE
+            .replace("\"kepler\"", "\"henon_heiles\"")
+            .replace("test_probe_euler", "exact"),
+        "7:8",
+        "system `henon_heiles` has no exact solution",
+    );
+}
+
+#[test]
+fn unknown_parameter() {
+    rejects(
+        &BASE.replace(
+            "name = \"kepler\"",
+            "name = \"kepler\"\nparams = { mas = 1.0 }",
+        ),
+        "3:12",
+        "unknown parameter `mas` of system `kepler`: expected one of mass, k",
+    );
+}
+
+#[test]
+fn bad_ensemble() {
+    rejects(
+        &format!("{BASE}[ensemble]\nx = \"q1\"\ny = \"q1\"\nhalf_width = 0.1\nper_side = 1\nsteps = 25\n"),
+        "15:12",
+        "`per_side` = 1: expected an integer >= 2",
+    );
+    rejects(
+        &format!("{BASE}[ensemble]\nx = \"q1\"\ny = \"p1\"\nhalf_width = 0.1\nper_side = 3\n"),
+        "11:1",
+        "missing field `steps`",
+    );
+}
+
+#[test]
+fn toml_syntax_error() {
+    rejects("x = [1\n", "1:7", "unclosed array");
+}
+
+#[test]
+fn every_independent_problem_is_reported_at_once() {
+    let scene = BASE
+        .replace("q = [0.5, 0.0]", "q = [0.5]")
+        .replace("dt = 0.001", "dt = -1.0");
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("bad.toml"), scene).unwrap();
+    let o = dth(&["check", "bad.toml"], dir.path());
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        err.contains("bad.toml:4:5: initial `q` has 1 value"),
+        "{err}"
+    );
+    assert!(err.contains("bad.toml:8:6: `dt` = -1"), "{err}");
+}
+
+#[test]
+fn missing_scene_file_is_bad_input() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = dth(&["check", "nope.toml"], dir.path());
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("cannot read scene `nope.toml`"));
+    assert!(stderr(&o).contains("caused by:"));
+}

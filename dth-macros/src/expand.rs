@@ -1,0 +1,223 @@
+//! Emits `impl Hamiltonian<D>`: one straight-line function per trait method, plain `f64`
+//! arithmetic on locals, fixed-size nalgebra types through `::dth::__private`.
+
+use dth_symbolic::{Method, Op, Output, Program, System};
+use proc_macro2::{Literal, TokenStream};
+use quote::{format_ident, quote};
+use syn::Ident;
+
+use crate::check;
+use crate::fallback;
+use crate::parse::Input;
+
+/// The expansion of the whole macro: the implementation, or the errors and a stub.
+pub fn expand(input: Input) -> TokenStream {
+    let mut errors = input.body.errors.clone();
+    let params = check::params(&input, &mut errors);
+    let system = check::system(&input, &params, &mut errors);
+    match (check::combine(errors), system) {
+        (None, Some(system)) => implementation(&input, &params, &system),
+        (error, _) => fallback::stub(&input, error.map(|e| e.to_compile_error())),
+    }
+}
+
+/// The type declaration and its implementation.
+fn implementation(input: &Input, params: &[Ident], system: &System) -> TokenStream {
+    let (decl, name) = fallback::declaration(input, params);
+    let imp = imp(&name, params, system);
+    match &input.item {
+        Some(_) => quote! {
+            #decl
+            const _: () = { #imp };
+        },
+        None => quote! {{
+            #decl
+            #imp
+            #name
+        }},
+    }
+}
+
+fn imp(name: &Ident, params: &[Ident], system: &System) -> TokenStream {
+    let d = system.dim();
+    let nalgebra = quote!(::dth::__private::nalgebra);
+    let core = quote!(::dth::__private::dth_core);
+    let (td, sep, psi0) = (
+        system.time_dependent(),
+        system.separable(),
+        system.psi_identically_zero(),
+    );
+    let value = body(&system.program(Method::Value), params, |v| {
+        let v = &v.value;
+        quote!(#v)
+    });
+    let gradient = body(&system.program(Method::Gradient), params, |v| v.gradient(d));
+    let hessian = body(&system.program(Method::Hessian), params, |v| v.hessian(d));
+    let psi = body(&system.program(Method::Psi), params, |v| {
+        let v = &v.psi;
+        quote!(#v)
+    });
+    let all = body(&system.program(Method::All), params, |v| {
+        let (g, h, value, psi) = (v.gradient(d), v.hessian(d), &v.value, &v.psi);
+        quote!(#core::Derivatives { value: #value, gradient: #g, hessian: #h, psi: #psi })
+    });
+    let source = system_source(system);
+    quote! {
+        #[doc = #source]
+        #[allow(unused_variables, clippy::all, clippy::pedantic, clippy::nursery)]
+        impl #core::Hamiltonian<#d> for #name {
+            const TIME_DEPENDENT: bool = #td;
+            const SEPARABLE: bool = #sep;
+            const PSI_IDENTICALLY_ZERO: bool = #psi0;
+
+            #[inline]
+            fn value(&self, z: &#nalgebra::SVector<f64, #d>) -> f64 { #value }
+            #[inline]
+            fn gradient(&self, z: &#nalgebra::SVector<f64, #d>) -> #nalgebra::SVector<f64, #d> { #gradient }
+            #[inline]
+            fn hessian(&self, z: &#nalgebra::SVector<f64, #d>) -> #nalgebra::SMatrix<f64, #d, #d> { #hessian }
+            #[inline]
+            fn psi(&self, z: &#nalgebra::SVector<f64, #d>) -> f64 { #psi }
+            #[inline]
+            fn derivatives(&self, z: &#nalgebra::SVector<f64, #d>) -> #core::Derivatives<#d> { #all }
+        }
+    }
+}
+
+fn system_source(system: &System) -> String {
+    format!(
+        " `H = {}` (D = {})",
+        system.expr(system.value()),
+        system.dim()
+    )
+}
+
+/// The outputs of a program as expressions: a local, or `0.0` when not computed.
+struct Values {
+    value: TokenStream,
+    psi: TokenStream,
+    gradient: Vec<(usize, Ident)>,
+    hessian: Vec<(usize, usize, Ident)>,
+}
+
+impl Values {
+    fn gradient(&self, d: usize) -> TokenStream {
+        let set = self.gradient.iter().map(|(i, v)| quote!(g[#i] = #v;));
+        quote! {{
+            let mut g = ::dth::__private::nalgebra::SVector::<f64, #d>::zeros();
+            #(#set)*
+            g
+        }}
+    }
+
+    fn hessian(&self, d: usize) -> TokenStream {
+        if self.hessian.is_empty() {
+            return quote!(::dth::__private::nalgebra::SMatrix::<f64, #d, #d>::zeros());
+        }
+        let set = self.hessian.iter().map(|(i, j, v)| {
+            if i == j {
+                quote!(h[(#i, #i)] = #v;)
+            } else {
+                quote!(h[(#i, #j)] = #v; h[(#j, #i)] = #v;)
+            }
+        });
+        quote! {{
+            let mut h = ::dth::__private::nalgebra::SMatrix::<f64, #d, #d>::zeros();
+            #(#set)*
+            h
+        }}
+    }
+}
+
+/// `let`s for the program's operations, then `finish` of its outputs.
+fn body(
+    program: &Program,
+    params: &[Ident],
+    finish: impl Fn(&Values) -> TokenStream,
+) -> TokenStream {
+    let v = |s: u32| format_ident!("v{}", s);
+    let lets = program.ops.iter().enumerate().map(|(i, op)| {
+        let lhs = v(i as u32);
+        let rhs = match *op {
+            Op::Input(k) => {
+                let k = k as usize;
+                quote!(z[#k])
+            }
+            Op::Param(k) => {
+                let p = &params[k as usize];
+                quote!(self.#p)
+            }
+            Op::Const(c) => constant(c),
+            Op::Add(a, b) => {
+                let (a, b) = (v(a), v(b));
+                quote!(#a + #b)
+            }
+            Op::Sub(a, b) => {
+                let (a, b) = (v(a), v(b));
+                quote!(#a - #b)
+            }
+            Op::Mul(a, b) => {
+                let (a, b) = (v(a), v(b));
+                quote!(#a * #b)
+            }
+            Op::Div(a, b) => {
+                let (a, b) = (v(a), v(b));
+                quote!(#a / #b)
+            }
+            Op::Neg(a) => {
+                let a = v(a);
+                quote!(-#a)
+            }
+            Op::Sqrt(a) => {
+                let a = v(a);
+                quote!(::core::primitive::f64::sqrt(#a))
+            }
+            Op::Powf(a, e) => {
+                let (a, e) = (v(a), constant(e));
+                quote!(::core::primitive::f64::powf(#a, #e))
+            }
+            Op::Call(f, a) => {
+                let (a, f) = (v(a), format_ident!("{}", f.name()));
+                quote!(::core::primitive::f64::#f(#a))
+            }
+        };
+        quote!(let #lhs: f64 = #rhs;)
+    });
+    let zero = quote!(0.0f64);
+    let mut values = Values {
+        value: zero.clone(),
+        psi: zero,
+        gradient: Vec::new(),
+        hessian: Vec::new(),
+    };
+    for &(out, s) in &program.outputs {
+        match out {
+            Output::Value => {
+                let s = v(s);
+                values.value = quote!(#s);
+            }
+            Output::Psi => {
+                let s = v(s);
+                values.psi = quote!(#s);
+            }
+            Output::Gradient(i) => values.gradient.push((i, v(s))),
+            Output::Hessian(i, j) => values.hessian.push((i, j, v(s))),
+        }
+    }
+    let out = finish(&values);
+    quote! {
+        let _ = z;
+        #(#lets)*
+        #out
+    }
+}
+
+/// An `f64` literal; negative values as a negated literal.
+fn constant(c: f64) -> TokenStream {
+    let lit = Literal::f64_suffixed(c.abs());
+    if c.is_sign_negative() {
+        quote!(-#lit)
+    } else {
+        quote!(#lit)
+    }
+}

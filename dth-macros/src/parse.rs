@@ -1,0 +1,179 @@
+//! Reads the macro input: `hamiltonian!(expr)` or
+//! `hamiltonian! { #[attrs] pub struct Name { a: f64, .. } = expr }`, and maps the expression's
+//! tokens to a source string, remembering which byte range each token became.
+
+use std::ops::Range;
+
+use proc_macro2::{Delimiter, Span, TokenStream, TokenTree};
+use syn::parse::{Parse, ParseStream};
+use syn::{Attribute, Ident, Token, Type, Visibility};
+
+/// The whole input.
+pub struct Input {
+    /// The item form's header, if any.
+    pub item: Option<Header>,
+    /// The Hamiltonian.
+    pub body: Body,
+}
+
+/// `#[attrs] vis struct Name { params }`.
+pub struct Header {
+    pub attrs: Vec<Attribute>,
+    pub vis: Visibility,
+    pub ident: Ident,
+    pub params: Vec<Param>,
+    /// `false` for `struct Name = ...`, declared as a unit struct.
+    pub braced: bool,
+}
+
+/// One declared parameter `vis name: ty`.
+pub struct Param {
+    pub attrs: Vec<Attribute>,
+    pub vis: Visibility,
+    pub ident: Ident,
+    pub ty: Type,
+}
+
+/// The expression as the engine sees it, and the way back to tokens.
+pub struct Body {
+    /// The expression tokens joined by spaces.
+    pub source: String,
+    /// Each token's byte range in `source` and its span, in order.
+    pub tokens: Vec<(Range<usize>, Span)>,
+    /// Problems found while flattening (`[]` or `{}` used for grouping).
+    pub errors: Vec<syn::Error>,
+}
+
+impl Parse for Input {
+    fn parse(input: ParseStream) -> syn::Result<Self> {
+        let item = if input.peek(Token![#]) || input.peek(Token![pub]) || input.peek(Token![struct])
+        {
+            Some(header(input)?)
+        } else {
+            None
+        };
+        let mut rest: Vec<TokenTree> = input.parse::<TokenStream>()?.into_iter().collect();
+        if item.is_some() && matches!(rest.last(), Some(TokenTree::Punct(p)) if p.as_char() == ';')
+        {
+            rest.pop();
+        }
+        let mut body = Body {
+            source: String::new(),
+            tokens: Vec::new(),
+            errors: Vec::new(),
+        };
+        body.flatten(rest);
+        Ok(Input { item, body })
+    }
+}
+
+fn header(input: ParseStream) -> syn::Result<Header> {
+    let attrs = input.call(Attribute::parse_outer)?;
+    let vis: Visibility = input.parse()?;
+    input.parse::<Token![struct]>()?;
+    let ident: Ident = input
+        .parse()
+        .map_err(|e| syn::Error::new(e.span(), "expected the type's name after `struct`"))?;
+    if input.peek(Token![<]) {
+        return Err(input.error("a Hamiltonian type takes no generic parameters: declare named `f64` parameters in `{ ... }`"));
+    }
+    let mut params = Vec::new();
+    let braced = input.peek(syn::token::Brace);
+    if braced {
+        let content;
+        syn::braced!(content in input);
+        while !content.is_empty() {
+            let attrs = content.call(Attribute::parse_outer)?;
+            let vis: Visibility = content.parse()?;
+            let ident: Ident = content.parse()?;
+            content.parse::<Token![:]>()?;
+            let ty: Type = content.parse()?;
+            params.push(Param {
+                attrs,
+                vis,
+                ident,
+                ty,
+            });
+            if content.is_empty() {
+                break;
+            }
+            content.parse::<Token![,]>()?;
+        }
+    } else if input.peek(syn::token::Paren) {
+        return Err(input.error("expected named parameters `{ name: f64, ... }`: tuple structs cannot name their parameters in the Hamiltonian"));
+    }
+    input.parse::<Token![=]>().map_err(|e| {
+        syn::Error::new(
+            e.span(),
+            "expected `=` and the Hamiltonian: the item form is `struct Name { param: f64, .. } = <Hamiltonian>`",
+        )
+    })?;
+    Ok(Header {
+        attrs,
+        vis,
+        ident,
+        params,
+        braced,
+    })
+}
+
+impl Body {
+    fn push(&mut self, text: &str, span: Span) {
+        if !self.source.is_empty() {
+            self.source.push(' ');
+        }
+        let start = self.source.len();
+        self.source.push_str(text);
+        self.tokens.push((start..self.source.len(), span));
+    }
+
+    fn flatten(&mut self, tokens: impl IntoIterator<Item = TokenTree>) {
+        for tt in tokens {
+            match tt {
+                TokenTree::Ident(i) => self.push(&i.to_string(), i.span()),
+                TokenTree::Punct(p) => self.push(&p.as_char().to_string(), p.span()),
+                TokenTree::Literal(l) => self.push(&l.to_string(), l.span()),
+                TokenTree::Group(g) => {
+                    let (open, close) = match g.delimiter() {
+                        Delimiter::Parenthesis => (g.span_open(), g.span_close()),
+                        // An invisible group comes from a `macro_rules!` fragment: it is one operand.
+                        Delimiter::None => (g.span(), g.span()),
+                        Delimiter::Bracket | Delimiter::Brace => {
+                            self.errors.push(syn::Error::new(
+                                g.span(),
+                                "use parentheses `( )` for grouping: brackets and braces are not part of the grammar",
+                            ));
+                            (g.span_open(), g.span_close())
+                        }
+                    };
+                    self.push("(", open);
+                    self.flatten(g.stream());
+                    self.push(")", close);
+                }
+            }
+        }
+    }
+
+    /// A `syn::Error` covering the tokens that produced `bytes` of the source.
+    pub fn error(&self, bytes: Range<usize>, message: impl std::fmt::Display) -> syn::Error {
+        let hit =
+            |r: &Range<usize>| r.start < bytes.end.max(bytes.start + 1) && bytes.start < r.end;
+        let first = self.tokens.iter().position(|(r, _)| hit(r));
+        let last = self.tokens.iter().rposition(|(r, _)| hit(r));
+        let (first, last) = match (first, last) {
+            (Some(f), Some(l)) => (self.tokens[f].1, self.tokens[l].1),
+            // An empty range at the end (e.g. a missing operand): the last token.
+            _ => match self.tokens.last() {
+                Some((_, s)) => (*s, *s),
+                None => (Span::call_site(), Span::call_site()),
+            },
+        };
+        // `new_spanned` underlines from the first token's start to the last one's end.
+        let mut range = TokenStream::new();
+        range.extend([
+            TokenTree::Ident(Ident::new("first", first)),
+            TokenTree::Ident(Ident::new("last", last)),
+        ]);
+        syn::Error::new_spanned(range, message)
+    }
+}

@@ -1,0 +1,244 @@
+//! Errors, each with the span of the smallest offending piece of source and the rule it breaks.
+
+use std::fmt;
+
+use crate::number::Fault;
+use crate::span::Span;
+
+/// The function names of the grammar, in the order the error messages list them.
+pub const FUNCTIONS: &str = "sin, cos, tan, exp, ln, sqrt, sinh, cosh, tanh, atan";
+
+/// What is wrong.
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub enum ErrorKind {
+    /// The source holds no expression.
+    Empty,
+    /// A character outside the grammar.
+    UnexpectedChar {
+        /// The character.
+        ch: char,
+    },
+    /// A numeric literal outside the grammar (`2f64`, `2q1`).
+    InvalidNumber {
+        /// The literal as written.
+        text: String,
+    },
+    /// A literal larger than `f64::MAX`.
+    LiteralOverflow {
+        /// The literal as written.
+        text: String,
+    },
+    /// A nonzero literal that rounds to zero.
+    LiteralUnderflow {
+        /// The literal as written.
+        text: String,
+    },
+    /// A token where an operand was expected.
+    ExpectedOperand {
+        /// The token found (`None` at the end of input).
+        found: Option<String>,
+    },
+    /// A token where an operator or the end was expected (`q1 q2`, `2(q1)`).
+    ExpectedOperator {
+        /// The token found.
+        found: String,
+    },
+    /// A `(` without its `)`.
+    UnclosedParen,
+    /// A `)` without its `(`.
+    UnmatchedParen,
+    /// Parentheses or signs nested deeper than the parser allows.
+    TooDeep,
+    /// A name that is not a variable, `t`, `pi` or a declared parameter.
+    UnknownVariable {
+        /// The name.
+        name: String,
+    },
+    /// `q0`, `p0`, or an index with a leading zero.
+    BadIndex {
+        /// The name.
+        name: String,
+    },
+    /// An index beyond [`crate::MAX_INDEX`].
+    IndexTooLarge {
+        /// The name.
+        name: String,
+    },
+    /// A call of an unknown function.
+    UnknownFunction {
+        /// The name.
+        name: String,
+    },
+    /// A variable or parameter followed by `(`.
+    NotAFunction {
+        /// The name.
+        name: String,
+    },
+    /// A function name without `(...)`.
+    FunctionWithoutCall {
+        /// The name.
+        name: String,
+    },
+    /// Constant folding failed (division by zero, `ln(-1)`, overflow).
+    Fault(Fault),
+    /// A declared parameter name that cannot be used.
+    BadParameter {
+        /// The name.
+        name: String,
+        /// Why (`"is declared twice"`, `"is a function of the grammar"`, ...).
+        reason: &'static str,
+    },
+    /// `H` uses no momentum `p1..pN`: the flow would not move `q`.
+    NoMomentum,
+    /// `H` uses no variable at all.
+    ConstantHamiltonian,
+}
+
+/// One error: what, and where in the source.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Error {
+    /// What is wrong.
+    pub kind: ErrorKind,
+    /// Where: bytes of the source.
+    pub span: Span,
+}
+
+impl Error {
+    /// An error of `kind` at `span`.
+    pub fn new(kind: ErrorKind, span: Span) -> Self {
+        Error { kind, span }
+    }
+}
+
+impl fmt::Display for Error {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        use ErrorKind::*;
+        match &self.kind {
+            Empty => f.write_str(
+                "empty Hamiltonian: expected an expression in q1..qN, p1..pN (and t, parameters)",
+            ),
+            UnexpectedChar { ch } => write!(
+                f,
+                "unexpected `{ch}`: the grammar has numbers, names, `+ - * / ^` and parentheses"
+            ),
+            InvalidNumber { text } => write!(
+                f,
+                "invalid number `{text}`: expected an integer, decimal or scientific literal without suffix (write `2*q1`, not `2q1`)"
+            ),
+            LiteralOverflow { text } => {
+                write!(f, "literal `{text}` overflows f64 (largest is about 1.8e308)")
+            }
+            LiteralUnderflow { text } => write!(
+                f,
+                "literal `{text}` is nonzero but rounds to zero in f64 (smallest is about 4.9e-324)"
+            ),
+            ExpectedOperand { found: Some(t) } => write!(
+                f,
+                "expected an operand (a number, variable, function call or `(`), found `{t}`"
+            ),
+            ExpectedOperand { found: None } => f.write_str(
+                "expected an operand (a number, variable, function call or `(`) at the end of the expression",
+            ),
+            ExpectedOperator { found } => write!(
+                f,
+                "expected an operator (`+ - * / ^`) or the end, found `{found}`: multiplication needs an explicit `*`"
+            ),
+            UnclosedParen => f.write_str("unclosed `(`: expected a matching `)`"),
+            UnmatchedParen => f.write_str("unmatched `)`"),
+            TooDeep => f.write_str("expression nested too deeply (more than 256 levels)"),
+            UnknownVariable { name } => write!(
+                f,
+                "unknown variable `{name}`: expected q1..qN, p1..pN, t, or a declared parameter"
+            ),
+            BadIndex { name } => write!(
+                f,
+                "bad index in `{name}`: coordinates are numbered from 1 without leading zeros (q1..qN, p1..pN)"
+            ),
+            IndexTooLarge { name } => write!(
+                f,
+                "index in `{name}` is too large: at most {} degrees of freedom are supported",
+                crate::MAX_INDEX
+            ),
+            UnknownFunction { name } if name == "log" => write!(
+                f,
+                "unknown function `log`: the natural logarithm is `ln` (functions: {FUNCTIONS})"
+            ),
+            UnknownFunction { name } => {
+                write!(f, "unknown function `{name}`: expected one of {FUNCTIONS}")
+            }
+            NotAFunction { name } => write!(
+                f,
+                "`{name}` is not a function: multiplication needs an explicit `*` (`{name}*(...)`)"
+            ),
+            FunctionWithoutCall { name } => {
+                write!(f, "`{name}` is a function: call it with parentheses, `{name}(...)`")
+            }
+            Fault(fault) => write!(f, "{fault}"),
+            BadParameter { name, reason } => write!(
+                f,
+                "parameter `{name}` {reason}: parameters need their own names"
+            ),
+            NoMomentum => f.write_str(
+                "the Hamiltonian does not depend on any momentum p1..pN (after simplification): its flow would not move q",
+            ),
+            ConstantHamiltonian => f.write_str(
+                "the Hamiltonian is constant (after simplification): it must depend on q1..qN, p1..pN",
+            ),
+        }
+    }
+}
+
+impl std::error::Error for Error {}
+
+/// All the independent errors found in one source, in source order.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Errors(pub Vec<Error>);
+
+impl fmt::Display for Errors {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        for (i, e) in self.0.iter().enumerate() {
+            if i > 0 {
+                f.write_str("; ")?;
+            }
+            write!(f, "{e} (bytes {}..{})", e.span.start, e.span.end)?;
+        }
+        Ok(())
+    }
+}
+
+impl std::error::Error for Errors {}
+
+/// Why [`crate::Program::eval`] could not run.
+#[derive(Clone, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum EvalError {
+    /// `z` or `params` has the wrong length.
+    WrongLength {
+        /// `"z"` or `"params"`.
+        what: &'static str,
+        /// The length the program needs.
+        expected: usize,
+        /// The length given.
+        found: usize,
+    },
+}
+
+impl fmt::Display for EvalError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            EvalError::WrongLength {
+                what,
+                expected,
+                found,
+            } => {
+                write!(
+                    f,
+                    "`{what}` has length {found}, the program needs {expected}"
+                )
+            }
+        }
+    }
+}
+
+impl std::error::Error for EvalError {}

@@ -1,0 +1,130 @@
+//! Lexer: `&str` to tokens with byte spans. Every bad character is reported, not just the first.
+
+use crate::error::{Error, ErrorKind};
+use crate::span::Span;
+
+/// The kind of a token; its text is `&source[span]`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TokenKind {
+    /// A numeric literal (validated later, so its errors carry its span).
+    Number,
+    /// A name: variable, parameter, function or `pi`.
+    Ident,
+    /// `+`
+    Plus,
+    /// `-`
+    Minus,
+    /// `*`
+    Star,
+    /// `/`
+    Slash,
+    /// `^`
+    Caret,
+    /// `(`
+    LParen,
+    /// `)`
+    RParen,
+}
+
+/// A token and its byte range.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Token {
+    /// What it is.
+    pub kind: TokenKind,
+    /// Where it is.
+    pub span: Span,
+}
+
+/// Splits `src` into tokens, accumulating one error per unexpected character.
+pub fn lex(src: &str) -> (Vec<Token>, Vec<Error>) {
+    let bytes = src.as_bytes();
+    let mut tokens = Vec::new();
+    let mut errors = Vec::new();
+    let mut i = 0;
+    while i < bytes.len() {
+        let c = bytes[i];
+        let start = i;
+        let single = match c {
+            b'+' => Some(TokenKind::Plus),
+            b'-' => Some(TokenKind::Minus),
+            b'*' => Some(TokenKind::Star),
+            b'/' => Some(TokenKind::Slash),
+            b'^' => Some(TokenKind::Caret),
+            b'(' => Some(TokenKind::LParen),
+            b')' => Some(TokenKind::RParen),
+            _ => None,
+        };
+        if let Some(kind) = single {
+            i += 1;
+            tokens.push(Token {
+                kind,
+                span: Span::new(start, i),
+            });
+        } else if c.is_ascii_whitespace() {
+            i += 1;
+        } else if c.is_ascii_digit() {
+            // Digits, a fraction, an exponent with its sign; then any letters glued on (a
+            // suffix, `2q1`) so the whole run is reported as one invalid number.
+            i += 1;
+            while i < bytes.len() {
+                let b = bytes[i];
+                let exp_sign = (b == b'+' || b == b'-')
+                    && matches!(bytes[i - 1], b'e' | b'E')
+                    && bytes[start..i - 1]
+                        .iter()
+                        .all(|d| d.is_ascii_digit() || *d == b'.');
+                if b.is_ascii_alphanumeric() || b == b'.' || b == b'_' || exp_sign {
+                    i += 1;
+                } else {
+                    break;
+                }
+            }
+            tokens.push(Token {
+                kind: TokenKind::Number,
+                span: Span::new(start, i),
+            });
+        } else if c.is_ascii_alphabetic() || c == b'_' {
+            while i < bytes.len() && (bytes[i].is_ascii_alphanumeric() || bytes[i] == b'_') {
+                i += 1;
+            }
+            tokens.push(Token {
+                kind: TokenKind::Ident,
+                span: Span::new(start, i),
+            });
+        } else {
+            let ch = src[i..].chars().next().unwrap_or('?');
+            i += ch.len_utf8();
+            errors.push(Error::new(
+                ErrorKind::UnexpectedChar { ch },
+                Span::new(start, i),
+            ));
+        }
+    }
+    (tokens, errors)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn scientific_literals_are_one_token() {
+        let (t, e) = lex("2.5e-3*q1^-2");
+        assert!(e.is_empty());
+        assert_eq!(
+            t[0],
+            Token {
+                kind: TokenKind::Number,
+                span: Span::new(0, 6)
+            }
+        );
+        assert_eq!(t.len(), 6);
+    }
+
+    #[test]
+    fn every_bad_character_is_reported() {
+        let (_, e) = lex("q1 $ p1 # 2");
+        assert_eq!(e.len(), 2);
+        assert_eq!(e[1].span, Span::new(8, 9));
+    }
+}

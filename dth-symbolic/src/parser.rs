@@ -1,0 +1,295 @@
+//! Parser: tokens to a syntax tree with spans (precedence climbing).
+//!
+//! ```text
+//! expr    := term (('+' | '-') term)*
+//! term    := unary (('*' | '/') unary)*
+//! unary   := ('-' | '+') unary | power
+//! power   := atom ('^' unary)?          right-associative; binds tighter than unary minus
+//! atom    := number | name | name '(' expr ')' | '(' expr ')'
+//! ```
+
+use crate::error::{Error, ErrorKind};
+use crate::lexer::{Token, TokenKind};
+use crate::span::Span;
+
+/// A binary operator.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BinOp {
+    /// `+`
+    Add,
+    /// `-`
+    Sub,
+    /// `*`
+    Mul,
+    /// `/`
+    Div,
+    /// `^`
+    Pow,
+}
+
+/// A syntax-tree node.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Ast {
+    /// A numeric literal (text at `span`).
+    Number(Span),
+    /// A name (text at `span`).
+    Name(Span),
+    /// `name(arg)`.
+    Call {
+        /// The function name.
+        name: Span,
+        /// The argument.
+        arg: Box<Ast>,
+        /// From the name to the `)`.
+        span: Span,
+    },
+    /// `-x` (or `+x`, `negate: false`).
+    Unary {
+        /// `true` for `-`.
+        negate: bool,
+        /// The operand.
+        arg: Box<Ast>,
+        /// From the sign to the end of the operand.
+        span: Span,
+    },
+    /// `first op x op x ...` at one precedence level (`+ -` or `* /`), left to right. Kept
+    /// flat so a long sum neither recurses deeply nor rebuilds its prefix at every term.
+    Chain {
+        /// The first operand.
+        first: Box<Ast>,
+        /// Each operator, its token and its right operand.
+        rest: Vec<(BinOp, Span, Ast)>,
+    },
+    /// `lhs ^ rhs` (the only binary node: `^` is right-associative).
+    Binary {
+        /// The operator.
+        op: BinOp,
+        /// The operator's token.
+        op_span: Span,
+        /// Left operand.
+        lhs: Box<Ast>,
+        /// Right operand.
+        rhs: Box<Ast>,
+    },
+    /// `( inner )`: kept so errors on a group cover its parentheses.
+    Paren {
+        /// The contents.
+        inner: Box<Ast>,
+        /// From `(` to `)`.
+        span: Span,
+    },
+}
+
+impl Ast {
+    /// The source range of the whole node.
+    pub fn span(&self) -> Span {
+        match self {
+            Ast::Number(s) | Ast::Name(s) => *s,
+            Ast::Call { span, .. } | Ast::Unary { span, .. } | Ast::Paren { span, .. } => *span,
+            Ast::Binary { lhs, rhs, .. } => lhs.span().to(rhs.span()),
+            Ast::Chain { first, rest } => match rest.last() {
+                Some((_, _, last)) => first.span().to(last.span()),
+                None => first.span(),
+            },
+        }
+    }
+}
+
+struct Parser<'a> {
+    src: &'a str,
+    tokens: &'a [Token],
+    pos: usize,
+    depth: usize,
+}
+
+/// Nesting beyond this is rejected rather than risking the stack.
+const MAX_DEPTH: usize = 256;
+
+/// Parses a whole expression. Syntax errors stop the parse (later ones would be cascades).
+pub fn parse(src: &str, tokens: &[Token]) -> Result<Ast, Error> {
+    if tokens.is_empty() {
+        return Err(Error::new(ErrorKind::Empty, Span::new(0, src.len())));
+    }
+    let mut p = Parser {
+        src,
+        tokens,
+        pos: 0,
+        depth: 0,
+    };
+    let ast = p.expr()?;
+    match p.peek() {
+        None => Ok(ast),
+        Some(t) if t.kind == TokenKind::RParen => {
+            Err(Error::new(ErrorKind::UnmatchedParen, t.span))
+        }
+        Some(t) => Err(Error::new(
+            ErrorKind::ExpectedOperator {
+                found: p.text(t.span).to_string(),
+            },
+            t.span,
+        )),
+    }
+}
+
+impl<'a> Parser<'a> {
+    fn peek(&self) -> Option<Token> {
+        self.tokens.get(self.pos).copied()
+    }
+
+    fn text(&self, s: Span) -> &'a str {
+        &self.src[s.range()]
+    }
+
+    fn eat(&mut self, kind: TokenKind) -> Option<Token> {
+        match self.peek() {
+            Some(t) if t.kind == kind => {
+                self.pos += 1;
+                Some(t)
+            }
+            _ => None,
+        }
+    }
+
+    fn expr(&mut self) -> Result<Ast, Error> {
+        let first = self.term()?;
+        let mut rest = Vec::new();
+        while let Some(t) = self.peek() {
+            let op = match t.kind {
+                TokenKind::Plus => BinOp::Add,
+                TokenKind::Minus => BinOp::Sub,
+                _ => break,
+            };
+            self.pos += 1;
+            rest.push((op, t.span, self.term()?));
+        }
+        Ok(if rest.is_empty() {
+            first
+        } else {
+            Ast::Chain {
+                first: Box::new(first),
+                rest,
+            }
+        })
+    }
+
+    fn term(&mut self) -> Result<Ast, Error> {
+        let first = self.unary()?;
+        let mut rest = Vec::new();
+        while let Some(t) = self.peek() {
+            let op = match t.kind {
+                TokenKind::Star => BinOp::Mul,
+                TokenKind::Slash => BinOp::Div,
+                _ => break,
+            };
+            self.pos += 1;
+            rest.push((op, t.span, self.unary()?));
+        }
+        Ok(if rest.is_empty() {
+            first
+        } else {
+            Ast::Chain {
+                first: Box::new(first),
+                rest,
+            }
+        })
+    }
+
+    /// Every level of nesting (parentheses, signs, exponents) passes here: the depth limit.
+    fn unary(&mut self) -> Result<Ast, Error> {
+        self.depth += 1;
+        if self.depth > MAX_DEPTH {
+            let span = self
+                .peek()
+                .map_or(Span::new(self.src.len(), self.src.len()), |t| t.span);
+            return Err(Error::new(ErrorKind::TooDeep, span));
+        }
+        let r = self.signed();
+        self.depth -= 1;
+        r
+    }
+
+    fn signed(&mut self) -> Result<Ast, Error> {
+        if let Some(t) = self.peek() {
+            if matches!(t.kind, TokenKind::Minus | TokenKind::Plus) {
+                self.pos += 1;
+                let arg = self.unary()?;
+                let span = t.span.to(arg.span());
+                return Ok(Ast::Unary {
+                    negate: t.kind == TokenKind::Minus,
+                    arg: Box::new(arg),
+                    span,
+                });
+            }
+        }
+        self.power()
+    }
+
+    fn power(&mut self) -> Result<Ast, Error> {
+        let base = self.atom()?;
+        if let Some(t) = self.eat(TokenKind::Caret) {
+            let exp = self.unary()?;
+            return Ok(Ast::Binary {
+                op: BinOp::Pow,
+                op_span: t.span,
+                lhs: Box::new(base),
+                rhs: Box::new(exp),
+            });
+        }
+        Ok(base)
+    }
+
+    fn atom(&mut self) -> Result<Ast, Error> {
+        let Some(t) = self.peek() else {
+            // At the end: point at the last token (the dangling operator).
+            let span = self.tokens.last().map_or(Span::default(), |t| t.span);
+            return Err(Error::new(ErrorKind::ExpectedOperand { found: None }, span));
+        };
+        self.pos += 1;
+        match t.kind {
+            TokenKind::Number => Ok(Ast::Number(t.span)),
+            TokenKind::Ident => {
+                if let Some(open) = self.eat(TokenKind::LParen) {
+                    let arg = self.expr()?;
+                    let close = self.close(open.span)?;
+                    Ok(Ast::Call {
+                        name: t.span,
+                        arg: Box::new(arg),
+                        span: t.span.to(close),
+                    })
+                } else {
+                    Ok(Ast::Name(t.span))
+                }
+            }
+            TokenKind::LParen => {
+                let inner = self.expr()?;
+                let close = self.close(t.span)?;
+                Ok(Ast::Paren {
+                    inner: Box::new(inner),
+                    span: t.span.to(close),
+                })
+            }
+            _ => Err(Error::new(
+                ErrorKind::ExpectedOperand {
+                    found: Some(self.text(t.span).to_string()),
+                },
+                t.span,
+            )),
+        }
+    }
+
+    fn close(&mut self, open: Span) -> Result<Span, Error> {
+        match self.peek() {
+            Some(t) if t.kind == TokenKind::RParen => {
+                self.pos += 1;
+                Ok(t.span)
+            }
+            None => Err(Error::new(ErrorKind::UnclosedParen, open)),
+            Some(t) => Err(Error::new(
+                ErrorKind::ExpectedOperator {
+                    found: self.text(t.span).to_string(),
+                },
+                t.span,
+            )),
+        }
+    }
+}

@@ -1,0 +1,320 @@
+//! A compiled Hamiltonian: `calH`, its gradient, the upper triangle of its Hessian and Psi, all
+//! as nodes of one arena (so they share every common subexpression).
+
+use crate::arena::{Arena, Id, Node, Var};
+use crate::build::{coordinates, Builder};
+use crate::check;
+use crate::error::{Error, ErrorKind, Errors};
+use crate::lexer::lex;
+use crate::lower::{Output, Program};
+use crate::number::{Fault, Num};
+use crate::parser::parse;
+use crate::span::Span;
+
+/// Which trait method a [`Program`] computes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Method {
+    /// `H(z)` (`calH` when time-dependent).
+    Value,
+    /// `grad H`.
+    Gradient,
+    /// The nonzero entries of the upper triangle of `Hess H`.
+    Hessian,
+    /// `Psi = (J grad H)^T Hess H (J grad H)`.
+    Psi,
+    /// All four, sharing every common subexpression.
+    All,
+}
+
+/// A Hamiltonian compiled to symbolic value, gradient, Hessian and Psi.
+#[derive(Clone, Debug)]
+pub struct System {
+    arena: Arena,
+    n: usize,
+    time_dependent: bool,
+    coordinates: Vec<Var>,
+    value: Id,
+    gradient: Vec<Id>,
+    hessian: Vec<Id>,
+    psi: Id,
+}
+
+/// Parses, checks and differentiates `src`, a Hamiltonian in the grammar, with the declared
+/// parameter names `params`. Every independent error is returned, in source order.
+///
+/// ```
+/// let h = dth_symbolic::compile("p1^2/2 + q1^2/2", &[]).unwrap();
+/// assert_eq!(h.dim(), 2);
+/// assert_eq!(h.expr(h.gradient()[0]).to_string(), "q1");
+/// assert!(h.separable() && !h.psi_identically_zero());
+/// ```
+pub fn compile(src: &str, params: &[&str]) -> Result<System, Errors> {
+    let (arena, h, whole) = expression(src, params)?;
+    let structural = check::structure(&arena, h, whole);
+    if !structural.is_empty() {
+        return Err(Errors(structural));
+    }
+    derive(arena, h)
+        .map_err(|(fault, span)| Errors(vec![Error::new(ErrorKind::Fault(fault), span)]))
+}
+
+/// Parses and simplifies `src` without the checks that make it a Hamiltonian: the arena, the
+/// root, and the span of the whole expression.
+///
+/// ```
+/// let (arena, h, _) = dth_symbolic::expression("2*q1 + q1*3 - 5*q1^1", &[]).unwrap();
+/// assert_eq!(arena.expr(h).to_string(), "0");
+/// ```
+pub fn expression(src: &str, params: &[&str]) -> Result<(Arena, Id, Span), Errors> {
+    let mut errors = Vec::new();
+    for (k, p) in params.iter().enumerate() {
+        if let Some(reason) = check::reserved_name(p) {
+            errors.push(Error::new(
+                ErrorKind::BadParameter {
+                    name: p.to_string(),
+                    reason,
+                },
+                Span::default(),
+            ));
+        } else if params[..k].contains(p) {
+            errors.push(Error::new(
+                ErrorKind::BadParameter {
+                    name: p.to_string(),
+                    reason: "is declared twice",
+                },
+                Span::default(),
+            ));
+        }
+    }
+    let (tokens, lex_errors) = lex(src);
+    let had_lex_errors = !lex_errors.is_empty();
+    errors.extend(lex_errors);
+    let ast = match parse(src, &tokens) {
+        Ok(ast) => ast,
+        Err(e) => {
+            // With bad characters dropped, a syntax error is most likely their consequence.
+            if !had_lex_errors {
+                errors.push(e);
+            }
+            return Err(Errors(errors));
+        }
+    };
+    let mut b = Builder {
+        src,
+        arena: Arena::new(params),
+        errors,
+    };
+    let h = b.build(&ast);
+    let (arena, mut errors) = (b.arena, b.errors);
+    match h {
+        Some(h) if errors.is_empty() => Ok((arena, h, ast.span())),
+        _ => {
+            errors.sort_by_key(|e| e.span.start);
+            Err(Errors(errors))
+        }
+    }
+}
+
+/// Builds `calH`, the gradient, the Hessian's upper triangle and Psi from `H`.
+fn derive(mut arena: Arena, h: Id) -> Result<System, (Fault, Span)> {
+    // Faults here would need a constant to fold badly, and constants were folded while
+    // building; they are still reported (on the node being differentiated), never hidden.
+    let arena = &mut arena;
+    // The dimension and time dependence follow the source text, not what survives
+    // simplification: `p1^2 + 0*q2` is a 2-degree-of-freedom system, as written. Every
+    // variable node in the arena at this point was named in the source.
+    let vars: Vec<Var> = (0..arena.len())
+        .filter_map(|i| match arena.node(Id(i as u32)) {
+            Node::Var(v) => Some(*v),
+            _ => None,
+        })
+        .collect();
+    let n = vars
+        .iter()
+        .filter_map(|v| match v {
+            Var::Q(i) | Var::P(i) => Some(*i),
+            _ => None,
+        })
+        .max()
+        .unwrap_or(0);
+    let time_dependent = vars.contains(&Var::T);
+    let coordinates = coordinates(n, time_dependent);
+    let d = coordinates.len();
+    let value = if time_dependent {
+        arena.span = arena.span(h);
+        let pt = arena.var(Var::Pt);
+        arena.add(&[h, pt]).map_err(|f| (f, arena.span(h)))?
+    } else {
+        h
+    };
+    let gradient = coordinates
+        .iter()
+        .map(|&x| arena.diff(value, x).map_err(|f| (f, Span::default())))
+        .collect::<Result<Vec<_>, _>>()?;
+    let mut hessian = Vec::with_capacity(d * (d + 1) / 2);
+    for (i, &g) in gradient.iter().enumerate() {
+        for &x in &coordinates[i..] {
+            hessian.push(arena.diff(g, x).map_err(|f| (f, Span::default()))?);
+        }
+    }
+    let psi = psi(arena, &gradient, &hessian, d).map_err(|f| (f, Span::default()))?;
+    Ok(System {
+        arena: arena.clone(),
+        n: n as usize,
+        time_dependent,
+        coordinates,
+        value,
+        gradient,
+        hessian,
+        psi,
+    })
+}
+
+/// `Psi = w^T Hess w`, `w = J grad`: `sum_i H_ii w_i^2 + 2 sum_{i<j} H_ij w_i w_j`.
+fn psi(arena: &mut Arena, g: &[Id], hess: &[Id], d: usize) -> Result<Id, Fault> {
+    let half = d / 2;
+    let mut w = Vec::with_capacity(d);
+    for i in 0..d {
+        w.push(if i < half {
+            g[i + half]
+        } else {
+            arena.neg(g[i - half])?
+        });
+    }
+    let two = arena.num(Num::int(2));
+    let mut terms = Vec::new();
+    let mut k = 0;
+    for i in 0..d {
+        for j in i..d {
+            let h = hess[k];
+            k += 1;
+            if arena.is_zero(h) {
+                continue;
+            }
+            terms.push(if i == j {
+                let w2 = arena.pow(w[i], Num::int(2))?;
+                arena.mul(&[h, w2])?
+            } else {
+                arena.mul(&[two, h, w[i], w[j]])?
+            });
+        }
+    }
+    arena.add(&terms)
+}
+
+impl System {
+    /// Degrees of freedom `n` (the largest index used).
+    pub fn n(&self) -> usize {
+        self.n
+    }
+
+    /// Phase-space dimension `D`: `2n`, or `2n + 2` when time-dependent.
+    pub fn dim(&self) -> usize {
+        self.coordinates.len()
+    }
+
+    /// `true` when `H` uses `t`: `z = (q1..qn, t, p1..pn, p_t)` and the value is `p_t + H`.
+    pub fn time_dependent(&self) -> bool {
+        self.time_dependent
+    }
+
+    /// The coordinates in `z` order.
+    pub fn coordinates(&self) -> &[Var] {
+        &self.coordinates
+    }
+
+    /// `true` when the block of the Hessian between the first and second halves of `z`
+    /// (positions and momenta) is identically zero: `H = T(p) + V(q)`.
+    pub fn separable(&self) -> bool {
+        let (d, half) = (self.dim(), self.dim() / 2);
+        (0..half).all(|i| (half..d).all(|j| self.arena.is_zero(self.hessian_entry(i, j))))
+    }
+
+    /// `true` when Psi simplifies to 0 (a linear `H`, a free particle). The simplifier proves
+    /// zero for these cases; an identity it cannot see (`sin^2 + cos^2 - 1`) reports `false`.
+    pub fn psi_identically_zero(&self) -> bool {
+        self.arena.is_zero(self.psi)
+    }
+
+    /// The arena holding every expression.
+    pub fn arena(&self) -> &Arena {
+        &self.arena
+    }
+
+    /// The value `H` (`calH = p_t + H` when time-dependent).
+    pub fn value(&self) -> Id {
+        self.value
+    }
+
+    /// `grad H` in `z` order.
+    pub fn gradient(&self) -> &[Id] {
+        &self.gradient
+    }
+
+    /// `d^2 H / dz_i dz_j` (symmetric: any order of `i`, `j`).
+    pub fn hessian_entry(&self, i: usize, j: usize) -> Id {
+        let (i, j) = if i <= j { (i, j) } else { (j, i) };
+        let d = self.dim();
+        // Row i of the upper triangle starts after rows 0..i: i*d - i*(i-1)/2 entries.
+        self.hessian[i * d - i * i.saturating_sub(1) / 2 + (j - i)]
+    }
+
+    /// Psi.
+    pub fn psi(&self) -> Id {
+        self.psi
+    }
+
+    /// The declared parameter names.
+    pub fn params(&self) -> &[String] {
+        self.arena.params()
+    }
+
+    /// A printable view of `id`.
+    pub fn expr(&self, id: Id) -> crate::display::Expr<'_> {
+        self.arena.expr(id)
+    }
+
+    /// The outputs a method computes, with their nodes (zero Hessian entries left out).
+    pub fn outputs(&self, method: Method) -> Vec<(Output, Id)> {
+        let d = self.dim();
+        let mut out = Vec::new();
+        if matches!(method, Method::Value | Method::All) {
+            out.push((Output::Value, self.value));
+        }
+        if matches!(method, Method::Gradient | Method::All) {
+            out.extend(
+                self.gradient
+                    .iter()
+                    .enumerate()
+                    .map(|(i, &g)| (Output::Gradient(i), g)),
+            );
+        }
+        if matches!(method, Method::Hessian | Method::All) {
+            for i in 0..d {
+                for j in i..d {
+                    let h = self.hessian_entry(i, j);
+                    if !self.arena.is_zero(h) {
+                        out.push((Output::Hessian(i, j), h));
+                    }
+                }
+            }
+        }
+        if matches!(method, Method::Psi | Method::All) {
+            out.push((Output::Psi, self.psi));
+        }
+        out
+    }
+
+    /// The straight-line program of `method`: it computes only what that method needs.
+    pub fn program(&self, method: Method) -> Program {
+        Program::lower(&self.arena, &self.coordinates, &self.outputs(method))
+    }
+
+    /// Whether `id` is a constant, and which.
+    pub fn constant(&self, id: Id) -> Option<Num> {
+        match self.arena.node(id) {
+            Node::Num(n) => Some(*n),
+            _ => None,
+        }
+    }
+}

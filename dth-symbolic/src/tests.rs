@@ -1,0 +1,347 @@
+//! One test per differentiation and simplification rule, through the printer.
+
+use crate::arena::Var;
+use crate::error::ErrorKind;
+use crate::{compile, expression, Method};
+
+/// `src`, simplified.
+fn s(src: &str) -> String {
+    let (arena, id, _) = expression(src, &["a", "b"]).unwrap_or_else(|e| panic!("{src}: {e}"));
+    arena.expr(id).to_string()
+}
+
+/// `d src / d x`, simplified (`x` in the grammar's spelling).
+fn d(src: &str, x: &str) -> String {
+    let (mut arena, id, _) = expression(src, &["a", "b"]).unwrap_or_else(|e| panic!("{src}: {e}"));
+    let v = match crate::check::resolve(x, &[]) {
+        Ok(crate::check::Name::Var(v)) => v,
+        _ => panic!("not a variable: {x}"),
+    };
+    let dx = arena.diff(id, v).unwrap();
+    arena.expr(dx).to_string()
+}
+
+fn kinds(src: &str) -> Vec<ErrorKind> {
+    compile(src, &["a"])
+        .unwrap_err()
+        .0
+        .into_iter()
+        .map(|e| e.kind)
+        .collect()
+}
+
+// --- simplification rules -------------------------------------------------------------
+
+#[test]
+fn exact_rational_folding() {
+    assert_eq!(s("1/3 + 1/6"), "1/2");
+    assert_eq!(s("0.1 + 0.2"), "3/10");
+    assert_eq!(s("2^10 * 4^(-1/2)"), "512");
+    assert_eq!(s("(4/9)^(-3/2)"), "27/8");
+}
+
+#[test]
+fn neutral_elements() {
+    assert_eq!(s("q1 + 0"), "q1");
+    assert_eq!(s("1*q1"), "q1");
+    assert_eq!(s("q1^1"), "q1");
+    assert_eq!(s("q1/1"), "q1");
+    assert_eq!(s("q1^0"), "1");
+}
+
+#[test]
+fn absorbing_zero() {
+    assert_eq!(s("0*sin(q1)"), "0");
+    assert_eq!(s("(q1 - q1)*p1"), "0");
+}
+
+#[test]
+fn like_terms_collect() {
+    assert_eq!(s("2*q1 + 3*q1"), "5*q1");
+    assert_eq!(s("q1*p1 - p1*q1"), "0");
+    assert_eq!(s("q1 + q1 + 1 + 1"), "2 + 2*q1");
+}
+
+#[test]
+fn powers_merge() {
+    assert_eq!(s("q1*q1"), "q1^2");
+    assert_eq!(s("q1^2 * q1^(-1/2)"), "q1^(3/2)");
+    assert_eq!(s("q1/q1"), "1");
+    assert_eq!(s("sqrt(q1)*sqrt(q1)"), "q1");
+}
+
+#[test]
+fn integer_powers_distribute_and_compose() {
+    assert_eq!(s("(2*q1)^2"), "4*q1^2");
+    assert_eq!(s("(q1^(1/2))^2"), "q1");
+    assert_eq!(s("(q1^3)^(-2)"), "q1^(-6)");
+    // (x^2)^(1/2) = |x| must not become x.
+    assert_eq!(s("(q1^2)^(1/2)"), "(q1^2)^(1/2)");
+}
+
+#[test]
+fn unary_minus_binds_looser_than_power() {
+    assert_eq!(s("-q1^2"), "-q1^2");
+    assert_eq!(s("2^-1"), "1/2");
+    assert_eq!(s("2^3^2"), "512");
+    assert_eq!(s("-2^2"), "-4");
+}
+
+#[test]
+fn functions_of_constants_and_inverses() {
+    assert_eq!(s("cos(0) + sin(0) + ln(1) + exp(0)"), "2");
+    assert_eq!(s("ln(exp(q1))"), "q1");
+    assert_eq!(s("exp(ln(q1))"), "q1");
+    assert_eq!(s("sqrt(4)"), "2");
+}
+
+#[test]
+fn variable_exponent_is_exp_of_log() {
+    assert_eq!(s("q1^p1"), "exp(p1*ln(q1))");
+    assert_eq!(d("q1^p1", "p1"), "ln(q1)*exp(p1*ln(q1))");
+}
+
+#[test]
+fn hash_consing_shares_subexpressions() {
+    let (arena, a, _) = expression("(q1^2 + q2^2)^(-1/2) + (q2^2 + q1*q1)^(-1/2)", &[]).unwrap();
+    assert_eq!(arena.expr(a).to_string(), "2*(q1^2 + q2^2)^(-1/2)");
+}
+
+// --- differentiation rules ------------------------------------------------------------
+
+#[test]
+fn d_constant_and_variables() {
+    assert_eq!(d("3", "q1"), "0");
+    assert_eq!(d("q1", "q1"), "1");
+    assert_eq!(d("q2", "q1"), "0");
+    assert_eq!(d("a*q1", "q1"), "a");
+    assert_eq!(d("pi*q1", "q1"), "3.141592653589793");
+}
+
+#[test]
+fn d_sum_and_product() {
+    assert_eq!(d("q1 + q1*p1", "q1"), "p1 + 1");
+    assert_eq!(d("q1*p1*q2", "q1"), "p1*q2");
+    assert_eq!(d("q1*sin(q1)", "q1"), "sin(q1) + q1*cos(q1)");
+}
+
+#[test]
+fn d_powers() {
+    assert_eq!(d("q1^2", "q1"), "2*q1");
+    assert_eq!(d("q1^3", "q1"), "3*q1^2");
+    assert_eq!(d("q1^(-1)", "q1"), "-q1^(-2)");
+    assert_eq!(d("sqrt(q1)", "q1"), "(1/2)*q1^(-1/2)");
+    assert_eq!(d("(q1^2+q2^2)^(-1/2)", "q1"), "-q1*(q1^2 + q2^2)^(-3/2)");
+    assert_eq!(d("1/q1", "q1"), "-q1^(-2)");
+}
+
+#[test]
+fn d_functions() {
+    assert_eq!(d("sin(q1)", "q1"), "cos(q1)");
+    assert_eq!(d("cos(q1)", "q1"), "-sin(q1)");
+    assert_eq!(d("tan(q1)", "q1"), "1 + tan(q1)^2");
+    assert_eq!(d("exp(2*q1)", "q1"), "2*exp(2*q1)");
+    assert_eq!(d("ln(q1)", "q1"), "q1^(-1)");
+    assert_eq!(d("sinh(q1)", "q1"), "cosh(q1)");
+    assert_eq!(d("cosh(q1)", "q1"), "sinh(q1)");
+    assert_eq!(d("tanh(q1)", "q1"), "1 - tanh(q1)^2");
+    assert_eq!(d("atan(q1)", "q1"), "(1 + q1^2)^(-1)");
+    assert_eq!(d("cos(q1^2)", "q1"), "-2*q1*sin(q1^2)");
+}
+
+#[test]
+fn d_parameters_are_constants() {
+    assert_eq!(d("a*b", "q1"), "0");
+    assert_eq!(d("q1^a", "q1"), "a*exp(a*ln(q1))*q1^(-1)");
+}
+
+// --- system-level facts ---------------------------------------------------------------
+
+#[test]
+fn kepler_flags_and_hessian_sparsity() {
+    let h = compile("p1^2 + p2^2 - (q1^2+q2^2)^(-1/2)", &[]).unwrap();
+    assert_eq!((h.n(), h.dim()), (2, 4));
+    assert!(h.separable() && !h.time_dependent() && !h.psi_identically_zero());
+    // Upper triangle: q-q block (3 entries) + p1p1 + p2p2; p1p2 and the q-p block are zero.
+    assert_eq!(h.outputs(Method::Hessian).len(), 5);
+    assert_eq!(h.expr(h.hessian_entry(2, 2)).to_string(), "2");
+}
+
+#[test]
+fn time_dependent_uses_the_extended_phase_space() {
+    let h = compile("p1^2/2 + q1^2/2 - q1*cos(t)", &[]).unwrap();
+    assert!(h.time_dependent());
+    assert_eq!(h.coordinates(), &[Var::Q(1), Var::T, Var::P(1), Var::Pt]);
+    assert_eq!(h.expr(h.gradient()[3]).to_string(), "1");
+    assert_eq!(h.expr(h.gradient()[1]).to_string(), "q1*sin(t)");
+    let e = h
+        .program(Method::All)
+        .eval(&[1.0, 0.0, 2.0, 5.0], &[])
+        .unwrap();
+    assert_eq!(e.value, 5.0 + 2.0 + 0.5 - 1.0);
+}
+
+#[test]
+fn separable_and_psi_zero_detection() {
+    assert!(!compile("q1*p1", &[]).unwrap().separable());
+    assert!(compile("p1^2", &[]).unwrap().psi_identically_zero());
+    assert!(compile("p1 + q1", &[]).unwrap().psi_identically_zero());
+    assert!(!compile("p1^2 + q1", &[]).unwrap().psi_identically_zero());
+}
+
+#[test]
+fn psi_matches_closed_form_for_the_oscillator() {
+    // H = p^2/2 + k q^2/2: J grad H = (p, -k q), Psi = k p^2 + k^2 q^2 (Hess = diag(k, 1)).
+    let h = compile("p1^2/2 + k*q1^2/2", &["k"]).unwrap();
+    let e = h.program(Method::Psi).eval(&[0.5, -1.5], &[3.0]).unwrap();
+    assert_eq!(e.psi, 3.0 * 2.25 + 9.0 * 0.25);
+}
+
+#[test]
+fn programs_compute_only_what_they_need() {
+    let h = compile("p1^2 + p2^2 - (q1^2+q2^2)^(-1/2)", &[]).unwrap();
+    let value = h.program(Method::Value).stats();
+    let all = h.program(Method::All).stats();
+    assert!(value.ops < all.ops);
+    // One sqrt and one division (1/r^2) serve r^(-1/2), r^(-3/2), r^(-5/2) and beyond.
+    assert_eq!((all.sqrts, all.divs), (1, 1));
+    assert_eq!(value.divs, 1);
+}
+
+#[test]
+#[allow(clippy::print_stdout)]
+fn kepler_fused_program_is_small() {
+    let h = compile("p1^2 + p2^2 - (q1^2+q2^2)^(-1/2)", &[]).unwrap();
+    let p = h.program(Method::All);
+    println!("{p}");
+    // Hand-written value+gradient+Hessian+Psi needs about 40 flops; allow modest slack.
+    assert!(p.stats().ops < 60, "{:?}", p.stats());
+}
+
+// --- errors ---------------------------------------------------------------------------
+
+#[test]
+fn errors_state_the_rule_and_accumulate() {
+    let e = compile("x1 + p1^2 + y", &[]).unwrap_err().0;
+    assert_eq!(e.len(), 2);
+    assert_eq!(
+        e[0].to_string(),
+        "unknown variable `x1`: expected q1..qN, p1..pN, t, or a declared parameter"
+    );
+    assert_eq!((e[0].span.range(), e[1].span.range()), (0..2, 12..13));
+}
+
+#[test]
+fn structural_errors() {
+    assert!(matches!(kinds("q1^2 + q2")[..], [ErrorKind::NoMomentum]));
+    assert!(matches!(
+        kinds("2*a + 1")[..],
+        [ErrorKind::ConstantHamiltonian]
+    ));
+    assert!(matches!(
+        kinds("p1^2 + q1^(1/0)")[..],
+        [ErrorKind::Fault(crate::number::Fault::DivisionByZero)]
+    ));
+    assert!(matches!(
+        kinds("p1^2 + ln(0)")[..],
+        [ErrorKind::Fault(crate::number::Fault::Undefined(_))]
+    ));
+    assert!(matches!(
+        kinds("p1^2 + 1e999")[..],
+        [ErrorKind::LiteralOverflow { .. }]
+    ));
+    assert!(matches!(
+        kinds("p1^2 + exp(1000)")[..],
+        [ErrorKind::Fault(crate::number::Fault::NonFinite)]
+    ));
+}
+
+#[test]
+fn syntax_errors() {
+    assert!(matches!(kinds("")[..], [ErrorKind::Empty]));
+    assert!(matches!(
+        kinds("p1^2 +")[..],
+        [ErrorKind::ExpectedOperand { found: None }]
+    ));
+    assert!(matches!(kinds("(p1^2")[..], [ErrorKind::UnclosedParen]));
+    assert!(matches!(kinds("p1^2)")[..], [ErrorKind::UnmatchedParen]));
+    assert!(matches!(
+        kinds("p1 q1")[..],
+        [ErrorKind::ExpectedOperator { .. }]
+    ));
+    assert!(matches!(
+        kinds("p1^2 + q0 + p01")[..],
+        [ErrorKind::BadIndex { .. }, ErrorKind::BadIndex { .. }]
+    ));
+    assert!(matches!(
+        kinds("p1^2 + foo(q1) + sin")[..],
+        [
+            ErrorKind::UnknownFunction { .. },
+            ErrorKind::FunctionWithoutCall { .. }
+        ]
+    ));
+    assert!(matches!(
+        kinds("p1^2 + a(q1)")[..],
+        [ErrorKind::NotAFunction { .. }]
+    ));
+    assert!(matches!(
+        kinds("2q1 + p1^2")[..],
+        [ErrorKind::InvalidNumber { .. }]
+    ));
+    assert!(matches!(
+        kinds("p1^2 + q9999")[..],
+        [ErrorKind::IndexTooLarge { .. }]
+    ));
+    assert!(matches!(
+        kinds("p1^2 + (-8)^(1/3)")[..],
+        [ErrorKind::Fault(_)]
+    ));
+}
+
+#[test]
+fn bad_parameters() {
+    let e = compile("p1^2", &["q1", "m", "m", "sin"]).unwrap_err().0;
+    assert_eq!(e.len(), 3);
+}
+
+#[test]
+fn deep_nesting_is_an_error_not_a_stack_overflow() {
+    let parens = format!("p1^2 + {}q1{}", "(".repeat(300), ")".repeat(300));
+    assert!(matches!(kinds(&parens)[..], [ErrorKind::TooDeep]));
+    let signs = format!("p1^2 + {}q1", "-".repeat(100_000));
+    assert!(matches!(kinds(&signs)[..], [ErrorKind::TooDeep]));
+    let powers = format!("p1^2 + q1{}", "^q1".repeat(100_000));
+    assert!(matches!(kinds(&powers)[..], [ErrorKind::TooDeep]));
+    let ok = format!("p1^2 + {}q1{}", "(".repeat(200), ")".repeat(200));
+    assert!(compile(&ok, &[]).is_ok());
+}
+
+#[test]
+fn long_sums_build_flat() {
+    // 20000 terms: the parser keeps sums flat, so neither building (recursion) nor collecting
+    // like terms (one n-ary call, not one per term) grows with the length of the chain.
+    let src = format!(
+        "p1^2{}",
+        (0..20_000)
+            .map(|i| format!(" + q{}^2", i % 50 + 1))
+            .collect::<String>()
+    );
+    let h = compile(&src, &[]).unwrap();
+    assert_eq!(h.expr(h.gradient()[0]).to_string(), "800*q1");
+}
+
+#[test]
+fn programs_print_one_line_per_operation() {
+    let h = compile("p1^2/2 + q1^3", &[]).unwrap();
+    let text = h.program(Method::Gradient).to_string();
+    assert_eq!(text, "v0 = z[0]\nv1 = v0 * v0\nv2 = 3.0\nv3 = v2 * v1\nv4 = z[1]\nGradient(0) = v3\nGradient(1) = v4\n");
+}
+
+#[test]
+fn dimension_and_time_dependence_follow_the_source() {
+    let h = compile("p1^2 + 0*q2", &[]).unwrap();
+    assert_eq!((h.n(), h.dim()), (2, 4));
+    let h = compile("p1^2 + q1^2 + t - t", &[]).unwrap();
+    assert!(h.time_dependent());
+    assert_eq!(h.dim(), 4);
+}

@@ -1,0 +1,3 @@
+fn main() {
+    let _h = dth::hamiltonian!(2 + 3*pi);
+}
