@@ -110,3 +110,29 @@ fn quick_sweep_runs_and_writes_its_files() {
     // 3 data files + PNG and SVG of (2 Kepler x 3 kinds + 3 others x 2 kinds).
     assert_eq!(summary.files.len(), 3 + 2 * (2 * 3 + 3 * 2));
 }
+
+/// The command CI runs: `dth workprecision --quick --out DIR` succeeds and stages its output
+/// (the marker of a dth output folder, the data files and the diagrams).
+#[test]
+fn dth_workprecision_quick_command_writes_its_folder() {
+    let dir = tempfile::tempdir().expect("temporary directory");
+    let out = dir.path().join("wp");
+    let status = std::process::Command::new(env!("CARGO_BIN_EXE_dth"))
+        .args(["workprecision", "--quick", "--out"])
+        .arg(&out)
+        .stdout(std::process::Stdio::null())
+        .status()
+        .expect("run dth");
+    assert!(status.success(), "{status}");
+    for name in [
+        ".dth-output",
+        "workprecision.json",
+        "workprecision.csv",
+        "summary.md",
+        "kepler_e044_global.png",
+        "kepler_e044_invariant.svg",
+        "forced_oscillator_energy.png",
+    ] {
+        assert!(out.join(name).is_file(), "{name} missing");
+    }
+}

@@ -144,9 +144,9 @@ pub enum Error {
     /// Serializing the results failed.
     #[error("cannot serialize the results to JSON")]
     Json(#[from] serde_json::Error),
-    /// Drawing a diagram failed.
+    /// Drawing a diagram failed (boxed: the crate's error wraps this one).
     #[error("cannot draw a work-precision diagram")]
-    Plot(#[from] crate::error::Error),
+    Plot(#[source] Box<crate::error::Error>),
     /// The reference solution of a problem could not be computed or did not converge.
     #[error("reference solution of `{system}`: {message}")]
     Reference {
@@ -155,6 +155,12 @@ pub enum Error {
         /// What went wrong.
         message: String,
     },
+}
+
+impl From<crate::error::Error> for Error {
+    fn from(e: crate::error::Error) -> Self {
+        Error::Plot(Box::new(e))
+    }
 }
 
 /// One run of one method at one step size on one problem.
