@@ -19,6 +19,7 @@ fn quick_sweep_runs_and_writes_its_files() {
     let methods = [
         "dth_joint",
         "dth_nested",
+        "dth_joint_scaled_stall",
         "midpoint",
         "trapezoidal",
         "discrete_gradient",
@@ -60,7 +61,7 @@ fn quick_sweep_runs_and_writes_its_files() {
     }
     for method in [
         "discrete_mechanics",
-        "dth_joint_generated",
+        "dth_joint_scaled_stall_generated",
         "midpoint_generated",
         "gauss_legendre2_generated",
     ] {
@@ -107,8 +108,13 @@ fn quick_sweep_runs_and_writes_its_files() {
             }
         }
     }
-    // 3 data files + PNG and SVG of (2 Kepler x 3 kinds + 3 others x 2 kinds).
-    assert_eq!(summary.files.len(), 3 + 2 * (2 * 3 + 3 * 2));
+    // The derivative-source figure of the thesis orbit.
+    for ext in ["png", "svg"] {
+        let path = dir.path().join(format!("kepler_e044_derivatives_global.{ext}"));
+        assert!(path.is_file(), "{} missing", path.display());
+    }
+    // 3 data files + PNG and SVG of (2 Kepler x 3 kinds + 3 others x 2 kinds + 1 derivatives).
+    assert_eq!(summary.files.len(), 3 + 2 * (2 * 3 + 3 * 2 + 1));
 }
 
 /// The command CI runs: `dth workprecision --quick --out DIR` succeeds and stages its output

@@ -56,7 +56,7 @@ pub struct WorkPrecisionOptions {
 }
 
 impl Default for WorkPrecisionOptions {
-    /// The full sweep: 10 orbits (periods) per problem, step sizes over 2.4 decades, timing
+    /// The full sweep: 10 orbits (periods) per problem, step sizes over 3.3 decades, timing
     /// the median of at least 5 repeats and at least 0.05 s of repeated runs.
     fn default() -> Self {
         WorkPrecisionOptions {

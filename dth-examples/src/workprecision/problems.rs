@@ -24,7 +24,7 @@ use dth::systems::{ForcedOscillator, HenonHeiles, Kepler, Pendulum};
 use dth::Hamiltonian;
 
 use super::reference::{gauss_legendre_reference, Reference};
-use super::runners::{sweep_dop853, sweep_dth, sweep_peer, Ladder};
+use super::runners::{sweep_dop853, sweep_dth, sweep_peer, Ladder, Stall};
 use super::{Error, Record, ReferenceCheck, WorkPrecisionOptions};
 
 /// Name, title and time scales of a problem, as written to the results.
@@ -64,7 +64,7 @@ fn same(name: &'static str) -> &'static str {
 /// system).
 fn generated(name: &'static str) -> &'static str {
     match name {
-        "dth_joint" => "dth_joint_generated",
+        "dth_joint" => "dth_joint_scaled_stall_generated",
         "dth_nested" => "dth_nested_generated",
         "midpoint" => "midpoint_generated",
         "gauss_legendre2" => "gauss_legendre2_generated",
@@ -109,9 +109,9 @@ fn ladder(options: &WorkPrecisionOptions, info: &ProblemInfo) -> Ladder {
     let points_per_period: &[f64] = if options.is_quick() {
         &[32.0, 64.0, 128.0]
     } else {
-        // 2.4 decades for the fixed-step methods.
+        // 3.3 decades for the fixed-step methods.
         &[
-            16.0, 32.0, 64.0, 128.0, 256.0, 512.0, 1024.0, 2048.0, 4096.0,
+            16.0, 32.0, 64.0, 128.0, 256.0, 512.0, 1024.0, 2048.0, 4096.0, 8192.0, 16384.0, 32768.0,
         ]
     };
     let tolerances: &[f64] = if options.is_quick() {
@@ -123,17 +123,8 @@ fn ladder(options: &WorkPrecisionOptions, info: &ProblemInfo) -> Ladder {
     };
     Ladder {
         dt: points_per_period.iter().map(|n| info.period / n).collect(),
-        // DTH: the same points per period (the sweep divides by DTH's mean lambda), one
-        // halving further since its steps concentrate where Psi is large.
-        dtau: points_per_period
-            .iter()
-            .chain(if options.is_quick() {
-                [].iter()
-            } else {
-                [8192.0].iter()
-            })
-            .map(|n| info.period / n)
-            .collect(),
+        // DTH: the same points per period (the sweep divides by DTH's mean lambda).
+        dtau: points_per_period.iter().map(|n| info.period / n).collect(),
         tolerance: tolerances.to_vec(),
     }
 }
@@ -146,13 +137,31 @@ where
     fn sweep_common(&self, options: &WorkPrecisionOptions, records: &mut Vec<Record>) {
         let ladder = ladder(options, &self.info);
         let base = DthOptions::default();
-        sweep_dth(self, options, &ladder, "dth_joint", base, records);
+        sweep_dth(
+            self,
+            options,
+            &ladder,
+            "dth_joint",
+            base,
+            Stall::Default,
+            records,
+        );
         sweep_dth(
             self,
             options,
             &ladder,
             "dth_nested",
             base.with_solver(dth::dth::Solver::Nested),
+            Stall::Default,
+            records,
+        );
+        sweep_dth(
+            self,
+            options,
+            &ladder,
+            "dth_joint_scaled_stall",
+            base,
+            Stall::Scaled,
             records,
         );
         sweep_peer(self, options, &ladder, ImplicitMidpoint::new, records);
@@ -220,7 +229,15 @@ impl Sweep for KeplerProblem {
                 rename: generated,
             };
             let base = DthOptions::default();
-            sweep_dth(&g, options, &ladder, "dth_joint", base, records);
+            sweep_dth(
+                &g,
+                options,
+                &ladder,
+                "dth_joint",
+                base,
+                Stall::Scaled,
+                records,
+            );
             sweep_peer(&g, options, &ladder, ImplicitMidpoint::new, records);
             sweep_peer(&g, options, &ladder, GaussLegendre2::new, records);
         }

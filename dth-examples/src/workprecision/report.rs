@@ -179,6 +179,17 @@ fn is_dth(method: &str) -> bool {
     method.starts_with("dth")
 }
 
+/// Classical order of a method by its recorded name.
+fn order(method: &str) -> u32 {
+    if method.starts_with("dop853") {
+        8
+    } else if method.starts_with("rk4") || method.starts_with("gauss_legendre2") {
+        4
+    } else {
+        2
+    }
+}
+
 fn seconds(t: f64) -> String {
     if t >= 1.0 {
         format!("{t:.2} s")
@@ -213,33 +224,38 @@ pub(crate) fn tables(records: &[Record], infos: &[ProblemInfo]) -> String {
         );
         let _ = writeln!(
             s,
-            "| target | cheapest method | its time | best DTH | DTH time | DTH / cheapest |\n\
-             |---|---|---|---|---|---|"
+            "| target | cheapest method | its time | cheapest 2nd-order peer | its time | best DTH | DTH time | DTH / cheapest | DTH / 2nd-order peer |\n\
+             |---|---|---|---|---|---|---|---|---|"
         );
-        for (kind, target) in TARGETS {
-            let best = methods
+        let fastest = |filter: &dyn Fn(&str) -> bool, kind: &str, target: f64| {
+            methods
                 .iter()
+                .filter(|m| filter(m))
                 .filter_map(|m| cheapest(records, system, m, kind, target))
-                .min_by(|a, b| a.time.total_cmp(&b.time));
-            let dth = methods
-                .iter()
-                .filter(|m| is_dth(m))
-                .filter_map(|m| cheapest(records, system, m, kind, target))
-                .min_by(|a, b| a.time.total_cmp(&b.time));
-            let label = format!("{kind} <= {target:.0e}");
-            let (bm, bt) = best.map_or(("not reached".to_string(), "-".to_string()), |r| {
+                .min_by(|a, b| a.time.total_cmp(&b.time))
+        };
+        let describe = |r: Option<&Record>| {
+            r.map_or(("not reached".to_string(), "-".to_string()), |r| {
                 (
                     format!("{} ({} {:.3e})", r.method, r.parameter_kind, r.parameter),
                     seconds(r.time),
                 )
-            });
-            let (dm, dt, ratio) = match (dth, best) {
-                (Some(d), Some(b)) => (
-                    d.method.to_string(),
-                    seconds(d.time),
-                    format!("{:.2}", d.time / b.time),
-                ),
-                _ => {
+            })
+        };
+        let ratio = |a: Option<&Record>, b: Option<&Record>| match (a, b) {
+            (Some(a), Some(b)) => format!("{:.2}", a.time / b.time),
+            _ => "-".to_string(),
+        };
+        for (kind, target) in TARGETS {
+            let best = fastest(&|_| true, kind, target);
+            let second = fastest(&|m| !is_dth(m) && order(m) == 2, kind, target);
+            let dth = fastest(&is_dth, kind, target);
+            let label = format!("{kind} <= {target:.0e}");
+            let (bm, bt) = describe(best);
+            let (sm, st) = describe(second);
+            let (dm, dt) = match dth {
+                Some(d) => (d.method.to_string(), seconds(d.time)),
+                None => {
                     let best_dth = records
                         .iter()
                         .filter(|r| r.system == system && is_dth(r.method))
@@ -249,11 +265,15 @@ pub(crate) fn tables(records: &[Record], infos: &[ProblemInfo]) -> String {
                     (
                         format!("not reached (best {best_dth:.1e})"),
                         "-".to_string(),
-                        "-".to_string(),
                     )
                 }
             };
-            let _ = writeln!(s, "| {label} | {bm} | {bt} | {dm} | {dt} | {ratio} |");
+            let _ = writeln!(
+                s,
+                "| {label} | {bm} | {bt} | {sm} | {st} | {dm} | {dt} | {} | {} |",
+                ratio(dth, best),
+                ratio(dth, second)
+            );
         }
         let _ = writeln!(
             s,
