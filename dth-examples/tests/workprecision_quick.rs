@@ -110,7 +110,9 @@ fn quick_sweep_runs_and_writes_its_files() {
     }
     // The derivative-source figure of the thesis orbit.
     for ext in ["png", "svg"] {
-        let path = dir.path().join(format!("kepler_e044_derivatives_global.{ext}"));
+        let path = dir
+            .path()
+            .join(format!("kepler_e044_derivatives_global.{ext}"));
         assert!(path.is_file(), "{} missing", path.display());
     }
     // 3 data files + PNG and SVG of (2 Kepler x 3 kinds + 3 others x 2 kinds + 1 derivatives).

@@ -72,13 +72,14 @@ pub(crate) fn sweep_dop853<H: Hamiltonian<D> + Clone, const D: usize>(
                 record.invariant_error = invariant.map(|(_, d)| d.max);
                 record.evaluations_per_step =
                     Some(solution.evals.function as f64 / steps.max(1) as f64);
-                (record.time, record.timed_runs) = median_time(options, || {
+                median_time(options, || {
                     let s = IVP::ode(&ode, 0.0, t_end, z0)
                         .t_eval([t_end])
                         .method(method(tol))
                         .solve();
                     black_box(s).is_ok()
-                });
+                })
+                .store(&mut record);
             }
             Err(e) => record.failure = Some(format!("{e}")),
         }

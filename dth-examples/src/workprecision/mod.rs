@@ -180,6 +180,8 @@ pub struct Record {
     pub mean_dt: f64,
     /// Median wall time of the timed runs, seconds.
     pub time: f64,
+    /// Fastest of the timed runs, seconds (less sensitive to a loaded machine than the median).
+    pub time_min: f64,
     /// Number of timed runs behind the median.
     pub timed_runs: usize,
     /// Global phase-space error at `T` (see the module docs for DTH).

@@ -91,14 +91,14 @@ fn opt(x: Option<f64>) -> String {
 pub(crate) fn write_all(summary: &Summary, out: &Path) -> Result<Vec<PathBuf>, Error> {
     let json = serde_json::to_string_pretty(summary)?;
     let mut csv = String::from(
-        "system,method,parameter_kind,parameter,steps,mean_dt,time,timed_runs,global_error,\
+        "system,method,parameter_kind,parameter,steps,mean_dt,time,time_min,timed_runs,global_error,\
          vertex_error,energy_error,vertex_energy_error,invariant_error,vertex_invariant_error,\
          newton_per_step,evaluations_per_step,failure\n",
     );
     for r in &summary.records {
         let _ = writeln!(
             csv,
-            "{},{},{},{:e},{},{:e},{:e},{},{:e},{},{:e},{},{},{},{},{},\"{}\"",
+            "{},{},{},{:e},{},{:e},{:e},{:e},{},{:e},{},{:e},{},{},{},{},{},\"{}\"",
             r.system,
             r.method,
             r.parameter_kind,
@@ -106,6 +106,7 @@ pub(crate) fn write_all(summary: &Summary, out: &Path) -> Result<Vec<PathBuf>, E
             r.steps,
             r.mean_dt,
             r.time,
+            r.time_min,
             r.timed_runs,
             r.global_error,
             opt(r.vertex_error),

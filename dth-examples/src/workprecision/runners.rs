@@ -30,12 +30,28 @@ pub(crate) struct Ladder {
 /// A DTH run may not take more steps than this (a guard against a multiplier that collapses).
 const MAX_DTH_STEPS: usize = 20_000_000;
 
+/// Wall times of repeated runs of `f`.
+pub(crate) struct Timing {
+    /// Median.
+    pub median: f64,
+    /// Fastest run.
+    pub min: f64,
+    /// Number of runs.
+    pub runs: usize,
+}
+
+impl Timing {
+    /// Store into a record.
+    pub fn store(self, record: &mut Record) {
+        record.time = self.median;
+        record.time_min = self.min;
+        record.timed_runs = self.runs;
+    }
+}
+
 /// Median wall time of `f`: at least `options.repeats()` runs and at least `min_timing` seconds,
-/// at most 101 runs. Returns the median and the number of runs.
-pub(crate) fn median_time(
-    options: &WorkPrecisionOptions,
-    mut f: impl FnMut() -> bool,
-) -> (f64, usize) {
+/// at most 101 runs.
+pub(crate) fn median_time(options: &WorkPrecisionOptions, mut f: impl FnMut() -> bool) -> Timing {
     let mut times = Vec::new();
     let mut total = 0.0;
     while times.len() < options.repeats() || (total < options.min_timing && times.len() < 101) {
@@ -44,13 +60,21 @@ pub(crate) fn median_time(
         let t = start.elapsed().as_secs_f64();
         if !ok {
             // A run that failed under diagnostics fails the same way here; do not time it.
-            return (f64::NAN, 0);
+            return Timing {
+                median: f64::NAN,
+                min: f64::NAN,
+                runs: 0,
+            };
         }
         times.push(t);
         total += t;
     }
     times.sort_by(f64::total_cmp);
-    (times[times.len() / 2], times.len())
+    Timing {
+        median: times[times.len() / 2],
+        min: times[0],
+        runs: times.len(),
+    }
 }
 
 /// A record with the diagnostic fields unset.
@@ -68,6 +92,7 @@ pub(crate) fn blank(
         steps: 0,
         mean_dt: f64::NAN,
         time: f64::NAN,
+        time_min: f64::NAN,
         timed_runs: 0,
         global_error: f64::NAN,
         vertex_error: None,
@@ -147,11 +172,12 @@ pub(crate) fn sweep_peer<H, M, const D: usize>(
                 if iterations > 0 {
                     record.newton_per_step = Some(iterations as f64 / steps as f64);
                 }
-                (record.time, record.timed_runs) = median_time(options, || {
+                median_time(options, || {
                     let mut m = make();
                     let end = run(&mut m, h, z0, 0.0, dt, steps, &mut ());
                     black_box(end).is_ok()
-                });
+                })
+                .store(&mut record);
             }
             Err(e) => record.failure = Some(format!("step {}: {}", e.partial.steps + 1, e.error)),
         }
@@ -292,9 +318,10 @@ pub(crate) fn sweep_dth<H: Hamiltonian<D> + Clone, const D: usize>(
                 record.invariant_error = invariant.map(|d| d.max);
                 record.vertex_invariant_error = vertex_invariant.map(|d| d.max);
                 record.newton_per_step = Some(factorizations as f64 / steps.max(1) as f64);
-                (record.time, record.timed_runs) = median_time(options, || {
+                median_time(options, || {
                     black_box(dth_to_time(h, z0, dth_options, t_end, |_| ())).is_ok()
-                });
+                })
+                .store(&mut record);
             }
             Err((e, step)) => record.failure = Some(format!("step {step}: {e}")),
         }
