@@ -16,8 +16,11 @@
 //!   bounds the interpolation). For comparison it also records the error at DTH's last vertex
 //!   before `T`, at that vertex's own time ([`Record::vertex_error`]);
 //! - **maximum energy deviation** `max_k |H(z_k) - H(z_0)|` over every state the method produces
-//!   (DTH: at its midpoints, where it conserves energy, and separately at its vertices);
-//! - **maximum invariant deviation** (angular momentum, Kepler only), same convention;
+//!   (DTH: at its midpoints, where it conserves energy, and separately at its vertices against
+//!   the first vertex `z^(0)`, the thesis's Table 4.1 convention);
+//! - **maximum invariant deviation** (angular momentum, Kepler only), same convention (DTH's
+//!   vertices conserve it: they are measured against `z^(0)`, whose angular momentum differs
+//!   from `z_0`'s by `O(h^2)`);
 //! - **Newton iterations per step** (implicit methods; the nested DTH solver counts LU
 //!   factorizations, inner and outer).
 //!
@@ -191,12 +194,13 @@ pub struct Record {
     pub vertex_error: Option<f64>,
     /// `max |H - H(z_0)|` over the states produced (DTH: midpoints).
     pub energy_error: f64,
-    /// DTH only: `max |H - H(z_0)|` over its vertices.
+    /// DTH only: `max |H - H(z^(0))|` over its vertices, against the first vertex
+    /// `z^(0) = zbar_0 - (h/2) zbar'_0` (thesis Table 4.1).
     pub vertex_energy_error: Option<f64>,
     /// `max |I - I(z_0)|` of the problem's invariant (angular momentum), if it has one
     /// (DTH: midpoints).
     pub invariant_error: Option<f64>,
-    /// DTH only: the invariant deviation over its vertices.
+    /// DTH only: the invariant deviation over its vertices, against the first vertex.
     pub vertex_invariant_error: Option<f64>,
     /// Newton iterations per step (implicit methods; nested DTH: factorizations per step).
     pub newton_per_step: Option<f64>,
