@@ -21,8 +21,8 @@ struct Curve {
 /// Which methods a figure shows. The shared palette has 10 colours, so figures keep to 10
 /// curves:
 /// - `dth_joint` with default options is left out: where it converges its results equal
-///   `dth_joint_scaled_stall` (same equations, same residual tolerance), and it fails below
-///   ~250 points per period (tables and data keep it);
+///   `dth_joint_scaled_stall` (same equations, same residual tolerance), and it fails at
+///   256-512 points per period and finer (tables and data keep it);
 /// - energy and invariant figures leave out `dth_nested` (same values as the joint solver,
 ///   only slower) to make room for the vertex curve of `dth_joint_scaled_stall`;
 /// - `_generated` variants go to their own figure ([`Selection::Derivatives`]).

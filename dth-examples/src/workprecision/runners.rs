@@ -229,8 +229,8 @@ pub(crate) enum Stall {
     /// `eps |H|` moves `lambda` by `eps |H| / |g_lambda| ~ eps / h^2` relative: the updates of
     /// `lambda` stop shrinking at that floor. The default `2^-40` is below it once
     /// `h < ~3e-3` on the thesis orbit, and Newton then runs to its iteration limit with a
-    /// scaled residual of 1e-17 (measured: every DTH run below ~250 points per period failed
-    /// that way). The residual criterion (64 eps) is unchanged, so `H(zbar_k) = H(zbar_0)` is
+    /// scaled residual of 1e-17 (measured: every DTH run at 512 points per period and finer
+    /// failed that way). The residual criterion (64 eps) is unchanged, so `H(zbar_k) = H(zbar_0)` is
     /// still solved to roundoff; only `lambda`'s noise, set by the conditioning, is accepted.
     /// At `h = 0.15` (thesis settings) the formula gives `6.3e-13`, the default.
     Scaled,
