@@ -1,7 +1,7 @@
 //! Emits `impl Hamiltonian<D>`: one straight-line function per trait method, plain `f64`
 //! arithmetic on locals, fixed-size nalgebra types through `::dth::__private`.
 
-use dth_symbolic::{Method, Op, Output, Program, System};
+use dth_symbolic::{Kernel, Method, Op, Output, Program, System};
 use proc_macro2::{Literal, TokenStream};
 use quote::{format_ident, quote};
 use syn::Ident;
@@ -61,6 +61,12 @@ fn imp(name: &Ident, params: &[Ident], system: &System) -> TokenStream {
         let (g, h, value, psi) = (v.gradient(d), v.hessian(d), &v.value, &v.psi);
         quote!(#core::Derivatives { value: #value, gradient: #g, hessian: #h, psi: #psi })
     });
+    let pair = system.program(Method::DiscreteGradient);
+    let discrete_gradient = body(&pair, params, |v| v.discrete_gradient(d));
+    let energy_difference = body(&pair, params, |v| {
+        let v = &v.energy_difference;
+        quote!(#v)
+    });
     let source = system_source(system);
     quote! {
         #[doc = #source]
@@ -80,6 +86,26 @@ fn imp(name: &Ident, params: &[Ident], system: &System) -> TokenStream {
             fn psi(&self, z: &#nalgebra::SVector<f64, #d>) -> f64 { #psi }
             #[inline]
             fn derivatives(&self, z: &#nalgebra::SVector<f64, #d>) -> #core::Derivatives<#d> { #all }
+            /// Exact divided differences of `H`, without cancellation (`dth_symbolic::divided`).
+            #[inline]
+            fn discrete_gradient(
+                &self,
+                z0: &#nalgebra::SVector<f64, #d>,
+                z1: &#nalgebra::SVector<f64, #d>,
+            ) -> #nalgebra::SVector<f64, #d> {
+                let z = z0;
+                #discrete_gradient
+            }
+            /// `H(z1) - H(z0)` by exact divided differences, without cancellation.
+            #[inline]
+            fn energy_difference(
+                &self,
+                z0: &#nalgebra::SVector<f64, #d>,
+                z1: &#nalgebra::SVector<f64, #d>,
+            ) -> f64 {
+                let z = z0;
+                #energy_difference
+            }
         }
     }
 }
@@ -96,11 +122,25 @@ fn system_source(system: &System) -> String {
 struct Values {
     value: TokenStream,
     psi: TokenStream,
+    energy_difference: TokenStream,
     gradient: Vec<(usize, Ident)>,
     hessian: Vec<(usize, usize, Ident)>,
+    discrete_gradient: Vec<(usize, Ident)>,
 }
 
 impl Values {
+    fn discrete_gradient(&self, d: usize) -> TokenStream {
+        let set = self
+            .discrete_gradient
+            .iter()
+            .map(|(i, v)| quote!(g[#i] = #v;));
+        quote! {{
+            let mut g = ::dth::__private::nalgebra::SVector::<f64, #d>::zeros();
+            #(#set)*
+            g
+        }}
+    }
+
     fn gradient(&self, d: usize) -> TokenStream {
         let set = self.gradient.iter().map(|(i, v)| quote!(g[#i] = #v;));
         quote! {{
@@ -143,6 +183,10 @@ fn body(
                 let k = k as usize;
                 quote!(z[#k])
             }
+            Op::Input1(k) => {
+                let k = k as usize;
+                quote!(z1[#k])
+            }
             Op::Param(k) => {
                 let p = &params[k as usize];
                 quote!(self.#p)
@@ -180,15 +224,18 @@ fn body(
                 let (a, f) = (v(a), format_ident!("{}", f.name()));
                 quote!(::core::primitive::f64::#f(#a))
             }
+            Op::Kernel(k, a, b) => kernel(k, &v(a), &v(b)),
         };
         quote!(let #lhs: f64 = #rhs;)
     });
     let zero = quote!(0.0f64);
     let mut values = Values {
         value: zero.clone(),
-        psi: zero,
+        psi: zero.clone(),
+        energy_difference: zero,
         gradient: Vec::new(),
         hessian: Vec::new(),
+        discrete_gradient: Vec::new(),
     };
     for &(out, s) in &program.outputs {
         match out {
@@ -202,6 +249,11 @@ fn body(
             }
             Output::Gradient(i) => values.gradient.push((i, v(s))),
             Output::Hessian(i, j) => values.hessian.push((i, j, v(s))),
+            Output::DiscreteGradient(i) => values.discrete_gradient.push((i, v(s))),
+            Output::EnergyDifference => {
+                let s = v(s);
+                values.energy_difference = quote!(#s);
+            }
         }
     }
     let out = finish(&values);
@@ -209,6 +261,58 @@ fn body(
         let _ = z;
         #(#lets)*
         #out
+    }
+}
+
+/// A divided-difference kernel `k(x, y)` inline, the same formulas as `Kernel::apply` (a test
+/// compares the two).
+fn kernel(k: Kernel, x: &Ident, y: &Ident) -> TokenStream {
+    let f = quote!(::core::primitive::f64);
+    let quotient = |g: TokenStream| {
+        quote! {{
+            let x: f64 = #x;
+            if x == 0.0 { 1.0 } else { #f::#g(x) / x }
+        }}
+    };
+    match k {
+        Kernel::ExpRatio => quote! {{
+            let (x, y): (f64, f64) = (#x, #y);
+            if x == 0.0 {
+                #f::exp(y)
+            } else if x < 0.0 {
+                #f::exp(y) * (#f::exp_m1(x) / x)
+            } else {
+                #f::exp(y + x) * (#f::exp_m1(-x) / -x)
+            }
+        }},
+        Kernel::Sinc => quotient(quote!(sin)),
+        Kernel::Sinhc => quotient(quote!(sinh)),
+        Kernel::LnRatio => quote! {{
+            let (x, y): (f64, f64) = (#x, #y);
+            let u = x / y;
+            if u == 0.0 { 1.0 / y } else { #f::ln_1p(u) / x }
+        }},
+        Kernel::AtanRatio => quote! {{
+            let (x, y): (f64, f64) = (#x, #y);
+            if x == 0.0 { 1.0 / y } else { #f::atan2(x, y) / x }
+        }},
+        Kernel::TanhRatio => quote! {{
+            let (x, y): (f64, f64) = (#x, #y);
+            if #f::abs(x) > 700.0 {
+                (#f::tanh(y + x) - #f::tanh(y)) / x
+            } else {
+                let s = if x == 0.0 { 1.0 } else { #f::sinh(x) / x };
+                s / (#f::cosh(y) * #f::cosh(y + x))
+            }
+        }},
+        Kernel::PowRatio(r) => {
+            let r = constant(r);
+            quote! {{
+                let (x, y): (f64, f64) = (#x, #y);
+                let u = x / y;
+                if u == 0.0 { #r / y } else { #f::exp_m1(#r * #f::ln_1p(u)) / x }
+            }}
+        }
     }
 }
 

@@ -4,7 +4,8 @@
 //! One module per stage: [`lexer`] and [`parser`] (`&str` to a syntax tree with byte spans),
 //! [`build`](crate::compile) (names resolved by [`check`], nodes built in the hash-consed
 //! [`arena`] through the simplifying constructors of [`simplify`]), [`diff`] (symbolic
-//! derivatives), [`system`] (gradient, Hessian upper triangle, Psi), [`lower`] (straight-line
+//! derivatives), [`system`] (gradient, Hessian upper triangle, Psi), [`divided`] (exact,
+//! cancellation-free discrete gradients by divided differences), [`lower`] (straight-line
 //! programs, one per trait method) and [`eval`] (an interpreter for those programs).
 //!
 //! ```
@@ -33,6 +34,7 @@ mod build;
 pub mod check;
 pub mod diff;
 pub mod display;
+pub mod divided;
 pub mod error;
 pub mod eval;
 pub mod lexer;
@@ -45,8 +47,9 @@ pub mod system;
 
 pub use arena::{Arena, Func, Id, Node, Var};
 pub use check::reserved_name;
+pub use divided::Kernel;
 pub use error::{Error, ErrorKind, Errors, EvalError};
-pub use eval::Evaluation;
+pub use eval::{Evaluation, PairEvaluation};
 pub use lower::{Op, Output, Program, Slot, Stats};
 pub use number::{Num, Rational};
 pub use span::Span;

@@ -9,6 +9,7 @@
 use std::collections::HashMap;
 
 use crate::arena::{Arena, Func, Id, Node, Var};
+use crate::divided::Kernel;
 use crate::number::Num;
 
 /// Index of an operation's result in a [`Program`].
@@ -17,8 +18,10 @@ pub type Slot = u32;
 /// One operation; its result is the slot with its index.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Op {
-    /// `z[k]`.
+    /// `z[k]` (in a two-point program, `z0[k]`).
     Input(u32),
+    /// `z1[k]`, the second point of a two-point program (`z[k]` when run on one point).
+    Input1(u32),
     /// The `k`-th declared parameter.
     Param(u32),
     /// A constant.
@@ -39,6 +42,8 @@ pub enum Op {
     Powf(Slot, f64),
     /// `f(a)`
     Call(Func, Slot),
+    /// A divided-difference kernel `k(x, y)` (see [`Kernel`]), finite at `x = 0`.
+    Kernel(Kernel, Slot, Slot),
 }
 
 /// What a program output is.
@@ -52,6 +57,10 @@ pub enum Output {
     Hessian(usize, usize),
     /// Psi.
     Psi,
+    /// Component `i` of the discrete gradient `gbar(z0, z1)` (two-point programs).
+    DiscreteGradient(usize),
+    /// `H(z1) - H(z0)`, computed without cancellation (two-point programs).
+    EnergyDifference,
 }
 
 /// A straight-line program: operations in order, and which slots are the outputs.
@@ -87,21 +96,7 @@ pub struct Stats {
 impl Program {
     /// Lowers `outputs` (nodes of `arena`) with `z` laid out as `coordinates`.
     pub fn lower(arena: &Arena, coordinates: &[Var], outputs: &[(Output, Id)]) -> Program {
-        let mut l = Lowerer {
-            arena,
-            coords: coordinates
-                .iter()
-                .enumerate()
-                .map(|(k, v)| (*v, k as u32))
-                .collect(),
-            ops: Vec::new(),
-            val: HashMap::new(),
-            mag: HashMap::new(),
-            consts: HashMap::new(),
-            powi: HashMap::new(),
-            sqrt: HashMap::new(),
-            recip: HashMap::new(),
-        };
+        let mut l = Lowerer::new(arena, coordinates);
         let outputs = outputs.iter().map(|&(o, id)| (o, l.value(id))).collect();
         Program {
             ops: l.ops,
@@ -123,8 +118,8 @@ impl Program {
                 Op::Mul(..) => s.muls += 1,
                 Op::Div(..) => s.divs += 1,
                 Op::Sqrt(_) => s.sqrts += 1,
-                Op::Powf(..) | Op::Call(..) => s.calls += 1,
-                Op::Input(_) | Op::Param(_) | Op::Const(_) => {}
+                Op::Powf(..) | Op::Call(..) | Op::Kernel(..) => s.calls += 1,
+                Op::Input(_) | Op::Input1(_) | Op::Param(_) | Op::Const(_) => {}
             }
         }
         s
@@ -138,6 +133,7 @@ impl std::fmt::Display for Program {
             write!(f, "v{i} = ")?;
             match op {
                 Op::Input(k) => writeln!(f, "z[{k}]")?,
+                Op::Input1(k) => writeln!(f, "z1[{k}]")?,
                 Op::Param(k) => writeln!(f, "param[{k}]")?,
                 Op::Const(c) => writeln!(f, "{c:?}")?,
                 Op::Add(a, b) => writeln!(f, "v{a} + v{b}")?,
@@ -148,6 +144,7 @@ impl std::fmt::Display for Program {
                 Op::Sqrt(a) => writeln!(f, "sqrt(v{a})")?,
                 Op::Powf(a, e) => writeln!(f, "powf(v{a}, {e:?})")?,
                 Op::Call(g, a) => writeln!(f, "{}(v{a})", g.name())?,
+                Op::Kernel(k, a, b) => writeln!(f, "{}(v{a}, v{b})", k.name())?,
             }
         }
         for (out, s) in &self.outputs {
@@ -157,25 +154,48 @@ impl std::fmt::Display for Program {
     }
 }
 
-struct Lowerer<'a> {
-    arena: &'a Arena,
-    coords: HashMap<Var, u32>,
-    ops: Vec<Op>,
-    val: HashMap<Id, Slot>,
-    mag: HashMap<Id, Slot>,
+pub(crate) struct Lowerer<'a> {
+    pub(crate) arena: &'a Arena,
+    pub(crate) coords: HashMap<Var, u32>,
+    pub(crate) ops: Vec<Op>,
+    /// Which point variables read: `false` for `z` (`z0`), `true` for `z1`.
+    pub(crate) at_z1: bool,
+    val: HashMap<(bool, Id), Slot>,
+    mag: HashMap<(bool, Id), Slot>,
     consts: HashMap<u64, Slot>,
     powi: HashMap<(Slot, i128), Slot>,
     sqrt: HashMap<Slot, Slot>,
     recip: HashMap<Slot, Slot>,
 }
 
+impl<'a> Lowerer<'a> {
+    pub(crate) fn new(arena: &'a Arena, coordinates: &[Var]) -> Self {
+        Lowerer {
+            arena,
+            coords: coordinates
+                .iter()
+                .enumerate()
+                .map(|(k, v)| (*v, k as u32))
+                .collect(),
+            ops: Vec::new(),
+            at_z1: false,
+            val: HashMap::new(),
+            mag: HashMap::new(),
+            consts: HashMap::new(),
+            powi: HashMap::new(),
+            sqrt: HashMap::new(),
+            recip: HashMap::new(),
+        }
+    }
+}
+
 impl Lowerer<'_> {
-    fn emit(&mut self, op: Op) -> Slot {
+    pub(crate) fn emit(&mut self, op: Op) -> Slot {
         self.ops.push(op);
         (self.ops.len() - 1) as Slot
     }
 
-    fn konst(&mut self, x: f64) -> Slot {
+    pub(crate) fn konst(&mut self, x: f64) -> Slot {
         if let Some(&s) = self.consts.get(&x.to_bits()) {
             return s;
         }
@@ -184,8 +204,9 @@ impl Lowerer<'_> {
         s
     }
 
-    fn value(&mut self, id: Id) -> Slot {
-        if let Some(&s) = self.val.get(&id) {
+    /// The slot of `id` at the current point ([`Lowerer::at_z1`]).
+    pub(crate) fn value(&mut self, id: Id) -> Slot {
+        if let Some(&s) = self.val.get(&(self.at_z1, id)) {
             return s;
         }
         let s = match self.arena.node(id) {
@@ -194,7 +215,11 @@ impl Lowerer<'_> {
             Node::Var(v) => {
                 // Every variable of H is a coordinate; `unwrap_or` only guards the invariant.
                 let k = self.coords.get(v).copied().unwrap_or(0);
-                self.emit(Op::Input(k))
+                self.emit(if self.at_z1 {
+                    Op::Input1(k)
+                } else {
+                    Op::Input(k)
+                })
             }
             Node::Add(ch) => {
                 let ch = ch.clone();
@@ -215,7 +240,7 @@ impl Lowerer<'_> {
                 self.emit(Op::Call(f, s))
             }
         };
-        self.val.insert(id, s);
+        self.val.insert((self.at_z1, id), s);
         s
     }
 
@@ -228,7 +253,7 @@ impl Lowerer<'_> {
                     .iter()
                     .find_map(|&c| self.arena.as_num(c))
                     .unwrap_or(Num::ONE);
-                if let Some(&s) = self.mag.get(&id) {
+                if let Some(&s) = self.mag.get(&(self.at_z1, id)) {
                     return (coef.is_negative(), s);
                 }
                 let factors: Vec<Id> = ch
@@ -246,7 +271,7 @@ impl Lowerer<'_> {
                     let k = self.konst(c);
                     acc = self.emit(Op::Mul(k, acc));
                 }
-                self.mag.insert(id, acc);
+                self.mag.insert((self.at_z1, id), acc);
                 (coef.is_negative(), acc)
             }
             _ => (false, self.value(id)),
@@ -277,7 +302,7 @@ impl Lowerer<'_> {
     /// `s^e`. Every negative power of one base comes from one division `1/s` (and
     /// half-integer ones from one `sqrt(s)`): `s^(-k) = (1/s)^k`, `s^(-(2m+1)/2) =
     /// (1/s)^(m+1) * sqrt(s)`.
-    fn power(&mut self, s: Slot, e: Num) -> Slot {
+    pub(crate) fn power(&mut self, s: Slot, e: Num) -> Slot {
         match e.as_rational() {
             Some(r) if r.is_integer() => {
                 let k = r.numer();
@@ -290,14 +315,7 @@ impl Lowerer<'_> {
             }
             Some(r) if r.denom() == 2 => {
                 let k = r.numer();
-                let sq = match self.sqrt.get(&s) {
-                    Some(&q) => q,
-                    None => {
-                        let q = self.emit(Op::Sqrt(s));
-                        self.sqrt.insert(s, q);
-                        q
-                    }
-                };
+                let sq = self.sqrt(s);
                 let (base, m) = if k > 0 {
                     (s, (k - 1) / 2)
                 } else {
@@ -315,7 +333,7 @@ impl Lowerer<'_> {
     }
 
     /// `s^k`, `k >= 1`, by squaring through cached smaller powers.
-    fn powi(&mut self, s: Slot, k: i128) -> Slot {
+    pub(crate) fn powi(&mut self, s: Slot, k: i128) -> Slot {
         if k == 1 {
             return s;
         }
@@ -333,7 +351,17 @@ impl Lowerer<'_> {
         p
     }
 
-    fn recip(&mut self, s: Slot) -> Slot {
+    /// `sqrt(s)`, emitted once per slot.
+    pub(crate) fn sqrt(&mut self, s: Slot) -> Slot {
+        if let Some(&q) = self.sqrt.get(&s) {
+            return q;
+        }
+        let q = self.emit(Op::Sqrt(s));
+        self.sqrt.insert(s, q);
+        q
+    }
+
+    pub(crate) fn recip(&mut self, s: Slot) -> Slot {
         if let Some(&r) = self.recip.get(&s) {
             return r;
         }

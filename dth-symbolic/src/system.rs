@@ -24,6 +24,9 @@ pub enum Method {
     Psi,
     /// All four, sharing every common subexpression.
     All,
+    /// The exact discrete gradient `gbar(z0, z1)` and `H(z1) - H(z0)`, without cancellation: a
+    /// two-point program (see [`crate::divided`], run it with [`Program::eval_pair`]).
+    DiscreteGradient,
 }
 
 /// A Hamiltonian compiled to symbolic value, gradient, Hessian and Psi.
@@ -274,7 +277,9 @@ impl System {
         self.arena.expr(id)
     }
 
-    /// The outputs a method computes, with their nodes (zero Hessian entries left out).
+    /// The outputs a method computes, with their nodes (zero Hessian entries left out). The
+    /// discrete gradient has no nodes of its own (its program is built by
+    /// [`System::program`]): empty for [`Method::DiscreteGradient`].
     pub fn outputs(&self, method: Method) -> Vec<(Output, Id)> {
         let d = self.dim();
         let mut out = Vec::new();
@@ -307,6 +312,9 @@ impl System {
 
     /// The straight-line program of `method`: it computes only what that method needs.
     pub fn program(&self, method: Method) -> Program {
+        if method == Method::DiscreteGradient {
+            return crate::divided::lower(&self.arena, &self.coordinates, self.value);
+        }
         Program::lower(&self.arena, &self.coordinates, &self.outputs(method))
     }
 
