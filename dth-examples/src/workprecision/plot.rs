@@ -112,11 +112,16 @@ pub(crate) fn diagrams(
             ),
             (
                 "energy",
-                format!("max |H - H(z0)| (below {FLOOR:.0e} drawn at it)"),
+                format!(
+                    "max |H - H(z0)| (DTH vertices: vs. first vertex; < {FLOOR:.0e} drawn at it)"
+                ),
             ),
         ];
         if let Some(name) = info.invariant {
-            kinds.push(("invariant", format!("max |{name} deviation|")));
+            kinds.push((
+                "invariant",
+                format!("max |{name} deviation| (DTH vertices: vs. first vertex)"),
+            ));
         }
         let derivatives = records
             .iter()
