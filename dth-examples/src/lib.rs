@@ -27,6 +27,7 @@ pub mod run;
 pub mod scene;
 pub mod table41;
 pub mod thesis;
+pub mod workprecision;
 
 pub use error::Error;
 
