@@ -1,7 +1,8 @@
 //! Run a scene on your own system, from your own crate.
 //!
 //! 1. Define the Hamiltonian (with `dth::hamiltonian!` once the macro lands; here by hand).
-//! 2. Implement `SceneSystem` (its quadratic invariants and period, if any; both optional).
+//! 2. Implement `SceneSystem` (its quadratic invariants and period, if any; both optional);
+//!    the system must be `Clone` (the DTH stepper owns a copy).
 //! 3. Register it under a name in a `Catalogue` (the built-in one, or an empty one).
 //! 4. Run scene text that names it.
 //!
@@ -15,6 +16,7 @@ use dth_examples::catalogue::{Catalogue, ParamSpec, SceneSystem, SystemEntry};
 use dth_examples::run::RunOptions;
 
 /// Duffing oscillator `H = p^2/2 + a q^2/2 + b q^4/4`, `z = (q, p)`.
+#[derive(Clone)]
 struct Duffing {
     a: f64,
     b: f64,
@@ -40,8 +42,6 @@ impl Hamiltonian<2> for Duffing {
 /// No quadratic invariants, no closed-form period: the defaults.
 impl SceneSystem<2> for Duffing {}
 
-// The method is the pipeline probe until the DTH stepper and the peers are merged; then write
-// `kind = "dth"` with `dtau = 0.05` (or any peer with `dt`) instead.
 const SCENE: &str = r#"
 title = "Duffing oscillator"
 
@@ -54,21 +54,25 @@ q = [1.0]
 p = [0.0]
 
 [[method]]
-kind = "test_probe_euler"
-dt = 0.0005
+kind = "dth"
+dtau = 0.05
+
+[[method]]
+kind = "stormer_verlet"
+dt = 0.05
 
 [duration]
 time = 30.0
 
 [[effect]]
 kind = "energy_deviation"
-every = 20
+every = 1
 
 [[effect]]
 kind = "phase_plot"
 x = "q1"
 y = "p1"
-every = 20
+every = 1
 "#;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {

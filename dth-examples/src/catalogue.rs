@@ -12,11 +12,17 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
+use dth::kepler::KeplerOrbit;
+use dth::methods::DiscreteMechanics;
 use dth::nalgebra::SVector;
-use dth::systems::{HarmonicOscillator, Kepler};
+use dth::systems::{
+    DoublePendulum, ForcedOscillator, HarmonicOscillator, HenonHeiles, Kepler, Pendulum,
+    TodaBoundary, TodaChain,
+};
 use dth::Hamiltonian;
 
 use crate::error::Error;
+use crate::method::{run_peer, MethodFailure, Observer, RunEnd, Stop};
 use crate::run::{run_system, RunOptions, RunReport};
 use crate::scene::Scene;
 
@@ -44,6 +50,10 @@ pub struct SystemInfo<'a> {
     pub has_period: bool,
     /// `true` when the system has an exact solution (method `exact`).
     pub has_exact: bool,
+    /// `true` for `H = T(p) + V(q)` (method `stormer_verlet`).
+    pub separable: bool,
+    /// `true` for a central force `|p|^2/(2m) + phi(|q|)` (method `discrete_mechanics`).
+    pub central_force: bool,
 }
 
 /// What a scene needs from a system beyond [`Hamiltonian`]: its quadratic invariants (for the
@@ -51,7 +61,9 @@ pub struct SystemInfo<'a> {
 ///
 /// `D` is the phase-space dimension of the implementation: `2n`, or `2n + 2` when
 /// `Hamiltonian::TIME_DEPENDENT` (the extended phase space `(q, t, p, p_t)`).
-pub trait SceneSystem<const D: usize>: Hamiltonian<D> {
+///
+/// `Clone` because the DTH stepper owns its Hamiltonian (systems are small parameter structs).
+pub trait SceneSystem<const D: usize>: Hamiltonian<D> + Clone {
     /// `true` when [`SceneSystem::period`] returns `Some` for bound initial states.
     const HAS_PERIOD: bool = false;
 
@@ -80,16 +92,57 @@ pub trait SceneSystem<const D: usize>: Hamiltonian<D> {
         let _ = z0;
         None
     }
+
+    /// `true` when [`SceneSystem::run_discrete_mechanics`] runs (central-force systems that
+    /// implement `dth::systems::CentralForce`).
+    const CENTRAL_FORCE: bool = false;
+
+    /// Runs Greenspan's discrete mechanics (`dth::methods::DiscreteMechanics`, which needs
+    /// `dth::systems::CentralForce`); `None` for systems that are not central forces. A
+    /// central-force system implements it as
+    /// `Some(run_peer(&mut DiscreteMechanics::new(), self, dt, z0, t0, stop, observer))`.
+    fn run_discrete_mechanics<O: Observer<D>>(
+        &self,
+        dt: f64,
+        z0: SVector<f64, D>,
+        t0: f64,
+        stop: Stop,
+        observer: &mut O,
+    ) -> Option<Result<RunEnd, MethodFailure>> {
+        let _ = (dt, z0, t0, stop, observer);
+        None
+    }
 }
 
 impl SceneSystem<4> for Kepler {
     const HAS_PERIOD: bool = true;
     const HAS_EXACT: bool = true;
 
-    /// Plug-in point for the exact Kepler solution (`dth_core::kepler`, issue 3): until it is
-    /// merged this returns `None` and method `exact` reports that it is not available.
-    fn exact_solution(&self, _z0: &SVector<f64, 4>, _t: f64) -> Option<SVector<f64, 4>> {
-        None
+    const CENTRAL_FORCE: bool = true;
+
+    /// Kepler's equation (`dth::kepler::KeplerOrbit`); `None` for orbits that are not
+    /// elliptic.
+    fn exact_solution(&self, z0: &SVector<f64, 4>, t: f64) -> Option<SVector<f64, 4>> {
+        KeplerOrbit::new(self, z0).ok().map(|o| o.state_at(t))
+    }
+
+    fn run_discrete_mechanics<O: Observer<4>>(
+        &self,
+        dt: f64,
+        z0: SVector<f64, 4>,
+        t0: f64,
+        stop: Stop,
+        observer: &mut O,
+    ) -> Option<Result<RunEnd, MethodFailure>> {
+        Some(run_peer(
+            &mut DiscreteMechanics::new(),
+            self,
+            dt,
+            z0,
+            t0,
+            stop,
+            observer,
+        ))
     }
 
     fn invariant_names(&self) -> &'static [&'static str] {
@@ -118,6 +171,26 @@ impl SceneSystem<2> for HarmonicOscillator {
     }
 }
 
+impl SceneSystem<2> for Pendulum {}
+
+impl SceneSystem<4> for HenonHeiles {}
+
+impl SceneSystem<4> for DoublePendulum {}
+
+/// The periodic Toda chain of the catalogue (4 particles): its total momentum is conserved
+/// (a linear invariant, reported under `invariants`).
+impl SceneSystem<8> for TodaChain<4> {
+    fn invariant_names(&self) -> &'static [&'static str] {
+        &["total_momentum"]
+    }
+
+    fn invariants(&self, z: &SVector<f64, 8>, out: &mut [f64]) {
+        out[0] = z[4] + z[5] + z[6] + z[7];
+    }
+}
+
+impl SceneSystem<4> for ForcedOscillator {}
+
 type RunFn = dyn Fn(&Scene, &Path, &RunOptions) -> Result<RunReport, Error> + Send + Sync + 'static;
 
 /// One system of a [`Catalogue`].
@@ -129,6 +202,8 @@ pub struct SystemEntry {
     time_dependent: bool,
     has_period: bool,
     has_exact: bool,
+    separable: bool,
+    central_force: bool,
     run: Option<Box<RunFn>>,
     unavailable: &'static str,
 }
@@ -182,6 +257,8 @@ impl SystemEntry {
             time_dependent: S::TIME_DEPENDENT,
             has_period: S::HAS_PERIOD,
             has_exact: S::HAS_EXACT,
+            separable: S::SEPARABLE,
+            central_force: S::CENTRAL_FORCE,
             run: Some(Box::new(move |scene, out, options| {
                 let system = build(&scene.params).map_err(|reason| Error::NotAvailable {
                     what: "system",
@@ -213,6 +290,8 @@ impl SystemEntry {
             time_dependent,
             has_period,
             has_exact: false,
+            separable: false,
+            central_force: false,
             run: None,
             unavailable: reason,
         }
@@ -236,6 +315,8 @@ impl SystemEntry {
             time_dependent: self.time_dependent,
             has_period: self.has_period,
             has_exact: self.has_exact,
+            separable: self.separable,
+            central_force: self.central_force,
         }
     }
 
@@ -250,8 +331,6 @@ impl SystemEntry {
 pub struct Catalogue {
     entries: Vec<SystemEntry>,
 }
-
-const NO_MACRO: &str = "its `hamiltonian!` definition waits for the macro (issue 2) and the reference systems in dth_core::systems";
 
 impl Catalogue {
     /// An empty catalogue (register your own systems).
@@ -295,62 +374,76 @@ impl Catalogue {
                     }
                 },
             ),
-            SystemEntry::declared(
+            SystemEntry::runnable::<2, Pendulum, _>(
                 "pendulum",
                 "H = p^2/(2 m l^2) - m g l cos q, n = 1",
-                1,
                 &[
                     ParamSpec { name: "m", default: Some(1.0), doc: "mass" },
                     ParamSpec { name: "l", default: Some(1.0), doc: "length" },
                     ParamSpec { name: "g", default: Some(1.0), doc: "gravity" },
                 ],
-                false,
-                false,
-                NO_MACRO,
+                |p| {
+                    let (mass, length, gravity) = (param(p, "m"), param(p, "l"), param(p, "g"));
+                    if mass > 0.0 && length > 0.0 && gravity > 0.0 {
+                        Ok(Pendulum { mass, length, gravity })
+                    } else {
+                        Err(format!("pendulum needs m, l, g > 0 (got m = {mass}, l = {length}, g = {gravity})"))
+                    }
+                },
             ),
-            SystemEntry::declared(
+            SystemEntry::runnable::<4, HenonHeiles, _>(
                 "henon_heiles",
                 "H = (p1^2 + p2^2)/2 + (q1^2 + q2^2)/2 + q1^2 q2 - q2^3/3, n = 2",
-                2,
                 &[],
-                false,
-                false,
-                NO_MACRO,
+                |_| Ok(HenonHeiles),
             ),
-            SystemEntry::declared(
+            SystemEntry::runnable::<4, DoublePendulum, _>(
                 "double_pendulum",
-                "planar double pendulum, equal masses m and lengths l, angles q1, q2, n = 2",
-                2,
+                "planar double pendulum, masses m1, m2, lengths l1, l2, angles q1, q2 from the downward vertical, n = 2",
                 &[
-                    ParamSpec { name: "m", default: Some(1.0), doc: "mass of each bob" },
-                    ParamSpec { name: "l", default: Some(1.0), doc: "length of each rod" },
+                    ParamSpec { name: "m1", default: Some(1.0), doc: "upper bob mass" },
+                    ParamSpec { name: "m2", default: Some(1.0), doc: "lower bob mass" },
+                    ParamSpec { name: "l1", default: Some(1.0), doc: "upper rod length" },
+                    ParamSpec { name: "l2", default: Some(1.0), doc: "lower rod length" },
                     ParamSpec { name: "g", default: Some(1.0), doc: "gravity" },
                 ],
-                false,
-                false,
-                NO_MACRO,
+                |p| {
+                    let d = DoublePendulum {
+                        m1: param(p, "m1"),
+                        m2: param(p, "m2"),
+                        l1: param(p, "l1"),
+                        l2: param(p, "l2"),
+                        g: param(p, "g"),
+                    };
+                    if [d.m1, d.m2, d.l1, d.l2, d.g].iter().all(|&x| x > 0.0) {
+                        Ok(d)
+                    } else {
+                        Err(format!("double_pendulum needs m1, m2, l1, l2, g > 0 (got {d:?})"))
+                    }
+                },
             ),
-            SystemEntry::declared(
+            SystemEntry::runnable::<8, TodaChain<4>, _>(
                 "toda_chain",
                 "periodic Toda chain of 4 particles, H = sum p_i^2/2 + sum exp(q_i - q_{i+1}), n = 4",
-                4,
                 &[],
-                false,
-                false,
-                NO_MACRO,
+                |_| Ok(TodaChain::new(TodaBoundary::Periodic)),
             ),
-            SystemEntry::declared(
+            SystemEntry::runnable::<4, ForcedOscillator, _>(
                 "forced_oscillator",
                 "time-dependent H = p^2/2 + omega0^2 q^2/2 - f q cos(omega t), n = 1 (extended phase space)",
-                1,
                 &[
                     ParamSpec { name: "omega0", default: Some(1.0), doc: "natural frequency" },
                     ParamSpec { name: "f", default: Some(0.1), doc: "forcing amplitude" },
                     ParamSpec { name: "omega", default: Some(1.3), doc: "forcing frequency" },
                 ],
-                true,
-                false,
-                NO_MACRO,
+                |p| {
+                    let (omega0, force, omega) = (param(p, "omega0"), param(p, "f"), param(p, "omega"));
+                    if omega0 > 0.0 && omega.is_finite() && force.is_finite() {
+                        Ok(ForcedOscillator { omega0, force, omega })
+                    } else {
+                        Err(format!("forced_oscillator needs omega0 > 0 (got omega0 = {omega0})"))
+                    }
+                },
             ),
         ];
         for e in entries {
@@ -444,6 +537,13 @@ mod tests {
             ]
         );
         assert_eq!(c.info("kepler").map(|i| i.n), Some(2));
+        assert!(c.entries().iter().all(SystemEntry::is_runnable));
+        // What validation checks methods against.
+        let info = |name| c.info(name).unwrap();
+        assert!(info("kepler").central_force && info("kepler").has_exact);
+        assert!(!info("double_pendulum").separable && info("henon_heiles").separable);
+        assert!(info("forced_oscillator").time_dependent);
+        assert_eq!(info("toda_chain").n, 4);
     }
 
     #[test]

@@ -80,14 +80,15 @@ pub enum Error {
         /// Why.
         reason: String,
     },
-    /// The scene names a method or system that this build cannot run yet.
-    #[error("{what} `{name}` is not available in this build: {reason}")]
+    /// A method, system or command that cannot run here (e.g. the exact solution of an
+    /// unbound orbit, or a system whose parameters are invalid).
+    #[error("{what} `{name}` cannot run: {reason}")]
     NotAvailable {
         /// "method" or "system".
         what: &'static str,
         /// Its name in the scene.
         name: String,
-        /// Why, and what it waits for.
+        /// Why.
         reason: String,
     },
     /// The output folder cannot be used (exit code 2: the user's argument is wrong).
@@ -114,6 +115,15 @@ pub enum Error {
         /// The rule it breaks.
         reason: String,
     },
+    /// The work-precision benchmark (`dth workprecision`) failed.
+    #[error("work-precision benchmark failed")]
+    WorkPrecision(#[source] Box<crate::workprecision::Error>),
+}
+
+impl From<crate::workprecision::Error> for Error {
+    fn from(e: crate::workprecision::Error) -> Self {
+        Error::WorkPrecision(Box::new(e))
+    }
 }
 
 impl Error {

@@ -76,6 +76,36 @@ pub fn index(scene: &Scene, report: &RunReport) -> String {
     }
     h.push_str("</table>\n");
 
+    if let Some(t) = &report.table41 {
+        h.push_str("<h2>Table 4.1</h2>\n<p>Average absolute deviation in energy and angular momentum during 400 orbits of the Kepler problem with 25 points per orbit (10,000 steps): ours beside the thesis's. Reference values: the initial condition (fixed-step methods), zbar_0 (DTH midpoints), the first vertex z^(0) (DTH vertices); mean over k = 1..N.</p>\n<table><tr><th>method</th><th>energy (ours)</th><th>energy (thesis)</th><th>angular momentum (ours)</th><th>angular momentum (thesis)</th></tr>\n");
+        for r in &t.rows {
+            let thesis = crate::table41::THESIS.iter().find(|x| x.0 == r.method);
+            let (te, tl) = thesis.map_or(("-".to_string(), "-".to_string()), |x| {
+                (format!("{:.3e}", x.1), format!("{:.3e}", x.2))
+            });
+            let _ = writeln!(
+                h,
+                "<tr><td>{}</td><td>{:.3e}</td><td>{te}</td><td>{:.3e}</td><td>{tl}</td></tr>",
+                escape(&r.method),
+                r.energy,
+                r.angular_momentum
+            );
+        }
+        h.push_str("</table>\n");
+    }
+    if !report.thesis_figures.is_empty() {
+        h.push_str("<h2>The thesis's figures</h2>\n");
+        for f in &report.thesis_figures {
+            let _ = writeln!(
+                h,
+                "<figure id=\"fig{n}\"><img src=\"{s}.png\" alt=\"Figure {n}\"><figcaption><b>Figure {n}.</b> {c} (<a href=\"{s}.svg\">SVG</a>)</figcaption></figure>",
+                n = escape(&f.number),
+                s = escape(&f.stem),
+                c = escape(&f.caption)
+            );
+        }
+    }
+
     let has_stats = report
         .methods
         .iter()
@@ -127,9 +157,19 @@ pub fn index(scene: &Scene, report: &RunReport) -> String {
         .files
         .iter()
         .filter(|f| f.ends_with(".png"))
+        .filter(|f| {
+            !report
+                .thesis_figures
+                .iter()
+                .any(|t| f.strip_suffix(".png") == Some(t.stem.as_str()))
+        })
         .collect();
     if !figures.is_empty() {
-        h.push_str("<h2>Figures</h2>\n");
+        h.push_str(if report.thesis_figures.is_empty() {
+            "<h2>Figures</h2>\n"
+        } else {
+            "<h2>Other figures</h2>\n"
+        });
         for f in figures {
             let svg = f.trim_end_matches(".png");
             let _ = writeln!(

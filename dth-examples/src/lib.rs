@@ -26,6 +26,8 @@ pub mod plot;
 pub mod run;
 pub mod scene;
 pub mod table41;
+pub mod thesis;
+pub mod workprecision;
 
 pub use error::Error;
 

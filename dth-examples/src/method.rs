@@ -1,21 +1,22 @@
 //! The one seam between scenes and integrators: [`run_method`] maps a [`MethodSpec`] to a
 //! [`MethodRunner`] and drives it with the scene's [`Observer`].
 //!
-//! **Where the real integrators plug in.** `dth_core::dth` (the stepper) and
-//! `dth_core::methods` (the peers) are not merged yet. Each gets one arm in [`run_method`]:
-//! implement [`MethodRunner`] for it (a few lines that call its step function in a loop and
-//! hand every state to the observer) and replace the matching `not_available` arm. Until then
-//! those arms return [`Error::NotAvailable`], and the only runnable method is
-//! [`TestProbeEuler`], which exists solely so the scene pipeline can be tested end to end.
-//! Method `exact` ([`ExactSampler`]) is complete here; it runs once a system implements
-//! [`SceneSystem::exact_solution`] (Kepler's waits for `dth_core::kepler`).
+//! Every arm calls a `dth_core` integrator: the DTH stepper ([`DthRunner`], both Newton
+//! solvers), the fixed-step peers of `dth_core::methods` ([`run_peer`]), Greenspan's discrete
+//! mechanics through [`SceneSystem::run_discrete_mechanics`] (central-force systems only), and
+//! the system's exact solution ([`ExactSampler`]).
 
+use dth::dth::{Dth, DthOptions, StepRecord};
+use dth::methods::{
+    self, DiscreteGradient, GaussLegendre2, ImplicitMidpoint, OneStepMethod, Rk4, StormerVerlet,
+    Trapezoidal,
+};
 use dth::nalgebra::SVector;
 use dth::Hamiltonian;
 
 use crate::catalogue::SceneSystem;
 use crate::error::Error;
-use crate::scene::{MethodKind, MethodSpec, StepSpec};
+use crate::scene::{MethodKind, MethodSpec, Solver, StepSpec};
 
 /// One state handed to observers: step `k`, physical time, the state, and for DTH the segment's
 /// `lambda` and the vertex `z^(k)` at time `t^(k)`.
@@ -82,6 +83,31 @@ impl Stop {
             Stop::Time { t_end, max_steps } => t >= t_end || k >= max_steps,
         }
     }
+
+    /// The number of steps a fixed-step method with step `dt > 0` takes from `t0`: the first
+    /// `k` with `t0 + k dt >= t_end` (the clock is `t0 + k dt`, as `dth_core::methods::run`
+    /// computes it), capped at `max_steps`.
+    pub fn fixed_steps(&self, t0: f64, dt: f64) -> usize {
+        match *self {
+            Stop::Steps(n) => n,
+            Stop::Time { t_end, max_steps } => {
+                let guess = ((t_end - t0) / dt).ceil().max(0.0);
+                let mut k = if guess < max_steps as f64 {
+                    guess as usize
+                } else {
+                    max_steps
+                };
+                // The division rounds: settle on the exact first k of the clock.
+                while k < max_steps && t0 + k as f64 * dt < t_end {
+                    k += 1;
+                }
+                while k > 0 && t0 + (k - 1) as f64 * dt >= t_end {
+                    k -= 1;
+                }
+                k
+            }
+        }
+    }
 }
 
 /// How a run ended.
@@ -114,59 +140,6 @@ pub trait MethodRunner<const D: usize, H: Hamiltonian<D>> {
         stop: Stop,
         observer: &mut O,
     ) -> Result<RunEnd, MethodFailure>;
-}
-
-/// Explicit Euler, `z_{k+1} = z_k + dt J grad H(z_k)`.
-///
-/// **Exists only to exercise the scene pipeline in tests** (it needs nothing from the
-/// unmerged stepper and peers). It is first order and not symplectic; do not use it to study a
-/// system. Scenes name it `test_probe_euler`.
-#[derive(Debug, Clone, Copy)]
-pub struct TestProbeEuler {
-    /// Time step.
-    pub dt: f64,
-}
-
-impl<const D: usize, H: Hamiltonian<D>> MethodRunner<D, H> for TestProbeEuler {
-    fn run<O: Observer<D>>(
-        &self,
-        system: &H,
-        z0: SVector<f64, D>,
-        t0: f64,
-        stop: Stop,
-        observer: &mut O,
-    ) -> Result<RunEnd, MethodFailure> {
-        let mut z = z0;
-        let mut k = 0;
-        let mut t = t0;
-        observer.observe(&StepView {
-            step: 0,
-            t,
-            z: &z,
-            lambda: None,
-            vertex: None,
-        });
-        while !stop.done(k, t) {
-            let next = z + dth::j_times(&system.gradient(&z)) * self.dt;
-            if let Some(i) = next.iter().position(|x| !x.is_finite()) {
-                return Err(MethodFailure {
-                    step: k + 1,
-                    reason: format!("state component {i} became non-finite"),
-                });
-            }
-            z = next;
-            k += 1;
-            t = t0 + k as f64 * self.dt;
-            observer.observe(&StepView {
-                step: k,
-                t,
-                z: &z,
-                lambda: None,
-                vertex: None,
-            });
-        }
-        Ok(RunEnd { steps: k, t })
-    }
 }
 
 /// The system's exact solution sampled at `t0 + k dt` ([`SceneSystem::exact_solution`]).
@@ -215,6 +188,132 @@ impl ExactSampler {
     }
 }
 
+/// Feeds the states of a `dth_core::methods::run` to a scene [`Observer`].
+struct PeerObserver<'o, O>(&'o mut O);
+
+impl<const D: usize, O: Observer<D>> methods::Observer<D> for PeerObserver<'_, O> {
+    #[inline(always)]
+    fn observe(&mut self, k: usize, t: f64, z: &SVector<f64, D>) {
+        self.0.observe(&StepView {
+            step: k,
+            t,
+            z,
+            lambda: None,
+            vertex: None,
+        });
+    }
+}
+
+/// Runs a fixed-step peer (`dth_core::methods`) with step `dt` from `z0` at `t0` until `stop`,
+/// showing every state to `observer`. On failure the observer has seen every state before the
+/// failing step.
+pub fn run_peer<const D: usize, H, M, O>(
+    method: &mut M,
+    system: &H,
+    dt: f64,
+    z0: SVector<f64, D>,
+    t0: f64,
+    stop: Stop,
+    observer: &mut O,
+) -> Result<RunEnd, MethodFailure>
+where
+    H: Hamiltonian<D>,
+    M: OneStepMethod<D, H>,
+    O: Observer<D>,
+{
+    let steps = stop.fixed_steps(t0, dt);
+    match methods::run(
+        method,
+        system,
+        &z0,
+        t0,
+        dt,
+        steps,
+        &mut PeerObserver(observer),
+    ) {
+        Ok(end) => Ok(RunEnd {
+            steps: end.steps,
+            t: end.t,
+        }),
+        Err(e) => Err(MethodFailure {
+            step: e.partial.steps + 1,
+            reason: e.error.to_string(),
+        }),
+    }
+}
+
+/// The DTH stepper (`dth_core::dth::Dth`) driven until a [`Stop`]: every midpoint `zbar_k` is
+/// shown with its time `tbar_k`, `lambda_k` and the left vertex `z^(k)` at `t^(k)`.
+#[derive(Debug, Clone, Copy)]
+pub struct DthRunner {
+    /// Step, `lambda_0` and Newton settings.
+    pub options: DthOptions,
+}
+
+impl DthRunner {
+    /// The runner for a scene's DTH step (`dtau`, `lambda0`, `solver`).
+    pub fn new(dtau: f64, lambda0: f64, solver: Solver) -> Result<Self, dth::Error> {
+        let solver = match solver {
+            Solver::Joint => dth::dth::Solver::Joint,
+            Solver::Nested => dth::dth::Solver::Nested,
+        };
+        Ok(DthRunner {
+            options: DthOptions::default()
+                .with_dtau(dtau)?
+                .with_lambda0(lambda0)?
+                .with_solver(solver),
+        })
+    }
+}
+
+fn dth_view<const D: usize>(r: &StepRecord<D>) -> StepView<'_, D> {
+    StepView {
+        step: r.k,
+        t: r.tbar,
+        z: &r.zbar,
+        lambda: Some(r.lambda),
+        vertex: Some((r.vertex_time, &r.vertex)),
+    }
+}
+
+impl<const D: usize, H: Hamiltonian<D> + Clone> MethodRunner<D, H> for DthRunner {
+    /// `z0` is the first midpoint `zbar_0`; `t0` its time (for a time-dependent `H` the `t`
+    /// coordinate of `z0` is the clock).
+    fn run<O: Observer<D>>(
+        &self,
+        system: &H,
+        z0: SVector<f64, D>,
+        t0: f64,
+        stop: Stop,
+        observer: &mut O,
+    ) -> Result<RunEnd, MethodFailure> {
+        let start = |e: dth::Error| MethodFailure {
+            step: 0,
+            reason: e.to_string(),
+        };
+        let mut dth = Dth::new(system.clone(), z0, self.options).map_err(start)?;
+        if !H::TIME_DEPENDENT {
+            dth = dth.with_tbar0(t0).map_err(start)?;
+        }
+        loop {
+            let record = dth.record();
+            observer.observe(&dth_view(&record));
+            if stop.done(record.k, record.tbar) {
+                return Ok(RunEnd {
+                    steps: record.k,
+                    t: record.tbar,
+                });
+            }
+            if let Err(e) = dth.step() {
+                return Err(MethodFailure {
+                    step: record.k + 1,
+                    reason: e.to_string(),
+                });
+            }
+        }
+    }
+}
+
 /// Runs the method a scene names. The single dispatch point (see the module docs).
 pub fn run_method<const D: usize, H: SceneSystem<D>, O: Observer<D>>(
     spec: &MethodSpec,
@@ -229,37 +328,98 @@ pub fn run_method<const D: usize, H: SceneSystem<D>, O: Observer<D>>(
         name: spec.kind.name().to_string(),
         reason: reason.to_string(),
     };
-    match (spec.kind, spec.step) {
-        (MethodKind::TestProbeEuler, StepSpec::Fixed { dt }) => {
-            Ok(TestProbeEuler { dt }.run(system, z0, t0, stop, observer))
+    let dt = match (spec.kind, spec.step) {
+        (
+            MethodKind::Dth,
+            StepSpec::Dth {
+                dtau,
+                lambda0,
+                solver,
+            },
+        ) => {
+            let runner =
+                DthRunner::new(dtau, lambda0, solver).map_err(|e| not_available(&e.to_string()))?;
+            return Ok(runner.run(system, z0, t0, stop, observer));
         }
-        (MethodKind::Exact, StepSpec::Fixed { dt }) => {
+        (_, StepSpec::Fixed { dt }) => dt,
+        (_, StepSpec::Dth { .. }) => {
+            return Err(not_available(
+                "this method takes a fixed step `dt`, not DTH's `dtau`",
+            ))
+        }
+    };
+    match spec.kind {
+        MethodKind::Exact => {
             if !H::HAS_EXACT || system.exact_solution(&z0, 0.0).is_none() {
                 return Err(not_available(
-                    "this system's exact solution is not implemented yet (Kepler: dth_core::kepler, not merged into this branch)",
+                    "this system has no exact solution for this initial state (Kepler: an elliptic orbit is needed)",
                 ));
             }
             Ok(ExactSampler { dt }.run(system, z0, t0, stop, observer))
         }
-        // Plug-in point for the DTH stepper (dth_core::dth, issue 3).
-        (MethodKind::Dth, _) => Err(not_available(
-            "the DTH stepper (dth_core::dth) is not merged into this branch yet",
+        MethodKind::Trapezoidal => Ok(run_peer(
+            &mut Trapezoidal::new(),
+            system,
+            dt,
+            z0,
+            t0,
+            stop,
+            observer,
         )),
-        // Plug-in points for the peers (dth_core::methods, issue 3).
-        (
-            MethodKind::Trapezoidal
-            | MethodKind::Midpoint
-            | MethodKind::DiscreteMechanics
-            | MethodKind::StormerVerlet
-            | MethodKind::Rk4
-            | MethodKind::GaussLegendre2
-            | MethodKind::DiscreteGradient,
-            _,
-        ) => Err(not_available(
-            "the peer methods (dth_core::methods) are not merged into this branch yet",
+        MethodKind::Midpoint => Ok(run_peer(
+            &mut ImplicitMidpoint::new(),
+            system,
+            dt,
+            z0,
+            t0,
+            stop,
+            observer,
         )),
-        (MethodKind::TestProbeEuler | MethodKind::Exact, StepSpec::Dth { .. }) => Err(
-            not_available("this method takes a fixed step `dt`, not DTH's `dtau`"),
-        ),
+        MethodKind::StormerVerlet => {
+            if !H::SEPARABLE {
+                return Err(not_available(
+                    "Stormer-Verlet needs a separable H = T(p) + V(q)",
+                ));
+            }
+            Ok(run_peer(
+                &mut StormerVerlet::new(),
+                system,
+                dt,
+                z0,
+                t0,
+                stop,
+                observer,
+            ))
+        }
+        MethodKind::Rk4 => Ok(run_peer(&mut Rk4, system, dt, z0, t0, stop, observer)),
+        MethodKind::GaussLegendre2 => Ok(run_peer(
+            &mut GaussLegendre2::new(),
+            system,
+            dt,
+            z0,
+            t0,
+            stop,
+            observer,
+        )),
+        MethodKind::DiscreteGradient => Ok(run_peer(
+            &mut DiscreteGradient::new(),
+            system,
+            dt,
+            z0,
+            t0,
+            stop,
+            observer,
+        )),
+        MethodKind::DiscreteMechanics => system
+            .run_discrete_mechanics(dt, z0, t0, stop, observer)
+            .map_or_else(
+                || {
+                    Err(not_available(
+                        "discrete mechanics needs a central-force system H = |p|^2/(2m) + phi(|q|)",
+                    ))
+                },
+                Ok,
+            ),
+        MethodKind::Dth => Err(not_available("method `dth` takes `dtau`, not `dt`")),
     }
 }

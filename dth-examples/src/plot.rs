@@ -27,8 +27,14 @@ use crate::error::Error;
 pub enum Mark {
     /// Connected line.
     Line,
+    /// Connected thin line (long orbits).
+    ThinLine,
+    /// Connected line with a dot at every point (discrete trajectories).
+    LinePoints,
     /// Unconnected dots (scatter, Poincare sections).
     Points,
+    /// Unconnected small dots (thousands of section points).
+    SmallPoints,
 }
 
 /// One named series of `(x, y)` points.
@@ -40,6 +46,12 @@ pub struct Series {
     pub mark: Mark,
     /// The points.
     pub points: Vec<(f64, f64)>,
+    /// Palette index of the colour (default: the series' position in the figure), so one
+    /// method keeps its colour across figures.
+    pub color: Option<usize>,
+    /// Points only: shade from light (first point) to full colour (last), so that the order
+    /// of the points (e.g. time) is visible.
+    pub shaded: bool,
 }
 
 impl Series {
@@ -49,7 +61,21 @@ impl Series {
             name: name.to_string(),
             mark,
             points: points.into_iter().collect(),
+            color: None,
+            shaded: false,
         }
+    }
+
+    /// Shades the points from light to full colour in their order (see [`Series::shaded`]).
+    pub fn with_shading(mut self) -> Self {
+        self.shaded = true;
+        self
+    }
+
+    /// Uses palette colour `i` (see [`PALETTE`]).
+    pub fn with_color(mut self, i: usize) -> Self {
+        self.color = Some(i);
+        self
     }
 }
 
@@ -73,10 +99,33 @@ pub struct Figure {
     /// Longer series are drawn with a uniform stride so that at most this many points are
     /// drawn (keeps SVGs small; the data files keep every point). Default 50,000.
     pub max_points_per_series: usize,
+    /// Fixed horizontal range (default: the data's, padded 5%).
+    pub x_range: Option<(f64, f64)>,
+    /// Fixed vertical range (default: the data's, padded 5%).
+    pub y_range: Option<(f64, f64)>,
+    /// Where the legend goes (default upper right); `None` hides it.
+    pub legend: Option<Legend>,
 }
 
-/// Colour-blind-friendly palette (Okabe-Ito, then Tableau), cycled over series.
-const PALETTE: [RGBColor; 10] = [
+/// Legend position.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Legend {
+    /// Upper right corner.
+    UpperRight,
+    /// Upper left corner.
+    UpperLeft,
+    /// Top, centred.
+    UpperMiddle,
+    /// Lower left corner.
+    LowerLeft,
+    /// Lower right corner.
+    LowerRight,
+}
+
+/// Colour-blind-friendly palette (Okabe-Ito, then Tableau), cycled over series: 0 blue,
+/// 1 vermillion, 2 green, 3 reddish purple, 4 orange, 5 sky blue, 6 black, 7 brown, 8 grey,
+/// 9 olive.
+pub const PALETTE: [RGBColor; 10] = [
     RGBColor(0, 114, 178),
     RGBColor(213, 94, 0),
     RGBColor(0, 158, 115),
@@ -160,7 +209,23 @@ impl Figure {
             log_y: false,
             size: (900, 650),
             max_points_per_series: 50_000,
+            x_range: None,
+            y_range: None,
+            legend: Some(Legend::UpperRight),
         }
+    }
+
+    /// Fixes the axis ranges.
+    pub fn with_ranges(mut self, x: (f64, f64), y: (f64, f64)) -> Self {
+        self.x_range = Some(x);
+        self.y_range = Some(y);
+        self
+    }
+
+    /// Moves (`Some`) or hides (`None`) the legend.
+    pub fn with_legend(mut self, legend: Option<Legend>) -> Self {
+        self.legend = legend;
+        self
     }
 
     /// Adds a series.
@@ -211,11 +276,39 @@ impl Figure {
         root: &DrawingArea<DB, Shift>,
         data: &[Vec<(f64, f64)>],
     ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
-        let xr = axis_range(data.iter().flatten().map(|p| p.0));
-        let yr = axis_range(data.iter().flatten().map(|p| p.1));
         root.fill(&WHITE)?;
-        let mut chart = ChartBuilder::on(root)
-            .caption(&self.title, ("sans-serif", 22))
+        self.draw_on(root, data, 22)?;
+        root.present()?;
+        Ok(())
+    }
+
+    /// Draws the chart into `area` (no background fill, no present: panels share them).
+    fn draw_on<DB: DrawingBackend>(
+        &self,
+        area: &DrawingArea<DB, Shift>,
+        data: &[Vec<(f64, f64)>],
+        title_size: u32,
+    ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+        let range =
+            |fixed: Option<(f64, f64)>, log: bool, values: &mut dyn Iterator<Item = f64>| {
+                match fixed {
+                    Some((a, b)) if log => a.log10()..b.log10(),
+                    Some((a, b)) => a..b,
+                    None => axis_range(values),
+                }
+            };
+        let xr = range(
+            self.x_range,
+            self.log_x,
+            &mut data.iter().flatten().map(|p| p.0),
+        );
+        let yr = range(
+            self.y_range,
+            self.log_y,
+            &mut data.iter().flatten().map(|p| p.1),
+        );
+        let mut chart = ChartBuilder::on(area)
+            .caption(&self.title, ("sans-serif", title_size))
             .margin(15)
             .x_label_area_size(50)
             .y_label_area_size(80)
@@ -235,33 +328,132 @@ impl Figure {
             .axis_desc_style(("sans-serif", 16))
             .light_line_style(RGBColor(235, 235, 235))
             .draw()?;
+        let inside = |&(x, y): &(f64, f64)| xr.contains(&x) && yr.contains(&y);
         for (i, (s, pts)) in self.series.iter().zip(data).enumerate() {
-            let color = PALETTE[i % PALETTE.len()];
-            match s.mark {
-                Mark::Line => {
-                    chart
-                        .draw_series(LineSeries::new(pts.iter().copied(), color.stroke_width(2)))?
-                        .label(s.name.as_str())
-                        .legend(move |(x, y)| {
-                            PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
-                        });
+            let color = PALETTE[s.color.unwrap_or(i) % PALETTE.len()];
+            let anno = match s.mark {
+                Mark::Line | Mark::ThinLine | Mark::LinePoints => {
+                    // Dense lines are drawn 1 px wide: plotters' bitmap backend draws wide
+                    // polylines with miter joins, which spike far out at sharp turns.
+                    let width = if s.mark == Mark::ThinLine || pts.len() > 300 {
+                        1
+                    } else {
+                        2
+                    };
+                    if s.mark == Mark::LinePoints {
+                        chart.draw_series(
+                            pts.iter()
+                                .filter(|p| inside(p))
+                                .map(|&p| Circle::new(p, 3, color.filled())),
+                        )?;
+                    }
+                    let a = chart.draw_series(LineSeries::new(
+                        pts.iter().copied(),
+                        color.stroke_width(width),
+                    ))?;
+                    let dot = s.mark == Mark::LinePoints;
+                    a.legend(move |(x, y)| {
+                        let line = PathElement::new(vec![(0, 0), (20, 0)], color.stroke_width(2));
+                        let r = if dot { 3 } else { 0 };
+                        EmptyElement::at((x, y)) + line + Circle::new((10, 0), r, color.filled())
+                    })
                 }
-                Mark::Points => {
+                Mark::Points | Mark::SmallPoints => {
+                    let r = if s.mark == Mark::Points { 2 } else { 1 };
+                    let n = pts.len().max(2) - 1;
+                    let shaded = s.shaded;
+                    // Shade i of n: from 15% of the colour on white to the full colour.
+                    let shade = move |i: usize| {
+                        if !shaded {
+                            return color;
+                        }
+                        let w = 0.15 + 0.85 * i as f64 / n as f64;
+                        let mix = |c: u8| (255.0 - w * (255.0 - f64::from(c))).round() as u8;
+                        RGBColor(mix(color.0), mix(color.1), mix(color.2))
+                    };
                     chart
-                        .draw_series(pts.iter().map(|&p| Circle::new(p, 2, color.filled())))?
-                        .label(s.name.as_str())
-                        .legend(move |(x, y)| Circle::new((x + 10, y), 4, color.filled()));
+                        .draw_series(
+                            pts.iter()
+                                .enumerate()
+                                .filter(|(_, p)| inside(p))
+                                .map(move |(i, &p)| Circle::new(p, r, shade(i).filled())),
+                        )?
+                        .legend(move |(x, y)| Circle::new((x + 10, y), 4, color.filled()))
                 }
-            }
+            };
+            anno.label(s.name.as_str());
         }
-        if !self.series.is_empty() {
+        if let (Some(legend), false) = (self.legend, self.series.is_empty()) {
+            let position = match legend {
+                Legend::UpperRight => SeriesLabelPosition::UpperRight,
+                Legend::UpperLeft => SeriesLabelPosition::UpperLeft,
+                Legend::UpperMiddle => SeriesLabelPosition::UpperMiddle,
+                Legend::LowerLeft => SeriesLabelPosition::LowerLeft,
+                Legend::LowerRight => SeriesLabelPosition::LowerRight,
+            };
             chart
                 .configure_series_labels()
                 .background_style(WHITE.mix(0.85))
                 .border_style(BLACK)
                 .label_font(("sans-serif", 14))
-                .position(SeriesLabelPosition::UpperRight)
+                .position(position)
                 .draw()?;
+        }
+        Ok(())
+    }
+
+    /// Writes `dir/stem.png` and `dir/stem.svg`; returns their paths.
+    pub fn render(&self, dir: &Path, stem: &str) -> Result<Vec<PathBuf>, Error> {
+        let data = self.transformed();
+        render_both(
+            dir,
+            stem,
+            self.size,
+            |root| self.draw(root, &data),
+            |root| self.draw(root, &data),
+        )
+    }
+}
+
+/// A figure of several panels (thesis style "(a) ... (d)") on one canvas, with a caption on
+/// top. Panels fill the grid row by row.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Grid {
+    /// The caption over all panels.
+    pub title: String,
+    /// `(rows, columns)`.
+    pub shape: (usize, usize),
+    /// The panels (each with its own title, axes and legend).
+    pub panels: Vec<Figure>,
+    /// Size in pixels (default 1400 x 1250).
+    pub size: (u32, u32),
+}
+
+impl Grid {
+    /// A grid of `rows x cols` panels under `title`.
+    pub fn new(title: &str, shape: (usize, usize), panels: Vec<Figure>) -> Self {
+        Grid {
+            title: title.into(),
+            shape,
+            panels,
+            size: (1400, 1250),
+        }
+    }
+
+    fn draw<DB: DrawingBackend>(
+        &self,
+        root: &DrawingArea<DB, Shift>,
+        data: &[Vec<Vec<(f64, f64)>>],
+    ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+        root.fill(&WHITE)?;
+        let body = root.titled(&self.title, ("sans-serif", 26))?;
+        for ((area, panel), d) in body
+            .split_evenly(self.shape)
+            .iter()
+            .zip(&self.panels)
+            .zip(data)
+        {
+            panel.draw_on(area, d, 18)?;
         }
         root.present()?;
         Ok(())
@@ -269,44 +461,65 @@ impl Figure {
 
     /// Writes `dir/stem.png` and `dir/stem.svg`; returns their paths.
     pub fn render(&self, dir: &Path, stem: &str) -> Result<Vec<PathBuf>, Error> {
-        ensure_font()?;
-        let plot_err = |reason: String| Error::Plot {
-            name: stem.to_string(),
-            reason,
-        };
-        let data = self.transformed();
-        let (w, h) = self.size;
-
-        let mut svg = String::new();
-        {
-            let root = SVGBackend::with_string(&mut svg, (w, h)).into_drawing_area();
-            self.draw(&root, &data)
-                .map_err(|e| plot_err(e.to_string()))?;
-        }
-        let svg_path = dir.join(format!("{stem}.svg"));
-        std::fs::write(&svg_path, svg).map_err(|source| Error::Io {
-            what: "cannot write figure",
-            path: svg_path.clone(),
-            source,
-        })?;
-
-        let mut buf = vec![0u8; (w as usize) * (h as usize) * 3];
-        {
-            let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
-            self.draw(&root, &data)
-                .map_err(|e| plot_err(e.to_string()))?;
-        }
-        let png_path = dir.join(format!("{stem}.png"));
-        write_png(&png_path, &buf, w, h).map_err(|e| match e {
-            PngError::Io(source) => Error::Io {
-                what: "cannot write figure",
-                path: png_path.clone(),
-                source,
-            },
-            PngError::Encode(reason) => plot_err(reason),
-        })?;
-        Ok(vec![png_path, svg_path])
+        let data: Vec<_> = self.panels.iter().map(Figure::transformed).collect();
+        render_both(
+            dir,
+            stem,
+            self.size,
+            |root| self.draw(root, &data),
+            |root| self.draw(root, &data),
+        )
     }
+}
+
+type SvgArea<'a> = DrawingArea<SVGBackend<'a>, Shift>;
+type PngArea<'a> = DrawingArea<BitMapBackend<'a>, Shift>;
+
+/// Renders once to SVG and once to PNG (the two backends need two monomorphized draws).
+fn render_both(
+    dir: &Path,
+    stem: &str,
+    (w, h): (u32, u32),
+    draw_svg: impl FnOnce(&SvgArea<'_>) -> Result<(), DrawingAreaErrorKind<std::io::Error>>,
+    draw_png: impl FnOnce(
+        &PngArea<'_>,
+    ) -> Result<
+        (),
+        DrawingAreaErrorKind<<BitMapBackend<'static> as DrawingBackend>::ErrorType>,
+    >,
+) -> Result<Vec<PathBuf>, Error> {
+    ensure_font()?;
+    let plot_err = |reason: String| Error::Plot {
+        name: stem.to_string(),
+        reason,
+    };
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (w, h)).into_drawing_area();
+        draw_svg(&root).map_err(|e| plot_err(e.to_string()))?;
+    }
+    let svg_path = dir.join(format!("{stem}.svg"));
+    std::fs::write(&svg_path, svg).map_err(|source| Error::Io {
+        what: "cannot write figure",
+        path: svg_path.clone(),
+        source,
+    })?;
+
+    let mut buf = vec![0u8; (w as usize) * (h as usize) * 3];
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
+        draw_png(&root).map_err(|e| plot_err(e.to_string()))?;
+    }
+    let png_path = dir.join(format!("{stem}.png"));
+    write_png(&png_path, &buf, w, h).map_err(|e| match e {
+        PngError::Io(source) => Error::Io {
+            what: "cannot write figure",
+            path: png_path.clone(),
+            source,
+        },
+        PngError::Encode(reason) => plot_err(reason),
+    })?;
+    Ok(vec![png_path, svg_path])
 }
 
 enum PngError {

@@ -114,7 +114,7 @@ impl<const D: usize> Observer<D> for LastState<D> {
     }
 }
 
-fn coord_index<const D: usize>(c: Coord) -> Option<usize> {
+pub(crate) fn coord_index<const D: usize>(c: Coord) -> Option<usize> {
     match c {
         Coord::Q(i) => Some(i),
         Coord::P(i) => Some(D / 2 + i),
@@ -182,6 +182,12 @@ pub struct RunReport {
     pub methods: Vec<MethodSummary>,
     /// Files written, relative to `out`.
     pub files: Vec<String>,
+    /// Table 4.1 (scenes with `thesis_figures = true`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub table41: Option<crate::table41::Table>,
+    /// The thesis's figures (scenes with `thesis_figures = true`), in its order.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub thesis_figures: Vec<crate::thesis::ThesisFigure>,
 }
 
 impl RunReport {
@@ -274,7 +280,7 @@ fn stop_for<const D: usize, S: SceneSystem<D>>(
 }
 
 /// Progress as an observer: moves the bar every 1024 steps (nothing else per step).
-struct Progress(ProgressBar);
+pub(crate) struct Progress(pub(crate) ProgressBar);
 
 impl<const D: usize> Observer<D> for Progress {
     #[inline(always)]
@@ -285,7 +291,7 @@ impl<const D: usize> Observer<D> for Progress {
     }
 }
 
-fn progress_bar(m: &MethodSpec, stop: Stop, options: &RunOptions) -> ProgressBar {
+pub(crate) fn progress_bar(m: &MethodSpec, stop: Stop, options: &RunOptions) -> ProgressBar {
     if !options.progress {
         return ProgressBar::hidden();
     }
@@ -418,13 +424,35 @@ pub fn run_system<const D: usize, S: SceneSystem<D>>(
     let results = compute(system, scene, options)?;
     let dir = staging.path().to_path_buf();
     let mut files = write_outputs(&dir, scene, &results, system.invariant_names())?;
+    let methods: Vec<MethodSummary> = results.into_iter().map(|r| r.summary).collect();
+    let (table41, thesis_figures) = if scene.thesis_figures {
+        let z0 = initial_state(system, scene)?;
+        let figures = crate::thesis::figures(system, scene, &z0, &dir, options)?;
+        for f in &figures {
+            files.push(format!("{}.png", f.stem));
+            files.push(format!("{}.svg", f.stem));
+        }
+        let table = crate::table41::rows_from(&methods);
+        let json = serde_json::to_string_pretty(&table).map_err(|e| Error::Io {
+            what: "cannot serialize",
+            path: dir.join("table41.json"),
+            source: std::io::Error::other(e),
+        })?;
+        write_file(&dir.join("table41.json"), json)?;
+        files.push("table41.json".into());
+        (Some(table), figures)
+    } else {
+        (None, Vec::new())
+    };
     let mut report = RunReport {
         title: scene.title.clone(),
         system: scene.system.clone(),
         params: scene.params.clone(),
         out: out.to_path_buf(),
-        methods: results.into_iter().map(|r| r.summary).collect(),
+        methods,
         files: Vec::new(),
+        table41,
+        thesis_figures,
     };
     files.push("summary.json".into());
     files.push("index.html".into());
@@ -747,7 +775,8 @@ fn write_figures(
             _ => {}
         }
     }
-    if let Some(e) = &scene.ensemble {
+    // Scenes with the thesis's figures draw their ensembles as Figures 4.10-4.13 instead.
+    if let (Some(e), false) = (&scene.ensemble, scene.thesis_figures) {
         for r in results {
             let Some(members) = &r.ensemble else { continue };
             let (ix, iy) = (e.x, e.y);

@@ -56,6 +56,7 @@ struct RawScene {
     #[serde(rename = "effect", default)]
     effects: Vec<Spanned<RawEffect>>,
     ensemble: Option<Spanned<RawEnsemble>>,
+    thesis_figures: Option<Spanned<bool>>,
 }
 
 #[derive(Deserialize)]
@@ -145,6 +146,10 @@ pub struct Scene {
     pub effects: Vec<EffectSpec>,
     /// A square of initial conditions run for a few steps (thesis Figures 4.10-4.13).
     pub ensemble: Option<Ensemble>,
+    /// Draw the thesis's Figures 4.1-4.15 and Table 4.1 ([`crate::thesis`]): a planar system
+    /// with a period and an exact solution (Kepler), and the methods exact, trapezoidal,
+    /// midpoint, discrete_mechanics and dth.
+    pub thesis_figures: bool,
 }
 
 /// A square of initial conditions around the scene's initial state, in the plane of two of
@@ -224,13 +229,11 @@ pub enum MethodKind {
     DiscreteGradient,
     /// The system's exact solution sampled every `dt` (systems that have one, e.g. Kepler).
     Exact,
-    /// Explicit Euler: exists ONLY to exercise the scene pipeline in tests; not for science.
-    TestProbeEuler,
 }
 
 impl MethodKind {
     /// Every method, in the order `dth list` shows them.
-    pub const ALL: [MethodKind; 10] = [
+    pub const ALL: [MethodKind; 9] = [
         MethodKind::Exact,
         MethodKind::Dth,
         MethodKind::Trapezoidal,
@@ -240,7 +243,6 @@ impl MethodKind {
         MethodKind::Rk4,
         MethodKind::GaussLegendre2,
         MethodKind::DiscreteGradient,
-        MethodKind::TestProbeEuler,
     ];
 
     /// The name used in scene files.
@@ -254,7 +256,6 @@ impl MethodKind {
             MethodKind::Rk4 => "rk4",
             MethodKind::GaussLegendre2 => "gauss_legendre2",
             MethodKind::DiscreteGradient => "discrete_gradient",
-            MethodKind::TestProbeEuler => "test_probe_euler",
             MethodKind::Exact => "exact",
         }
     }
@@ -271,7 +272,6 @@ impl MethodKind {
             MethodKind::GaussLegendre2 => "2-stage Gauss-Legendre (order 4, symplectic); key dt",
             MethodKind::DiscreteGradient => "energy-preserving discrete gradient; key dt",
             MethodKind::Exact => "the system's exact solution sampled every dt (systems that have one: kepler); key dt",
-            MethodKind::TestProbeEuler => "explicit Euler; ONLY for testing the scene pipeline, not for science; key dt",
         }
     }
 
@@ -586,6 +586,21 @@ fn validate(raw: RawScene, catalogue: &Catalogue, cx: &mut Ctxt<'_>) -> Option<S
                             format!("system `{name}` has no exact solution: remove method `exact`"),
                         );
                     }
+                    if spec.kind == MethodKind::DiscreteMechanics
+                        && info.is_some_and(|i| !i.central_force)
+                    {
+                        cx.error(
+                            span.clone(),
+                            format!("method `discrete_mechanics` needs a central-force system H = |p|^2/(2m) + phi(|q|), which `{name}` is not: expected another method"),
+                        );
+                    }
+                    if spec.kind == MethodKind::StormerVerlet && info.is_some_and(|i| !i.separable)
+                    {
+                        cx.error(
+                            span.clone(),
+                            format!("method `stormer_verlet` needs a separable H = T(p) + V(q), which `{name}` is not: expected another method"),
+                        );
+                    }
                     if methods.iter().any(|o: &MethodSpec| o.label == spec.label) {
                         cx.error(
                             span,
@@ -684,6 +699,33 @@ fn validate(raw: RawScene, catalogue: &Catalogue, cx: &mut Ctxt<'_>) -> Option<S
         })
     });
 
+    let thesis_figures = match raw.thesis_figures {
+        Some(t) if *t.get_ref() => {
+            if info.is_some_and(|i| i.n != 2 || i.time_dependent || !i.has_period || !i.has_exact) {
+                cx.error(
+                    t.span(),
+                    format!("`thesis_figures` draws the thesis's Kepler figures: expected a planar system with a period and an exact solution (kepler), not `{name}`"),
+                );
+            }
+            let missing: Vec<&str> = crate::thesis::REQUIRED
+                .iter()
+                .filter(|k| !methods.iter().any(|m: &MethodSpec| m.kind == **k))
+                .map(|k| k.name())
+                .collect();
+            if !missing.is_empty() {
+                cx.error(
+                    t.span(),
+                    format!(
+                        "`thesis_figures` needs the methods exact, trapezoidal, midpoint, discrete_mechanics and dth: add {}",
+                        missing.join(", ")
+                    ),
+                );
+            }
+            true
+        }
+        _ => false,
+    };
+
     Some(Scene {
         title: raw.title.unwrap_or_else(|| name.clone()),
         description: raw.description.unwrap_or_default(),
@@ -696,6 +738,7 @@ fn validate(raw: RawScene, catalogue: &Catalogue, cx: &mut Ctxt<'_>) -> Option<S
         duration: duration?,
         effects,
         ensemble,
+        thesis_figures,
     })
 }
 

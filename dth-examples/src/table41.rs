@@ -3,8 +3,7 @@
 //!
 //! The settings are the embedded default scene's (`scenes/thesis-kepler.toml`); the numbers
 //! come from the same pipeline as `dth run` ([`crate::run::compute`] with the
-//! `comparison_table` effect only), so they need the real methods wired into
-//! [`crate::method::run_method`].
+//! `comparison_table` effect only, through [`crate::method::run_method`]).
 
 use dth::systems::Kepler;
 use serde::Serialize;
@@ -47,6 +46,9 @@ pub fn compute_table(options: &RunOptions) -> Result<Table, Error> {
     let mut scene =
         crate::check_scene(crate::DEFAULT_SCENE, crate::DEFAULT_SCENE_NAME, &catalogue)?;
     scene.effects = vec![EffectSpec::ComparisonTable];
+    // The table needs neither the square of initial conditions nor the figures.
+    scene.ensemble = None;
+    scene.thesis_figures = false;
     scene.methods.retain(|m| {
         matches!(
             m.kind,

@@ -11,7 +11,7 @@ name = \"kepler\"
 q = [0.5, 0.0]
 p = [0.0, 1.2]
 [[method]]
-kind = \"test_probe_euler\"
+kind = \"midpoint\"
 dt = 0.001
 [duration]
 steps = 100
@@ -108,7 +108,7 @@ fn negative_or_zero_step() {
         "`dt` = 0: expected a positive",
     );
     let dth = BASE.replace(
-        "kind = \"test_probe_euler\"\ndt = 0.001",
+        "kind = \"midpoint\"\ndt = 0.001",
         "kind = \"dth\"\ndtau = -0.06",
     );
     rejects(&dth, "8:8", "`dtau` = -0.06: expected a positive");
@@ -145,7 +145,7 @@ fn unknown_effect() {
 #[test]
 fn unknown_method() {
     rejects(
-        &BASE.replace("test_probe_euler", "leapfrog"),
+        &BASE.replace("midpoint", "leapfrog"),
         "7:8",
         "unknown method `leapfrog`: expected one of exact, dth,",
     );
@@ -157,11 +157,29 @@ fn unknown_method() {
 }
 
 #[test]
+fn methods_only_where_they_apply() {
+    rejects(
+        &BASE
+            .replace("\"kepler\"", "\"henon_heiles\"")
+            .replace("midpoint", "discrete_mechanics"),
+        "7:8",
+        "method `discrete_mechanics` needs a central-force system",
+    );
+    rejects(
+        &BASE
+            .replace("\"kepler\"", "\"double_pendulum\"")
+            .replace("midpoint", "stormer_verlet"),
+        "7:8",
+        "method `stormer_verlet` needs a separable H",
+    );
+}
+
+#[test]
 fn exact_solution_only_where_one_exists() {
     rejects(
         &BASE
             .replace("\"kepler\"", "\"henon_heiles\"")
-            .replace("test_probe_euler", "exact"),
+            .replace("midpoint", "exact"),
         "7:8",
         "system `henon_heiles` has no exact solution",
     );
@@ -222,4 +240,21 @@ fn missing_scene_file_is_bad_input() {
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("cannot read scene `nope.toml`"));
     assert!(stderr(&o).contains("caused by:"));
+}
+
+#[test]
+fn thesis_figures_need_kepler_and_the_thesis_methods() {
+    rejects(
+        &format!("thesis_figures = true\n{BASE}"),
+        "1:18",
+        "`thesis_figures` needs the methods exact, trapezoidal, midpoint, discrete_mechanics and dth: add exact, trapezoidal, discrete_mechanics, dth",
+    );
+    rejects(
+        &format!(
+            "thesis_figures = true\n{}",
+            BASE.replace("\"kepler\"", "\"henon_heiles\"")
+        ),
+        "1:18",
+        "expected a planar system with a period and an exact solution (kepler), not `henon_heiles`",
+    );
 }

@@ -7,13 +7,13 @@ use common::*;
 #[test]
 fn good_scene_runs_and_writes_every_file() {
     let dir = tempfile::tempdir().unwrap();
-    let scene = manifest_dir().join("tests/scenes/probe-kepler.toml");
+    let scene = manifest_dir().join("tests/scenes/pipeline-kepler.toml");
     let o = dth(
-        &["run", scene.to_str().unwrap(), "--out", "out/probe"],
+        &["run", scene.to_str().unwrap(), "--out", "out/pipeline"],
         dir.path(),
     );
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    let out = dir.path().join("out/probe");
+    let out = dir.path().join("out/pipeline");
     let files = entries(&out);
     for f in [
         ".dth-output",
@@ -26,16 +26,18 @@ fn good_scene_runs_and_writes_every_file() {
         "phase1.png",
         "phase1.svg",
         "time_law_t.png",
-        "test_probe_euler_trajectory.csv",
-        "test_probe_euler_energy.csv",
-        "test_probe_euler_angular_momentum.csv",
-        "test_probe_euler_poincare1.csv",
-        "euler_coarse_time_law.csv",
+        "midpoint_trajectory.csv",
+        "midpoint_energy.csv",
+        "midpoint_angular_momentum.csv",
+        "midpoint_poincare1.csv",
+        "dth_coarse_time_law.csv",
+        "dth_coarse_trajectory.csv",
+        "time_law_lambda.png",
     ] {
         assert!(files.contains(&f.to_string()), "missing {f} in {files:?}");
     }
     // Nothing else next to the output folder (the staging folder was moved, not copied).
-    assert_eq!(entries(&dir.path().join("out")), ["probe"]);
+    assert_eq!(entries(&dir.path().join("out")), ["pipeline"]);
     // The summary is valid JSON with both methods, run for 2 orbits of the thesis period.
     let summary: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
@@ -48,7 +50,7 @@ fn good_scene_runs_and_writes_every_file() {
     assert!(html.contains("<img src=\"phase1.png\""));
     assert!(!html.contains("http://") && !html.contains("https://") && !html.contains("<script"));
     // `until = 1.0` keeps the time series to t <= 1 (steps 0..=1000 at dt = 0.001).
-    let series = std::fs::read_to_string(out.join("test_probe_euler_phase2.csv")).unwrap();
+    let series = std::fs::read_to_string(out.join("midpoint_phase2.csv")).unwrap();
     assert_eq!(series.lines().count(), 1 + 1001);
     let last_t: f64 = series
         .lines()
@@ -61,13 +63,13 @@ fn good_scene_runs_and_writes_every_file() {
         .unwrap();
     assert!(last_t <= 1.0 && last_t > 0.999, "{last_t}");
     // The ensemble: 4 x 4 members, each after 25 steps of dt = 0.001 (t = 0.025).
-    let ens = std::fs::read_to_string(out.join("test_probe_euler_ensemble.csv")).unwrap();
+    let ens = std::fs::read_to_string(out.join("midpoint_ensemble.csv")).unwrap();
     assert_eq!(ens.lines().count(), 1 + 16);
     for line in ens.lines().skip(1) {
         let t: f64 = line.split(',').nth(2).unwrap().parse().unwrap();
         assert!((t - 0.025).abs() < 1e-12, "{line}");
     }
-    assert!(files.contains(&"ensemble_euler_coarse.png".to_string()));
+    assert!(files.contains(&"ensemble_dth_coarse.png".to_string()));
     // PNGs are PNGs.
     let png = std::fs::read(out.join("phase1.png")).unwrap();
     assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
@@ -76,16 +78,25 @@ fn good_scene_runs_and_writes_every_file() {
 #[test]
 fn rerun_replaces_an_old_output_folder_only_after_success() {
     let dir = tempfile::tempdir().unwrap();
-    let good = manifest_dir().join("tests/scenes/probe-kepler.toml");
+    let good = manifest_dir().join("tests/scenes/pipeline-kepler.toml");
     let o = dth(&["run", good.to_str().unwrap(), "--out", "o"], dir.path());
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     let before = std::fs::read(dir.path().join("o/summary.json")).unwrap();
-    // A scene whose methods are not runnable in this build fails before anything is moved.
-    let thesis = manifest_dir().join("scenes/thesis-kepler.toml");
-    let o = dth(&["run", thesis.to_str().unwrap(), "--out", "o"], dir.path());
+    // A run that cannot start (the exact Kepler solution of an unbound orbit, H > 0) fails
+    // before anything is moved.
+    let unbound = std::fs::read_to_string(&good)
+        .unwrap()
+        .replace("p = [0.0, 1.2]", "p = [0.0, 3.0]")
+        .replace("orbits = 2", "steps = 10")
+        .replace("kind = \"midpoint\"", "kind = \"exact\"");
+    std::fs::write(dir.path().join("unbound.toml"), unbound).unwrap();
+    let o = dth(&["run", "unbound.toml", "--out", "o"], dir.path());
+    std::fs::remove_file(dir.path().join("unbound.toml")).unwrap();
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
     assert!(
-        stderr(&o).contains("is not available in this build"),
+        stderr(&o).contains(
+            "method `exact` cannot run: this system has no exact solution for this initial state"
+        ),
         "{}",
         stderr(&o)
     );
@@ -109,7 +120,7 @@ fn a_foreign_folder_is_never_replaced() {
     let dir = tempfile::tempdir().unwrap();
     std::fs::create_dir(dir.path().join("mine")).unwrap();
     std::fs::write(dir.path().join("mine/notes.txt"), "keep").unwrap();
-    let good = manifest_dir().join("tests/scenes/probe-kepler.toml");
+    let good = manifest_dir().join("tests/scenes/pipeline-kepler.toml");
     let o = dth(
         &["run", good.to_str().unwrap(), "--out", "mine"],
         dir.path(),
@@ -127,12 +138,12 @@ fn a_foreign_folder_is_never_replaced() {
 #[test]
 fn a_method_failing_mid_run_keeps_its_trajectory_and_exits_1() {
     let dir = tempfile::tempdir().unwrap();
-    let scene = manifest_dir().join("tests/scenes/probe-blowup.toml");
+    let scene = manifest_dir().join("tests/scenes/rk4-blowup.toml");
     let o = dth(&["run", scene.to_str().unwrap(), "--out", "o"], dir.path());
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
     let err = stderr(&o);
     assert!(
-        err.contains("method `test_probe_euler` failed at step") && err.contains("non-finite"),
+        err.contains("method `rk4` failed at step") && err.contains("non-finite"),
         "{err}"
     );
     let summary: serde_json::Value =
@@ -140,10 +151,10 @@ fn a_method_failing_mid_run_keeps_its_trajectory_and_exits_1() {
             .unwrap();
     let m = &summary["methods"][0];
     let failed_at = m["failure"]["step"].as_u64().unwrap();
-    assert!(failed_at > 100 && failed_at < 2000, "{failed_at}");
+    // |z| grows by |R(3i)| = 1.505 per step from 1: overflow past 1.8e308 after ~1,740 steps.
+    assert!(failed_at > 1500 && failed_at < 2000, "{failed_at}");
     // Every state before the failing step is in the trajectory (header + steps 0..failed_at-1).
-    let csv =
-        std::fs::read_to_string(dir.path().join("o/test_probe_euler_trajectory.csv")).unwrap();
+    let csv = std::fs::read_to_string(dir.path().join("o/rk4_trajectory.csv")).unwrap();
     assert_eq!(csv.lines().count() as u64, 1 + failed_at);
 }
 
@@ -164,7 +175,7 @@ fn check_accepts_every_shipped_scene() {
         n >= 5,
         "scenes/ holds the thesis scene and at least four others, found {n}"
     );
-    for f in ["probe-kepler.toml", "probe-blowup.toml"] {
+    for f in ["pipeline-kepler.toml", "rk4-blowup.toml"] {
         let path = manifest_dir().join("tests/scenes").join(f);
         let o = dth(&["check", path.to_str().unwrap()], &dir);
         assert_eq!(o.status.code(), Some(0), "{f}: {}", stderr(&o));
@@ -227,51 +238,100 @@ fn list_and_help_describe_everything() {
     assert!(entries(dir.path()).is_empty());
 }
 
-/// No arguments runs the embedded thesis scene into `dth-out/thesis-kepler`. Until the real
-/// methods are wired into `method::run_method` it must fail cleanly (exit 1, which method,
-/// nothing left behind); when they are, this test must change to expect the full output.
+/// Every scene in `scenes/` runs to completion with every method (full duration: each takes
+/// well under a few seconds in the dev profile), and writes its summary and page.
 #[test]
-fn no_arguments_runs_the_embedded_default_scene() {
+fn every_shipped_scene_runs() {
+    let scenes = manifest_dir().join("scenes");
     let dir = tempfile::tempdir().unwrap();
-    let o = dth(&[], dir.path());
-    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
-    assert!(
-        stderr(&o).contains("method `exact` is not available in this build"),
-        "{}",
-        stderr(&o)
-    );
-    assert!(
-        entries(dir.path()).is_empty(),
-        "left behind: {:?}",
-        entries(dir.path())
-    );
-    let o = dth(&["--out", "elsewhere/run"], dir.path());
-    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
-    assert!(
-        entries(dir.path()).is_empty(),
-        "left behind: {:?}",
-        entries(dir.path())
-    );
+    let mut n = 0;
+    for f in entries(&scenes) {
+        let Some(stem) = f.strip_suffix(".toml") else {
+            continue;
+        };
+        n += 1;
+        let o = dth(
+            &["run", scenes.join(&f).to_str().unwrap(), "--out", stem],
+            dir.path(),
+        );
+        assert_eq!(o.status.code(), Some(0), "{f}: {}", stderr(&o));
+        let out = dir.path().join(stem);
+        let summary: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap())
+                .unwrap();
+        for m in summary["methods"].as_array().unwrap() {
+            assert!(m["failure"].is_null(), "{f}: {m}");
+            assert!(m["steps"].as_u64().unwrap() > 0, "{f}: {m}");
+        }
+        assert!(out.join("index.html").is_file(), "{f}");
+    }
+    assert!(n >= 5, "{n} scenes");
 }
 
-/// `table41` and `workprecision` need the stepper and peers; until they are wired in, both
-/// must say so and exit 1 without writing anything. (When they are, replace this test.)
+/// No arguments runs the embedded thesis scene (the full run, 10,000 steps per method plus the
+/// refined runs of Figures 4.14 and 4.15: a few seconds in the dev profile) into
+/// `dth-out/thesis-kepler`: Table 4.1 on stdout, Figures 4.1-4.15 as PNG and SVG, CSV data,
+/// `summary.json`, `table41.json` and `index.html`.
 #[test]
-fn table41_and_workprecision_report_what_they_wait_for() {
+fn no_arguments_runs_the_thesis_experiment_with_every_figure() {
     let dir = tempfile::tempdir().unwrap();
-    let o = dth(&["table41", "--json", "t.json"], dir.path());
-    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    let o = dth(&[], dir.path());
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let out = dir.path().join("dth-out/thesis-kepler");
+    let files = entries(&out);
+    let numbers: Vec<String> = (1..=15).map(|i| format!("4.{i}")).collect();
+    for i in 1..=15 {
+        for ext in ["png", "svg"] {
+            let f = format!("fig4_{i}.{ext}");
+            assert!(files.contains(&f), "missing {f} in {files:?}");
+        }
+        let png = std::fs::read(out.join(format!("fig4_{i}.png"))).unwrap();
+        assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
+    }
+    for f in [
+        "index.html",
+        "summary.json",
+        "table41.json",
+        "dth_trajectory.csv",
+        "exact_trajectory.csv",
+        "trapezoidal_energy.csv",
+        "dth_poincare1.csv",
+    ] {
+        assert!(files.contains(&f.to_string()), "missing {f} in {files:?}");
+    }
+    // Table 4.1 is printed with the thesis's values beside ours.
+    let s = stdout(&o);
+    assert!(s.contains("Table 4.1"), "{s}");
     assert!(
-        stderr(&o).contains("is not available in this build"),
-        "{}",
-        stderr(&o)
+        s.contains("| dth_vertices |") && s.contains("1.750e-2"),
+        "{s}"
     );
-    let o = dth(&["workprecision", "--quick", "--out", "wp"], dir.path());
-    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
-    assert!(stderr(&o).contains("issue 5"), "{}", stderr(&o));
-    assert!(
-        entries(dir.path()).is_empty(),
-        "left behind: {:?}",
-        entries(dir.path())
-    );
+    // The summary lists the figures in the thesis's order, and the table's five rows.
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let listed: Vec<&str> = summary["thesis_figures"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|f| f["number"].as_str().unwrap())
+        .collect();
+    assert_eq!(listed, numbers);
+    assert_eq!(summary["table41"]["rows"].as_array().unwrap().len(), 5);
+    for m in summary["methods"].as_array().unwrap() {
+        assert!(m["failure"].is_null(), "{m}");
+        assert_eq!(m["steps"], 10_000, "{m}");
+    }
+    // The page shows Table 4.1 and every figure by relative path, with nothing from the network.
+    let html = std::fs::read_to_string(out.join("index.html")).unwrap();
+    assert!(html.contains("<h2>Table 4.1</h2>"));
+    for i in 1..=15 {
+        assert!(
+            html.contains(&format!("<img src=\"fig4_{i}.png\"")),
+            "fig4_{i}"
+        );
+    }
+    assert!(!html.contains("http://") && !html.contains("https://") && !html.contains("<script"));
+    // Only the output folder was created.
+    assert_eq!(entries(dir.path()), ["dth-out"]);
+    assert_eq!(entries(&dir.path().join("dth-out")), ["thesis-kepler"]);
 }

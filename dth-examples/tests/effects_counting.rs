@@ -1,7 +1,7 @@
 //! An effect that is not requested costs nothing per step: proved by counting, not timing.
 //!
-//! The system below counts its evaluations of `H` (only the energy effect needs them; the probe
-//! integrator uses the gradient only) and of the invariants; the runner reports how many states
+//! The system below counts its evaluations of `H` (only the energy effect needs them; RK4 uses
+//! the gradient only) and of the invariants; the runner reports how many states
 //! its effect observers saw and how many numbers they stored.
 
 use std::cell::Cell;
@@ -13,6 +13,7 @@ use dth_examples::catalogue::{Catalogue, SceneSystem};
 use dth_examples::effects::EffectOutputs;
 use dth_examples::run::{compute, RunOptions};
 
+#[derive(Clone)]
 struct CountingKepler {
     inner: Kepler,
     values: Cell<usize>,
@@ -45,7 +46,7 @@ impl SceneSystem<4> for CountingKepler {
 fn scene(effects: &str) -> dth_examples::scene::Scene {
     let text = format!(
         "[system]\nname = \"kepler\"\n[initial]\nq = [0.5, 0.0]\np = [0.0, 1.2]\n\
-         [[method]]\nkind = \"test_probe_euler\"\ndt = 0.001\n[duration]\nsteps = 5000\n{effects}"
+         [[method]]\nkind = \"rk4\"\ndt = 0.001\n[duration]\nsteps = 5000\n{effects}"
     );
     dth_examples::check_scene(&text, "counting.toml", &Catalogue::builtin()).unwrap()
 }
