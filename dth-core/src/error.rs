@@ -68,6 +68,45 @@ pub enum Error {
         /// `calH(zbar_0)`.
         value: f64,
     },
+    /// The cancellation-free energy solve converged, but the plain check against the first
+    /// midpoint failed: `H(zbar_{k+1}) - H(zbar_0)` exceeds the residual tolerance. It means the
+    /// Hamiltonian's `discrete_gradient` / `discrete_gradient_defect` are inconsistent with its
+    /// `value` (a wrong override), or `H` is too ill-conditioned there.
+    #[error("energy check failed at step {step}: H(zbar) - H(zbar_0) = {deviation:e} (scaled {scaled:e})")]
+    EnergyCheckFailed {
+        /// Index `k + 1` of the midpoint being computed.
+        step: usize,
+        /// `H(zbar_{k+1}) - H(zbar_0)`.
+        deviation: f64,
+        /// The deviation relative to the size of the terms of `H`.
+        scaled: f64,
+    },
+    /// DTH itself breaks down at this step: `Psi = (J grad H)^T Hess H (J grad H)` changes
+    /// sign (or `lambda` predicted by the law of time `lambda Psi^(1/3) = const` blows up), so
+    /// the step equations have no positive root near `lambda_k` (thesis Thm 3.11; Cartesian
+    /// Kepler above e ~ 0.79, the pendulum in rotation). Detected before Newton from `Psi` at a
+    /// predicted midpoint, or after it from the root's `lambda`. Use a smaller `dtau` near
+    /// `Psi = 0` from one side, the robust mode (`DthOptions::with_robust`), or a peer method.
+    #[error(
+        "DTH breaks down at step {step} (t = {time}): Psi = {psi_previous:e} at the last midpoint, \
+         {psi:e} at the predicted next one; lambda_k = {lambda}, law of time predicts \
+         {lambda_predicted:e}"
+    )]
+    Breakdown {
+        /// Index `k + 1` of the midpoint being computed.
+        step: usize,
+        /// Midpoint time `tbar_k` of the last accepted midpoint.
+        time: f64,
+        /// `Psi` at the predicted midpoint `zbar_{k+1}`.
+        psi: f64,
+        /// `Psi(zbar_k)`.
+        psi_previous: f64,
+        /// `lambda_k`.
+        lambda: f64,
+        /// `lambda_k (Psi_k / Psi)^(1/3)` (negative when `Psi` changes sign; after Newton,
+        /// the root's `lambda`).
+        lambda_predicted: f64,
+    },
     /// A peer method's Newton iteration did not reach roundoff within the iteration limit (or
     /// diverged); `residual` is the infinity norm of the nonlinear residual at the last iterate.
     #[error("{method}: Newton did not converge at step {step} after {iterations} iterations (residual {residual:e})")]

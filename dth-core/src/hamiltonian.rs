@@ -32,6 +32,12 @@ pub trait Hamiltonian<const D: usize> {
     /// `true` when `Psi` is identically zero (e.g. `H` linear, a free particle): DTH is
     /// undetermined there (thesis Section 3.4), the peer methods are not.
     const PSI_IDENTICALLY_ZERO: bool = false;
+    /// `true` when [`Hamiltonian::discrete_gradient`] and
+    /// [`Hamiltonian::discrete_gradient_defect`] are computed from exact divided differences,
+    /// without cancellation as `z1 -> z0` (each component to a few `eps` relative). The DTH
+    /// stepper then solves its energy equation in a cancellation-free form by default
+    /// (`dth::EnergyResidual::Auto`).
+    const EXACT_DIVIDED_DIFFERENCES: bool = false;
 
     /// `H(z)`.
     fn value(&self, z: &SVector<f64, D>) -> f64;
@@ -75,6 +81,24 @@ pub trait Hamiltonian<const D: usize> {
         }
         let defect = self.value(z1) - self.value(z0) - g.dot(&d);
         g + d * (defect / dd)
+    }
+
+    /// The trapezoid defect of the discrete gradient,
+    /// `t(z0, z1) = grad H(z0) + grad H(z1) - 2 gbar(z0, z1)`, which is `O(|z1 - z0|^2)`.
+    ///
+    /// The DTH stepper's cancellation-free energy residual needs it to an absolute error of a
+    /// few `eps |grad H|` times `|z1 - z0|` / (the scale of `z`), i.e. without the cancellation
+    /// of its plain form, whose absolute error `eps |grad H|` does not shrink with the step (with
+    /// it, `lambda`'s error grows like `eps / dtau`). Implementations that set
+    /// [`Hamiltonian::EXACT_DIVIDED_DIFFERENCES`] override it together with
+    /// [`Hamiltonian::discrete_gradient`], consistently with it.
+    fn discrete_gradient_defect(
+        &self,
+        z0: &SVector<f64, D>,
+        z1: &SVector<f64, D>,
+        gbar: &SVector<f64, D>,
+    ) -> SVector<f64, D> {
+        self.gradient(z0) + self.gradient(z1) - gbar * 2.0
     }
 
     /// `H(z1) - H(z0)`.

@@ -3,7 +3,7 @@
 
 use dth_core::dth::{integrate, Dth, DthOptions, NoObserver, Solver, StepRecord, Trajectory};
 use dth_core::nalgebra::{Matrix2, Vector2, Vector4};
-use dth_core::systems::Kepler;
+use dth_core::systems::{Kepler, Pendulum};
 use dth_core::{Error, Hamiltonian};
 
 fn kepler_z0() -> Vector4<f64> {
@@ -164,13 +164,36 @@ fn runs_resume_and_a_no_op_observer_stores_nothing() {
 }
 
 #[test]
-fn negative_lambda_root_is_rejected_as_spurious() {
+fn no_positive_root_beyond_e_0_79_is_a_breakdown_before_newton() {
     // Kepler with q = (0.5, 0), p = (0, 1.38): e ~ 0.90, beyond sqrt(5/8) where Psi changes
     // sign along the orbit (NOTES.md), and dtau = 0.2: the step has no positive root near
-    // lambda_0 and the joint Newton converges to a negative one. It must not be accepted.
+    // lambda_0 (Newton used to converge to a negative one). The sign change of Psi at the
+    // predicted midpoint is caught before Newton runs (issue 6).
     let options = DthOptions::default().with_dtau(0.2).expect("valid");
     let z0 = Vector4::new(0.5, 0.0, 0.0, 1.38);
     let e = integrate(Kepler::thesis(), z0, options, 100).expect_err("no positive root");
+    assert!(
+        matches!(e.error, Error::Breakdown { step: 1, psi, psi_previous, lambda_predicted, .. }
+            if psi < 0.0 && psi_previous > 0.0 && lambda_predicted < 0.0),
+        "{:?}",
+        e.error
+    );
+    assert_eq!(e.partial.len(), 1, "zbar_0 is kept");
+}
+
+#[test]
+fn negative_lambda_root_is_rejected_as_spurious() {
+    // The pendulum in libration (H = -0.455, Psi > 0 on the whole orbit) with a grossly too
+    // large step, dtau lambda_0 = 3 (half a period): the predictor lands far off the energy
+    // surface (no breakdown verdict from it), Newton converges to a root with lambda < 0, and
+    // three orbit steps ahead Psi keeps its sign, so this is the solver's spurious root, not a
+    // breakdown of the method. It must not be accepted.
+    let options = DthOptions::default()
+        .with_dtau(1.0)
+        .and_then(|o| o.with_lambda0(3.0))
+        .expect("valid");
+    let z0 = Vector2::new(0.3, 1.0);
+    let e = integrate(Pendulum::normalized(), z0, options, 10).expect_err("spurious root");
     assert!(
         matches!(e.error, Error::SpuriousRoot { step: 1, lambda } if lambda < 0.0),
         "{:?}",

@@ -115,6 +115,15 @@ pub enum Error {
         /// The rule it breaks.
         reason: String,
     },
+    /// The work-precision benchmark (`dth workprecision`) failed.
+    #[error("work-precision benchmark failed")]
+    WorkPrecision(#[source] Box<crate::workprecision::Error>),
+}
+
+impl From<crate::workprecision::Error> for Error {
+    fn from(e: crate::workprecision::Error) -> Self {
+        Error::WorkPrecision(Box::new(e))
+    }
 }
 
 impl Error {

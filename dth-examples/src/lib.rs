@@ -28,6 +28,7 @@ pub mod scene;
 pub mod systems;
 pub mod table41;
 pub mod thesis;
+pub mod workprecision;
 
 pub use error::Error;
 

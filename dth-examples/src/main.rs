@@ -5,8 +5,10 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 use dth_examples::catalogue::Catalogue;
+use dth_examples::output::Staging;
 use dth_examples::run::RunOptions;
 use dth_examples::scene::{MethodKind, EFFECTS};
+use dth_examples::workprecision::WorkPrecisionOptions;
 use dth_examples::{Error, DEFAULT_OUT, DEFAULT_SCENE, DEFAULT_SCENE_NAME};
 
 /// Discrete-Time Hamiltonian dynamics: run scenes, check them, reproduce the thesis.
@@ -176,7 +178,11 @@ fn main_inner(cli: Cli) -> Result<ExitCode, Error> {
         }
         Some(Command::Check { scene }) => {
             let text = dth_examples::read_scene(&scene)?;
-            let s = dth_examples::check_scene(&text, &scene.display().to_string(), &Catalogue::builtin())?;
+            let s = dth_examples::check_scene(
+                &text,
+                &scene.display().to_string(),
+                &Catalogue::builtin(),
+            )?;
             println!(
                 "{}: ok ({}, {} method{}, {} effect{})",
                 scene.display(),
@@ -209,11 +215,25 @@ fn main_inner(cli: Cli) -> Result<ExitCode, Error> {
             }
             Ok(ExitCode::SUCCESS)
         }
-        Some(Command::Workprecision { .. }) => Err(Error::NotAvailable {
-            what: "command",
-            name: "workprecision".into(),
-            reason: "issue 5 builds it on the DTH stepper and the peer methods, which are not merged into this branch yet".into(),
-        }),
+        Some(Command::Workprecision { out, quick }) => {
+            let out = out.unwrap_or_else(|| Path::new(DEFAULT_OUT).join("workprecision"));
+            let options = if quick {
+                WorkPrecisionOptions::quick()
+            } else {
+                WorkPrecisionOptions::default()
+            };
+            let staging = Staging::new(&out)?;
+            let summary = dth_examples::workprecision::run(&options, staging.path())?;
+            let out = staging.commit()?;
+            print!("{}", summary.tables);
+            println!(
+                "wrote {} files ({} runs) to {}",
+                summary.files.len(),
+                summary.records.len(),
+                out.display()
+            );
+            Ok(ExitCode::SUCCESS)
+        }
     }
 }
 

@@ -88,6 +88,7 @@ impl<H: Hamiltonian<D>, const D: usize, const E: usize> Hamiltonian<E> for Exten
     const TIME_DEPENDENT: bool = true;
     const SEPARABLE: bool = H::SEPARABLE;
     const PSI_IDENTICALLY_ZERO: bool = H::PSI_IDENTICALLY_ZERO;
+    const EXACT_DIVIDED_DIFFERENCES: bool = H::EXACT_DIVIDED_DIFFERENCES;
 
     fn value(&self, z: &SVector<f64, E>) -> f64 {
         z[E - 1] + self.inner.value(&Self::reduce(z))
@@ -116,5 +117,33 @@ impl<H: Hamiltonian<D>, const D: usize, const E: usize> Hamiltonian<E> for Exten
             (Some(a), Some(b)) => m[(a, b)],
             _ => 0.0,
         })
+    }
+
+    /// The inner discrete gradient, with `1` for `p_t` and `0` for `t` (`calH` is linear in
+    /// `p_t` and does not depend on `t`).
+    fn discrete_gradient(&self, z0: &SVector<f64, E>, z1: &SVector<f64, E>) -> SVector<f64, E> {
+        let mut g = lift::<D, E>(
+            &self
+                .inner
+                .discrete_gradient(&Self::reduce(z0), &Self::reduce(z1)),
+            0.0,
+        );
+        g[E - 1] = 1.0;
+        g
+    }
+
+    /// The inner defect, with `0` for `t` and `p_t`.
+    fn discrete_gradient_defect(
+        &self,
+        z0: &SVector<f64, E>,
+        z1: &SVector<f64, E>,
+        gbar: &SVector<f64, E>,
+    ) -> SVector<f64, E> {
+        let t = self.inner.discrete_gradient_defect(
+            &Self::reduce(z0),
+            &Self::reduce(z1),
+            &Self::reduce(gbar),
+        );
+        lift::<D, E>(&t, 0.0)
     }
 }

@@ -5,6 +5,45 @@
 //! with an [`Observer`]). Options in [`DthOptions`]; failures are [`crate::Error`] variants, and
 //! a failed run keeps what it computed ([`RunError`]).
 //!
+//! # Conditioning, breakdown, robust mode
+//!
+//! - **Energy residual** ([`EnergyResidual`]). For Hamiltonians with exact divided differences
+//!   (`Hamiltonian::EXACT_DIVIDED_DIFFERENCES`, e.g. [`Kepler`](crate::systems::Kepler)) the
+//!   energy equation is solved cancellation-free, so `lambda` is exact to about one `eps` for
+//!   any `dtau` (the plain residual's error grows like `eps / dtau^2`), then checked and
+//!   projected against `H(zbar_0)` so the energy does not random-walk.
+//! - **Breakdown** ([`Error::Breakdown`](crate::Error::Breakdown)). Where
+//!   `Psi = (J grad H)^T Hess H (J grad H)` changes sign along the orbit (Cartesian Kepler above
+//!   e ~ 0.79, the pendulum in rotation), a step has no positive root. The stepper detects it
+//!   from `Psi` at the predicted midpoint and from the law of time before Newton runs (and
+//!   diagnoses Newton failures along the orbit), and stops with the step, time, `Psi` and
+//!   `lambda`, keeping the trajectory.
+//! - **Robust mode** ([`DthOptions::with_robust`], opt-in). Breakdowns and Newton failures are
+//!   carried through with energy-conserving discrete-gradient steps of the last DTH step's
+//!   physical size, marked [`StepKind::Fallback`]; DTH resumes where `Psi` allows.
+//! - **No retry**: a failed DTH step is not retried with a smaller `dtau` (see [`Dth::step`]).
+//!
+//! ```
+//! use dth_core::dth::{integrate, DthOptions, StepKind};
+//! use dth_core::nalgebra::Vector4;
+//! use dth_core::{systems::Kepler, Error, Hamiltonian};
+//!
+//! // Kepler with e = 0.9: Psi changes sign between pericentre and apocentre.
+//! let kepler = Kepler::thesis();
+//! let z0 = Vector4::new(0.5, 0.0, 0.0, 1.9f64.sqrt());
+//! let options = DthOptions::default().with_dtau(0.0157)?;
+//! let stopped = integrate(kepler, z0, options, 1_000).unwrap_err();
+//! assert!(matches!(stopped.error, Error::Breakdown { psi, .. } if psi < 0.0));
+//! assert_eq!(stopped.partial.len(), 19); // zbar_0 .. zbar_18 kept
+//!
+//! let t = integrate(kepler, z0, options.with_robust(true), 1_000).map_err(|e| e.error)?;
+//! assert!(t.fallback_steps() > 0);
+//! assert_eq!(t.kinds()[0], StepKind::Dth);
+//! let e0 = kepler.value(&z0);
+//! assert!(t.midpoints().iter().all(|z| (kepler.value(z) - e0).abs() < 1e-14));
+//! # Ok::<(), Error>(())
+//! ```
+//!
 //! # References
 //! Y. Shibberu, *Discrete-Time Hamiltonian Dynamics*, PhD thesis, UT Arlington, 1992
 //! (Chapter II, Section 4.1); *A Discrete-Time Formulation of Hamiltonian Dynamics*, 1998
@@ -14,12 +53,13 @@ mod extended;
 mod newton;
 mod observer;
 mod options;
+mod robust;
 mod stepper;
 mod trajectory;
 
 pub use extended::{lift, set_momentum_of_time, Extended};
 pub use newton::{segment_from_vertex, Segment};
-pub use observer::{NoObserver, Observer, StepRecord};
-pub use options::{DthOptions, Solver};
+pub use observer::{NoObserver, Observer, StepKind, StepRecord};
+pub use options::{DthOptions, EnergyResidual, Solver};
 pub use stepper::{integrate, Dth, RunError};
 pub use trajectory::Trajectory;

@@ -51,9 +51,45 @@ pub struct Segment<const D: usize> {
 }
 
 /// `J M` for `J = [[0, I], [-I, 0]]`.
-fn j_times_matrix<const D: usize>(m: &SMatrix<f64, D, D>) -> SMatrix<f64, D, D> {
+pub(crate) fn j_times_matrix<const D: usize>(m: &SMatrix<f64, D, D>) -> SMatrix<f64, D, D> {
     let n = D / 2;
     SMatrix::<f64, D, D>::from_fn(|i, j| if i < n { m[(i + n, j)] } else { -m[(i - n, j)] })
+}
+
+/// The previous midpoint of a step, for the cancellation-free energy residual (see
+/// [`EnergyResidual`](super::EnergyResidual)): `H(z) - H(zbar_k)` is evaluated through exact
+/// divided differences between `zbar_k` and `z`.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Previous<const D: usize> {
+    /// `zbar_k`.
+    pub(crate) zbar: SVector<f64, D>,
+    /// `grad H(zbar_k)`.
+    pub(crate) gradient: SVector<f64, D>,
+    /// `lambda_k`.
+    pub(crate) lambda: f64,
+}
+
+/// What a segment is solved from: its left vertex `v`, the energy level `E`, and (for the
+/// cancellation-free residual) the previous midpoint.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Anchor<const D: usize> {
+    pub(crate) v: SVector<f64, D>,
+    pub(crate) energy: f64,
+    pub(crate) previous: Option<Previous<D>>,
+}
+
+/// The parts of the cancellation-free energy residual at one iterate.
+struct CancellationFree<const D: usize> {
+    gbar: SVector<f64, D>,
+    /// `(h/2) gbar^T J w`: equals `H(z) - H(zbar_k) - gbar . f`.
+    r_cf: f64,
+    /// Size of the terms `r_cf` is a sum of: `(h/4)(lambda + lambda_k) sum |gbar_i (g - g_k)_i|`.
+    scale: f64,
+    /// Roundoff scale of the energy residual when the Hamiltonian does not declare exact
+    /// divided differences (the cancellation-free form forced on it): the plain residual's
+    /// `|terms of H|`, which bounds the noise of a plain-difference `gbar` or defect. Zero for
+    /// Hamiltonians with `EXACT_DIVIDED_DIFFERENCES`.
+    inexact_scale: f64,
 }
 
 /// Everything the Newton loops need at one iterate.
@@ -61,12 +97,63 @@ struct Eval<const D: usize> {
     d: Derivatives<D>,
     jg: SVector<f64, D>,
     f: SVector<f64, D>,
+    /// Energy residual for the Newton update: `H(z) - E` (plain) or `H(z) - H(zbar_k)` as
+    /// `r_cf + gbar . f` (cancellation-free).
     r: f64,
-    /// max(|f| / scale_f, |r| / scale_r).
-    residual: f64,
+    /// `|f| / scale_f`.
+    f_residual: f64,
+    /// Plain scaled energy residual `|H(z) - E| / scale_r` (for the plain form and the final
+    /// check of the cancellation-free form).
+    plain_residual: f64,
+    /// Size of the terms of `H(z) - E`.
+    scale_r: f64,
+    cf: Option<CancellationFree<D>>,
 }
 
-fn factor<const D: usize>(a: &SMatrix<f64, D, D>, step: usize) -> Result<Lu<D>, Error> {
+impl<const D: usize> Eval<D> {
+    /// The scaled residual Newton must drive below tolerance. For the cancellation-free form the
+    /// energy part is the residual left after eliminating `f` to first order with the last
+    /// linearization (`A` factored, `g_lambda`): `r_cf + gbar . f + grad H . A^{-1}(-f)`, whose
+    /// roundoff is `eps h^2` (`r_cf + gbar . f` alone carries the rounding of `z` to the f64
+    /// grid, `eps |z|`, through `gbar . f`). It is scaled by the larger of the size of the terms
+    /// of `r_cf` and `|g_lambda lambda|` (the residual that a relative change `eps` of `lambda`
+    /// makes): where the gradient barely turns (Kepler's apocentre) the terms are much smaller
+    /// than the sensitivity, and the residual is a forward estimate of the relative error of
+    /// `lambda`.
+    fn residual(&self, last: Option<&(Lu<D>, f64)>, lambda: f64) -> f64 {
+        let energy = match (&self.cf, last) {
+            (Some(c), Some((lu, g_lambda))) => {
+                let u = lu.solve(&(-self.f));
+                let scale = c.scale.max((g_lambda * lambda).abs()).max(c.inexact_scale);
+                (c.r_cf + (c.gbar.dot(&self.f) + self.d.gradient.dot(&u))).abs() / scale
+            }
+            (Some(_), None) => f64::INFINITY,
+            (None, _) => self.plain_residual,
+        };
+        self.f_residual.max(energy)
+    }
+
+    /// The stall tolerance for this iterate: the option, raised for the plain residual to the
+    /// relative noise its roundoff puts into `lambda`, `eps |terms of H| / |g_lambda lambda|`
+    /// (`~eps / h^2`): below that, updates are noise and can never settle.
+    /// The same holds for the cancellation-free form forced on a Hamiltonian without exact
+    /// divided differences; with them the option stands.
+    fn stall(&self, options: &DthOptions, last: Option<&(Lu<D>, f64)>, lambda: f64) -> f64 {
+        let noise = match &self.cf {
+            None => self.scale_r,
+            Some(c) => c.inexact_scale,
+        };
+        match last {
+            Some((_, g_lambda)) if noise > 0.0 => options
+                .stall_tolerance()
+                .max(8.0 * f64::EPSILON * noise / (g_lambda * lambda).abs())
+                .min(0.5),
+            _ => options.stall_tolerance(),
+        }
+    }
+}
+
+pub(crate) fn factor<const D: usize>(a: &SMatrix<f64, D, D>, step: usize) -> Result<Lu<D>, Error> {
     Lu::factor(a).map_err(|p| match p {
         Pivot::Singular => Error::SingularMatrix { step },
         Pivot::NonFinite => Error::NonFinite {
@@ -76,14 +163,13 @@ fn factor<const D: usize>(a: &SMatrix<f64, D, D>, step: usize) -> Result<Lu<D>, 
     })
 }
 
-fn all_finite<const D: usize>(v: &SVector<f64, D>) -> bool {
+pub(crate) fn all_finite<const D: usize>(v: &SVector<f64, D>) -> bool {
     v.iter().all(|x| x.is_finite())
 }
 
 fn evaluate<H: Hamiltonian<D>, const D: usize>(
     ham: &H,
-    v: &SVector<f64, D>,
-    energy: f64,
+    anchor: &Anchor<D>,
     h: f64,
     z: &SVector<f64, D>,
     lambda: f64,
@@ -102,28 +188,72 @@ fn evaluate<H: Hamiltonian<D>, const D: usize>(
             what: "Hess H at a Newton iterate",
         });
     }
+    let v = &anchor.v;
+    let energy = anchor.energy;
     let jg = j_times(&d.gradient);
     let move_ = jg * (0.5 * h * lambda);
-    let f = z - v - move_;
-    let r = d.value - energy;
     // Roundoff scales: the magnitudes of the terms each residual is a difference of.
     let scale_f = z
         .amax()
         .max(v.amax())
         .max(move_.amax())
         .max(f64::MIN_POSITIVE);
+    let r_plain = d.value - energy;
     let scale_r = energy
         .abs()
         .max(d.value.abs())
         .max(z.component_mul(&d.gradient).abs().sum())
         .max(f64::MIN_POSITIVE);
-    let residual = (f.amax() / scale_f).max(r.abs() / scale_r);
+    let plain_residual = r_plain.abs() / scale_r;
+    let (f, r, cf) = match &anchor.previous {
+        None => (z - v - move_, r_plain, None),
+        Some(p) => {
+            // f = (z - zbar_k) - (h/2) J (lambda g + lambda_k g_k): the difference z - zbar_k
+            // is exact (Sterbenz) for small steps, so f carries roundoff eps h, not eps |z|.
+            let dz = z - p.zbar;
+            let f = dz - j_times(&(d.gradient * lambda + p.gradient * p.lambda)) * (0.5 * h);
+            let gbar = ham.discrete_gradient(&p.zbar, z);
+            let t = ham.discrete_gradient_defect(&p.zbar, z, &gbar);
+            let dg = d.gradient - p.gradient;
+            let w = dg * (0.5 * (lambda - p.lambda)) + t * (0.5 * (lambda + p.lambda));
+            let r_cf = 0.5 * h * gbar.dot(&j_times(&w));
+            let scale = (0.25 * h * (lambda + p.lambda)).abs()
+                * gbar.component_mul(&dg).abs().sum()
+                + f64::MIN_POSITIVE;
+            if !r_cf.is_finite() || !all_finite(&gbar) {
+                return Err(Error::NonFinite {
+                    step,
+                    what: "discrete gradient at a Newton iterate",
+                });
+            }
+            let r = r_cf + gbar.dot(&f);
+            let inexact_scale = if H::EXACT_DIVIDED_DIFFERENCES {
+                0.0
+            } else {
+                scale_r
+            };
+            (
+                f,
+                r,
+                Some(CancellationFree {
+                    gbar,
+                    r_cf,
+                    scale,
+                    inexact_scale,
+                }),
+            )
+        }
+    };
+    let f_residual = f.amax() / scale_f;
     Ok(Eval {
         d,
         jg,
         f,
         r,
-        residual,
+        f_residual,
+        plain_residual,
+        scale_r,
+        cf,
     })
 }
 
@@ -165,13 +295,13 @@ fn linearize<const D: usize>(
 
 /// Convergence bookkeeping on the relative update sizes.
 #[derive(Default)]
-struct Updates {
+pub(crate) struct Updates {
     last: Option<f64>,
     previous: Option<f64>,
 }
 
 impl Updates {
-    fn push(&mut self, u: f64) {
+    pub(crate) fn push(&mut self, u: f64) {
         self.previous = self.last;
         self.last = Some(u);
     }
@@ -180,7 +310,7 @@ impl Updates {
     /// predicted from the observed contraction `theta = u_i / u_{i-1}`, is at most `4 eps`,
     /// or the update stalled at roundoff (below the stall tolerance and no longer halving):
     /// stop if the residual passes, else keep iterating. `None`: keep iterating.
-    fn stopped(&self, stall: f64) -> Option<bool> {
+    pub(crate) fn stopped(&self, stall: f64) -> Option<bool> {
         let u = self.last?;
         if u <= TIGHT {
             return Some(true);
@@ -201,7 +331,7 @@ impl Updates {
     }
 }
 
-fn relative_update<const D: usize>(
+pub(crate) fn relative_update<const D: usize>(
     dz: &SVector<f64, D>,
     z: &SVector<f64, D>,
     dl: f64,
@@ -211,28 +341,89 @@ fn relative_update<const D: usize>(
         .max(dl.abs() / lambda.abs().max(f64::MIN_POSITIVE))
 }
 
-/// Solve one segment from its left vertex `v` at energy `E`, starting Newton from the
-/// predictor `(z0, lambda0)`. `step` labels errors.
-#[allow(clippy::too_many_arguments)]
+/// Solve one segment from `anchor` (left vertex, energy, previous midpoint for the
+/// cancellation-free form), starting Newton from the predictor `(z0, lambda0)`. `step` labels
+/// errors. For the cancellation-free form the caller finishes with [`project`] (after
+/// rejecting roots with the wrong `lambda`, whose energy check would misreport them).
 pub(crate) fn solve_segment<H: Hamiltonian<D>, const D: usize>(
     ham: &H,
-    v: &SVector<f64, D>,
-    energy: f64,
+    anchor: &Anchor<D>,
     z0: SVector<f64, D>,
     lambda0: f64,
     options: &DthOptions,
     step: usize,
 ) -> Result<Segment<D>, Error> {
     match options.solver() {
-        Solver::Joint => joint(ham, v, energy, z0, lambda0, options, step),
-        Solver::Nested => nested(ham, v, energy, z0, lambda0, options, step),
+        Solver::Joint => joint(ham, anchor, z0, lambda0, options, step),
+        Solver::Nested => nested(ham, anchor, z0, lambda0, options, step),
     }
+}
+
+/// Check a cancellation-free solution against the energy level `E` and project it onto it
+/// (see [`EnergyResidual`](super::EnergyResidual)).
+pub(crate) fn project<H: Hamiltonian<D>, const D: usize>(
+    ham: &H,
+    energy: f64,
+    mut s: Segment<D>,
+    options: &DthOptions,
+    step: usize,
+) -> Result<Segment<D>, Error> {
+    let (z, d) = project_onto_energy(ham, energy, s.zbar, s.derivatives, 0.0, options, step)?;
+    s.zbar = z;
+    s.derivatives = d;
+    Ok(s)
+}
+
+/// Check `z` (with its derivatives `d`) against the energy level `E` with the plain residual
+/// ([`Error::EnergyCheckFailed`] beyond the residual tolerance) and move it onto `H = E` along
+/// `grad H` (one Newton step of `H(z) = E` in that direction). The move is a few ulps of `z`,
+/// inside the roundoff of the equation that produced `z`; it keeps the roundoff of successive
+/// energy-difference solves from random-walking.
+/// `explained` is a part of the deviation that the caller knows the size of (the fallback
+/// step's `gbar . f`), allowed on top of the tolerance.
+pub(crate) fn project_onto_energy<H: Hamiltonian<D>, const D: usize>(
+    ham: &H,
+    energy: f64,
+    z: SVector<f64, D>,
+    d: Derivatives<D>,
+    explained: f64,
+    options: &DthOptions,
+    step: usize,
+) -> Result<(SVector<f64, D>, Derivatives<D>), Error> {
+    let deviation = d.value - energy;
+    let scale = energy
+        .abs()
+        .max(d.value.abs())
+        .max(z.component_mul(&d.gradient).abs().sum())
+        .max(f64::MIN_POSITIVE);
+    let scaled = deviation.abs() / scale;
+    if deviation.abs() > options.residual_tolerance() * scale + 2.0 * explained.abs() {
+        return Err(Error::EnergyCheckFailed {
+            step,
+            deviation,
+            scaled,
+        });
+    }
+    let gg = d.gradient.norm_squared();
+    if deviation != 0.0 && gg > 0.0 {
+        let zp = z - d.gradient * (deviation / gg);
+        let dp = ham.derivatives(&zp);
+        // Keep the projection only if it does not make things worse (it cannot, beyond
+        // evaluation roundoff).
+        if dp.value.is_finite()
+            && all_finite(&dp.gradient)
+            && dp.hessian.iter().all(|x| x.is_finite())
+            && (dp.value - energy).abs() <= deviation.abs()
+        {
+            return Ok((zp, dp));
+        }
+    }
+    Ok((z, d))
 }
 
 fn joint<H: Hamiltonian<D>, const D: usize>(
     ham: &H,
-    v: &SVector<f64, D>,
-    energy: f64,
+    anchor: &Anchor<D>,
     mut z: SVector<f64, D>,
     mut lambda: f64,
     options: &DthOptions,
@@ -241,10 +432,12 @@ fn joint<H: Hamiltonian<D>, const D: usize>(
     let h = options.dtau();
     let mut updates = Updates::default();
     let mut iterations = 0u32;
+    let mut last_lu: Option<(Lu<D>, f64)> = None;
     loop {
-        let e = evaluate(ham, v, energy, h, &z, lambda, step)?;
-        if let Some(tiny) = updates.stopped(options.stall_tolerance()) {
-            if e.residual <= options.residual_tolerance() {
+        let e = evaluate(ham, anchor, h, &z, lambda, step)?;
+        if let Some(tiny) = updates.stopped(e.stall(options, last_lu.as_ref(), lambda)) {
+            let residual = e.residual(last_lu.as_ref(), lambda);
+            if residual <= options.residual_tolerance() {
                 return Ok(Segment {
                     zbar: z,
                     lambda,
@@ -257,7 +450,7 @@ fn joint<H: Hamiltonian<D>, const D: usize>(
                 return Err(Error::NewtonDiverged {
                     step,
                     iterations,
-                    residual: e.residual,
+                    residual,
                 });
             }
         }
@@ -265,7 +458,7 @@ fn joint<H: Hamiltonian<D>, const D: usize>(
             return Err(Error::NewtonDiverged {
                 step,
                 iterations,
-                residual: e.residual,
+                residual: e.residual(last_lu.as_ref(), lambda),
             });
         }
         let lin = linearize(&e, h, lambda, step)?;
@@ -277,6 +470,7 @@ fn joint<H: Hamiltonian<D>, const D: usize>(
         z += dz;
         lambda += dl;
         iterations += 1;
+        last_lu = Some((lin.lu, lin.g_lambda));
         if !all_finite(&z) || !lambda.is_finite() {
             return Err(Error::NonFinite {
                 step,
@@ -289,8 +483,7 @@ fn joint<H: Hamiltonian<D>, const D: usize>(
 
 fn nested<H: Hamiltonian<D>, const D: usize>(
     ham: &H,
-    v: &SVector<f64, D>,
-    energy: f64,
+    anchor: &Anchor<D>,
     mut z: SVector<f64, D>,
     mut lambda: f64,
     options: &DthOptions,
@@ -300,26 +493,22 @@ fn nested<H: Hamiltonian<D>, const D: usize>(
     let mut outer_updates = Updates::default();
     let mut outer = 0u32;
     let mut factorizations = 0u32;
+    let mut last_lu: Option<(Lu<D>, f64)> = None;
     loop {
         // Inner Newton (thesis 4.1.2): z(h, lambda) at fixed lambda.
         let mut inner_updates = Updates::default();
         let mut inner = 0u32;
         let e = loop {
-            let e = evaluate(ham, v, energy, h, &z, lambda, step)?;
-            let f_residual = e.f.amax()
-                / z.amax()
-                    .max(v.amax())
-                    .max((e.jg * (0.5 * h * lambda)).amax())
-                    .max(f64::MIN_POSITIVE);
+            let e = evaluate(ham, anchor, h, &z, lambda, step)?;
             if let Some(tiny) = inner_updates.stopped(options.stall_tolerance()) {
-                if f_residual <= options.residual_tolerance() {
+                if e.f_residual <= options.residual_tolerance() {
                     break e;
                 }
                 if tiny {
                     return Err(Error::NewtonDiverged {
                         step,
                         iterations: factorizations,
-                        residual: e.residual,
+                        residual: e.residual(last_lu.as_ref(), lambda),
                     });
                 }
             }
@@ -327,7 +516,7 @@ fn nested<H: Hamiltonian<D>, const D: usize>(
                 return Err(Error::NewtonDiverged {
                     step,
                     iterations: factorizations,
-                    residual: e.residual,
+                    residual: e.residual(last_lu.as_ref(), lambda),
                 });
             }
             let jhess = j_times_matrix(&e.d.hessian);
@@ -346,8 +535,9 @@ fn nested<H: Hamiltonian<D>, const D: usize>(
             inner_updates.push(dz.amax() / z.amax().max(f64::MIN_POSITIVE));
         };
         // Outer Newton (thesis 4.1.1) on g(lambda) = H(z(h, lambda)) - E.
-        if let Some(tiny) = outer_updates.stopped(options.stall_tolerance()) {
-            if e.residual <= options.residual_tolerance() {
+        if let Some(tiny) = outer_updates.stopped(e.stall(options, last_lu.as_ref(), lambda)) {
+            let residual = e.residual(last_lu.as_ref(), lambda);
+            if residual <= options.residual_tolerance() {
                 return Ok(Segment {
                     zbar: z,
                     lambda,
@@ -360,7 +550,7 @@ fn nested<H: Hamiltonian<D>, const D: usize>(
                 return Err(Error::NewtonDiverged {
                     step,
                     iterations: factorizations,
-                    residual: e.residual,
+                    residual,
                 });
             }
         }
@@ -368,15 +558,27 @@ fn nested<H: Hamiltonian<D>, const D: usize>(
             return Err(Error::NewtonDiverged {
                 step,
                 iterations: factorizations,
-                residual: e.residual,
+                residual: e.residual(last_lu.as_ref(), lambda),
             });
         }
         let lin = linearize(&e, h, lambda, step)?;
         factorizations += 1;
-        let dl = -e.r / lin.g_lambda;
-        lambda += dl;
-        // Warm start of the next inner solve: first-order change of z(h, lambda).
-        z += lin.z_lambda * dl;
+        if e.cf.is_some() {
+            // Eliminate the inner solve's remaining f to first order, as the joint update does:
+            // its roundoff (eps h) must not reach lambda through gbar . f.
+            let u = lin.lu.solve(&(-e.f));
+            let dl = -(e.r + e.d.gradient.dot(&u)) / lin.g_lambda;
+            lambda += dl;
+            z += u + lin.z_lambda * dl;
+            outer_updates.push(dl.abs() / lambda.abs().max(f64::MIN_POSITIVE));
+        } else {
+            let dl = -e.r / lin.g_lambda;
+            lambda += dl;
+            // Warm start of the next inner solve: first-order change of z(h, lambda).
+            z += lin.z_lambda * dl;
+            outer_updates.push(dl.abs() / lambda.abs().max(f64::MIN_POSITIVE));
+        }
+        last_lu = Some((lin.lu, lin.g_lambda));
         outer += 1;
         if !lambda.is_finite() || !all_finite(&z) {
             return Err(Error::NonFinite {
@@ -384,7 +586,6 @@ fn nested<H: Hamiltonian<D>, const D: usize>(
                 what: "outer Newton iterate",
             });
         }
-        outer_updates.push(dl.abs() / lambda.abs().max(f64::MIN_POSITIVE));
     }
 }
 
@@ -435,7 +636,12 @@ pub fn segment_from_vertex<H: Hamiltonian<D>, const D: usize>(
         return Err(Error::NonFiniteInitialState { index, value });
     }
     let z0 = predict(hamiltonian, vertex, lambda_guess, options.dtau());
-    let s = solve_segment(hamiltonian, vertex, energy, z0, lambda_guess, options, 0)?;
+    let anchor = Anchor {
+        v: *vertex,
+        energy,
+        previous: None,
+    };
+    let s = solve_segment(hamiltonian, &anchor, z0, lambda_guess, options, 0)?;
     if s.lambda <= 0.0 {
         return Err(Error::SpuriousRoot {
             step: 0,

@@ -2,6 +2,24 @@
 
 use nalgebra::SVector;
 
+/// What produced a step of a run.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+#[non_exhaustive]
+pub enum StepKind {
+    /// A DTH step (the initial midpoint counts as one): `zbar` is a midpoint with
+    /// `H(zbar) = H(zbar_0)`, `vertex` the left vertex of its segment.
+    #[default]
+    Dth,
+    /// A fallback step of the robust mode ([`DthOptions::with_robust`]): an energy-conserving
+    /// discrete-gradient step in `(q, p)` of physical size `dt = lambda * dtau`, taken where DTH
+    /// has no positive root. `zbar` and `vertex` are both the node reached, with
+    /// `H(zbar) = H(zbar_0)`; there is no DTH segment (its vertex-based invariants, such as
+    /// quadratic invariants exact at vertices, do not hold across such steps).
+    ///
+    /// [`DthOptions::with_robust`]: super::DthOptions::with_robust
+    Fallback,
+}
+
 /// One midpoint of a DTH trajectory, as reported after each accepted step.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct StepRecord<const D: usize> {
@@ -24,6 +42,8 @@ pub struct StepRecord<const D: usize> {
     pub iterations: u32,
     /// LU factorizations spent on this midpoint (equals `iterations` for the joint solver).
     pub factorizations: u32,
+    /// DTH step or robust-mode fallback step.
+    pub kind: StepKind,
 }
 
 /// Receives a DTH run as it happens. Every method has a no-op default, so an observer

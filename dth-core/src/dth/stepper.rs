@@ -2,9 +2,12 @@
 
 use nalgebra::SVector;
 
-use super::newton::{predict, solve_segment};
-use super::observer::{NoObserver, Observer, StepRecord};
+use super::newton::all_finite;
+use super::newton::{predict, project, solve_segment, Anchor, Previous};
+use super::observer::{NoObserver, Observer, StepKind, StepRecord};
 use super::options::DthOptions;
+use super::options::EnergyResidual;
+use super::robust::fallback_step;
 use super::trajectory::Trajectory;
 use crate::{j_times, Error, Hamiltonian};
 
@@ -87,6 +90,42 @@ pub struct Dth<H, const D: usize> {
     iterations: u32,
     factorizations: u32,
     reported: bool,
+    /// `Some` while the robust mode is taking fallback steps.
+    fallback: Option<Fallback>,
+    kind: StepKind,
+    /// The law-of-time constant `lambda^3 Psi` of the run (paper Theorem 5), set at the first
+    /// midpoint with `Psi != 0`; the robust mode resumes DTH with `lambda = (law / Psi)^(1/3)`
+    /// so that the resolution the user chose with `lambda_0` is kept across excursions.
+    law: f64,
+    /// Largest `lambda` of an accepted DTH step (at least `lambda_0`): caps the size of
+    /// robust-mode fallback steps where the law of time would let them blow up (`Psi -> 0`).
+    lambda_max: f64,
+}
+
+/// Predicted growth of `lambda` in one step beyond which breakdown detection looks a second time,
+/// at the predictor for the predicted `lambda` (on smooth orbits the ratio stays below ~1.2 at
+/// 25 points per orbit; it grows without bound as `Psi -> 0`).
+const LOOK_AGAIN: f64 = 1.25;
+
+/// Largest relative energy error of a predicted midpoint whose `Psi` is trusted for breakdown
+/// detection (the predictor's error is `O(h^3)`: about 1e-4 at the thesis's step).
+const PREDICTOR_TRUST: f64 = 1e-2;
+
+/// How many orbit steps [`Dth::diagnose`] looks ahead for a sign change of `Psi`.
+const DIAGNOSE_STEPS: usize = 3;
+
+/// A robust-mode fallback step halves its `dt` down to `2^-MAX_FALLBACK_HALVINGS` of the last
+/// DTH step's before giving up.
+const MAX_FALLBACK_HALVINGS: u32 = 20;
+
+/// State of a robust-mode excursion.
+#[derive(Clone, Copy, Debug)]
+struct Fallback {
+    /// Physical step of the last fallback step (at entry: `lambda_k dtau` of the last DTH
+    /// segment).
+    dt: f64,
+    /// `Psi` at the previous fallback node, to see it move away from zero.
+    psi_last: f64,
 }
 
 impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
@@ -161,6 +200,10 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
             iterations: 0,
             factorizations: 0,
             reported: false,
+            fallback: None,
+            kind: StepKind::Dth,
+            law: options.lambda0().powi(3) * d.psi,
+            lambda_max: options.lambda0(),
         })
     }
 
@@ -178,6 +221,17 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
         }
         self.tbar = tbar0;
         Ok(self)
+    }
+
+    /// `true` when steps solve the energy equation in the cancellation-free form
+    /// ([`EnergyResidual`](super::EnergyResidual); `Auto` resolves on
+    /// `H::EXACT_DIVIDED_DIFFERENCES`).
+    pub fn cancellation_free(&self) -> bool {
+        match self.options.energy_residual() {
+            EnergyResidual::Plain => false,
+            EnergyResidual::CancellationFree => true,
+            _ => H::EXACT_DIVIDED_DIFFERENCES,
+        }
     }
 
     /// The Hamiltonian.
@@ -213,13 +267,29 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
     pub fn slope(&self) -> SVector<f64, D> {
         j_times(&self.gradient) * self.lambda
     }
-    /// Left vertex `z^(k) = zbar_k - (h/2) zbar'_k` of the current segment.
+    /// Left vertex `z^(k) = zbar_k - (h/2) zbar'_k` of the current segment (the node itself
+    /// after a robust-mode fallback step).
     pub fn left_vertex(&self) -> SVector<f64, D> {
-        self.zbar - self.slope() * (0.5 * self.options.dtau())
+        match self.kind {
+            StepKind::Fallback => self.zbar,
+            _ => self.zbar - self.slope() * (0.5 * self.options.dtau()),
+        }
     }
-    /// Right vertex `z^(k+1) = zbar_k + (h/2) zbar'_k` of the current segment.
+    /// Right vertex `z^(k+1) = zbar_k + (h/2) zbar'_k` of the current segment (the node itself
+    /// after a robust-mode fallback step).
     pub fn right_vertex(&self) -> SVector<f64, D> {
-        self.zbar + self.slope() * (0.5 * self.options.dtau())
+        match self.kind {
+            StepKind::Fallback => self.zbar,
+            _ => self.zbar + self.slope() * (0.5 * self.options.dtau()),
+        }
+    }
+    /// What produced the current midpoint.
+    pub fn kind(&self) -> StepKind {
+        self.kind
+    }
+    /// `true` while the robust mode is taking fallback steps.
+    pub fn in_fallback(&self) -> bool {
+        self.fallback.is_some()
     }
     /// The record of the current midpoint.
     pub fn record(&self) -> StepRecord<D> {
@@ -230,50 +300,275 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
             lambda: self.lambda,
             tbar: self.tbar,
             vertex: self.left_vertex(),
-            vertex_time: self.tbar - 0.5 * h * self.lambda,
+            vertex_time: match self.kind {
+                StepKind::Fallback => self.tbar,
+                _ => self.tbar - 0.5 * h * self.lambda,
+            },
             psi: self.psi,
             iterations: self.iterations,
             factorizations: self.factorizations,
+            kind: self.kind,
         }
     }
 
-    /// Advance one step: solve for `zbar_{k+1}`, `lambda_{k+1}`. On error the state is
-    /// unchanged (still at step `k`).
+    /// Advance one step: solve for `zbar_{k+1}`, `lambda_{k+1}` (in robust mode, possibly a
+    /// fallback step instead; see [`DthOptions::with_robust`]). On error the state is unchanged
+    /// (still at step `k`). A failed step is not retried with a smaller `dtau`: the step
+    /// equations depend on `h` only through `h lambda_k` and `h lambda_{k+1}`, so a smaller `h`
+    /// that keeps the shared vertex `z^(k+1)` gives the same step, and one that does not breaks
+    /// the continuity the vertex invariants (Theorems 3, 7) rest on. Where DTH has no positive
+    /// root the robust mode is the way through; otherwise rerun with a smaller `dtau`.
     ///
     /// # Errors
+    /// [`Error::Breakdown`] when `Psi` changes sign at the predicted midpoint or the predicted
+    /// (or converged) `lambda_{k+1} / lambda_k` exceeds [`DthOptions::max_lambda_ratio`];
     /// [`Error::NewtonDiverged`], [`Error::SingularMatrix`], [`Error::NonFinite`] from Newton;
-    /// [`Error::SpuriousRoot`] when it converges to `lambda_{k+1} <= 0`.
+    /// [`Error::SpuriousRoot`] when it converges to `lambda_{k+1} <= 0`;
+    /// [`Error::EnergyCheckFailed`] (cancellation-free residual, robust fallback).
+    /// In robust mode only the last three stop a run.
     pub fn step(&mut self) -> Result<StepRecord<D>, Error> {
+        if let Some(fb) = self.fallback {
+            return self.fallback_step(fb);
+        }
+        match self.dth_step() {
+            Ok(r) => Ok(r),
+            // A non-finite value inside Newton means it wandered (into a singularity of H, say);
+            // the fallback step re-evaluates from the accepted midpoint and stops the run if H
+            // itself is the problem.
+            Err(
+                Error::Breakdown { .. }
+                | Error::NewtonDiverged { .. }
+                | Error::SpuriousRoot { .. }
+                | Error::SingularMatrix { .. }
+                | Error::NonFinite { .. },
+            ) if self.options.robust() => {
+                let fb = Fallback {
+                    dt: self.lambda * self.options.dtau(),
+                    psi_last: self.psi,
+                };
+                self.fallback_step(fb)
+            }
+            Err(e) => Err(e),
+        }
+    }
+
+    /// One fallback step of the robust mode from the current midpoint; resume DTH at the node
+    /// reached when `Psi` allows.
+    fn fallback_step(&mut self, mut fb: Fallback) -> Result<StepRecord<D>, Error> {
+        let step = self.k + 1;
+        // Size: what DTH's law of time would give here, lambda = (law / |Psi|)^(1/3), capped
+        // by the largest DTH lambda of the run (the law blows up as Psi -> 0) and growing at
+        // most 2x per step; the first fallback step has the last DTH step's size. The fallback
+        // is not bound to a tau grid: where its Newton fails (a step too large near a close
+        // approach), halve dt, down to 2^-20 of that size; below that the run stops with the
+        // fallback's error (the orbit cannot be followed, e.g. into a region where H is not
+        // finite).
+        let h = self.options.dtau();
+        let law = (self.law / self.psi).abs().cbrt();
+        let target = h * if law.is_finite() && law > 0.0 {
+            law.min(self.lambda_max)
+        } else {
+            self.lambda_max
+        };
+        if self.kind == StepKind::Fallback {
+            fb.dt = target.min(2.0 * fb.dt);
+        }
+        let dt_min = target * 0.5f64.powi(MAX_FALLBACK_HALVINGS as i32);
+        let s = loop {
+            match fallback_step(
+                &self.hamiltonian,
+                &self.zbar,
+                fb.dt,
+                self.energy,
+                &self.options,
+                step,
+            ) {
+                Ok(s) => break s,
+                Err(
+                    Error::MethodNotConverged { .. }
+                    | Error::MethodSingularMatrix { .. }
+                    | Error::MethodNonFinite { .. }
+                    | Error::NonFinite { .. },
+                ) if 0.5 * fb.dt >= dt_min => {
+                    fb.dt *= 0.5;
+                }
+                Err(e) => return Err(e),
+            }
+        };
+        let psi = s.derivatives.psi;
+        self.zbar = s.z;
+        self.gradient = s.derivatives.gradient;
+        self.psi = psi;
+        // Extended phase space: time is the t coordinate (Gonzalez's discrete gradient moves it
+        // by dt (1 + O(dt^2)), not exactly dt).
+        self.tbar = if H::TIME_DEPENDENT {
+            self.zbar[D / 2 - 1]
+        } else {
+            self.tbar + fb.dt
+        };
+        self.lambda = fb.dt / self.options.dtau();
+        self.iterations = s.iterations;
+        self.factorizations = s.iterations;
+        self.k = step;
+        self.kind = StepKind::Fallback;
+        self.reported = false;
+        let record = self.record();
+        // Resume DTH when Psi has the sign of the run's law of time again, moves away from zero,
+        // and the law gives a lambda within the breakdown ratio of the fallback's.
+        let ratio = self.law / psi;
+        let lambda = ratio.cbrt();
+        let resume = ratio > 0.0
+            && psi.abs() > fb.psi_last.abs()
+            && lambda.is_finite()
+            && lambda <= self.options.max_lambda_ratio() * self.lambda;
+        if resume {
+            self.fallback = None;
+            self.lambda = lambda;
+            self.kind = StepKind::Dth;
+        } else {
+            self.fallback = Some(Fallback {
+                psi_last: psi,
+                ..fb
+            });
+        }
+        Ok(record)
+    }
+
+    /// A Newton failure (or a root with `lambda <= 0`) where `Psi` changes sign just ahead on
+    /// the orbit is the method's breakdown, not the solver's: walk up to
+    /// [`DIAGNOSE_STEPS`] energy-conserving discrete-gradient steps of the current physical
+    /// size `lambda_k dtau` from `zbar_k` (points on the orbit, unlike an explicit predictor
+    /// with a large step) and report [`Error::Breakdown`] at the first sign change of `Psi`;
+    /// otherwise keep the solver's error. Runs only after a failure.
+    fn diagnose(&self, error: Error, time: f64) -> Error {
+        let step = match error {
+            Error::NewtonDiverged { step, .. }
+            | Error::SingularMatrix { step }
+            | Error::SpuriousRoot { step, .. } => step,
+            _ => return error,
+        };
+        let dt = self.lambda * self.options.dtau();
+        let mut z = self.zbar;
+        for _ in 0..DIAGNOSE_STEPS {
+            let Ok(s) = fallback_step(&self.hamiltonian, &z, dt, self.energy, &self.options, step)
+            else {
+                break;
+            };
+            let psi = s.derivatives.psi;
+            if self.psi * psi < 0.0 {
+                return Error::Breakdown {
+                    step,
+                    time,
+                    psi,
+                    psi_previous: self.psi,
+                    lambda: self.lambda,
+                    lambda_predicted: self.lambda * (self.psi / psi).cbrt(),
+                };
+            }
+            z = s.z;
+        }
+        error
+    }
+
+    /// `Psi` at a predicted midpoint, if finite and if the prediction lies on the energy
+    /// surface to within [`PREDICTOR_TRUST`] of the size of the terms of `H` (a predictor for a
+    /// step far too large for the orbit lands elsewhere in phase space, where `Psi` says
+    /// nothing about this orbit).
+    fn trusted_psi(&self, z: &SVector<f64, D>) -> Option<f64> {
+        if !all_finite(z) {
+            return None;
+        }
+        let d = self.hamiltonian.derivatives(z);
+        let scale = self
+            .energy
+            .abs()
+            .max(z.component_mul(&d.gradient).abs().sum());
+        ((d.value - self.energy).abs() <= PREDICTOR_TRUST * scale && d.psi.is_finite())
+            .then_some(d.psi)
+    }
+
+    /// One DTH step with breakdown detection.
+    fn dth_step(&mut self) -> Result<StepRecord<D>, Error> {
         let h = self.options.dtau();
         let step = self.k + 1;
         let v = self.right_vertex();
         // Predict lambda from the asymptotic law of time (paper Theorem 5):
         // lambda psi^(1/3) ~ const, with psi at an explicit predictor of zbar_{k+1}; fall back
-        // to lambda_k where psi changes sign or vanishes.
+        // to lambda_k where psi vanishes. A sign change of psi, or a predicted lambda that blows
+        // up, means the step has no positive root near lambda_k: stop before Newton wanders.
         let z1 = predict(&self.hamiltonian, &v, self.lambda, h);
-        let psi1 = self.hamiltonian.psi(&z1);
-        let ratio = self.psi / psi1;
-        let lambda_guess = if ratio.is_finite() && ratio > 0.0 {
-            self.lambda * ratio.cbrt()
-        } else {
-            self.lambda
+        let (time, psi_previous, lambda) = (self.tbar, self.psi, self.lambda);
+        let max_ratio = self.options.max_lambda_ratio();
+        // Psi exactly zero at either point (ratio 0, infinite or NaN), or a predictor too far
+        // off the energy surface to say where the orbit goes, is no verdict: Newton decides
+        // (and a failure is diagnosed along the orbit).
+        let verdict = |psi: Option<f64>| -> Result<Option<f64>, Error> {
+            let Some(psi) = psi else { return Ok(None) };
+            let ratio = psi_previous / psi;
+            let predicted = lambda * ratio.cbrt();
+            if ratio < 0.0 || (ratio.is_finite() && predicted > max_ratio * lambda) {
+                return Err(Error::Breakdown {
+                    step,
+                    time,
+                    psi,
+                    psi_previous,
+                    lambda,
+                    lambda_predicted: predicted,
+                });
+            }
+            Ok((predicted.is_finite() && predicted > 0.0).then_some(predicted))
         };
+        let lambda_guess = verdict(self.trusted_psi(&z1))?.unwrap_or(self.lambda);
         let z0 = predict(&self.hamiltonian, &v, lambda_guess, h);
+        if lambda_guess > LOOK_AGAIN * self.lambda {
+            // Look again where the law of time says the midpoint will be: further out when
+            // lambda grows fast, as it does towards Psi = 0 (one more evaluation of H's
+            // derivatives, so only then).
+            verdict(self.trusted_psi(&z0))?;
+        }
+        let previous = self.cancellation_free().then_some(Previous {
+            zbar: self.zbar,
+            gradient: self.gradient,
+            lambda: self.lambda,
+        });
+        let anchor = Anchor {
+            v,
+            energy: self.energy,
+            previous,
+        };
         let s = solve_segment(
             &self.hamiltonian,
-            &v,
-            self.energy,
+            &anchor,
             z0,
             lambda_guess,
             &self.options,
             step,
-        )?;
+        )
+        .map_err(|e| self.diagnose(e, time))?;
         if s.lambda <= 0.0 {
-            return Err(Error::SpuriousRoot {
+            return Err(self.diagnose(
+                Error::SpuriousRoot {
+                    step,
+                    lambda: s.lambda,
+                },
+                time,
+            ));
+        }
+        if s.lambda > self.options.max_lambda_ratio() * self.lambda {
+            return Err(Error::Breakdown {
                 step,
-                lambda: s.lambda,
+                time,
+                psi: s.derivatives.psi,
+                psi_previous,
+                lambda,
+                lambda_predicted: s.lambda,
             });
         }
+        let s = if anchor.previous.is_some() {
+            project(&self.hamiltonian, self.energy, s, &self.options, step)?
+        } else {
+            s
+        };
         self.tbar += 0.5 * h * (self.lambda + s.lambda);
         self.lambda = s.lambda;
         self.zbar = s.zbar;
@@ -282,7 +577,12 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
         self.iterations = s.iterations;
         self.factorizations = s.factorizations;
         self.k = step;
+        self.kind = StepKind::Dth;
         self.reported = false;
+        self.lambda_max = self.lambda_max.max(self.lambda);
+        if self.law == 0.0 {
+            self.law = self.lambda.powi(3) * self.psi;
+        }
         Ok(self.record())
     }
 

@@ -4,7 +4,7 @@ use std::io::{self, Write};
 
 use nalgebra::SVector;
 
-use super::observer::{Observer, StepRecord};
+use super::observer::{Observer, StepKind, StepRecord};
 
 /// A DTH trajectory with `N` midpoints and (once the run has finished) `N + 1` vertices.
 ///
@@ -22,6 +22,7 @@ pub struct Trajectory<const D: usize> {
     factorizations: Vec<u32>,
     closed: bool,
     ks: Vec<usize>,
+    kinds: Vec<StepKind>,
 }
 
 impl<const D: usize> Trajectory<D> {
@@ -38,6 +39,7 @@ impl<const D: usize> Trajectory<D> {
             factorizations: Vec::new(),
             closed: false,
             ks: Vec::new(),
+            kinds: Vec::new(),
         }
     }
     /// Number of midpoints `N`.
@@ -87,6 +89,18 @@ impl<const D: usize> Trajectory<D> {
     pub fn ks(&self) -> &[usize] {
         &self.ks
     }
+    /// What produced each stored midpoint: [`StepKind::Fallback`] marks the robust mode's
+    /// non-DTH steps.
+    pub fn kinds(&self) -> &[StepKind] {
+        &self.kinds
+    }
+    /// Number of stored steps that were not DTH steps (robust-mode fallback steps).
+    pub fn fallback_steps(&self) -> usize {
+        self.kinds
+            .iter()
+            .filter(|k| **k == StepKind::Fallback)
+            .count()
+    }
     /// The record of the `index`-th stored midpoint.
     pub fn record(&self, index: usize) -> Option<StepRecord<D>> {
         Some(StepRecord {
@@ -99,6 +113,7 @@ impl<const D: usize> Trajectory<D> {
             psi: self.psis[index],
             iterations: self.iterations[index],
             factorizations: self.factorizations[index],
+            kind: self.kinds[index],
         })
     }
     /// The record of midpoint `k`, if stored.
@@ -111,7 +126,8 @@ impl<const D: usize> Trajectory<D> {
     }
 
     /// Write the midpoints as CSV: `k,tbar,lambda,zbar_1..zbar_D,t_vertex,vertex_1..vertex_D,
-    /// psi,iterations`, one line per midpoint, with a header.
+    /// psi,iterations,kind`, one line per midpoint, with a header (`kind` is `dth` or
+    /// `fallback`).
     pub fn write_csv<W: Write>(&self, mut out: W) -> io::Result<()> {
         write!(out, "k,tbar,lambda")?;
         for i in 1..=D {
@@ -121,7 +137,7 @@ impl<const D: usize> Trajectory<D> {
         for i in 1..=D {
             write!(out, ",vertex_{i}")?;
         }
-        writeln!(out, ",psi,iterations")?;
+        writeln!(out, ",psi,iterations,kind")?;
         for r in self.iter() {
             write!(out, "{},{:e},{:e}", r.k, r.tbar, r.lambda)?;
             for x in r.zbar.iter() {
@@ -131,7 +147,11 @@ impl<const D: usize> Trajectory<D> {
             for x in r.vertex.iter() {
                 write!(out, ",{x:e}")?;
             }
-            writeln!(out, ",{:e},{}", r.psi, r.iterations)?;
+            let kind = match r.kind {
+                StepKind::Fallback => "fallback",
+                _ => "dth",
+            };
+            writeln!(out, ",{:e},{},{kind}", r.psi, r.iterations)?;
         }
         Ok(())
     }
@@ -154,6 +174,7 @@ impl<const D: usize> Observer<D> for Trajectory<D> {
         self.psis.push(r.psi);
         self.iterations.push(r.iterations);
         self.factorizations.push(r.factorizations);
+        self.kinds.push(r.kind);
     }
     fn on_finish(&mut self, last_vertex: &SVector<f64, D>, last_vertex_time: f64) {
         if !self.closed && !self.midpoints.is_empty() {

@@ -13,6 +13,7 @@ pub struct HarmonicOscillator {
 
 impl Hamiltonian<2> for HarmonicOscillator {
     const SEPARABLE: bool = true;
+    const EXACT_DIVIDED_DIFFERENCES: bool = true;
 
     fn value(&self, z: &Vector2<f64>) -> f64 {
         z[1] * z[1] / (2.0 * self.mass) + 0.5 * self.k * z[0] * z[0]
@@ -24,6 +25,21 @@ impl Hamiltonian<2> for HarmonicOscillator {
 
     fn hessian(&self, _z: &Vector2<f64>) -> Matrix2<f64> {
         Matrix2::new(self.k, 0.0, 0.0, 1.0 / self.mass)
+    }
+
+    /// Quadratic `H`: the discrete gradient is the gradient at the midpoint, exactly.
+    fn discrete_gradient(&self, z0: &Vector2<f64>, z1: &Vector2<f64>) -> Vector2<f64> {
+        self.gradient(&((z0 + z1) * 0.5))
+    }
+
+    /// Quadratic `H`: `g0 + g1 = 2 gbar` exactly.
+    fn discrete_gradient_defect(
+        &self,
+        _z0: &Vector2<f64>,
+        _z1: &Vector2<f64>,
+        _gbar: &Vector2<f64>,
+    ) -> Vector2<f64> {
+        Vector2::zeros()
     }
 }
 

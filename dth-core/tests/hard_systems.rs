@@ -1,0 +1,311 @@
+//! Issue 6 beyond Kepler: the pendulum near the separatrix on both sides, Henon-Heiles at
+//! E = 1/8 and 1/6, the forced oscillator through resonance.
+
+use dth_core::dth::{integrate, DthOptions, StepKind, Trajectory};
+use dth_core::nalgebra::{SVector, Vector2, Vector4};
+use dth_core::systems::{ForcedOscillator, HenonHeiles, Pendulum};
+use dth_core::{Error, Hamiltonian};
+
+const EPS: f64 = f64::EPSILON;
+
+/// Max |H(zbar) - H0| over the stored points, relative to the roundoff scale of H at the
+/// stored point: the size of its terms, or `sum |z_i dH/dz_i|` (a float z is exact only to an
+/// ulp per component, which moves H by that much: e.g. q = 330 after 52 pendulum turns)
+/// whichever is larger.
+fn worst_energy<H: Hamiltonian<D>, const D: usize>(
+    h: &H,
+    t: &Trajectory<D>,
+    e0: f64,
+    terms: impl Fn(&SVector<f64, D>) -> f64,
+) -> f64 {
+    t.midpoints()
+        .iter()
+        .map(|z| {
+            let scale = terms(z).max(z.component_mul(&h.gradient(z)).abs().sum());
+            (h.value(z) - e0).abs() / scale.max(f64::MIN_POSITIVE)
+        })
+        .fold(0.0, f64::max)
+}
+
+fn pendulum_terms(z: &Vector2<f64>) -> f64 {
+    0.5 * z[1] * z[1] + z[0].cos().abs() + 1.0
+}
+
+/// Pendulum `H = p^2/2 - cos q` (m = l = g = 1) from the bottom with energy `h`.
+fn pendulum_start(h: f64) -> Vector2<f64> {
+    Vector2::new(0.0, (2.0 * (h + 1.0)).sqrt())
+}
+
+#[test]
+fn pendulum_libration_just_below_the_separatrix() {
+    // Psi = (cos q + H)^2 + 1 - H^2 >= 1 - H^2 > 0 in libration: DTH works up to the
+    // separatrix, with lambda growing like (1 - H^2)^(-1/3) at the turning points.
+    let pendulum = Pendulum::normalized();
+    for (h, dtau) in [(0.99, 0.03), (0.999, 0.03), (0.9999, 0.01)] {
+        let t = integrate(
+            pendulum,
+            pendulum_start(h),
+            DthOptions::default().with_dtau(dtau).expect("ok"),
+            5_000,
+        )
+        .unwrap_or_else(|e| panic!("H {h}: {:?}", e.error));
+        let de = worst_energy(&pendulum, &t, h, pendulum_terms);
+        let psi_min = t.psis().iter().copied().fold(f64::MAX, f64::min);
+        let lambda_max = t.lambdas().iter().copied().fold(0.0, f64::max);
+        let q_max = t.midpoints().iter().map(|z| z[0].abs()).fold(0.0, f64::max);
+        println!("libration H {h}, dtau {dtau}: |dH| {:.1} eps, min Psi {psi_min:.2e}, max lambda {lambda_max:.1}, max |q| {q_max:.4}", de / EPS);
+        assert!(de <= 8.0 * EPS, "{de:e}");
+        assert!(psi_min > 0.0 && psi_min >= 0.5 * (1.0 - h * h));
+        // Libration: |q| < pi, turning where cos q = -H.
+        assert!(q_max < std::f64::consts::PI && q_max > 0.9 * (-h).acos());
+    }
+}
+
+#[test]
+fn pendulum_rotation_just_above_the_separatrix_breaks_down_then_robust_mode_rotates() {
+    // In rotation Psi = (cos q + H)^2 + 1 - H^2 is negative near the top (cos q = -1:
+    // 2 - 2H < 0): DTH has no positive root there. A typed breakdown; the robust mode goes over
+    // the top with discrete-gradient steps and resumes DTH below.
+    let pendulum = Pendulum::normalized();
+    for h in [1.001, 1.2] {
+        let options = DthOptions::default().with_dtau(0.03).expect("ok");
+        let err = integrate(pendulum, pendulum_start(h), options, 5_000).expect_err("over the top");
+        assert!(
+            matches!(err.error, Error::Breakdown { psi, psi_previous, lambda_predicted, .. }
+                if psi < 0.0 && psi_previous > 0.0 && lambda_predicted < 0.0),
+            "{:?}",
+            err.error
+        );
+        let t = integrate(
+            pendulum,
+            pendulum_start(h),
+            options.with_robust(true),
+            5_000,
+        )
+        .expect("robust");
+        let de = worst_energy(&pendulum, &t, h, pendulum_terms);
+        let turns = t.midpoints()[t.len() - 1][0] / (2.0 * std::f64::consts::PI);
+        let resumed = t
+            .kinds()
+            .windows(2)
+            .filter(|w| w == &[StepKind::Fallback, StepKind::Dth])
+            .count();
+        println!(
+            "rotation H {h}: {} of {} steps fallback, DTH resumed {resumed} times, {turns:.1} turns, |dH| {:.1} eps",
+            t.fallback_steps(),
+            t.len(),
+            de / EPS
+        );
+        assert!(de <= 8.0 * EPS, "{de:e}");
+        // Rotation continues: q increases through many turns, resuming DTH at the bottom.
+        assert!(
+            turns > 5.0 && resumed as f64 >= turns - 1.0,
+            "{turns} {resumed}"
+        );
+        // Every DTH midpoint has Psi > 0 (the sign it started with); fallback nodes carry theirs.
+        assert!(t
+            .iter()
+            .filter(|r| r.kind == StepKind::Dth)
+            .all(|r| r.psi > 0.0));
+    }
+}
+
+fn henon_heiles_terms(z: &Vector4<f64>) -> f64 {
+    let (q1, q2) = (z[0], z[1]);
+    0.5 * (z[2] * z[2] + z[3] * z[3] + q1 * q1 + q2 * q2)
+        + (q1 * q1 * q2).abs()
+        + (q2 * q2 * q2).abs() / 3.0
+}
+
+/// Henon-Heiles start at q1 = 0 with energy `e`, `q2` given, a share `s1` of the kinetic
+/// energy in `p1`.
+fn henon_heiles_start(e: f64, q2: f64, s1: f64) -> Vector4<f64> {
+    let kinetic = 2.0 * (e - (0.5 * q2 * q2 - q2 * q2 * q2 / 3.0));
+    Vector4::new(
+        0.0,
+        q2,
+        (s1 * kinetic).sqrt(),
+        ((1.0 - s1) * kinetic).sqrt(),
+    )
+}
+
+#[test]
+fn henon_heiles_at_e_1_8_and_1_6() {
+    let hh = HenonHeiles;
+    for e in [1.0 / 8.0, 1.0 / 6.0] {
+        for (q2, s1) in [(0.1, 0.3), (-0.15, 0.5), (0.0, 0.8)] {
+            let z0 = henon_heiles_start(e, q2, s1);
+            let e0 = hh.value(&z0);
+            let t = integrate(
+                hh,
+                z0,
+                DthOptions::default().with_dtau(0.03).expect("ok"),
+                5_000,
+            )
+            .unwrap_or_else(|err| panic!("E {e} start {z0:?}: {:?}", err.error));
+            let de = worst_energy(&hh, &t, e0, henon_heiles_terms);
+            println!("Henon-Heiles E {e:.4}, q2 {q2}, share {s1}: t {:.1}, |dH| {:.1} eps, min Psi {:.2e}", t.midpoint_times()[t.len() - 1], de / EPS, t.psis().iter().copied().fold(f64::MAX, f64::min));
+            assert!(de <= 8.0 * EPS, "{de:e}");
+            assert!((e0 - e).abs() <= 4.0 * EPS);
+        }
+    }
+    // At E = 1/6 the start straight up the q2 axis runs into the saddle (0, 1) of the escape
+    // energy, an equilibrium, where Psi -> 0: DTH breaks down there; the robust mode continues
+    // with energy exact.
+    let z0 = henon_heiles_start(1.0 / 6.0, 0.0, 0.0);
+    let options = DthOptions::default().with_dtau(0.03).expect("ok");
+    let err = integrate(hh, z0, options, 5_000).expect_err("saddle");
+    assert!(
+        matches!(err.error, Error::Breakdown { .. }),
+        "{:?}",
+        err.error
+    );
+    let t = integrate(hh, z0, options.with_robust(true), 2_000).expect("robust");
+    let de = worst_energy(&hh, &t, hh.value(&z0), henon_heiles_terms);
+    println!(
+        "Henon-Heiles towards the saddle, robust: {} fallback of {}, |dH| {:.1} eps",
+        t.fallback_steps(),
+        t.len(),
+        de / EPS
+    );
+    assert!(t.fallback_steps() > 0 && de <= 8.0 * EPS);
+}
+
+/// Resonant forced oscillator (omega = omega0 = 1): q = q0 cos t + p0 sin t + (F/2) t sin t.
+fn resonant_exact(force: f64, q0: f64, p0: f64, t: f64) -> (f64, f64) {
+    let (s, c) = t.sin_cos();
+    (
+        q0 * c + p0 * s + 0.5 * force * t * s,
+        -q0 * s + p0 * c + 0.5 * force * (s + t * c),
+    )
+}
+
+/// Max |(q, p) - exact| over vertices up to `t_max` (the vertex's own t coordinate).
+fn forced_error(t: &Trajectory<4>, exact: impl Fn(f64) -> (f64, f64), t_max: f64) -> f64 {
+    t.vertices()
+        .iter()
+        .filter(|z| z[1] <= t_max)
+        .map(|z| {
+            let (q, p) = exact(z[1]);
+            (z[0] - q).abs().max((z[2] - p).abs())
+        })
+        .fold(0.0, f64::max)
+}
+
+#[test]
+fn forced_oscillator_through_resonance() {
+    // omega from 0.9 to 1.1 through omega0 = 1 (at resonance the amplitude grows like F t / 2):
+    // calH = 0 at every midpoint, and second order against the exact solution up to t = 40.
+    for omega in [0.9, 0.99, 1.0, 1.01, 1.1] {
+        let fo = ForcedOscillator {
+            omega0: 1.0,
+            force: 0.1,
+            omega,
+        };
+        let z0 = fo.initial_state(1.0, 0.0, 0.0);
+        let exact = |t: f64| {
+            if omega == 1.0 {
+                resonant_exact(0.1, 1.0, 0.0, t)
+            } else {
+                fo.exact(1.0, 0.0, t)
+            }
+        };
+        let mut errors = Vec::new();
+        for dtau in [0.02, 0.01] {
+            let options = DthOptions::default().with_dtau(dtau).expect("ok");
+            let mut steps = 0;
+            let t = loop {
+                steps += 2_000;
+                let t = integrate(fo, z0, options, steps)
+                    .unwrap_or_else(|err| panic!("omega {omega}, dtau {dtau}: {:?}", err.error));
+                if t.midpoint_times()[t.len() - 1] > 40.0 {
+                    break t;
+                }
+            };
+            // calH(zbar_k) = 0 (Theorem 1): relative to the size of its terms (|p_t| ~ 1).
+            let dh = t
+                .midpoints()
+                .iter()
+                .map(|z| fo.value(z).abs() / z[3].abs().max(1.0))
+                .fold(0.0, f64::max);
+            assert!(dh <= 8.0 * EPS, "omega {omega}: {dh:e}");
+            errors.push(forced_error(&t, exact, 40.0));
+        }
+        println!("forced oscillator omega {omega}: error to t = 40 at dtau 0.02, 0.01: {:.2e} {:.2e}, ratio {:.2}", errors[0], errors[1], errors[0] / errors[1]);
+        assert!(
+            (errors[0] / errors[1] - 4.0).abs() < 0.6,
+            "omega {omega}: {errors:?}"
+        );
+    }
+}
+
+#[test]
+fn forced_oscillator_breakdown_and_robust_mode_in_the_extended_phase_space() {
+    // omega = 0.9 with dtau = 0.1: at step 222 Psi of calH gets small and Newton's root jumps
+    // beyond the lambda ratio: a typed breakdown. The robust mode continues with discrete-
+    // gradient steps in the extended phase space (q, t, p, p_t): calH = 0 at every point, time
+    // read from the t coordinate, and the solution stays second-order close to the exact one.
+    let fo = ForcedOscillator {
+        omega0: 1.0,
+        force: 0.1,
+        omega: 0.9,
+    };
+    let z0 = fo.initial_state(1.0, 0.0, 0.0);
+    let options = DthOptions::default().with_dtau(0.1).expect("ok");
+    let err = integrate(fo, z0, options, 3_000).expect_err("breakdown");
+    assert!(
+        matches!(err.error, Error::Breakdown { step: 222, .. }),
+        "{}",
+        err.error
+    );
+    let t = integrate(fo, z0, options.with_robust(true), 3_000)
+        .unwrap_or_else(|e| panic!("{}", e.error));
+    assert!(t.fallback_steps() > 0);
+    for r in t.iter() {
+        // calH = 0 to the roundoff scale of calH at a float point, sum |z_i dcalH/dz_i| (the
+        // t coordinate reaches 300 and carries an ulp of that).
+        let scale = r
+            .zbar
+            .component_mul(&fo.gradient(&r.zbar))
+            .abs()
+            .sum()
+            .max(1.0);
+        assert!(fo.value(&r.zbar).abs() <= 8.0 * EPS * scale, "{:?}", r.zbar);
+        assert_eq!(
+            r.tbar,
+            if r.kind == StepKind::Fallback {
+                r.zbar[1]
+            } else {
+                r.tbar
+            }
+        );
+        assert!((r.tbar - r.zbar[1]).abs() <= 1e-12 * r.tbar.abs().max(1.0));
+    }
+    // Second order is kept through the fallback steps: the same span (t <= 150, past the
+    // breakdown at t ~ 32) with dtau halved cuts the error ~4x.
+    let error_to = |t: &Trajectory<4>| {
+        t.iter()
+            .filter(|r| r.zbar[1] <= 150.0)
+            .map(|r| {
+                let (q, p) = fo.exact(1.0, 0.0, r.zbar[1]);
+                (r.zbar[0] - q).abs().max((r.zbar[2] - p).abs())
+            })
+            .fold(0.0, f64::max)
+    };
+    let half = DthOptions::default()
+        .with_dtau(0.05)
+        .expect("ok")
+        .with_robust(true);
+    let t2 = integrate(fo, z0, half, 6_000).unwrap_or_else(|e| panic!("{}", e.error));
+    let (e1, e2) = (error_to(&t), error_to(&t2));
+    println!(
+        "forced oscillator omega 0.9, robust: {} fallback of {} (dtau 0.1), {} of {} (0.05); \
+         max error to t = 150: {e1:.2e}, {e2:.2e}, ratio {:.2}",
+        t.fallback_steps(),
+        t.len(),
+        t2.fallback_steps(),
+        t2.len(),
+        e1 / e2
+    );
+    assert!(e1 / e2 > 3.0 && e1 / e2 < 5.0, "{e1:e} {e2:e}");
+}

@@ -1,0 +1,43 @@
+//! Run the work-precision benchmark until the `dth workprecision` subcommand exists:
+//! `cargo run --release -p dth-examples --example workprecision -- [--quick] [OUT_DIR]`
+//! (default output directory `target/workprecision`).
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use dth_examples::workprecision::{run, WorkPrecisionOptions};
+
+fn main() -> ExitCode {
+    let mut quick = false;
+    let mut out = PathBuf::from("target/workprecision");
+    for arg in std::env::args().skip(1) {
+        if arg == "--quick" {
+            quick = true;
+        } else {
+            out = PathBuf::from(arg);
+        }
+    }
+    let options = if quick {
+        WorkPrecisionOptions::quick()
+    } else {
+        WorkPrecisionOptions::default()
+    };
+    match run(&options, &out) {
+        Ok(summary) => {
+            println!("{}", summary.tables);
+            for f in &summary.files {
+                println!("wrote {}", f.display());
+            }
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            let mut source = std::error::Error::source(&e);
+            while let Some(s) = source {
+                eprintln!("  caused by: {s}");
+                source = s.source();
+            }
+            ExitCode::FAILURE
+        }
+    }
+}

@@ -1,0 +1,158 @@
+//! Work-precision diagrams: error against wall time, log-log, one curve per method, as PNG and
+//! SVG, drawn with the crate's [`plot`](crate::plot) module.
+
+use std::path::{Path, PathBuf};
+
+use crate::plot::{Figure, Mark, Series};
+
+use super::problems::ProblemInfo;
+use super::report::error_of;
+use super::{Error, Record};
+
+/// Errors below this are drawn at it (a log axis has no zero); the captions say so.
+const FLOOR: f64 = 1e-17;
+
+/// One curve: label and points `(time, error)` sorted by time.
+struct Curve {
+    label: String,
+    points: Vec<(f64, f64)>,
+}
+
+/// Which methods a figure shows. The shared palette has 10 colours, so figures keep to 10
+/// curves:
+/// - `dth_joint` with default options is left out: where it converges its results equal
+///   `dth_joint_scaled_stall` (same equations, same residual tolerance), and it fails at
+///   256-512 points per period and finer (tables and data keep it);
+/// - energy and invariant figures leave out `dth_nested` (same values as the joint solver,
+///   only slower) to make room for the vertex curve of `dth_joint_scaled_stall`;
+/// - `_generated` variants go to their own figure ([`Selection::Derivatives`]).
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Selection {
+    Main,
+    Derivatives,
+}
+
+fn shown(method: &str, kind: &str, selection: Selection) -> bool {
+    match selection {
+        Selection::Main => {
+            !method.ends_with("_generated")
+                && method != "dth_joint"
+                && !(kind != "global" && method == "dth_nested")
+        }
+        Selection::Derivatives => {
+            method.ends_with("_generated")
+                || method == "dth_joint_scaled_stall"
+                || method == "midpoint"
+                || method == "gauss_legendre2"
+        }
+    }
+}
+
+fn curves(records: &[Record], system: &str, kind: &str, selection: Selection) -> Vec<Curve> {
+    let mut methods: Vec<&str> = Vec::new();
+    for r in records.iter().filter(|r| r.system == system) {
+        if !methods.contains(&r.method) && shown(r.method, kind, selection) {
+            methods.push(r.method);
+        }
+    }
+    let mut out = Vec::new();
+    for m in &methods {
+        let runs: Vec<&Record> = records
+            .iter()
+            .filter(|r| r.system == system && r.method == *m && r.failure.is_none())
+            .filter(|r| r.time.is_finite() && r.time > 0.0)
+            .collect();
+        let mut series = |label: String, f: &dyn Fn(&Record) -> f64| {
+            let mut points: Vec<(f64, f64)> = runs
+                .iter()
+                .map(|r| (r.time, f(r)))
+                .filter(|(_, e)| e.is_finite())
+                .map(|(t, e)| (t, e.max(FLOOR)))
+                .collect();
+            points.sort_by(|a, b| a.0.total_cmp(&b.0));
+            if !points.is_empty() {
+                out.push(Curve { label, points });
+            }
+        };
+        let dth = m.starts_with("dth");
+        let suffix = if dth && kind != "global" {
+            " (midpoints)"
+        } else {
+            ""
+        };
+        series(format!("{m}{suffix}"), &|r| error_of(r, kind));
+        if dth && selection == Selection::Main {
+            match kind {
+                "energy" => series(format!("{m} (vertices)"), &|r| {
+                    r.vertex_energy_error.unwrap_or(f64::NAN)
+                }),
+                "invariant" => series(format!("{m} (vertices)"), &|r| {
+                    r.vertex_invariant_error.unwrap_or(f64::NAN)
+                }),
+                _ => {}
+            }
+        }
+    }
+    out
+}
+
+/// One PNG + SVG per problem and error kind (global, energy, and the invariant where there is
+/// one), named `<system>_<kind>`.
+pub(crate) fn diagrams(
+    records: &[Record],
+    infos: &[ProblemInfo],
+    out: &Path,
+) -> Result<Vec<PathBuf>, Error> {
+    let mut files = Vec::new();
+    for info in infos {
+        let mut kinds = vec![
+            (
+                "global",
+                format!("global error at T = {:.3} (phase-space norm)", info.t_end),
+            ),
+            (
+                "energy",
+                format!(
+                    "max |H - H(z0)| (DTH vertices: vs. first vertex; < {FLOOR:.0e} drawn at it)"
+                ),
+            ),
+        ];
+        if let Some(name) = info.invariant {
+            kinds.push((
+                "invariant",
+                format!("max |{name} deviation| (DTH vertices: vs. first vertex)"),
+            ));
+        }
+        let derivatives = records
+            .iter()
+            .any(|r| r.system == info.name && r.method.ends_with("_generated"));
+        for (kind, y_label) in kinds {
+            let mut figures = vec![(
+                format!("{}: {kind} error vs. wall time", info.title),
+                format!("{}_{kind}", info.name),
+                Selection::Main,
+            )];
+            if derivatives && kind == "global" {
+                figures.push((
+                    format!("{}: hand-written vs. generated derivatives", info.title),
+                    format!("{}_derivatives_{kind}", info.name),
+                    Selection::Derivatives,
+                ));
+            }
+            for (title, stem, selection) in figures {
+                let mut figure = Figure::new(
+                    &title,
+                    "wall time to reach T (s), median of repeats",
+                    &y_label,
+                )
+                .with_log(true, true);
+                figure.size = (1100, 750);
+                for c in curves(records, info.name, kind, selection) {
+                    figure = figure.with_series(Series::new(&c.label, Mark::Line, c.points));
+                }
+                files.extend(figure.render(out, &stem)?);
+            }
+        }
+    }
+    Ok(files)
+}

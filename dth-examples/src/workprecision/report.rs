@@ -1,0 +1,330 @@
+//! Results as JSON, CSV and markdown tables; the machine and date they were measured on.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use serde::Serialize;
+
+use super::problems::ProblemInfo;
+use super::{Error, Record, Summary};
+
+/// Where and when the results were measured.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Machine {
+    /// CPU model (`/proc/cpuinfo`), or `"unknown"`.
+    pub cpu: String,
+    /// Hardware threads available to this process.
+    pub threads: usize,
+    /// Operating system and kernel release.
+    pub os: String,
+    /// `"release"` or `"dev"` (timings in the dev profile mean little).
+    pub profile: &'static str,
+    /// Date and time (UTC) at the start of the run, ISO 8601.
+    pub date: String,
+}
+
+impl Machine {
+    /// Describe this machine now.
+    pub fn detect() -> Self {
+        let cpu = std::fs::read_to_string("/proc/cpuinfo")
+            .ok()
+            .and_then(|s| {
+                s.lines()
+                    .find(|l| l.starts_with("model name"))
+                    .and_then(|l| l.split(':').nth(1))
+                    .map(|m| m.trim().to_string())
+            })
+            .unwrap_or_else(|| "unknown".to_string());
+        let kernel = std::fs::read_to_string("/proc/sys/kernel/osrelease")
+            .map(|s| s.trim().to_string())
+            .unwrap_or_default();
+        Machine {
+            cpu,
+            threads: std::thread::available_parallelism().map_or(1, |n| n.get()),
+            os: format!("{} {kernel}", std::env::consts::OS),
+            profile: if cfg!(debug_assertions) {
+                "dev"
+            } else {
+                "release"
+            },
+            date: utc_now(),
+        }
+    }
+}
+
+/// The current UTC time as `YYYY-MM-DDTHH:MM:SSZ` (civil-from-days, H. Hinnant's algorithm).
+fn utc_now() -> String {
+    let secs = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_secs());
+    let (days, rem) = (secs / 86_400, secs % 86_400);
+    let z = days as i64 + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z - era * 146_097;
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let day = doy - (153 * mp + 2) / 5 + 1;
+    let month = if mp < 10 { mp + 3 } else { mp - 9 };
+    let year = yoe + era * 400 + i64::from(month <= 2);
+    format!(
+        "{year:04}-{month:02}-{day:02}T{:02}:{:02}:{:02}Z",
+        rem / 3600,
+        rem / 60 % 60,
+        rem % 60
+    )
+}
+
+fn write(path: PathBuf, contents: &[u8]) -> Result<PathBuf, Error> {
+    std::fs::write(&path, contents).map_err(|source| Error::Io {
+        path: path.clone(),
+        source,
+    })?;
+    Ok(path)
+}
+
+fn opt(x: Option<f64>) -> String {
+    x.map_or(String::new(), |v| format!("{v:e}"))
+}
+
+/// Write `workprecision.json`, `workprecision.csv` and `summary.md` into `out`.
+pub(crate) fn write_all(summary: &Summary, out: &Path) -> Result<Vec<PathBuf>, Error> {
+    let json = serde_json::to_string_pretty(summary)?;
+    let mut csv = String::from(
+        "system,method,parameter_kind,parameter,steps,mean_dt,time,time_min,timed_runs,global_error,\
+         vertex_error,energy_error,vertex_energy_error,invariant_error,vertex_invariant_error,\
+         newton_per_step,evaluations_per_step,failure\n",
+    );
+    for r in &summary.records {
+        let _ = writeln!(
+            csv,
+            "{},{},{},{:e},{},{:e},{:e},{:e},{},{:e},{},{:e},{},{},{},{},{},\"{}\"",
+            r.system,
+            r.method,
+            r.parameter_kind,
+            r.parameter,
+            r.steps,
+            r.mean_dt,
+            r.time,
+            r.time_min,
+            r.timed_runs,
+            r.global_error,
+            opt(r.vertex_error),
+            r.energy_error,
+            opt(r.vertex_energy_error),
+            opt(r.invariant_error),
+            opt(r.vertex_invariant_error),
+            opt(r.newton_per_step),
+            opt(r.evaluations_per_step),
+            r.failure.as_deref().unwrap_or("").replace('"', "'"),
+        );
+    }
+    let m = &summary.machine;
+    let md = format!(
+        "Measured {} on {} ({} threads, {}), {} profile{}.\n\n{}",
+        m.date,
+        m.cpu,
+        m.threads,
+        m.os,
+        m.profile,
+        if summary.quick { ", quick sweep" } else { "" },
+        summary.tables
+    );
+    Ok(vec![
+        write(out.join("workprecision.json"), json.as_bytes())?,
+        write(out.join("workprecision.csv"), csv.as_bytes())?,
+        write(out.join("summary.md"), md.as_bytes())?,
+    ])
+}
+
+/// The error of kind `kind` of a record (`"global"`, `"energy"`, `"invariant"`), NaN if absent
+/// or failed.
+pub(crate) fn error_of(r: &Record, kind: &str) -> f64 {
+    if r.failure.is_some() {
+        return f64::NAN;
+    }
+    match kind {
+        "global" => r.global_error,
+        "energy" => r.energy_error,
+        "invariant" => r.invariant_error.unwrap_or(f64::NAN),
+        _ => f64::NAN,
+    }
+}
+
+/// The cheapest run of `method` on `system` whose error of `kind` is at most `target`.
+fn cheapest<'a>(
+    records: &'a [Record],
+    system: &str,
+    method: &str,
+    kind: &str,
+    target: f64,
+) -> Option<&'a Record> {
+    records
+        .iter()
+        .filter(|r| r.system == system && r.method == method)
+        .filter(|r| error_of(r, kind) <= target && r.time.is_finite())
+        .min_by(|a, b| a.time.total_cmp(&b.time))
+}
+
+fn methods_of<'a>(records: &'a [Record], system: &str) -> Vec<&'a str> {
+    let mut v: Vec<&str> = Vec::new();
+    for r in records.iter().filter(|r| r.system == system) {
+        if !v.contains(&r.method) {
+            v.push(r.method);
+        }
+    }
+    v
+}
+
+fn is_dth(method: &str) -> bool {
+    method.starts_with("dth")
+}
+
+/// Classical order of a method by its recorded name.
+fn order(method: &str) -> u32 {
+    if method.starts_with("dop853") {
+        8
+    } else if method.starts_with("rk4") || method.starts_with("gauss_legendre2") {
+        4
+    } else {
+        2
+    }
+}
+
+fn seconds(t: f64) -> String {
+    if t >= 1.0 {
+        format!("{t:.2} s")
+    } else if t >= 1e-3 {
+        format!("{:.2} ms", t * 1e3)
+    } else {
+        format!("{:.1} us", t * 1e6)
+    }
+}
+
+/// The targets of the headline table: `(kind, target)`.
+pub(crate) const TARGETS: [(&str, f64); 4] = [
+    ("global", 1e-3),
+    ("global", 1e-6),
+    ("global", 1e-9),
+    ("energy", 1e-13),
+];
+
+/// Markdown: per problem, the headline table (cheapest method per target, DTH relative to it)
+/// and the matrix of every method's cheapest time per target with its Newton iterations.
+pub(crate) fn tables(records: &[Record], infos: &[ProblemInfo]) -> String {
+    let mut s = String::new();
+    for info in infos {
+        let system = info.name;
+        let methods = methods_of(records, system);
+        let _ = writeln!(
+            s,
+            "#### {} (`{system}`, T = {:.4}, {} periods)\n",
+            info.title,
+            info.t_end,
+            (info.t_end / info.period).round()
+        );
+        let _ = writeln!(
+            s,
+            "| target | cheapest method | its time | cheapest 2nd-order peer | its time | best DTH | DTH time | DTH / cheapest | DTH / 2nd-order peer |\n\
+             |---|---|---|---|---|---|---|---|---|"
+        );
+        let fastest = |filter: &dyn Fn(&str) -> bool, kind: &str, target: f64| {
+            methods
+                .iter()
+                .filter(|m| filter(m))
+                .filter_map(|m| cheapest(records, system, m, kind, target))
+                .min_by(|a, b| a.time.total_cmp(&b.time))
+        };
+        let describe = |r: Option<&Record>| {
+            r.map_or(("not reached".to_string(), "-".to_string()), |r| {
+                (
+                    format!("{} ({} {:.3e})", r.method, r.parameter_kind, r.parameter),
+                    seconds(r.time),
+                )
+            })
+        };
+        let ratio = |a: Option<&Record>, b: Option<&Record>| match (a, b) {
+            (Some(a), Some(b)) => format!("{:.2}", a.time / b.time),
+            _ => "-".to_string(),
+        };
+        for (kind, target) in TARGETS {
+            let best = fastest(&|_| true, kind, target);
+            let second = fastest(&|m| !is_dth(m) && order(m) == 2, kind, target);
+            let dth = fastest(&is_dth, kind, target);
+            let label = format!("{kind} <= {target:.0e}");
+            let (bm, bt) = describe(best);
+            let (sm, st) = describe(second);
+            let (dm, dt) = match dth {
+                Some(d) => (d.method.to_string(), seconds(d.time)),
+                None => {
+                    let best_dth = records
+                        .iter()
+                        .filter(|r| r.system == system && is_dth(r.method))
+                        .map(|r| error_of(r, kind))
+                        .filter(|e| e.is_finite())
+                        .fold(f64::INFINITY, f64::min);
+                    (
+                        format!("not reached (best {best_dth:.1e})"),
+                        "-".to_string(),
+                    )
+                }
+            };
+            let _ = writeln!(
+                s,
+                "| {label} | {bm} | {bt} | {sm} | {st} | {dm} | {dt} | {} | {} |",
+                ratio(dth, best),
+                ratio(dth, second)
+            );
+        }
+        let _ = writeln!(
+            s,
+            "\nCheapest time per method to reach each target (`-`: not reached in the sweep); \
+             Newton iterations per step over the sweep (nested DTH: LU factorizations):\n"
+        );
+        let _ = writeln!(
+            s,
+            "| method | err <= 1e-3 | err <= 1e-6 | err <= 1e-9 | energy <= 1e-13 | Newton/step | failures |\n\
+             |---|---|---|---|---|---|---|"
+        );
+        for m in &methods {
+            let mut row = format!("| {m} |");
+            for (kind, target) in TARGETS {
+                let cell = cheapest(records, system, m, kind, target)
+                    .map_or("-".to_string(), |r| seconds(r.time));
+                let _ = write!(row, " {cell} |");
+            }
+            let newton: Vec<f64> = records
+                .iter()
+                .filter(|r| r.system == system && r.method == *m && r.failure.is_none())
+                .filter_map(|r| r.newton_per_step)
+                .collect();
+            let newton = if newton.is_empty() {
+                "-".to_string()
+            } else {
+                let lo = newton.iter().copied().fold(f64::INFINITY, f64::min);
+                let hi = newton.iter().copied().fold(0.0, f64::max);
+                format!("{lo:.2}-{hi:.2}")
+            };
+            let failures = records
+                .iter()
+                .filter(|r| r.system == system && r.method == *m && r.failure.is_some())
+                .count();
+            let _ = writeln!(row, " {newton} | {failures} |");
+            s.push_str(&row);
+        }
+        s.push('\n');
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn utc_date_is_well_formed() {
+        let d = utc_now();
+        assert_eq!(d.len(), 20, "{d}");
+        assert!(d.starts_with("20") && d.ends_with('Z'));
+    }
+}
