@@ -168,6 +168,7 @@ impl<const D: usize, S: Hamiltonian<D>> Hamiltonian<D> for WithoutDth<S> {
     const TIME_DEPENDENT: bool = S::TIME_DEPENDENT;
     const SEPARABLE: bool = S::SEPARABLE;
     const PSI_IDENTICALLY_ZERO: bool = S::PSI_IDENTICALLY_ZERO;
+    const EXACT_DIVIDED_DIFFERENCES: bool = S::EXACT_DIVIDED_DIFFERENCES;
 
     #[inline]
     fn value(&self, z: &SVector<f64, D>) -> f64 {
@@ -192,6 +193,15 @@ impl<const D: usize, S: Hamiltonian<D>> Hamiltonian<D> for WithoutDth<S> {
     #[inline]
     fn discrete_gradient(&self, z0: &SVector<f64, D>, z1: &SVector<f64, D>) -> SVector<f64, D> {
         self.0.discrete_gradient(z0, z1)
+    }
+    #[inline]
+    fn discrete_gradient_defect(
+        &self,
+        z0: &SVector<f64, D>,
+        z1: &SVector<f64, D>,
+        gbar: &SVector<f64, D>,
+    ) -> SVector<f64, D> {
+        self.0.discrete_gradient_defect(z0, z1, gbar)
     }
     #[inline]
     fn energy_difference(&self, z0: &SVector<f64, D>, z1: &SVector<f64, D>) -> f64 {

@@ -104,14 +104,8 @@ fn every_peer_follows_the_exact_kepler_orbit_at_a_small_step() {
 
 #[test]
 fn dth_runs_the_forced_oscillator_in_the_extended_phase_space() {
-    // dtau = 0.025, not 0.02: on main's stepper the Newton stop rule fails at dtau <= 0.02 on
-    // this orbit for the generated and the hand-written H alike (0.01: step 156 / 104;
-    // 0.015: 612 / 119; 0.02: 525 / passes by luck), with a scaled residual of 7e-17 after 50
-    // iterations: lambda's roundoff (eps/dtau^2, NOTES.md "The energy residual is
-    // ill-conditioned") stays above the stall tolerance 2^-40. That is the stepper's (hard
-    // cases) to fix, not this wiring test's.
     let text = "[system]\nname = \"forced_oscillator\"\n[initial]\nq = [1.0]\np = [0.0]\nt = 0.5\n\
-                [[method]]\nkind = \"dth\"\ndtau = 0.025\n[duration]\ntime = 10.0\n\
+                [[method]]\nkind = \"dth\"\ndtau = 0.02\n[duration]\ntime = 10.0\n\
                 [[effect]]\nkind = \"final_state\"\n[[effect]]\nkind = \"energy_deviation\"\n";
     let scene = dth_examples::check_scene(text, "forced.toml", &Catalogue::builtin()).unwrap();
     let sys = ForcedOscillator {
@@ -142,7 +136,7 @@ fn dth_runs_the_forced_oscillator_in_the_extended_phase_space() {
         p += h / 6.0 * (k1p + 2.0 * k2p + 2.0 * k3p + k4p);
         t += h;
     }
-    // DTH with dtau = 0.025 and lambda ~ 1: error O(dtau^2) ~ 6e-4 over ten time units.
+    // DTH with dtau = 0.02 and lambda ~ 1: error O(dtau^2) ~ 4e-4 over ten time units.
     let err = (f.z[0] - q).abs().max((f.z[2] - p).abs());
     assert!(err < 2e-3, "{:?} vs {q} {p}", f.z);
 }
