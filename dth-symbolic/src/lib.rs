@@ -32,6 +32,7 @@
 pub mod arena;
 mod build;
 pub mod check;
+pub mod defect;
 pub mod diff;
 pub mod display;
 pub mod divided;
