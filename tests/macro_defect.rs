@@ -1,0 +1,232 @@
+//! The discrete-gradient defect `t = g(z0) + g(z1) - 2 gbar(z0, z1)` that `hamiltonian!`
+//! generates (`dth_symbolic::defect`): bit-for-bit the engine's program for every kernel,
+//! equal to the hand-written exact defects of `dth::systems::{Kepler, Pendulum}` to a few eps
+//! of their own size down to steps of 1e-9, and the DTH stepper on a generated Kepler: the
+//! cancellation-free residual is chosen by `EnergyResidual::Auto`, and `lambda` at
+//! `dtau = 1e-5` equals the hand-written Kepler's to a few eps (the plain residual's noise is
+//! `eps / dtau^2` relative, about 1e-6 here).
+
+use dth::dth::{Dth, DthOptions, EnergyResidual};
+use dth::nalgebra::{SVector, Vector2, Vector4};
+use dth::systems::{Kepler, Pendulum};
+use dth::Hamiltonian;
+use dth_symbolic::{compile, Method};
+
+const EPS: f64 = f64::EPSILON;
+
+dth::hamiltonian! {
+    /// `H = |p|^2 / (2 m) - k / |q|`.
+    #[derive(Clone, Copy, Debug)]
+    pub struct KeplerMk { pub m: f64, pub k: f64 } = (p1^2 + p2^2)/(2*m) - k*(q1^2 + q2^2)^(-1/2)
+}
+
+dth::hamiltonian! {
+    /// The thesis's Kepler problem.
+    #[derive(Clone, Copy, Debug)]
+    pub struct KeplerThesis = p1^2 + p2^2 - (q1^2 + q2^2)^(-1/2)
+}
+
+dth::hamiltonian! {
+    /// `H = p^2 / (2 m l^2) - m g l cos q`.
+    #[derive(Clone, Copy, Debug)]
+    pub struct PendulumMlg { pub m: f64, pub l: f64, pub g: f64 } = p1^2/(2*m*l^2) - m*g*l*cos(q1)
+}
+
+dth::hamiltonian! {
+    /// Every function, power form and so every defect kernel, with parameters.
+    pub struct Everything { pub a: f64, pub b: f64 } =
+        p1^2/(2*a) + p2^2/2 + sin(q1)*cos(q2) + tan(q1/3) + exp(-q2^2) + ln(1 + q1^2)
+        + sqrt(1 + p1^2) + sinh(q1/2) + cosh(q2/2) + tanh(q1*q2) + atan(p2)
+        + b*(q1^2 + q2^2)^(-3/2) + (1 + q2^2)^(1/3) + q1^5 - 0.25*q2^(-2) + (1 + p1^2)^(a*q2)
+        + pi*q1*p2
+}
+
+const EVERYTHING: &str = "p1^2/(2*a) + p2^2/2 + sin(q1)*cos(q2) + tan(q1/3) + exp(-q2^2)
+    + ln(1 + q1^2) + sqrt(1 + p1^2) + sinh(q1/2) + cosh(q2/2) + tanh(q1*q2) + atan(p2)
+    + b*(q1^2 + q2^2)^(-3/2) + (1 + q2^2)^(1/3) + q1^5 - 0.25*q2^(-2) + (1 + p1^2)^(a*q2)
+    + pi*q1*p2";
+
+/// The generated kernels spell out `Kernel::apply`'s formulas and the generated code performs
+/// the engine's program in order: equal bit for bit, at steps in the series branches, in the
+/// closed-form branches, and at `z0 = z1`.
+#[test]
+fn generated_defect_performs_the_engine_program_bit_for_bit() {
+    let (a, b) = (0.8, 0.3);
+    let h = Everything { a, b };
+    let program = compile(EVERYTHING, &["a", "b"])
+        .unwrap()
+        .program(Method::DiscreteGradientDefect);
+    let z0 = [0.6, -0.9, 0.4, 1.1];
+    for z1 in [
+        [0.61, -0.85, 0.38, 1.2],
+        [0.6 + 1e-12, -0.9, 0.4, 1.1],
+        z0,
+        [-0.3, 1.4, 0.9, -0.2],
+        [2.9, -3.5, 3.1, -2.4],
+    ] {
+        let e = program.eval_pair(&z0, &z1, &[a, b]).unwrap();
+        let (v0, v1) = (SVector::from(z0), SVector::from(z1));
+        let gbar = h.discrete_gradient(&v0, &v1);
+        let t = h.discrete_gradient_defect(&v0, &v1, &gbar);
+        for i in 0..4 {
+            assert_eq!(
+                t[i].to_bits(),
+                e.discrete_gradient_defect[i].to_bits(),
+                "t {i} at {z1:?}: {} vs {}",
+                t[i],
+                e.discrete_gradient_defect[i]
+            );
+        }
+    }
+    assert!(<Everything as Hamiltonian<4>>::EXACT_DIVIDED_DIFFERENCES);
+}
+
+/// Points on and off the thesis orbit, and step directions.
+const KEPLER_POINTS: [[f64; 4]; 3] = [
+    [0.5, 0.0, 0.0, 1.2],
+    [-0.3, 0.4, 0.7, -0.2],
+    [1.5, -1.2, -0.1, 0.3],
+];
+const KEPLER_DIRS: [[f64; 4]; 2] = [[0.7, -0.4, 0.2, 0.9], [-0.2, 0.9, 0.5, -0.3]];
+
+/// Kepler: the generated defect (symbolic recursion through `(.)^(-1/2)`, a sum of squares
+/// and a product) against the hand-written closed form, both cancellation-free: they agree to
+/// a few eps of `|t|` however small the step, while each is `O(s^2)`.
+#[test]
+fn kepler_defect_matches_the_hand_written_one() {
+    let (hand, gen, thesis) = (
+        Kepler { mass: 0.7, k: 1.3 },
+        KeplerMk { m: 0.7, k: 1.3 },
+        KeplerThesis,
+    );
+    let mut worst = 0.0f64;
+    for z0 in KEPLER_POINTS.map(Vector4::from) {
+        for dir in KEPLER_DIRS.map(Vector4::from) {
+            for s in [1e-1, 1e-3, 1e-5, 1e-7, 1e-9] {
+                let z1 = z0 + dir * s;
+                for (t_hand, t_gen) in [
+                    (
+                        hand.discrete_gradient_defect(&z0, &z1, &hand.discrete_gradient(&z0, &z1)),
+                        gen.discrete_gradient_defect(&z0, &z1, &gen.discrete_gradient(&z0, &z1)),
+                    ),
+                    (
+                        Kepler::thesis().discrete_gradient_defect(
+                            &z0,
+                            &z1,
+                            &Kepler::thesis().discrete_gradient(&z0, &z1),
+                        ),
+                        thesis.discrete_gradient_defect(
+                            &z0,
+                            &z1,
+                            &thesis.discrete_gradient(&z0, &z1),
+                        ),
+                    ),
+                ] {
+                    // The hand-written form is accurate to a few roundings of its O(s^2)
+                    // terms. The generated one has in addition the rounding of its plain
+                    // differences f'(a1) - f'(a0) and g_a1 - g_a0 (eps |f'|, eps |g_a|), each
+                    // multiplying an O(s) factor: eps |grad H| |d| / |z| absolute, the
+                    // accuracy the stepper needs (relative to t that is eps / s).
+                    let size = t_hand.amax();
+                    let g = hand.gradient(&z0).amax().max(thesis.gradient(&z0).amax());
+                    let scale = size + g * (z1 - z0).norm() / z0.norm();
+                    let err = (t_hand - t_gen).amax();
+                    assert!(size > 0.0 && size < 100.0 * s * s, "{t_hand} at s = {s}");
+                    assert!(
+                        err <= 16.0 * EPS * scale,
+                        "at {z0} step {s}: {t_gen} vs {t_hand}: {:.1} eps",
+                        err / (EPS * scale)
+                    );
+                    worst = worst.max(err / (EPS * scale));
+                }
+            }
+        }
+    }
+    eprintln!(
+        "Kepler: generated vs hand-written defect, worst {worst:.2} eps of |t| + |g| |d| / |z|"
+    );
+}
+
+/// The pendulum: `-m g l cos q` through the `cos` rule against the hand-written
+/// `2 m g l sin(qm) (cos x - sinc x)`.
+#[test]
+fn pendulum_defect_matches_the_hand_written_one() {
+    let (m, l, g) = (1.3, 0.7, 9.8);
+    let hand = Pendulum {
+        mass: m,
+        length: l,
+        gravity: g,
+    };
+    let gen = PendulumMlg { m, l, g };
+    let mut worst = 0.0f64;
+    for z0 in [[0.4, -1.1], [2.5, 0.3], [-1.0, 2.0]].map(Vector2::from) {
+        for s in [1.5, 3e-1, 1e-2, 1e-4, 1e-6, 1e-8] {
+            let z1 = z0 + Vector2::new(1.0, 0.5) * s;
+            let t_hand = hand.discrete_gradient_defect(&z0, &z1, &hand.discrete_gradient(&z0, &z1));
+            let t_gen = gen.discrete_gradient_defect(&z0, &z1, &gen.discrete_gradient(&z0, &z1));
+            let size = t_hand.amax();
+            // The same formula up to the order of the products: a few roundings.
+            let err = (t_hand - t_gen).amax();
+            assert!(size > 0.0, "at {z0} step {s}");
+            assert!(
+                err <= 16.0 * EPS * size,
+                "at {z0} step {s}: {t_gen} vs {t_hand}"
+            );
+            worst = worst.max(err / (EPS * size));
+        }
+    }
+    eprintln!("pendulum: generated vs hand-written defect, worst {worst:.2} eps of |t|");
+}
+
+/// Runs `steps` DTH steps at `dtau` from the thesis initial condition; the multipliers.
+fn lambdas<H: Hamiltonian<4>>(
+    h: H,
+    dtau: f64,
+    residual: EnergyResidual,
+    steps: usize,
+) -> (bool, Vec<f64>) {
+    let options = DthOptions::default()
+        .with_dtau(dtau)
+        .unwrap()
+        .with_energy_residual(residual);
+    let mut dth = Dth::new(h, Vector4::new(0.5, 0.0, 0.0, 1.2), options).unwrap();
+    let cancellation_free = dth.cancellation_free();
+    let mut out = Vec::new();
+    for _ in 0..steps {
+        dth.step().unwrap();
+        out.push(dth.lambda());
+    }
+    (cancellation_free, out)
+}
+
+/// End to end: with `EnergyResidual::Auto` the generated Kepler now solves its energy equation
+/// in the cancellation-free form, and its `lambda` at `dtau = 1e-5` equals the hand-written
+/// Kepler's to a few eps, where the plain residual leaves noise of order `eps / dtau^2`.
+#[test]
+fn stepper_on_a_generated_kepler_uses_the_cancellation_free_residual() {
+    let dtau = 1e-5;
+    let steps = 20;
+    let (cf_gen, gen) = lambdas(KeplerThesis, dtau, EnergyResidual::Auto, steps);
+    let (cf_hand, hand) = lambdas(Kepler::thesis(), dtau, EnergyResidual::Auto, steps);
+    assert!(cf_gen && cf_hand);
+    let (_, plain) = lambdas(KeplerThesis, dtau, EnergyResidual::Plain, steps);
+    let (mut worst, mut worst_plain) = (0.0f64, 0.0f64);
+    for k in 0..steps {
+        // Both solve the same equations to a few eps of lambda (each is accurate to a few
+        // eps; the two Hamiltonians round differently, so the difference is the sum).
+        let err = (gen[k] - hand[k]).abs() / hand[k];
+        assert!(
+            err <= 8.0 * EPS,
+            "step {k}: {} vs {}: {:.1} eps",
+            gen[k],
+            hand[k],
+            err / EPS
+        );
+        worst = worst.max(err);
+        worst_plain = worst_plain.max((plain[k] - hand[k]).abs() / hand[k]);
+    }
+    eprintln!(
+        "dtau = {dtau:e}: generated vs hand-written lambda {:.2} eps (plain residual: {worst_plain:.2e})",
+        worst / EPS
+    );
+}
