@@ -78,7 +78,7 @@ fn generated_defect_performs_the_engine_program_bit_for_bit() {
             );
         }
     }
-    assert!(<Everything as Hamiltonian<4>>::EXACT_DIVIDED_DIFFERENCES);
+    const { assert!(<Everything as Hamiltonian<4>>::EXACT_DIVIDED_DIFFERENCES) };
 }
 
 /// Points on and off the thesis orbit, and step directions.
