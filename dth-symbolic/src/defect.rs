@@ -894,6 +894,39 @@ mod tests {
         check_large("p1^2/2 + tan(q1)", &Z, &DIR, -2.0);
     }
 
+    /// Far-apart points where the values over- or underflow: the defect stays finite and equals
+    /// the plain difference (accurate there: `t` is as large as the gradients).
+    #[test]
+    fn extreme_arguments() {
+        // exp(-q1^2) underflows at q1 = 30; the jump in its argument (875) overflows expm1
+        // and cosh(x/2).
+        check_large("p1^2/2 + exp(-q1^2)", &[30.0, 0.0], &[-25.0, 0.0], 1.0);
+        // tanh whose argument jumps by 800 (sinh(800) overflows): the plain branch.
+        let z1 = (800.0f64 - 0.125).cbrt();
+        check_large("p1^2/2 + tanh(q1^3)", &[-0.5, 0.0], &[z1 + 0.5, 0.0], 1.0);
+        // Both ends of tanh beyond 350: every term below 1e-300, finite.
+        let case = Case::new("p1^2/2 + tanh(q1)");
+        let (t, _, _) = case.at(&[400.0, 0.0], &[400.5, 0.0]);
+        assert!(t.iter().all(|x| x.is_finite() && x.abs() < 1e-300), "{t:?}");
+        // sinh, cosh across a large step (closed form of cosh x - sinh(x)/x).
+        check_large(
+            "p1^2/2 + sinh(q1) + cosh(q1)",
+            &[-3.0, 0.0],
+            &[8.0, 0.0],
+            1.0,
+        );
+    }
+
+    #[test]
+    fn time_dependent() {
+        // z = (q1, t, p1, p_t).
+        check(
+            "p1^2/2 + q1^2/2 - q1*cos(2*t)",
+            &[0.3, 1.0, -0.2, 0.1],
+            &[0.5, 0.9, 0.4, -0.3],
+        );
+    }
+
     const Z: [f64; 2] = [0.7, -0.4];
     const DIR: [f64; 2] = [0.9, 0.5];
 
