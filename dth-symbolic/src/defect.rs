@@ -360,7 +360,10 @@ impl Defect<'_> {
                 self.power_derivative(bv, e)
             }
             Node::Func(f, u) => {
-                let (uv, v) = (self.at(u, z1), self.at(id, z1));
+                let uv = self.at(u, z1);
+                // The value f(u), for the derivatives written through it (read lazily: the
+                // others need no call of f).
+                let value = |this: &mut Self| this.at(id, z1);
                 let one = self.d.one;
                 match f {
                     Func::Sin => self.emit(Op::Call(Func::Cos, uv)),
@@ -369,14 +372,16 @@ impl Defect<'_> {
                         self.emit(Op::Neg(s))
                     }
                     Func::Tan => {
+                        let v = value(self);
                         let vv = self.d.mul(v, v);
                         self.d.add(one, vv)
                     }
-                    Func::Exp => v,
+                    Func::Exp => value(self),
                     Func::Ln => self.d.l.recip(uv),
                     Func::Sinh => self.emit(Op::Call(Func::Cosh, uv)),
                     Func::Cosh => self.emit(Op::Call(Func::Sinh, uv)),
                     Func::Tanh => {
+                        let v = value(self);
                         let vv = self.d.mul(v, v);
                         self.sub(one, vv)
                     }
