@@ -7,8 +7,11 @@
 //! with the `gbar` that [`crate::divided`] emits (the same product rule, folded in the same
 //! order; exact divided differences `DD_f` at compositions). Every node `a` carries its values
 //! `a0`, `a1`, `delta_a = gbar_a . d`, its discrete gradient `gbar_a`, its gradients `g_a0`,
-//! `g_a1` at both points (forward mode; `Dg_a = g_a1 - g_a0` as a plain difference, whose
-//! error `eps |g_a|` only ever multiplies an `O(|d|)` factor) and its defect `t_a`:
+//! `g_a1` at both points (forward mode), `Dg_a = g_a1 - g_a0` and its defect `t_a`. `Dg_a` and
+//! `f'(a1) - f'(a0)` are not plain differences (those would be accurate only to `eps |g|`,
+//! enough for the stepper since they multiply `O(|d|)` factors, but `eps / |d|` relative to
+//! `t`): they are built by exact rules too (see `Defect::dgrad` and the `df` of each `T_f`),
+//! so `t` keeps a few `eps` of relative accuracy however small `d` is.
 //!
 //! | node | `t` |
 //! |---|---|
@@ -192,6 +195,8 @@ struct Piece {
     d0: Slot,
     d1: Slot,
     dd: Slot,
+    /// `f'(b1) - f'(b0)`, without cancellation.
+    df: Slot,
     t: Option<Slot>,
     /// `f(b0)`, `f(b1)`, `f(b1) - f(b0)`.
     out: (Slot, Slot, Slot),
@@ -409,19 +414,32 @@ impl Defect<'_> {
         self.d.mul(k, p)
     }
 
-    /// `g_a1 - g_a0`.
+    /// `Dg_a = g_a1 - g_a0`, without cancellation: `0` for leaves, summed over sums, and for
+    /// products and compositions by the exact rules `Dg_(ab) = abar Dg_b + delta_a gm_b +
+    /// bbar Dg_a + delta_b gm_a` and `Dg_(f(a)) = mean(f') Dg_a + (f'(a1) - f'(a0)) gm_a`
+    /// (`gm = (g0 + g1)/2`; from `x1 y1 - x0 y0 = xbar (y1 - y0) + (x1 - x0) ybar`), computed
+    /// with [`Defect::defect`].
     fn dgrad(&mut self, id: Id) -> Diff {
         if let Some(g) = self.dgrad.get(&id) {
             return g.clone();
         }
-        let (g0, g1) = (self.gradient(id, false), self.gradient(id, true));
-        let v = self.difference(&g0, &g1);
+        let v = match self.arena().node(id).clone() {
+            Node::Num(_) | Node::Var(_) => Diff::default(),
+            Node::Add(terms) => {
+                let parts: Vec<Diff> = terms.iter().map(|&t| self.dgrad(t)).collect();
+                self.sum(&parts)
+            }
+            Node::Mul(_) | Node::Pow(..) | Node::Func(..) => {
+                self.defect(id);
+                self.dgrad.get(&id).cloned().unwrap_or_default()
+            }
+        };
         self.dgrad.insert(id, v.clone());
         v
     }
 
-    /// `g1 - g0` component by component (slots that are equal give no component).
-    fn difference(&mut self, g0: &Diff, g1: &Diff) -> Diff {
+    /// `(g0 + g1)/2` component by component.
+    fn mean_vec(&mut self, g0: &Diff, g1: &Diff) -> Diff {
         let mut map: std::collections::BTreeMap<u32, (Option<Slot>, Option<Slot>)> =
             Default::default();
         for &(k, s) in &g0.grad {
@@ -431,12 +449,10 @@ impl Defect<'_> {
             map.entry(k).or_default().1 = Some(s);
         }
         let mut grad = Vec::new();
-        for (k, (a, b)) in map {
-            let s = match (a, b) {
-                (Some(a), Some(b)) if a == b => continue,
-                (Some(a), Some(b)) => self.sub(b, a),
-                (None, Some(b)) => b,
-                (Some(a), None) => self.emit(Op::Neg(a)),
+        for (k, pair) in map {
+            let s = match pair {
+                (Some(a), Some(b)) => self.d.mean(a, b),
+                (Some(a), None) | (None, Some(a)) => self.half(a),
                 (None, None) => continue,
             };
             grad.push((k, s));
@@ -455,7 +471,7 @@ impl Defect<'_> {
                 let parts: Vec<Diff> = terms.iter().map(|&t| self.defect(t)).collect();
                 self.sum(&parts)
             }
-            Node::Mul(factors) => self.product(&factors),
+            Node::Mul(factors) => self.product(id, &factors),
             Node::Pow(b, _) | Node::Func(_, b) => self.composition(id, b),
         };
         self.t.insert(id, t.clone());
@@ -463,9 +479,10 @@ impl Defect<'_> {
     }
 
     /// The product rule, folded left to right as [`crate::divided`] folds `gbar`.
-    fn product(&mut self, factors: &[Id]) -> Diff {
+    fn product(&mut self, id: Id, factors: &[Id]) -> Diff {
         let (c, rest) = self.factors(factors);
         let mut t = self.defect(rest[0]);
+        let mut dg = self.dgrad(rest[0]);
         // The partial product: its gbar (as divided.rs builds it), values and gradients.
         let mut acc = self.d.diff(rest[0]);
         let (mut p0, mut p1) = (self.d.val0(rest[0]), self.d.val1(rest[0]));
@@ -476,18 +493,23 @@ impl Defect<'_> {
             let (f0, f1) = (self.d.val0(f), self.d.val1(f));
             let (gf0, gf1) = (self.gradient(f, false), self.gradient(f, true));
             let (mp, mf) = (self.d.mean(p0, p1), self.d.mean(f0, f1));
+            let dgf = self.dgrad(f);
             let mut parts = vec![self.d.scaled(&tf, mp), self.d.scaled(&t, mf)];
+            let mut dparts = vec![self.d.scaled(&dgf, mp), self.d.scaled(&dg, mf)];
             if let Some(dp) = acc.delta {
-                let dgf = self.dgrad(f);
                 let h = self.half(dp);
                 parts.push(self.d.scaled(&dgf, h));
+                let gmf = self.mean_vec(&gf0, &gf1);
+                dparts.push(self.d.scaled(&gmf, dp));
             }
             if let Some(dfd) = df.delta {
-                let dgp = self.difference(&g0, &g1);
                 let h = self.half(dfd);
-                parts.push(self.d.scaled(&dgp, h));
+                parts.push(self.d.scaled(&dg, h));
+                let gmp = self.mean_vec(&g0, &g1);
+                dparts.push(self.d.scaled(&gmp, dfd));
             }
             t = self.sum(&parts);
+            dg = self.sum(&dparts);
             // Next partial product, exactly as divided.rs forms it.
             let mut eparts = Vec::new();
             if !acc.is_zero() {
@@ -504,6 +526,8 @@ impl Defect<'_> {
             p0 = self.d.mul(p0, f0);
             p1 = self.d.mul(p1, f1);
         }
+        let dg = self.coefficient(dg, c);
+        self.dgrad.insert(id, dg);
         self.coefficient(t, c)
     }
 
@@ -511,14 +535,15 @@ impl Defect<'_> {
     fn composition(&mut self, id: Id, b: Id) -> Diff {
         let db = self.d.diff(b);
         let Some(delta) = db.delta else {
+            self.dgrad.insert(id, Diff::default());
             return Diff::default();
         };
         let (d0, d1) = (self.derivative(id, false), self.derivative(id, true));
         let (b0, b1) = (self.d.val0(b), self.d.val1(b));
-        let tf = match self.arena().node(id).clone() {
+        let (tf, df) = match self.arena().node(id).clone() {
             Node::Pow(_, e) => self.power_defect(id, e, (b0, b1, delta)),
-            Node::Func(f, _) => self.function_defect(f, (b0, b1, delta)),
-            _ => None,
+            Node::Func(f, _) => self.function_defect(id, f, (b0, b1, delta)),
+            _ => (None, self.d.one),
         };
         let tb = self.defect(b);
         let md = self.d.mean(d0, d1);
@@ -526,17 +551,22 @@ impl Defect<'_> {
         if let Some(tf) = tf {
             parts.push(self.d.scaled(&vector(&db), tf));
         }
-        if d0 != d1 {
-            let dd = self.sub(d1, d0);
-            let h = self.half(dd);
-            let dg = self.dgrad(b);
+        let dg = self.dgrad(b);
+        if !dg.is_zero() {
+            let h = self.half(df);
             parts.push(self.d.scaled(&dg, h));
         }
+        let (g0, g1) = (self.gradient(b, false), self.gradient(b, true));
+        let gm = self.mean_vec(&g0, &g1);
+        let dparts = [self.d.scaled(&dg, md), self.d.scaled(&gm, df)];
+        let dgf = self.sum(&dparts);
+        self.dgrad.insert(id, dgf);
         self.sum(&parts)
     }
 
-    /// `T_f` of `b^e`, by the chain of pieces divided.rs differences it through.
-    fn power_defect(&mut self, id: Id, e: Num, b: (Slot, Slot, Slot)) -> Option<Slot> {
+    /// `T_f` and `f'(b1) - f'(b0)` of `b^e`, by the chain of pieces divided.rs differences it
+    /// through.
+    fn power_defect(&mut self, id: Id, e: Num, b: (Slot, Slot, Slot)) -> (Option<Slot>, Slot) {
         let chain = match e.as_rational() {
             Some(r) if r.is_integer() && r.numer() > 0 => self.powi(b, r.numer()),
             Some(r) if r.is_integer() => {
@@ -555,15 +585,21 @@ impl Defect<'_> {
                 }
             }
             _ => {
+                // T = b0^(r-1) K; f'(b1) - f'(b0) = r (b1^(r-1) - b0^(r-1))
+                // = f'(b0) delta pow_ratio_(r-1)(delta, b0).
                 let r = e.to_f64();
                 let (b0, _, delta) = b;
                 let k = self.emit(Op::Kernel(Kernel::PowDefect(r), delta, b0));
                 let v0 = self.d.val0(id);
                 let q = self.div(v0, b0);
-                return Some(self.d.mul(q, k));
+                let t = self.d.mul(q, k);
+                let ratio = self.emit(Op::Kernel(Kernel::PowRatio(r - 1.0), delta, b0));
+                let d0 = self.derivative(id, false);
+                let rd = self.d.mul(ratio, delta);
+                return (Some(t), self.d.mul(d0, rd));
             }
         };
-        chain.t
+        (chain.t, chain.df)
     }
 
     /// `h` followed by `u^k` (`k >= 1`).
@@ -580,6 +616,10 @@ impl Defect<'_> {
         let d0 = self.d.mul(g.d0, h.d0);
         let d1 = self.d.mul(g.d1, h.d1);
         let dd = self.d.mul(g.dd, h.dd);
+        // g'(u1) h'(a1) - g'(u0) h'(a0) = mean(g') Dh' + Dg' mean(h').
+        let (mg, mh) = (self.d.mean(g.d0, g.d1), self.d.mean(h.d0, h.d1));
+        let (x, y) = (self.d.mul(mg, h.df), self.d.mul(g.df, mh));
+        let df = self.d.add(x, y);
         let mut terms = Vec::new();
         if let Some(th) = h.t {
             let m = self.d.mean(g.d0, g.d1);
@@ -588,12 +628,8 @@ impl Defect<'_> {
         if let Some(tg) = g.t {
             terms.push(self.d.mul(tg, h.dd));
         }
-        if g.d0 != g.d1 && h.d0 != h.d1 {
-            let dg = self.sub(g.d1, g.d0);
-            let dh = self.sub(h.d1, h.d0);
-            let p = self.d.mul(dg, dh);
-            terms.push(self.half(p));
-        }
+        let p = self.d.mul(g.df, h.df);
+        terms.push(self.half(p));
         let t = terms
             .split_first()
             .map(|(&first, rest)| rest.iter().fold(first, |acc, &s| self.d.add(acc, s)));
@@ -601,6 +637,7 @@ impl Defect<'_> {
             d0,
             d1,
             dd,
+            df,
             t,
             out: g.out,
         }
@@ -613,6 +650,10 @@ impl Defect<'_> {
         let (p0, p1) = (self.d.l.powi(a0, k - 1), self.d.l.powi(a1, k - 1));
         let (d0, d1) = (self.d.mul(kf, p0), self.d.mul(kf, p1));
         let dd = self.d.power_sum(a0, a1, k);
+        // k (a1^(k-1) - a0^(k-1)) = k F_(k-1)(a0, a1) delta.
+        let f = self.d.power_sum(a0, a1, k - 1);
+        let kf_f = self.d.mul(kf, f);
+        let df = self.d.mul(kf_f, delta);
         let j_max = (k - 1) / 2;
         let t = (j_max >= 1).then(|| {
             let binom =
@@ -649,6 +690,7 @@ impl Defect<'_> {
             d0,
             d1,
             dd,
+            df,
             t,
             out: (y0, y1, dy),
         }
@@ -666,10 +708,15 @@ impl Defect<'_> {
         let ww = self.d.mul(w, w);
         let t = self.emit(Op::Neg(ww));
         let dy = self.d.mul(dd, delta);
+        // -(u1^2 - u0^2) = -(u1 - u0)(u0 + u1).
+        let su = self.d.add(u0, u1);
+        let p = self.d.mul(dy, su);
+        let df = self.emit(Op::Neg(p));
         Piece {
             d0,
             d1,
             dd,
+            df,
             t: Some(t),
             out: (u0, u1, dy),
         }
@@ -691,37 +738,96 @@ impl Defect<'_> {
         let den = self.d.mul(two, den);
         let t = self.div(dd2, den);
         let dy = self.d.mul(dd, delta);
+        // (1/s1 - 1/s0)/2 = -(s1 - s0)/(2 s0 s1).
+        let q = self.d.mul(two, prod);
+        let r = self.div(dy, q);
+        let df = self.emit(Op::Neg(r));
         Piece {
             d0,
             d1,
             dd,
+            df,
             t: Some(t),
             out: (s0, s1, dy),
         }
     }
 
-    /// `T_f` of an elementary function at `u0`, `u1`.
-    fn function_defect(&mut self, f: Func, (u0, u1, delta): (Slot, Slot, Slot)) -> Option<Slot> {
+    /// `T_f` and `f'(u1) - f'(u0)` of the elementary function node `id = f(u)`.
+    fn function_defect(
+        &mut self,
+        id: Id,
+        f: Func,
+        (u0, u1, delta): (Slot, Slot, Slot),
+    ) -> (Option<Slot>, Slot) {
         let one = self.d.one;
         let two = self.konst(2.0);
         let kernel = |this: &mut Self, k: Kernel, x: Slot, y: Slot| this.emit(Op::Kernel(k, x, y));
-        // 2 g(m) K(delta/2) for sin, cos, sinh, cosh.
-        let mid = |this: &mut Self, g: Func, k: Kernel, negate: bool| {
+        // sin, cos, sinh, cosh: T = 2 g(m) K(x), Df' = 2 h(m) s(x), x = delta/2, with
+        // (g, h, s) = (cos, -sin, sin), (-sin, -cos, sin), (cosh, sinh, sinh), (sinh, cosh, sinh).
+        let mid = |this: &mut Self, g: Func, h: Func, k: Kernel, s: Func, sign: [f64; 2]| {
             let m = this.d.mean(u0, u1);
-            let gm = this.emit(Op::Call(g, m));
             let x = this.half(delta);
+            let gm = this.emit(Op::Call(g, m));
             let kx = kernel(this, k, x, x);
-            let c = this.konst(if negate { -2.0 } else { 2.0 });
+            let c = this.konst(2.0 * sign[0]);
             let p = this.d.mul(gm, kx);
-            this.d.mul(c, p)
+            let t = this.d.mul(c, p);
+            let hm = this.emit(Op::Call(h, m));
+            let sx = this.emit(Op::Call(s, x));
+            let c = this.konst(2.0 * sign[1]);
+            let p = this.d.mul(hm, sx);
+            (Some(t), this.d.mul(c, p))
         };
-        Some(match f {
-            Func::Sin => mid(self, Func::Cos, Kernel::CosMinusSinc, false),
-            Func::Cos => mid(self, Func::Sin, Kernel::CosMinusSinc, true),
-            Func::Sinh => mid(self, Func::Cosh, Kernel::CoshMinusSinhc, false),
-            Func::Cosh => mid(self, Func::Sinh, Kernel::CoshMinusSinhc, false),
-            Func::Exp => kernel(self, Kernel::ExpDefect, delta, u0),
-            Func::Tanh => kernel(self, Kernel::TanhDefect, delta, u0),
+        let (sinc_like, sinhc_like) = (Kernel::CosMinusSinc, Kernel::CoshMinusSinhc);
+        match f {
+            Func::Sin => mid(
+                self,
+                Func::Cos,
+                Func::Sin,
+                sinc_like,
+                Func::Sin,
+                [1.0, -1.0],
+            ),
+            Func::Cos => mid(
+                self,
+                Func::Sin,
+                Func::Cos,
+                sinc_like,
+                Func::Sin,
+                [-1.0, -1.0],
+            ),
+            Func::Sinh => mid(
+                self,
+                Func::Cosh,
+                Func::Sinh,
+                sinhc_like,
+                Func::Sinh,
+                [1.0, 1.0],
+            ),
+            Func::Cosh => mid(
+                self,
+                Func::Sinh,
+                Func::Cosh,
+                sinhc_like,
+                Func::Sinh,
+                [1.0, 1.0],
+            ),
+            Func::Exp => {
+                let t = kernel(self, Kernel::ExpDefect, delta, u0);
+                // e^u1 - e^u0 = delta exp_ratio(delta, u0).
+                let r = kernel(self, Kernel::ExpRatio, delta, u0);
+                (Some(t), self.d.mul(r, delta))
+            }
+            Func::Tanh => {
+                let t = kernel(self, Kernel::TanhDefect, delta, u0);
+                // f' = 1 - tanh^2: Df' = -(tanh u1 - tanh u0)(tanh u0 + tanh u1).
+                let r = kernel(self, Kernel::TanhRatio, delta, u0);
+                let dv = self.d.mul(r, delta);
+                let (v0, v1) = (self.d.val0(id), self.d.val1(id));
+                let sv = self.d.add(v0, v1);
+                let p = self.d.mul(dv, sv);
+                (Some(t), self.emit(Op::Neg(p)))
+            }
             Func::Tan => {
                 let c0 = self.emit(Op::Call(Func::Cos, u0));
                 let c1 = self.emit(Op::Call(Func::Cos, u1));
@@ -737,7 +843,14 @@ impl Defect<'_> {
                 let k = kernel(self, Kernel::SincMinusOne, delta, delta);
                 let k2 = self.d.mul(two, k);
                 let r = self.div(k2, cc);
-                self.sub(qq, r)
+                let t = self.sub(qq, r);
+                // f' = 1 + tan^2: Df' = (tan u1 - tan u0)(tan u0 + tan u1), and
+                // tan u1 - tan u0 = sin(delta)/(cos u0 cos u1).
+                let sd = self.emit(Op::Call(Func::Sin, delta));
+                let dv = self.div(sd, cc);
+                let (v0, v1) = (self.d.val0(id), self.d.val1(id));
+                let sv = self.d.add(v0, v1);
+                (Some(t), self.d.mul(dv, sv))
             }
             Func::Atan => {
                 let (q0, q1) = (self.d.mul(u0, u0), self.d.mul(u1, u1));
@@ -757,16 +870,26 @@ impl Defect<'_> {
                 let k = kernel(self, Kernel::SincMinusOne, theta, theta);
                 let ka = self.d.mul(k, a);
                 let ka2 = self.d.mul(two, ka);
-                self.d.add(rr, ka2)
+                let t = self.d.add(rr, ka2);
+                // 1/(1 + u1^2) - 1/(1 + u0^2) = -f'(u0) f'(u1) delta (u0 + u1).
+                let (d0, d1) = (self.derivative(id, false), self.derivative(id, true));
+                let dd = self.d.mul(d0, d1);
+                let ddn = self.d.mul(dd, num);
+                (Some(t), self.emit(Op::Neg(ddn)))
             }
             Func::Ln => {
                 let l = kernel(self, Kernel::LnRatio, delta, u0);
                 let ell = self.d.mul(l, delta);
                 let k = kernel(self, Kernel::SinhcMinusOne, ell, ell);
                 let kl = self.d.mul(k, l);
-                self.d.mul(two, kl)
+                let t = self.d.mul(two, kl);
+                // 1/u1 - 1/u0 = -delta/(u0 u1).
+                let (r0, r1) = (self.d.l.recip(u0), self.d.l.recip(u1));
+                let rr = self.d.mul(r0, r1);
+                let p = self.d.mul(rr, delta);
+                (Some(t), self.emit(Op::Neg(p)))
             }
-        })
+        }
     }
 }
 
