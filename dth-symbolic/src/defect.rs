@@ -966,6 +966,25 @@ mod tests {
             return;
         }
         assert!(size > 1e-3, "{src}: t/s^2 = {reference:?}");
+        // At the smallest steps, against the step doubled: t/s^2 changes by O(s) only, and
+        // t carries a few eps relative plus the rounding of z1 = z0 + s dir, a relative change
+        // of eps |z| / s in d (2e-9 at 1e-7): a kernel or rule that cancelled would be off by
+        // eps / s^2 relative (2e-2).
+        for s in [1e-6, 1e-7] {
+            let (v, w) = (scaled(s), scaled(2.0 * s));
+            for i in 0..v.len() {
+                // O(s) Taylor term: its coefficient relative to t/s^2 reaches ~50 here
+                // (atan(3 q1 p1): 4.5e-5 relative at 1e-6, measured).
+                let tol = 64.0 * s * size.max(1.0) + 64.0 * EPS / s * size;
+                assert!(
+                    (v[i] - w[i]).abs() <= tol,
+                    "{src}: t_{i}/s^2 = {} at {s}, {} at {}",
+                    v[i],
+                    w[i],
+                    2.0 * s
+                );
+            }
+        }
         for s in [1e-2, 1e-3, 1e-5, 1e-6, 1e-7] {
             let v = scaled(s);
             for i in 0..v.len() {

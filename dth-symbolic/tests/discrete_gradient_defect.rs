@@ -3,10 +3,10 @@
 //!
 //! - **consistency** with the engine's `gbar`: at steps from 1e-3 to 1e-1, where the plain
 //!   `g0 + g1 - 2 gbar` resolves `t`, both agree within their first-order running error bounds;
-//! - **no cancellation**: the running error bound of the defect program itself shrinks like
-//!   `|d|^2`, as `t` does (every rounding it accumulates is of an `O(|d|^2)` term), where a
-//!   plain difference of gradients has a bound `eps |g|` that does not shrink at all. A formula
-//!   that subtracted `O(1)` or `O(|d|)` quantities anywhere would show up here;
+//! - **no cancellation**: the running error bound of the defect program itself shrinks with
+//!   the step (at least like `|d|`), where the plain difference of gradients has a bound
+//!   `eps |g|` that does not shrink at all. A formula that subtracted `O(1)` quantities
+//!   anywhere would show up here;
 //! - **accuracy** against double-double for algebraic Hamiltonians (sums, products, integer,
 //!   negative and half-integer powers): `g0 + g1 - 2 gbar` with every program run in
 //!   double-double, at steps from 1e-2 down to 1e-9.
@@ -218,21 +218,28 @@ proptest! {
                 t[i], (t[i] - plain).abs());
         }
 
-        // No cancellation: the defect program's own error bound at a step 1e4 times smaller is
-        // about 1e8 times smaller. Every quantity it rounds is O(|d|^2) (the terms of t) or
-        // enters only multiplied by O(|d|^2) ones; a plain difference of gradients anywhere
-        // would leave an eps |g| |d| part (1e4 times smaller only), one of O(1) values a
-        // constant part. Allowed: 16x the quadratic prediction (the bound's O(|d|^2) part
-        // depends on the point only through smooth factors), plus the bound of an exact zero.
-        let small = step(scale * 1e-4);
-        let t_small = defect.eval_pair(&z0, &small, &[a]).unwrap().discrete_gradient_defect;
-        prop_assert!(t_small.iter().all(|v| v.is_finite()), "non-finite t {t_small:?} for {src}");
-        let m_small = bound_of(&defect, &z0, &small, a, Output::DiscreteGradientDefect);
-        let g_size = g0.gradient.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-        for i in 0..dim {
-            prop_assert!(m_small[i] <= 16.0 * 1e-8 * m_t[i] + 1e-300,
-                "bound {:.3e} at step {:e} vs {:.3e} at {scale:e} (|g| {g_size:.2e}) for {src}",
-                m_small[i], scale * 1e-4, m_t[i]);
+        // No cancellation: between two small steps sa = scale 1e-3 and sb = scale 1e-5 the
+        // defect program's own error bound must shrink at least like |d| (factor 1e-2): that
+        // is the accuracy the stepper needs (eps |g| |d| / |z|). A difference of O(1) values
+        // anywhere (the plain g0 + g1 - 2 gbar) leaves a constant part (factor 1). Threshold
+        // 0.1, a factor 10 from each. (At generic points the bound shrinks like |d|^2, factor
+        // 1e-4, as t does; at special points, e.g. z0 where sin(q1) vanishes, a part of order
+        // eps |d| was measured.) Checked where both steps are in the asymptotic regime (t/s^2
+        // the same within 10%: rapidly oscillating H, e.g. sin((10 - p1)^3), is not).
+        let (sa, sb) = (scale * 1e-3, scale * 1e-5);
+        let (za, zb) = (step(sa), step(sb));
+        let ta = defect.eval_pair(&z0, &za, &[a]).unwrap().discrete_gradient_defect;
+        let tb = defect.eval_pair(&z0, &zb, &[a]).unwrap().discrete_gradient_defect;
+        prop_assert!(ta.iter().chain(&tb).all(|v| v.is_finite()), "non-finite t for {src}");
+        let norm = |t: &[f64], s: f64| t.iter().fold(0.0f64, |m, v| m.max(v.abs())) / (s * s);
+        let (na, nb) = (norm(&ta, sa), norm(&tb, sb));
+        if nb > 0.0 && (na - nb).abs() <= 0.1 * nb {
+            let m_a = bound_of(&defect, &z0, &za, a, Output::DiscreteGradientDefect);
+            let m_b = bound_of(&defect, &z0, &zb, a, Output::DiscreteGradientDefect);
+            for i in 0..dim {
+                prop_assert!(m_b[i] <= 0.1 * m_a[i] + 1e-300,
+                    "bound {:.3e} at step {sb:e} vs {:.3e} at {sa:e} for {src}", m_b[i], m_a[i]);
+            }
         }
     }
 }
