@@ -48,9 +48,15 @@
 //!
 //! The kernels `cos x - sin(x)/x`, `cosh x - sinh(x)/x`, `sin(x)/x - 1`, `sinh(x)/x - 1` are
 //! even series below `|x| = 1` ([`series`], nine terms: the first omitted term is below
-//! `4e-19` of the leading one there) and closed forms above (cancelling at most a factor 7 at
-//! `|x| = 1`, less beyond; `cosh x - sinh(x)/x` is written as `(e^|x|/2) ((1 - 1/|x|) +
-//! e^(-2|x|) (1 + 1/|x|))`, a sum of positive terms).
+//! `4e-19` of the leading one there) and closed forms above (cancelling at most a factor 12 at
+//! `|x| = 1`, for `sinhc - 1`, and less beyond; `cosh x - sinh(x)/x` is written as
+//! `(e^|x|/2) ((1 - 1/|x|) + e^(-2|x|) (1 + 1/|x|))`, a sum of positive terms).
+//! [`Kernel::PowDefect`] sums `N(y)/y^3 = sum_k n_k y^(2k-2)` ([`pow_series`], nine terms) while
+//! `M |y| < 1`, `M = max(|r|, |r - 2|)` (`|n_k| y^(2k)` is bounded by `|r (r-2)| (M |y|)^(2k)
+//! 2k / (2k+1)!`, so the first omitted term is below `1e-18` of the sum's scale), and the closed
+//! form above, where the two `sinh` terms cancel by at most `3 M^2 / |r - 1|`: a relative error
+//! only for `r` near 1, where `T` itself is `O(|r - 1|)`, and an absolute error of a few `eps`
+//! of the terms' size `|r (r - 2)| y`, `O(delta)`, which is what the stepper needs.
 //!
 //! # References
 //! O. Gonzalez, Time integration and discrete Hamiltonian systems, J. Nonlinear Sci. 6 (1996);
