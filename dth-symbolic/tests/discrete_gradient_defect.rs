@@ -223,8 +223,9 @@ proptest! {
         // is the accuracy the stepper needs (eps |g| |d| / |z|). A difference of O(1) values
         // anywhere (the plain g0 + g1 - 2 gbar) leaves a constant part (factor 1). Threshold
         // 0.1, a factor 10 from each. (At generic points the bound shrinks like |d|^2, factor
-        // 1e-4, as t does; at special points, e.g. z0 where sin(q1) vanishes, a part of order
-        // eps |d| was measured.) Checked where both steps are in the asymptotic regime (t/s^2
+        // 1e-4, as t does; at special points, e.g. z0 where sin(q1) vanishes, the first-order
+        // bound has a part of order eps |d|, though t itself was measured there to converge
+        // like c + c' s down to s = 1e-9, 1e-9 relative: the bound is pessimistic.) Checked where both steps are in the asymptotic regime (t/s^2
         // the same within 10%: rapidly oscillating H, e.g. sin((10 - p1)^3), is not).
         let (sa, sb) = (scale * 1e-3, scale * 1e-5);
         let (za, zb) = (step(sa), step(sb));
