@@ -1,7 +1,7 @@
 //! Emits `impl Hamiltonian<D>`: one straight-line function per trait method, plain `f64`
 //! arithmetic on locals, fixed-size nalgebra types through `::dth::__private`.
 
-use dth_symbolic::{Kernel, Method, Op, Output, Program, System};
+use dth_symbolic::{defect, Kernel, Method, Op, Output, Program, System};
 use proc_macro2::{Literal, TokenStream};
 use quote::{format_ident, quote};
 use syn::Ident;
@@ -67,6 +67,11 @@ fn imp(name: &Ident, params: &[Ident], system: &System) -> TokenStream {
         let v = &v.energy_difference;
         quote!(#v)
     });
+    let defect = body(
+        &system.program(Method::DiscreteGradientDefect),
+        params,
+        |v| v.discrete_gradient_defect(d),
+    );
     let source = system_source(system);
     quote! {
         #[doc = #source]
@@ -75,6 +80,7 @@ fn imp(name: &Ident, params: &[Ident], system: &System) -> TokenStream {
             const TIME_DEPENDENT: bool = #td;
             const SEPARABLE: bool = #sep;
             const PSI_IDENTICALLY_ZERO: bool = #psi0;
+            const EXACT_DIVIDED_DIFFERENCES: bool = true;
 
             #[inline]
             fn value(&self, z: &#nalgebra::SVector<f64, #d>) -> f64 { #value }
@@ -106,6 +112,19 @@ fn imp(name: &Ident, params: &[Ident], system: &System) -> TokenStream {
                 let z = z0;
                 #energy_difference
             }
+            /// `grad H(z0) + grad H(z1) - 2 gbar(z0, z1)` without cancellation
+            /// (`dth_symbolic::defect`); `gbar` is recomputed inside, not read.
+            #[inline]
+            fn discrete_gradient_defect(
+                &self,
+                z0: &#nalgebra::SVector<f64, #d>,
+                z1: &#nalgebra::SVector<f64, #d>,
+                gbar: &#nalgebra::SVector<f64, #d>,
+            ) -> #nalgebra::SVector<f64, #d> {
+                let _ = gbar;
+                let z = z0;
+                #defect
+            }
         }
     }
 }
@@ -126,19 +145,16 @@ struct Values {
     gradient: Vec<(usize, Ident)>,
     hessian: Vec<(usize, usize, Ident)>,
     discrete_gradient: Vec<(usize, Ident)>,
+    discrete_gradient_defect: Vec<(usize, Ident)>,
 }
 
 impl Values {
     fn discrete_gradient(&self, d: usize) -> TokenStream {
-        let set = self
-            .discrete_gradient
-            .iter()
-            .map(|(i, v)| quote!(g[#i] = #v;));
-        quote! {{
-            let mut g = ::dth::__private::nalgebra::SVector::<f64, #d>::zeros();
-            #(#set)*
-            g
-        }}
+        vector(&self.discrete_gradient, d)
+    }
+
+    fn discrete_gradient_defect(&self, d: usize) -> TokenStream {
+        vector(&self.discrete_gradient_defect, d)
     }
 
     fn gradient(&self, d: usize) -> TokenStream {
@@ -167,6 +183,16 @@ impl Values {
             h
         }}
     }
+}
+
+/// A `D`-vector with the listed components set (the others zero).
+fn vector(components: &[(usize, Ident)], d: usize) -> TokenStream {
+    let set = components.iter().map(|(i, v)| quote!(g[#i] = #v;));
+    quote! {{
+        let mut g = ::dth::__private::nalgebra::SVector::<f64, #d>::zeros();
+        #(#set)*
+        g
+    }}
 }
 
 /// `let`s for the program's operations, then `finish` of its outputs.
@@ -236,6 +262,7 @@ fn body(
         gradient: Vec::new(),
         hessian: Vec::new(),
         discrete_gradient: Vec::new(),
+        discrete_gradient_defect: Vec::new(),
     };
     for &(out, s) in &program.outputs {
         match out {
@@ -250,6 +277,9 @@ fn body(
             Output::Gradient(i) => values.gradient.push((i, v(s))),
             Output::Hessian(i, j) => values.hessian.push((i, j, v(s))),
             Output::DiscreteGradient(i) => values.discrete_gradient.push((i, v(s))),
+            Output::DiscreteGradientDefect(i) => {
+                values.discrete_gradient_defect.push((i, v(s)));
+            }
             Output::EnergyDifference => {
                 let s = v(s);
                 values.energy_difference = quote!(#s);
@@ -268,6 +298,18 @@ fn body(
 /// compares the two).
 fn kernel(k: Kernel, x: &Ident, y: &Ident) -> TokenStream {
     let f = quote!(::core::primitive::f64);
+    let switch = constant(defect::SERIES_SWITCH);
+    // `(1 - 1/a) + e^(-2a) (1 + 1/a)`, as `dth_symbolic::defect`.
+    let scaled_c = quote! {
+        (|a: f64| (1.0 - 1.0 / a) + #f::exp(-2.0 * a) * (1.0 + 1.0 / a))
+    };
+    let series_or = |k: Kernel, x: &Ident, closed: TokenStream| {
+        let c = series_tokens(&defect::series(k), &format_ident!("x"));
+        quote! {{
+            let x: f64 = #x;
+            if #f::abs(x) < #switch { #c } else { #closed }
+        }}
+    };
     let quotient = |g: TokenStream| {
         quote! {{
             let x: f64 = #x;
@@ -305,6 +347,64 @@ fn kernel(k: Kernel, x: &Ident, y: &Ident) -> TokenStream {
                 s / (#f::cosh(y) * #f::cosh(y + x))
             }
         }},
+        Kernel::CosMinusSinc => series_or(k, x, quote!(#f::cos(x) - #f::sin(x) / x)),
+        Kernel::CoshMinusSinhc => series_or(
+            k,
+            x,
+            quote!(0.5 * #f::exp(#f::abs(x)) * #scaled_c(#f::abs(x))),
+        ),
+        Kernel::SincMinusOne => series_or(k, x, quote!(#f::sin(x) / x - 1.0)),
+        Kernel::SinhcMinusOne => series_or(k, x, quote!(#f::sinh(x) / x - 1.0)),
+        Kernel::ExpDefect => {
+            let c = series_tokens(&defect::series(Kernel::CoshMinusSinhc), &format_ident!("h"));
+            quote! {{
+                let (x, y): (f64, f64) = (#x, #y);
+                let h = 0.5 * x;
+                if #f::abs(h) < #switch {
+                    2.0 * #f::exp(y + h) * #c
+                } else {
+                    #f::exp(y + #f::max(x, 0.0)) * #scaled_c(#f::abs(h))
+                }
+            }}
+        }
+        Kernel::TanhDefect => {
+            let (xi, yi) = (format_ident!("x"), format_ident!("y"));
+            let sinhc_m1 = kernel(Kernel::SinhcMinusOne, &xi, &xi);
+            let ratio = kernel(Kernel::TanhRatio, &xi, &yi);
+            quote! {{
+                let (x, y): (f64, f64) = (#x, #y);
+                let m = y + 0.5 * x;
+                let (s0, s1) = (1.0 / #f::cosh(y), 1.0 / #f::cosh(y + x));
+                if #f::abs(x) <= 700.0 && #f::abs(m) <= 350.0 {
+                    let q = 2.0 * #f::sinh(m) * s0 * #f::sinh(0.5 * x) * s1;
+                    q * q - 2.0 * #sinhc_m1 * s0 * s1
+                } else {
+                    s0 * s0 + s1 * s1 - 2.0 * #ratio
+                }
+            }}
+        }
+        Kernel::PowDefect(r) => {
+            let big = constant(r.abs().max((r - 2.0).abs()));
+            let n = series_tokens(&defect::pow_series(r), &format_ident!("u"));
+            let (c1, c2, rr, r2, r1) = (
+                constant(0.5 * (r - 2.0)),
+                constant(0.5 * r),
+                constant(r),
+                constant(r - 2.0),
+                constant(r - 1.0),
+            );
+            quote! {{
+                let (x, y): (f64, f64) = (#x, #y);
+                let u = 0.5 * #f::ln_1p(x / y);
+                let ratio = if #big * #f::abs(u) < #switch {
+                    let s = if u == 0.0 { 1.0 } else { #f::sinh(u) / u };
+                    (#n) / s
+                } else {
+                    (#c1 * #f::sinh(#rr * u) - #c2 * #f::sinh(#r2 * u)) / #f::sinh(u)
+                };
+                2.0 * #f::exp(#r1 * u) * ratio
+            }}
+        }
         Kernel::PowRatio(r) => {
             let r = constant(r);
             quote! {{
@@ -314,6 +414,22 @@ fn kernel(k: Kernel, x: &Ident, y: &Ident) -> TokenStream {
             }}
         }
     }
+}
+
+/// `sum_k c_k x^(2k)` by Horner's rule in `x^2`, the operations of
+/// `dth_symbolic::defect::even_series` in the same order.
+fn series_tokens(c: &[f64; defect::SERIES_TERMS], x: &Ident) -> TokenStream {
+    let last = constant(c[defect::SERIES_TERMS - 1]);
+    let steps = c[..defect::SERIES_TERMS - 1].iter().rev().map(|&ck| {
+        let ck = constant(ck);
+        quote!(let p = p * x2 + #ck;)
+    });
+    quote! {{
+        let x2: f64 = #x * #x;
+        let p: f64 = #last;
+        #(#steps)*
+        p * x2
+    }}
 }
 
 /// An `f64` literal; negative values as a negated literal.

@@ -79,6 +79,21 @@ pub enum Kernel {
     /// the plain quotient once `|x| > 700` (where `sinh x` would overflow and the two values
     /// are far apart, so the difference does not cancel).
     TanhRatio,
+    /// `cos x - sin(x)/x` (`S(x)`, 0 at 0): the defect of `sin`, `cos`
+    /// (see [`crate::defect::series`]).
+    CosMinusSinc,
+    /// `cosh x - sinh(x)/x` (`C(x)`, 0 at 0): the defect of `sinh`, `cosh`.
+    CoshMinusSinhc,
+    /// `sin(x)/x - 1`, 0 at 0.
+    SincMinusOne,
+    /// `sinh(x)/x - 1`, 0 at 0.
+    SinhcMinusOne,
+    /// The defect `T = f'(y) + f'(y + x) - 2 (f(y + x) - f(y))/x` of `f = exp`.
+    ExpDefect,
+    /// The defect `T` of `f = tanh` (as [`Kernel::ExpDefect`]).
+    TanhDefect,
+    /// `T / y^(r - 1)` for `f = y^r`, `r` real, `y > 0` (as [`Kernel::ExpDefect`]).
+    PowDefect(f64),
 }
 
 impl Kernel {
@@ -92,6 +107,13 @@ impl Kernel {
             Kernel::AtanRatio => "atan_ratio",
             Kernel::PowRatio(_) => "pow_ratio",
             Kernel::TanhRatio => "tanh_ratio",
+            Kernel::CosMinusSinc => "cos_minus_sinc",
+            Kernel::CoshMinusSinhc => "cosh_minus_sinhc",
+            Kernel::SincMinusOne => "sinc_minus_one",
+            Kernel::SinhcMinusOne => "sinhc_minus_one",
+            Kernel::ExpDefect => "exp_defect",
+            Kernel::TanhDefect => "tanh_defect",
+            Kernel::PowDefect(_) => "pow_defect",
         }
     }
 
@@ -137,6 +159,13 @@ impl Kernel {
             }
             Kernel::TanhRatio if x.abs() > 700.0 => ((y + x).tanh() - y.tanh()) / x,
             Kernel::TanhRatio => Kernel::Sinhc.apply(x, x) / (y.cosh() * (y + x).cosh()),
+            Kernel::CosMinusSinc
+            | Kernel::CoshMinusSinhc
+            | Kernel::SincMinusOne
+            | Kernel::SinhcMinusOne
+            | Kernel::ExpDefect
+            | Kernel::TanhDefect
+            | Kernel::PowDefect(_) => crate::defect::apply(self, x, y),
         }
     }
 }
@@ -144,13 +173,13 @@ impl Kernel {
 /// `Delta[a]` of one node: `delta = a(z1) - a(z0)` (`None`: identically 0) and the nonzero
 /// components of the vector, by coordinate.
 #[derive(Clone, Debug, Default)]
-struct Diff {
-    delta: Option<Slot>,
-    grad: Vec<(u32, Slot)>,
+pub(crate) struct Diff {
+    pub(crate) delta: Option<Slot>,
+    pub(crate) grad: Vec<(u32, Slot)>,
 }
 
 impl Diff {
-    fn is_zero(&self) -> bool {
+    pub(crate) fn is_zero(&self) -> bool {
         self.delta.is_none() && self.grad.is_empty()
     }
 }
@@ -159,15 +188,7 @@ impl Diff {
 /// [`Op::Input`], `z1` through [`Op::Input1`]) with outputs [`Output::DiscreteGradient`] and
 /// [`Output::EnergyDifference`].
 pub(crate) fn lower(arena: &Arena, coordinates: &[Var], root: Id) -> Program {
-    let mut l = Lowerer::new(arena, coordinates);
-    let one = l.konst(1.0);
-    let mut dd = Divided {
-        l,
-        one,
-        memo: HashMap::new(),
-        ops: HashMap::new(),
-        factor: HashMap::new(),
-    };
+    let mut dd = Divided::new(arena, coordinates);
     let r = dd.diff(root);
     let mut outputs: Vec<(Output, Slot)> = r
         .grad
@@ -187,27 +208,43 @@ pub(crate) fn lower(arena: &Arena, coordinates: &[Var], root: Id) -> Program {
     }
 }
 
-struct Divided<'a> {
-    l: Lowerer<'a>,
-    one: Slot,
+/// The lowering state of a divided-difference program (shared with [`crate::defect`], which
+/// builds on the same slots).
+pub(crate) struct Divided<'a> {
+    pub(crate) l: Lowerer<'a>,
+    pub(crate) one: Slot,
     memo: HashMap<Id, Diff>,
     ops: HashMap<(bool, Slot, Slot), Slot>,
     factor: HashMap<(Slot, Slot, i128), Slot>,
 }
 
+impl<'a> Divided<'a> {
+    pub(crate) fn new(arena: &'a Arena, coordinates: &[Var]) -> Self {
+        let mut l = Lowerer::new(arena, coordinates);
+        let one = l.konst(1.0);
+        Divided {
+            l,
+            one,
+            memo: HashMap::new(),
+            ops: HashMap::new(),
+            factor: HashMap::new(),
+        }
+    }
+}
+
 impl Divided<'_> {
-    fn arena(&self) -> &Arena {
+    pub(crate) fn arena(&self) -> &Arena {
         self.l.arena
     }
 
     /// `a(z0)`.
-    fn val0(&mut self, id: Id) -> Slot {
+    pub(crate) fn val0(&mut self, id: Id) -> Slot {
         self.l.at_z1 = false;
         self.l.value(id)
     }
 
     /// `a(z1)`; the same slot as `a(z0)` when `a` does not depend on `z`.
-    fn val1(&mut self, id: Id) -> Slot {
+    pub(crate) fn val1(&mut self, id: Id) -> Slot {
         if self.diff(id).is_zero() {
             return self.val0(id);
         }
@@ -217,7 +254,7 @@ impl Divided<'_> {
         s
     }
 
-    fn mul(&mut self, a: Slot, b: Slot) -> Slot {
+    pub(crate) fn mul(&mut self, a: Slot, b: Slot) -> Slot {
         if a == self.one {
             b
         } else if b == self.one {
@@ -227,13 +264,13 @@ impl Divided<'_> {
         }
     }
 
-    fn add(&mut self, a: Slot, b: Slot) -> Slot {
+    pub(crate) fn add(&mut self, a: Slot, b: Slot) -> Slot {
         self.shared(false, a, b)
     }
 
     /// `a * b` or `a + b`, emitted once per pair of operands (either order: both commute
     /// exactly in floating point).
-    fn shared(&mut self, mul: bool, a: Slot, b: Slot) -> Slot {
+    pub(crate) fn shared(&mut self, mul: bool, a: Slot, b: Slot) -> Slot {
         let key = (mul, a.min(b), a.max(b));
         if let Some(&s) = self.ops.get(&key) {
             return s;
@@ -244,7 +281,7 @@ impl Divided<'_> {
     }
 
     /// `(a + b)/2` (halving is exact).
-    fn mean(&mut self, a: Slot, b: Slot) -> Slot {
+    pub(crate) fn mean(&mut self, a: Slot, b: Slot) -> Slot {
         if a == b {
             return a;
         }
@@ -254,7 +291,7 @@ impl Divided<'_> {
     }
 
     /// `Delta` scaled by the slot `f`.
-    fn scaled(&mut self, d: &Diff, f: Slot) -> Diff {
+    pub(crate) fn scaled(&mut self, d: &Diff, f: Slot) -> Diff {
         Diff {
             delta: d.delta.map(|s| self.mul(f, s)),
             grad: d.grad.iter().map(|&(k, s)| (k, self.mul(f, s))).collect(),
@@ -262,7 +299,7 @@ impl Divided<'_> {
     }
 
     /// The sum of several `Delta`s, component by component.
-    fn sum(&mut self, parts: &[Diff]) -> Diff {
+    pub(crate) fn sum(&mut self, parts: &[Diff]) -> Diff {
         let mut deltas = Vec::new();
         let mut grad: BTreeMap<u32, Vec<Slot>> = BTreeMap::new();
         for p in parts {
@@ -279,7 +316,7 @@ impl Divided<'_> {
         }
     }
 
-    fn diff(&mut self, id: Id) -> Diff {
+    pub(crate) fn diff(&mut self, id: Id) -> Diff {
         if let Some(d) = self.memo.get(&id) {
             return d.clone();
         }
@@ -388,7 +425,7 @@ impl Divided<'_> {
     /// `sum_{j=0}^{k-1} a1^j a0^(k-1-j) = (a1^k - a0^k)/(a1 - a0)`, `k >= 1`: halving `k`
     /// (`F_2m = F_m (a0^m + a1^m)`), or peeling one factor (`F_k = F_(k-1) a1 + a0^(k-1)`).
     /// Every term has the sign of `a0^(k-1)` when `a1` is near `a0`.
-    fn power_sum(&mut self, a0: Slot, a1: Slot, k: i128) -> Slot {
+    pub(crate) fn power_sum(&mut self, a0: Slot, a1: Slot, k: i128) -> Slot {
         if k == 1 {
             return self.one;
         }

@@ -24,6 +24,9 @@ pub struct PairEvaluation {
     pub discrete_gradient: Vec<f64>,
     /// `H(z1) - H(z0)`, computed without cancellation.
     pub energy_difference: f64,
+    /// `grad H(z0) + grad H(z1) - 2 gbar(z0, z1)`, length `D` (zeros unless the program is
+    /// `Method::DiscreteGradientDefect`).
+    pub discrete_gradient_defect: Vec<f64>,
 }
 
 impl Program {
@@ -70,7 +73,9 @@ impl Program {
                     e.hessian[j * d + i] = x;
                 }
                 Output::Psi => e.psi = x,
-                Output::DiscreteGradient(_) | Output::EnergyDifference => {}
+                Output::DiscreteGradient(_)
+                | Output::EnergyDifference
+                | Output::DiscreteGradientDefect(_) => {}
             }
         }
         Ok(e)
@@ -114,11 +119,13 @@ impl Program {
         let mut e = PairEvaluation {
             discrete_gradient: vec![0.0; self.dim],
             energy_difference: 0.0,
+            discrete_gradient_defect: vec![0.0; self.dim],
         };
         for &(out, s) in &self.outputs {
             match out {
                 Output::DiscreteGradient(i) => e.discrete_gradient[i] = v[s as usize],
                 Output::EnergyDifference => e.energy_difference = v[s as usize],
+                Output::DiscreteGradientDefect(i) => e.discrete_gradient_defect[i] = v[s as usize],
                 _ => {}
             }
         }

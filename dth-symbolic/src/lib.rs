@@ -5,7 +5,8 @@
 //! [`build`](crate::compile) (names resolved by [`check`], nodes built in the hash-consed
 //! [`arena`] through the simplifying constructors of [`simplify`]), [`diff`] (symbolic
 //! derivatives), [`system`] (gradient, Hessian upper triangle, Psi), [`divided`] (exact,
-//! cancellation-free discrete gradients by divided differences), [`lower`] (straight-line
+//! cancellation-free discrete gradients by divided differences), [`defect`] (their trapezoid
+//! defect `g0 + g1 - 2 gbar`, also without cancellation), [`lower`] (straight-line
 //! programs, one per trait method) and [`eval`] (an interpreter for those programs).
 //!
 //! ```
@@ -32,6 +33,7 @@
 pub mod arena;
 mod build;
 pub mod check;
+pub mod defect;
 pub mod diff;
 pub mod display;
 pub mod divided;

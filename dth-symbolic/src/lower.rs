@@ -61,6 +61,9 @@ pub enum Output {
     DiscreteGradient(usize),
     /// `H(z1) - H(z0)`, computed without cancellation (two-point programs).
     EnergyDifference,
+    /// Component `i` of the defect `grad H(z0) + grad H(z1) - 2 gbar(z0, z1)`, computed without
+    /// cancellation (two-point programs, see [`crate::defect`]).
+    DiscreteGradientDefect(usize),
 }
 
 /// A straight-line program: operations in order, and which slots are the outputs.

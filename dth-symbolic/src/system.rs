@@ -27,6 +27,9 @@ pub enum Method {
     /// The exact discrete gradient `gbar(z0, z1)` and `H(z1) - H(z0)`, without cancellation: a
     /// two-point program (see [`crate::divided`], run it with [`Program::eval_pair`]).
     DiscreteGradient,
+    /// The defect `grad H(z0) + grad H(z1) - 2 gbar(z0, z1)` of that discrete gradient,
+    /// without cancellation: a two-point program (see [`crate::defect`]).
+    DiscreteGradientDefect,
 }
 
 /// A Hamiltonian compiled to symbolic value, gradient, Hessian and Psi.
@@ -314,6 +317,9 @@ impl System {
     pub fn program(&self, method: Method) -> Program {
         if method == Method::DiscreteGradient {
             return crate::divided::lower(&self.arena, &self.coordinates, self.value);
+        }
+        if method == Method::DiscreteGradientDefect {
+            return crate::defect::lower(&self.arena, &self.coordinates, self.value);
         }
         Program::lower(&self.arena, &self.coordinates, &self.outputs(method))
     }
