@@ -35,6 +35,10 @@ use crate::{j_times, Derivatives, Error, Hamiltonian};
 /// few units in the last place).
 const TIGHT: f64 = 4.0 * f64::EPSILON;
 
+/// Relative update below which joint Newton evaluates the cancellation-free residual at every
+/// iterate: from there, quadratic convergence can reach a stop at the next iterate.
+const CF_FROM: f64 = 1e-5;
+
 /// One solved DTH segment: its midpoint, multiplier and both vertices.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Segment<const D: usize> {
@@ -371,6 +375,10 @@ pub(crate) struct Updates {
 }
 
 impl Updates {
+    /// The last relative update.
+    pub(crate) fn last(&self) -> Option<f64> {
+        self.last
+    }
     pub(crate) fn push(&mut self, u: f64) {
         self.previous = self.last;
         self.last = Some(u);
@@ -505,12 +513,34 @@ fn joint<H: Hamiltonian<D>, const D: usize>(
     // Workspace, overwritten in place each iteration.
     let mut e = Eval::empty();
     let mut lin = Linearization::empty();
+    // Whether the last update came from the cancellation-free residual.
+    let mut cf_update = false;
     loop {
         evaluate(ham, anchor, h, &z, lambda, step, &mut e)?;
         let last = (iterations > 0).then_some(&lin);
-        let stop = updates.stopped(e.stall(options, last, lambda));
+        let mut stop = updates.stopped(e.stall(options, last, lambda));
         if let Some(p) = &anchor.previous {
-            add_cancellation_free(ham, p, h, &z, lambda, step, &mut e)?;
+            // The cancellation-free residual (a discrete gradient and its defect) only where it
+            // can matter. Far from the solution (relative update above `CF_FROM`, and its
+            // square above the plain residual's noise in lambda, `eps scale_r / |g_lambda
+            // lambda|`) the two residuals differ by roundoff far below the update, so the
+            // plain one gives the same iterates to within that roundoff and the following
+            // cancellation-free iterations remove it. Newton stops only at an iterate reached
+            // by a cancellation-free update (below `CF_FROM` a stop after a plain update
+            // cannot happen with quadratic convergence; if it does, one more iteration).
+            let near = match (updates.last(), last) {
+                (Some(u), Some(lin)) => {
+                    u <= CF_FROM
+                        || u * u <= 64.0 * f64::EPSILON * e.scale_r / (lin.g_lambda * lambda).abs()
+                }
+                _ => false,
+            };
+            if stop.is_some() || near {
+                add_cancellation_free(ham, p, h, &z, lambda, step, &mut e)?;
+            }
+            if !cf_update {
+                stop = None;
+            }
         }
         if let Some(tiny) = stop {
             let residual = e.residual(last, lambda);
@@ -539,6 +569,7 @@ fn joint<H: Hamiltonian<D>, const D: usize>(
             });
         }
         linearize(&e, h, lambda, step, &mut lin)?;
+        cf_update = e.cf.is_some();
         // Bordered system [[A, -(h/2) J g], [g^T, 0]] (dz, dl) = -(f, r):
         // dz = u + z_lambda dl with A u = -f, and g^T dz = -r.
         let u = lin.lu.solve(&(-e.f));
