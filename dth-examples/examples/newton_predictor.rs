@@ -8,8 +8,7 @@
 //! `theta < 1/2`, or stall; scaled residual <= 64 eps) from several predictors, and prints the
 //! predictor errors and the iteration counts; every replay must land on the library's solution
 //! (printed). The library's own count is printed first: it solves Kepler with the
-//! cancellation-free residual, from the predictor "law-of-time lambda, 3 sweeps" (the third
-//! sweep reuses the gradient its breakdown check evaluates).
+//! cancellation-free residual, from the first predictor below.
 
 use dth::dth::{integrate, DthOptions};
 use dth::nalgebra::{Matrix4, Vector4};
