@@ -25,9 +25,39 @@ impl<const D: usize> Lu<D> {
     /// (singular as a value, like nalgebra's `lu().solve()`), `Err(Pivot::NonFinite)` when
     /// elimination overflowed.
     pub(crate) fn factor(a: &SMatrix<f64, D, D>) -> Result<Self, Pivot> {
-        let mut lu = *a;
-        let tiny = D as f64 * f64::EPSILON * a.amax();
-        let mut perm = [0usize; D];
+        let mut lu = Lu {
+            lu: *a,
+            perm: [0usize; D],
+        };
+        lu.eliminate()?;
+        Ok(lu)
+    }
+
+    /// An empty factorization (the zero matrix, not factored): storage for
+    /// [`factor_from`](Self::factor_from).
+    pub(crate) fn empty() -> Self {
+        Lu {
+            lu: SMatrix::zeros(),
+            perm: [0usize; D],
+        }
+    }
+
+    /// Factor the matrix with entries `a(i, j)` in place, reusing this storage (no copy of a
+    /// `D x D` matrix in or out); errors as [`factor`](Self::factor), after which the contents
+    /// are meaningless until the next successful factorization.
+    pub(crate) fn factor_from(&mut self, a: impl Fn(usize, usize) -> f64) -> Result<(), Pivot> {
+        for j in 0..D {
+            for i in 0..D {
+                self.lu[(i, j)] = a(i, j);
+            }
+        }
+        self.eliminate()
+    }
+
+    /// Gaussian elimination with partial pivoting of `self.lu` in place.
+    fn eliminate(&mut self) -> Result<(), Pivot> {
+        let tiny = D as f64 * f64::EPSILON * self.lu.amax();
+        let Lu { lu, perm } = self;
         for (i, p) in perm.iter_mut().enumerate() {
             *p = i;
         }
@@ -60,7 +90,7 @@ impl<const D: usize> Lu<D> {
                 }
             }
         }
-        Ok(Lu { lu, perm })
+        Ok(())
     }
 
     /// Solve `A X = B` for `C` right-hand sides (`C = 1`: a vector).

@@ -147,7 +147,11 @@ fn nested_and_joint_newton_agree() {
     // Same step from the same vertex: both solve the same equations to roundoff. z agrees to
     // a few eps of |z| (<= 2.2 here); lambda is determined by an energy residual whose
     // sensitivity g_lambda is O(h^2 Psi), so its roundoff is ~eps / (h^2 Psi) relative
-    // (NOTES: 3.7e-15 at this h): bound 64 eps.
+    // (NOTES: 3.7e-15 at this h). That noise is largest at apocentre: eps scale_r /
+    // |g_lambda lambda| ~ 4 eps scale_r / (h^2 lambda^2 Psi) with scale_r = 1.21, lambda ~ 4,
+    // Psi = 1.14 there is ~67 eps per solve (seen: 66 eps between the two solvers at a vertex
+    // near apocentre), and two independent solves differ by up to twice that: bound 160 eps.
+    // (`segment_from_vertex` solves with the plain residual.)
     let options = DthOptions::default();
     let kepler = Kepler::thesis();
     let e0 = kepler.value(&z0());
@@ -168,7 +172,7 @@ fn nested_and_joint_newton_agree() {
     }
     println!("same step, joint vs nested: max |dz| {worst_z:.3e}, max rel |dlambda| {worst_l:.3e}");
     assert!(worst_z <= 16.0 * EPS, "{worst_z:e}");
-    assert!(worst_l <= 64.0 * EPS, "{worst_l:e}");
+    assert!(worst_l <= 160.0 * EPS, "{worst_l:e}");
 
     // Whole runs: the per-step roundoff differences (bounded above by 64 eps) random-walk
     // (sqrt N) and Kepler's shear turns a phase offset into a linearly growing position

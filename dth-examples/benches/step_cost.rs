@@ -8,15 +8,18 @@
 //! solvers iterate to roundoff: DTH to a scaled residual of 64 eps, the midpoint rule until
 //! its updates stop shrinking below 1024 eps; neither has a looser user tolerance.
 //!
+//! Where the default energy residual is the cancellation-free one (Kepler: exact divided
+//! differences), `dth_joint_plain` is the same step with the plain residual.
+//!
 //! Before benching, the mean Newton iterations per step on those states are printed.
 //!
-//! Run with `cargo bench -p dth-examples --bench step_cost -- --quick --noplot` on a shared
-//! machine.
+//! Run with `cargo bench -p dth-examples --bench step_cost -- --noplot` (one process, so the
+//! ratios come from one machine state; add `--quick` for a smoke run).
 
 use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
-use dth::dth::{Dth, DthOptions, Solver};
+use dth::dth::{Dth, DthOptions, EnergyResidual, Solver};
 use dth::methods::{ImplicitMidpoint, OneStepMethod};
 use dth::nalgebra::{SVector, Vector4};
 use dth::systems::{Kepler, TodaBoundary, TodaChain};
@@ -90,6 +93,16 @@ fn group<H: Hamiltonian<D> + Clone, const D: usize>(
         .iter()
         .map(|d| with_solver(d, Solver::Nested))
         .collect();
+    // Where the default residual is the cancellation-free one (exact divided differences), also
+    // the plain residual: what the cancellation-free form costs.
+    let plain: Vec<Dth<H, D>> = if states[0].cancellation_free() {
+        states
+            .iter()
+            .map(|d| with_options(d, d.options().with_energy_residual(EnergyResidual::Plain)))
+            .collect()
+    } else {
+        Vec::new()
+    };
     let h = states[0].hamiltonian().clone();
     let zs: Vec<SVector<f64, D>> = states.iter().map(|d| *d.zbar()).collect();
 
@@ -100,16 +113,28 @@ fn group<H: Hamiltonian<D> + Clone, const D: usize>(
     let midpoint_iterations =
         OneStepMethod::<D, H>::newton_iterations(&midpoint) as f64 / zs.len() as f64;
     eprintln!(
-        "{system}: Newton iterations per step over {} states: dth_joint {:.2}, dth_nested {:.2} \
+        "{system}: Newton iterations per step over {} states: dth_joint {:.2}{}, dth_nested {:.2} \
          (LU factorizations), midpoint {:.2}; mean dt {dt:.4}",
         zs.len(),
         mean_iterations(states),
+        if plain.is_empty() {
+            String::new()
+        } else {
+            format!(" (plain residual {:.2})", mean_iterations(&plain))
+        },
         mean_iterations(&nested),
         midpoint_iterations,
     );
 
     let mut g = c.benchmark_group(format!("step/{system}"));
-    for (name, set) in [("dth_joint", states), ("dth_nested", &nested[..])] {
+    for (name, set) in [
+        ("dth_joint", states),
+        ("dth_nested", &nested[..]),
+        ("dth_joint_plain", &plain[..]),
+    ] {
+        if set.is_empty() {
+            continue;
+        }
         let mut i = 0;
         g.bench_function(name, |b| {
             b.iter_batched(
@@ -145,9 +170,15 @@ fn with_solver<H: Hamiltonian<D> + Clone, const D: usize>(
     d: &Dth<H, D>,
     solver: Solver,
 ) -> Dth<H, D> {
-    let options = d
-        .options()
-        .with_solver(solver)
+    with_options(d, d.options().with_solver(solver))
+}
+
+/// The same stepper state (midpoint, lambda, time) with other options.
+fn with_options<H: Hamiltonian<D> + Clone, const D: usize>(
+    d: &Dth<H, D>,
+    options: DthOptions,
+) -> Dth<H, D> {
+    let options = options
         .with_lambda0(d.lambda())
         .expect("lambda of a DTH run is positive");
     Dth::new(d.hamiltonian().clone(), *d.zbar(), options)

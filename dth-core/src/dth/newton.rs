@@ -35,6 +35,10 @@ use crate::{j_times, Derivatives, Error, Hamiltonian};
 /// few units in the last place).
 const TIGHT: f64 = 4.0 * f64::EPSILON;
 
+/// Relative update below which joint Newton evaluates the cancellation-free residual at every
+/// iterate: from there, quadratic convergence can reach a stop at the next iterate.
+const CF_FROM: f64 = 1e-5;
+
 /// One solved DTH segment: its midpoint, multiplier and both vertices.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Segment<const D: usize> {
@@ -48,12 +52,6 @@ pub struct Segment<const D: usize> {
     pub iterations: u32,
     /// LU factorizations of `A` (the cost measure common to both solvers).
     pub factorizations: u32,
-}
-
-/// `J M` for `J = [[0, I], [-I, 0]]`.
-pub(crate) fn j_times_matrix<const D: usize>(m: &SMatrix<f64, D, D>) -> SMatrix<f64, D, D> {
-    let n = D / 2;
-    SMatrix::<f64, D, D>::from_fn(|i, j| if i < n { m[(i + n, j)] } else { -m[(i - n, j)] })
 }
 
 /// The previous midpoint of a step, for the cancellation-free energy residual (see
@@ -102,6 +100,11 @@ struct Eval<const D: usize> {
     r: f64,
     /// `|f| / scale_f`.
     f_residual: f64,
+    /// Size of the terms of `f`: `|z|`, `|v|`, `|(h lambda/2) J grad H|`.
+    scale_f: f64,
+    /// Roundoff scale of the energy equation being solved: `scale_r`, or 0 for the
+    /// cancellation-free form with exact divided differences.
+    noise: f64,
     /// Plain scaled energy residual `|H(z) - E| / scale_r` (for the plain form and the final
     /// check of the cancellation-free form).
     plain_residual: f64,
@@ -111,6 +114,27 @@ struct Eval<const D: usize> {
 }
 
 impl<const D: usize> Eval<D> {
+    /// Storage for [`evaluate`], overwritten by each evaluation.
+    fn empty() -> Self {
+        Eval {
+            d: Derivatives {
+                value: 0.0,
+                gradient: SVector::zeros(),
+                hessian: SMatrix::zeros(),
+                psi: 0.0,
+            },
+            jg: SVector::zeros(),
+            f: SVector::zeros(),
+            r: 0.0,
+            f_residual: 0.0,
+            scale_f: 0.0,
+            noise: 0.0,
+            plain_residual: 0.0,
+            scale_r: 0.0,
+            cf: None,
+        }
+    }
+
     /// The scaled residual Newton must drive below tolerance. For the cancellation-free form the
     /// energy part is the residual left after eliminating `f` to first order with the last
     /// linearization (`A` factored, `g_lambda`): `r_cf + gbar . f + grad H . A^{-1}(-f)`, whose
@@ -120,9 +144,10 @@ impl<const D: usize> Eval<D> {
     /// makes): where the gradient barely turns (Kepler's apocentre) the terms are much smaller
     /// than the sensitivity, and the residual is a forward estimate of the relative error of
     /// `lambda`.
-    fn residual(&self, last: Option<&(Lu<D>, f64)>, lambda: f64) -> f64 {
+    fn residual(&self, last: Option<&Linearization<D>>, lambda: f64) -> f64 {
         let energy = match (&self.cf, last) {
-            (Some(c), Some((lu, g_lambda))) => {
+            (Some(c), Some(lin)) => {
+                let (lu, g_lambda) = (&lin.lu, lin.g_lambda);
                 let u = lu.solve(&(-self.f));
                 let scale = c.scale.max((g_lambda * lambda).abs()).max(c.inexact_scale);
                 (c.r_cf + (c.gbar.dot(&self.f) + self.d.gradient.dot(&u))).abs() / scale
@@ -138,35 +163,58 @@ impl<const D: usize> Eval<D> {
     /// (`~eps / h^2`): below that, updates are noise and can never settle.
     /// The same holds for the cancellation-free form forced on a Hamiltonian without exact
     /// divided differences; with them the option stands.
-    fn stall(&self, options: &DthOptions, last: Option<&(Lu<D>, f64)>, lambda: f64) -> f64 {
-        let noise = match &self.cf {
-            None => self.scale_r,
-            Some(c) => c.inexact_scale,
-        };
+    fn stall(&self, options: &DthOptions, last: Option<&Linearization<D>>, lambda: f64) -> f64 {
+        let noise = self.noise;
         match last {
-            Some((_, g_lambda)) if noise > 0.0 => options
+            Some(lin) if noise > 0.0 => options
                 .stall_tolerance()
-                .max(8.0 * f64::EPSILON * noise / (g_lambda * lambda).abs())
+                .max(8.0 * f64::EPSILON * noise / (lin.g_lambda * lambda).abs())
                 .min(0.5),
             _ => options.stall_tolerance(),
         }
     }
 }
 
-pub(crate) fn factor<const D: usize>(a: &SMatrix<f64, D, D>, step: usize) -> Result<Lu<D>, Error> {
-    Lu::factor(a).map_err(|p| match p {
+fn pivot_error(p: Pivot, step: usize) -> Error {
+    match p {
         Pivot::Singular => Error::SingularMatrix { step },
         Pivot::NonFinite => Error::NonFinite {
             step,
             what: "Newton matrix A = I - (h lambda/2) J Hess H",
         },
+    }
+}
+
+/// Factor `A = I - c J HessH` (`c = h lambda / 2`) into `lu`, in place: entry by entry
+/// `delta_ij - c (J HessH)_ij`, the same floating-point operations as forming the matrix.
+fn factor_newton_matrix<const D: usize>(
+    lu: &mut Lu<D>,
+    hessian: &SMatrix<f64, D, D>,
+    c: f64,
+    step: usize,
+) -> Result<(), Error> {
+    let n = D / 2;
+    lu.factor_from(|i, j| {
+        let jh = if i < n {
+            hessian[(i + n, j)]
+        } else {
+            -hessian[(i - n, j)]
+        };
+        if i == j {
+            1.0 - jh * c
+        } else {
+            -(jh * c)
+        }
     })
+    .map_err(|p| pivot_error(p, step))
 }
 
 pub(crate) fn all_finite<const D: usize>(v: &SVector<f64, D>) -> bool {
     v.iter().all(|x| x.is_finite())
 }
 
+/// Evaluate everything at the iterate `(z, lambda)` into `e` (in place: the Hessian is not
+/// copied around the Newton loop).
 fn evaluate<H: Hamiltonian<D>, const D: usize>(
     ham: &H,
     anchor: &Anchor<D>,
@@ -174,8 +222,10 @@ fn evaluate<H: Hamiltonian<D>, const D: usize>(
     z: &SVector<f64, D>,
     lambda: f64,
     step: usize,
-) -> Result<Eval<D>, Error> {
-    let d = ham.derivatives(z);
+    e: &mut Eval<D>,
+) -> Result<(), Error> {
+    e.d = ham.derivatives(z);
+    let d = &e.d;
     if !d.value.is_finite() || !all_finite(&d.gradient) {
         return Err(Error::NonFinite {
             step,
@@ -205,56 +255,71 @@ fn evaluate<H: Hamiltonian<D>, const D: usize>(
         .max(z.component_mul(&d.gradient).abs().sum())
         .max(f64::MIN_POSITIVE);
     let plain_residual = r_plain.abs() / scale_r;
-    let (f, r, cf) = match &anchor.previous {
-        None => (z - v - move_, r_plain, None),
-        Some(p) => {
-            // f = (z - zbar_k) - (h/2) J (lambda g + lambda_k g_k): the difference z - zbar_k
-            // is exact (Sterbenz) for small steps, so f carries roundoff eps h, not eps |z|.
-            let dz = z - p.zbar;
-            let f = dz - j_times(&(d.gradient * lambda + p.gradient * p.lambda)) * (0.5 * h);
-            let gbar = ham.discrete_gradient(&p.zbar, z);
-            let t = ham.discrete_gradient_defect(&p.zbar, z, &gbar);
-            let dg = d.gradient - p.gradient;
-            let w = dg * (0.5 * (lambda - p.lambda)) + t * (0.5 * (lambda + p.lambda));
-            let r_cf = 0.5 * h * gbar.dot(&j_times(&w));
-            let scale = (0.25 * h * (lambda + p.lambda)).abs()
-                * gbar.component_mul(&dg).abs().sum()
-                + f64::MIN_POSITIVE;
-            if !r_cf.is_finite() || !all_finite(&gbar) {
-                return Err(Error::NonFinite {
-                    step,
-                    what: "discrete gradient at a Newton iterate",
-                });
-            }
-            let r = r_cf + gbar.dot(&f);
-            let inexact_scale = if H::EXACT_DIVIDED_DIFFERENCES {
-                0.0
-            } else {
-                scale_r
-            };
-            (
-                f,
-                r,
-                Some(CancellationFree {
-                    gbar,
-                    r_cf,
-                    scale,
-                    inexact_scale,
-                }),
-            )
-        }
+    let f = z - v - move_;
+    e.f_residual = f.amax() / scale_f;
+    e.scale_f = scale_f;
+    e.jg = jg;
+    e.f = f;
+    e.r = r_plain;
+    e.plain_residual = plain_residual;
+    e.scale_r = scale_r;
+    e.cf = None;
+    // The roundoff scale of the energy equation that is being solved (see `Eval::stall`): the
+    // plain residual's, or, for the cancellation-free form, zero when the Hamiltonian has
+    // exact divided differences.
+    e.noise = if anchor.previous.is_some() && H::EXACT_DIVIDED_DIFFERENCES {
+        0.0
+    } else {
+        scale_r
     };
-    let f_residual = f.amax() / scale_f;
-    Ok(Eval {
-        d,
-        jg,
-        f,
-        r,
-        f_residual,
-        plain_residual,
-        scale_r,
-        cf,
-    })
+    Ok(())
+}
+
+/// Replace the plain residuals of the evaluated iterate `e` at `(z, lambda)` by the
+/// cancellation-free ones (the anchor must carry the previous midpoint).
+fn add_cancellation_free<H: Hamiltonian<D>, const D: usize>(
+    ham: &H,
+    p: &Previous<D>,
+    h: f64,
+    z: &SVector<f64, D>,
+    lambda: f64,
+    step: usize,
+    e: &mut Eval<D>,
+) -> Result<(), Error> {
+    let d = &e.d;
+    // f = (z - zbar_k) - (h/2) J (lambda g + lambda_k g_k): the difference z - zbar_k
+    // is exact (Sterbenz) for small steps, so f carries roundoff eps h, not eps |z|.
+    let dz = z - p.zbar;
+    let f = dz - j_times(&(d.gradient * lambda + p.gradient * p.lambda)) * (0.5 * h);
+    let gbar = ham.discrete_gradient(&p.zbar, z);
+    let t = ham.discrete_gradient_defect(&p.zbar, z, &gbar);
+    let dg = d.gradient - p.gradient;
+    let w = dg * (0.5 * (lambda - p.lambda)) + t * (0.5 * (lambda + p.lambda));
+    let r_cf = 0.5 * h * gbar.dot(&j_times(&w));
+    let scale = (0.25 * h * (lambda + p.lambda)).abs() * gbar.component_mul(&dg).abs().sum()
+        + f64::MIN_POSITIVE;
+    if !r_cf.is_finite() || !all_finite(&gbar) {
+        return Err(Error::NonFinite {
+            step,
+            what: "discrete gradient at a Newton iterate",
+        });
+    }
+    let r = r_cf + gbar.dot(&f);
+    let inexact_scale = if H::EXACT_DIVIDED_DIFFERENCES {
+        0.0
+    } else {
+        e.scale_r
+    };
+    e.f_residual = f.amax() / e.scale_f;
+    e.f = f;
+    e.r = r;
+    e.cf = Some(CancellationFree {
+        gbar,
+        r_cf,
+        scale,
+        inexact_scale,
+    });
+    Ok(())
 }
 
 /// `A = I - (h lambda / 2) J HessH` factored, and `z_lambda`, `g_lambda` from it.
@@ -264,15 +329,26 @@ struct Linearization<const D: usize> {
     g_lambda: f64,
 }
 
+impl<const D: usize> Linearization<D> {
+    fn empty() -> Self {
+        Linearization {
+            lu: Lu::empty(),
+            z_lambda: SVector::zeros(),
+            g_lambda: 0.0,
+        }
+    }
+}
+
+/// Linearize at the evaluated iterate `e` into `lin` (in place).
 fn linearize<const D: usize>(
     e: &Eval<D>,
     h: f64,
     lambda: f64,
     step: usize,
-) -> Result<Linearization<D>, Error> {
-    let jhess = j_times_matrix(&e.d.hessian);
-    let a = SMatrix::<f64, D, D>::identity() - jhess * (0.5 * h * lambda);
-    let lu = factor(&a, step)?;
+    lin: &mut Linearization<D>,
+) -> Result<(), Error> {
+    factor_newton_matrix(&mut lin.lu, &e.d.hessian, 0.5 * h * lambda, step)?;
+    let lu = &lin.lu;
     let z_lambda = lu.solve(&(e.jg * (0.5 * h)));
     // Cancellation-free g_lambda = (h lambda/2) gradH^T J HessH z_lambda
     //                          = -(h lambda/2) (J gradH)^T HessH z_lambda.
@@ -286,11 +362,9 @@ fn linearize<const D: usize>(
     if g_lambda == 0.0 {
         return Err(Error::SingularMatrix { step });
     }
-    Ok(Linearization {
-        lu,
-        z_lambda,
-        g_lambda,
-    })
+    lin.z_lambda = z_lambda;
+    lin.g_lambda = g_lambda;
+    Ok(())
 }
 
 /// Convergence bookkeeping on the relative update sizes.
@@ -301,6 +375,10 @@ pub(crate) struct Updates {
 }
 
 impl Updates {
+    /// The last relative update.
+    pub(crate) fn last(&self) -> Option<f64> {
+        self.last
+    }
     pub(crate) fn push(&mut self, u: f64) {
         self.previous = self.last;
         self.last = Some(u);
@@ -432,11 +510,40 @@ fn joint<H: Hamiltonian<D>, const D: usize>(
     let h = options.dtau();
     let mut updates = Updates::default();
     let mut iterations = 0u32;
-    let mut last_lu: Option<(Lu<D>, f64)> = None;
+    // Workspace, overwritten in place each iteration.
+    let mut e = Eval::empty();
+    let mut lin = Linearization::empty();
+    // Whether the last update came from the cancellation-free residual.
+    let mut cf_update = false;
     loop {
-        let e = evaluate(ham, anchor, h, &z, lambda, step)?;
-        if let Some(tiny) = updates.stopped(e.stall(options, last_lu.as_ref(), lambda)) {
-            let residual = e.residual(last_lu.as_ref(), lambda);
+        evaluate(ham, anchor, h, &z, lambda, step, &mut e)?;
+        let last = (iterations > 0).then_some(&lin);
+        let mut stop = updates.stopped(e.stall(options, last, lambda));
+        if let Some(p) = &anchor.previous {
+            // The cancellation-free residual (a discrete gradient and its defect) only where it
+            // can matter. Far from the solution (relative update above `CF_FROM`, and its
+            // square above the plain residual's noise in lambda, `eps scale_r / |g_lambda
+            // lambda|`) the two residuals differ by roundoff far below the update, so the
+            // plain one gives the same iterates to within that roundoff and the following
+            // cancellation-free iterations remove it. Newton stops only at an iterate reached
+            // by a cancellation-free update (below `CF_FROM` a stop after a plain update
+            // cannot happen with quadratic convergence; if it does, one more iteration).
+            let near = match (updates.last(), last) {
+                (Some(u), Some(lin)) => {
+                    u <= CF_FROM
+                        || u * u <= 64.0 * f64::EPSILON * e.scale_r / (lin.g_lambda * lambda).abs()
+                }
+                _ => false,
+            };
+            if stop.is_some() || near {
+                add_cancellation_free(ham, p, h, &z, lambda, step, &mut e)?;
+            }
+            if !cf_update {
+                stop = None;
+            }
+        }
+        if let Some(tiny) = stop {
+            let residual = e.residual(last, lambda);
             if residual <= options.residual_tolerance() {
                 return Ok(Segment {
                     zbar: z,
@@ -458,10 +565,11 @@ fn joint<H: Hamiltonian<D>, const D: usize>(
             return Err(Error::NewtonDiverged {
                 step,
                 iterations,
-                residual: e.residual(last_lu.as_ref(), lambda),
+                residual: e.residual(last, lambda),
             });
         }
-        let lin = linearize(&e, h, lambda, step)?;
+        linearize(&e, h, lambda, step, &mut lin)?;
+        cf_update = e.cf.is_some();
         // Bordered system [[A, -(h/2) J g], [g^T, 0]] (dz, dl) = -(f, r):
         // dz = u + z_lambda dl with A u = -f, and g^T dz = -r.
         let u = lin.lu.solve(&(-e.f));
@@ -470,7 +578,6 @@ fn joint<H: Hamiltonian<D>, const D: usize>(
         z += dz;
         lambda += dl;
         iterations += 1;
-        last_lu = Some((lin.lu, lin.g_lambda));
         if !all_finite(&z) || !lambda.is_finite() {
             return Err(Error::NonFinite {
                 step,
@@ -493,22 +600,29 @@ fn nested<H: Hamiltonian<D>, const D: usize>(
     let mut outer_updates = Updates::default();
     let mut outer = 0u32;
     let mut factorizations = 0u32;
-    let mut last_lu: Option<(Lu<D>, f64)> = None;
+    // Workspace, overwritten in place.
+    let mut e = Eval::empty();
+    let mut lin = Linearization::empty();
+    let mut inner_lu = Lu::empty();
     loop {
+        let last = (outer > 0).then_some(&lin);
         // Inner Newton (thesis 4.1.2): z(h, lambda) at fixed lambda.
         let mut inner_updates = Updates::default();
         let mut inner = 0u32;
-        let e = loop {
-            let e = evaluate(ham, anchor, h, &z, lambda, step)?;
+        loop {
+            evaluate(ham, anchor, h, &z, lambda, step, &mut e)?;
+            if let Some(p) = &anchor.previous {
+                add_cancellation_free(ham, p, h, &z, lambda, step, &mut e)?;
+            }
             if let Some(tiny) = inner_updates.stopped(options.stall_tolerance()) {
                 if e.f_residual <= options.residual_tolerance() {
-                    break e;
+                    break;
                 }
                 if tiny {
                     return Err(Error::NewtonDiverged {
                         step,
                         iterations: factorizations,
-                        residual: e.residual(last_lu.as_ref(), lambda),
+                        residual: e.residual(last, lambda),
                     });
                 }
             }
@@ -516,14 +630,12 @@ fn nested<H: Hamiltonian<D>, const D: usize>(
                 return Err(Error::NewtonDiverged {
                     step,
                     iterations: factorizations,
-                    residual: e.residual(last_lu.as_ref(), lambda),
+                    residual: e.residual(last, lambda),
                 });
             }
-            let jhess = j_times_matrix(&e.d.hessian);
-            let a = SMatrix::<f64, D, D>::identity() - jhess * (0.5 * h * lambda);
-            let lu = factor(&a, step)?;
+            factor_newton_matrix(&mut inner_lu, &e.d.hessian, 0.5 * h * lambda, step)?;
             factorizations += 1;
-            let dz = lu.solve(&(-e.f));
+            let dz = inner_lu.solve(&(-e.f));
             z += dz;
             inner += 1;
             if !all_finite(&z) {
@@ -533,10 +645,10 @@ fn nested<H: Hamiltonian<D>, const D: usize>(
                 });
             }
             inner_updates.push(dz.amax() / z.amax().max(f64::MIN_POSITIVE));
-        };
+        }
         // Outer Newton (thesis 4.1.1) on g(lambda) = H(z(h, lambda)) - E.
-        if let Some(tiny) = outer_updates.stopped(e.stall(options, last_lu.as_ref(), lambda)) {
-            let residual = e.residual(last_lu.as_ref(), lambda);
+        if let Some(tiny) = outer_updates.stopped(e.stall(options, last, lambda)) {
+            let residual = e.residual(last, lambda);
             if residual <= options.residual_tolerance() {
                 return Ok(Segment {
                     zbar: z,
@@ -558,10 +670,10 @@ fn nested<H: Hamiltonian<D>, const D: usize>(
             return Err(Error::NewtonDiverged {
                 step,
                 iterations: factorizations,
-                residual: e.residual(last_lu.as_ref(), lambda),
+                residual: e.residual(last, lambda),
             });
         }
-        let lin = linearize(&e, h, lambda, step)?;
+        linearize(&e, h, lambda, step, &mut lin)?;
         factorizations += 1;
         if e.cf.is_some() {
             // Eliminate the inner solve's remaining f to first order, as the joint update does:
@@ -578,7 +690,6 @@ fn nested<H: Hamiltonian<D>, const D: usize>(
             z += lin.z_lambda * dl;
             outer_updates.push(dl.abs() / lambda.abs().max(f64::MIN_POSITIVE));
         }
-        last_lu = Some((lin.lu, lin.g_lambda));
         outer += 1;
         if !lambda.is_finite() || !all_finite(&z) {
             return Err(Error::NonFinite {
