@@ -159,3 +159,27 @@ pub enum Error {
         eccentricity: f64,
     },
 }
+
+/// A failed run (DTH or a peer method): the error and everything computed before it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RunError<T> {
+    /// Why the run stopped.
+    pub error: Error,
+    /// What was computed up to the last accepted step.
+    pub partial: T,
+}
+
+impl<T> std::fmt::Display for RunError<T> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "run stopped; what was computed up to the last accepted step is kept"
+        )
+    }
+}
+
+impl<T: std::fmt::Debug> std::error::Error for RunError<T> {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        Some(&self.error)
+    }
+}

@@ -57,9 +57,10 @@ mod robust;
 mod stepper;
 mod trajectory;
 
+pub use crate::error::RunError;
 pub use extended::{lift, set_momentum_of_time, Extended};
 pub use newton::{segment_from_vertex, Segment};
 pub use observer::{NoObserver, Observer, StepKind, StepRecord};
 pub use options::{DthOptions, EnergyResidual, Solver};
-pub use stepper::{integrate, Dth, RunError};
+pub use stepper::{integrate, Dth};
 pub use trajectory::Trajectory;

@@ -1,4 +1,4 @@
-//! The DTH stepper [`Dth`], the one-call [`integrate`], and [`RunError`].
+//! The DTH stepper [`Dth`] and the one-call [`integrate`].
 
 use nalgebra::SVector;
 
@@ -9,28 +9,8 @@ use super::options::DthOptions;
 use super::options::EnergyResidual;
 use super::robust::fallback_step;
 use super::trajectory::Trajectory;
+use crate::error::RunError;
 use crate::{j_times, Error, Hamiltonian};
-
-/// A failed run: the error and everything computed before it.
-#[derive(Clone, Debug, PartialEq)]
-pub struct RunError<T> {
-    /// Why the run stopped.
-    pub error: Error,
-    /// What was computed up to the last accepted step.
-    pub partial: T,
-}
-
-impl<T> std::fmt::Display for RunError<T> {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "DTH run stopped")
-    }
-}
-
-impl<T: std::fmt::Debug> std::error::Error for RunError<T> {
-    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
-        Some(&self.error)
-    }
-}
 
 /// The autonomous DTH stepper (paper Corollary 1, eqs. 28-30), monomorphized over the
 /// Hamiltonian: no `dyn`, no heap allocation per step.

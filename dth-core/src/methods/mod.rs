@@ -63,7 +63,7 @@ use nalgebra::{SMatrix, SVector};
 
 /// A run that stopped early: the error, and in `partial` the last good [`RunEnd`] (the
 /// observer has seen it and every state before it). The same type as the DTH stepper's.
-pub use crate::dth::RunError;
+pub use crate::error::RunError;
 use crate::{Error, Hamiltonian};
 
 /// A fixed-step one-step method for the Hamiltonian `H` on `R^D`.
