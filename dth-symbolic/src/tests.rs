@@ -345,3 +345,44 @@ fn dimension_and_time_dependence_follow_the_source() {
     assert!(h.time_dependent());
     assert_eq!(h.dim(), 4);
 }
+
+// --- engine work ------------------------------------------------------------------------
+
+/// The Toda chain between walls with `n` degrees of freedom: `3n - 1` nonzero Hessian entries
+/// in the upper triangle (tridiagonal q-block, identity on p).
+fn toda_fixed_ends(n: usize) -> String {
+    let kinetic: Vec<String> = (1..=n).map(|i| format!("p{i}^2")).collect();
+    let mut src = format!("({})/2 + exp(-q1)", kinetic.join(" + "));
+    for i in 1..n {
+        src.push_str(&format!(" + exp(q{i} - q{})", i + 1));
+    }
+    src.push_str(&format!(" + exp(q{n})"));
+    src
+}
+
+/// Differentiation skips subtrees free of the variable and the Hessian visits only pairs that
+/// can be nonzero, so the derivative rules applied (gradient, Hessian) grow exactly linearly in
+/// the Hessian's nonzeros along the chain. Walking all of `H` per coordinate, as before the
+/// dependency sets, applied `O(n^2)` rules: the second difference below was positive.
+#[test]
+fn differentiation_work_is_linear_in_the_hessian_nonzeros() {
+    let work: Vec<(usize, usize)> = (2..=20)
+        .map(|n| {
+            let h = compile(&toda_fixed_ends(n), &[]).unwrap();
+            let nnz = h.hessian_nonzeros().len();
+            assert_eq!(nnz, 3 * n - 1, "n = {n}");
+            (nnz, h.arena().diff_work())
+        })
+        .collect();
+    // Equal steps in nnz (3 per degree of freedom) must cost equal steps in work.
+    let steps: Vec<isize> = work
+        .windows(2)
+        .map(|w| w[1].1 as isize - w[0].1 as isize)
+        .collect();
+    assert!(
+        steps[1..].iter().all(|&s| s == steps[1]),
+        "work per added degree of freedom varies: {work:?}"
+    );
+    let (nnz, w) = work[work.len() - 1];
+    assert!(w <= 9 * nnz, "{w} rules for {nnz} nonzeros: {work:?}");
+}
