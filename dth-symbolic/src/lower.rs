@@ -104,6 +104,128 @@ impl Program {
             dim: coordinates.len(),
             params: arena.params().len(),
         }
+        .prune(|_| true)
+    }
+
+    /// Lowers `outputs` (which leave Psi out) and then Psi from the slots of the gradient and
+    /// Hessian entries, `Psi = sum_ij H_ij w_i w_j`, `w = J grad`, instead of from Psi's own
+    /// node: the arena flattens `2 H_ij w_i w_j` into one product of all their factors, so the
+    /// symbolic Psi re-multiplies what the Hessian and gradient already computed. Entries
+    /// sharing a slot (the `1/m` of a kinetic energy, the `1` of `p^2/2`) share one product:
+    /// `Psi = sum_s H_s (sum_{H_ii = s} w_i^2 + 2 sum_{H_ij = s, i < j} w_i w_j)`.
+    /// `nonzeros` are the Hessian's upper-triangle entries `(i, j, node)`.
+    pub(crate) fn lower_assembling_psi(
+        arena: &Arena,
+        coordinates: &[Var],
+        outputs: &[(Output, Id)],
+        gradient: &[Id],
+        nonzeros: &[(usize, usize, Id)],
+    ) -> Program {
+        let mut l = Lowerer::new(arena, coordinates);
+        let mut outs: Vec<(Output, Slot)> =
+            outputs.iter().map(|&(o, id)| (o, l.value(id))).collect();
+        let half = coordinates.len() / 2;
+        // w_i = g_{i+half} for a position, -g_{i-half} for a momentum: (negative, slot).
+        let w = |l: &mut Lowerer, i: usize| {
+            if i < half {
+                (false, l.value(gradient[i + half]))
+            } else {
+                (true, l.value(gradient[i - half]))
+            }
+        };
+        // Per distinct Hessian slot: its diagonal squares and off-diagonal products.
+        let mut groups: Vec<(Slot, Vec<(bool, Slot)>, Vec<(bool, Slot)>)> = Vec::new();
+        for &(i, j, h) in nonzeros {
+            let hs = l.value(h);
+            let k = match groups.iter().position(|g| g.0 == hs) {
+                Some(k) => k,
+                None => {
+                    groups.push((hs, Vec::new(), Vec::new()));
+                    groups.len() - 1
+                }
+            };
+            let (ni, wi) = w(&mut l, i);
+            if i == j {
+                let sq = l.powi(wi, 2);
+                groups[k].1.push((false, sq));
+            } else {
+                let (nj, wj) = w(&mut l, j);
+                let m = l.emit(Op::Mul(wi, wj));
+                groups[k].2.push((ni != nj, m));
+            }
+        }
+        let mut terms = Vec::with_capacity(groups.len());
+        for (hs, diag, off) in groups {
+            let mut parts = diag;
+            if !off.is_empty() {
+                let (neg, o) = l.signed_sum(&off);
+                parts.push((neg, l.emit(Op::Add(o, o))));
+            }
+            let (mut neg, inner) = l.signed_sum(&parts);
+            let factor = match l.ops[hs as usize] {
+                Op::Const(c) => {
+                    neg ^= c < 0.0;
+                    (c.abs() != 1.0).then(|| l.konst(c.abs()))
+                }
+                _ => Some(hs),
+            };
+            terms.push(match factor {
+                Some(f) => (neg, l.emit(Op::Mul(f, inner))),
+                None => (neg, inner),
+            });
+        }
+        let psi = match l.signed_sum(&terms) {
+            (true, s) => l.emit(Op::Neg(s)),
+            (false, s) => s,
+        };
+        outs.push((Output::Psi, psi));
+        Program {
+            ops: l.ops,
+            outputs: outs,
+            dim: coordinates.len(),
+            params: arena.params().len(),
+        }
+        .prune(|_| true)
+    }
+
+    /// The program restricted to the outputs `keep` accepts, without the operations none of
+    /// them reaches (dead-code elimination), slots renumbered in order.
+    pub fn prune(&self, keep: impl Fn(Output) -> bool) -> Program {
+        let outputs: Vec<(Output, Slot)> = self
+            .outputs
+            .iter()
+            .copied()
+            .filter(|&(o, _)| keep(o))
+            .collect();
+        let mut live = vec![false; self.ops.len()];
+        for &(_, s) in &outputs {
+            live[s as usize] = true;
+        }
+        // Operands come before their operation: one backward sweep marks everything reached.
+        for i in (0..self.ops.len()).rev() {
+            if live[i] {
+                for a in operands(&self.ops[i]) {
+                    live[a as usize] = true;
+                }
+            }
+        }
+        let mut new = vec![0; self.ops.len()];
+        let mut ops = Vec::new();
+        for (i, op) in self.ops.iter().enumerate() {
+            if live[i] {
+                new[i] = ops.len() as Slot;
+                ops.push(renumber(op, &new));
+            }
+        }
+        Program {
+            ops,
+            outputs: outputs
+                .into_iter()
+                .map(|(o, s)| (o, new[s as usize]))
+                .collect(),
+            dim: self.dim,
+            params: self.params,
+        }
     }
 
     /// Operation counts.
@@ -123,6 +245,47 @@ impl Program {
             }
         }
         s
+    }
+}
+
+/// A [`Kernel`] as a key: its variant, and the bits of the exponent of a `PowRatio`.
+fn kernel_key(k: Kernel) -> (u8, u64) {
+    match k {
+        Kernel::ExpRatio => (0, 0),
+        Kernel::Sinc => (1, 0),
+        Kernel::Sinhc => (2, 0),
+        Kernel::LnRatio => (3, 0),
+        Kernel::AtanRatio => (4, 0),
+        Kernel::TanhRatio => (5, 0),
+        Kernel::PowRatio(r) => (6, r.to_bits()),
+    }
+}
+
+/// The slots `op` reads.
+fn operands(op: &Op) -> Vec<Slot> {
+    match *op {
+        Op::Input(_) | Op::Input1(_) | Op::Param(_) | Op::Const(_) => Vec::new(),
+        Op::Neg(a) | Op::Sqrt(a) | Op::Powf(a, _) | Op::Call(_, a) => vec![a],
+        Op::Add(a, b) | Op::Sub(a, b) | Op::Mul(a, b) | Op::Div(a, b) | Op::Kernel(_, a, b) => {
+            vec![a, b]
+        }
+    }
+}
+
+/// `op` with its operands renamed through `new`.
+fn renumber(op: &Op, new: &[Slot]) -> Op {
+    let n = |a: Slot| new[a as usize];
+    match *op {
+        Op::Input(_) | Op::Input1(_) | Op::Param(_) | Op::Const(_) => *op,
+        Op::Add(a, b) => Op::Add(n(a), n(b)),
+        Op::Sub(a, b) => Op::Sub(n(a), n(b)),
+        Op::Mul(a, b) => Op::Mul(n(a), n(b)),
+        Op::Div(a, b) => Op::Div(n(a), n(b)),
+        Op::Neg(a) => Op::Neg(n(a)),
+        Op::Sqrt(a) => Op::Sqrt(n(a)),
+        Op::Powf(a, e) => Op::Powf(n(a), e),
+        Op::Call(f, a) => Op::Call(f, n(a)),
+        Op::Kernel(k, a, b) => Op::Kernel(k, n(a), n(b)),
     }
 }
 
@@ -166,6 +329,40 @@ pub(crate) struct Lowerer<'a> {
     powi: HashMap<(Slot, i128), Slot>,
     sqrt: HashMap<Slot, Slot>,
     recip: HashMap<Slot, Slot>,
+    /// Every operation emitted, by its operands: an equal operation is emitted once (repeated
+    /// partial products such as `mass*length` in several terms, `2*q2` from two derivatives).
+    seen: HashMap<OpKey, Slot>,
+}
+
+/// An [`Op`] as a hashable key, operands of `+` and `*` in order (both commute exactly).
+type OpKey = (u8, u32, u32, u64);
+
+fn op_key(op: &Op) -> OpKey {
+    let sorted = |a: Slot, b: Slot| (a.min(b), a.max(b));
+    match *op {
+        Op::Input(k) => (0, k, 0, 0),
+        Op::Input1(k) => (1, k, 0, 0),
+        Op::Param(k) => (2, k, 0, 0),
+        Op::Const(c) => (3, 0, 0, c.to_bits()),
+        Op::Add(a, b) => {
+            let (a, b) = sorted(a, b);
+            (4, a, b, 0)
+        }
+        Op::Sub(a, b) => (5, a, b, 0),
+        Op::Mul(a, b) => {
+            let (a, b) = sorted(a, b);
+            (6, a, b, 0)
+        }
+        Op::Div(a, b) => (7, a, b, 0),
+        Op::Neg(a) => (8, a, 0, 0),
+        Op::Sqrt(a) => (9, a, 0, 0),
+        Op::Powf(a, e) => (10, a, 0, e.to_bits()),
+        Op::Call(f, a) => (11, a, 0, f as u64),
+        Op::Kernel(k, a, b) => {
+            let (variant, bits) = kernel_key(k);
+            (12 + variant, a, b, bits)
+        }
+    }
 }
 
 impl<'a> Lowerer<'a> {
@@ -185,14 +382,28 @@ impl<'a> Lowerer<'a> {
             powi: HashMap::new(),
             sqrt: HashMap::new(),
             recip: HashMap::new(),
+            seen: HashMap::new(),
         }
     }
 }
 
 impl Lowerer<'_> {
+    /// Appends `op`, or returns the slot of an equal operation emitted before. The negation
+    /// of a constant is the negated constant.
     pub(crate) fn emit(&mut self, op: Op) -> Slot {
+        if let Op::Neg(a) = op {
+            if let Op::Const(c) = self.ops[a as usize] {
+                return self.konst(-c);
+            }
+        }
+        let key = op_key(&op);
+        if let Some(&s) = self.seen.get(&key) {
+            return s;
+        }
         self.ops.push(op);
-        (self.ops.len() - 1) as Slot
+        let s = (self.ops.len() - 1) as Slot;
+        self.seen.insert(key, s);
+        s
     }
 
     pub(crate) fn konst(&mut self, x: f64) -> Slot {
@@ -297,6 +508,29 @@ impl Lowerer<'_> {
             });
         }
         acc
+    }
+
+    /// `sum_k (-1)^neg_k s_k` as `(negative, slot)`: started from a positive term when there is
+    /// one (then `(false, _)`), otherwise the sum of the magnitudes, negated by the caller.
+    /// `items` is not empty.
+    pub(crate) fn signed_sum(&mut self, items: &[(bool, Slot)]) -> (bool, Slot) {
+        let start = items.iter().position(|&(neg, _)| !neg);
+        let (negative, k) = match start {
+            Some(k) => (false, k),
+            None => (true, 0),
+        };
+        let mut acc = items[k].1;
+        for (i, &(neg, s)) in items.iter().enumerate() {
+            if i == k {
+                continue;
+            }
+            acc = self.emit(if neg != negative {
+                Op::Sub(acc, s)
+            } else {
+                Op::Add(acc, s)
+            });
+        }
+        (negative, acc)
     }
 
     /// `s^e`. Every negative power of one base comes from one division `1/s` (and

@@ -335,7 +335,29 @@ impl System {
         if method == Method::DiscreteGradient {
             return crate::divided::lower(&self.arena, &self.coordinates, self.value);
         }
-        Program::lower(&self.arena, &self.coordinates, &self.outputs(method))
+        let symbolic = Program::lower(&self.arena, &self.coordinates, &self.outputs(method));
+        if !matches!(method, Method::Psi | Method::All) || self.psi_identically_zero() {
+            return symbolic;
+        }
+        // Psi both ways, from its own node or from the computed gradient and Hessian slots
+        // ([`Program::lower_assembling_psi`]); the shorter program is emitted.
+        let others: Vec<(Output, Id)> = self
+            .outputs(method)
+            .into_iter()
+            .filter(|&(o, _)| o != Output::Psi)
+            .collect();
+        let assembled = Program::lower_assembling_psi(
+            &self.arena,
+            &self.coordinates,
+            &others,
+            &self.gradient,
+            &self.nonzeros,
+        );
+        if assembled.ops.len() < symbolic.ops.len() {
+            assembled
+        } else {
+            symbolic
+        }
     }
 
     /// Whether `id` is a constant, and which.
