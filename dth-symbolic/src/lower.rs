@@ -134,7 +134,7 @@ impl Program {
             }
         };
         // Per distinct Hessian slot: its diagonal squares and off-diagonal products.
-        let mut groups: Vec<(Slot, Vec<(bool, Slot)>, Vec<(bool, Slot)>)> = Vec::new();
+        let mut groups: Vec<PsiGroup> = Vec::new();
         for &(i, j, h) in nonzeros {
             let hs = l.value(h);
             let k = match groups.iter().position(|g| g.0 == hs) {
@@ -247,6 +247,10 @@ impl Program {
         s
     }
 }
+
+/// The Psi terms of one Hessian slot: the slot, the squares `w_i^2` of its diagonal entries
+/// and the signed products `w_i w_j` of its off-diagonal ones.
+type PsiGroup = (Slot, Vec<(bool, Slot)>, Vec<(bool, Slot)>);
 
 /// A [`Kernel`] as a key: its variant, and the bits of the exponent of a `PowRatio`.
 fn kernel_key(k: Kernel) -> (u8, u64) {

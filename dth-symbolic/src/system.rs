@@ -340,24 +340,38 @@ impl System {
             return symbolic;
         }
         // Psi both ways, from its own node or from the computed gradient and Hessian slots
-        // ([`Program::lower_assembling_psi`]); the shorter program is emitted.
+        // ([`Program::lower_assembling_psi`]); the form whose fused program is shorter is used
+        // by both `All` and `Psi`, so `psi()` and `derivatives().psi` agree to the bit.
+        let assembled = self.assembled(method);
+        let shorter = if method == Method::All {
+            assembled.ops.len() < symbolic.ops.len()
+        } else {
+            let all = self.assembled(Method::All);
+            let symbolic_all =
+                Program::lower(&self.arena, &self.coordinates, &self.outputs(Method::All));
+            all.ops.len() < symbolic_all.ops.len()
+        };
+        if shorter {
+            assembled
+        } else {
+            symbolic
+        }
+    }
+
+    /// The program of `method` with Psi assembled from the gradient and Hessian slots.
+    fn assembled(&self, method: Method) -> Program {
         let others: Vec<(Output, Id)> = self
             .outputs(method)
             .into_iter()
             .filter(|&(o, _)| o != Output::Psi)
             .collect();
-        let assembled = Program::lower_assembling_psi(
+        Program::lower_assembling_psi(
             &self.arena,
             &self.coordinates,
             &others,
             &self.gradient,
             &self.nonzeros,
-        );
-        if assembled.ops.len() < symbolic.ops.len() {
-            assembled
-        } else {
-            symbolic
-        }
+        )
     }
 
     /// Whether `id` is a constant, and which.
