@@ -42,6 +42,10 @@ pub struct System {
     /// The nonzero entries of the upper triangle, row by row: `(i, j, node)`, `i <= j`.
     nonzeros: Vec<(usize, usize, Id)>,
     psi: Id,
+    /// Psi is lowered from the gradient and Hessian slots ([`Program::lower_assembling_psi`])
+    /// rather than from its own node: decided once, on the fused program, so `Psi` and `All`
+    /// use the same form and `psi()` and `derivatives().psi` agree to the bit.
+    psi_assembled: bool,
 }
 
 /// Parses, checks and differentiates `src`, a Hamiltonian in the grammar, with the declared
@@ -180,7 +184,7 @@ fn derive(mut arena: Arena, h: Id) -> Result<System, (Fault, Span)> {
         }
     }
     let psi = psi(arena, &gradient, &nonzeros, d).map_err(|f| (f, Span::default()))?;
-    Ok(System {
+    let mut system = System {
         arena: arena.clone(),
         n: n as usize,
         time_dependent,
@@ -190,7 +194,13 @@ fn derive(mut arena: Arena, h: Id) -> Result<System, (Fault, Span)> {
         hessian,
         nonzeros,
         psi,
-    })
+        psi_assembled: false,
+    };
+    if !system.psi_identically_zero() {
+        let symbolic = system.program(Method::All).ops.len();
+        system.psi_assembled = system.assembled(Method::All).ops.len() < symbolic;
+    }
+    Ok(system)
 }
 
 /// `Psi = w^T Hess w`, `w = J grad`: `sum_i H_ii w_i^2 + 2 sum_{i<j} H_ij w_i w_j` over the
@@ -335,26 +345,10 @@ impl System {
         if method == Method::DiscreteGradient {
             return crate::divided::lower(&self.arena, &self.coordinates, self.value);
         }
-        let symbolic = Program::lower(&self.arena, &self.coordinates, &self.outputs(method));
-        if !matches!(method, Method::Psi | Method::All) || self.psi_identically_zero() {
-            return symbolic;
-        }
-        // Psi both ways, from its own node or from the computed gradient and Hessian slots
-        // ([`Program::lower_assembling_psi`]); the form whose fused program is shorter is used
-        // by both `All` and `Psi`, so `psi()` and `derivatives().psi` agree to the bit.
-        let assembled = self.assembled(method);
-        let shorter = if method == Method::All {
-            assembled.ops.len() < symbolic.ops.len()
+        if self.psi_assembled && matches!(method, Method::Psi | Method::All) {
+            self.assembled(method)
         } else {
-            let all = self.assembled(Method::All);
-            let symbolic_all =
-                Program::lower(&self.arena, &self.coordinates, &self.outputs(Method::All));
-            all.ops.len() < symbolic_all.ops.len()
-        };
-        if shorter {
-            assembled
-        } else {
-            symbolic
+            Program::lower(&self.arena, &self.coordinates, &self.outputs(method))
         }
     }
 
