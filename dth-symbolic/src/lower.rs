@@ -395,10 +395,35 @@ impl Lowerer<'_> {
     /// Appends `op`, or returns the slot of an equal operation emitted before. The negation
     /// of a constant is the negated constant.
     pub(crate) fn emit(&mut self, op: Op) -> Slot {
-        if let Op::Neg(a) = op {
-            if let Op::Const(c) = self.ops[a as usize] {
-                return self.konst(-c);
+        // Operations on constants fold (to the value the run time would compute), and a
+        // multiplication by 1 is its other operand: `w_i = 1` in Psi costs nothing.
+        let konst = |l: &Self, s: Slot| match l.ops[s as usize] {
+            Op::Const(c) => Some(c),
+            _ => None,
+        };
+        match op {
+            Op::Neg(a) => {
+                if let Some(c) = konst(self, a) {
+                    return self.konst(-c);
+                }
             }
+            Op::Mul(a, b) => match (konst(self, a), konst(self, b)) {
+                (Some(x), Some(y)) => return self.konst(x * y),
+                (Some(x), None) if x == 1.0 => return b,
+                (None, Some(y)) if y == 1.0 => return a,
+                _ => {}
+            },
+            Op::Add(a, b) => {
+                if let (Some(x), Some(y)) = (konst(self, a), konst(self, b)) {
+                    return self.konst(x + y);
+                }
+            }
+            Op::Sub(a, b) => {
+                if let (Some(x), Some(y)) = (konst(self, a), konst(self, b)) {
+                    return self.konst(x - y);
+                }
+            }
+            _ => {}
         }
         let key = op_key(&op);
         if let Some(&s) = self.seen.get(&key) {
@@ -471,11 +496,19 @@ impl Lowerer<'_> {
                 if let Some(&s) = self.mag.get(&(self.at_z1, id)) {
                     return (coef.is_negative(), s);
                 }
-                let factors: Vec<Id> = ch
+                let mut factors: Vec<Id> = ch
                     .iter()
                     .copied()
                     .filter(|&c| self.arena.as_num(c).is_none())
                     .collect();
+                // Parameters first (products of them are shared by every term that has
+                // them), then the other factors from the most complex (largest id) down to
+                // plain coordinates, so a term that is another term times a coordinate
+                // (`q H_qt` beside `H_qt = F w sin(w t)`) reuses that term's product as prefix.
+                factors.sort_by_key(|&f| {
+                    let varying = !self.arena.deps(f).is_empty();
+                    (varying, if varying { u32::MAX - f.0 } else { f.0 })
+                });
                 let mut acc = self.value(factors[0]);
                 for &f in &factors[1..] {
                     let s = self.value(f);
