@@ -409,8 +409,8 @@ impl Lowerer<'_> {
             }
             Op::Mul(a, b) => match (konst(self, a), konst(self, b)) {
                 (Some(x), Some(y)) => return self.konst(x * y),
-                (Some(x), None) if x == 1.0 => return b,
-                (None, Some(y)) if y == 1.0 => return a,
+                (Some(1.0), None) => return b,
+                (None, Some(1.0)) => return a,
                 _ => {}
             },
             Op::Add(a, b) => {
