@@ -509,9 +509,36 @@ impl Lowerer<'_> {
                     let varying = !self.arena.deps(f).is_empty();
                     (varying, if varying { u32::MAX - f.0 } else { f.0 })
                 });
-                let mut acc = self.value(factors[0]);
-                for &f in &factors[1..] {
-                    let s = self.value(f);
+                // Negative integer powers of parameters share one division:
+                // `a^-1 b^-2 = 1/(a b^2)` (`p^2/(2 m l^2)`: one division, not two).
+                let inverse = |f: Id| match self.arena.node(f) {
+                    Node::Pow(b, e) if self.arena.deps(f).is_empty() => e
+                        .as_rational()
+                        .filter(|r| r.is_integer() && r.numer() < 0)
+                        .map(|r| (*b, -r.numer())),
+                    _ => None,
+                };
+                let denominators: Vec<(Id, i128)> =
+                    factors.iter().filter_map(|&f| inverse(f)).collect();
+                let mut slots = Vec::with_capacity(factors.len());
+                if denominators.len() >= 2 {
+                    factors.retain(|&f| inverse(f).is_none());
+                    let mut den = None;
+                    for (b, k) in denominators {
+                        let s = self.value(b);
+                        let p = self.powi(s, k);
+                        den = Some(match den {
+                            None => p,
+                            Some(d) => self.emit(Op::Mul(d, p)),
+                        });
+                    }
+                    if let Some(d) = den {
+                        slots.push(self.recip(d));
+                    }
+                }
+                slots.extend(factors.iter().map(|&f| self.value(f)));
+                let mut acc = slots[0];
+                for &s in &slots[1..] {
                     acc = self.emit(Op::Mul(acc, s));
                 }
                 let c = coef.to_f64().abs();
