@@ -96,15 +96,18 @@ pub struct Stats {
 impl Program {
     /// Lowers `outputs` (nodes of `arena`) with `z` laid out as `coordinates`.
     pub fn lower(arena: &Arena, coordinates: &[Var], outputs: &[(Output, Id)]) -> Program {
-        let mut l = Lowerer::new(arena, coordinates);
-        let outputs = outputs.iter().map(|&(o, id)| (o, l.value(id))).collect();
-        Program {
-            ops: l.ops,
-            outputs,
-            dim: coordinates.len(),
-            params: arena.params().len(),
-        }
-        .prune(|_| true)
+        cheaper(|joint| {
+            let mut l = Lowerer::new(arena, coordinates);
+            l.joint_denominators = joint;
+            let outputs = outputs.iter().map(|&(o, id)| (o, l.value(id))).collect();
+            Program {
+                ops: l.ops,
+                outputs,
+                dim: coordinates.len(),
+                params: arena.params().len(),
+            }
+            .prune(|_| true)
+        })
     }
 
     /// Lowers `outputs` (which leave Psi out) and then Psi from the slots of the gradient and
@@ -121,7 +124,21 @@ impl Program {
         gradient: &[Id],
         nonzeros: &[(usize, usize, Id)],
     ) -> Program {
+        cheaper(|joint| {
+            Self::assembling_psi(arena, coordinates, outputs, gradient, nonzeros, joint)
+        })
+    }
+
+    fn assembling_psi(
+        arena: &Arena,
+        coordinates: &[Var],
+        outputs: &[(Output, Id)],
+        gradient: &[Id],
+        nonzeros: &[(usize, usize, Id)],
+        joint_denominators: bool,
+    ) -> Program {
         let mut l = Lowerer::new(arena, coordinates);
+        l.joint_denominators = joint_denominators;
         let mut outs: Vec<(Output, Slot)> =
             outputs.iter().map(|&(o, id)| (o, l.value(id))).collect();
         let half = coordinates.len() / 2;
@@ -252,6 +269,18 @@ impl Program {
 /// and the signed products `w_i w_j` of its off-diagonal ones.
 type PsiGroup = (Slot, Vec<(bool, Slot)>, Vec<(bool, Slot)>);
 
+/// The cheaper of `lower(false)` and `lower(true)` (a division counted as four operations,
+/// roughly its throughput cost against a multiplication).
+fn cheaper(lower: impl Fn(bool) -> Program) -> Program {
+    let cost = |p: &Program| p.ops.len() + 4 * p.stats().divs;
+    let (a, b) = (lower(false), lower(true));
+    if cost(&b) < cost(&a) {
+        b
+    } else {
+        a
+    }
+}
+
 /// A [`Kernel`] as a key: its variant, and the bits of the exponent of a `PowRatio`.
 fn kernel_key(k: Kernel) -> (u8, u64) {
     match k {
@@ -336,6 +365,10 @@ pub(crate) struct Lowerer<'a> {
     /// Every operation emitted, by its operands: an equal operation is emitted once (repeated
     /// partial products such as `mass*length` in several terms, `2*q2` from two derivatives).
     seen: HashMap<OpKey, Slot>,
+    /// Negative powers of parameters in one product share one division (`1/(m l^2)`); off,
+    /// each base has its own reciprocal, shared by every product. Which is cheaper depends on
+    /// how the products overlap, so programs are lowered both ways ([`cheaper`]).
+    pub(crate) joint_denominators: bool,
 }
 
 /// An [`Op`] as a hashable key, operands of `+` and `*` in order (both commute exactly).
@@ -387,6 +420,7 @@ impl<'a> Lowerer<'a> {
             sqrt: HashMap::new(),
             recip: HashMap::new(),
             seen: HashMap::new(),
+            joint_denominators: false,
         }
     }
 }
@@ -521,7 +555,7 @@ impl Lowerer<'_> {
                 let denominators: Vec<(Id, i128)> =
                     factors.iter().filter_map(|&f| inverse(f)).collect();
                 let mut slots = Vec::with_capacity(factors.len());
-                if denominators.len() >= 2 {
+                if self.joint_denominators && denominators.len() >= 2 {
                     factors.retain(|&f| inverse(f).is_none());
                     let mut den = None;
                     for (b, k) in denominators {
