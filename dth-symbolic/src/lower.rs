@@ -100,13 +100,14 @@ impl Program {
             let mut l = Lowerer::new(arena, coordinates);
             l.joint_denominators = joint;
             let outputs = outputs.iter().map(|&(o, id)| (o, l.value(id))).collect();
-            Program {
+            let joinable = l.joinable;
+            let program = Program {
                 ops: l.ops,
                 outputs,
                 dim: coordinates.len(),
                 params: arena.params().len(),
-            }
-            .prune(|_| true)
+            };
+            (program.prune(|_| true), joinable)
         })
     }
 
@@ -136,7 +137,7 @@ impl Program {
         gradient: &[Id],
         nonzeros: &[(usize, usize, Id)],
         joint_denominators: bool,
-    ) -> Program {
+    ) -> (Program, bool) {
         let mut l = Lowerer::new(arena, coordinates);
         l.joint_denominators = joint_denominators;
         let mut outs: Vec<(Output, Slot)> =
@@ -196,13 +197,14 @@ impl Program {
             (false, s) => s,
         };
         outs.push((Output::Psi, psi));
-        Program {
+        let joinable = l.joinable;
+        let program = Program {
             ops: l.ops,
             outputs: outs,
             dim: coordinates.len(),
             params: arena.params().len(),
-        }
-        .prune(|_| true)
+        };
+        (program.prune(|_| true), joinable)
     }
 
     /// The program restricted to the outputs `keep` accepts, without the operations none of
@@ -270,10 +272,15 @@ impl Program {
 type PsiGroup = (Slot, Vec<(bool, Slot)>, Vec<(bool, Slot)>);
 
 /// The cheaper of `lower(false)` and `lower(true)` (a division counted as four operations,
-/// roughly its throughput cost against a multiplication).
-fn cheaper(lower: impl Fn(bool) -> Program) -> Program {
+/// roughly its throughput cost against a multiplication); `lower` also says whether joining
+/// denominators could change anything, and if not the second lowering is skipped.
+fn cheaper(lower: impl Fn(bool) -> (Program, bool)) -> Program {
     let cost = |p: &Program| p.ops.len() + 4 * p.stats().divs;
-    let (a, b) = (lower(false), lower(true));
+    let (a, joinable) = lower(false);
+    if !joinable {
+        return a;
+    }
+    let (b, _) = lower(true);
     if cost(&b) < cost(&a) {
         b
     } else {
@@ -369,6 +376,8 @@ pub(crate) struct Lowerer<'a> {
     /// each base has its own reciprocal, shared by every product. Which is cheaper depends on
     /// how the products overlap, so programs are lowered both ways ([`cheaper`]).
     pub(crate) joint_denominators: bool,
+    /// Set when some product had two or more such powers (else joining changes nothing).
+    pub(crate) joinable: bool,
 }
 
 /// An [`Op`] as a hashable key, operands of `+` and `*` in order (both commute exactly).
@@ -421,6 +430,7 @@ impl<'a> Lowerer<'a> {
             recip: HashMap::new(),
             seen: HashMap::new(),
             joint_denominators: false,
+            joinable: false,
         }
     }
 }
@@ -555,6 +565,7 @@ impl Lowerer<'_> {
                 let denominators: Vec<(Id, i128)> =
                     factors.iter().filter_map(|&f| inverse(f)).collect();
                 let mut slots = Vec::with_capacity(factors.len());
+                self.joinable |= denominators.len() >= 2;
                 if self.joint_denominators && denominators.len() >= 2 {
                     factors.retain(|&f| inverse(f).is_none());
                     let mut den = None;
