@@ -61,9 +61,12 @@ fn imp(name: &Ident, params: &[Ident], system: &System) -> TokenStream {
         let (g, h, value, psi) = (v.gradient(d), v.hessian(d), &v.value, &v.psi);
         quote!(#core::Derivatives { value: #value, gradient: #g, hessian: #h, psi: #psi })
     });
+    // One two-point program, each method keeping only the operations its outputs reach.
     let pair = system.program(Method::DiscreteGradient);
-    let discrete_gradient = body(&pair, params, |v| v.discrete_gradient(d));
-    let energy_difference = body(&pair, params, |v| {
+    let gbar = pair.prune(|o| matches!(o, Output::DiscreteGradient(_)));
+    let discrete_gradient = body(&gbar, params, |v| v.discrete_gradient(d));
+    let delta = pair.prune(|o| o == Output::EnergyDifference);
+    let energy_difference = body(&delta, params, |v| {
         let v = &v.energy_difference;
         quote!(#v)
     });
@@ -148,27 +151,41 @@ struct Values {
     discrete_gradient_defect: Vec<(usize, Ident)>,
 }
 
+/// Matrices up to this dimension are built as one column-major array literal (every entry,
+/// zeros included); larger ones as `zeros()` plus a store per nonzero entry, so the emitted
+/// code stays linear in the nonzeros.
+const LITERAL_MAX_DIM: usize = 8;
+
 impl Values {
     fn discrete_gradient(&self, d: usize) -> TokenStream {
-        vector(&self.discrete_gradient, d)
+        vector(d, &self.discrete_gradient)
     }
 
     fn discrete_gradient_defect(&self, d: usize) -> TokenStream {
-        vector(&self.discrete_gradient_defect, d)
+        vector(d, &self.discrete_gradient_defect)
     }
 
     fn gradient(&self, d: usize) -> TokenStream {
-        let set = self.gradient.iter().map(|(i, v)| quote!(g[#i] = #v;));
-        quote! {{
-            let mut g = ::dth::__private::nalgebra::SVector::<f64, #d>::zeros();
-            #(#set)*
-            g
-        }}
+        vector(d, &self.gradient)
     }
 
     fn hessian(&self, d: usize) -> TokenStream {
+        let nalgebra = quote!(::dth::__private::nalgebra);
         if self.hessian.is_empty() {
-            return quote!(::dth::__private::nalgebra::SMatrix::<f64, #d, #d>::zeros());
+            return quote!(#nalgebra::SMatrix::<f64, #d, #d>::zeros());
+        }
+        if d <= LITERAL_MAX_DIM {
+            let mut entries = vec![vec![quote!(0.0f64); d]; d];
+            for (i, j, v) in &self.hessian {
+                entries[*j][*i] = quote!(#v);
+                entries[*i][*j] = quote!(#v);
+            }
+            let columns = entries.iter().map(|c| quote!([#(#c),*]));
+            return quote! {
+                #nalgebra::SMatrix::<f64, #d, #d>::from_array_storage(
+                    #nalgebra::ArrayStorage([#(#columns),*])
+                )
+            };
         }
         let set = self.hessian.iter().map(|(i, j, v)| {
             if i == j {
@@ -178,18 +195,29 @@ impl Values {
             }
         });
         quote! {{
-            let mut h = ::dth::__private::nalgebra::SMatrix::<f64, #d, #d>::zeros();
+            let mut h = #nalgebra::SMatrix::<f64, #d, #d>::zeros();
             #(#set)*
             h
         }}
     }
 }
 
-/// A `D`-vector with the listed components set (the others zero).
-fn vector(components: &[(usize, Ident)], d: usize) -> TokenStream {
-    let set = components.iter().map(|(i, v)| quote!(g[#i] = #v;));
+/// A vector of dimension `d` with the entries `set` (the others zero): an array literal up to
+/// [`LITERAL_MAX_DIM`], `zeros()` plus stores beyond.
+fn vector(d: usize, set: &[(usize, Ident)]) -> TokenStream {
+    let nalgebra = quote!(::dth::__private::nalgebra);
+    if d <= LITERAL_MAX_DIM {
+        let mut entries = vec![quote!(0.0f64); d];
+        for (i, v) in set {
+            entries[*i] = quote!(#v);
+        }
+        return quote! {
+            #nalgebra::SVector::<f64, #d>::from_array_storage(#nalgebra::ArrayStorage([[#(#entries),*]]))
+        };
+    }
+    let set = set.iter().map(|(i, v)| quote!(g[#i] = #v;));
     quote! {{
-        let mut g = ::dth::__private::nalgebra::SVector::<f64, #d>::zeros();
+        let mut g = #nalgebra::SVector::<f64, #d>::zeros();
         #(#set)*
         g
     }}

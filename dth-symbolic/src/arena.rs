@@ -123,16 +123,67 @@ pub enum Node {
     Func(Func, Id),
 }
 
+/// Number of 64-bit words of a [`VarSet`]: one bit per phase-space variable `q1..q256`,
+/// `p1..p256`, `t`, `p_t` (see [`VarSet::bit`]).
+const WORDS: usize = (2 * crate::MAX_INDEX + 2).div_ceil(64);
+
+/// The phase-space variables a node depends on, as a bitset (parameters are constants for
+/// differentiation and have no bit). Computed once per node when it is interned, from its
+/// children's sets, so asking "does this node depend on `x`?" costs one bit test: it lets
+/// differentiation return `0` without walking a subtree, and the Hessian visit only the pairs
+/// that can be nonzero.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct VarSet([u64; WORDS]);
+
+impl VarSet {
+    /// The bit of `v`: `t` 0, `p_t` 1, `q_i` `2i`, `p_i` `2i + 1`; `None` for parameters.
+    pub fn bit(v: Var) -> Option<usize> {
+        match v {
+            Var::T => Some(0),
+            Var::Pt => Some(1),
+            Var::Q(i) => Some(2 * i as usize),
+            Var::P(i) => Some(2 * i as usize + 1),
+            Var::Param(_) => None,
+        }
+    }
+
+    /// `true` when `v` is in the set.
+    pub fn contains(&self, v: Var) -> bool {
+        Self::bit(v).is_some_and(|b| b < 64 * WORDS && self.0[b / 64] >> (b % 64) & 1 == 1)
+    }
+
+    /// `true` when no variable is in the set.
+    pub fn is_empty(&self) -> bool {
+        self.0.iter().all(|&w| w == 0)
+    }
+
+    fn insert(&mut self, v: Var) {
+        if let Some(b) = Self::bit(v).filter(|&b| b < 64 * WORDS) {
+            self.0[b / 64] |= 1 << (b % 64);
+        }
+    }
+
+    fn union(&mut self, other: &VarSet) {
+        for (a, b) in self.0.iter_mut().zip(other.0.iter()) {
+            *a |= b;
+        }
+    }
+}
+
 /// The arena of hash-consed nodes, with the source span of each node.
 #[derive(Clone, Debug, Default)]
 pub struct Arena {
     nodes: Vec<Node>,
     spans: Vec<Span>,
+    deps: Vec<VarSet>,
     index: HashMap<Node, Id>,
     params: Vec<String>,
     /// Span given to nodes created from now on (the builder sets it to the AST node being
     /// built; differentiation sets it to the node being differentiated, so derivatives inherit).
     pub(crate) span: Span,
+    /// Derivative rules applied so far ([`Arena::diff`] on a node that depends on the
+    /// variable): the engine's work, which tests check grows linearly.
+    pub(crate) diff_work: usize,
 }
 
 impl Arena {
@@ -147,6 +198,22 @@ impl Arena {
     /// The node `id`.
     pub fn node(&self, id: Id) -> &Node {
         &self.nodes[id.index()]
+    }
+
+    /// The phase-space variables `id` depends on.
+    pub fn deps(&self, id: Id) -> &VarSet {
+        &self.deps[id.index()]
+    }
+
+    /// `true` when `id` depends on the variable `x` (always `false` for a parameter).
+    pub fn depends_on(&self, id: Id, x: Var) -> bool {
+        self.deps[id.index()].contains(x)
+    }
+
+    /// Derivative rules applied so far by [`Arena::diff`] (nodes visited that depend on the
+    /// variable): a deterministic measure of the engine's work.
+    pub fn diff_work(&self) -> usize {
+        self.diff_work
     }
 
     /// The source span of the node `id` (of the first place it was built from).
@@ -188,6 +255,14 @@ impl Arena {
             return id;
         }
         let id = Id(u32::try_from(self.nodes.len()).expect("arena exceeds u32::MAX nodes"));
+        let mut deps = VarSet::default();
+        match &node {
+            Node::Num(_) => {}
+            Node::Var(v) => deps.insert(*v),
+            Node::Add(c) | Node::Mul(c) => c.iter().for_each(|c| deps.union(&self.deps[c.index()])),
+            Node::Pow(b, _) | Node::Func(_, b) => deps = self.deps[b.index()],
+        }
+        self.deps.push(deps);
         self.nodes.push(node.clone());
         self.spans.push(self.span);
         self.index.insert(node, id);

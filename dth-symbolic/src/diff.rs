@@ -23,9 +23,14 @@ impl Arena {
     }
 
     fn diff_memo(&mut self, node: Id, x: Var, memo: &mut HashMap<Id, Id>) -> Result<Id, Fault> {
+        // A subtree free of `x` differentiates to 0 without being walked.
+        if !self.depends_on(node, x) {
+            return Ok(self.num(Num::ZERO));
+        }
         if let Some(&d) = memo.get(&node) {
             return Ok(d);
         }
+        self.diff_work += 1;
         let saved = self.span;
         self.span = self.span(node);
         let d = self.diff_rule(node, x, memo);
@@ -41,15 +46,20 @@ impl Arena {
             Node::Num(_) => Ok(zero(self)),
             Node::Var(v) => Ok(self.num(if v == x { Num::ONE } else { Num::ZERO })),
             Node::Add(ch) => {
-                let ds = ch
-                    .iter()
-                    .map(|&c| self.diff_memo(c, x, memo))
-                    .collect::<Result<Vec<_>, _>>()?;
+                let mut ds = Vec::new();
+                for &c in ch.iter() {
+                    if self.depends_on(c, x) {
+                        ds.push(self.diff_memo(c, x, memo)?);
+                    }
+                }
                 self.add(&ds)
             }
             Node::Mul(ch) => {
                 let mut terms = Vec::new();
                 for (i, &c) in ch.iter().enumerate() {
+                    if !self.depends_on(c, x) {
+                        continue;
+                    }
                     let dc = self.diff_memo(c, x, memo)?;
                     if self.is_zero(dc) {
                         continue;

@@ -206,6 +206,7 @@ pub(crate) fn lower(arena: &Arena, coordinates: &[Var], root: Id) -> Program {
         dim: coordinates.len(),
         params: arena.params().len(),
     }
+    .prune(|_| true)
 }
 
 /// The lowering state of a divided-difference program (shared with [`crate::defect`], which
@@ -784,14 +785,15 @@ mod tests {
         assert!((ratio - 4.0).abs() < 0.05, "ratio {ratio}");
     }
 
-    /// The program of `p1^2`, in full: the only subtraction is the step `d`.
+    /// The program of `p1^2`, in full: the only subtraction is the step `d`, and nothing
+    /// unused (the constant `1` the lowering starts with is dropped).
     #[test]
     fn square_lowers_to_sum_times_step() {
         let h = compile("p1^2", &[]).unwrap();
         assert_eq!(
             h.program(Method::DiscreteGradient).to_string(),
-            "v0 = 1.0\nv1 = z[1]\nv2 = z1[1]\nv3 = v2 - v1\nv4 = v1 + v2\nv5 = v4 * v3\n\
-             DiscreteGradient(1) = v4\nEnergyDifference = v5\n"
+            "v0 = z[1]\nv1 = z1[1]\nv2 = v1 - v0\nv3 = v0 + v1\nv4 = v3 * v2\n\
+             DiscreteGradient(1) = v3\nEnergyDifference = v4\n"
         );
     }
 

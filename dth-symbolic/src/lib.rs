@@ -47,7 +47,7 @@ pub mod simplify;
 pub mod span;
 pub mod system;
 
-pub use arena::{Arena, Func, Id, Node, Var};
+pub use arena::{Arena, Func, Id, Node, Var, VarSet};
 pub use check::reserved_name;
 pub use divided::Kernel;
 pub use error::{Error, ErrorKind, Errors, EvalError};

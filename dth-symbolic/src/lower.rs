@@ -99,13 +99,154 @@ pub struct Stats {
 impl Program {
     /// Lowers `outputs` (nodes of `arena`) with `z` laid out as `coordinates`.
     pub fn lower(arena: &Arena, coordinates: &[Var], outputs: &[(Output, Id)]) -> Program {
+        cheaper(|joint| {
+            let mut l = Lowerer::new(arena, coordinates);
+            l.joint_denominators = joint;
+            let outputs = outputs.iter().map(|&(o, id)| (o, l.value(id))).collect();
+            let joinable = l.joinable;
+            let program = Program {
+                ops: l.ops,
+                outputs,
+                dim: coordinates.len(),
+                params: arena.params().len(),
+            };
+            (program.prune(|_| true), joinable)
+        })
+    }
+
+    /// Lowers `outputs` (which leave Psi out) and then Psi from the slots of the gradient and
+    /// Hessian entries, `Psi = sum_ij H_ij w_i w_j`, `w = J grad`, instead of from Psi's own
+    /// node: the arena flattens `2 H_ij w_i w_j` into one product of all their factors, so the
+    /// symbolic Psi re-multiplies what the Hessian and gradient already computed. Entries
+    /// sharing a slot (the `1/m` of a kinetic energy, the `1` of `p^2/2`) share one product:
+    /// `Psi = sum_s H_s (sum_{H_ii = s} w_i^2 + 2 sum_{H_ij = s, i < j} w_i w_j)`.
+    /// `nonzeros` are the Hessian's upper-triangle entries `(i, j, node)`.
+    pub(crate) fn lower_assembling_psi(
+        arena: &Arena,
+        coordinates: &[Var],
+        outputs: &[(Output, Id)],
+        gradient: &[Id],
+        nonzeros: &[(usize, usize, Id)],
+    ) -> Program {
+        cheaper(|joint| {
+            Self::assembling_psi(arena, coordinates, outputs, gradient, nonzeros, joint)
+        })
+    }
+
+    fn assembling_psi(
+        arena: &Arena,
+        coordinates: &[Var],
+        outputs: &[(Output, Id)],
+        gradient: &[Id],
+        nonzeros: &[(usize, usize, Id)],
+        joint_denominators: bool,
+    ) -> (Program, bool) {
         let mut l = Lowerer::new(arena, coordinates);
-        let outputs = outputs.iter().map(|&(o, id)| (o, l.value(id))).collect();
-        Program {
+        l.joint_denominators = joint_denominators;
+        let mut outs: Vec<(Output, Slot)> =
+            outputs.iter().map(|&(o, id)| (o, l.value(id))).collect();
+        let half = coordinates.len() / 2;
+        // w_i = g_{i+half} for a position, -g_{i-half} for a momentum: (negative, slot).
+        let w = |l: &mut Lowerer, i: usize| {
+            if i < half {
+                (false, l.value(gradient[i + half]))
+            } else {
+                (true, l.value(gradient[i - half]))
+            }
+        };
+        // Per distinct Hessian slot: its diagonal squares and off-diagonal products.
+        let mut groups: Vec<PsiGroup> = Vec::new();
+        for &(i, j, h) in nonzeros {
+            let hs = l.value(h);
+            let k = match groups.iter().position(|g| g.0 == hs) {
+                Some(k) => k,
+                None => {
+                    groups.push((hs, Vec::new(), Vec::new()));
+                    groups.len() - 1
+                }
+            };
+            let (ni, wi) = w(&mut l, i);
+            if i == j {
+                let sq = l.powi(wi, 2);
+                groups[k].1.push((false, sq));
+            } else {
+                let (nj, wj) = w(&mut l, j);
+                let m = l.emit(Op::Mul(wi, wj));
+                groups[k].2.push((ni != nj, m));
+            }
+        }
+        let mut terms = Vec::with_capacity(groups.len());
+        for (hs, diag, off) in groups {
+            let mut parts = diag;
+            if !off.is_empty() {
+                let (neg, o) = l.signed_sum(&off);
+                parts.push((neg, l.emit(Op::Add(o, o))));
+            }
+            let (mut neg, inner) = l.signed_sum(&parts);
+            let factor = match l.ops[hs as usize] {
+                Op::Const(c) => {
+                    neg ^= c < 0.0;
+                    (c.abs() != 1.0).then(|| l.konst(c.abs()))
+                }
+                _ => Some(hs),
+            };
+            terms.push(match factor {
+                Some(f) => (neg, l.emit(Op::Mul(f, inner))),
+                None => (neg, inner),
+            });
+        }
+        let psi = match l.signed_sum(&terms) {
+            (true, s) => l.emit(Op::Neg(s)),
+            (false, s) => s,
+        };
+        outs.push((Output::Psi, psi));
+        let joinable = l.joinable;
+        let program = Program {
             ops: l.ops,
-            outputs,
+            outputs: outs,
             dim: coordinates.len(),
             params: arena.params().len(),
+        };
+        (program.prune(|_| true), joinable)
+    }
+
+    /// The program restricted to the outputs `keep` accepts, without the operations none of
+    /// them reaches (dead-code elimination), slots renumbered in order.
+    pub fn prune(&self, keep: impl Fn(Output) -> bool) -> Program {
+        let outputs: Vec<(Output, Slot)> = self
+            .outputs
+            .iter()
+            .copied()
+            .filter(|&(o, _)| keep(o))
+            .collect();
+        let mut live = vec![false; self.ops.len()];
+        for &(_, s) in &outputs {
+            live[s as usize] = true;
+        }
+        // Operands come before their operation: one backward sweep marks everything reached.
+        for i in (0..self.ops.len()).rev() {
+            if live[i] {
+                for a in operands(&self.ops[i]) {
+                    live[a as usize] = true;
+                }
+            }
+        }
+        let mut new = vec![0; self.ops.len()];
+        let mut ops = Vec::new();
+        for (i, op) in self.ops.iter().enumerate() {
+            if live[i] {
+                new[i] = ops.len() as Slot;
+                ops.push(renumber(op, &new));
+            }
+        }
+        Program {
+            ops,
+            outputs: outputs
+                .into_iter()
+                .map(|(o, s)| (o, new[s as usize]))
+                .collect(),
+            dim: self.dim,
+            params: self.params,
         }
     }
 
@@ -126,6 +267,75 @@ impl Program {
             }
         }
         s
+    }
+}
+
+/// The Psi terms of one Hessian slot: the slot, the squares `w_i^2` of its diagonal entries
+/// and the signed products `w_i w_j` of its off-diagonal ones.
+type PsiGroup = (Slot, Vec<(bool, Slot)>, Vec<(bool, Slot)>);
+
+/// The cheaper of `lower(false)` and `lower(true)` (a division counted as four operations,
+/// roughly its throughput cost against a multiplication); `lower` also says whether joining
+/// denominators could change anything, and if not the second lowering is skipped.
+fn cheaper(lower: impl Fn(bool) -> (Program, bool)) -> Program {
+    let cost = |p: &Program| p.ops.len() + 4 * p.stats().divs;
+    let (a, joinable) = lower(false);
+    if !joinable {
+        return a;
+    }
+    let (b, _) = lower(true);
+    if cost(&b) < cost(&a) {
+        b
+    } else {
+        a
+    }
+}
+
+/// A [`Kernel`] as a key: its variant, and the bits of the exponent of a `PowRatio`.
+fn kernel_key(k: Kernel) -> (u8, u64) {
+    match k {
+        Kernel::ExpRatio => (0, 0),
+        Kernel::Sinc => (1, 0),
+        Kernel::Sinhc => (2, 0),
+        Kernel::LnRatio => (3, 0),
+        Kernel::AtanRatio => (4, 0),
+        Kernel::TanhRatio => (5, 0),
+        Kernel::PowRatio(r) => (6, r.to_bits()),
+        Kernel::CosMinusSinc => (7, 0),
+        Kernel::CoshMinusSinhc => (8, 0),
+        Kernel::SincMinusOne => (9, 0),
+        Kernel::SinhcMinusOne => (10, 0),
+        Kernel::ExpDefect => (11, 0),
+        Kernel::TanhDefect => (12, 0),
+        Kernel::PowDefect(r) => (13, r.to_bits()),
+    }
+}
+
+/// The slots `op` reads.
+fn operands(op: &Op) -> Vec<Slot> {
+    match *op {
+        Op::Input(_) | Op::Input1(_) | Op::Param(_) | Op::Const(_) => Vec::new(),
+        Op::Neg(a) | Op::Sqrt(a) | Op::Powf(a, _) | Op::Call(_, a) => vec![a],
+        Op::Add(a, b) | Op::Sub(a, b) | Op::Mul(a, b) | Op::Div(a, b) | Op::Kernel(_, a, b) => {
+            vec![a, b]
+        }
+    }
+}
+
+/// `op` with its operands renamed through `new`.
+fn renumber(op: &Op, new: &[Slot]) -> Op {
+    let n = |a: Slot| new[a as usize];
+    match *op {
+        Op::Input(_) | Op::Input1(_) | Op::Param(_) | Op::Const(_) => *op,
+        Op::Add(a, b) => Op::Add(n(a), n(b)),
+        Op::Sub(a, b) => Op::Sub(n(a), n(b)),
+        Op::Mul(a, b) => Op::Mul(n(a), n(b)),
+        Op::Div(a, b) => Op::Div(n(a), n(b)),
+        Op::Neg(a) => Op::Neg(n(a)),
+        Op::Sqrt(a) => Op::Sqrt(n(a)),
+        Op::Powf(a, e) => Op::Powf(n(a), e),
+        Op::Call(f, a) => Op::Call(f, n(a)),
+        Op::Kernel(k, a, b) => Op::Kernel(k, n(a), n(b)),
     }
 }
 
@@ -169,6 +379,46 @@ pub(crate) struct Lowerer<'a> {
     powi: HashMap<(Slot, i128), Slot>,
     sqrt: HashMap<Slot, Slot>,
     recip: HashMap<Slot, Slot>,
+    /// Every operation emitted, by its operands: an equal operation is emitted once (repeated
+    /// partial products such as `mass*length` in several terms, `2*q2` from two derivatives).
+    seen: HashMap<OpKey, Slot>,
+    /// Negative powers of parameters in one product share one division (`1/(m l^2)`); off,
+    /// each base has its own reciprocal, shared by every product. Which is cheaper depends on
+    /// how the products overlap, so programs are lowered both ways ([`cheaper`]).
+    pub(crate) joint_denominators: bool,
+    /// Set when some product had two or more such powers (else joining changes nothing).
+    pub(crate) joinable: bool,
+}
+
+/// An [`Op`] as a hashable key, operands of `+` and `*` in order (both commute exactly).
+type OpKey = (u8, u32, u32, u64);
+
+fn op_key(op: &Op) -> OpKey {
+    let sorted = |a: Slot, b: Slot| (a.min(b), a.max(b));
+    match *op {
+        Op::Input(k) => (0, k, 0, 0),
+        Op::Input1(k) => (1, k, 0, 0),
+        Op::Param(k) => (2, k, 0, 0),
+        Op::Const(c) => (3, 0, 0, c.to_bits()),
+        Op::Add(a, b) => {
+            let (a, b) = sorted(a, b);
+            (4, a, b, 0)
+        }
+        Op::Sub(a, b) => (5, a, b, 0),
+        Op::Mul(a, b) => {
+            let (a, b) = sorted(a, b);
+            (6, a, b, 0)
+        }
+        Op::Div(a, b) => (7, a, b, 0),
+        Op::Neg(a) => (8, a, 0, 0),
+        Op::Sqrt(a) => (9, a, 0, 0),
+        Op::Powf(a, e) => (10, a, 0, e.to_bits()),
+        Op::Call(f, a) => (11, a, 0, f as u64),
+        Op::Kernel(k, a, b) => {
+            let (variant, bits) = kernel_key(k);
+            (12 + variant, a, b, bits)
+        }
+    }
 }
 
 impl<'a> Lowerer<'a> {
@@ -188,14 +438,55 @@ impl<'a> Lowerer<'a> {
             powi: HashMap::new(),
             sqrt: HashMap::new(),
             recip: HashMap::new(),
+            seen: HashMap::new(),
+            joint_denominators: false,
+            joinable: false,
         }
     }
 }
 
 impl Lowerer<'_> {
+    /// Appends `op`, or returns the slot of an equal operation emitted before. The negation
+    /// of a constant is the negated constant.
     pub(crate) fn emit(&mut self, op: Op) -> Slot {
+        // Operations on constants fold (to the value the run time would compute), and a
+        // multiplication by 1 is its other operand: `w_i = 1` in Psi costs nothing.
+        let konst = |l: &Self, s: Slot| match l.ops[s as usize] {
+            Op::Const(c) => Some(c),
+            _ => None,
+        };
+        match op {
+            Op::Neg(a) => {
+                if let Some(c) = konst(self, a) {
+                    return self.konst(-c);
+                }
+            }
+            Op::Mul(a, b) => match (konst(self, a), konst(self, b)) {
+                (Some(x), Some(y)) => return self.konst(x * y),
+                (Some(1.0), None) => return b,
+                (None, Some(1.0)) => return a,
+                _ => {}
+            },
+            Op::Add(a, b) => {
+                if let (Some(x), Some(y)) = (konst(self, a), konst(self, b)) {
+                    return self.konst(x + y);
+                }
+            }
+            Op::Sub(a, b) => {
+                if let (Some(x), Some(y)) = (konst(self, a), konst(self, b)) {
+                    return self.konst(x - y);
+                }
+            }
+            _ => {}
+        }
+        let key = op_key(&op);
+        if let Some(&s) = self.seen.get(&key) {
+            return s;
+        }
         self.ops.push(op);
-        (self.ops.len() - 1) as Slot
+        let s = (self.ops.len() - 1) as Slot;
+        self.seen.insert(key, s);
+        s
     }
 
     pub(crate) fn konst(&mut self, x: f64) -> Slot {
@@ -259,14 +550,50 @@ impl Lowerer<'_> {
                 if let Some(&s) = self.mag.get(&(self.at_z1, id)) {
                     return (coef.is_negative(), s);
                 }
-                let factors: Vec<Id> = ch
+                let mut factors: Vec<Id> = ch
                     .iter()
                     .copied()
                     .filter(|&c| self.arena.as_num(c).is_none())
                     .collect();
-                let mut acc = self.value(factors[0]);
-                for &f in &factors[1..] {
-                    let s = self.value(f);
+                // Parameters first (products of them are shared by every term that has
+                // them), then the other factors from the most complex (largest id) down to
+                // plain coordinates, so a term that is another term times a coordinate
+                // (`q H_qt` beside `H_qt = F w sin(w t)`) reuses that term's product as prefix.
+                factors.sort_by_key(|&f| {
+                    let varying = !self.arena.deps(f).is_empty();
+                    (varying, if varying { u32::MAX - f.0 } else { f.0 })
+                });
+                // Negative integer powers of parameters share one division:
+                // `a^-1 b^-2 = 1/(a b^2)` (`p^2/(2 m l^2)`: one division, not two).
+                let inverse = |f: Id| match self.arena.node(f) {
+                    Node::Pow(b, e) if self.arena.deps(f).is_empty() => e
+                        .as_rational()
+                        .filter(|r| r.is_integer() && r.numer() < 0)
+                        .map(|r| (*b, -r.numer())),
+                    _ => None,
+                };
+                let denominators: Vec<(Id, i128)> =
+                    factors.iter().filter_map(|&f| inverse(f)).collect();
+                let mut slots = Vec::with_capacity(factors.len());
+                self.joinable |= denominators.len() >= 2;
+                if self.joint_denominators && denominators.len() >= 2 {
+                    factors.retain(|&f| inverse(f).is_none());
+                    let mut den = None;
+                    for (b, k) in denominators {
+                        let s = self.value(b);
+                        let p = self.powi(s, k);
+                        den = Some(match den {
+                            None => p,
+                            Some(d) => self.emit(Op::Mul(d, p)),
+                        });
+                    }
+                    if let Some(d) = den {
+                        slots.push(self.recip(d));
+                    }
+                }
+                slots.extend(factors.iter().map(|&f| self.value(f)));
+                let mut acc = slots[0];
+                for &s in &slots[1..] {
                     acc = self.emit(Op::Mul(acc, s));
                 }
                 let c = coef.to_f64().abs();
@@ -300,6 +627,29 @@ impl Lowerer<'_> {
             });
         }
         acc
+    }
+
+    /// `sum_k (-1)^neg_k s_k` as `(negative, slot)`: started from a positive term when there is
+    /// one (then `(false, _)`), otherwise the sum of the magnitudes, negated by the caller.
+    /// `items` is not empty.
+    pub(crate) fn signed_sum(&mut self, items: &[(bool, Slot)]) -> (bool, Slot) {
+        let start = items.iter().position(|&(neg, _)| !neg);
+        let (negative, k) = match start {
+            Some(k) => (false, k),
+            None => (true, 0),
+        };
+        let mut acc = items[k].1;
+        for (i, &(neg, s)) in items.iter().enumerate() {
+            if i == k {
+                continue;
+            }
+            acc = self.emit(if neg != negative {
+                Op::Sub(acc, s)
+            } else {
+                Op::Add(acc, s)
+            });
+        }
+        (negative, acc)
     }
 
     /// `s^e`. Every negative power of one base comes from one division `1/s` (and

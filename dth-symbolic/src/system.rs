@@ -42,7 +42,13 @@ pub struct System {
     value: Id,
     gradient: Vec<Id>,
     hessian: Vec<Id>,
+    /// The nonzero entries of the upper triangle, row by row: `(i, j, node)`, `i <= j`.
+    nonzeros: Vec<(usize, usize, Id)>,
     psi: Id,
+    /// Psi is lowered from the gradient and Hessian slots ([`Program::lower_assembling_psi`])
+    /// rather than from its own node: decided once, on the fused program, so `Psi` and `All`
+    /// use the same form and `psi()` and `derivatives().psi` agree to the bit.
+    psi_assembled: bool,
 }
 
 /// Parses, checks and differentiates `src`, a Hamiltonian in the grammar, with the declared
@@ -153,18 +159,35 @@ fn derive(mut arena: Arena, h: Id) -> Result<System, (Fault, Span)> {
     } else {
         h
     };
-    let gradient = coordinates
-        .iter()
-        .map(|&x| arena.diff(value, x).map_err(|f| (f, Span::default())))
-        .collect::<Result<Vec<_>, _>>()?;
-    let mut hessian = Vec::with_capacity(d * (d + 1) / 2);
+    // Only coordinates a node depends on can give a nonzero derivative ([`Arena::deps`]):
+    // the gradient skips absent variables, and row `i` of the Hessian visits only the `j >= i`
+    // that `dH/dz_i` depends on, so the work follows the nonzeros, not `D^2`.
+    let zero = arena.num(Num::ZERO);
+    let mut gradient = Vec::with_capacity(d);
+    for &x in &coordinates {
+        gradient.push(if arena.depends_on(value, x) {
+            arena.diff(value, x).map_err(|f| (f, Span::default()))?
+        } else {
+            zero
+        });
+    }
+    let mut hessian = vec![zero; d * (d + 1) / 2];
+    let mut nonzeros = Vec::new();
+    let mut k = 0;
     for (i, &g) in gradient.iter().enumerate() {
-        for &x in &coordinates[i..] {
-            hessian.push(arena.diff(g, x).map_err(|f| (f, Span::default()))?);
+        for (j, &x) in coordinates.iter().enumerate().skip(i) {
+            if arena.depends_on(g, x) {
+                let h = arena.diff(g, x).map_err(|f| (f, Span::default()))?;
+                if !arena.is_zero(h) {
+                    hessian[k] = h;
+                    nonzeros.push((i, j, h));
+                }
+            }
+            k += 1;
         }
     }
-    let psi = psi(arena, &gradient, &hessian, d).map_err(|f| (f, Span::default()))?;
-    Ok(System {
+    let psi = psi(arena, &gradient, &nonzeros, d).map_err(|f| (f, Span::default()))?;
+    let mut system = System {
         arena: arena.clone(),
         n: n as usize,
         time_dependent,
@@ -172,12 +195,25 @@ fn derive(mut arena: Arena, h: Id) -> Result<System, (Fault, Span)> {
         value,
         gradient,
         hessian,
+        nonzeros,
         psi,
-    })
+        psi_assembled: false,
+    };
+    if !system.psi_identically_zero() {
+        let symbolic = system.program(Method::All).ops.len();
+        system.psi_assembled = system.assembled(Method::All).ops.len() < symbolic;
+    }
+    Ok(system)
 }
 
-/// `Psi = w^T Hess w`, `w = J grad`: `sum_i H_ii w_i^2 + 2 sum_{i<j} H_ij w_i w_j`.
-fn psi(arena: &mut Arena, g: &[Id], hess: &[Id], d: usize) -> Result<Id, Fault> {
+/// `Psi = w^T Hess w`, `w = J grad`: `sum_i H_ii w_i^2 + 2 sum_{i<j} H_ij w_i w_j` over the
+/// nonzero entries.
+fn psi(
+    arena: &mut Arena,
+    g: &[Id],
+    nonzeros: &[(usize, usize, Id)],
+    d: usize,
+) -> Result<Id, Fault> {
     let half = d / 2;
     let mut w = Vec::with_capacity(d);
     for i in 0..d {
@@ -188,22 +224,14 @@ fn psi(arena: &mut Arena, g: &[Id], hess: &[Id], d: usize) -> Result<Id, Fault> 
         });
     }
     let two = arena.num(Num::int(2));
-    let mut terms = Vec::new();
-    let mut k = 0;
-    for i in 0..d {
-        for j in i..d {
-            let h = hess[k];
-            k += 1;
-            if arena.is_zero(h) {
-                continue;
-            }
-            terms.push(if i == j {
-                let w2 = arena.pow(w[i], Num::int(2))?;
-                arena.mul(&[h, w2])?
-            } else {
-                arena.mul(&[two, h, w[i], w[j]])?
-            });
-        }
+    let mut terms = Vec::with_capacity(nonzeros.len());
+    for &(i, j, h) in nonzeros {
+        terms.push(if i == j {
+            let w2 = arena.pow(w[i], Num::int(2))?;
+            arena.mul(&[h, w2])?
+        } else {
+            arena.mul(&[two, h, w[i], w[j]])?
+        });
     }
     arena.add(&terms)
 }
@@ -232,8 +260,8 @@ impl System {
     /// `true` when the block of the Hessian between the first and second halves of `z`
     /// (positions and momenta) is identically zero: `H = T(p) + V(q)`.
     pub fn separable(&self) -> bool {
-        let (d, half) = (self.dim(), self.dim() / 2);
-        (0..half).all(|i| (half..d).all(|j| self.arena.is_zero(self.hessian_entry(i, j))))
+        let half = self.dim() / 2;
+        self.nonzeros.iter().all(|&(i, j, _)| i >= half || j < half)
     }
 
     /// `true` when Psi simplifies to 0 (a linear `H`, a free particle). The simplifier proves
@@ -265,6 +293,12 @@ impl System {
         self.hessian[i * d - i * i.saturating_sub(1) / 2 + (j - i)]
     }
 
+    /// The nonzero entries of the Hessian's upper triangle, row by row: `(i, j, node)`,
+    /// `i <= j`.
+    pub fn hessian_nonzeros(&self) -> &[(usize, usize, Id)] {
+        &self.nonzeros
+    }
+
     /// Psi.
     pub fn psi(&self) -> Id {
         self.psi
@@ -284,7 +318,6 @@ impl System {
     /// discrete gradient has no nodes of its own (its program is built by
     /// [`System::program`]): empty for [`Method::DiscreteGradient`].
     pub fn outputs(&self, method: Method) -> Vec<(Output, Id)> {
-        let d = self.dim();
         let mut out = Vec::new();
         if matches!(method, Method::Value | Method::All) {
             out.push((Output::Value, self.value));
@@ -298,14 +331,11 @@ impl System {
             );
         }
         if matches!(method, Method::Hessian | Method::All) {
-            for i in 0..d {
-                for j in i..d {
-                    let h = self.hessian_entry(i, j);
-                    if !self.arena.is_zero(h) {
-                        out.push((Output::Hessian(i, j), h));
-                    }
-                }
-            }
+            out.extend(
+                self.nonzeros
+                    .iter()
+                    .map(|&(i, j, h)| (Output::Hessian(i, j), h)),
+            );
         }
         if matches!(method, Method::Psi | Method::All) {
             out.push((Output::Psi, self.psi));
@@ -321,7 +351,27 @@ impl System {
         if method == Method::DiscreteGradientDefect {
             return crate::defect::lower(&self.arena, &self.coordinates, self.value);
         }
-        Program::lower(&self.arena, &self.coordinates, &self.outputs(method))
+        if self.psi_assembled && matches!(method, Method::Psi | Method::All) {
+            self.assembled(method)
+        } else {
+            Program::lower(&self.arena, &self.coordinates, &self.outputs(method))
+        }
+    }
+
+    /// The program of `method` with Psi assembled from the gradient and Hessian slots.
+    fn assembled(&self, method: Method) -> Program {
+        let others: Vec<(Output, Id)> = self
+            .outputs(method)
+            .into_iter()
+            .filter(|&(o, _)| o != Output::Psi)
+            .collect();
+        Program::lower_assembling_psi(
+            &self.arena,
+            &self.coordinates,
+            &others,
+            &self.gradient,
+            &self.nonzeros,
+        )
     }
 
     /// Whether `id` is a constant, and which.
