@@ -171,6 +171,43 @@ fn henon_heiles_at_e_1_8_and_1_6() {
     assert!(t.fallback_steps() > 0 && de <= 8.0 * EPS);
 }
 
+#[test]
+fn henon_heiles_saddle_approaches_from_nearby_starts_robust_mode() {
+    // The start of `henon_heiles_at_e_1_8_and_1_6` towards the saddle (0, 1), moved by
+    // -40..40 ulps in p2: each start approaches the equilibrium differently (|grad H| down to
+    // ~1e-8 at the fallback nodes), so the test does not depend on the roundoff of one run.
+    // Without exact divided differences the fallback's discrete gradient carries a rounding of
+    // about eps |H| / |grad H| (a difference of H values divided by the step): its Newton must
+    // stop at that floor, not at fixed multiples of eps (1024 eps on the updates, 64 eps on the
+    // residual), which it cannot reach once |grad H| < ~1e-4 whatever dt (before the fix,
+    // 10 of 60 such starts stopped with MethodNotConverged after all step halvings).
+    let hh = HenonHeiles;
+    let base = henon_heiles_start(1.0 / 6.0, 0.0, 0.0);
+    let options = DthOptions::default()
+        .with_dtau(0.03)
+        .expect("ok")
+        .with_robust(true);
+    let mut closest = f64::MAX;
+    for ulps in -40i64..40 {
+        let mut z0 = base;
+        z0[3] = f64::from_bits(z0[3].to_bits().wrapping_add_signed(ulps));
+        let t = integrate(hh, z0, options, 2_000)
+            .unwrap_or_else(|err| panic!("{ulps} ulps: {:?}", err.error));
+        let de = worst_energy(&hh, &t, hh.value(&z0), henon_heiles_terms);
+        assert!(t.fallback_steps() > 0, "{ulps} ulps");
+        assert!(de <= 8.0 * EPS, "{ulps} ulps: {de:e}");
+        let nearest = t
+            .iter()
+            .filter(|r| r.kind == StepKind::Fallback)
+            .map(|r| hh.gradient(&r.zbar).amax())
+            .fold(f64::MAX, f64::min);
+        closest = closest.min(nearest);
+    }
+    println!("Henon-Heiles saddle, 80 starts: closest fallback node |grad H| {closest:.2e}");
+    // The starts do reach the regime where fixed eps floors fail.
+    assert!(closest < 1e-5, "{closest:e}");
+}
+
 /// Resonant forced oscillator (omega = omega0 = 1): q = q0 cos t + p0 sin t + (F/2) t sin t.
 fn resonant_exact(force: f64, q0: f64, p0: f64, t: f64) -> (f64, f64) {
     let (s, c) = t.sin_cos();

@@ -40,7 +40,38 @@ pub(crate) fn fallback_step<H: Hamiltonian<D>, const D: usize>(
     options: &DthOptions,
     step: usize,
 ) -> Result<FallbackStep<D>, Error> {
-    let mut method = DiscreteGradient::with_newton(NewtonOptions::default());
+    // Roundoff floor of the solve near an equilibrium. Without exact divided differences the
+    // discrete gradient's correction `d (H(z1) - H(z0) - g . d) / |d|^2` (`d = z1 - z0`) divides
+    // the rounding of a difference of numbers of size `scale_h` (the terms of `H`) by `|d|`, so
+    // the residual `f = d - dt J gbar` cannot go below about `eps dt scale_h / |d|`, i.e.
+    // `eps scale_h / |grad H|` since `|d| ~ dt |grad H|`: independent of `dt` (halving cannot
+    // help) and unbounded as `grad H -> 0`. That noise lies along `J d ~ -dt grad H`, across the
+    // energy surface, and moves `H` by `eps scale_h`: it is the width of the float level set
+    // `H = E` in the gradient direction, not an error of the step (the projection below puts
+    // the point back on `H = E`). So the Newton stall floor and the residual check are taken
+    // relative to it; away from equilibria (`|grad H| |z| >> scale_h`) nothing changes. With
+    // exact divided differences (`H::EXACT_DIVIDED_DIFFERENCES`) there is no such cancellation
+    // and no floor.
+    let g0 = ham.gradient(z0);
+    let scale_h = if H::EXACT_DIVIDED_DIFFERENCES {
+        0.0
+    } else {
+        energy.abs().max(z0.component_mul(&g0).abs().sum())
+    };
+    let z0_size = z0.amax().max(f64::MIN_POSITIVE);
+    // (At an equilibrium, `grad H = 0`, the step does not move and the floor is not needed.)
+    let floor = if scale_h > 0.0 && g0.amax() > 0.0 {
+        options.residual_tolerance() * scale_h / (g0.amax() * z0_size)
+    } else {
+        0.0
+    };
+    let newton = NewtonOptions::default();
+    // The peer's Newton accepts an update that stopped shrinking below its stall tolerance
+    // (relative to `|z|`); raise it to the floor (capped at the peer's largest allowed value,
+    // below which an update that still contracts is never accepted).
+    let stall = floor.clamp(newton.stall_tolerance, 1e-8);
+    let newton = newton.with_stall_tolerance(stall).unwrap_or(newton);
+    let mut method = DiscreteGradient::with_newton(newton);
     let z = OneStepMethod::<D, H>::step(&mut method, ham, z0, dt).map_err(|e| at_step(e, step))?;
     let iterations = OneStepMethod::<D, H>::newton_iterations(&method);
     let d = ham.derivatives(&z);
@@ -60,11 +91,19 @@ pub(crate) fn fallback_step<H: Hamiltonian<D>, const D: usize>(
     let move_ = j_times(&gbar) * dt;
     let f = (z - z0) - move_;
     // The peer's Newton accepts on its update size; insist on the residual too, relative to the
-    // terms it is a difference of (a near-collision step can stall far from the solution).
+    // terms it is a difference of (a near-collision step can stall far from the solution),
+    // including the rounding `dt scale_h / |d|` of the discrete gradient's correction (above).
+    let d_size = (z - z0).norm();
+    let correction = if d_size > 0.0 && scale_h > 0.0 {
+        dt * scale_h / d_size
+    } else {
+        0.0
+    };
     let scale = z
         .amax()
         .max(z0.amax())
         .max(move_.amax())
+        .max(correction)
         .max(f64::MIN_POSITIVE);
     let residual = f.amax();
     if residual.is_nan() || residual > options.residual_tolerance() * scale {

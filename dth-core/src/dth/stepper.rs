@@ -10,7 +10,7 @@ use super::options::EnergyResidual;
 use super::robust::fallback_step;
 use super::trajectory::Trajectory;
 use crate::error::RunError;
-use crate::{j_times, Error, Hamiltonian};
+use crate::{j_times, Derivatives, Error, Hamiltonian};
 
 /// The autonomous DTH stepper (paper Corollary 1, eqs. 28-30), monomorphized over the
 /// Hamiltonian: no `dyn`, no heap allocation per step.
@@ -454,17 +454,22 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
     /// surface to within [`PREDICTOR_TRUST`] of the size of the terms of `H` (a predictor for a
     /// step far too large for the orbit lands elsewhere in phase space, where `Psi` says
     /// nothing about this orbit).
-    fn trusted_psi(&self, z: &SVector<f64, D>) -> Option<f64> {
-        if !all_finite(z) {
-            return None;
-        }
-        let d = self.hamiltonian.derivatives(z);
+    fn trusted_psi(&self, z: &SVector<f64, D>, d: &Derivatives<D>) -> Option<f64> {
         let scale = self
             .energy
             .abs()
             .max(z.component_mul(&d.gradient).abs().sum());
         ((d.value - self.energy).abs() <= PREDICTOR_TRUST * scale && d.psi.is_finite())
             .then_some(d.psi)
+    }
+
+    /// `H`'s derivatives at a predicted midpoint, if it and its value and gradient are finite.
+    fn predicted(&self, z: &SVector<f64, D>) -> Option<Derivatives<D>> {
+        if !all_finite(z) {
+            return None;
+        }
+        let d = self.hamiltonian.derivatives(z);
+        (d.value.is_finite() && all_finite(&d.gradient)).then_some(d)
     }
 
     /// One DTH step with breakdown detection.
@@ -498,13 +503,33 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
             }
             Ok((predicted.is_finite() && predicted > 0.0).then_some(predicted))
         };
-        let lambda_guess = verdict(self.trusted_psi(&z1))?.unwrap_or(self.lambda);
-        let z0 = predict(&self.hamiltonian, &v, lambda_guess, h);
+        let d1 = self.predicted(&z1);
+        let psi1 = d1.as_ref().and_then(|d| self.trusted_psi(&z1, d));
+        let lambda_guess = verdict(psi1)?.unwrap_or(self.lambda);
+        // Newton's start. With c = (h/2) lambda_k, c' = (h/2) lambda_guess and the fixed point
+        // z* = v + c' J gradH(z*), a third fixed-point sweep at c' with the gradient the check
+        // above evaluated at z1 (no further evaluation) errs by about
+        // c' |Hess| |z1 - z*| ~ c' |c - c'| |Hess| |gradH| (plus O(c^4)), two fresh sweeps at c'
+        // from v by about c'^3 |Hess|^2 |gradH|: take the sweep when |c - c'| <= c'^2 |Hess|
+        // (both sides are O(h^2) on a smooth orbit, where lambda_{k+1} - lambda_k = O(h lambda_k):
+        // the test compares their constants) and z1 is trusted to lie near the orbit; else two
+        // sweeps at c' (a step far too large, or lambda changing fast).
+        let c = 0.5 * h * self.lambda;
+        let c_guess = 0.5 * h * lambda_guess;
+        let z0 = match &d1 {
+            Some(d)
+                if psi1.is_some()
+                    && (c - c_guess).abs() <= c_guess * c_guess * d.hessian.amax() =>
+            {
+                v + j_times(&d.gradient) * c_guess
+            }
+            _ => predict(&self.hamiltonian, &v, lambda_guess, h),
+        };
         if lambda_guess > LOOK_AGAIN * self.lambda {
             // Look again where the law of time says the midpoint will be: further out when
             // lambda grows fast, as it does towards Psi = 0 (one more evaluation of H's
             // derivatives, so only then).
-            verdict(self.trusted_psi(&z0))?;
+            verdict(self.predicted(&z0).and_then(|d| self.trusted_psi(&z0, &d)))?;
         }
         let previous = self.cancellation_free().then_some(Previous {
             zbar: self.zbar,
