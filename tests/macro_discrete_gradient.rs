@@ -3,7 +3,7 @@
 //! default, which lose digits there), `gbar(z, z) = grad H(z)`, the time-dependent extended
 //! phase space, and bit-for-bit agreement with the engine's program for every kernel.
 
-#[path = "../dth-symbolic/tests/common/dd.rs"]
+#[path = "../dth-core/tests/hard_support/dd.rs"]
 mod dd;
 
 use dd::Dd;
