@@ -6,6 +6,9 @@ use dth_core::nalgebra::{Matrix2, Vector2, Vector4};
 use dth_core::systems::{Kepler, Pendulum};
 use dth_core::{Error, Hamiltonian};
 
+mod walled;
+use walled::Walled;
+
 fn kepler_z0() -> Vector4<f64> {
     Vector4::new(0.5, 0.0, 0.0, 1.2)
 }
@@ -84,29 +87,6 @@ fn singular_newton_matrix_is_reported() {
             matches!(r, Err(Error::SingularMatrix { step: 1 })),
             "{solver:?}: {r:?}"
         );
-    }
-}
-
-/// The harmonic oscillator `H = (q^2 + p^2) / 2`, undefined (NaN) for `q > 1`.
-struct Walled;
-
-impl Hamiltonian<2> for Walled {
-    fn value(&self, z: &Vector2<f64>) -> f64 {
-        if z[0] > 1.0 {
-            f64::NAN
-        } else {
-            0.5 * (z[0] * z[0] + z[1] * z[1])
-        }
-    }
-    fn gradient(&self, z: &Vector2<f64>) -> Vector2<f64> {
-        if z[0] > 1.0 {
-            Vector2::repeat(f64::NAN)
-        } else {
-            Vector2::new(z[0], z[1])
-        }
-    }
-    fn hessian(&self, _z: &Vector2<f64>) -> Matrix2<f64> {
-        Matrix2::identity()
     }
 }
 

@@ -8,6 +8,9 @@ use dth_core::nalgebra::{Matrix2, Matrix4, Vector2, Vector4};
 use dth_core::systems::{Kepler, Pendulum};
 use dth_core::{Error, Hamiltonian};
 
+mod walled;
+use walled::Walled;
+
 fn thesis_z0() -> Vector4<f64> {
     Vector4::new(0.5, 0.0, 0.0, 1.2)
 }
@@ -288,29 +291,6 @@ fn start_where_psi_is_exactly_zero_then_changes_sign() {
         );
     }
     assert_eq!(t.kinds()[0], StepKind::Dth);
-}
-
-/// The harmonic oscillator `H = (q^2 + p^2) / 2`, undefined (NaN) for `q > 1`.
-struct Walled;
-
-impl Hamiltonian<2> for Walled {
-    fn value(&self, z: &Vector2<f64>) -> f64 {
-        if z[0] > 1.0 {
-            f64::NAN
-        } else {
-            0.5 * (z[0] * z[0] + z[1] * z[1])
-        }
-    }
-    fn gradient(&self, z: &Vector2<f64>) -> Vector2<f64> {
-        if z[0] > 1.0 {
-            Vector2::repeat(f64::NAN)
-        } else {
-            Vector2::new(z[0], z[1])
-        }
-    }
-    fn hessian(&self, _z: &Vector2<f64>) -> Matrix2<f64> {
-        Matrix2::identity()
-    }
 }
 
 #[test]
