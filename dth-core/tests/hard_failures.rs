@@ -8,8 +8,8 @@ use dth_core::nalgebra::{Matrix2, Matrix4, Vector2, Vector4};
 use dth_core::systems::{Kepler, Pendulum};
 use dth_core::{Error, Hamiltonian};
 
-mod walled;
-use walled::Walled;
+mod fixtures;
+use fixtures::{Saddle, Walled};
 
 fn thesis_z0() -> Vector4<f64> {
     Vector4::new(0.5, 0.0, 0.0, 1.2)
@@ -210,21 +210,6 @@ fn inconsistent_discrete_gradient_fails_the_energy_check() {
         e.error
     );
     assert_eq!(e.partial.len(), 1);
-}
-
-/// `H = (q^2 - p^2) / 2`: a saddle, `Psi = p^2 - q^2`.
-struct Saddle;
-
-impl Hamiltonian<2> for Saddle {
-    fn value(&self, z: &Vector2<f64>) -> f64 {
-        0.5 * (z[0] * z[0] - z[1] * z[1])
-    }
-    fn gradient(&self, z: &Vector2<f64>) -> Vector2<f64> {
-        Vector2::new(z[0], -z[1])
-    }
-    fn hessian(&self, _z: &Vector2<f64>) -> Matrix2<f64> {
-        Matrix2::new(1.0, 0.0, 0.0, -1.0)
-    }
 }
 
 #[test]
