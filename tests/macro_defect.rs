@@ -12,6 +12,9 @@ use dth::systems::{Kepler, Pendulum};
 use dth::Hamiltonian;
 use dth_symbolic::{compile, Method};
 
+mod everything;
+use everything::{Everything, EVERYTHING};
+
 const EPS: f64 = f64::EPSILON;
 
 dth::hamiltonian! {
@@ -31,20 +34,6 @@ dth::hamiltonian! {
     #[derive(Clone, Copy, Debug)]
     pub struct PendulumMlg { pub m: f64, pub l: f64, pub g: f64 } = p1^2/(2*m*l^2) - m*g*l*cos(q1)
 }
-
-dth::hamiltonian! {
-    /// Every function, power form and so every defect kernel, with parameters.
-    pub struct Everything { pub a: f64, pub b: f64 } =
-        p1^2/(2*a) + p2^2/2 + sin(q1)*cos(q2) + tan(q1/3) + exp(-q2^2) + ln(1 + q1^2)
-        + sqrt(1 + p1^2) + sinh(q1/2) + cosh(q2/2) + tanh(q1*q2) + atan(p2)
-        + b*(q1^2 + q2^2)^(-3/2) + (1 + q2^2)^(1/3) + q1^5 - 0.25*q2^(-2) + (1 + p1^2)^(a*q2)
-        + pi*q1*p2
-}
-
-const EVERYTHING: &str = "p1^2/(2*a) + p2^2/2 + sin(q1)*cos(q2) + tan(q1/3) + exp(-q2^2)
-    + ln(1 + q1^2) + sqrt(1 + p1^2) + sinh(q1/2) + cosh(q2/2) + tanh(q1*q2) + atan(p2)
-    + b*(q1^2 + q2^2)^(-3/2) + (1 + q2^2)^(1/3) + q1^5 - 0.25*q2^(-2) + (1 + p1^2)^(a*q2)
-    + pi*q1*p2";
 
 /// The generated kernels spell out `Kernel::apply`'s formulas and the generated code performs
 /// the engine's program in order: equal bit for bit, at steps in the series branches, in the

@@ -3,7 +3,7 @@
 //! default, which lose digits there), `gbar(z, z) = grad H(z)`, the time-dependent extended
 //! phase space, and bit-for-bit agreement with the engine's program for every kernel.
 
-#[path = "../dth-symbolic/tests/common/dd.rs"]
+#[path = "../dth-core/tests/hard_support/dd.rs"]
 mod dd;
 
 use dd::Dd;
@@ -11,6 +11,9 @@ use dth::nalgebra::{Matrix4, SVector, Vector4};
 use dth::systems::Kepler;
 use dth::Hamiltonian;
 use dth_symbolic::{compile, Method};
+
+mod everything;
+use everything::{Everything, EVERYTHING};
 
 const EPS: f64 = f64::EPSILON;
 
@@ -184,20 +187,6 @@ fn time_dependent_discrete_gradient_lives_in_the_extended_phase_space() {
     let g = h.gradient(&z0);
     assert!((h.discrete_gradient(&z0, &z0) - g).abs().max() <= 8.0 * EPS * g.abs().max());
 }
-
-dth::hamiltonian! {
-    /// Every function, power form and so every divided-difference kernel, with parameters.
-    pub struct Everything { pub a: f64, pub b: f64 } =
-        p1^2/(2*a) + p2^2/2 + sin(q1)*cos(q2) + tan(q1/3) + exp(-q2^2) + ln(1 + q1^2)
-        + sqrt(1 + p1^2) + sinh(q1/2) + cosh(q2/2) + tanh(q1*q2) + atan(p2)
-        + b*(q1^2 + q2^2)^(-3/2) + (1 + q2^2)^(1/3) + q1^5 - 0.25*q2^(-2) + (1 + p1^2)^(a*q2)
-        + pi*q1*p2
-}
-
-const EVERYTHING: &str = "p1^2/(2*a) + p2^2/2 + sin(q1)*cos(q2) + tan(q1/3) + exp(-q2^2)
-    + ln(1 + q1^2) + sqrt(1 + p1^2) + sinh(q1/2) + cosh(q2/2) + tanh(q1*q2) + atan(p2)
-    + b*(q1^2 + q2^2)^(-3/2) + (1 + q2^2)^(1/3) + q1^5 - 0.25*q2^(-2) + (1 + p1^2)^(a*q2)
-    + pi*q1*p2";
 
 /// The generated kernels spell out `Kernel::apply`'s formulas; the generated code performs
 /// the engine's program in order: equal bit for bit, at distinct points and at `z0 = z1`

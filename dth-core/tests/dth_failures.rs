@@ -2,9 +2,12 @@
 //! was computed.
 
 use dth_core::dth::{integrate, Dth, DthOptions, NoObserver, Solver, StepRecord, Trajectory};
-use dth_core::nalgebra::{Matrix2, Vector2, Vector4};
+use dth_core::nalgebra::{Vector2, Vector4};
 use dth_core::systems::{Kepler, Pendulum};
 use dth_core::{Error, Hamiltonian};
+
+mod fixtures;
+use fixtures::{Saddle, Walled};
 
 fn kepler_z0() -> Vector4<f64> {
     Vector4::new(0.5, 0.0, 0.0, 1.2)
@@ -54,21 +57,6 @@ fn iteration_limit_gives_newton_diverged_with_data() {
     }
 }
 
-/// `H = (q^2 - p^2) / 2`: a saddle, `Psi = p^2 - q^2`.
-struct Saddle;
-
-impl Hamiltonian<2> for Saddle {
-    fn value(&self, z: &Vector2<f64>) -> f64 {
-        0.5 * (z[0] * z[0] - z[1] * z[1])
-    }
-    fn gradient(&self, z: &Vector2<f64>) -> Vector2<f64> {
-        Vector2::new(z[0], -z[1])
-    }
-    fn hessian(&self, _z: &Vector2<f64>) -> Matrix2<f64> {
-        Matrix2::new(1.0, 0.0, 0.0, -1.0)
-    }
-}
-
 #[test]
 fn singular_newton_matrix_is_reported() {
     // From zbar_0 = (0, 1) with h = 2, lambda_0 = 1 (all exact in binary): the explicit
@@ -84,29 +72,6 @@ fn singular_newton_matrix_is_reported() {
             matches!(r, Err(Error::SingularMatrix { step: 1 })),
             "{solver:?}: {r:?}"
         );
-    }
-}
-
-/// The harmonic oscillator `H = (q^2 + p^2) / 2`, undefined (NaN) for `q > 1`.
-struct Walled;
-
-impl Hamiltonian<2> for Walled {
-    fn value(&self, z: &Vector2<f64>) -> f64 {
-        if z[0] > 1.0 {
-            f64::NAN
-        } else {
-            0.5 * (z[0] * z[0] + z[1] * z[1])
-        }
-    }
-    fn gradient(&self, z: &Vector2<f64>) -> Vector2<f64> {
-        if z[0] > 1.0 {
-            Vector2::repeat(f64::NAN)
-        } else {
-            Vector2::new(z[0], z[1])
-        }
-    }
-    fn hessian(&self, _z: &Vector2<f64>) -> Matrix2<f64> {
-        Matrix2::identity()
     }
 }
 

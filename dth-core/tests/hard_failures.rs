@@ -8,6 +8,9 @@ use dth_core::nalgebra::{Matrix2, Matrix4, Vector2, Vector4};
 use dth_core::systems::{Kepler, Pendulum};
 use dth_core::{Error, Hamiltonian};
 
+mod fixtures;
+use fixtures::{Saddle, Walled};
+
 fn thesis_z0() -> Vector4<f64> {
     Vector4::new(0.5, 0.0, 0.0, 1.2)
 }
@@ -209,21 +212,6 @@ fn inconsistent_discrete_gradient_fails_the_energy_check() {
     assert_eq!(e.partial.len(), 1);
 }
 
-/// `H = (q^2 - p^2) / 2`: a saddle, `Psi = p^2 - q^2`.
-struct Saddle;
-
-impl Hamiltonian<2> for Saddle {
-    fn value(&self, z: &Vector2<f64>) -> f64 {
-        0.5 * (z[0] * z[0] - z[1] * z[1])
-    }
-    fn gradient(&self, z: &Vector2<f64>) -> Vector2<f64> {
-        Vector2::new(z[0], -z[1])
-    }
-    fn hessian(&self, _z: &Vector2<f64>) -> Matrix2<f64> {
-        Matrix2::new(1.0, 0.0, 0.0, -1.0)
-    }
-}
-
 #[test]
 fn start_where_psi_is_exactly_zero_on_the_whole_orbit_is_singular() {
     // zbar_0 = (1, 1) lies on the saddle's stable manifold p = q, where Psi = p^2 - q^2 = 0
@@ -288,29 +276,6 @@ fn start_where_psi_is_exactly_zero_then_changes_sign() {
         );
     }
     assert_eq!(t.kinds()[0], StepKind::Dth);
-}
-
-/// The harmonic oscillator `H = (q^2 + p^2) / 2`, undefined (NaN) for `q > 1`.
-struct Walled;
-
-impl Hamiltonian<2> for Walled {
-    fn value(&self, z: &Vector2<f64>) -> f64 {
-        if z[0] > 1.0 {
-            f64::NAN
-        } else {
-            0.5 * (z[0] * z[0] + z[1] * z[1])
-        }
-    }
-    fn gradient(&self, z: &Vector2<f64>) -> Vector2<f64> {
-        if z[0] > 1.0 {
-            Vector2::repeat(f64::NAN)
-        } else {
-            Vector2::new(z[0], z[1])
-        }
-    }
-    fn hessian(&self, _z: &Vector2<f64>) -> Matrix2<f64> {
-        Matrix2::identity()
-    }
 }
 
 #[test]

@@ -293,6 +293,30 @@ fn param(params: &Params, name: &str) -> f64 {
     params.get(name).copied().unwrap_or(f64::NAN)
 }
 
+/// The parameters `names` of a built-in `system`, each required to be `> 0`; otherwise a message
+/// naming all of them with the values given ("kepler needs m, k > 0 (got m = -1, k = 1)").
+fn positive_params<const N: usize>(
+    system: &str,
+    params: &Params,
+    names: [&str; N],
+) -> Result<[f64; N], String> {
+    let values = names.map(|n| param(params, n));
+    if values.iter().all(|&v| v > 0.0) {
+        Ok(values)
+    } else {
+        let got: Vec<String> = names
+            .iter()
+            .zip(&values)
+            .map(|(n, v)| format!("{n} = {v}"))
+            .collect();
+        Err(format!(
+            "{system} needs {} > 0 (got {})",
+            names.join(", "),
+            got.join(", ")
+        ))
+    }
+}
+
 impl SystemEntry {
     /// A runnable entry: `build` makes the Hamiltonian from the scene's parameters (returning a
     /// message for an invalid combination), and scenes naming `name` run on it with every
@@ -486,19 +510,6 @@ impl Catalogue {
     /// and with the parameters `dth list` shows.
     pub fn builtin() -> Self {
         let mut c = Catalogue::new();
-        let positive = |system: &str, values: &[(&str, f64)]| {
-            if values.iter().all(|&(_, v)| v > 0.0) {
-                Ok(())
-            } else {
-                let got: Vec<String> = values.iter().map(|(n, v)| format!("{n} = {v}")).collect();
-                let names: Vec<&str> = values.iter().map(|&(n, _)| n).collect();
-                Err(format!(
-                    "{system} needs {} > 0 (got {})",
-                    names.join(", "),
-                    got.join(", ")
-                ))
-            }
-        };
         let entries = [
             SystemEntry::runnable::<4, Kepler, _>(
                 "kepler",
@@ -507,10 +518,7 @@ impl Catalogue {
                     ParamSpec { name: "m", default: Some(0.5), doc: "mass" },
                     ParamSpec { name: "k", default: Some(1.0), doc: "force constant" },
                 ],
-                move |p| {
-                    let (m, k) = (param(p, "m"), param(p, "k"));
-                    positive("kepler", &[("m", m), ("k", k)]).map(|()| Kepler { m, k })
-                },
+                |p| positive_params("kepler", p, ["m", "k"]).map(|[m, k]| Kepler { m, k }),
             ),
             SystemEntry::runnable::<2, HarmonicOscillator, _>(
                 "harmonic_oscillator",
@@ -519,10 +527,9 @@ impl Catalogue {
                     ParamSpec { name: "m", default: Some(1.0), doc: "mass" },
                     ParamSpec { name: "k", default: Some(1.0), doc: "spring constant" },
                 ],
-                move |p| {
-                    let (m, k) = (param(p, "m"), param(p, "k"));
-                    positive("harmonic_oscillator", &[("m", m), ("k", k)])
-                        .map(|()| HarmonicOscillator { m, k })
+                |p| {
+                    positive_params("harmonic_oscillator", p, ["m", "k"])
+                        .map(|[m, k]| HarmonicOscillator { m, k })
                 },
             ),
             SystemEntry::runnable::<2, Pendulum, _>(
@@ -533,10 +540,8 @@ impl Catalogue {
                     ParamSpec { name: "l", default: Some(1.0), doc: "length" },
                     ParamSpec { name: "g", default: Some(1.0), doc: "gravity" },
                 ],
-                move |p| {
-                    let (m, l, g) = (param(p, "m"), param(p, "l"), param(p, "g"));
-                    positive("pendulum", &[("m", m), ("l", l), ("g", g)])
-                        .map(|()| Pendulum { m, l, g })
+                |p| {
+                    positive_params("pendulum", p, ["m", "l", "g"]).map(|[m, l, g]| Pendulum { m, l, g })
                 },
             ),
             SystemEntry::runnable::<4, HenonHeiles, _>(
@@ -555,10 +560,9 @@ impl Catalogue {
                     ParamSpec { name: "l2", default: Some(1.0), doc: "lower rod length" },
                     ParamSpec { name: "g", default: Some(1.0), doc: "gravity" },
                 ],
-                move |p| {
-                    let [m1, m2, l1, l2, g] = ["m1", "m2", "l1", "l2", "g"].map(|n| param(p, n));
-                    positive("double_pendulum", &[("m1", m1), ("m2", m2), ("l1", l1), ("l2", l2), ("g", g)])
-                        .map(|()| DoublePendulum { m1, m2, l1, l2, g })
+                |p| {
+                    positive_params("double_pendulum", p, ["m1", "m2", "l1", "l2", "g"])
+                        .map(|[m1, m2, l1, l2, g]| DoublePendulum { m1, m2, l1, l2, g })
                 },
             ),
             SystemEntry::runnable::<8, TodaChain4, _>(
@@ -581,20 +585,18 @@ impl Catalogue {
                     ParamSpec { name: "f", default: Some(0.1), doc: "forcing amplitude" },
                     ParamSpec { name: "omega", default: Some(1.3), doc: "forcing frequency" },
                 ],
-                move |p| {
-                    let (omega0, f, omega) = (param(p, "omega0"), param(p, "f"), param(p, "omega"));
-                    positive("forced_oscillator", &[("omega0", omega0)])
-                        .map(|()| ForcedOscillator { omega0, f, omega })
+                |p| {
+                    // Only the natural frequency must be positive; any forcing is allowed.
+                    positive_params("forced_oscillator", p, ["omega0"]).map(|[omega0]| {
+                        ForcedOscillator { omega0, f: param(p, "f"), omega: param(p, "omega") }
+                    })
                 },
             ),
             SystemEntry::runnable_without_dth::<4, FreeParticle, _>(
                 "free_particle",
                 "free particle H = (p1^2 + p2^2)/(2 m), n = 2; every method but dth (Psi is identically zero, thesis Section 3.4)",
                 &[ParamSpec { name: "m", default: Some(1.0), doc: "mass" }],
-                move |p| {
-                    let m = param(p, "m");
-                    positive("free_particle", &[("m", m)]).map(|()| FreeParticle { m })
-                },
+                |p| positive_params("free_particle", p, ["m"]).map(|[m]| FreeParticle { m }),
             ),
         ];
         for e in entries {

@@ -357,6 +357,13 @@ pub fn run_method<const D: usize, H: SceneSystem<D>, O: Observer<D>>(
             ))
         }
     };
+    // Every fixed-step peer runs the same way; only the method differs (a closure cannot be
+    // generic over it).
+    macro_rules! peer {
+        ($method:expr) => {
+            Ok(run_peer(&mut $method, system, dt, z0, t0, stop, observer))
+        };
+    }
     match spec.kind {
         MethodKind::Exact => {
             if !H::HAS_EXACT || system.exact_solution(&z0, 0.0).is_none() {
@@ -366,59 +373,19 @@ pub fn run_method<const D: usize, H: SceneSystem<D>, O: Observer<D>>(
             }
             Ok(ExactSampler { dt }.run(system, z0, t0, stop, observer))
         }
-        MethodKind::Trapezoidal => Ok(run_peer(
-            &mut Trapezoidal::new(),
-            system,
-            dt,
-            z0,
-            t0,
-            stop,
-            observer,
-        )),
-        MethodKind::Midpoint => Ok(run_peer(
-            &mut ImplicitMidpoint::new(),
-            system,
-            dt,
-            z0,
-            t0,
-            stop,
-            observer,
-        )),
+        MethodKind::Trapezoidal => peer!(Trapezoidal::new()),
+        MethodKind::Midpoint => peer!(ImplicitMidpoint::new()),
         MethodKind::StormerVerlet => {
             if !H::SEPARABLE {
                 return Err(not_available(
                     "Stormer-Verlet needs a separable H = T(p) + V(q)",
                 ));
             }
-            Ok(run_peer(
-                &mut StormerVerlet::new(),
-                system,
-                dt,
-                z0,
-                t0,
-                stop,
-                observer,
-            ))
+            peer!(StormerVerlet::new())
         }
-        MethodKind::Rk4 => Ok(run_peer(&mut Rk4, system, dt, z0, t0, stop, observer)),
-        MethodKind::GaussLegendre2 => Ok(run_peer(
-            &mut GaussLegendre2::new(),
-            system,
-            dt,
-            z0,
-            t0,
-            stop,
-            observer,
-        )),
-        MethodKind::DiscreteGradient => Ok(run_peer(
-            &mut DiscreteGradient::new(),
-            system,
-            dt,
-            z0,
-            t0,
-            stop,
-            observer,
-        )),
+        MethodKind::Rk4 => peer!(Rk4),
+        MethodKind::GaussLegendre2 => peer!(GaussLegendre2::new()),
+        MethodKind::DiscreteGradient => peer!(DiscreteGradient::new()),
         MethodKind::DiscreteMechanics => system
             .run_discrete_mechanics(dt, z0, t0, stop, observer)
             .map_or_else(

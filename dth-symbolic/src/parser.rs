@@ -151,38 +151,34 @@ impl<'a> Parser<'a> {
     }
 
     fn expr(&mut self) -> Result<Ast, Error> {
-        let first = self.term()?;
-        let mut rest = Vec::new();
-        while let Some(t) = self.peek() {
-            let op = match t.kind {
-                TokenKind::Plus => BinOp::Add,
-                TokenKind::Minus => BinOp::Sub,
-                _ => break,
-            };
-            self.pos += 1;
-            rest.push((op, t.span, self.term()?));
-        }
-        Ok(if rest.is_empty() {
-            first
-        } else {
-            Ast::Chain {
-                first: Box::new(first),
-                rest,
-            }
+        self.chain(Self::term, |kind| match kind {
+            TokenKind::Plus => Some(BinOp::Add),
+            TokenKind::Minus => Some(BinOp::Sub),
+            _ => None,
         })
     }
 
     fn term(&mut self) -> Result<Ast, Error> {
-        let first = self.unary()?;
+        self.chain(Self::unary, |kind| match kind {
+            TokenKind::Star => Some(BinOp::Mul),
+            TokenKind::Slash => Some(BinOp::Div),
+            _ => None,
+        })
+    }
+
+    /// `operand (op operand)*` for one precedence level (`expr`: `+ -`, `term`: `* /`), left to
+    /// right: the lone operand, or one `Ast::Chain` of them.
+    fn chain(
+        &mut self,
+        operand: fn(&mut Self) -> Result<Ast, Error>,
+        op_of: fn(TokenKind) -> Option<BinOp>,
+    ) -> Result<Ast, Error> {
+        let first = operand(self)?;
         let mut rest = Vec::new();
         while let Some(t) = self.peek() {
-            let op = match t.kind {
-                TokenKind::Star => BinOp::Mul,
-                TokenKind::Slash => BinOp::Div,
-                _ => break,
-            };
+            let Some(op) = op_of(t.kind) else { break };
             self.pos += 1;
-            rest.push((op, t.span, self.unary()?));
+            rest.push((op, t.span, operand(self)?));
         }
         Ok(if rest.is_empty() {
             first

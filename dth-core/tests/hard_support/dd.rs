@@ -1,6 +1,12 @@
 //! Double-double arithmetic (about 106 bits) for reference solutions in the tests: `Dd` is an
 //! unevaluated sum `hi + lo` with `|lo| <= ulp(hi) / 2`. Error-free transformations (Knuth's
-//! two-sum, fused-multiply-add two-product) as in Hida, Li and Bailey's QD library.
+//! two-sum, fused-multiply-add two-product) as in Dekker (1971) and Hida, Li and Bailey's QD
+//! library (2001); one Newton correction for the quotient and the square root.
+//!
+//! The one copy for every test tree: `dth-core`'s `hard_*` tests, `dth-symbolic`'s
+//! (`tests/common/mod.rs`) and the facade's `tests/macro_discrete_gradient.rs` include this file
+//! with `#[path = ...]`. Not every tree uses every function.
+#![allow(dead_code)]
 
 use std::ops::{Add, Div, Mul, Neg, Sub};
 
@@ -42,6 +48,10 @@ impl Dd {
         }
     }
     pub fn sqrt(self) -> Self {
+        // sqrt(0) = 0 (the Newton step below would divide by zero); negative gives NaN.
+        if self.hi <= 0.0 {
+            return Dd::new(self.hi.sqrt());
+        }
         // One Newton step from the f64 square root doubles the precision.
         let x = self.hi.sqrt();
         let xd = Dd::new(x);

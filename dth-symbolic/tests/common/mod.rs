@@ -253,6 +253,7 @@ pub fn output_bound(p: &Program, bounds: &[f64], which: dth_symbolic::Output) ->
         .map_or(0.0, |&(_, s)| bounds[s as usize])
 }
 
+#[path = "../../../dth-core/tests/hard_support/dd.rs"]
 pub mod dd;
 
 /// Runs a one-point program in double-double: `None` when it calls a function (only
