@@ -1,7 +1,8 @@
 //! Invariant diagnostics: deviation series and the thesis's average absolute deviation.
 //!
-//! Both are [`Observer`]s of [`methods::run`](crate::methods::run) and can be fed by hand
-//! (`push`) from any other loop, e.g. over DTH midpoints or vertices.
+//! Both are [`Observer`]s of any run (the peers' [`methods::run`](crate::methods::run), the DTH
+//! stepper: they see its midpoints) and can be fed by hand (`push`) from any other loop, e.g.
+//! over DTH vertices.
 //!
 //! ```
 //! use dth_core::diagnostics::{planar_angular_momentum, AverageAbsoluteDeviation};
@@ -23,7 +24,7 @@
 
 use nalgebra::{SVector, Vector4};
 
-use crate::methods::Observer;
+use crate::observer::{Observer, StepRecord};
 
 /// Angular momentum `L = q1 p2 - q2 p1` of a planar state `z = (q1, q2, p1, p2)`.
 pub fn planar_angular_momentum(z: &Vector4<f64>) -> f64 {
@@ -118,8 +119,8 @@ impl<Q> AverageAbsoluteDeviation<Q> {
 }
 
 impl<const D: usize, Q: Fn(&SVector<f64, D>) -> f64> Observer<D> for AverageAbsoluteDeviation<Q> {
-    fn observe(&mut self, _k: usize, _t: f64, z: &SVector<f64, D>) {
-        self.push(z);
+    fn on_step(&mut self, record: &StepRecord<D>) {
+        self.push(&record.z);
     }
 }
 
@@ -173,8 +174,8 @@ impl<Q> DeviationSeries<Q> {
 }
 
 impl<const D: usize, Q: Fn(&SVector<f64, D>) -> f64> Observer<D> for DeviationSeries<Q> {
-    fn observe(&mut self, _k: usize, t: f64, z: &SVector<f64, D>) {
-        self.push(t, z);
+    fn on_step(&mut self, record: &StepRecord<D>) {
+        self.push(record.t, &record.z);
     }
 }
 

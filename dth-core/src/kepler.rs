@@ -23,6 +23,53 @@ use nalgebra::{Vector2, Vector4};
 use crate::systems::Kepler;
 use crate::Error;
 
+/// One row of the thesis's Table 4.1 (Shibberu 1992, Section 4.2): the average absolute
+/// deviation of energy and angular momentum over 10,000 steps on the orbit `q = (0.5, 0)`,
+/// `p = (0, 1.2)` of `H = p1^2 + p2^2 - (q1^2 + q2^2)^(-1/2)` (25 points per orbit, 400 orbits).
+/// The average is the mean over `k = 1..N` of `|Q_k - Q_ref|`, with `Q_ref` the initial value
+/// (fixed-step methods), `H(zbar_0)` (DTH midpoints) or the value at the first vertex `z^(0)`
+/// (DTH vertices); see `docs/theory.md#table-4-1`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Table41Row {
+    /// `trapezoidal`, `midpoint`, `discrete_mechanics`, `dth_midpoints` or `dth_vertices`.
+    pub method: &'static str,
+    /// Average absolute energy deviation.
+    pub energy: f64,
+    /// Average absolute angular-momentum deviation.
+    pub angular_momentum: f64,
+}
+
+/// The thesis's Table 4.1, in its order: what every reproduction of it compares with.
+/// Entries below `1e-13` are roundoff (a few hundred eps of the `O(1)` quantities), bars to
+/// meet rather than values to reproduce.
+pub const THESIS_TABLE_4_1: [Table41Row; 5] = [
+    Table41Row {
+        method: "trapezoidal",
+        energy: 1.322e-1,
+        angular_momentum: 4.593e-2,
+    },
+    Table41Row {
+        method: "midpoint",
+        energy: 5.969e-2,
+        angular_momentum: 7.387e-16,
+    },
+    Table41Row {
+        method: "discrete_mechanics",
+        energy: 3.901e-15,
+        angular_momentum: 1.738e-15,
+    },
+    Table41Row {
+        method: "dth_midpoints",
+        energy: 1.285e-14,
+        angular_momentum: 8.204e-4,
+    },
+    Table41Row {
+        method: "dth_vertices",
+        energy: 1.750e-2,
+        angular_momentum: 2.221e-15,
+    },
+];
+
 /// Orbital elements of an elliptic Kepler orbit.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct OrbitalElements {

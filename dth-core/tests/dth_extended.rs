@@ -24,15 +24,19 @@ fn extended_kepler_agrees_with_reduced_corollary_1() {
     let (mut dz, mut dl, mut dt, mut t_row, mut p_t, mut calh): (f64, f64, f64, f64, f64, f64) =
         (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
     for (r, e) in reduced.iter().zip(extended.iter()) {
-        dz = dz.max((r.zbar - Extended::<Kepler, 4, 6>::reduce(&e.zbar)).amax());
-        dl = dl.max((r.lambda - e.lambda).abs() / r.lambda);
+        let (lr, le) = (
+            r.dth.map_or(f64::NAN, |d| d.lambda),
+            e.dth.map_or(f64::NAN, |d| d.lambda),
+        );
+        dz = dz.max((r.z - Extended::<Kepler, 4, 6>::reduce(&e.z)).amax());
+        dl = dl.max((lr - le).abs() / lr);
         // The stepper's tbar (started at t0) against the reduced one shifted by t0.
-        dt = dt.max((e.tbar - (r.tbar + t0)).abs());
+        dt = dt.max((e.t - (r.t + t0)).abs());
         // The t-row of the step equation is t' = lambda: the t coordinate of zbar is tbar.
-        t_row = t_row.max((e.zbar[2] - e.tbar).abs() / e.tbar.abs().max(1.0));
+        t_row = t_row.max((e.z[2] - e.t).abs() / e.t.abs().max(1.0));
         // Autonomous: p_t is constant (= -H(zbar_0)) and calH = 0 at every midpoint.
-        p_t = p_t.max((e.zbar[5] - z0[5]).abs());
-        calh = calh.max(ext.value(&e.zbar).abs());
+        p_t = p_t.max((e.z[5] - z0[5]).abs());
+        calh = calh.max(ext.value(&e.z).abs());
     }
     println!(
         "extended vs reduced over {steps} steps: |dz| {dz:.2e}, rel |dlambda| {dl:.2e}, \
@@ -124,10 +128,10 @@ fn forced_errors(dtau: f64) -> (f64, f64) {
     let forced = Forced { f: 0.1, w: 0.5 };
     let mut err: f64 = 0.0;
     let mut calh: f64 = 0.0;
-    for r in t.iter().take_while(|r| r.tbar <= 10.0) {
-        let (q, p) = forced.exact(q0, p0, r.zbar[1]);
-        err = err.max((r.zbar[0] - q).abs()).max((r.zbar[2] - p).abs());
-        calh = calh.max(forced.value(&r.zbar).abs());
+    for r in t.iter().take_while(|r| r.t <= 10.0) {
+        let (q, p) = forced.exact(q0, p0, r.z[1]);
+        err = err.max((r.z[0] - q).abs()).max((r.z[2] - p).abs());
+        calh = calh.max(forced.value(&r.z).abs());
     }
     (err, calh)
 }

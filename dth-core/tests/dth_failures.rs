@@ -1,8 +1,9 @@
 //! Every failure path of the DTH stepper returns its typed error, with data, and keeps what
 //! was computed.
 
-use dth_core::dth::{integrate, Dth, DthOptions, NoObserver, Solver, StepRecord, Trajectory};
+use dth_core::dth::{integrate, Dth, DthOptions, Solver, Trajectory};
 use dth_core::nalgebra::{Vector2, Vector4};
+use dth_core::observer::StepRecord;
 use dth_core::systems::{Kepler, Pendulum};
 use dth_core::{Error, Hamiltonian};
 
@@ -113,7 +114,7 @@ fn runs_resume_and_a_no_op_observer_stores_nothing() {
     let mut dth = Dth::new(Kepler::thesis(), kepler_z0(), options).expect("start");
     let mut t = Trajectory::new();
     dth.run(10, &mut t).expect("run");
-    dth.run(5, &mut NoObserver).expect("run");
+    dth.run(5, &mut ()).expect("run");
     dth.run(10, &mut t).expect("run");
     // 0..=10 then 16..=25 (11..=15 went to the no-op observer).
     assert_eq!(t.len(), 21);

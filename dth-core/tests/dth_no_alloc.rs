@@ -6,7 +6,7 @@ use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use dth_core::dth::{Dth, DthOptions, NoObserver, Solver};
+use dth_core::dth::{Dth, DthOptions, Solver};
 use dth_core::nalgebra::Vector4;
 use dth_core::systems::Kepler;
 
@@ -43,7 +43,7 @@ fn steps_do_not_allocate() {
         let mut dth =
             Dth::new(Kepler::thesis(), Vector4::new(0.5, 0.0, 0.0, 1.2), options).expect("start");
         let before = ALLOCATIONS.load(Ordering::SeqCst);
-        let ok = dth.run(1_000, &mut NoObserver).is_ok();
+        let ok = dth.run(1_000, &mut ()).is_ok();
         let after = ALLOCATIONS.load(Ordering::SeqCst);
         assert!(ok);
         assert_eq!(

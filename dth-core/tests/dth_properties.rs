@@ -172,8 +172,12 @@ fn linear_symplectic_change_of_coordinates_commutes_theorem_8() {
     );
     let (mut worst_z, mut worst_l): (f64, f64) = (0.0, 0.0);
     for (a, b) in z.iter().zip(y.iter()) {
-        worst_z = worst_z.max((a.zbar - t * b.zbar).amax());
-        worst_l = worst_l.max((a.lambda - b.lambda).abs() / a.lambda);
+        let (la, lb) = (
+            a.dth.map_or(f64::NAN, |d| d.lambda),
+            b.dth.map_or(f64::NAN, |d| d.lambda),
+        );
+        worst_z = worst_z.max((a.z - t * b.z).amax());
+        worst_l = worst_l.max((la - lb).abs() / la);
     }
     let worst_v = z
         .vertices()
@@ -203,8 +207,9 @@ fn law_of_time_spread(dtau: f64) -> f64 {
     let t = run(Kepler::thesis(), kepler_z0(), dtau, steps);
     let c: Vec<f64> = t
         .iter()
-        .take_while(|r| r.tbar <= period)
-        .map(|r| r.lambda * r.psi.cbrt())
+        .take_while(|r| r.t <= period)
+        .filter_map(|r| r.dth)
+        .map(|d| d.lambda * d.psi.cbrt())
         .collect();
     let max = c.iter().copied().fold(f64::MIN, f64::max);
     let min = c.iter().copied().fold(f64::MAX, f64::min);
@@ -271,7 +276,8 @@ fn vertex_map_is_symplectic_theorem_3() {
     let e0 = kepler.value(&kepler_z0());
     // A few vertices along the orbit.
     let t = run(kepler, kepler_z0(), h, 20);
-    for r in t.iter().step_by(5) {
+    for record in t.iter().step_by(5) {
+        let r = record.dth.expect("a DTH record");
         let lam = r.lambda;
         let v6: Vector6<f64> = lift(&r.vertex, r.vertex_time);
         let mut v6 = v6;
@@ -305,7 +311,7 @@ fn vertex_map_is_symplectic_theorem_3() {
         println!(
             "Theorem 3 at k = {}: |M^T J M - J| extended {d6:.2e}, reduced {d4:.2e}; \
              control (E = (E0 + H(x))/2) {dc:.2e}",
-            r.k
+            record.k
         );
         assert!(d6 < 1e-6, "extended defect {d6:e}");
         assert!(d4 < 1e-6, "reduced defect {d4:e}");

@@ -3,8 +3,9 @@
 //! computed. (The stepper's own failure tests are in `dth_failures.rs`; these add the cases of
 //! the hard-cases issue.)
 
-use dth_core::dth::{integrate, segment_from_vertex, Dth, DthOptions, StepKind};
+use dth_core::dth::{integrate, segment_from_vertex, Dth, DthOptions};
 use dth_core::nalgebra::{Matrix2, Matrix4, Vector2, Vector4};
+use dth_core::observer::StepKind;
 use dth_core::systems::{Kepler, Pendulum};
 use dth_core::{Error, Hamiltonian};
 
@@ -219,7 +220,7 @@ fn start_where_psi_is_exactly_zero_on_the_whole_orbit_is_singular() {
     // not determine lambda (g_lambda = 0). The Schur complement is exactly zero: a singular
     // Newton matrix, reported at step 1, nothing else computed.
     let mut dth = Dth::new(Saddle, Vector2::new(1.0, 1.0), DthOptions::default()).expect("start");
-    assert_eq!(dth.record().psi, 0.0);
+    assert_eq!(dth.record().dth.map(|d| d.psi), Some(0.0));
     let r = dth.step();
     assert!(matches!(r, Err(Error::SingularMatrix { step: 1 })), "{r:?}");
     assert_eq!(dth.k(), 0);

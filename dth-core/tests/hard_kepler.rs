@@ -5,9 +5,10 @@
 //! Orbits start at pericentre q = (0.5, 0), p = (0, sqrt(1 + e)) (the thesis's orbit for
 //! e = 0.44; m = 1/2, k = 1), with lambda_0 = 1 there.
 
-use dth_core::dth::{integrate, Dth, DthOptions, StepKind, Trajectory};
+use dth_core::dth::{integrate, Dth, DthOptions, Trajectory};
 use dth_core::kepler::KeplerOrbit;
 use dth_core::nalgebra::Vector4;
+use dth_core::observer::StepKind;
 use dth_core::systems::Kepler;
 use dth_core::{Error, Hamiltonian};
 
@@ -169,10 +170,9 @@ fn robust_run(e: f64, dtau: f64, steps: usize) -> Trajectory<4> {
         .map(|w| {
             // Relative to the roundoff scale of L: the solve's residual f (a few eps |z|) times
             // |q| (up to 100 at the apocentre of e = 0.99), plus |q||p| for the products.
-            let z = &w[1].zbar;
+            let z = &w[1].z;
             let scale = z[0].hypot(z[1]) * z.amax().max(z[2].hypot(z[3]));
-            (Kepler::angular_momentum(&w[1].zbar) - Kepler::angular_momentum(&w[0].zbar)).abs()
-                / scale
+            (Kepler::angular_momentum(&w[1].z) - Kepler::angular_momentum(&w[0].z)).abs() / scale
         })
         .fold(0.0, f64::max);
     let _ = l0;
@@ -308,9 +308,9 @@ fn near_collision_orbit_e_0999_through_pericentre_in_robust_mode() {
                 .unwrap_or_else(|err| panic!("dtau {dtau}: {err}"));
             steps += 1;
             fallback += usize::from(r.kind == StepKind::Fallback);
-            r_min = r_min.min(r.zbar[0].hypot(r.zbar[1]));
-            let scale = r.zbar.component_mul(&kepler.gradient(&r.zbar)).abs().sum();
-            worst = worst.max((kepler.value(&r.zbar) - e0).abs() / scale);
+            r_min = r_min.min(r.z[0].hypot(r.z[1]));
+            let scale = r.z.component_mul(&kepler.gradient(&r.z)).abs().sum();
+            worst = worst.max((kepler.value(&r.z) - e0).abs() / scale);
             assert!(steps < 100_000, "dtau {dtau}: too many steps");
         }
         let err = (dth.zbar() - orbit.state_at(dth.tbar())).amax();

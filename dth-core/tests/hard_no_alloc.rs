@@ -5,8 +5,9 @@ use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use dth_core::dth::{Dth, DthOptions, NoObserver, StepRecord};
+use dth_core::dth::{Dth, DthOptions};
 use dth_core::nalgebra::Vector4;
+use dth_core::observer::StepRecord;
 use dth_core::systems::Kepler;
 
 struct Counting;
@@ -51,7 +52,7 @@ fn robust_mode_and_cancellation_free_steps_do_not_allocate() {
     assert!(dth.cancellation_free());
     let mut kinds = [0usize; 2];
     let mut count =
-        |r: &StepRecord<4>| kinds[usize::from(r.kind != dth_core::dth::StepKind::Dth)] += 1;
+        |r: &StepRecord<4>| kinds[usize::from(r.kind != dth_core::observer::StepKind::Dth)] += 1;
     COUNTING.with(|c| c.set(true));
     let before = ALLOCATIONS.load(Ordering::SeqCst);
     let ok = dth.run(3_000, &mut count).is_ok();
@@ -73,5 +74,5 @@ fn robust_mode_and_cancellation_free_steps_do_not_allocate() {
     let stored = dth.trajectory(10).is_ok();
     assert!(stored && ALLOCATIONS.load(Ordering::SeqCst) > before);
     COUNTING.with(|c| c.set(false));
-    dth.run(1, &mut NoObserver).expect("step");
+    dth.run(1, &mut ()).expect("step");
 }

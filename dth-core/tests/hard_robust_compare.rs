@@ -6,10 +6,11 @@
 //! run's. Errors are measured against the exact Kepler solution and against a 2-stage
 //! Gauss-Legendre reference for the pendulum.
 
-use dth_core::dth::{Dth, DthOptions, StepKind};
+use dth_core::dth::{Dth, DthOptions};
 use dth_core::kepler::KeplerOrbit;
 use dth_core::methods::{run, GaussLegendre2, ImplicitMidpoint, OneStepMethod};
 use dth_core::nalgebra::{SVector, Vector2, Vector4};
+use dth_core::observer::{StepKind, StepRecord};
 use dth_core::systems::{Kepler, Pendulum};
 use dth_core::Hamiltonian;
 
@@ -43,13 +44,12 @@ fn robust_until<H: Hamiltonian<D> + Copy, const D: usize>(
         iterations += r.factorizations as usize;
         steps += 1;
         fallback += usize::from(r.kind == StepKind::Fallback);
-        let scale = r
-            .zbar
-            .component_mul(&h.gradient(&r.zbar))
-            .abs()
-            .sum()
-            .max(e0.abs());
-        worst = worst.max((h.value(&r.zbar) - e0).abs() / scale);
+        let scale =
+            r.z.component_mul(&h.gradient(&r.z))
+                .abs()
+                .sum()
+                .max(e0.abs());
+        worst = worst.max((h.value(&r.z) - e0).abs() / scale);
     }
     RobustRun {
         z: *dth.zbar(),
@@ -85,8 +85,8 @@ fn midpoint_until<H: Hamiltonian<D>, const D: usize>(
             0.0,
             t_end / steps as f64,
             steps,
-            &mut |_k: usize, _t: f64, z: &SVector<f64, D>| {
-                w = w.max((h.value(z) - e0).abs());
+            &mut |r: &StepRecord<D>| {
+                w = w.max((h.value(&r.z) - e0).abs());
             },
         )
         .expect("midpoint run");

@@ -1,8 +1,9 @@
 //! Issue 6 beyond Kepler: the pendulum near the separatrix on both sides, Henon-Heiles at
 //! E = 1/8 and 1/6, the forced oscillator through resonance.
 
-use dth_core::dth::{integrate, DthOptions, StepKind, Trajectory};
+use dth_core::dth::{integrate, DthOptions, Trajectory};
 use dth_core::nalgebra::{SVector, Vector2, Vector4};
+use dth_core::observer::StepKind;
 use dth_core::systems::{ForcedOscillator, HenonHeiles, Pendulum};
 use dth_core::{Error, Hamiltonian};
 
@@ -106,7 +107,7 @@ fn pendulum_rotation_just_above_the_separatrix_breaks_down_then_robust_mode_rota
         assert!(t
             .iter()
             .filter(|r| r.kind == StepKind::Dth)
-            .all(|r| r.psi > 0.0));
+            .all(|r| r.dth.is_some_and(|d| d.psi > 0.0)));
     }
 }
 
@@ -199,7 +200,7 @@ fn henon_heiles_saddle_approaches_from_nearby_starts_robust_mode() {
         let nearest = t
             .iter()
             .filter(|r| r.kind == StepKind::Fallback)
-            .map(|r| hh.gradient(&r.zbar).amax())
+            .map(|r| hh.gradient(&r.z).amax())
             .fold(f64::MAX, f64::min);
         closest = closest.min(nearest);
     }
@@ -301,31 +302,26 @@ fn forced_oscillator_breakdown_and_robust_mode_in_the_extended_phase_space() {
     for r in t.iter() {
         // calH = 0 to the roundoff scale of calH at a float point, sum |z_i dcalH/dz_i| (the
         // t coordinate reaches 300 and carries an ulp of that).
-        let scale = r
-            .zbar
-            .component_mul(&fo.gradient(&r.zbar))
-            .abs()
-            .sum()
-            .max(1.0);
-        assert!(fo.value(&r.zbar).abs() <= 8.0 * EPS * scale, "{:?}", r.zbar);
+        let scale = r.z.component_mul(&fo.gradient(&r.z)).abs().sum().max(1.0);
+        assert!(fo.value(&r.z).abs() <= 8.0 * EPS * scale, "{:?}", r.z);
         assert_eq!(
-            r.tbar,
+            r.t,
             if r.kind == StepKind::Fallback {
-                r.zbar[1]
+                r.z[1]
             } else {
-                r.tbar
+                r.t
             }
         );
-        assert!((r.tbar - r.zbar[1]).abs() <= 1e-12 * r.tbar.abs().max(1.0));
+        assert!((r.t - r.z[1]).abs() <= 1e-12 * r.t.abs().max(1.0));
     }
     // Second order is kept through the fallback steps: the same span (t <= 150, past the
     // breakdown at t ~ 32) with dtau halved cuts the error ~4x.
     let error_to = |t: &Trajectory<4>| {
         t.iter()
-            .filter(|r| r.zbar[1] <= 150.0)
+            .filter(|r| r.z[1] <= 150.0)
             .map(|r| {
-                let (q, p) = fo.exact(1.0, 0.0, r.zbar[1]);
-                (r.zbar[0] - q).abs().max((r.zbar[2] - p).abs())
+                let (q, p) = fo.exact(1.0, 0.0, r.z[1]);
+                (r.z[0] - q).abs().max((r.z[2] - p).abs())
             })
             .fold(0.0, f64::max)
     };

@@ -3,10 +3,11 @@
 
 use dth_core::diagnostics::{planar_angular_momentum, DeviationSeries};
 use dth_core::methods::{
-    run, DiscreteGradient, DiscreteMechanics, GaussLegendre2, ImplicitMidpoint, Observer,
-    OneStepMethod, Rk4, StormerVerlet, Trapezoidal,
+    run, DiscreteGradient, DiscreteMechanics, GaussLegendre2, ImplicitMidpoint, OneStepMethod, Rk4,
+    StormerVerlet, Trapezoidal,
 };
 use dth_core::nalgebra::{Matrix4, Vector4};
+use dth_core::observer::StepRecord;
 use dth_core::systems::{CentralForce, Kepler};
 use dth_core::{Error, Hamiltonian};
 
@@ -49,17 +50,11 @@ fn max_deviations<H: Hamiltonian<4>, M: OneStepMethod<4, H>>(
     dt: f64,
     steps: usize,
 ) -> (f64, f64) {
-    let mut e = DeviationSeries::new(|z: &Vector4<f64>| h.value(z));
-    let mut l = DeviationSeries::new(planar_angular_momentum);
-    run(&mut method, h, z0, 0.0, dt, steps, &mut |k,
-                                                  t,
-                                                  z: &Vector4<
-        f64,
-    >| {
-        e.observe(k, t, z);
-        l.observe(k, t, z);
-    })
-    .expect("run");
+    let e = DeviationSeries::new(|z: &Vector4<f64>| h.value(z));
+    let l = DeviationSeries::new(planar_angular_momentum);
+    let mut both = (e, l);
+    run(&mut method, h, z0, 0.0, dt, steps, &mut both).expect("run");
+    let (e, l) = both;
     (e.max_abs(), l.max_abs())
 }
 
@@ -245,7 +240,7 @@ fn newton_failure_names_the_step_and_keeps_the_states() {
         0.0,
         0.5,
         100,
-        &mut |_, _, _: &Vector4<f64>| seen += 1,
+        &mut |_: &StepRecord<4>| seen += 1,
     )
     .unwrap_err();
     eprintln!("{:?} after {} steps", err.error, err.partial.steps);

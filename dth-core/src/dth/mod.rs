@@ -1,8 +1,8 @@
-//! Discrete-Time Hamiltonian dynamics: the stepper, its Newton solvers, trajectories and
-//! observers, and the extended phase space for time-dependent Hamiltonians.
+//! Discrete-Time Hamiltonian dynamics: the stepper, its Newton solvers, trajectories, and the
+//! extended phase space for time-dependent Hamiltonians.
 //!
 //! Entry points: [`integrate`] (one call, returns a [`Trajectory`]) and [`Dth`] (step by step,
-//! with an [`Observer`]). Options in [`DthOptions`]; failures are [`crate::Error`] variants, and
+//! with an [`Observer`](crate::observer::Observer), the protocol every integrator reports to). Options in [`DthOptions`]; failures are [`crate::Error`] variants, and
 //! a failed run keeps what it computed ([`RunError`]).
 //!
 //! # Conditioning, breakdown, robust mode
@@ -20,11 +20,12 @@
 //!   `lambda`, keeping the trajectory.
 //! - **Robust mode** ([`DthOptions::with_robust`], opt-in). Breakdowns and Newton failures are
 //!   carried through with energy-conserving discrete-gradient steps of the last DTH step's
-//!   physical size, marked [`StepKind::Fallback`]; DTH resumes where `Psi` allows.
+//!   physical size, marked [`StepKind::Fallback`](crate::observer::StepKind::Fallback); DTH resumes where `Psi` allows.
 //! - **No retry**: a failed DTH step is not retried with a smaller `dtau` (see [`Dth::step`]).
 //!
 //! ```
-//! use dth_core::dth::{integrate, DthOptions, StepKind};
+//! use dth_core::dth::{integrate, DthOptions};
+//! use dth_core::observer::StepKind;
 //! use dth_core::nalgebra::Vector4;
 //! use dth_core::{systems::Kepler, Error, Hamiltonian};
 //!
@@ -51,7 +52,6 @@
 
 mod extended;
 mod newton;
-mod observer;
 mod options;
 mod robust;
 mod stepper;
@@ -60,7 +60,6 @@ mod trajectory;
 pub use crate::error::RunError;
 pub use extended::{lift, set_momentum_of_time, Extended};
 pub use newton::{segment_from_vertex, Segment};
-pub use observer::{NoObserver, Observer, StepKind, StepRecord};
 pub use options::{DthOptions, EnergyResidual, Solver};
 pub use stepper::{integrate, Dth};
 pub use trajectory::Trajectory;

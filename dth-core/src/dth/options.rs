@@ -17,6 +17,30 @@ pub enum Solver {
     Nested,
 }
 
+impl Solver {
+    /// Every solver, the default first.
+    pub const ALL: [Solver; 2] = [Solver::Joint, Solver::Nested];
+
+    /// Its name in scene files, tables and output (`"joint"`, `"nested"`).
+    pub const fn name(self) -> &'static str {
+        match self {
+            Solver::Joint => "joint",
+            Solver::Nested => "nested",
+        }
+    }
+
+    /// The solver named `name` ([`Solver::name`]), if any.
+    ///
+    /// ```
+    /// use dth_core::dth::Solver;
+    /// assert_eq!(Solver::from_name("nested"), Some(Solver::Nested));
+    /// assert_eq!(Solver::from_name("Nested"), None);
+    /// ```
+    pub fn from_name(name: &str) -> Option<Solver> {
+        Solver::ALL.into_iter().find(|s| s.name() == name)
+    }
+}
+
 /// How the energy equation of a step is evaluated.
 ///
 /// The plain residual `H(zbar_{k+1}) - H(zbar_0)` is a difference of `O(1)` numbers whose
@@ -228,7 +252,7 @@ impl DthOptions {
     /// fails, down to `2^-20` of that size. DTH resumes at a node where `Psi` has its initial
     /// sign again, moves away from zero, and the law of time gives `lambda` within the
     /// breakdown ratio of the fallback's; it resumes with that `lambda`. Fallback steps are
-    /// marked [`StepKind::Fallback`](super::StepKind::Fallback). A fallback step that fails
+    /// marked [`StepKind::Fallback`](crate::observer::StepKind::Fallback). A fallback step that fails
     /// (its Newton at the smallest size, a non-finite `H`, its energy check) stops the run
     /// with that error. Where no step breaks down the run is bit-identical to one without
     /// robust mode.

@@ -4,12 +4,12 @@ use nalgebra::SVector;
 
 use super::newton::all_finite;
 use super::newton::{predict, project, solve_segment, Anchor, Previous};
-use super::observer::{NoObserver, Observer, StepKind, StepRecord};
 use super::options::DthOptions;
 use super::options::EnergyResidual;
 use super::robust::fallback_step;
 use super::trajectory::Trajectory;
 use crate::error::RunError;
+use crate::observer::{DthRecord, Observer, StepKind, StepRecord};
 use crate::{j_times, Derivatives, Error, Hamiltonian};
 
 /// The autonomous DTH stepper (paper Corollary 1, eqs. 28-30), monomorphized over the
@@ -32,7 +32,7 @@ use crate::{j_times, Derivatives, Error, Hamiltonian};
 /// coordinate `zbar_0[D/2 - 1]`.
 ///
 /// ```
-/// use dth_core::dth::{Dth, DthOptions, NoObserver};
+/// use dth_core::dth::{Dth, DthOptions};
 /// use dth_core::nalgebra::Vector4;
 /// use dth_core::systems::Kepler;
 ///
@@ -48,7 +48,7 @@ use crate::{j_times, Derivatives, Error, Hamiltonian};
 ///     assert!((dth_core::Hamiltonian::value(&kepler, zbar) - e0).abs() < 1e-14);
 /// }
 /// // Keep going with an observer that stores nothing.
-/// dth.run(100, &mut NoObserver)?;
+/// dth.run(100, &mut ())?;
 /// assert_eq!(dth.k(), 200);
 /// # Ok::<(), dth_core::Error>(())
 /// ```
@@ -276,18 +276,20 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
         let h = self.options.dtau();
         StepRecord {
             k: self.k,
-            zbar: self.zbar,
-            lambda: self.lambda,
-            tbar: self.tbar,
-            vertex: self.left_vertex(),
-            vertex_time: match self.kind {
-                StepKind::Fallback => self.tbar,
-                _ => self.tbar - 0.5 * h * self.lambda,
-            },
-            psi: self.psi,
+            t: self.tbar,
+            z: self.zbar,
+            kind: self.kind,
             iterations: self.iterations,
             factorizations: self.factorizations,
-            kind: self.kind,
+            dth: Some(DthRecord {
+                lambda: self.lambda,
+                vertex: self.left_vertex(),
+                vertex_time: match self.kind {
+                    StepKind::Fallback => self.tbar,
+                    _ => self.tbar - 0.5 * h * self.lambda,
+                },
+                psi: self.psi,
+            }),
         }
     }
 
@@ -644,7 +646,7 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
     /// # Errors
     /// As [`Dth::run`].
     pub fn advance(&mut self, steps: usize) -> Result<(), Error> {
-        self.run(steps, &mut NoObserver)
+        self.run(steps, &mut ())
     }
 }
 

@@ -4,7 +4,7 @@ use std::io::{self, Write};
 
 use nalgebra::SVector;
 
-use super::observer::{Observer, StepKind, StepRecord};
+use crate::observer::{DthRecord, Observer, StepKind, StepRecord};
 
 /// A DTH trajectory with `N` midpoints and (once the run has finished) `N + 1` vertices.
 ///
@@ -105,15 +105,17 @@ impl<const D: usize> Trajectory<D> {
     pub fn record(&self, index: usize) -> Option<StepRecord<D>> {
         Some(StepRecord {
             k: *self.ks.get(index)?,
-            zbar: self.midpoints[index],
-            lambda: self.lambdas[index],
-            tbar: self.midpoint_times[index],
-            vertex: self.vertices[index],
-            vertex_time: self.vertex_times[index],
-            psi: self.psis[index],
+            t: self.midpoint_times[index],
+            z: self.midpoints[index],
+            kind: self.kinds[index],
             iterations: self.iterations[index],
             factorizations: self.factorizations[index],
-            kind: self.kinds[index],
+            dth: Some(DthRecord {
+                lambda: self.lambdas[index],
+                vertex: self.vertices[index],
+                vertex_time: self.vertex_times[index],
+                psi: self.psis[index],
+            }),
         })
     }
     /// The record of midpoint `k`, if stored.
@@ -138,27 +140,34 @@ impl<const D: usize> Trajectory<D> {
             write!(out, ",vertex_{i}")?;
         }
         writeln!(out, ",psi,iterations,kind")?;
-        for r in self.iter() {
-            write!(out, "{},{:e},{:e}", r.k, r.tbar, r.lambda)?;
-            for x in r.zbar.iter() {
+        for i in 0..self.len() {
+            write!(
+                out,
+                "{},{:e},{:e}",
+                self.ks[i], self.midpoint_times[i], self.lambdas[i]
+            )?;
+            for x in self.midpoints[i].iter() {
                 write!(out, ",{x:e}")?;
             }
-            write!(out, ",{:e}", r.vertex_time)?;
-            for x in r.vertex.iter() {
+            write!(out, ",{:e}", self.vertex_times[i])?;
+            for x in self.vertices[i].iter() {
                 write!(out, ",{x:e}")?;
             }
-            let kind = match r.kind {
+            let kind = match self.kinds[i] {
                 StepKind::Fallback => "fallback",
                 _ => "dth",
             };
-            writeln!(out, ",{:e},{},{kind}", r.psi, r.iterations)?;
+            writeln!(out, ",{:e},{},{kind}", self.psis[i], self.iterations[i])?;
         }
         Ok(())
     }
 }
 
 impl<const D: usize> Observer<D> for Trajectory<D> {
+    /// Stores a DTH record; records without DTH data (a fixed-step method's, see
+    /// [`Recorder`](crate::observer::Recorder)) are not part of a DTH trajectory and are skipped.
     fn on_step(&mut self, r: &StepRecord<D>) {
+        let Some(d) = &r.dth else { return };
         if self.closed {
             // The stored right end of the previous run is this segment's left vertex.
             self.vertices.pop();
@@ -166,12 +175,12 @@ impl<const D: usize> Observer<D> for Trajectory<D> {
             self.closed = false;
         }
         self.ks.push(r.k);
-        self.midpoints.push(r.zbar);
-        self.lambdas.push(r.lambda);
-        self.midpoint_times.push(r.tbar);
-        self.vertices.push(r.vertex);
-        self.vertex_times.push(r.vertex_time);
-        self.psis.push(r.psi);
+        self.midpoints.push(r.z);
+        self.lambdas.push(d.lambda);
+        self.midpoint_times.push(r.t);
+        self.vertices.push(d.vertex);
+        self.vertex_times.push(d.vertex_time);
+        self.psis.push(d.psi);
         self.iterations.push(r.iterations);
         self.factorizations.push(r.factorizations);
         self.kinds.push(r.kind);

@@ -2,7 +2,8 @@
 //!
 //! Every method implements [`OneStepMethod`] for the Hamiltonians it applies to (generic and
 //! monomorphized: no `dyn`, no heap allocation per step); [`run`] takes `N` steps and calls an
-//! [`Observer`] after each one, storing nothing unless the observer does ([`Recorder`]).
+//! [`Observer`] after each one (the same protocol as the DTH stepper's), storing nothing unless
+//! the observer does ([`Recorder`]).
 //!
 //! | module | method | order | exact invariants |
 //! |---|---|---|---|
@@ -27,7 +28,8 @@
 //! `tests/methods_order.rs`.)
 //!
 //! ```
-//! use dth_core::methods::{run, ImplicitMidpoint, Recorder};
+//! use dth_core::methods::{run, ImplicitMidpoint};
+//! use dth_core::observer::Recorder;
 //! use dth_core::systems::Kepler;
 //! use dth_core::nalgebra::Vector4;
 //!
@@ -64,6 +66,7 @@ use nalgebra::{SMatrix, SVector};
 /// A run that stopped early: the error, and in `partial` the last good [`RunEnd`] (the
 /// observer has seen it and every state before it). The same type as the DTH stepper's.
 pub use crate::error::RunError;
+use crate::observer::{Observer, StepKind, StepRecord};
 use crate::{Error, Hamiltonian};
 
 /// A fixed-step one-step method for the Hamiltonian `H` on `R^D`.
@@ -79,50 +82,6 @@ pub trait OneStepMethod<const D: usize, H: Hamiltonian<D>> {
     /// Newton iterations spent by this method value so far (0 for explicit methods).
     fn newton_iterations(&self) -> usize {
         0
-    }
-}
-
-/// A per-step hook of [`run`]: called with `(k, t_k, z_k)` for `k = 0` (the initial state) and
-/// after each step `k = 1..=N`. `()` observes nothing; closures `FnMut(usize, f64, &SVector)`
-/// are observers.
-pub trait Observer<const D: usize> {
-    /// Sees state `k`, at time `t`.
-    fn observe(&mut self, k: usize, t: f64, z: &SVector<f64, D>) {
-        let _ = (k, t, z);
-    }
-}
-
-impl<const D: usize> Observer<D> for () {}
-
-impl<const D: usize, F: FnMut(usize, f64, &SVector<f64, D>)> Observer<D> for F {
-    fn observe(&mut self, k: usize, t: f64, z: &SVector<f64, D>) {
-        self(k, t, z)
-    }
-}
-
-/// An [`Observer`] that stores every time and state.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct Recorder<const D: usize> {
-    /// Times `t_0, t_1, ...`.
-    pub t: Vec<f64>,
-    /// States `z_0, z_1, ...`.
-    pub z: Vec<SVector<f64, D>>,
-}
-
-impl<const D: usize> Recorder<D> {
-    /// An empty recorder.
-    pub fn new() -> Self {
-        Recorder {
-            t: Vec::new(),
-            z: Vec::new(),
-        }
-    }
-}
-
-impl<const D: usize> Observer<D> for Recorder<D> {
-    fn observe(&mut self, _k: usize, t: f64, z: &SVector<f64, D>) {
-        self.t.push(t);
-        self.z.push(*z);
     }
 }
 
@@ -191,7 +150,17 @@ where
             },
         );
     }
-    observer.observe(0, t0, z0);
+    let mut record = StepRecord {
+        k: 0,
+        t: t0,
+        z: *z0,
+        kind: StepKind::Fixed,
+        iterations: 0,
+        factorizations: 0,
+        dth: None,
+    };
+    observer.on_step(&record);
+    let mut iterations = method.newton_iterations();
     for k in 1..=steps {
         let z = match method.step(h, &end.z, dt) {
             Ok(z) if z.iter().all(|v| v.is_finite()) => z,
@@ -213,7 +182,13 @@ where
             t: t0 + k as f64 * dt,
             steps: k,
         };
-        observer.observe(k, end.t, &end.z);
+        let total = method.newton_iterations();
+        record.k = k;
+        record.t = end.t;
+        record.z = end.z;
+        record.iterations = u32::try_from(total.saturating_sub(iterations)).unwrap_or(u32::MAX);
+        iterations = total;
+        observer.on_step(&record);
     }
     Ok(end)
 }
@@ -323,7 +298,7 @@ mod tests {
             0.0,
             0.01,
             100_000,
-            &mut |_, _, _: &_| count += 1,
+            &mut |_: &StepRecord<2>| count += 1,
         )
         .unwrap_err();
         assert!(matches!(

@@ -1,0 +1,155 @@
+//! The one per-step hook of every integrator: [`Observer`], and the [`StepRecord`] the DTH
+//! stepper and the fixed-step peers both fill.
+//!
+//! A run calls [`Observer::on_step`] once per state, starting with the initial one (`k = 0`).
+//! What every method has (step index, time, state, Newton iterations) is a plain field; what
+//! only DTH has (the multiplier `lambda_k`, the vertex `z^(k)`, `Psi`) is in
+//! [`StepRecord::dth`], `None` for a fixed-step method. So one observer (an energy monitor, a
+//! Poincare section, a progress bar) serves every method, and one written for DTH reads its
+//! extra data where it is present.
+//!
+//! ```
+//! use dth_core::methods::{run, ImplicitMidpoint};
+//! use dth_core::dth::{Dth, DthOptions};
+//! use dth_core::observer::StepRecord;
+//! use dth_core::systems::Kepler;
+//! use dth_core::{nalgebra::Vector4, Hamiltonian};
+//!
+//! let h = Kepler::thesis();
+//! let z0 = Vector4::new(0.5, 0.0, 0.0, 1.2);
+//! let e0 = h.value(&z0);
+//! let mut worst = 0.0_f64;
+//! let mut energy = |r: &StepRecord<4>| worst = worst.max((h.value(&r.z) - e0).abs());
+//! run(&mut ImplicitMidpoint::new(), &h, &z0, 0.0, 0.15, 100, &mut energy)?; // a peer
+//! let options = DthOptions::default().with_dtau(0.06277)?;
+//! Dth::new(h, z0, options)?.run(100, &mut energy)?; // DTH: the same observer, at midpoints
+//! assert!(worst > 1e-3); // the midpoint rule does not conserve energy; DTH does
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+use nalgebra::SVector;
+
+/// What produced a step of a run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[non_exhaustive]
+pub enum StepKind {
+    /// A step of a fixed-step method (`dth_core::methods`), or its initial state: `z` is the
+    /// state `z_k` at `t_k = t_0 + k dt`.
+    Fixed,
+    /// A DTH step (the initial midpoint counts as one): `z` is a midpoint with
+    /// `H(zbar) = H(zbar_0)`, [`DthRecord::vertex`] the left vertex of its segment.
+    Dth,
+    /// A fallback step of the DTH robust mode (`DthOptions::with_robust`): an
+    /// energy-conserving discrete-gradient step in `(q, p)` of physical size
+    /// `dt = lambda * dtau`, taken where DTH has no positive root. `z` and
+    /// [`DthRecord::vertex`] are both the node reached, with `H(z) = H(zbar_0)`; there is no
+    /// DTH segment (its vertex-based invariants, such as quadratic invariants exact at
+    /// vertices, do not hold across such steps).
+    Fallback,
+}
+
+/// DTH's own quantities at a step (the DTH stepper fills them; fixed-step methods have none).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DthRecord<const D: usize> {
+    /// Multiplier `lambda_k = dt/dtau` of segment `k`.
+    pub lambda: f64,
+    /// Left vertex of segment `k`: `z^(k) = zbar_k - (h/2) lambda_k J gradH(zbar_k)` (a
+    /// fallback step: the node reached).
+    pub vertex: SVector<f64, D>,
+    /// Vertex time `t^(k) = tbar_k - h lambda_k / 2` (a fallback step: the node's time).
+    pub vertex_time: f64,
+    /// `Psi(zbar_k)`.
+    pub psi: f64,
+}
+
+/// One state of a run, as reported after each accepted step (and for the initial state).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StepRecord<const D: usize> {
+    /// Step index `k` (0 for the initial state).
+    pub k: usize,
+    /// Time of [`StepRecord::z`]: `t_k` (fixed step), the midpoint time `tbar_k` (DTH).
+    pub t: f64,
+    /// The state: `z_k` (fixed step), the midpoint `zbar_k` (DTH).
+    pub z: SVector<f64, D>,
+    /// What produced this step.
+    pub kind: StepKind,
+    /// Newton iterations spent on this step (0 for `k = 0` and for explicit methods; outer
+    /// iterations for DTH's nested solver).
+    pub iterations: u32,
+    /// LU factorizations spent on this step: DTH only (equals `iterations` for its joint
+    /// solver); 0 for fixed-step methods, which do not count them.
+    pub factorizations: u32,
+    /// DTH's multiplier, vertex and `Psi`; `None` for fixed-step methods.
+    pub dth: Option<DthRecord<D>>,
+}
+
+/// Receives a run as it happens. Every method has a no-op default, so an observer implements
+/// only what it needs, and a run with `()` stores nothing and calls nothing per step.
+///
+/// Closures `FnMut(&StepRecord<D>)` are observers, and so are pairs `(A, B)` of observers
+/// (both see every step, `A` first).
+pub trait Observer<const D: usize> {
+    /// Called for each state: first the initial one (`k = 0`), then one per accepted step.
+    /// (A DTH stepper resumed after an earlier run reports its current midpoint first if it
+    /// has not been reported yet.)
+    #[inline(always)]
+    fn on_step(&mut self, record: &StepRecord<D>) {
+        let _ = record;
+    }
+    /// Called when a DTH run ends (successfully or not) with the right vertex
+    /// `z^(N) = zbar_{N-1} + (h/2) lambda_{N-1} J gradH(zbar_{N-1})` of the last accepted
+    /// segment and its time `t^(N)`. Fixed-step methods have no vertices and do not call it.
+    #[inline(always)]
+    fn on_finish(&mut self, last_vertex: &SVector<f64, D>, last_vertex_time: f64) {
+        let _ = (last_vertex, last_vertex_time);
+    }
+}
+
+impl<const D: usize> Observer<D> for () {}
+
+impl<const D: usize, F: FnMut(&StepRecord<D>)> Observer<D> for F {
+    #[inline(always)]
+    fn on_step(&mut self, record: &StepRecord<D>) {
+        self(record)
+    }
+}
+
+impl<const D: usize, A: Observer<D>, B: Observer<D>> Observer<D> for (A, B) {
+    #[inline(always)]
+    fn on_step(&mut self, record: &StepRecord<D>) {
+        self.0.on_step(record);
+        self.1.on_step(record);
+    }
+    #[inline(always)]
+    fn on_finish(&mut self, last_vertex: &SVector<f64, D>, last_vertex_time: f64) {
+        self.0.on_finish(last_vertex, last_vertex_time);
+        self.1.on_finish(last_vertex, last_vertex_time);
+    }
+}
+
+/// An [`Observer`] that stores the time and state of every step (for DTH: the midpoints; a
+/// DTH run with its vertices, multipliers and Newton counts is `dth::Trajectory`).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Recorder<const D: usize> {
+    /// Times `t_0, t_1, ...`.
+    pub t: Vec<f64>,
+    /// States `z_0, z_1, ...`.
+    pub z: Vec<SVector<f64, D>>,
+}
+
+impl<const D: usize> Recorder<D> {
+    /// An empty recorder.
+    pub fn new() -> Self {
+        Recorder {
+            t: Vec::new(),
+            z: Vec::new(),
+        }
+    }
+}
+
+impl<const D: usize> Observer<D> for Recorder<D> {
+    fn on_step(&mut self, record: &StepRecord<D>) {
+        self.t.push(record.t);
+        self.z.push(record.z);
+    }
+}
