@@ -142,7 +142,7 @@ fn group<H: Hamiltonian<D> + Clone, const D: usize>(
                     i = (i + 1) % set.len();
                     set[i].clone()
                 },
-                |mut d| black_box(d.step().map(|r| r.lambda)),
+                |mut d| black_box(d.step().map(|r| r.dth.map(|s| s.lambda))),
                 BatchSize::SmallInput,
             )
         });

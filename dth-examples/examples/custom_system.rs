@@ -13,8 +13,11 @@
 
 use std::path::Path;
 
-use dth_examples::catalogue::{Catalogue, ParamSpec, SceneSystem, SystemEntry};
-use dth_examples::run::{RunOptions, RunReport};
+use dth_examples::catalogue::{Catalogue, SystemEntry};
+use dth_examples::report::RunReport;
+use dth_examples::scene::ParamSpec;
+use dth_examples::simulate::RunOptions;
+use dth_examples::system::SceneSystem;
 
 dth::hamiltonian! {
     /// The Duffing oscillator `H = p^2/2 + a q^2/2 + b q^4/4`, `z = (q, p)`.

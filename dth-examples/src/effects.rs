@@ -6,11 +6,11 @@
 //! tests can prove it.
 
 use dth::nalgebra::SVector;
+use dth::observer::{Observer, StepRecord};
 use serde::Serialize;
 
-use crate::catalogue::SceneSystem;
-use crate::method::{Observer, StepView};
 use crate::scene::{Coord, Direction, EffectSpec};
+use crate::system::SceneSystem;
 
 /// Mean and max of `|Q_k - Q_ref|` over `k = 1..N` (Table 4.1's "average absolute deviation").
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
@@ -63,7 +63,8 @@ impl Accumulator {
 }
 
 /// Deviation statistics of one quantity at the states (DTH: midpoints) and, for DTH, at the
-/// vertices (reference: the first vertex `z^(0)`, as NOTES.md explains for Table 4.1).
+/// vertices (reference: the first vertex `z^(0)`, the convention of the thesis's Table 4.1,
+/// `docs/theory.md#table-4-1`).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct DeviationStats {
     /// Quantity name (`energy` or an invariant's name).
@@ -136,15 +137,6 @@ struct Section<const D: usize> {
     y: Coord,
     previous: Option<(f64, SVector<f64, D>)>,
     crossings: Crossings,
-}
-
-/// The value of a named coordinate in a state (`t` is the state's time).
-pub fn coord_value<const D: usize>(c: Coord, t: f64, z: &SVector<f64, D>) -> f64 {
-    match c {
-        Coord::Q(i) => z[i],
-        Coord::P(i) => z[D / 2 + i],
-        Coord::T => t,
-    }
 }
 
 /// The state of a method at the end of its run.
@@ -352,49 +344,53 @@ impl<'s, const D: usize, S: SceneSystem<D>> Effects<'s, D, S> {
 }
 
 impl<const D: usize, S: SceneSystem<D>> Observer<D> for Effects<'_, D, S> {
-    fn observe(&mut self, v: &StepView<'_, D>) {
+    fn on_step(&mut self, r: &StepRecord<D>) {
         self.calls += 1;
+        let (step, t, z) = (r.k, r.t, &r.z);
+        let lambda = r.dth.map(|d| d.lambda);
+        let vertex = r.dth.as_ref().map(|d| (d.vertex_time, &d.vertex));
+        let at = |c: Coord, t: f64, z: &SVector<f64, D>| c.value(t, z.as_slice());
         if let Some(f) = &mut self.final_state {
             *f = Some(FinalState {
-                step: v.step,
-                t: v.t,
-                z: v.z.iter().copied().collect(),
-                lambda: v.lambda,
+                step,
+                t,
+                z: z.iter().copied().collect(),
+                lambda,
             });
         }
         if let Some((every, rows)) = &mut self.trajectory {
-            if v.step.is_multiple_of(*every) {
+            if step.is_multiple_of(*every) {
                 rows.push(TrajectoryRow {
-                    step: v.step,
-                    t: v.t,
-                    z: v.z.iter().copied().collect(),
-                    lambda: v.lambda,
+                    step,
+                    t,
+                    z: z.iter().copied().collect(),
+                    lambda,
                 });
             }
         }
-        if let Some(t) = &mut self.energy {
-            let vertex = v.vertex.map(|(tv, zv)| (tv, self.system.value(zv)));
-            t.add(v.step, v.t, self.system.value(v.z), vertex);
+        if let Some(tracked) = &mut self.energy {
+            let at_vertex = vertex.map(|(tv, zv)| (tv, self.system.value(zv)));
+            tracked.add(step, t, self.system.value(z), at_vertex);
         }
         if let Some(inv) = &mut self.invariants {
-            self.system.invariants(v.z, &mut self.invariant_buf);
-            if let Some((_, zv)) = v.vertex {
+            self.system.invariants(z, &mut self.invariant_buf);
+            if let Some((_, zv)) = vertex {
                 self.system.invariants(zv, &mut self.vertex_buf);
             }
-            for (i, t) in inv.iter_mut().enumerate() {
-                let vertex = v.vertex.map(|(tv, _)| (tv, self.vertex_buf[i]));
-                t.add(v.step, v.t, self.invariant_buf[i], vertex);
+            for (i, tracked) in inv.iter_mut().enumerate() {
+                let at_vertex = vertex.map(|(tv, _)| (tv, self.vertex_buf[i]));
+                tracked.add(step, t, self.invariant_buf[i], at_vertex);
             }
         }
         if let Some((every, rows)) = &mut self.time_law {
-            if v.step.is_multiple_of(*every) {
-                rows.push((v.step, v.t, v.lambda.unwrap_or(f64::NAN)));
+            if step.is_multiple_of(*every) {
+                rows.push((step, t, lambda.unwrap_or(f64::NAN)));
             }
         }
         for s in &mut self.sections {
-            let c1 = coord_value(s.coordinate, v.t, v.z) - s.value;
+            let c1 = at(s.coordinate, t, z) - s.value;
             if let Some((t0, z0)) = &s.previous {
-                let c0 = coord_value(s.coordinate, *t0, z0) - s.value;
+                let c0 = at(s.coordinate, *t0, z0) - s.value;
                 let up = c0 < 0.0 && c1 >= 0.0;
                 let down = c0 > 0.0 && c1 <= 0.0;
                 let hit = match s.direction {
@@ -405,28 +401,25 @@ impl<const D: usize, S: SceneSystem<D>> Observer<D> for Effects<'_, D, S> {
                 if hit && !s.interpolate {
                     // The thesis's sections (Section 4.2): the state just after the crossing,
                     // projected onto the section (its other coordinates kept).
-                    s.crossings
-                        .push((v.t, coord_value(s.x, v.t, v.z), coord_value(s.y, v.t, v.z)));
+                    s.crossings.push((t, at(s.x, t, z), at(s.y, t, z)));
                 } else if hit {
                     // Linear interpolation between the two consecutive observed states (for
                     // DTH these are midpoints, not the vertices of its piecewise-linear path).
                     let a = c0 / (c0 - c1);
-                    let z = z0 + (v.z - z0) * a;
-                    let t = t0 + (v.t - t0) * a;
-                    s.crossings
-                        .push((t, coord_value(s.x, t, &z), coord_value(s.y, t, &z)));
+                    let zc = z0 + (z - z0) * a;
+                    let tc = t0 + (t - t0) * a;
+                    s.crossings.push((tc, at(s.x, tc, &zc), at(s.y, tc, &zc)));
                 }
             }
-            s.previous = Some((v.t, *v.z));
+            s.previous = Some((t, *z));
         }
         for p in &mut self.phase {
             if p.t0.is_none() {
-                p.t0 = Some(v.t);
-                p.t_end = v.t + p.until;
+                p.t0 = Some(t);
+                p.t_end = t + p.until;
             }
-            if v.step.is_multiple_of(p.every) && v.t <= p.t_end {
-                p.points
-                    .push((coord_value(p.x, v.t, v.z), coord_value(p.y, v.t, v.z)));
+            if step.is_multiple_of(p.every) && t <= p.t_end {
+                p.points.push((at(p.x, t, z), at(p.y, t, z)));
             }
         }
     }
@@ -453,12 +446,14 @@ mod tests {
         for k in 0..=(6.0 / h) as usize {
             let t = k as f64 * h;
             let z = SVector::<f64, 2>::new(t.cos(), -t.sin());
-            e.observe(&StepView {
-                step: k,
+            e.on_step(&StepRecord {
+                k,
                 t,
-                z: &z,
-                lambda: None,
-                vertex: None,
+                z,
+                kind: dth::observer::StepKind::Fixed,
+                iterations: 0,
+                factorizations: 0,
+                dth: None,
             });
         }
         e.finish().poincare.remove(0)

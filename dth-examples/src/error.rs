@@ -1,4 +1,5 @@
-//! The crate's one error type, and the exit code each kind maps to.
+//! The crate's error type and the exit code each kind maps to, and how a method run fails
+//! ([`MethodFailure`]). The bottom layer: it imports nothing from the crate.
 
 use std::path::PathBuf;
 
@@ -70,15 +71,13 @@ pub enum Error {
         #[source]
         source: std::io::Error,
     },
-    /// A method failed during a run; what was computed up to `step` is kept in the output.
-    #[error("method `{method}` failed at step {step}: {reason}")]
+    /// A method failed during a run; what was computed before the failing step is kept.
+    #[error("method `{method}` failed at step {}: {}", failure.step, failure.cause)]
     MethodFailed {
-        /// The method's label in the scene.
+        /// The method's label in the scene (and what it was run for).
         method: String,
-        /// The step that failed (the state before it is the last one kept).
-        step: usize,
-        /// Why.
-        reason: String,
+        /// The step that failed and why.
+        failure: MethodFailure,
     },
     /// A method, system or command that cannot run here (e.g. the exact solution of an
     /// unbound orbit, or a system whose parameters are invalid).
@@ -115,15 +114,6 @@ pub enum Error {
         /// The rule it breaks.
         reason: String,
     },
-    /// The work-precision benchmark (`dth workprecision`) failed.
-    #[error("work-precision benchmark failed")]
-    WorkPrecision(#[source] Box<crate::workprecision::Error>),
-}
-
-impl From<crate::workprecision::Error> for Error {
-    fn from(e: crate::workprecision::Error) -> Self {
-        Error::WorkPrecision(Box::new(e))
-    }
 }
 
 impl Error {
@@ -132,6 +122,42 @@ impl Error {
         match self {
             Error::Scene(_) | Error::SceneUnreadable { .. } | Error::OutputRefused { .. } => 2,
             _ => 1,
+        }
+    }
+}
+
+/// Why a method stopped early.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum FailureCause {
+    /// The integrator failed (Newton, breakdown, a non-finite state, ...).
+    #[error(transparent)]
+    Integrator(#[from] dth::Error),
+    /// The sampled exact solution could not be computed at this time.
+    #[error("the exact solution is not available at t = {t}")]
+    NoExactSolution {
+        /// The time asked for.
+        t: f64,
+    },
+}
+
+/// A method run's failure after `step - 1` successful steps; the observer has every state up to there.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("step {step}: {cause}")]
+pub struct MethodFailure {
+    /// The step that failed.
+    pub step: usize,
+    /// Why.
+    #[source]
+    pub cause: FailureCause,
+}
+
+impl MethodFailure {
+    /// The integrator's `error` at `step`.
+    pub fn integrator(step: usize, error: dth::Error) -> Self {
+        MethodFailure {
+            step,
+            cause: FailureCause::Integrator(error),
         }
     }
 }

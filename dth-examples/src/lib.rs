@@ -2,9 +2,30 @@
 //! the requested effects, and write CSV, JSON, figures and a static `index.html`.
 //!
 //! The binary is thin; everything is here so a user can run a scene on their own system from
-//! their own crate: implement [`catalogue::SceneSystem`] for it (a `hamiltonian!` type or a
+//! their own crate: implement [`system::SceneSystem`] for it (a `hamiltonian!` type or a
 //! hand-written `Hamiltonian`), register it in a [`catalogue::Catalogue`], and call
 //! [`check_scene`] / [`run_scene`]. See `examples/custom_system.rs`.
+//!
+//! # Layers
+//! Each module imports only from the ones listed before it:
+//!
+//! 1. [`error`] (the error type, how a method run fails), [`plot`] (figure primitives),
+//!    [`output`] (the staged output folder);
+//! 2. [`scene`]: its schema (the validated types), the serde form, and validation against a
+//!    [`scene::SystemLookup`];
+//! 3. [`driver`]: when runs stop, the fixed-step and DTH drivers, one observer protocol
+//!    (`dth::observer`);
+//! 4. [`system`] (what a scene needs of a system) and [`systems`] (the built-in ones);
+//! 5. [`method`] (a scene's method name to an integrator) and [`effects`] (observers for the
+//!    requested effects);
+//! 6. [`simulate`]: every method of a scene on a system, results in memory;
+//! 7. [`report`]: CSV, figures, Table 4.1, the thesis's figures, `index.html`;
+//! 8. [`pipeline`]: simulate, report, stage;
+//! 9. [`catalogue`]: the systems scenes can name, each bound to the pipeline; then this file
+//!    and `main.rs`.
+//!
+//! [`workprecision`] (the benchmark behind `dth workprecision`) sits beside the scene stack and
+//! uses only layer 1.
 //!
 //! ```
 //! use dth_examples::{catalogue::Catalogue, check_scene};
@@ -16,18 +37,28 @@
 
 use std::path::Path;
 
-pub mod catalogue;
-pub mod effects;
 pub mod error;
-pub mod html;
-pub mod method;
 pub mod output;
 pub mod plot;
-pub mod run;
+
 pub mod scene;
+
+pub mod driver;
+
+pub mod system;
 pub mod systems;
-pub mod table41;
-pub mod thesis;
+
+pub mod effects;
+pub mod method;
+
+pub mod simulate;
+
+pub mod report;
+
+pub mod pipeline;
+
+pub mod catalogue;
+
 pub mod workprecision;
 
 pub use error::Error;
@@ -56,8 +87,8 @@ pub fn run_scene(
     file: &str,
     catalogue: &catalogue::Catalogue,
     out: &Path,
-    options: &run::RunOptions,
-) -> Result<run::RunReport, Error> {
+    options: &simulate::RunOptions,
+) -> Result<report::RunReport, Error> {
     let scene = scene::parse(text, file, catalogue)?;
     output::check_target(out)?;
     catalogue.run(&scene, out, options)
@@ -69,4 +100,57 @@ pub fn read_scene(path: &Path) -> Result<String, Error> {
         path: path.to_path_buf(),
         source,
     })
+}
+
+/// The thesis's Table 4.1 with the embedded default scene's settings: its methods that the
+/// table has, the `comparison_table` effect only, run on the built-in Kepler system.
+///
+/// # Errors
+/// A method that fails ([`Error::MethodFailed`]): the table needs every row.
+pub fn table41(options: &simulate::RunOptions) -> Result<report::table41::Table, Error> {
+    use scene::{EffectSpec, MethodKind};
+    let catalogue = catalogue::Catalogue::builtin();
+    let mut scene = check_scene(DEFAULT_SCENE, DEFAULT_SCENE_NAME, &catalogue)?;
+    scene.effects = vec![EffectSpec::ComparisonTable];
+    // The table needs neither the square of initial conditions nor the figures.
+    scene.ensemble = None;
+    scene.thesis_figures = false;
+    scene.methods.retain(|m| {
+        matches!(
+            m.kind,
+            MethodKind::Trapezoidal
+                | MethodKind::Midpoint
+                | MethodKind::DiscreteMechanics
+                | MethodKind::Dth
+        )
+    });
+    // The catalogue's `hamiltonian!` Kepler with the scene's parameters (validation filled in
+    // every declared parameter: m = 1/2 and k = 1 by default).
+    let param = |name: &str| {
+        scene
+            .params
+            .get(name)
+            .copied()
+            .ok_or_else(|| Error::NotAvailable {
+                what: "system",
+                name: scene.system.clone(),
+                reason: format!("the default scene has no parameter `{name}`"),
+            })
+    };
+    let kepler = systems::Kepler {
+        m: param("m")?,
+        k: param("k")?,
+    };
+    let results = simulate::compute(&kepler, &scene, options)?;
+    let mut summaries = Vec::with_capacity(results.len());
+    for r in results {
+        if let Some(failure) = r.failure {
+            return Err(Error::MethodFailed {
+                method: r.summary.label,
+                failure,
+            });
+        }
+        summaries.push(r.summary);
+    }
+    Ok(report::table41::rows_from(&summaries))
 }

@@ -6,10 +6,30 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 use dth_examples::catalogue::Catalogue;
 use dth_examples::output::Staging;
-use dth_examples::run::RunOptions;
-use dth_examples::scene::{MethodKind, EFFECTS};
-use dth_examples::workprecision::WorkPrecisionOptions;
+use dth_examples::report::table41;
+use dth_examples::scene::{EffectKind, MethodKind};
+use dth_examples::simulate::RunOptions;
+use dth_examples::workprecision::{self, WorkPrecisionOptions};
 use dth_examples::{Error, DEFAULT_OUT, DEFAULT_SCENE, DEFAULT_SCENE_NAME};
+
+/// What the command can fail with: a scene's error, or the work-precision benchmark's.
+#[derive(Debug, thiserror::Error)]
+enum CliError {
+    #[error(transparent)]
+    Scene(#[from] Error),
+    #[error("work-precision benchmark failed")]
+    WorkPrecision(#[source] workprecision::Error),
+}
+
+impl CliError {
+    /// 2 for bad input, 1 otherwise (see `Error::exit_code`).
+    fn exit_code(&self) -> i32 {
+        match self {
+            CliError::Scene(e) => e.exit_code(),
+            CliError::WorkPrecision(_) => 1,
+        }
+    }
+}
 
 /// Discrete-Time Hamiltonian dynamics: run scenes, check them, reproduce the thesis.
 ///
@@ -54,7 +74,8 @@ enum Command {
         #[arg(long)]
         json: Option<PathBuf>,
     },
-    /// Work-precision diagrams for every method (issue 5).
+    /// Work-precision diagrams for every method: error against wall time on five problems
+    /// (docs/benchmarks.md has the tables).
     Workprecision {
         /// Output folder (default: dth-out/workprecision).
         #[arg(long)]
@@ -73,7 +94,7 @@ fn default_out(scene: &Path) -> PathBuf {
     Path::new(DEFAULT_OUT).join(stem)
 }
 
-fn run(text: &str, file: &str, out: &Path, thesis_table: bool) -> Result<ExitCode, Error> {
+fn run(text: &str, file: &str, out: &Path, thesis_table: bool) -> Result<ExitCode, CliError> {
     let report = dth_examples::run_scene(
         text,
         file,
@@ -86,10 +107,18 @@ fn run(text: &str, file: &str, out: &Path, thesis_table: bool) -> Result<ExitCod
         println!("{deviations}");
     }
     if thesis_table {
-        let table = dth_examples::table41::rows_from(&report.methods);
+        let table = table41::rows_from(&report.methods);
         if !table.rows.is_empty() {
-            println!("Table 4.1 (average absolute deviation over 10,000 steps):\n");
-            println!("{}", dth_examples::table41::markdown(&table));
+            let steps: Vec<String> = report
+                .methods
+                .iter()
+                .map(|m| format!("{} {}", m.label, m.steps))
+                .collect();
+            println!(
+                "Table 4.1 (average absolute deviation over each run; steps: {}):\n",
+                steps.join(", ")
+            );
+            println!("{}", table41::markdown(&table));
         }
     }
     println!(
@@ -130,18 +159,13 @@ fn list() {
             })
             .collect();
         println!(
-            "  {:<20} n = {}{}{}\n  {:<20} {}\n  {:<20} params: {}",
+            "  {:<20} n = {}{}\n  {:<20} {}\n  {:<20} params: {}",
             e.name(),
             info.n,
             if info.time_dependent {
                 ", time-dependent"
             } else {
                 ""
-            },
-            if e.is_runnable() {
-                ""
-            } else {
-                "  [not runnable in this build]"
             },
             "",
             e.doc(),
@@ -158,12 +182,12 @@ fn list() {
         println!("  {:<20} {}", k.name(), k.doc());
     }
     println!("\nEffects:");
-    for (name, doc) in EFFECTS {
-        println!("  {name:<20} {doc}");
+    for k in EffectKind::ALL {
+        println!("  {:<20} {}", k.name(), k.doc());
     }
 }
 
-fn main_inner(cli: Cli) -> Result<ExitCode, Error> {
+fn main_inner(cli: Cli) -> Result<ExitCode, CliError> {
     match cli.command {
         None => {
             let out = cli
@@ -199,19 +223,10 @@ fn main_inner(cli: Cli) -> Result<ExitCode, Error> {
             Ok(ExitCode::SUCCESS)
         }
         Some(Command::Table41 { json }) => {
-            let table = dth_examples::table41::compute_table(&RunOptions::default())?;
-            print!("{}", dth_examples::table41::markdown(&table));
+            let table = dth_examples::table41(&RunOptions::default())?;
+            print!("{}", table41::markdown(&table));
             if let Some(path) = json {
-                let text = serde_json::to_string_pretty(&table).map_err(|e| Error::Io {
-                    what: "cannot serialize",
-                    path: path.clone(),
-                    source: std::io::Error::other(e),
-                })?;
-                std::fs::write(&path, text).map_err(|source| Error::Io {
-                    what: "cannot write",
-                    path,
-                    source,
-                })?;
+                dth_examples::report::write_json(&path, &table)?;
             }
             Ok(ExitCode::SUCCESS)
         }
@@ -223,7 +238,8 @@ fn main_inner(cli: Cli) -> Result<ExitCode, Error> {
                 WorkPrecisionOptions::default()
             };
             let staging = Staging::new(&out)?;
-            let summary = dth_examples::workprecision::run(&options, staging.path())?;
+            let summary =
+                workprecision::run(&options, staging.path()).map_err(CliError::WorkPrecision)?;
             let out = staging.commit()?;
             print!("{}", summary.tables);
             println!(

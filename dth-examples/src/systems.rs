@@ -16,13 +16,14 @@
 //! ```
 
 use dth::kepler::KeplerOrbit;
-use dth::methods::DiscreteMechanics;
+use dth::methods::{DiscreteMechanics, RunEnd};
 use dth::nalgebra::SVector;
+use dth::observer::Observer;
 use dth::systems::CentralForce;
 use dth::Hamiltonian;
 
-use crate::catalogue::SceneSystem;
-use crate::method::{run_peer, MethodFailure, Observer, RunEnd, Stop};
+use crate::driver::{run_peer, MethodFailure, Stop};
+use crate::system::SceneSystem;
 
 dth::hamiltonian! {
     /// The planar Kepler problem `H = |p|^2/(2 m) - k/|q|`, `z = (q1, q2, p1, p2)`. The
@@ -95,7 +96,7 @@ impl SceneSystem<4> for Kepler {
         t0: f64,
         stop: Stop,
         observer: &mut O,
-    ) -> Option<Result<RunEnd, MethodFailure>> {
+    ) -> Option<Result<RunEnd<4>, MethodFailure>> {
         Some(run_peer(
             &mut DiscreteMechanics::new(),
             self,
@@ -301,7 +302,7 @@ impl SceneSystem<4> for FreeParticle {
         t0: f64,
         stop: Stop,
         observer: &mut O,
-    ) -> Option<Result<RunEnd, MethodFailure>> {
+    ) -> Option<Result<RunEnd<4>, MethodFailure>> {
         Some(run_peer(
             &mut DiscreteMechanics::new(),
             self,
@@ -427,7 +428,8 @@ mod tests {
 
     #[test]
     fn kepler_period_is_the_thesis_period() {
-        // NOTES.md: period 3.7483 for q = (0.5, 0), p = (0, 1.2).
+        // T = 2 pi sqrt(m a^3 / k) = 3.7483 for q = (0.5, 0), p = (0, 1.2): H = -0.56,
+        // a = 1/1.12 (docs/theory.md#kepler-orbit).
         let t = Kepler::thesis()
             .period(&SVector::<f64, 4>::new(0.5, 0.0, 0.0, 1.2))
             .unwrap_or(f64::NAN);

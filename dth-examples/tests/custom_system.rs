@@ -9,7 +9,7 @@ mod custom_system;
 use custom_system::Duffing;
 use dth::nalgebra::Vector2;
 use dth::Hamiltonian;
-use dth_examples::run::RunOptions;
+use dth_examples::simulate::RunOptions;
 
 mod common;
 

@@ -8,9 +8,10 @@ use std::cell::Cell;
 
 use dth::nalgebra::{SMatrix, SVector};
 use dth::Hamiltonian;
-use dth_examples::catalogue::{Catalogue, SceneSystem};
+use dth_examples::catalogue::Catalogue;
 use dth_examples::effects::EffectOutputs;
-use dth_examples::run::{compute, RunOptions};
+use dth_examples::simulate::{compute, RunOptions};
+use dth_examples::system::SceneSystem;
 use dth_examples::systems::Kepler;
 
 #[derive(Clone)]

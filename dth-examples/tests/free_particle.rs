@@ -5,10 +5,12 @@
 mod common;
 
 use common::*;
+use dth::dth::Solver;
 use dth::nalgebra::Vector4;
-use dth_examples::catalogue::{Catalogue, WithoutDth};
-use dth_examples::run::{compute, RunOptions};
-use dth_examples::scene::{MethodKind, Solver, StepSpec};
+use dth_examples::catalogue::Catalogue;
+use dth_examples::scene::{MethodKind, StepSpec};
+use dth_examples::simulate::{compute, RunOptions};
+use dth_examples::system::WithoutDth;
 use dth_examples::systems::FreeParticle;
 use dth_examples::Error;
 

@@ -4,7 +4,7 @@
 use dth::kepler::KeplerOrbit;
 use dth::nalgebra::Vector4;
 use dth_examples::catalogue::Catalogue;
-use dth_examples::run::{compute, MethodResult, RunOptions};
+use dth_examples::simulate::{compute, MethodResult, RunOptions};
 use dth_examples::systems::{ForcedOscillator, Kepler};
 
 const Z0: [f64; 4] = [0.5, 0.0, 0.0, 1.2];

@@ -13,7 +13,7 @@ use differential_equations::prelude::{ExplicitRungeKutta, IVP, ODE};
 use dth::nalgebra::SVector;
 use dth::{j_times, Hamiltonian};
 
-use super::problems::Problem;
+use super::problem::Problem;
 use super::runners::{blank, median_time, Ladder, MaxDeviation};
 use super::{Record, WorkPrecisionOptions};
 

@@ -37,6 +37,7 @@
 
 mod external;
 mod plot;
+pub mod problem;
 pub mod problems;
 mod reference;
 mod report;
@@ -236,7 +237,7 @@ pub struct Summary {
     /// The reference solutions and their accuracy.
     pub references: Vec<ReferenceCheck>,
     /// The problems: name, title, final time `T` and characteristic period.
-    pub problems: Vec<problems::ProblemInfo>,
+    pub problems: Vec<problem::ProblemInfo>,
     /// The tables of `summary.md` (markdown).
     #[serde(skip)]
     pub tables: String,

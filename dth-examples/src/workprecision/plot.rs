@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 
 use crate::plot::{Figure, Mark, Series};
 
-use super::problems::ProblemInfo;
+use super::problem::ProblemInfo;
 use super::report::error_of;
 use super::{Error, Record};
 

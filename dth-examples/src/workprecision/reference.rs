@@ -1,8 +1,9 @@
 //! Reference solutions: exact where known, otherwise 2-stage Gauss-Legendre at a tiny step with
 //! cubic Hermite interpolation between its steps.
 
-use dth::methods::{run, GaussLegendre2, Recorder};
+use dth::methods::{run, GaussLegendre2};
 use dth::nalgebra::SVector;
+use dth::observer::Recorder;
 use dth::{j_times, Hamiltonian};
 
 use super::{Error, ReferenceCheck};

@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 
 use serde::Serialize;
 
-use super::problems::ProblemInfo;
+use super::problem::ProblemInfo;
 use super::{Error, Record, Summary};
 
 /// Where and when the results were measured.

@@ -10,12 +10,11 @@ use std::time::Instant;
 use dth::dth::{Dth, DthOptions};
 use dth::methods::{run, OneStepMethod};
 use dth::nalgebra::SVector;
+use dth::observer::StepRecord;
 use dth::{Error as CoreError, Hamiltonian};
 
-use super::problems::Problem;
+use super::problem::Problem;
 use super::{Record, WorkPrecisionOptions};
-
-pub(crate) use super::external::sweep_dop853;
 
 /// The swept parameters of one problem.
 pub(crate) struct Ladder {
@@ -152,15 +151,12 @@ pub(crate) fn sweep_peer<H, M, const D: usize>(
         let mut energy = MaxDeviation::new(h.value(z0));
         let mut invariant = problem.invariant.map(|f| (f, MaxDeviation::new(f(z0))));
         let mut method = make();
-        let result = run(&mut method, h, z0, 0.0, dt, steps, &mut |_,
-                                                                   _,
-                                                                   z: &SVector<
-            f64,
+        let result = run(&mut method, h, z0, 0.0, dt, steps, &mut |r: &StepRecord<
             D,
         >| {
-            energy.push(h.value(z));
+            energy.push(h.value(&r.z));
             if let Some((f, dev)) = invariant.as_mut() {
-                dev.push(f(z));
+                dev.push(f(&r.z));
             }
         });
         match result {
@@ -296,18 +292,19 @@ pub(crate) fn sweep_dth<H: Hamiltonian<D> + Clone, const D: usize>(
         let mut last_vertex = (*z0, 0.0);
         let result = dth_to_time(h, z0, dth_options, t_end, |dth| {
             let r = dth.record();
-            energy.push(h.value(&r.zbar));
+            let Some(d) = r.dth else { return };
+            energy.push(h.value(&r.z));
             vertex_energy
-                .get_or_insert_with(|| MaxDeviation::new(h.value(&r.vertex)))
-                .push(h.value(&r.vertex));
+                .get_or_insert_with(|| MaxDeviation::new(h.value(&d.vertex)))
+                .push(h.value(&d.vertex));
             if let (Some(f), Some(m)) = (problem.invariant, invariant.as_mut()) {
-                m.push(f(&r.zbar));
+                m.push(f(&r.z));
                 vertex_invariant
-                    .get_or_insert_with(|| MaxDeviation::new(f(&r.vertex)))
-                    .push(f(&r.vertex));
+                    .get_or_insert_with(|| MaxDeviation::new(f(&d.vertex)))
+                    .push(f(&d.vertex));
             }
             factorizations += u64::from(r.factorizations);
-            last_vertex = (r.vertex, r.vertex_time);
+            last_vertex = (d.vertex, d.vertex_time);
             steps = r.k;
         });
         match result {

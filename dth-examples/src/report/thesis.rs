@@ -3,10 +3,12 @@
 //!
 //! The scene supplies the methods and their steps (the thesis: trapezoidal, midpoint and
 //! discrete mechanics with `dt = 0.15`, DTH with `dtau = 0.06277`: 25 points per orbit), the
-//! duration (10,000 steps: 400 orbits) and the square of initial conditions (its `[ensemble]`).
-//! Figures 4.14 and 4.15 refine those steps as the thesis did: 200 points per orbit
-//! (`dtau / 8 = 0.007846`) over one orbit, and 100 points per orbit (`dt / 4`, `dtau / 4`)
-//! over 3,500 orbits.
+//! duration (the thesis: 10,000 steps, 400 orbits) and the square of initial conditions (its
+//! `[ensemble]`). Figures 4.14 and 4.15 refine those steps as the thesis did, by
+//! [`FIG_4_14_REFINEMENT`] over one orbit (the thesis: `dtau / 8 = 0.007846`, 200 points per
+//! orbit) and by [`FIG_4_15_REFINEMENT`] over [`FIG_4_15_ORBITS`] orbits (`dt / 4`,
+//! `dtau / 4`: 100 points per orbit). Titles and captions state the points per orbit, steps
+//! and orbits of the runs actually made.
 //!
 //! Poincare sections are the thesis's (Section 4.2): no interpolation; the first state on the
 //! upper side of `q2 = 0` after an upward crossing is projected onto the plane, i.e. its
@@ -16,42 +18,36 @@
 use std::path::Path;
 
 use dth::nalgebra::SVector;
+use dth::observer::{Observer, StepRecord};
 use serde::Serialize;
 
-use crate::catalogue::SceneSystem;
+use crate::driver::{MethodFailure, Stop};
 use crate::error::Error;
-use crate::method::{run_method, MethodFailure, Observer, StepView, Stop};
+use crate::method::run_method;
 use crate::plot::{Figure, Grid, Legend, Mark, Series};
-use crate::run::{progress_bar, Progress, RunOptions};
 use crate::scene::{MethodKind, MethodSpec, Scene, StepSpec};
+use crate::simulate::{ensemble_starts, progress_bar, stop_for, Progress, RunOptions};
+use crate::system::SceneSystem;
 
-/// Points per orbit of the scene's steps (thesis Table 4.1: 25).
-pub const POINTS_PER_ORBIT: f64 = 25.0;
-/// Figure 4.14: points per orbit (thesis: `dtau = 0.007846`, one eighth of 0.06277).
-pub const FIG_4_14_POINTS_PER_ORBIT: f64 = 200.0;
-/// Figure 4.15: points per orbit.
-pub const FIG_4_15_POINTS_PER_ORBIT: f64 = 100.0;
+/// Figure 4.14 divides the scene's `dtau` by this (the thesis: `0.06277 / 8 = 0.007846`).
+pub const FIG_4_14_REFINEMENT: f64 = 8.0;
+/// Figure 4.15 divides every method's step by this (the thesis: `dt / 4`, `dtau / 4`).
+pub const FIG_4_15_REFINEMENT: f64 = 4.0;
 /// Figure 4.15: orbits.
 pub const FIG_4_15_ORBITS: f64 = 3500.0;
 
-/// The methods of the thesis's figures, in its order, with the name and palette colour each
-/// keeps in every figure.
-const METHODS: [(MethodKind, &str, usize); 5] = [
-    (MethodKind::Exact, "exact", 6),
-    (MethodKind::Trapezoidal, "trapezoidal", 1),
-    (MethodKind::Midpoint, "midpoint", 0),
-    (MethodKind::DiscreteMechanics, "discrete mechanics", 2),
-    (MethodKind::Dth, "DTH (midpoints)", 3),
-];
-
-/// The method kinds a scene must have for `thesis_figures`.
-pub const REQUIRED: [MethodKind; 5] = [
-    MethodKind::Exact,
-    MethodKind::Trapezoidal,
-    MethodKind::Midpoint,
-    MethodKind::DiscreteMechanics,
-    MethodKind::Dth,
-];
+/// The name and palette colour a method of the thesis's figures
+/// ([`MethodKind::THESIS_FIGURES`]) keeps in every figure.
+fn style(kind: MethodKind) -> (&'static str, usize) {
+    match kind {
+        MethodKind::Exact => ("exact", 6),
+        MethodKind::Trapezoidal => ("trapezoidal", 1),
+        MethodKind::Midpoint => ("midpoint", 0),
+        MethodKind::DiscreteMechanics => ("discrete mechanics", 2),
+        MethodKind::Dth => ("DTH (midpoints)", 3),
+        other => (other.name(), 7),
+    }
+}
 
 /// One figure written: its thesis number, file stem (`.png` and `.svg`) and caption.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -70,13 +66,13 @@ type State = (f64, [f64; 4]);
 /// Stores every state (a few 10^4 for the figures' runs).
 struct Record(Vec<State>);
 
-fn state<const D: usize>(v: &StepView<'_, D>) -> State {
-    (v.t, [v.z[0], v.z[1], v.z[D / 2], v.z[D / 2 + 1]])
+fn state<const D: usize>(r: &StepRecord<D>) -> State {
+    (r.t, [r.z[0], r.z[1], r.z[D / 2], r.z[D / 2 + 1]])
 }
 
 impl<const D: usize> Observer<D> for Record {
-    fn observe(&mut self, v: &StepView<'_, D>) {
-        self.0.push(state(v));
+    fn on_step(&mut self, r: &StepRecord<D>) {
+        self.0.push(state(r));
     }
 }
 
@@ -134,8 +130,8 @@ impl Section {
 }
 
 impl<const D: usize> Observer<D> for Section {
-    fn observe(&mut self, v: &StepView<'_, D>) {
-        self.push(&state(v));
+    fn on_step(&mut self, r: &StepRecord<D>) {
+        self.push(&state(r));
     }
 }
 
@@ -147,12 +143,38 @@ fn section_of(states: &[State]) -> Vec<(f64, f64)> {
     s.points
 }
 
-fn failed(spec: &MethodSpec, what: &str, f: MethodFailure) -> Error {
+fn failed(spec: &MethodSpec, what: &str, failure: MethodFailure) -> Error {
     Error::MethodFailed {
         method: format!("{} ({what})", spec.label),
-        step: f.step,
-        reason: f.reason,
+        failure,
     }
+}
+
+/// Points per orbit of a run of `states` (`(states - 1)` steps over its time span).
+fn points_per_orbit(states: &[State], period: f64) -> f64 {
+    match (states.first(), states.last()) {
+        (Some(a), Some(b)) if b.0 > a.0 => (states.len() - 1) as f64 * period / (b.0 - a.0),
+        _ => f64::NAN,
+    }
+}
+
+/// The polar angle of `q` swept, in degrees, by the states with `t <= t_end`.
+fn swept_degrees(states: &[State], t_end: f64) -> f64 {
+    let angle = |s: &State| s.1[1].atan2(s.1[0]);
+    let turn = std::f64::consts::TAU;
+    let swept: f64 = states
+        .windows(2)
+        .take_while(|w| w[1].0 <= t_end)
+        .map(|w| {
+            let d = (angle(&w[1]) - angle(&w[0])).rem_euclid(turn);
+            if d > 0.5 * turn {
+                d - turn
+            } else {
+                d
+            }
+        })
+        .sum();
+    swept.to_degrees()
 }
 
 /// A copy of `spec` with its step divided by `factor` (more points per orbit).
@@ -220,9 +242,10 @@ pub fn figures<const D: usize, S: SceneSystem<D>>(
         name: scene.system.clone(),
         reason: "the initial state has no orbit period".into(),
     })?;
-    let specs: Vec<(&MethodSpec, &str, usize)> = METHODS
+    let specs: Vec<(&MethodSpec, &str, usize)> = MethodKind::THESIS_FIGURES
         .iter()
-        .filter_map(|&(kind, name, color)| {
+        .filter_map(|&kind| {
+            let (name, color) = style(kind);
             scene
                 .methods
                 .iter()
@@ -230,17 +253,7 @@ pub fn figures<const D: usize, S: SceneSystem<D>>(
                 .map(|m| (m, name, color))
         })
         .collect();
-    let stop = match scene.duration {
-        crate::scene::Duration::Steps(n) => Stop::Steps(n),
-        crate::scene::Duration::Time(t) => Stop::Time {
-            t_end: scene.t0 + t,
-            max_steps: options.max_steps,
-        },
-        crate::scene::Duration::Orbits(k) => Stop::Time {
-            t_end: scene.t0 + k * period,
-            max_steps: options.max_steps,
-        },
-    };
+    let stop = stop_for(system, scene, z0, options)?;
     let mut out = Vec::new();
     let mut emit = |number: &str, stem: &str, caption: String| {
         out.push(ThesisFigure {
@@ -254,23 +267,44 @@ pub fn figures<const D: usize, S: SceneSystem<D>>(
     let mut runs: Vec<(&MethodSpec, &str, usize, Vec<State>)> = Vec::new();
     for &(spec, name, color) in &specs {
         let bar = progress_bar(spec, stop, options);
-        let mut record = Record(Vec::new());
-        let end = run_method(
-            spec,
-            system,
-            *z0,
-            scene.t0,
-            stop,
-            &mut (Progress(bar.clone()), &mut record),
-        )?;
+        let mut observers = (Progress(bar.clone()), Record(Vec::new()));
+        let end = run_method(spec, system, *z0, scene.t0, stop, &mut observers)?;
         bar.finish_and_clear();
         end.map_err(|f| failed(spec, "thesis Figures 4.1-4.9", f))?;
-        runs.push((spec, name, color, record.0));
+        runs.push((spec, name, color, observers.1 .0));
     }
 
     // Figures 4.1-4.4: one orbit of each coordinate against t (and one step more, so that the
     // return to the start is visible), the exact solution as a smooth curve.
-    let t_end = scene.t0 + period * (1.0 + 1.0 / POINTS_PER_ORBIT);
+    // Points per orbit of the runs (the thesis: 25 for every method), and which methods are
+    // more than half a step off one orbit after one period (the thesis's observation on
+    // Figures 4.1-4.4: "the trapezoidal method has not completed an orbit; the midpoint
+    // method has begun a second").
+    let moving: Vec<_> = runs
+        .iter()
+        .filter(|r| r.0.kind != MethodKind::Exact)
+        .collect();
+    let ppo = moving
+        .iter()
+        .map(|r| points_per_orbit(&r.3, period))
+        .sum::<f64>()
+        / moving.len().max(1) as f64;
+    let mut orbit_notes = Vec::new();
+    for r in &moving {
+        let swept = swept_degrees(&r.3, scene.t0 + period);
+        let half_step = 180.0 / points_per_orbit(&r.3, period);
+        let kind = r.0.kind.name().replace('_', " ");
+        if swept < 360.0 - half_step {
+            orbit_notes.push(format!("the {kind} method has not completed an orbit"));
+        } else if swept > 360.0 + half_step {
+            orbit_notes.push(format!("the {kind} method has begun a second"));
+        }
+    }
+    let orbit_note = match orbit_notes.join("; ") {
+        n if n.is_empty() => String::new(),
+        n => format!(" {}{}.", n[..1].to_uppercase(), &n[1..]),
+    };
+    let t_end = scene.t0 + period * (1.0 + 1.0 / ppo);
     let exact: Vec<State> = (0..=400)
         .filter_map(|i| {
             let t = (t_end - scene.t0) * f64::from(i) / 400.0;
@@ -281,7 +315,7 @@ pub fn figures<const D: usize, S: SceneSystem<D>>(
     for (c, name) in NAMES.iter().enumerate() {
         let mut f = Figure::new(
             &format!(
-                "Figure 4.{}: Kepler problem, {name} vs t, 25 points per orbit, 1 orbit",
+                "Figure 4.{}: Kepler problem, {name} vs t, {ppo:.0} points per orbit, 1 orbit",
                 c + 1
             ),
             "t",
@@ -322,7 +356,7 @@ pub fn figures<const D: usize, S: SceneSystem<D>>(
             &format!("4.{}", c + 1),
             &stem,
             format!(
-                "Kepler problem, 25 points per orbit, 1 orbit: {name} against t (plotted to one step past the period {period:.4}). The trapezoidal method has not completed an orbit; the midpoint method has begun a second."
+                "Kepler problem, {ppo:.0} points per orbit, 1 orbit: {name} against t (plotted to one step past the period {period:.4}).{orbit_note}"
             ),
         );
     }
@@ -377,6 +411,7 @@ pub fn figures<const D: usize, S: SceneSystem<D>>(
                 .with_legend(None),
         );
         let number = 5 + n;
+        let ppo = points_per_orbit(states, period);
         let what = match spec.kind {
             MethodKind::Exact => "exact orbit".to_string(),
             MethodKind::Trapezoidal => "trapezoidal method".into(),
@@ -385,7 +420,7 @@ pub fn figures<const D: usize, S: SceneSystem<D>>(
             _ => "DTH dynamics (midpoints)".into(),
         };
         let title = format!(
-            "Figure 4.{number}: Kepler problem, {what}, 25 points per orbit, {orbits:.0} orbits"
+            "Figure 4.{number}: Kepler problem, {what}, {ppo:.0} points per orbit, {orbits:.0} orbits"
         );
         let stem = format!("fig4_{number}");
         Grid::new(&title, (2, 2), panels).render(dir, &stem)?;
@@ -393,7 +428,7 @@ pub fn figures<const D: usize, S: SceneSystem<D>>(
             &format!("4.{number}"),
             &stem,
             format!(
-                "Kepler problem, {what}, 25 points per orbit, {} steps ({orbits:.0} orbits): (a) q1 vs p1, (b) q2 vs p2, (c) q1 vs q2, (d) q1 vs p1 at q2 = 0 ({} crossings, projected without interpolation).",
+                "Kepler problem, {what}, {ppo:.0} points per orbit, {} steps ({orbits:.0} orbits): (a) q1 vs p1, (b) q2 vs p2, (c) q1 vs q2, (d) q1 vs p1 at q2 = 0 ({} crossings, projected without interpolation).",
                 states.len() - 1,
                 section.len()
             ),
@@ -404,28 +439,18 @@ pub fn figures<const D: usize, S: SceneSystem<D>>(
     if let Some(e) = &scene.ensemble {
         let methods = runs.iter().filter(|r| r.0.kind != MethodKind::Exact);
         for (n, (spec, label, color, _)) in (10..).zip(methods) {
-            let h = 2.0 * e.half_width / (e.per_side - 1) as f64;
             let mut initial = Vec::new();
             let mut last = Vec::new();
             let mut crossing = Vec::new();
-            for i in 0..e.per_side {
-                for j in 0..e.per_side {
-                    let mut z = *z0;
-                    let ix = crate::run::coord_index::<D>(e.x);
-                    let iy = crate::run::coord_index::<D>(e.y);
-                    if let (Some(ix), Some(iy)) = (ix, iy) {
-                        z[ix] += -e.half_width + i as f64 * h;
-                        z[iy] += -e.half_width + j as f64 * h;
-                    }
-                    let mut record = Record(Vec::new());
-                    run_method(spec, system, z, scene.t0, Stop::Steps(e.steps), &mut record)?
-                        .map_err(|f| failed(spec, "thesis Figures 4.10-4.13", f))?;
-                    if let (Some(a), Some(b)) = (record.0.first(), record.0.last()) {
-                        initial.push(a.1);
-                        last.push(b.1);
-                    }
-                    crossing.extend(section_of(&record.0).first().copied());
+            for z in ensemble_starts(system, e, z0) {
+                let mut record = Record(Vec::new());
+                run_method(spec, system, z, scene.t0, Stop::Steps(e.steps), &mut record)?
+                    .map_err(|f| failed(spec, "thesis Figures 4.10-4.13", f))?;
+                if let (Some(a), Some(b)) = (record.0.first(), record.0.last()) {
+                    initial.push(a.1);
+                    last.push(b.1);
                 }
+                crossing.extend(section_of(&record.0).first().copied());
             }
             let mut panels: Vec<Figure> = PANELS
                 .iter()
@@ -483,7 +508,7 @@ pub fn figures<const D: usize, S: SceneSystem<D>>(
                 &format!("4.{n}"),
                 &stem,
                 format!(
-                    "Kepler problem, {label}: a square of {}x{} initial conditions (side {} in the {}-{} plane around the thesis's initial state; the thesis does not give its size) after {} steps: (a) q1 vs p1 (grey: the initial square), (b) q2 vs p2, (c) q1 vs q2, (d) the first upward crossing of q2 = 0 within those steps, projected ({} of {} members crossed).",
+                    "Kepler problem, {label}: a square of {}x{} initial conditions (side {} in the {}-{} plane around the scene's initial state; the thesis does not give its size) after {} steps: (a) q1 vs p1 (grey: the initial square), (b) q2 vs p2, (c) q1 vs q2, (d) the first upward crossing of q2 = 0 within those steps, projected ({} of {} members crossed).",
                     e.per_side,
                     e.per_side,
                     2.0 * e.half_width,
@@ -497,15 +522,16 @@ pub fn figures<const D: usize, S: SceneSystem<D>>(
         }
     }
 
-    // Figure 4.14: DTH's time coordinate at 200 points per orbit over one orbit.
+    // Figure 4.14: DTH's time coordinate at a refined step over one orbit.
     let dth = runs.iter().find_map(|r| {
-        let fine = refined(r.0, FIG_4_14_POINTS_PER_ORBIT / POINTS_PER_ORBIT);
+        let fine = refined(r.0, FIG_4_14_REFINEMENT);
         match fine.step {
             StepSpec::Dth { dtau, .. } => Some((r.0, r.1, r.2, fine, dtau)),
             StepSpec::Fixed { .. } => None,
         }
     });
     if let Some((spec, label, color, fine, dtau)) = dth {
+        let ppo_fine = ppo * FIG_4_14_REFINEMENT;
         let mut record = Record(Vec::new());
         let stop = Stop::Time {
             t_end: scene.t0 + period,
@@ -522,7 +548,7 @@ pub fn figures<const D: usize, S: SceneSystem<D>>(
         let (tau_end, t_last) = pts.last().copied().unwrap_or((1.0, 1.0));
         let f = Figure::new(
             &format!(
-                "Figure 4.14: Kepler problem, 200 points per orbit, 1 orbit (dtau = {dtau:.6})"
+                "Figure 4.14: Kepler problem, {ppo_fine:.0} points per orbit, 1 orbit (dtau = {dtau:.6})"
             ),
             "tau",
             "t",
@@ -549,35 +575,30 @@ pub fn figures<const D: usize, S: SceneSystem<D>>(
             "4.14",
             "fig4_14",
             format!(
-                "Kepler problem, 200 points per orbit (dtau = {dtau:.6}), 1 orbit: the DTH time coordinate t against tau ({} steps). Even at this small step t(tau) is visibly nonlinear: time runs fast near apocentre (small Psi) and slow near pericentre.",
+                "Kepler problem, {ppo_fine:.0} points per orbit (dtau = {dtau:.6}), 1 orbit: the DTH time coordinate t against tau ({} steps). Even at this small step t(tau) is visibly nonlinear: time runs fast near apocentre (small Psi) and slow near pericentre.",
                 pts.len() - 1
             ),
         );
     }
 
-    // Figure 4.15: q2 = 0 sections at 100 points per orbit over 3,500 orbits.
+    // Figure 4.15: q2 = 0 sections at a refined step over many orbits.
     let mut panels = Vec::new();
     let mut counts = Vec::new();
     let stop = Stop::Time {
         t_end: scene.t0 + FIG_4_15_ORBITS * period,
         max_steps: options.max_steps,
     };
-    let factor = FIG_4_15_POINTS_PER_ORBIT / POINTS_PER_ORBIT;
+    let factor = FIG_4_15_REFINEMENT;
+    let (ppo_fine, orbits_fine) = (ppo * factor, thousands(FIG_4_15_ORBITS));
     let mut sections = Vec::new();
     for (spec, label, color, _) in runs.iter().filter(|r| r.0.kind != MethodKind::Exact) {
         let fine = refined(spec, factor);
         let bar = progress_bar(&fine, stop, options);
-        let mut section = Section::default();
-        run_method(
-            &fine,
-            system,
-            *z0,
-            scene.t0,
-            stop,
-            &mut (Progress(bar.clone()), &mut section),
-        )?
-        .map_err(|f| failed(spec, "thesis Figure 4.15", f))?;
+        let mut observers = (Progress(bar.clone()), Section::default());
+        run_method(&fine, system, *z0, scene.t0, stop, &mut observers)?
+            .map_err(|f| failed(spec, "thesis Figure 4.15", f))?;
         bar.finish_and_clear();
+        let section = observers.1;
         let precession = section.precession_degrees().unwrap_or(f64::NAN);
         sections.push((*label, *color, section.points, precession));
     }
@@ -608,7 +629,7 @@ pub fn figures<const D: usize, S: SceneSystem<D>>(
         );
     }
     Grid::new(
-        "Figure 4.15: Kepler problem, Poincare sections q2 = 0, 100 points per orbit, 3,500 orbits (light: early, dark: late)",
+        &format!("Figure 4.15: Kepler problem, Poincare sections q2 = 0, {ppo_fine:.0} points per orbit, {orbits_fine} orbits (light: early, dark: late)"),
         (2, 2),
         panels,
     )
@@ -617,9 +638,51 @@ pub fn figures<const D: usize, S: SceneSystem<D>>(
         "4.15",
         "fig4_15",
         format!(
-            "Kepler problem, Poincare sections (q1 vs p1 at q2 = 0, projected), 100 points per orbit (dt / 4, dtau / 4), 3,500 orbits; same axes in every panel; points shaded from light (first orbits) to dark (last orbits), so a section that precesses once around shows one smooth gradient; the pericentre advance per orbit is measured from the direction of successive pericentres (local minima of |q|). {}.",
+            "Kepler problem, Poincare sections (q1 vs p1 at q2 = 0, projected), {ppo_fine:.0} points per orbit (dt / {factor}, dtau / {factor}), {orbits_fine} orbits; same axes in every panel; points shaded from light (first orbits) to dark (last orbits), so a section that precesses once around shows one smooth gradient; the pericentre advance per orbit is measured from the direction of successive pericentres (local minima of |q|). {}.",
             counts.join("; ")
         ),
     );
     Ok(out)
+}
+
+/// `x` rounded to an integer with thousands separators (`3500` -> `"3,500"`).
+fn thousands(x: f64) -> String {
+    let digits = format!("{:.0}", x.abs());
+    let mut out = String::new();
+    for (i, c) in digits.chars().enumerate() {
+        if i > 0 && (digits.len() - i).is_multiple_of(3) {
+            out.push(',');
+        }
+        out.push(c);
+    }
+    if x < 0.0 && digits != "0" {
+        out.insert(0, '-');
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn thousands_groups_digits() {
+        assert_eq!(thousands(3500.0), "3,500");
+        assert_eq!(thousands(400.0), "400");
+        assert_eq!(thousands(1_234_567.0), "1,234,567");
+        assert_eq!(thousands(-10_000.0), "-10,000");
+    }
+
+    #[test]
+    fn swept_angle_of_one_circle_is_360_degrees() {
+        let states: Vec<State> = (0..=100)
+            .map(|k| {
+                let a = std::f64::consts::TAU * f64::from(k) / 100.0;
+                (f64::from(k), [a.cos(), a.sin(), 0.0, 0.0])
+            })
+            .collect();
+        assert!((swept_degrees(&states, 100.0) - 360.0).abs() < 1e-9);
+        assert!((swept_degrees(&states, 50.0) - 180.0).abs() < 1e-9);
+        assert!((points_per_orbit(&states, 100.0) - 100.0).abs() < 1e-12);
+    }
 }

@@ -1,400 +1,64 @@
-//! Scene files: parsing (TOML, serde, unknown keys rejected) and validation against a
-//! [`Catalogue`], with every error located at `file:line:column`.
-//!
-//! A scene declares a system and its parameters, the initial state, the methods with their
-//! steps, the duration and the effects wanted:
-//!
-//! ```toml
-//! title = "Kepler, thesis Table 4.1 settings"
-//!
-//! [system]
-//! name = "kepler"
-//! params = { m = 0.5, k = 1.0 }
-//!
-//! [initial]
-//! q = [0.5, 0.0]
-//! p = [0.0, 1.2]
-//!
-//! [[method]]
-//! kind = "dth"
-//! dtau = 0.06277
-//! lambda0 = 1.0
-//!
-//! [[method]]
-//! kind = "trapezoidal"
-//! dt = 0.15
-//!
-//! [duration]
-//! steps = 10000            # or: time = 100.0, or: orbits = 400
-//!
-//! [[effect]]
-//! kind = "energy_deviation"
-//! ```
+//! Validation of a scene against the systems a [`SystemLookup`] knows (a catalogue, or
+//! anything else that can describe systems by name), with every error located at
+//! `file:line:column` and all independent errors reported at once.
 
 use std::collections::BTreeMap;
 use std::ops::Range;
 
-use serde::Deserialize;
 use toml::Spanned;
 
-use crate::catalogue::Catalogue;
+use super::raw::{RawEffect, RawMethod, RawScene};
+use dth::dth::Solver;
+
+use super::schema::{
+    Coord, Direction, Duration, EffectKind, EffectSpec, Ensemble, MethodKind, MethodSpec, Scene,
+    StepSpec,
+};
 use crate::error::{Error, SceneDiagnostic, SceneErrors};
 
-// ---------------------------------------------------------------------------------------------
-// Raw (as written) form: every key is known, every value that gets a semantic check is spanned.
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct RawScene {
-    title: Option<String>,
-    description: Option<String>,
-    system: Spanned<RawSystem>,
-    initial: Spanned<RawInitial>,
-    #[serde(rename = "method")]
-    methods: Option<Spanned<Vec<Spanned<RawMethod>>>>,
-    duration: Spanned<RawDuration>,
-    #[serde(rename = "effect", default)]
-    effects: Vec<Spanned<RawEffect>>,
-    ensemble: Option<Spanned<RawEnsemble>>,
-    thesis_figures: Option<Spanned<bool>>,
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct RawEnsemble {
-    x: Spanned<String>,
-    y: Spanned<String>,
-    half_width: Spanned<f64>,
-    per_side: Spanned<i64>,
-    steps: Spanned<i64>,
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct RawSystem {
-    name: Spanned<String>,
-    #[serde(default)]
-    params: BTreeMap<Spanned<String>, Spanned<f64>>,
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct RawInitial {
-    q: Option<Spanned<Vec<f64>>>,
-    p: Option<Spanned<Vec<f64>>>,
-    t: Option<Spanned<f64>>,
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct RawMethod {
-    kind: Spanned<String>,
-    label: Option<Spanned<String>>,
-    dt: Option<Spanned<f64>>,
-    dtau: Option<Spanned<f64>>,
-    lambda0: Option<Spanned<f64>>,
-    solver: Option<Spanned<String>>,
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct RawDuration {
-    steps: Option<Spanned<i64>>,
-    time: Option<Spanned<f64>>,
-    orbits: Option<Spanned<f64>>,
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct RawEffect {
-    kind: Spanned<String>,
-    every: Option<Spanned<i64>>,
-    x: Option<Spanned<String>>,
-    y: Option<Spanned<String>>,
-    coordinate: Option<Spanned<String>>,
-    value: Option<Spanned<f64>>,
-    direction: Option<Spanned<String>>,
-    until: Option<Spanned<f64>>,
-    crossing: Option<Spanned<String>>,
-}
-
-// ---------------------------------------------------------------------------------------------
-// Validated form.
-
-/// A validated scene: every name resolved, every number in range, every length checked.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Scene {
-    /// Title (defaults to the system name).
-    pub title: String,
-    /// Free-text description.
-    pub description: String,
-    /// The system's catalogue name.
-    pub system: String,
-    /// Parameters, with the catalogue's defaults filled in.
-    pub params: BTreeMap<String, f64>,
-    /// Initial positions, length n.
-    pub q: Vec<f64>,
-    /// Initial momenta, length n.
-    pub p: Vec<f64>,
-    /// Initial time (default 0).
-    pub t0: f64,
-    /// Methods, in scene order.
-    pub methods: Vec<MethodSpec>,
-    /// How long to integrate.
-    pub duration: Duration,
-    /// Requested effects, in scene order (nothing else is computed).
-    pub effects: Vec<EffectSpec>,
-    /// A square of initial conditions run for a few steps (thesis Figures 4.10-4.13).
-    pub ensemble: Option<Ensemble>,
-    /// Draw the thesis's Figures 4.1-4.15 and Table 4.1 ([`crate::thesis`]): a planar system
-    /// with a period and an exact solution (Kepler), and the methods exact, trapezoidal,
-    /// midpoint, discrete_mechanics and dth.
-    pub thesis_figures: bool,
-}
-
-/// A square of initial conditions around the scene's initial state, in the plane of two of
-/// its coordinates (`per_side x per_side` points spaced evenly over
-/// `[-half_width, half_width]^2`), each run for `steps` steps by every method.
+/// A named parameter of a system.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Ensemble {
-    /// First varied coordinate.
-    pub x: Coord,
-    /// Second varied coordinate.
-    pub y: Coord,
-    /// Half the side of the square.
-    pub half_width: f64,
-    /// Points per side (at least 2).
-    pub per_side: usize,
-    /// Steps each member runs.
-    pub steps: usize,
+pub struct ParamSpec {
+    /// Name used in the scene's `params` table.
+    pub name: &'static str,
+    /// Default, or `None` when the scene must give it.
+    pub default: Option<f64>,
+    /// One line of documentation.
+    pub doc: &'static str,
 }
 
-/// A method and its step.
-#[derive(Debug, Clone, PartialEq)]
-pub struct MethodSpec {
-    /// Which method.
-    pub kind: MethodKind,
-    /// Label used in files and tables (default: the kind's name; unique within a scene).
-    pub label: String,
-    /// Step parameters.
-    pub step: StepSpec,
+/// What validation needs to know about a system.
+#[derive(Debug, Clone, Copy)]
+pub struct SystemInfo<'a> {
+    /// Degrees of freedom `n` (length of `q` and `p`; time is not counted).
+    pub n: usize,
+    /// Parameters.
+    pub params: &'a [ParamSpec],
+    /// `true` for `H(t, q, p)` (run in the extended phase space).
+    pub time_dependent: bool,
+    /// `true` when the system can give an orbit period (durations in `orbits`).
+    pub has_period: bool,
+    /// `true` when the system has an exact solution (method `exact`).
+    pub has_exact: bool,
+    /// `true` for `H = T(p) + V(q)` (method `stormer_verlet`).
+    pub separable: bool,
+    /// `true` for a central force `|p|^2/(2m) + phi(|q|)` (method `discrete_mechanics`).
+    pub central_force: bool,
+    /// `true` when method `dth` can run.
+    pub dth: bool,
+    /// `true` when `Psi` is identically zero (`Hamiltonian::PSI_IDENTICALLY_ZERO`): the reason
+    /// DTH is not offered, when it is not.
+    pub psi_identically_zero: bool,
 }
 
-/// The step parameters of a method.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum StepSpec {
-    /// Fixed physical step `dt > 0`.
-    Fixed {
-        /// The step.
-        dt: f64,
-    },
-    /// DTH: fixed step `dtau > 0` in tau, initial `lambda0 > 0`, and the Newton solver.
-    Dth {
-        /// Step in tau.
-        dtau: f64,
-        /// `lambda_0 = dt/dtau` on the first segment.
-        lambda0: f64,
-        /// Which Newton iteration.
-        solver: Solver,
-    },
+/// The systems a scene may name, as validation sees them (implemented by
+/// [`Catalogue`](crate::catalogue::Catalogue)).
+pub trait SystemLookup {
+    /// What validation needs to know about the system `name`, if it is known.
+    fn info(&self, name: &str) -> Option<SystemInfo<'_>>;
+    /// Every known name, for "expected one of" messages.
+    fn names(&self) -> Vec<&str>;
 }
-
-/// DTH's Newton solver (issue 3).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Solver {
-    /// One Newton on `(zbar, lambda)` by block elimination (the default).
-    Joint,
-    /// The thesis's nested algorithm (Section 4.1).
-    Nested,
-}
-
-/// The methods a scene can name.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum MethodKind {
-    /// Discrete-Time Hamiltonian dynamics.
-    Dth,
-    /// Trapezoidal rule.
-    Trapezoidal,
-    /// Implicit midpoint rule.
-    Midpoint,
-    /// Greenspan's discrete mechanics (central forces).
-    DiscreteMechanics,
-    /// Stormer-Verlet (separable H).
-    StormerVerlet,
-    /// Classical Runge-Kutta 4.
-    Rk4,
-    /// 2-stage Gauss-Legendre.
-    GaussLegendre2,
-    /// Energy-preserving discrete-gradient method.
-    DiscreteGradient,
-    /// The system's exact solution sampled every `dt` (systems that have one, e.g. Kepler).
-    Exact,
-}
-
-impl MethodKind {
-    /// Every method, in the order `dth list` shows them.
-    pub const ALL: [MethodKind; 9] = [
-        MethodKind::Exact,
-        MethodKind::Dth,
-        MethodKind::Trapezoidal,
-        MethodKind::Midpoint,
-        MethodKind::DiscreteMechanics,
-        MethodKind::StormerVerlet,
-        MethodKind::Rk4,
-        MethodKind::GaussLegendre2,
-        MethodKind::DiscreteGradient,
-    ];
-
-    /// The name used in scene files.
-    pub fn name(self) -> &'static str {
-        match self {
-            MethodKind::Dth => "dth",
-            MethodKind::Trapezoidal => "trapezoidal",
-            MethodKind::Midpoint => "midpoint",
-            MethodKind::DiscreteMechanics => "discrete_mechanics",
-            MethodKind::StormerVerlet => "stormer_verlet",
-            MethodKind::Rk4 => "rk4",
-            MethodKind::GaussLegendre2 => "gauss_legendre2",
-            MethodKind::DiscreteGradient => "discrete_gradient",
-            MethodKind::Exact => "exact",
-        }
-    }
-
-    /// One line for `dth list`.
-    pub fn doc(self) -> &'static str {
-        match self {
-            MethodKind::Dth => "Discrete-Time Hamiltonian dynamics; keys dtau, lambda0 (default 1), solver = \"joint\" | \"nested\"",
-            MethodKind::Trapezoidal => "trapezoidal rule; key dt",
-            MethodKind::Midpoint => "implicit midpoint rule; key dt",
-            MethodKind::DiscreteMechanics => "Greenspan's discrete mechanics (central-force H); key dt",
-            MethodKind::StormerVerlet => "Stormer-Verlet (separable H); key dt",
-            MethodKind::Rk4 => "classical Runge-Kutta 4; key dt",
-            MethodKind::GaussLegendre2 => "2-stage Gauss-Legendre (order 4, symplectic); key dt",
-            MethodKind::DiscreteGradient => "energy-preserving discrete gradient; key dt",
-            MethodKind::Exact => "the system's exact solution sampled every dt (systems that have one: kepler); key dt",
-        }
-    }
-
-    fn from_name(s: &str) -> Option<Self> {
-        Self::ALL.into_iter().find(|k| k.name() == s)
-    }
-}
-
-/// How long a run lasts.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Duration {
-    /// A number of steps (each method takes this many).
-    Steps(usize),
-    /// Physical time: each method runs until `t >= t0 + time`.
-    Time(f64),
-    /// A number of orbits of the system's period (systems that know it, e.g. bound Kepler).
-    Orbits(f64),
-}
-
-/// A phase-space coordinate named in a scene: `q1..qn`, `p1..pn` (index into `(q, p)`), or `t`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Coord {
-    /// `q_{i+1}`.
-    Q(usize),
-    /// `p_{i+1}`.
-    P(usize),
-    /// Physical time.
-    T,
-}
-
-impl Coord {
-    /// The scene name (`q1`, `p2`, `t`).
-    pub fn name(self) -> String {
-        match self {
-            Coord::Q(i) => format!("q{}", i + 1),
-            Coord::P(i) => format!("p{}", i + 1),
-            Coord::T => "t".into(),
-        }
-    }
-}
-
-/// Direction of a Poincare section crossing.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Direction {
-    /// Coordinate increasing through the value.
-    Up,
-    /// Coordinate decreasing through the value.
-    Down,
-    /// Either.
-    Both,
-}
-
-/// An effect: something a run computes and writes, only when the scene asks for it.
-#[derive(Debug, Clone, PartialEq)]
-pub enum EffectSpec {
-    /// The final state of each method (JSON summary).
-    FinalState,
-    /// States every `every` steps (CSV).
-    Trajectory {
-        /// Sampling stride in steps.
-        every: usize,
-    },
-    /// `|H - H_0|` per step: mean and max in the summary, samples in CSV, a figure.
-    EnergyDeviation {
-        /// Sampling stride for the CSV series and figure.
-        every: usize,
-    },
-    /// Deviation of the system's quadratic invariants (e.g. angular momentum).
-    Invariants {
-        /// Sampling stride for the CSV series and figure.
-        every: usize,
-    },
-    /// Crossings of `coordinate = value` (linearly interpolated), plotted in `(x, y)`.
-    Poincare {
-        /// The section's coordinate.
-        coordinate: Coord,
-        /// The section's value.
-        value: f64,
-        /// Which crossings count.
-        direction: Direction,
-        /// `true`: linear interpolation between the two states either side of the section;
-        /// `false`: the thesis's way (Section 4.2), the state just after the crossing,
-        /// projected onto the section.
-        interpolate: bool,
-        /// Horizontal axis of the figure.
-        x: Coord,
-        /// Vertical axis of the figure.
-        y: Coord,
-    },
-    /// `t` and `lambda = dt/dtau` against the step (DTH's time law; `dt` for fixed steps).
-    TimeLaw {
-        /// Sampling stride.
-        every: usize,
-    },
-    /// A phase plot of `y` against `x` for all methods (`x = "t"` gives a time series).
-    PhasePlot {
-        /// Horizontal axis.
-        x: Coord,
-        /// Vertical axis.
-        y: Coord,
-        /// Sampling stride.
-        every: usize,
-        /// Only states with `t <= t0 + until` (e.g. one orbit); `None`: all.
-        until: Option<f64>,
-    },
-    /// A table of mean/max energy and invariant deviations of all methods.
-    ComparisonTable,
-}
-
-/// Every effect kind with its keys, for `dth list`.
-pub const EFFECTS: [(&str, &str); 8] = [
-    ("final_state", "final state of each method (summary.json)"),
-    ("trajectory", "states every `every` steps (CSV); key every (default 1)"),
-    ("energy_deviation", "|H - H0| per step: mean/max, CSV, figure; key every"),
-    ("invariants", "deviation of the system's quadratic invariants; key every"),
-    ("poincare", "section crossings; keys coordinate, value (default 0), direction = \"up\" | \"down\" | \"both\", crossing = \"interpolate\" | \"project\" (thesis), x, y"),
-    ("time_law", "t and lambda against the step (CSV, figure); key every"),
-    ("phase_plot", "figure of y against x for all methods (x = \"t\": a time series); keys x, y, every, until (time span from t0)"),
-    ("comparison_table", "table of mean/max energy and invariant deviations of all methods"),
-];
-
-// ---------------------------------------------------------------------------------------------
-// Parsing and validation.
 
 /// Collects every independent diagnostic of one file (serde_derive's `Ctxt` habit).
 struct Ctxt<'a> {
@@ -434,7 +98,7 @@ pub fn line_col(text: &str, offset: usize) -> (usize, usize) {
 /// let err = parse(text, "bad.toml", &Catalogue::builtin()).unwrap_err();
 /// assert!(err.to_string().contains("bad.toml:5:5: initial `p` has 1 value"));
 /// ```
-pub fn parse(text: &str, file: &str, catalogue: &Catalogue) -> Result<Scene, Error> {
+pub fn parse(text: &str, file: &str, systems: &dyn SystemLookup) -> Result<Scene, Error> {
     let raw: RawScene = match toml::from_str(text) {
         Ok(raw) => raw,
         Err(e) => {
@@ -453,31 +117,29 @@ pub fn parse(text: &str, file: &str, catalogue: &Catalogue) -> Result<Scene, Err
         text,
         diagnostics: Vec::new(),
     };
-    let scene = validate(raw, catalogue, &mut cx);
+    let scene = validate(raw, systems, &mut cx);
     match scene {
         Some(scene) if cx.diagnostics.is_empty() => Ok(scene),
         _ => Err(Error::Scene(SceneErrors(cx.diagnostics))),
     }
 }
 
-fn validate(raw: RawScene, catalogue: &Catalogue, cx: &mut Ctxt<'_>) -> Option<Scene> {
-    let sys_span = raw.system.span();
+fn validate(raw: RawScene, systems: &dyn SystemLookup, cx: &mut Ctxt<'_>) -> Option<Scene> {
     let system = raw.system.into_inner();
     let name = system.name.get_ref().clone();
-    let info = match catalogue.info(&name) {
+    let info = match systems.info(&name) {
         Some(info) => Some(info),
         None => {
             cx.error(
                 system.name.span(),
                 format!(
                     "unknown system `{name}`: expected one of {}",
-                    catalogue.names().join(", ")
+                    systems.names().join(", ")
                 ),
             );
             None
         }
     };
-    let _ = sys_span;
 
     // Parameters: known names only, defaults filled, required ones present, finite values.
     let mut params = BTreeMap::new();
@@ -666,7 +328,7 @@ fn validate(raw: RawScene, catalogue: &Catalogue, cx: &mut Ctxt<'_>) -> Option<S
     // Effects.
     let mut effects = Vec::new();
     for e in raw.effects {
-        if let Some(spec) = validate_effect(e, n, info.is_some_and(|i| i.time_dependent), cx) {
+        if let Some(spec) = validate_effect(e, n, cx) {
             effects.push(spec);
         }
     }
@@ -717,7 +379,7 @@ fn validate(raw: RawScene, catalogue: &Catalogue, cx: &mut Ctxt<'_>) -> Option<S
                     format!("`thesis_figures` draws the thesis's Kepler figures: expected a planar system with a period and an exact solution (kepler), not `{name}`"),
                 );
             }
-            let missing: Vec<&str> = crate::thesis::REQUIRED
+            let missing: Vec<&str> = MethodKind::THESIS_FIGURES
                 .iter()
                 .filter(|k| !methods.iter().any(|m: &MethodSpec| m.kind == **k))
                 .map(|k| k.name())
@@ -726,7 +388,8 @@ fn validate(raw: RawScene, catalogue: &Catalogue, cx: &mut Ctxt<'_>) -> Option<S
                 cx.error(
                     t.span(),
                     format!(
-                        "`thesis_figures` needs the methods exact, trapezoidal, midpoint, discrete_mechanics and dth: add {}",
+                        "`thesis_figures` needs the methods {}: add {}",
+                        names_and(&MethodKind::THESIS_FIGURES.map(MethodKind::name)),
                         missing.join(", ")
                     ),
                 );
@@ -809,18 +472,22 @@ fn validate_method(m: Spanned<RawMethod>, cx: &mut Ctxt<'_>) -> Option<MethodSpe
             Some(l) => positive(l, "lambda0", cx),
         };
         let solver = match &m.solver {
-            None => Some(Solver::Joint),
-            Some(s) => match s.get_ref().as_str() {
-                "joint" => Some(Solver::Joint),
-                "nested" => Some(Solver::Nested),
-                other => {
-                    cx.error(
-                        s.span(),
-                        format!("unknown solver `{other}`: expected \"joint\" or \"nested\""),
-                    );
-                    None
-                }
-            },
+            None => Some(Solver::default()),
+            Some(s) => Solver::from_name(s.get_ref()).or_else(|| {
+                let names: Vec<String> = Solver::ALL
+                    .iter()
+                    .map(|k| format!("\"{}\"", k.name()))
+                    .collect();
+                cx.error(
+                    s.span(),
+                    format!(
+                        "unknown solver `{}`: expected {}",
+                        s.get_ref(),
+                        names_or(&names)
+                    ),
+                );
+                None
+            }),
         };
         StepSpec::Dth {
             dtau: dtau?,
@@ -900,28 +567,22 @@ fn coord(v: &Spanned<String>, n: Option<usize>, what: &str, cx: &mut Ctxt<'_>) -
 fn validate_effect(
     e: Spanned<RawEffect>,
     n: Option<usize>,
-    _time_dependent: bool,
     cx: &mut Ctxt<'_>,
 ) -> Option<EffectSpec> {
     let e = e.into_inner();
-    let kind = e.kind.get_ref().as_str();
-    let allowed: &[&str] = match kind {
-        "final_state" | "comparison_table" => &[],
-        "trajectory" | "energy_deviation" | "invariants" | "time_law" => &["every"],
-        "phase_plot" => &["x", "y", "every", "until"],
-        "poincare" => &["coordinate", "value", "direction", "crossing", "x", "y"],
-        _ => {
-            let names: Vec<_> = EFFECTS.iter().map(|(n, _)| *n).collect();
-            cx.error(
-                e.kind.span(),
-                format!(
-                    "unknown effect `{kind}`: expected one of {}",
-                    names.join(", ")
-                ),
-            );
-            return None;
-        }
+    let Some(kind) = EffectKind::from_name(e.kind.get_ref()) else {
+        let names: Vec<_> = EffectKind::ALL.iter().map(|k| k.name()).collect();
+        cx.error(
+            e.kind.span(),
+            format!(
+                "unknown effect `{}`: expected one of {}",
+                e.kind.get_ref(),
+                names.join(", ")
+            ),
+        );
+        return None;
     };
+    let allowed = kind.keys();
     let present: [(&str, Option<Range<usize>>); 8] = [
         ("crossing", e.crossing.as_ref().map(|v| v.span())),
         ("until", e.until.as_ref().map(|v| v.span())),
@@ -938,7 +599,8 @@ fn validate_effect(
                 cx.error(
                     span,
                     format!(
-                        "`{key}` is not a key of effect `{kind}`: expected {}",
+                        "`{key}` is not a key of effect `{}`: expected {}",
+                        kind.name(),
                         if allowed.is_empty() {
                             "no keys".to_string()
                         } else {
@@ -965,19 +627,22 @@ fn validate_effect(
         None => {
             cx.error(
                 e.kind.span(),
-                format!("effect `{kind}` needs `{what}` (a coordinate such as q1 or p1)"),
+                format!(
+                    "effect `{}` needs `{what}` (a coordinate such as q1 or p1)",
+                    kind.name()
+                ),
             );
             None
         }
     };
     Some(match kind {
-        "final_state" => EffectSpec::FinalState,
-        "comparison_table" => EffectSpec::ComparisonTable,
-        "trajectory" => EffectSpec::Trajectory { every: every? },
-        "energy_deviation" => EffectSpec::EnergyDeviation { every: every? },
-        "invariants" => EffectSpec::Invariants { every: every? },
-        "time_law" => EffectSpec::TimeLaw { every: every? },
-        "phase_plot" => {
+        EffectKind::FinalState => EffectSpec::FinalState,
+        EffectKind::ComparisonTable => EffectSpec::ComparisonTable,
+        EffectKind::Trajectory => EffectSpec::Trajectory { every: every? },
+        EffectKind::EnergyDeviation => EffectSpec::EnergyDeviation { every: every? },
+        EffectKind::Invariants => EffectSpec::Invariants { every: every? },
+        EffectKind::TimeLaw => EffectSpec::TimeLaw { every: every? },
+        EffectKind::PhasePlot => {
             let x = need(&e.x, "x", cx);
             let y = need(&e.y, "y", cx);
             let until = match &e.until {
@@ -991,7 +656,7 @@ fn validate_effect(
                 until: until?,
             }
         }
-        "poincare" => {
+        EffectKind::Poincare => {
             let coordinate = need(&e.coordinate, "coordinate", cx);
             let x = need(&e.x, "x", cx);
             let y = need(&e.y, "y", cx);
@@ -1041,6 +706,21 @@ fn validate_effect(
                 y: y?,
             }
         }
-        _ => unreachable!("kinds are matched above"),
     })
+}
+
+/// `"a, b and c"`.
+fn names_and(names: &[&str]) -> String {
+    match names.split_last() {
+        Some((last, rest)) if !rest.is_empty() => format!("{} and {last}", rest.join(", ")),
+        _ => names.join(""),
+    }
+}
+
+/// `"a, b or c"`.
+fn names_or(names: &[String]) -> String {
+    match names.split_last() {
+        Some((last, rest)) if !rest.is_empty() => format!("{} or {last}", rest.join(", ")),
+        _ => names.join(""),
+    }
 }

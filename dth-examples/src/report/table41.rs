@@ -1,26 +1,19 @@
-//! Table 4.1 of the thesis: average absolute deviation of energy and angular momentum over
-//! 10,000 steps of the Kepler experiment, ours beside the thesis's.
+//! Table 4.1 of the thesis: average absolute deviation of energy and angular momentum over a
+//! run of the Kepler experiment, ours beside the thesis's (`dth::kepler::THESIS_TABLE_4_1`).
 //!
-//! The settings are the embedded default scene's (`scenes/thesis-kepler.toml`); the numbers
-//! come from the same pipeline as `dth run` ([`crate::run::compute`] with the
-//! `comparison_table` effect only, through [`crate::method::run_method`]).
+//! The rows come from a run's method summaries ([`rows_from`]): the statistics of the
+//! `comparison_table` (or `energy_deviation` and `invariants`) effect, the same pipeline as
+//! `dth run`.
 
+use dth::kepler::{Table41Row, THESIS_TABLE_4_1};
 use serde::Serialize;
 
-use crate::catalogue::Catalogue;
-use crate::error::Error;
-use crate::run::{compute, MethodSummary, RunOptions};
-use crate::scene::{EffectSpec, MethodKind};
-use crate::systems::Kepler;
+use crate::simulate::MethodSummary;
 
-/// The thesis's values (NOTES.md): `(method, energy, angular momentum)`.
-pub const THESIS: [(&str, f64, f64); 5] = [
-    ("trapezoidal", 1.322e-1, 4.593e-2),
-    ("midpoint", 5.969e-2, 7.387e-16),
-    ("discrete_mechanics", 3.901e-15, 1.738e-15),
-    ("dth_midpoints", 1.285e-14, 8.204e-4),
-    ("dth_vertices", 1.750e-2, 2.221e-15),
-];
+/// The thesis's row for `method` (`trapezoidal`, ..., `dth_vertices`), if it has one.
+pub fn thesis(method: &str) -> Option<Table41Row> {
+    THESIS_TABLE_4_1.into_iter().find(|r| r.method == method)
+}
 
 /// One row of the table.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -38,46 +31,6 @@ pub struct Row {
 pub struct Table {
     /// Rows in the thesis's order.
     pub rows: Vec<Row>,
-}
-
-/// Computes the table with the default scene's settings.
-pub fn compute_table(options: &RunOptions) -> Result<Table, Error> {
-    let catalogue = Catalogue::builtin();
-    let mut scene =
-        crate::check_scene(crate::DEFAULT_SCENE, crate::DEFAULT_SCENE_NAME, &catalogue)?;
-    scene.effects = vec![EffectSpec::ComparisonTable];
-    // The table needs neither the square of initial conditions nor the figures.
-    scene.ensemble = None;
-    scene.thesis_figures = false;
-    scene.methods.retain(|m| {
-        matches!(
-            m.kind,
-            MethodKind::Trapezoidal
-                | MethodKind::Midpoint
-                | MethodKind::DiscreteMechanics
-                | MethodKind::Dth
-        )
-    });
-    // The catalogue's `hamiltonian!` Kepler with the scene's parameters (validation filled in
-    // the defaults, m = 1/2 and k = 1).
-    let kepler = Kepler {
-        m: scene.params.get("m").copied().unwrap_or(0.5),
-        k: scene.params.get("k").copied().unwrap_or(1.0),
-    };
-    let results = compute(&kepler, &scene, options)?;
-    let summaries: Vec<MethodSummary> = results.into_iter().map(|r| r.summary).collect();
-    if let Some(s) = summaries.iter().find(|s| s.failure.is_some()) {
-        let f = s
-            .failure
-            .as_ref()
-            .map_or((0, String::new()), |f| (f.step, f.reason.clone()));
-        return Err(Error::MethodFailed {
-            method: s.label.clone(),
-            step: f.0,
-            reason: f.1,
-        });
-    }
-    Ok(rows_from(&summaries))
 }
 
 /// The table's rows from a run's method summaries (methods without energy and angular
@@ -101,7 +54,7 @@ pub fn rows_from(methods: &[MethodSummary]) -> Table {
                     angular_momentum: lv.mean,
                 });
             }
-        } else if THESIS.iter().any(|t| t.0 == s.kind) {
+        } else if thesis(&s.kind).is_some() {
             rows.push(Row {
                 method: s.kind.clone(),
                 energy: e.points.mean,
@@ -112,6 +65,17 @@ pub fn rows_from(methods: &[MethodSummary]) -> Table {
     Table { rows }
 }
 
+/// The thesis's energy and angular momentum for `method`, formatted as in the table (`-` where
+/// the thesis has no such row).
+pub fn thesis_cells(method: &str) -> (String, String) {
+    thesis(method).map_or(("-".into(), "-".into()), |t| {
+        (
+            format!("{:.3e}", t.energy),
+            format!("{:.3e}", t.angular_momentum),
+        )
+    })
+}
+
 /// The table as markdown, ours beside the thesis's.
 pub fn markdown(table: &Table) -> String {
     let mut s = String::from(
@@ -119,10 +83,7 @@ pub fn markdown(table: &Table) -> String {
          |---|---:|---:|---:|---:|\n",
     );
     for r in &table.rows {
-        let thesis = THESIS.iter().find(|t| t.0 == r.method);
-        let (te, tl) = thesis.map_or(("-".into(), "-".into()), |t| {
-            (format!("{:.3e}", t.1), format!("{:.3e}", t.2))
-        });
+        let (te, tl) = thesis_cells(&r.method);
         s.push_str(&format!(
             "| {} | {:.3e} | {} | {:.3e} | {} |\n",
             r.method, r.energy, te, r.angular_momentum, tl

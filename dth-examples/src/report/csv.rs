@@ -1,0 +1,141 @@
+//! CSV files: one per effect and method, `LABEL_<effect>.csv`, plus the ensemble's.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use super::write_file;
+use crate::effects::Series;
+use crate::error::Error;
+use crate::scene::{component_names, Scene};
+use crate::simulate::MethodResult;
+
+/// Writes the CSV files of every method's effects into `dir`; returns their names.
+pub fn write(dir: &Path, scene: &Scene, results: &[MethodResult]) -> Result<Vec<String>, Error> {
+    let mut files = Vec::new();
+    let put = |name: String, contents: String, files: &mut Vec<String>| {
+        write_file(&dir.join(&name), contents)?;
+        files.push(name);
+        Ok::<(), Error>(())
+    };
+    for r in results {
+        let l = &r.summary.label;
+        let o = &r.outputs;
+        if let Some(rows) = &o.trajectory {
+            let d = rows.first().map_or(0, |r| r.z.len());
+            let mut s = format!(
+                "step,t,{},lambda\n",
+                component_names(scene.q.len(), d).join(",")
+            );
+            for r in rows {
+                let _ = write!(s, "{},{:e}", r.step, r.t);
+                for x in &r.z {
+                    let _ = write!(s, ",{x:e}");
+                }
+                let _ = writeln!(
+                    s,
+                    ",{}",
+                    r.lambda.map_or(String::new(), |v| format!("{v:e}"))
+                );
+            }
+            put(format!("{l}_trajectory.csv"), s, &mut files)?;
+        }
+        if let Some((_, a, b)) = &o.energy {
+            if !a.is_empty() {
+                let header = if b.is_empty() {
+                    "step,t,energy_deviation"
+                } else {
+                    "step,t,energy_deviation,vertex_t,vertex_energy_deviation"
+                };
+                put(
+                    format!("{l}_energy.csv"),
+                    csv_series(header, a, b),
+                    &mut files,
+                )?;
+            }
+        }
+        if let Some(v) = &o.invariants {
+            for (stats, a, b) in v {
+                if !a.is_empty() {
+                    let name = &stats.name;
+                    let header = if b.is_empty() {
+                        format!("step,t,{name}_deviation")
+                    } else {
+                        format!("step,t,{name}_deviation,vertex_t,vertex_{name}_deviation")
+                    };
+                    put(
+                        format!("{l}_{name}.csv"),
+                        csv_series(&header, a, b),
+                        &mut files,
+                    )?;
+                }
+            }
+        }
+        if let Some(rows) = &o.time_law {
+            let mut s = String::from("step,t,lambda\n");
+            for (k, t, lambda) in rows {
+                let _ = writeln!(s, "{k},{t:e},{lambda:e}");
+            }
+            put(format!("{l}_time_law.csv"), s, &mut files)?;
+        }
+        for (i, c) in o.poincare.iter().enumerate() {
+            let mut s = String::from("t,x,y\n");
+            for (t, x, y) in c {
+                let _ = writeln!(s, "{t:e},{x:e},{y:e}");
+            }
+            put(format!("{l}_poincare{}.csv", i + 1), s, &mut files)?;
+        }
+        if let Some(members) = &r.ensemble {
+            let d = members
+                .iter()
+                .find_map(|m| m.end.as_ref().ok().map(|e| e.1.len()))
+                .unwrap_or(0);
+            let mut s = format!(
+                "x0,y0,t,{},failure\n",
+                component_names(scene.q.len(), d).join(",")
+            );
+            for m in members {
+                let _ = write!(s, "{:e},{:e}", m.x0, m.y0);
+                match &m.end {
+                    Ok((t, z)) => {
+                        let _ = write!(s, ",{t:e}");
+                        for x in z {
+                            let _ = write!(s, ",{x:e}");
+                        }
+                        s.push_str(",\n");
+                    }
+                    Err(f) => {
+                        let _ = writeln!(
+                            s,
+                            ",{}step {}: {}",
+                            ",".repeat(d + 1),
+                            f.step,
+                            f.reason.replace(',', ";")
+                        );
+                    }
+                }
+            }
+            put(format!("{l}_ensemble.csv"), s, &mut files)?;
+        }
+        for (i, pts) in o.phase.iter().enumerate() {
+            let mut s = String::from("x,y\n");
+            for (x, y) in pts {
+                let _ = writeln!(s, "{x:e},{y:e}");
+            }
+            put(format!("{l}_phase{}.csv", i + 1), s, &mut files)?;
+        }
+    }
+    Ok(files)
+}
+
+fn csv_series(header: &str, a: &Series, b: &Series) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "{header}");
+    for (i, &(k, t, d)) in a.iter().enumerate() {
+        let _ = write!(s, "{k},{t:e},{d:e}");
+        if let Some(&(_, tv, dv)) = b.get(i) {
+            let _ = write!(s, ",{tv:e},{dv:e}");
+        }
+        s.push('\n');
+    }
+    s
+}

@@ -1,0 +1,204 @@
+//! The figures of a scene's effects: energy and invariant deviations, the time law, Poincare
+//! sections, phase plots and ensembles, one PNG and one SVG each.
+
+use std::path::Path;
+
+use crate::error::Error;
+use crate::plot::{Figure, Mark, Series as PlotSeries};
+use crate::scene::{Coord, EffectSpec, Scene};
+use crate::simulate::MethodResult;
+
+/// Draws the figures of the scene's effects (PNG and SVG) into `dir`; returns their names.
+pub fn write(
+    dir: &Path,
+    scene: &Scene,
+    results: &[MethodResult],
+    invariant_names: &[&str],
+) -> Result<Vec<String>, Error> {
+    let mut figs: Vec<(String, Figure)> = Vec::new();
+    let mut poincare_i = 0;
+    let mut phase_i = 0;
+    let mut seen_energy = false;
+    let mut seen_invariants = false;
+    let mut seen_time_law = false;
+    for spec in &scene.effects {
+        match spec {
+            EffectSpec::EnergyDeviation { .. } if !seen_energy => {
+                seen_energy = true;
+                let mut f = Figure::new(
+                    &format!("{}: energy deviation", scene.title),
+                    "t",
+                    "|H - H0|",
+                )
+                .with_log(false, true);
+                for r in results {
+                    if let Some((_, a, b)) = &r.outputs.energy {
+                        let name = if b.is_empty() {
+                            r.summary.label.clone()
+                        } else {
+                            format!("{} (midpoints)", r.summary.label)
+                        };
+                        f = f.with_series(PlotSeries::new(
+                            &name,
+                            Mark::Line,
+                            a.iter().map(|p| (p.1, p.2)),
+                        ));
+                        if !b.is_empty() {
+                            f = f.with_series(PlotSeries::new(
+                                &format!("{} (vertices)", r.summary.label),
+                                Mark::Line,
+                                b.iter().map(|p| (p.1, p.2)),
+                            ));
+                        }
+                    }
+                }
+                figs.push(("energy_deviation".into(), f));
+            }
+            EffectSpec::Invariants { .. } if !seen_invariants => {
+                seen_invariants = true;
+                for (j, name) in invariant_names.iter().enumerate() {
+                    let mut f = Figure::new(
+                        &format!("{}: {name} deviation", scene.title),
+                        "t",
+                        &format!("|{name} - {name}0|"),
+                    )
+                    .with_log(false, true);
+                    for r in results {
+                        if let Some((_, a, b)) =
+                            r.outputs.invariants.as_ref().and_then(|v| v.get(j))
+                        {
+                            f = f.with_series(PlotSeries::new(
+                                &r.summary.label,
+                                Mark::Line,
+                                a.iter().map(|p| (p.1, p.2)),
+                            ));
+                            if !b.is_empty() {
+                                f = f.with_series(PlotSeries::new(
+                                    &format!("{} (vertices)", r.summary.label),
+                                    Mark::Line,
+                                    b.iter().map(|p| (p.1, p.2)),
+                                ));
+                            }
+                        }
+                    }
+                    figs.push((format!("invariant_{name}"), f));
+                }
+            }
+            EffectSpec::TimeLaw { .. } if !seen_time_law => {
+                seen_time_law = true;
+                let mut ft = Figure::new(&format!("{}: time law", scene.title), "step k", "t");
+                let mut fl = Figure::new(
+                    &format!("{}: lambda = dt/dtau", scene.title),
+                    "step k",
+                    "lambda",
+                );
+                for r in results {
+                    if let Some(rows) = &r.outputs.time_law {
+                        let l = &r.summary.label;
+                        ft = ft.with_series(PlotSeries::new(
+                            l,
+                            Mark::Line,
+                            rows.iter().map(|p| (p.0 as f64, p.1)),
+                        ));
+                        if rows.iter().any(|p| p.2.is_finite()) {
+                            fl = fl.with_series(PlotSeries::new(
+                                l,
+                                Mark::Line,
+                                rows.iter().map(|p| (p.0 as f64, p.2)),
+                            ));
+                        }
+                    }
+                }
+                figs.push(("time_law_t".into(), ft));
+                if !fl.series.is_empty() {
+                    figs.push(("time_law_lambda".into(), fl));
+                }
+            }
+            EffectSpec::Poincare {
+                coordinate,
+                value,
+                x,
+                y,
+                ..
+            } => {
+                let mut f = Figure::new(
+                    &format!(
+                        "{}: Poincare section {} = {value}",
+                        scene.title,
+                        coordinate.name()
+                    ),
+                    &x.name(),
+                    &y.name(),
+                );
+                for r in results {
+                    if let Some(c) = r.outputs.poincare.get(poincare_i) {
+                        f = f.with_series(PlotSeries::new(
+                            &r.summary.label,
+                            Mark::Points,
+                            c.iter().map(|p| (p.1, p.2)),
+                        ));
+                    }
+                }
+                poincare_i += 1;
+                figs.push((format!("poincare{poincare_i}"), f));
+            }
+            EffectSpec::PhasePlot { x, y, .. } => {
+                let mut f = Figure::new(
+                    &format!("{}: {} against {}", scene.title, y.name(), x.name()),
+                    &x.name(),
+                    &y.name(),
+                );
+                for r in results {
+                    if let Some(pts) = r.outputs.phase.get(phase_i) {
+                        f = f.with_series(PlotSeries::new(
+                            &r.summary.label,
+                            Mark::Line,
+                            pts.iter().copied(),
+                        ));
+                    }
+                }
+                phase_i += 1;
+                figs.push((format!("phase{phase_i}"), f));
+            }
+            _ => {}
+        }
+    }
+    // Scenes with the thesis's figures draw their ensembles as Figures 4.10-4.13 instead.
+    if let (Some(e), false) = (&scene.ensemble, scene.thesis_figures) {
+        for r in results {
+            let Some(members) = &r.ensemble else { continue };
+            let (ix, iy) = (e.x, e.y);
+            let idx = |c: Coord, z: &[f64]| c.index(z.len()).and_then(|i| z.get(i).copied());
+            let finals = members.iter().filter_map(|m| {
+                let z = &m.end.as_ref().ok()?.1;
+                Some((idx(ix, z)?, idx(iy, z)?))
+            });
+            let f = Figure::new(
+                &format!(
+                    "{}: {}, square of initial conditions after {} steps",
+                    scene.title, r.summary.label, e.steps
+                ),
+                &ix.name(),
+                &iy.name(),
+            )
+            .with_series(PlotSeries::new(
+                "initial",
+                Mark::Points,
+                members.iter().map(|m| (m.x0, m.y0)),
+            ))
+            .with_series(PlotSeries::new(
+                &format!("after {} steps", e.steps),
+                Mark::Points,
+                finals,
+            ));
+            figs.push((format!("ensemble_{}", r.summary.label), f));
+        }
+    }
+    let mut files = Vec::new();
+    for (stem, f) in figs {
+        f.render(dir, &stem)?;
+        files.push(format!("{stem}.png"));
+        files.push(format!("{stem}.svg"));
+    }
+    Ok(files)
+}

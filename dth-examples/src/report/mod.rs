@@ -1,0 +1,92 @@
+//! Reports: what a simulation's results become on disk. CSV series ([`csv`]), the effects'
+//! figures ([`figures`]), the thesis's Table 4.1 ([`table41`]) and Figures 4.1-4.15
+//! ([`thesis`]), and the static `index.html` ([`html`]); [`RunReport`] is `summary.json`.
+//!
+//! Layers: `html` reads a [`RunReport`]; `csv`, `figures` and `thesis` read simulation results
+//! (`crate::simulate`); nothing here is imported from below.
+
+pub mod csv;
+pub mod figures;
+pub mod html;
+pub mod table41;
+pub mod thesis;
+
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use serde::Serialize;
+
+use crate::error::Error;
+use crate::simulate::MethodSummary;
+
+/// What a run produced (`summary.json` is this, serialized).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct RunReport {
+    /// Scene title.
+    pub title: String,
+    /// System name.
+    pub system: String,
+    /// Parameters used.
+    pub params: BTreeMap<String, f64>,
+    /// Where the output is (empty when computed without writing).
+    pub out: PathBuf,
+    /// Per method.
+    pub methods: Vec<MethodSummary>,
+    /// Files written, relative to `out`.
+    pub files: Vec<String>,
+    /// Table 4.1 (scenes with `thesis_figures = true`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub table41: Option<table41::Table>,
+    /// The thesis's figures (scenes with `thesis_figures = true`), in its order.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub thesis_figures: Vec<thesis::ThesisFigure>,
+}
+
+impl RunReport {
+    /// Mean and max deviations of every method as a markdown table (empty when no method
+    /// has statistics, i.e. no `energy_deviation`, `invariants` or `comparison_table`).
+    pub fn deviation_markdown(&self) -> String {
+        let mut s = String::new();
+        for m in &self.methods {
+            for d in m.energy.iter().chain(&m.invariants) {
+                if s.is_empty() {
+                    s.push_str("| method | quantity | mean | max | vertices mean | vertices max |\n|---|---|---:|---:|---:|---:|\n");
+                }
+                let (vm, vx) = d.vertices.map_or(("-".to_string(), "-".to_string()), |v| {
+                    (format!("{:.3e}", v.mean), format!("{:.3e}", v.max))
+                });
+                let _ = writeln!(
+                    s,
+                    "| {} | {} | {:.3e} | {:.3e} | {vm} | {vx} |",
+                    m.label, d.name, d.points.mean, d.points.max
+                );
+            }
+        }
+        s
+    }
+
+    /// The methods that failed mid-run.
+    pub fn failures(&self) -> impl Iterator<Item = &MethodSummary> {
+        self.methods.iter().filter(|m| m.failure.is_some())
+    }
+}
+
+/// Writes `contents` to `path`.
+pub fn write_file(path: &Path, contents: impl AsRef<[u8]>) -> Result<(), Error> {
+    std::fs::write(path, contents).map_err(|source| Error::Io {
+        what: "cannot write",
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
+/// Writes `value` as pretty JSON to `path`.
+pub fn write_json(path: &Path, value: &impl Serialize) -> Result<(), Error> {
+    let json = serde_json::to_string_pretty(value).map_err(|e| Error::Io {
+        what: "cannot serialize",
+        path: path.to_path_buf(),
+        source: std::io::Error::other(e),
+    })?;
+    write_file(path, json)
+}

@@ -1,0 +1,45 @@
+//! Scene files: parsing (TOML, serde, unknown keys rejected) and validation against the
+//! systems a [`SystemLookup`] knows, with every error located at `file:line:column`.
+//!
+//! Three layers, imports pointing down: `validate` (the rules) -> `raw` (the serde types, as
+//! written) and `schema` (the validated types the rest of the crate works with).
+//!
+//! A scene declares a system and its parameters, the initial state, the methods with their
+//! steps, the duration and the effects wanted:
+//!
+//! ```toml
+//! title = "Kepler, thesis Table 4.1 settings"
+//!
+//! [system]
+//! name = "kepler"
+//! params = { m = 0.5, k = 1.0 }
+//!
+//! [initial]
+//! q = [0.5, 0.0]
+//! p = [0.0, 1.2]
+//!
+//! [[method]]
+//! kind = "dth"
+//! dtau = 0.06277
+//! lambda0 = 1.0
+//!
+//! [[method]]
+//! kind = "trapezoidal"
+//! dt = 0.15
+//!
+//! [duration]
+//! steps = 10000            # or: time = 100.0, or: orbits = 400
+//!
+//! [[effect]]
+//! kind = "energy_deviation"
+//! ```
+
+mod raw;
+mod schema;
+mod validate;
+
+pub use schema::{
+    component_names, Coord, Direction, Duration, EffectKind, EffectSpec, Ensemble, MethodKind,
+    MethodSpec, Scene, StepSpec,
+};
+pub use validate::{line_col, parse, ParamSpec, SystemInfo, SystemLookup};

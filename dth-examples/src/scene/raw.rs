@@ -1,0 +1,82 @@
+//! The raw (as written) form of a scene file: every key is known (serde rejects the others),
+//! every value that gets a semantic check is spanned so its errors point at it.
+
+use std::collections::BTreeMap;
+
+use serde::Deserialize;
+use toml::Spanned;
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawScene {
+    pub(super) title: Option<String>,
+    pub(super) description: Option<String>,
+    pub(super) system: Spanned<RawSystem>,
+    pub(super) initial: Spanned<RawInitial>,
+    #[serde(rename = "method")]
+    pub(super) methods: Option<Spanned<Vec<Spanned<RawMethod>>>>,
+    pub(super) duration: Spanned<RawDuration>,
+    #[serde(rename = "effect", default)]
+    pub(super) effects: Vec<Spanned<RawEffect>>,
+    pub(super) ensemble: Option<Spanned<RawEnsemble>>,
+    pub(super) thesis_figures: Option<Spanned<bool>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawEnsemble {
+    pub(super) x: Spanned<String>,
+    pub(super) y: Spanned<String>,
+    pub(super) half_width: Spanned<f64>,
+    pub(super) per_side: Spanned<i64>,
+    pub(super) steps: Spanned<i64>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawSystem {
+    pub(super) name: Spanned<String>,
+    #[serde(default)]
+    pub(super) params: BTreeMap<Spanned<String>, Spanned<f64>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawInitial {
+    pub(super) q: Option<Spanned<Vec<f64>>>,
+    pub(super) p: Option<Spanned<Vec<f64>>>,
+    pub(super) t: Option<Spanned<f64>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawMethod {
+    pub(super) kind: Spanned<String>,
+    pub(super) label: Option<Spanned<String>>,
+    pub(super) dt: Option<Spanned<f64>>,
+    pub(super) dtau: Option<Spanned<f64>>,
+    pub(super) lambda0: Option<Spanned<f64>>,
+    pub(super) solver: Option<Spanned<String>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawDuration {
+    pub(super) steps: Option<Spanned<i64>>,
+    pub(super) time: Option<Spanned<f64>>,
+    pub(super) orbits: Option<Spanned<f64>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawEffect {
+    pub(super) kind: Spanned<String>,
+    pub(super) every: Option<Spanned<i64>>,
+    pub(super) x: Option<Spanned<String>>,
+    pub(super) y: Option<Spanned<String>>,
+    pub(super) coordinate: Option<Spanned<String>>,
+    pub(super) value: Option<Spanned<f64>>,
+    pub(super) direction: Option<Spanned<String>>,
+    pub(super) until: Option<Spanned<f64>>,
+    pub(super) crossing: Option<Spanned<String>>,
+}

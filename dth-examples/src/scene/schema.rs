@@ -1,0 +1,402 @@
+//! The validated form of a scene: what [`parse`](super::parse) returns, every name resolved,
+//! every number in range, every length checked. Plain data; nothing here runs anything.
+
+use std::collections::BTreeMap;
+
+use dth::dth::Solver;
+
+/// A validated scene: every name resolved, every number in range, every length checked.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Scene {
+    /// Title (defaults to the system name).
+    pub title: String,
+    /// Free-text description.
+    pub description: String,
+    /// The system's catalogue name.
+    pub system: String,
+    /// Parameters, with the catalogue's defaults filled in.
+    pub params: BTreeMap<String, f64>,
+    /// Initial positions, length n.
+    pub q: Vec<f64>,
+    /// Initial momenta, length n.
+    pub p: Vec<f64>,
+    /// Initial time (default 0).
+    pub t0: f64,
+    /// Methods, in scene order.
+    pub methods: Vec<MethodSpec>,
+    /// How long to integrate.
+    pub duration: Duration,
+    /// Requested effects, in scene order (nothing else is computed).
+    pub effects: Vec<EffectSpec>,
+    /// A square of initial conditions run for a few steps (thesis Figures 4.10-4.13).
+    pub ensemble: Option<Ensemble>,
+    /// Draw the thesis's Figures 4.1-4.15 and Table 4.1 (`report::thesis`): a planar system
+    /// with a period and an exact solution (Kepler), and the methods of
+    /// [`MethodKind::THESIS_FIGURES`].
+    pub thesis_figures: bool,
+}
+
+/// A square of initial conditions around the scene's initial state, in the plane of two of
+/// its coordinates (`per_side x per_side` points spaced evenly over
+/// `[-half_width, half_width]^2`), each run for `steps` steps by every method.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Ensemble {
+    /// First varied coordinate.
+    pub x: Coord,
+    /// Second varied coordinate.
+    pub y: Coord,
+    /// Half the side of the square.
+    pub half_width: f64,
+    /// Points per side (at least 2).
+    pub per_side: usize,
+    /// Steps each member runs.
+    pub steps: usize,
+}
+
+/// A method and its step.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MethodSpec {
+    /// Which method.
+    pub kind: MethodKind,
+    /// Label used in files and tables (default: the kind's name; unique within a scene).
+    pub label: String,
+    /// Step parameters.
+    pub step: StepSpec,
+}
+
+/// The step parameters of a method.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum StepSpec {
+    /// Fixed physical step `dt > 0`.
+    Fixed {
+        /// The step.
+        dt: f64,
+    },
+    /// DTH: fixed step `dtau > 0` in tau, initial `lambda0 > 0`, and the Newton solver.
+    Dth {
+        /// Step in tau.
+        dtau: f64,
+        /// `lambda_0 = dt/dtau` on the first segment.
+        lambda0: f64,
+        /// Which Newton iteration (`dth::dth::Solver`, named in scenes by [`Solver::name`]).
+        solver: Solver,
+    },
+}
+
+/// The methods a scene can name.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum MethodKind {
+    /// Discrete-Time Hamiltonian dynamics.
+    Dth,
+    /// Trapezoidal rule.
+    Trapezoidal,
+    /// Implicit midpoint rule.
+    Midpoint,
+    /// Greenspan's discrete mechanics (central forces).
+    DiscreteMechanics,
+    /// Stormer-Verlet (separable H).
+    StormerVerlet,
+    /// Classical Runge-Kutta 4.
+    Rk4,
+    /// 2-stage Gauss-Legendre.
+    GaussLegendre2,
+    /// Energy-preserving discrete-gradient method.
+    DiscreteGradient,
+    /// The system's exact solution sampled every `dt` (systems that have one, e.g. Kepler).
+    Exact,
+}
+
+impl MethodKind {
+    /// Every method, in the order `dth list` shows them.
+    pub const ALL: [MethodKind; 9] = [
+        MethodKind::Exact,
+        MethodKind::Dth,
+        MethodKind::Trapezoidal,
+        MethodKind::Midpoint,
+        MethodKind::DiscreteMechanics,
+        MethodKind::StormerVerlet,
+        MethodKind::Rk4,
+        MethodKind::GaussLegendre2,
+        MethodKind::DiscreteGradient,
+    ];
+
+    /// The methods the thesis's figures compare (`thesis_figures = true` needs them all), in
+    /// the thesis's order.
+    pub const THESIS_FIGURES: [MethodKind; 5] = [
+        MethodKind::Exact,
+        MethodKind::Trapezoidal,
+        MethodKind::Midpoint,
+        MethodKind::DiscreteMechanics,
+        MethodKind::Dth,
+    ];
+
+    /// The name used in scene files.
+    pub fn name(self) -> &'static str {
+        match self {
+            MethodKind::Dth => "dth",
+            MethodKind::Trapezoidal => "trapezoidal",
+            MethodKind::Midpoint => "midpoint",
+            MethodKind::DiscreteMechanics => "discrete_mechanics",
+            MethodKind::StormerVerlet => "stormer_verlet",
+            MethodKind::Rk4 => "rk4",
+            MethodKind::GaussLegendre2 => "gauss_legendre2",
+            MethodKind::DiscreteGradient => "discrete_gradient",
+            MethodKind::Exact => "exact",
+        }
+    }
+
+    /// One line for `dth list`.
+    pub fn doc(self) -> &'static str {
+        match self {
+            MethodKind::Dth => "Discrete-Time Hamiltonian dynamics; keys dtau, lambda0 (default 1), solver = \"joint\" | \"nested\"",
+            MethodKind::Trapezoidal => "trapezoidal rule; key dt",
+            MethodKind::Midpoint => "implicit midpoint rule; key dt",
+            MethodKind::DiscreteMechanics => "Greenspan's discrete mechanics (central-force H); key dt",
+            MethodKind::StormerVerlet => "Stormer-Verlet (separable H); key dt",
+            MethodKind::Rk4 => "classical Runge-Kutta 4; key dt",
+            MethodKind::GaussLegendre2 => "2-stage Gauss-Legendre (order 4, symplectic); key dt",
+            MethodKind::DiscreteGradient => "energy-preserving discrete gradient; key dt",
+            MethodKind::Exact => "the system's exact solution sampled every dt (systems that have one: kepler); key dt",
+        }
+    }
+
+    /// The method named `s` ([`MethodKind::name`]), if any.
+    pub fn from_name(s: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|k| k.name() == s)
+    }
+}
+
+/// How long a run lasts.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Duration {
+    /// A number of steps (each method takes this many).
+    Steps(usize),
+    /// Physical time: each method runs until `t >= t0 + time`.
+    Time(f64),
+    /// A number of orbits of the system's period (systems that know it, e.g. bound Kepler).
+    Orbits(f64),
+}
+
+/// A phase-space coordinate named in a scene: `q1..qn`, `p1..pn` (index into `(q, p)`), or `t`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Coord {
+    /// `q_{i+1}`.
+    Q(usize),
+    /// `p_{i+1}`.
+    P(usize),
+    /// Physical time.
+    T,
+}
+
+impl Coord {
+    /// The scene name (`q1`, `p2`, `t`).
+    pub fn name(self) -> String {
+        match self {
+            Coord::Q(i) => format!("q{}", i + 1),
+            Coord::P(i) => format!("p{}", i + 1),
+            Coord::T => "t".into(),
+        }
+    }
+
+    /// Its index in a phase-space state of dimension `d`, `z = (q, p)` or the extended
+    /// `(q, t, p, p_t)`: `q_i` is `z[i - 1]`, `p_i` is `z[d/2 + i - 1]`; `None` for `t`, which
+    /// is the state's time, not a component.
+    pub fn index(self, d: usize) -> Option<usize> {
+        match self {
+            Coord::Q(i) => Some(i),
+            Coord::P(i) => Some(d / 2 + i),
+            Coord::T => None,
+        }
+    }
+
+    /// Its value in the state `z` at time `t` (NaN for a component outside `z`, which
+    /// validation rules out for the scene's own coordinates).
+    pub fn value(self, t: f64, z: &[f64]) -> f64 {
+        match self.index(z.len()) {
+            Some(i) => z.get(i).copied().unwrap_or(f64::NAN),
+            None => t,
+        }
+    }
+}
+
+/// The names of the components of a phase-space state with `n` degrees of freedom and
+/// dimension `d`: `q1..qn, p1..pn`, or `q1..qn, t_ext, p1..pn, p_t` for the extended phase
+/// space (`d = 2n + 2`) of a time-dependent system.
+pub fn component_names(n: usize, d: usize) -> Vec<String> {
+    let extended = d == 2 * n + 2;
+    let mut names: Vec<String> = (1..=n).map(|i| format!("q{i}")).collect();
+    if extended {
+        names.push("t_ext".into());
+    }
+    names.extend((1..=n).map(|i| format!("p{i}")));
+    if extended {
+        names.push("p_t".into());
+    }
+    names
+}
+
+/// Direction of a Poincare section crossing.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Direction {
+    /// Coordinate increasing through the value.
+    Up,
+    /// Coordinate decreasing through the value.
+    Down,
+    /// Either.
+    Both,
+}
+
+/// An effect: something a run computes and writes, only when the scene asks for it.
+#[derive(Debug, Clone, PartialEq)]
+pub enum EffectSpec {
+    /// The final state of each method (JSON summary).
+    FinalState,
+    /// States every `every` steps (CSV).
+    Trajectory {
+        /// Sampling stride in steps.
+        every: usize,
+    },
+    /// `|H - H_0|` per step: mean and max in the summary, samples in CSV, a figure.
+    EnergyDeviation {
+        /// Sampling stride for the CSV series and figure.
+        every: usize,
+    },
+    /// Deviation of the system's quadratic invariants (e.g. angular momentum).
+    Invariants {
+        /// Sampling stride for the CSV series and figure.
+        every: usize,
+    },
+    /// Crossings of `coordinate = value` (linearly interpolated), plotted in `(x, y)`.
+    Poincare {
+        /// The section's coordinate.
+        coordinate: Coord,
+        /// The section's value.
+        value: f64,
+        /// Which crossings count.
+        direction: Direction,
+        /// `true`: linear interpolation between the two states either side of the section;
+        /// `false`: the thesis's way (Section 4.2), the state just after the crossing,
+        /// projected onto the section.
+        interpolate: bool,
+        /// Horizontal axis of the figure.
+        x: Coord,
+        /// Vertical axis of the figure.
+        y: Coord,
+    },
+    /// `t` and `lambda = dt/dtau` against the step (DTH's time law; `dt` for fixed steps).
+    TimeLaw {
+        /// Sampling stride.
+        every: usize,
+    },
+    /// A phase plot of `y` against `x` for all methods (`x = "t"` gives a time series).
+    PhasePlot {
+        /// Horizontal axis.
+        x: Coord,
+        /// Vertical axis.
+        y: Coord,
+        /// Sampling stride.
+        every: usize,
+        /// Only states with `t <= t0 + until` (e.g. one orbit); `None`: all.
+        until: Option<f64>,
+    },
+    /// A table of mean/max energy and invariant deviations of all methods.
+    ComparisonTable,
+}
+
+impl EffectSpec {
+    /// Which effect this is.
+    pub fn kind(&self) -> EffectKind {
+        match self {
+            EffectSpec::FinalState => EffectKind::FinalState,
+            EffectSpec::Trajectory { .. } => EffectKind::Trajectory,
+            EffectSpec::EnergyDeviation { .. } => EffectKind::EnergyDeviation,
+            EffectSpec::Invariants { .. } => EffectKind::Invariants,
+            EffectSpec::Poincare { .. } => EffectKind::Poincare,
+            EffectSpec::TimeLaw { .. } => EffectKind::TimeLaw,
+            EffectSpec::PhasePlot { .. } => EffectKind::PhasePlot,
+            EffectSpec::ComparisonTable => EffectKind::ComparisonTable,
+        }
+    }
+}
+
+/// The effects a scene can name: one name, one line of documentation and one set of keys
+/// each, kept here only.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum EffectKind {
+    /// [`EffectSpec::FinalState`].
+    FinalState,
+    /// [`EffectSpec::Trajectory`].
+    Trajectory,
+    /// [`EffectSpec::EnergyDeviation`].
+    EnergyDeviation,
+    /// [`EffectSpec::Invariants`].
+    Invariants,
+    /// [`EffectSpec::Poincare`].
+    Poincare,
+    /// [`EffectSpec::TimeLaw`].
+    TimeLaw,
+    /// [`EffectSpec::PhasePlot`].
+    PhasePlot,
+    /// [`EffectSpec::ComparisonTable`].
+    ComparisonTable,
+}
+
+impl EffectKind {
+    /// Every effect, in the order `dth list` shows them.
+    pub const ALL: [EffectKind; 8] = [
+        EffectKind::FinalState,
+        EffectKind::Trajectory,
+        EffectKind::EnergyDeviation,
+        EffectKind::Invariants,
+        EffectKind::Poincare,
+        EffectKind::TimeLaw,
+        EffectKind::PhasePlot,
+        EffectKind::ComparisonTable,
+    ];
+
+    /// The name used in scene files.
+    pub fn name(self) -> &'static str {
+        match self {
+            EffectKind::FinalState => "final_state",
+            EffectKind::Trajectory => "trajectory",
+            EffectKind::EnergyDeviation => "energy_deviation",
+            EffectKind::Invariants => "invariants",
+            EffectKind::Poincare => "poincare",
+            EffectKind::TimeLaw => "time_law",
+            EffectKind::PhasePlot => "phase_plot",
+            EffectKind::ComparisonTable => "comparison_table",
+        }
+    }
+
+    /// The effect named `s` ([`EffectKind::name`]), if any.
+    pub fn from_name(s: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|k| k.name() == s)
+    }
+
+    /// The keys a scene may give it (besides `kind`).
+    pub fn keys(self) -> &'static [&'static str] {
+        match self {
+            EffectKind::FinalState | EffectKind::ComparisonTable => &[],
+            EffectKind::Trajectory
+            | EffectKind::EnergyDeviation
+            | EffectKind::Invariants
+            | EffectKind::TimeLaw => &["every"],
+            EffectKind::PhasePlot => &["x", "y", "every", "until"],
+            EffectKind::Poincare => &["coordinate", "value", "direction", "crossing", "x", "y"],
+        }
+    }
+
+    /// One line for `dth list`.
+    pub fn doc(self) -> &'static str {
+        match self {
+            EffectKind::FinalState => "final state of each method (summary.json)",
+            EffectKind::Trajectory => "states every `every` steps (CSV); key every (default 1)",
+            EffectKind::EnergyDeviation => "|H - H0| per step: mean/max, CSV, figure; key every",
+            EffectKind::Invariants => "deviation of the system's quadratic invariants; key every",
+            EffectKind::Poincare => "section crossings; keys coordinate, value (default 0), direction = \"up\" | \"down\" | \"both\", crossing = \"interpolate\" | \"project\" (thesis), x, y",
+            EffectKind::TimeLaw => "t and lambda against the step (CSV, figure); key every",
+            EffectKind::PhasePlot => "figure of y against x for all methods (x = \"t\": a time series); keys x, y, every, until (time span from t0)",
+            EffectKind::ComparisonTable => "table of mean/max energy and invariant deviations of all methods",
+        }
+    }
+}

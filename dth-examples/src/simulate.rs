@@ -1,0 +1,350 @@
+//! Simulation: every method of a validated scene run on a concrete system, with observers
+//! only for the requested effects ([`compute`]); results stay in memory ([`MethodResult`]).
+//! Writing them is the report's job (`crate::report`), staging the folder the pipeline's.
+
+use std::collections::BTreeMap;
+
+use dth::nalgebra::SVector;
+use dth::observer::{Observer, StepRecord};
+use indicatif::{ProgressBar, ProgressStyle};
+use serde::Serialize;
+
+use crate::driver::{MethodFailure, Stop};
+use crate::effects::{DeviationStats, EffectOutputs, Effects, FinalState};
+use crate::error::Error;
+use crate::method::run_method;
+use crate::scene::{Duration, Ensemble, MethodSpec, Scene, StepSpec};
+use crate::system::SceneSystem;
+
+/// How to run.
+#[derive(Debug, Clone)]
+#[non_exhaustive]
+pub struct RunOptions {
+    /// Show progress bars (indicatif; they hide themselves when stderr is not a terminal).
+    /// Default `true`.
+    pub progress: bool,
+    /// Safety cap on the steps of a run whose duration is a time or a number of orbits.
+    /// Default 100,000,000.
+    pub max_steps: usize,
+}
+
+impl Default for RunOptions {
+    fn default() -> Self {
+        RunOptions {
+            progress: true,
+            max_steps: 100_000_000,
+        }
+    }
+}
+
+impl RunOptions {
+    /// Sets [`RunOptions::progress`].
+    pub fn with_progress(mut self, progress: bool) -> Self {
+        self.progress = progress;
+        self
+    }
+}
+
+/// A method that failed mid-run: the step and why (what came before is kept), as
+/// `summary.json` and the ensemble CSV show it.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Failure {
+    /// The step that failed.
+    pub step: usize,
+    /// Why.
+    pub reason: String,
+}
+
+impl From<&MethodFailure> for Failure {
+    fn from(f: &MethodFailure) -> Self {
+        Failure {
+            step: f.step,
+            reason: f.cause.to_string(),
+        }
+    }
+}
+
+/// The summary of one method's run (it goes into `summary.json`).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct MethodSummary {
+    /// Label (file prefix).
+    pub label: String,
+    /// Method name.
+    pub kind: String,
+    /// `dt`, or `dtau` / `lambda0` / solver for DTH.
+    pub step: BTreeMap<String, serde_json::Value>,
+    /// Steps taken.
+    pub steps: usize,
+    /// Final physical time.
+    pub t_end: f64,
+    /// Set when the method failed mid-run.
+    pub failure: Option<Failure>,
+    /// States observed by effects (0 when the scene requests none).
+    pub observer_calls: usize,
+    /// Numbers stored by effects (0 when the scene requests none).
+    pub stored_values: usize,
+    /// Energy deviation statistics (`energy_deviation` or `comparison_table`).
+    pub energy: Option<DeviationStats>,
+    /// Invariant deviation statistics (`invariants` or `comparison_table`).
+    pub invariants: Vec<DeviationStats>,
+    /// `final_state`.
+    pub final_state: Option<FinalState>,
+}
+
+/// One member of an ensemble after its run.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EnsembleMember {
+    /// Initial value of the ensemble's `x` coordinate.
+    pub x0: f64,
+    /// Initial value of the ensemble's `y` coordinate.
+    pub y0: f64,
+    /// Final time and state, or why the member failed.
+    pub end: Result<(f64, Vec<f64>), Failure>,
+}
+
+/// One method's results in memory.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MethodResult {
+    /// Summary.
+    pub summary: MethodSummary,
+    /// Everything the effects produced.
+    pub outputs: EffectOutputs,
+    /// The scene's ensemble (thesis Figures 4.10-4.13), when it has one.
+    pub ensemble: Option<Vec<EnsembleMember>>,
+    /// Why the method stopped early, if it did (the summary holds it as text).
+    pub failure: Option<MethodFailure>,
+}
+
+/// The initial states of the ensemble `e` around `z0`, row by row: `z0` shifted by
+/// `(-w + i s, -w + j s)` in the plane of its two coordinates (`w` the half width, `s` the
+/// spacing), with `calH = 0` restored for a time-dependent system.
+pub fn ensemble_starts<const D: usize, S: SceneSystem<D>>(
+    system: &S,
+    e: &Ensemble,
+    z0: &SVector<f64, D>,
+) -> Vec<SVector<f64, D>> {
+    let (Some(ix), Some(iy)) = (e.x.index(D), e.y.index(D)) else {
+        return Vec::new();
+    };
+    let h = 2.0 * e.half_width / (e.per_side - 1) as f64;
+    let mut starts = Vec::with_capacity(e.per_side * e.per_side);
+    for i in 0..e.per_side {
+        for j in 0..e.per_side {
+            let mut z = *z0;
+            z[ix] += -e.half_width + i as f64 * h;
+            z[iy] += -e.half_width + j as f64 * h;
+            if S::TIME_DEPENDENT {
+                // Keep calH = 0 for the shifted state.
+                z[D - 1] = 0.0;
+                z[D - 1] = -system.value(&z);
+            }
+            starts.push(z);
+        }
+    }
+    starts
+}
+
+fn run_ensemble<const D: usize, S: SceneSystem<D>>(
+    system: &S,
+    m: &MethodSpec,
+    e: &Ensemble,
+    z0: &SVector<f64, D>,
+    t0: f64,
+) -> Result<Vec<EnsembleMember>, Error> {
+    let (Some(ix), Some(iy)) = (e.x.index(D), e.y.index(D)) else {
+        return Ok(Vec::new());
+    };
+    let mut members = Vec::with_capacity(e.per_side * e.per_side);
+    for z in ensemble_starts(system, e, z0) {
+        let end = run_method(m, system, z, t0, Stop::Steps(e.steps), &mut ())?;
+        members.push(EnsembleMember {
+            x0: z[ix],
+            y0: z[iy],
+            end: end
+                .map(|end| (end.t, end.z.iter().copied().collect()))
+                .map_err(|f| Failure::from(&f)),
+        });
+    }
+    Ok(members)
+}
+
+/// The initial phase-space point: `(q, p)`, or `(q, t0, p, p_t)` with `calH(z0) = 0` for a
+/// time-dependent system (the extended phase space, `docs/theory.md#extended-phase-space`).
+pub fn initial_state<const D: usize, S: SceneSystem<D>>(
+    system: &S,
+    scene: &Scene,
+) -> Result<SVector<f64, D>, Error> {
+    let n = scene.q.len();
+    let expected = if S::TIME_DEPENDENT { 2 * n + 2 } else { 2 * n };
+    if D != expected || scene.p.len() != n {
+        return Err(Error::Registration {
+            name: scene.system.clone(),
+            reason: format!(
+                "the implementation has phase-space dimension D = {D}, but the scene's q and p have lengths {} and {} (expected D = {expected})",
+                n,
+                scene.p.len()
+            ),
+        });
+    }
+    let mut z = SVector::<f64, D>::zeros();
+    let half = D / 2;
+    for i in 0..n {
+        z[i] = scene.q[i];
+        z[half + i] = scene.p[i];
+    }
+    if S::TIME_DEPENDENT {
+        z[n] = scene.t0;
+        z[D - 1] = 0.0;
+        z[D - 1] = -system.value(&z);
+    }
+    Ok(z)
+}
+
+/// When a run of `scene` stops: after its steps, or at its end time (a duration in orbits
+/// needs the system's period from `z0`), capped at `options.max_steps`.
+pub fn stop_for<const D: usize, S: SceneSystem<D>>(
+    system: &S,
+    scene: &Scene,
+    z0: &SVector<f64, D>,
+    options: &RunOptions,
+) -> Result<Stop, Error> {
+    Ok(match scene.duration {
+        Duration::Steps(n) => Stop::Steps(n),
+        Duration::Time(t) => Stop::Time {
+            t_end: scene.t0 + t,
+            max_steps: options.max_steps,
+        },
+        Duration::Orbits(k) => {
+            let period = system.period(z0).ok_or_else(|| Error::NotAvailable {
+                what: "duration in orbits for system",
+                name: scene.system.clone(),
+                reason:
+                    "the initial state has no orbit period (e.g. unbound): use `steps` or `time`"
+                        .into(),
+            })?;
+            Stop::Time {
+                t_end: scene.t0 + k * period,
+                max_steps: options.max_steps,
+            }
+        }
+    })
+}
+
+/// Progress as an observer: moves the bar every 1024 steps (nothing else per step).
+pub struct Progress(pub ProgressBar);
+
+impl<const D: usize> Observer<D> for Progress {
+    #[inline(always)]
+    fn on_step(&mut self, record: &StepRecord<D>) {
+        if record.k.is_multiple_of(1024) {
+            self.0.set_position(record.k as u64);
+        }
+    }
+}
+
+/// The progress bar of method `m` running until `stop` (hidden unless `options.progress`).
+pub fn progress_bar(m: &MethodSpec, stop: Stop, options: &RunOptions) -> ProgressBar {
+    if !options.progress {
+        return ProgressBar::hidden();
+    }
+    let len = match (stop, m.step) {
+        (Stop::Steps(n), _) => Some(n as u64),
+        (Stop::Time { t_end, .. }, StepSpec::Fixed { dt }) => Some((t_end / dt).ceil() as u64),
+        _ => None,
+    };
+    let (bar, template) = match len {
+        Some(n) => (
+            ProgressBar::new(n),
+            "{prefix:>20} [{bar:40}] {pos}/{len} steps {elapsed}",
+        ),
+        None => (
+            ProgressBar::new_spinner(),
+            "{prefix:>20} {spinner} {pos} steps {elapsed}",
+        ),
+    };
+    if let Ok(style) = ProgressStyle::with_template(template) {
+        bar.set_style(style.progress_chars("=> "));
+    }
+    bar.set_prefix(m.label.clone());
+    bar
+}
+
+fn step_summary(step: StepSpec) -> BTreeMap<String, serde_json::Value> {
+    let mut m = BTreeMap::new();
+    match step {
+        StepSpec::Fixed { dt } => {
+            m.insert("dt".into(), dt.into());
+        }
+        StepSpec::Dth {
+            dtau,
+            lambda0,
+            solver,
+        } => {
+            m.insert("dtau".into(), dtau.into());
+            m.insert("lambda0".into(), lambda0.into());
+            m.insert("solver".into(), solver.name().into());
+        }
+    }
+    m
+}
+
+/// Runs every method of `scene` on `system` and keeps the results in memory (no files).
+/// Effects not requested are not constructed.
+pub fn compute<const D: usize, S: SceneSystem<D>>(
+    system: &S,
+    scene: &Scene,
+    options: &RunOptions,
+) -> Result<Vec<MethodResult>, Error> {
+    let z0 = initial_state(system, scene)?;
+    let stop = stop_for(system, scene, &z0, options)?;
+    let mut results = Vec::new();
+    for m in &scene.methods {
+        let bar = progress_bar(m, stop, options);
+        let (end, outputs, calls, stored) = match Effects::new(system, &scene.effects) {
+            Some(effects) => {
+                let mut observers = (Progress(bar.clone()), effects);
+                let end = run_method(m, system, z0, scene.t0, stop, &mut observers)?;
+                let (_, effects) = observers;
+                let (calls, stored) = (effects.observer_calls(), effects.stored_values());
+                (end, effects.finish(), calls, stored)
+            }
+            None => {
+                let end = run_method(m, system, z0, scene.t0, stop, &mut Progress(bar.clone()))?;
+                (end, EffectOutputs::default(), 0, 0)
+            }
+        };
+        bar.finish_and_clear();
+        let (steps, t_end, failure) = match &end {
+            Ok(e) => (e.steps, e.t, None),
+            Err(f) => (f.step.saturating_sub(1), f64::NAN, Some(Failure::from(f))),
+        };
+        let summary = MethodSummary {
+            label: m.label.clone(),
+            kind: m.kind.name().to_string(),
+            step: step_summary(m.step),
+            steps,
+            t_end,
+            failure,
+            observer_calls: calls,
+            stored_values: stored,
+            energy: outputs.energy.as_ref().map(|e| e.0.clone()),
+            invariants: outputs
+                .invariants
+                .as_ref()
+                .map(|v| v.iter().map(|i| i.0.clone()).collect())
+                .unwrap_or_default(),
+            final_state: outputs.final_state.clone(),
+        };
+        let ensemble = match &scene.ensemble {
+            Some(e) => Some(run_ensemble(system, m, e, &z0, scene.t0)?),
+            None => None,
+        };
+        results.push(MethodResult {
+            summary,
+            outputs,
+            ensemble,
+            failure: end.err(),
+        });
+    }
+    Ok(results)
+}

@@ -1,0 +1,202 @@
+//! What a scene needs from a system beyond `dth::Hamiltonian` ([`SceneSystem`]), and
+//! [`WithoutDth`], the wrapper that runs a system whose `Psi` is identically zero with every
+//! method but DTH.
+
+use dth::methods::RunEnd;
+use dth::nalgebra::{SMatrix, SVector};
+use dth::observer::Observer;
+use dth::Hamiltonian;
+
+use crate::driver::{DthRunner, MethodFailure, Stop};
+
+/// What a scene needs from a system beyond [`Hamiltonian`]: its quadratic invariants (for the
+/// `invariants` effect) and, optionally, an orbit period (for durations in `orbits`).
+///
+/// `D` is the phase-space dimension of the implementation: `2n`, or `2n + 2` when
+/// `Hamiltonian::TIME_DEPENDENT` (the extended phase space `(q, t, p, p_t)`).
+///
+/// `Clone` because the DTH stepper owns its Hamiltonian (systems are small parameter structs).
+pub trait SceneSystem<const D: usize>: Hamiltonian<D> + Clone {
+    /// `true` when [`SceneSystem::period`] returns `Some` for bound initial states.
+    const HAS_PERIOD: bool = false;
+
+    /// Names of the quadratic invariants [`SceneSystem::invariants`] fills in (e.g. `["L"]`).
+    fn invariant_names(&self) -> &'static [&'static str] {
+        &[]
+    }
+
+    /// Writes the invariants at `z` into `out` (length `invariant_names().len()`).
+    fn invariants(&self, z: &SVector<f64, D>, out: &mut [f64]) {
+        let _ = (z, out);
+    }
+
+    /// `true` when [`SceneSystem::exact_solution`] is implemented.
+    const HAS_EXACT: bool = false;
+
+    /// The exact solution at time `t` after the state `z0`, or `None` when it cannot be
+    /// computed (not implemented, or outside its domain).
+    fn exact_solution(&self, z0: &SVector<f64, D>, t: f64) -> Option<SVector<f64, D>> {
+        let _ = (z0, t);
+        None
+    }
+
+    /// Orbit period from the initial state, if known.
+    fn period(&self, z0: &SVector<f64, D>) -> Option<f64> {
+        let _ = z0;
+        None
+    }
+
+    /// `true` when [`SceneSystem::run_discrete_mechanics`] runs (central-force systems that
+    /// implement `dth::systems::CentralForce`).
+    const CENTRAL_FORCE: bool = false;
+
+    /// Runs Greenspan's discrete mechanics (`dth::methods::DiscreteMechanics`, which needs
+    /// `dth::systems::CentralForce`); `None` for systems that are not central forces. A
+    /// central-force system implements it as
+    /// `Some(run_peer(&mut DiscreteMechanics::new(), self, dt, z0, t0, stop, observer))`.
+    fn run_discrete_mechanics<O: Observer<D>>(
+        &self,
+        dt: f64,
+        z0: SVector<f64, D>,
+        t0: f64,
+        stop: Stop,
+        observer: &mut O,
+    ) -> Option<Result<RunEnd<D>, MethodFailure>> {
+        let _ = (dt, z0, t0, stop, observer);
+        None
+    }
+
+    /// Runs the DTH stepper (`runner`) on this system. Keep the default: it is the only place
+    /// the scene runner instantiates the stepper for `Self`, so a system whose `Psi` is
+    /// identically zero (rejected by the stepper at compile time) runs through [`WithoutDth`]
+    /// instead, which returns `None` here ([`SystemEntry::runnable_without_dth`] does that).
+    fn run_dth<O: Observer<D>>(
+        &self,
+        runner: &DthRunner,
+        z0: SVector<f64, D>,
+        t0: f64,
+        stop: Stop,
+        observer: &mut O,
+    ) -> Option<Result<RunEnd<D>, MethodFailure>> {
+        Some(runner.run(self, z0, t0, stop, observer))
+    }
+}
+
+/// A system run without DTH: every [`Hamiltonian`] and [`SceneSystem`] item forwards to `S`,
+/// except [`SceneSystem::run_dth`], which returns `None` without instantiating the DTH stepper
+/// for `S`. This is how systems whose `Psi` is identically zero run scenes (the stepper rejects
+/// them at compile time); `catalogue::SystemEntry::runnable_without_dth` registers them with
+/// it.
+///
+/// ```
+/// use dth_examples::catalogue::Catalogue;
+/// use dth_examples::simulate::{compute, RunOptions};
+/// use dth_examples::system::WithoutDth;
+/// use dth_examples::systems::FreeParticle;
+/// let scene = dth_examples::check_scene(
+///     "[system]\nname = \"free_particle\"\n[initial]\nq = [0.0, 0.0]\np = [1.0, 0.5]\n\
+///      [[method]]\nkind = \"midpoint\"\ndt = 0.1\n[duration]\nsteps = 10\n\
+///      [[effect]]\nkind = \"final_state\"\n",
+///     "free.toml",
+///     &Catalogue::builtin(),
+/// )?;
+/// let system = WithoutDth(FreeParticle { m: 2.0 });
+/// let results = compute(&system, &scene, &RunOptions::default().with_progress(false))?;
+/// // q(t) = q0 + p t / m, exactly enough for the midpoint rule: t = 1, q1 = 0.5.
+/// let z = &results[0].summary.final_state.as_ref().unwrap().z;
+/// assert!((z[0] - 0.5).abs() < 1e-14);
+/// # Ok::<(), dth_examples::Error>(())
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WithoutDth<S>(pub S);
+
+impl<const D: usize, S: Hamiltonian<D>> Hamiltonian<D> for WithoutDth<S> {
+    const TIME_DEPENDENT: bool = S::TIME_DEPENDENT;
+    const SEPARABLE: bool = S::SEPARABLE;
+    const PSI_IDENTICALLY_ZERO: bool = S::PSI_IDENTICALLY_ZERO;
+    const EXACT_DIVIDED_DIFFERENCES: bool = S::EXACT_DIVIDED_DIFFERENCES;
+
+    #[inline]
+    fn value(&self, z: &SVector<f64, D>) -> f64 {
+        self.0.value(z)
+    }
+    #[inline]
+    fn gradient(&self, z: &SVector<f64, D>) -> SVector<f64, D> {
+        self.0.gradient(z)
+    }
+    #[inline]
+    fn hessian(&self, z: &SVector<f64, D>) -> SMatrix<f64, D, D> {
+        self.0.hessian(z)
+    }
+    #[inline]
+    fn psi(&self, z: &SVector<f64, D>) -> f64 {
+        self.0.psi(z)
+    }
+    #[inline]
+    fn derivatives(&self, z: &SVector<f64, D>) -> dth::Derivatives<D> {
+        self.0.derivatives(z)
+    }
+    #[inline]
+    fn discrete_gradient(&self, z0: &SVector<f64, D>, z1: &SVector<f64, D>) -> SVector<f64, D> {
+        self.0.discrete_gradient(z0, z1)
+    }
+    #[inline]
+    fn discrete_gradient_defect(
+        &self,
+        z0: &SVector<f64, D>,
+        z1: &SVector<f64, D>,
+        gbar: &SVector<f64, D>,
+    ) -> SVector<f64, D> {
+        self.0.discrete_gradient_defect(z0, z1, gbar)
+    }
+    #[inline]
+    fn energy_difference(&self, z0: &SVector<f64, D>, z1: &SVector<f64, D>) -> f64 {
+        self.0.energy_difference(z0, z1)
+    }
+}
+
+impl<const D: usize, S: SceneSystem<D>> SceneSystem<D> for WithoutDth<S> {
+    const HAS_PERIOD: bool = S::HAS_PERIOD;
+    const HAS_EXACT: bool = S::HAS_EXACT;
+    const CENTRAL_FORCE: bool = S::CENTRAL_FORCE;
+
+    fn invariant_names(&self) -> &'static [&'static str] {
+        self.0.invariant_names()
+    }
+
+    fn invariants(&self, z: &SVector<f64, D>, out: &mut [f64]) {
+        self.0.invariants(z, out);
+    }
+
+    fn exact_solution(&self, z0: &SVector<f64, D>, t: f64) -> Option<SVector<f64, D>> {
+        self.0.exact_solution(z0, t)
+    }
+
+    fn period(&self, z0: &SVector<f64, D>) -> Option<f64> {
+        self.0.period(z0)
+    }
+
+    fn run_discrete_mechanics<O: Observer<D>>(
+        &self,
+        dt: f64,
+        z0: SVector<f64, D>,
+        t0: f64,
+        stop: Stop,
+        observer: &mut O,
+    ) -> Option<Result<RunEnd<D>, MethodFailure>> {
+        self.0.run_discrete_mechanics(dt, z0, t0, stop, observer)
+    }
+
+    /// `None`: DTH is not offered (see [`WithoutDth`]).
+    fn run_dth<O: Observer<D>>(
+        &self,
+        runner: &DthRunner,
+        z0: SVector<f64, D>,
+        t0: f64,
+        stop: Stop,
+        observer: &mut O,
+    ) -> Option<Result<RunEnd<D>, MethodFailure>> {
+        let _ = (runner, z0, t0, stop, observer);
+        None
+    }
+}
