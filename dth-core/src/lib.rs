@@ -13,6 +13,7 @@ pub mod hamiltonian;
 pub mod kepler;
 mod linalg;
 pub mod methods;
+mod newton;
 pub mod systems;
 
 pub use error::Error;

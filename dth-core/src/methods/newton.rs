@@ -1,34 +1,20 @@
-//! The Newton solver shared by the implicit peer methods.
+//! The Newton iteration of the implicit peer methods: [`NewtonOptions`] and the peers' adapter
+//! of the crate's Newton loop.
 //!
-//! # Stopping rule
-//! Let `delta_i` be the `i`-th Newton update and `rho_i = |delta_i|_inf / s` its size relative
-//! to the scale `s` of the state (the caller's `scale`, or `|x|_inf` if larger). The iteration
-//! stops with success only when
-//! 1. `rho_i = 0`, or the estimated remaining error `rho_i theta_i / (1 - theta_i)`, with the
-//!    observed contraction `theta_i = rho_i / rho_{i-1} < 1`, is below `eps / 1024`: further
-//!    iterations cannot change the result beyond rounding noise (this is what ends a
-//!    quadratically converging Newton: `rho ~ 1e-16` after `1e-8` gives `theta ~ 1e-8`); or
-//! 2. `rho_i <= stall_tolerance` **and** `rho_i > rho_{i-1} / 2`: the updates have stopped
-//!    shrinking (Newton converges quadratically, the quasi-Newton variants linearly with a
-//!    contraction of `O(dt^2)`), so what is left is the noise of evaluating the residual in
-//!    floating point.
-//!
-//! Stopping as soon as `rho_i <= 4 eps` is *not* enough: a linearly converging iteration then
-//! leaves a remainder of a consistent sign, and the discrete-gradient energy drifted linearly
-//! (3.6e-17 per step on the thesis Kepler orbit, 3.6e-13 after 10^4 steps); iterating to the
-//! noise floor turns that into a random walk (3.5e-14 after 10^4 steps). Rule 1 still ends
-//! quadratic convergence one iteration early (its remainder estimate is reliable there), while
-//! a linear contraction (`theta ~ 0.1`) has to reach the noise floor.
-//!
-//! Updates that stop shrinking above `stall_tolerance` are *not* accepted: the iteration goes on
-//! and fails with [`Error::MethodNotConverged`] at `max_iterations`, reporting the residual.
-//! A failed linear solve is [`Error::MethodSingularMatrix`], a NaN or infinity is
-//! [`Error::MethodNonFinite`]. So a returned value is always converged to roundoff (up to
-//! `stall_tolerance`, whose default is `1024 eps`, and then only where the updates had already
-//! stopped shrinking).
+//! Newton stops by the crate's one stopping rule (`crate::newton`) with the peers' parameters:
+//! relative updates `rho_i = |delta_i|_inf / s`, with `s` the scale of the state (the caller's
+//! `scale`, or `|x|_inf` if larger); success on `rho_i = 0`, on a remaining error estimated
+//! below `eps / 1024` from the observed contraction, or on updates that stopped shrinking below
+//! [`NewtonOptions::stall_tolerance`]; no residual gate. So a returned value is converged to
+//! roundoff (up to `stall_tolerance`, whose default is `1024 eps`, and then only where the
+//! updates had already stopped shrinking). Updates that stop shrinking above `stall_tolerance`
+//! are *not* accepted: the iteration goes on and fails with [`Error::MethodNotConverged`] at
+//! `max_iterations`, reporting the residual. A failed linear solve is
+//! [`Error::MethodSingularMatrix`], a NaN or infinity is [`Error::MethodNonFinite`].
 
 use nalgebra::SMatrix;
 
+use crate::newton::{self, Convergence, PEERS};
 use crate::Error;
 
 /// Settings of the Newton iteration of the implicit peer methods.
@@ -45,8 +31,8 @@ use crate::Error;
 pub struct NewtonOptions {
     /// Iteration limit per step; default 50.
     pub max_iterations: usize,
-    /// Relative update size below which a stalled iteration counts as converged (rule 2 of the
-    /// module docs); default `1024 eps` (about `2.3e-13`).
+    /// Relative update size below which a stalled iteration counts as converged (see the module
+    /// docs); default `1024 eps` (about `2.3e-13`).
     pub stall_tolerance: f64,
 }
 
@@ -87,9 +73,6 @@ impl NewtonOptions {
     }
 }
 
-/// Rule 1 of the module docs: the estimated remaining error, relative, below 1/1024 ulp.
-const REMAINDER: f64 = f64::EPSILON / 1024.0;
-
 /// One Newton evaluation: the residual `F(x)` and the update `delta = A^{-1} F(x)` (`None` when
 /// the matrix `A` is singular). The iterate moves to `x - delta`.
 pub(crate) struct Evaluation<const R: usize, const C: usize> {
@@ -104,58 +87,51 @@ pub(crate) fn solve<const R: usize, const C: usize>(
     options: &NewtonOptions,
     x0: SMatrix<f64, R, C>,
     scale: f64,
-    mut evaluate: impl FnMut(&SMatrix<f64, R, C>) -> Evaluation<R, C>,
+    evaluate: impl Fn(&SMatrix<f64, R, C>) -> Evaluation<R, C>,
 ) -> Result<(SMatrix<f64, R, C>, usize), Error> {
     let mut x = x0;
-    let mut previous = f64::INFINITY;
-    for iteration in 1..=options.max_iterations {
-        let Evaluation { residual, delta } = evaluate(&x);
-        let residual_norm = residual.amax();
-        if !residual_norm.is_finite() {
-            return Err(Error::MethodNonFinite {
-                method,
-                step: 0,
-                what: "Newton residual",
-            });
-        }
-        let Some(delta) = delta else {
-            return Err(Error::MethodSingularMatrix {
-                method,
-                step: 0,
-                iteration,
-                residual: residual_norm,
-            });
-        };
-        x -= delta;
-        let size = delta.amax();
-        if !size.is_finite() {
-            return Err(Error::MethodNonFinite {
-                method,
-                step: 0,
-                what: "Newton update",
-            });
-        }
-        let rho = size / scale.max(x.amax()).max(f64::MIN_POSITIVE);
-        // Contraction theta = rho_i / rho_{i-1}; remaining error about rho theta / (1 - theta).
-        let theta = rho / previous;
-        // Not on the first iteration: no contraction observed yet (theta = 0 there).
-        let remainder_negligible =
-            previous.is_finite() && theta < 1.0 && rho * theta / (1.0 - theta) <= REMAINDER;
-        if rho == 0.0
-            || remainder_negligible
-            || (rho <= options.stall_tolerance && rho > 0.5 * previous)
-        {
-            return Ok((x, iteration));
-        }
-        previous = rho;
-    }
-    let residual = evaluate(&x).residual.amax();
-    Err(Error::MethodNotConverged {
-        method,
-        step: 0,
-        iterations: options.max_iterations,
-        residual,
-    })
+    let iterations = newton::solve(
+        Convergence::new(PEERS, options.max_iterations),
+        options.stall_tolerance,
+        &mut x,
+        |x, iteration| {
+            let Evaluation { residual, delta } = evaluate(x);
+            let residual_norm = residual.amax();
+            if !residual_norm.is_finite() {
+                return Err(Error::MethodNonFinite {
+                    method,
+                    step: 0,
+                    what: "Newton residual",
+                });
+            }
+            let Some(delta) = delta else {
+                return Err(Error::MethodSingularMatrix {
+                    method,
+                    step: 0,
+                    iteration,
+                    residual: residual_norm,
+                });
+            };
+            *x -= delta;
+            let size = delta.amax();
+            if !size.is_finite() {
+                return Err(Error::MethodNonFinite {
+                    method,
+                    step: 0,
+                    what: "Newton update",
+                });
+            }
+            Ok(size / scale.max(x.amax()).max(f64::MIN_POSITIVE))
+        },
+        |_| true,
+        |x, iterations| Error::MethodNotConverged {
+            method,
+            step: 0,
+            iterations,
+            residual: evaluate(x).residual.amax(),
+        },
+    )?;
+    Ok((x, iterations))
 }
 
 #[cfg(test)]
