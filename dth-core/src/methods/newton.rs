@@ -1,5 +1,6 @@
-//! The Newton iteration of the implicit peer methods: [`NewtonOptions`] and the peers' adapter
-//! of the crate's Newton loop.
+//! The Newton iteration of the implicit peer methods: [`NewtonOptions`], the peers' adapter of
+//! the crate's Newton loop, and the one-stage step shared by the midpoint, trapezoidal,
+//! discrete-gradient and discrete-mechanics methods.
 //!
 //! Newton stops by the crate's one stopping rule (`crate::newton`) with the peers' parameters:
 //! relative updates `rho_i = |delta_i|_inf / s`, with `s` the scale of the state (the caller's
@@ -12,10 +13,12 @@
 //! `max_iterations`, reporting the residual. A failed linear solve is
 //! [`Error::MethodSingularMatrix`], a NaN or infinity is [`Error::MethodNonFinite`].
 
-use nalgebra::SMatrix;
+use nalgebra::{SMatrix, SVector};
 
+use super::newton_matrix;
+use crate::linalg as linear;
 use crate::newton::{self, Convergence, PEERS};
-use crate::Error;
+use crate::{j_times, Error, Hamiltonian};
 
 /// Settings of the Newton iteration of the implicit peer methods.
 ///
@@ -132,6 +135,30 @@ pub(crate) fn solve<const R: usize, const C: usize>(
         },
     )?;
     Ok((x, iterations))
+}
+
+/// One step of a one-stage implicit method from `z0`: Newton on `F(z1) = 0` from the explicit
+/// Euler predictor `z0 + dt J grad H(z0)`, with the matrix `I - (dt/2) J Hess H(y)`.
+/// `equation(z1, grad H(z0))` returns `F(z1)` and the point `y` (the midpoint `(z0 + z1)/2`,
+/// or `z1` for the trapezoidal rule). The Newton iterations are added to `iterations`.
+pub(crate) fn one_stage<H: Hamiltonian<D>, const D: usize>(
+    method: &'static str,
+    options: &NewtonOptions,
+    iterations: &mut usize,
+    h: &H,
+    z0: &SVector<f64, D>,
+    dt: f64,
+    equation: impl Fn(&SVector<f64, D>, &SVector<f64, D>) -> (SVector<f64, D>, SVector<f64, D>),
+) -> Result<SVector<f64, D>, Error> {
+    let g0 = h.gradient(z0);
+    let predictor = z0 + j_times(&g0) * dt;
+    let (z1, n) = solve(method, options, predictor, z0.amax(), |z1| {
+        let (residual, y) = equation(z1, &g0);
+        let delta = linear::solve(newton_matrix(0.5 * dt, &h.hessian(&y)), residual);
+        Evaluation { residual, delta }
+    })?;
+    *iterations += n;
+    Ok(z1)
 }
 
 #[cfg(test)]
