@@ -1,6 +1,6 @@
 //! Thesis Table 4.1, fixed-step rows: Kepler `H = p1^2 + p2^2 - 1/r` from q = (0.5, 0),
 //! p = (0, 1.2), dt = 0.15, 10,000 steps; average absolute deviation over k = 1..N of energy and
-//! angular momentum from their initial values (NOTES.md, "Table 4.1").
+//! angular momentum from their initial values.
 //!
 //! Acceptance: entries that are not at roundoff within 1% of the thesis; roundoff entries at
 //! most 3e-14.
@@ -13,7 +13,7 @@ use dth_core::Hamiltonian;
 
 const DT: f64 = 0.15;
 const STEPS: usize = 10_000;
-/// The bound for entries at roundoff: ~135 eps for O(1) quantities averaged over 10^4
+/// The bound for entries at roundoff: ~135 eps for O(1) quantities averaged over 10^4
 /// steps of a random walk of per-step roundoff (eps sqrt(N) ~ 2e-14 at worst).
 const ROUNDOFF: f64 = 3e-14;
 
