@@ -29,7 +29,7 @@
 //! | `tiny` | `4 eps` | `0` |
 //! | `remainder` | `4 eps` | `eps / 1024` |
 //! | exact halving stalls | yes | no |
-//! | `stall` | option (`2^-40`), raised per iterate to the plain energy residual's roundoff | option (`1024 eps`) |
+//! | `stall` | option `2^-40`, raised to the plain residual's noise | option `1024 eps` |
 //! | gate | scaled residual below the residual tolerance | none |
 //!
 //! The DTH solvers accept nothing on the update size alone: every stop is gated on the scaled

@@ -169,6 +169,51 @@ impl<const D: usize> Eval<D> {
             _ => options.stall_tolerance(),
         }
     }
+
+    /// The residual gate of the stopping rule at the iterate `(z, lambda)` evaluated here.
+    fn passes(&self, options: &DthOptions, last: Option<&Linearization<D>>, lambda: f64) -> bool {
+        self.residual(last, lambda) <= options.residual_tolerance()
+    }
+
+    /// The failure of a segment solve after `iterations` Newton iterations (LU factorizations),
+    /// at the iterate `(z, lambda)` evaluated here.
+    fn diverged(
+        &self,
+        last: Option<&Linearization<D>>,
+        lambda: f64,
+        iterations: u32,
+        step: usize,
+    ) -> Error {
+        Error::NewtonDiverged {
+            step,
+            iterations,
+            residual: self.residual(last, lambda),
+        }
+    }
+
+    /// The end of a segment solve at the iterate `(z, lambda)` evaluated here, after
+    /// `iterations` Newton iterations (LU factorizations): the segment when Newton has
+    /// converged, the failure when it has diverged, `None` to go on.
+    fn finish(
+        &self,
+        status: Status,
+        (z, lambda): (SVector<f64, D>, f64),
+        last: Option<&Linearization<D>>,
+        iterations: u32,
+        step: usize,
+    ) -> Option<Result<Segment<D>, Error>> {
+        match status {
+            Status::Converged => Some(Ok(Segment {
+                zbar: z,
+                lambda,
+                derivatives: self.d,
+                iterations,
+                factorizations: iterations,
+            })),
+            Status::Diverged => Some(Err(self.diverged(last, lambda, iterations, step))),
+            Status::Continue => None,
+        }
+    }
 }
 
 fn pivot_error(p: Pivot, step: usize) -> Error {
@@ -506,27 +551,10 @@ fn joint<H: Hamiltonian<D>, const D: usize>(
                 stop = None;
             }
         }
+        let status = convergence.status(stop, || e.passes(options, last, lambda));
         let iterations = count(convergence.iterations());
-        match convergence.status(stop, || {
-            e.residual(last, lambda) <= options.residual_tolerance()
-        }) {
-            Status::Converged => {
-                return Ok(Segment {
-                    zbar: z,
-                    lambda,
-                    derivatives: e.d,
-                    iterations,
-                    factorizations: iterations,
-                })
-            }
-            Status::Diverged => {
-                return Err(Error::NewtonDiverged {
-                    step,
-                    iterations,
-                    residual: e.residual(last, lambda),
-                })
-            }
-            Status::Continue => {}
+        if let Some(end) = e.finish(status, (z, lambda), last, iterations, step) {
+            return end;
         }
         linearize(&e, h, lambda, step, &mut lin)?;
         cf_update = e.cf.is_some();
@@ -607,34 +635,15 @@ fn nested<H: Hamiltonian<D>, const D: usize>(
                 Ok(dz.amax() / s.z.amax().max(f64::MIN_POSITIVE))
             },
             |s| s.e.f_residual <= options.residual_tolerance(),
-            |s, _| Error::NewtonDiverged {
-                step,
-                iterations: s.factorizations,
-                residual: s.e.residual(last, lambda),
-            },
+            |s, _| s.e.diverged(last, lambda, s.factorizations, step),
         )?;
         (z, factorizations) = (inner.z, inner.factorizations);
         // Outer Newton (thesis 4.1.1) on g(lambda) = H(z(h, lambda)) - E.
-        match outer.check(e.stall(options, last, lambda), || {
-            e.residual(last, lambda) <= options.residual_tolerance()
-        }) {
-            Status::Converged => {
-                return Ok(Segment {
-                    zbar: z,
-                    lambda,
-                    derivatives: e.d,
-                    iterations: factorizations,
-                    factorizations,
-                })
-            }
-            Status::Diverged => {
-                return Err(Error::NewtonDiverged {
-                    step,
-                    iterations: factorizations,
-                    residual: e.residual(last, lambda),
-                })
-            }
-            Status::Continue => {}
+        let status = outer.check(e.stall(options, last, lambda), || {
+            e.passes(options, last, lambda)
+        });
+        if let Some(end) = e.finish(status, (z, lambda), last, factorizations, step) {
+            return end;
         }
         linearize(&e, h, lambda, step, &mut lin)?;
         factorizations += 1;

@@ -98,14 +98,15 @@ pub(crate) fn solve<const R: usize, const C: usize>(
         options.stall_tolerance,
         &mut x,
         |x, iteration| {
+            let non_finite = |what| Error::MethodNonFinite {
+                method,
+                step: 0,
+                what,
+            };
             let Evaluation { residual, delta } = evaluate(x);
             let residual_norm = residual.amax();
             if !residual_norm.is_finite() {
-                return Err(Error::MethodNonFinite {
-                    method,
-                    step: 0,
-                    what: "Newton residual",
-                });
+                return Err(non_finite("Newton residual"));
             }
             let Some(delta) = delta else {
                 return Err(Error::MethodSingularMatrix {
@@ -118,11 +119,7 @@ pub(crate) fn solve<const R: usize, const C: usize>(
             *x -= delta;
             let size = delta.amax();
             if !size.is_finite() {
-                return Err(Error::MethodNonFinite {
-                    method,
-                    step: 0,
-                    what: "Newton update",
-                });
+                return Err(non_finite("Newton update"));
             }
             Ok(size / scale.max(x.amax()).max(f64::MIN_POSITIVE))
         },
