@@ -51,10 +51,12 @@ fn table_4_1_dth_rows_at_thesis_settings() {
         "DTH Table 4.1: midpoints E {e_mid:.3e} L {l_mid:.3e}; vertices E {e_vert:.3e} \
          L {l_vert:.3e}; mean lambda {mean_lambda:.4}; orbits at step 9,999: {orbits:.2}"
     );
-    println!(
-        "mean Newton iterations per step (joint): {:.3}",
-        mean(t.iterations()[1..].iter().map(|&i| f64::from(i)))
-    );
+    let iterations = mean(t.iterations()[1..].iter().map(|&i| f64::from(i)));
+    println!("mean Newton iterations per step (joint): {iterations:.3}");
+    // Newton's cost at the thesis settings: 3.90 iterations per step (joint, measured). A
+    // stopping rule that stops later or a worse predictor shows here: one more iteration per
+    // step would be 4.9.
+    assert!(iterations <= 3.95, "{iterations}");
     // Non-roundoff entries within 1% of the thesis's values.
     assert!(
         (l_mid / 8.204e-4 - 1.0).abs() < 0.01,
