@@ -36,10 +36,10 @@
 //! residual, evaluated cancellation-free where the energy equation allows it, so stopping at a
 //! `4 eps` update or a `4 eps` remainder costs no accuracy, and iterating further would only
 //! chase the residual's roundoff floor (with the peers' parameters the thesis Kepler run takes
-//! 4.09 joint iterations per step instead of 3.90). (A quadratic remainder model `u theta^2` would save an
-//! iteration per step but stops with a truncation error of about `1e-18` that is systematic,
-//! not random: on the thesis Kepler run it drifted the vertex angular momentum to `4.6e-14`
-//! over `10^4` steps, against `2.5e-15` with the linear bound.)
+//! 4.09 joint iterations per step instead of 3.90). A quadratic remainder model `u theta^2`
+//! would save an iteration per step but stops with a truncation error of about `1e-18` that is
+//! systematic, not random: on the thesis Kepler run it drifted the vertex angular momentum to
+//! `4.6e-14` over `10^4` steps, against `2.5e-15` with the linear bound.
 //!
 //! The peers have no residual gate and some of them (discrete gradient, discrete mechanics)
 //! are quasi-Newton iterations converging linearly with a contraction of `O(dt^2)`. Stopping

@@ -13,7 +13,7 @@ use crate::{j_times, Error, Hamiltonian};
 /// the energy is conserved exactly (to roundoff once the nonlinear equation is solved to
 /// roundoff). The Newton matrix is `I - (dt/2) J Hess H((z0 + z1)/2)`, the Jacobian up to
 /// `O(dt |z1 - z0|)`: the iteration contracts by `O(dt^2)` per step and is run to roundoff by
-/// the shared stopping rule.
+/// the stopping rule of [`NewtonOptions`].
 ///
 /// On an extended phase space (time-dependent `H`) the Gonzalez correction moves the `t`
 /// coordinate by `O(dt^3)` per step relative to `dt`; the state stays second-order accurate.

@@ -23,7 +23,7 @@ use crate::Error;
 ///
 /// Newton on `z1` with the matrix `I - (dt/2) J Hess H((z0 + z1)/2)`: exact in the `q` rows,
 /// correct to `O(dt |z1 - z0|)` in the `p` rows, so the iteration contracts by `O(dt^2)` and is
-/// run to roundoff by the shared stopping rule.
+/// run to roundoff by the stopping rule of [`NewtonOptions`].
 ///
 /// # References
 /// D. Greenspan, *Conservative numerical methods for x'' = f(x)*, J. Comput. Phys. 56 (1984)

@@ -2,16 +2,8 @@
 //! the crate's Newton loop, and the one-stage step shared by the midpoint, trapezoidal,
 //! discrete-gradient and discrete-mechanics methods.
 //!
-//! Newton stops by the crate's one stopping rule (`crate::newton`) with the peers' parameters:
-//! relative updates `rho_i = |delta_i|_inf / s`, with `s` the scale of the state (the caller's
-//! `scale`, or `|x|_inf` if larger); success on `rho_i = 0`, on a remaining error estimated
-//! below `eps / 1024` from the observed contraction, or on updates that stopped shrinking below
-//! [`NewtonOptions::stall_tolerance`]; no residual gate. So a returned value is converged to
-//! roundoff (up to `stall_tolerance`, whose default is `1024 eps`, and then only where the
-//! updates had already stopped shrinking). Updates that stop shrinking above `stall_tolerance`
-//! are *not* accepted: the iteration goes on and fails with [`Error::MethodNotConverged`] at
-//! `max_iterations`, reporting the residual. A failed linear solve is
-//! [`Error::MethodSingularMatrix`], a NaN or infinity is [`Error::MethodNonFinite`].
+//! Newton stops by the crate's one stopping rule (`crate::newton`, where it is documented) with
+//! the peers' parameters, summarised for users on [`NewtonOptions`].
 
 use nalgebra::{SMatrix, SVector};
 
@@ -21,6 +13,17 @@ use crate::newton::{self, Convergence, PEERS};
 use crate::{j_times, Error, Hamiltonian};
 
 /// Settings of the Newton iteration of the implicit peer methods.
+///
+/// Newton measures each update relative to the state (`|delta|_inf` over the larger of
+/// `|x|_inf` and the size of the step's initial state) and stops with success when an update
+/// is zero, when the error left after it, estimated from the observed contraction, is below
+/// `eps / 1024`, or when updates no longer halve below
+/// [`stall_tolerance`](Self::stall_tolerance): a returned value is converged to roundoff.
+/// Linearly converging iterations (the discrete-gradient and discrete-mechanics methods) are
+/// thus run to the noise floor, so that their remainder does not drift the invariants. Updates
+/// that stop shrinking above `stall_tolerance` are not accepted: the step fails with
+/// [`Error::MethodNotConverged`] at `max_iterations`, reporting the residual. A failed linear
+/// solve is [`Error::MethodSingularMatrix`], a NaN or infinity [`Error::MethodNonFinite`].
 ///
 /// ```
 /// use dth_core::methods::NewtonOptions;
@@ -34,8 +37,8 @@ use crate::{j_times, Error, Hamiltonian};
 pub struct NewtonOptions {
     /// Iteration limit per step; default 50.
     pub max_iterations: usize,
-    /// Relative update size below which a stalled iteration counts as converged (see the module
-    /// docs); default `1024 eps` (about `2.3e-13`).
+    /// Relative update size below which updates that no longer halve count as stalled at
+    /// roundoff, i.e. converged; default `1024 eps` (about `2.3e-13`).
     pub stall_tolerance: f64,
 }
 
@@ -83,8 +86,8 @@ pub(crate) struct Evaluation<const R: usize, const C: usize> {
     pub delta: Option<SMatrix<f64, R, C>>,
 }
 
-/// Solves `F(x) = 0` from `x0`; `scale` is the size of the state the unknowns belong to (see the
-/// module docs). Returns the solution and the number of iterations.
+/// Solves `F(x) = 0` from `x0`; `scale` is the size of the state the unknowns belong to (see
+/// [`NewtonOptions`]). Returns the solution and the number of iterations.
 pub(crate) fn solve<const R: usize, const C: usize>(
     method: &'static str,
     options: &NewtonOptions,
