@@ -1,6 +1,6 @@
-//! Cost of the hard-cases machinery per step (issue 6): plain vs cancellation-free energy
-//! residual on the thesis Kepler orbit, and the robust mode on Kepler e = 0.9 (mostly fallback
-//! steps) against plain DTH steps. Each group times 1,000 steps; compare within a group.
+//! Cost of the hard-cases machinery per step: plain vs cancellation-free energy residual on the
+//! thesis Kepler orbit, and the robust mode on Kepler e = 0.9 (mostly fallback steps) against
+//! plain DTH steps. Each group times 1,000 steps; compare within a group.
 
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
 use dth_core::dth::{Dth, DthOptions, EnergyResidual};

@@ -4,6 +4,16 @@
 //! Phase-space convention: `z = (q1..qn, p1..pn)`, `D = 2n`, `J = [[0, I], [-I, 0]]`.
 //! A time-dependent Hamiltonian lives in the extended phase space of the paper's Theorem 1,
 //! `z = (q1..qn, t, p1..pn, p_t)`, `D = 2n + 2`, with `calH = p_t + H(t, q, p)`.
+//!
+//! # Layers
+//! Each layer imports only from the layers above it:
+//! 1. [`error`], [`hamiltonian`] (the traits), [`observer`] (the one per-step protocol every
+//!    integrator reports to), `linalg` (small dense LU) and `newton` (the one Newton stopping
+//!    rule and loop);
+//! 2. [`systems`] (concrete Hamiltonians), then [`kepler`] (the exact Kepler solution);
+//! 3. [`methods`] (the peer integrators), then [`dth`] (the DTH stepper, whose robust mode
+//!    steps with a peer);
+//! 4. [`diagnostics`] (invariants and errors of computed trajectories).
 #![warn(missing_docs)]
 
 pub mod diagnostics;
@@ -13,6 +23,7 @@ pub mod hamiltonian;
 pub mod kepler;
 mod linalg;
 pub mod methods;
+mod newton;
 pub mod observer;
 pub mod systems;
 

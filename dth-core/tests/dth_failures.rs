@@ -132,9 +132,9 @@ fn runs_resume_and_a_no_op_observer_stores_nothing() {
 #[test]
 fn no_positive_root_beyond_e_0_79_is_a_breakdown_before_newton() {
     // Kepler with q = (0.5, 0), p = (0, 1.38): e ~ 0.90, beyond sqrt(5/8) where Psi changes
-    // sign along the orbit (NOTES.md), and dtau = 0.2: the step has no positive root near
-    // lambda_0 (Newton used to converge to a negative one). The sign change of Psi at the
-    // predicted midpoint is caught before Newton runs (issue 6).
+    // sign along the orbit, and dtau = 0.2: the step has no positive root near lambda_0
+    // (Newton used to converge to a negative one). The sign change of Psi at the predicted
+    // midpoint is caught before Newton runs.
     let options = DthOptions::default().with_dtau(0.2).expect("valid");
     let z0 = Vector4::new(0.5, 0.0, 0.0, 1.38);
     let e = integrate(Kepler::thesis(), z0, options, 100).expect_err("no positive root");

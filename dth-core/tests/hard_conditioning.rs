@@ -1,4 +1,4 @@
-//! Conditioning of the DTH step as dtau -> 0 (issue 6): with the cancellation-free energy
+//! Conditioning of the DTH step as dtau -> 0: with the cancellation-free energy
 //! residual, lambda is computed to machine precision against a double-double solve of the same
 //! step for every dtau from the thesis's 0.06277 down to 1e-6; the plain residual's error
 //! grows like eps / dtau^2 (the control that shows the comparison can fail).

@@ -1,7 +1,8 @@
-//! Issue 6, ordinary failures: every failure path of the DTH stepper returns its typed error
-//! variant, with data, checked before the first step where it can be, and keeps what was
-//! computed. (The stepper's own failure tests are in `dth_failures.rs`; these add the cases of
-//! the hard-cases issue.)
+//! Ordinary failures in hard cases: every failure path of the DTH stepper returns its typed
+//! error variant, with data, checked before the first step where it can be, and keeps what was
+//! computed. (The stepper's own failure tests are in `dth_failures.rs`; these add invalid
+//! options and parameters, near collisions, steps far too large, inconsistent discrete
+//! gradients, `Psi = 0` starts and the robust mode's own failure.)
 
 use dth_core::dth::{integrate, segment_from_vertex, Dth, DthOptions};
 use dth_core::nalgebra::{Matrix2, Matrix4, Vector2, Vector4};

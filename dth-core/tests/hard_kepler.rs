@@ -1,6 +1,6 @@
-//! Issue 6 on Kepler: eccentricities 0.44 and 0.7 at 25, 100 and 1000 points per orbit; 0.9,
-//! 0.99 and 0.999, where Psi changes sign along the orbit (above sqrt(5/8) ~ 0.79): a typed
-//! breakdown, then the robust mode through it; dtau from 0.2 down to 1e-6.
+//! DTH on hard Kepler orbits: eccentricities 0.44 and 0.7 at 25, 100 and 1000 points per
+//! orbit; 0.9, 0.99 and 0.999, where Psi changes sign along the orbit (above sqrt(5/8) ~ 0.79):
+//! a typed breakdown, then the robust mode through it; dtau from 0.2 down to 1e-6.
 //!
 //! Orbits start at pericentre q = (0.5, 0), p = (0, sqrt(1 + e)) (the thesis's orbit for
 //! e = 0.44; m = 1/2, k = 1), with lambda_0 = 1 there.

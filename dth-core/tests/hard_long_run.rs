@@ -1,4 +1,4 @@
-//! A million DTH steps on the thesis Kepler orbit (issue 6): energy at midpoints stays within
+//! A million DTH steps on the thesis Kepler orbit: energy at midpoints stays within
 //! 1e-13 of |H(zbar_0)| and angular momentum at vertices drifts only by roundoff. Runs under
 //! `cargo test` in the dev profile (measured ~4 s on the 2-core dev machine).
 
@@ -64,7 +64,7 @@ fn million_steps_energy_within_1e_13_of_h0_and_vertex_angular_momentum_bounded()
         d.lambda_min,
         d.lambda_max
     );
-    // Issue 6: within 1e-13 relative. Each midpoint is checked against H(zbar_0) and projected
+    // Within 1e-13 relative. Each midpoint is checked against H(zbar_0) and projected
     // onto it, so the deviation is the roundoff of evaluating H (a few eps of its terms, |T|,
     // |V| <= 4 here): it does not grow with N.
     assert!(rel <= 1e-13, "{rel:e}");

@@ -1,4 +1,4 @@
-//! Property tests over random initial conditions and steps (issue 6): never a panic, never a
+//! Property tests over random initial conditions and steps: never a panic, never a
 //! NaN; either Ok with the invariants (energy at every midpoint or node, lambda > 0, time
 //! increasing) or a typed error variant with a valid partial trajectory.
 

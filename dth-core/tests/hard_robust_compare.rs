@@ -1,4 +1,4 @@
-//! The robust mode against implicit midpoint at equal cost (issue 6): Kepler e = 0.9 and 0.99
+//! The robust mode against implicit midpoint at equal cost: Kepler e = 0.9 and 0.99
 //! and the pendulum in rotation. Cost = Newton iterations, each one evaluation of H's
 //! derivatives and one D x D LU factorization, for both (the DTH joint Newton, the fallback's
 //! discrete-gradient Newton and the midpoint rule's Newton all have that unit). The midpoint

@@ -1,4 +1,4 @@
-//! Issue 6 beyond Kepler: the pendulum near the separatrix on both sides, Henon-Heiles at
+//! Hard cases beyond Kepler: the pendulum near the separatrix on both sides, Henon-Heiles at
 //! E = 1/8 and 1/6, the forced oscillator through resonance.
 
 use dth_core::dth::{integrate, DthOptions, Trajectory};

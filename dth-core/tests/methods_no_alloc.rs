@@ -1,8 +1,7 @@
 //! No heap allocation per step: every peer, run through the driver with a no-op observer,
-//! allocates nothing (counted on this thread by a wrapping global allocator).
+//! allocates nothing (counted on this thread by the global allocator of `alloc_counter`).
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
+mod alloc_counter;
 
 use dth_core::methods::{
     run, DiscreteGradient, DiscreteMechanics, GaussLegendre2, ImplicitMidpoint, OneStepMethod, Rk4,
@@ -12,42 +11,15 @@ use dth_core::nalgebra::{SVector, Vector4};
 use dth_core::systems::{Kepler, TodaBoundary, TodaChain};
 use dth_core::Hamiltonian;
 
-struct Counting;
-
-thread_local! {
-    static ACTIVE: Cell<bool> = const { Cell::new(false) };
-    static COUNT: Cell<usize> = const { Cell::new(0) };
-}
-
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        let _ = ACTIVE.try_with(|a| {
-            if a.get() {
-                COUNT.with(|c| c.set(c.get() + 1));
-            }
-        });
-        unsafe { System.alloc(layout) }
-    }
-
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        unsafe { System.dealloc(ptr, layout) }
-    }
-}
-
-#[global_allocator]
-static GLOBAL: Counting = Counting;
-
 fn allocations<const D: usize, H: Hamiltonian<D>, M: OneStepMethod<D, H>>(
     mut method: M,
     h: &H,
     z0: &SVector<f64, D>,
 ) -> usize {
-    COUNT.with(|c| c.set(0));
-    ACTIVE.with(|a| a.set(true));
-    let end = run(&mut method, h, z0, 0.0, 0.05, 200, &mut ());
-    ACTIVE.with(|a| a.set(false));
+    let (end, allocations) =
+        alloc_counter::count(|| run(&mut method, h, z0, 0.0, 0.05, 200, &mut ()));
     assert!(end.is_ok());
-    COUNT.with(|c| c.get())
+    allocations
 }
 
 #[test]
@@ -73,11 +45,8 @@ fn peers_allocate_nothing_per_step() {
         ),
     ];
     // Control: the counter sees allocations at all.
-    COUNT.with(|c| c.set(0));
-    ACTIVE.with(|a| a.set(true));
-    let v = std::hint::black_box(vec![1u8; 16]);
-    ACTIVE.with(|a| a.set(false));
-    assert_eq!(COUNT.with(|c| c.get()), 1);
+    let (v, control) = alloc_counter::count(|| std::hint::black_box(vec![1u8; 16]));
+    assert_eq!(control, 1);
     drop(v);
     for (name, n) in counts {
         assert_eq!(n, 0, "{name} allocated {n} times in 200 steps");

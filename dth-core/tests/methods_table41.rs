@@ -14,7 +14,7 @@ use dth_core::Hamiltonian;
 
 const DT: f64 = 0.15;
 const STEPS: usize = 10_000;
-/// The bound for entries at roundoff: ~135 eps for O(1) quantities averaged over 10^4
+/// The bound for entries at roundoff: ~135 eps for O(1) quantities averaged over 10^4
 /// steps of a random walk of per-step roundoff (eps sqrt(N) ~ 2e-14 at worst).
 const ROUNDOFF: f64 = 3e-14;
 

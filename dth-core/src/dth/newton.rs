@@ -17,23 +17,19 @@
 //! `(h lambda/2) gradH^T J HessH z_lambda` (the dropped term `(h/2) gradH^T J gradH` is exactly
 //! zero), which keeps full relative accuracy.
 //!
-//! Stopping rule, on the relative update `u = max(|dz|/|z|, |dlambda|/|lambda|)`: stop when
-//! `u <= 4 eps`, when the error left after it, predicted from the contraction
-//! `theta = u_i / u_{i-1}` as `u theta / (1 - theta)`, is at most `4 eps`, or when `u` is below the
-//! stall tolerance and no longer halves (roundoff noise). In every case the scaled residual
-//! at the final iterate must be below the residual tolerance: otherwise Newton continues, and
-//! fails with [`Error::NewtonDiverged`] when `u <= 4 eps` or at the iteration limit. Nothing
-//! is accepted on the update size alone.
+//! Newton stops by the crate's one stopping rule ([`crate::newton`]) with the DTH parameters:
+//! relative updates `u = max(|dz|/|z|, |dlambda|/|lambda|)`, every stop gated on the scaled
+//! residual at the final iterate (nothing is accepted on the update size alone), and a stall
+//! tolerance raised per iterate to the roundoff floor of the plain energy residual (see
+//! `Eval::stall`). A gated stop that fails after an update of at most `4 eps`, or the iteration
+//! limit, is [`Error::NewtonDiverged`].
 
 use nalgebra::{SMatrix, SVector};
 
 use super::options::{DthOptions, Solver};
 use crate::linalg::{Lu, Pivot};
+use crate::newton::{self, Convergence, Status, DTH};
 use crate::{j_times, Derivatives, Error, Hamiltonian};
-
-/// Updates below this relative size always count as converged (they change `z` by at most a
-/// few units in the last place).
-const TIGHT: f64 = 4.0 * f64::EPSILON;
 
 /// Relative update below which joint Newton evaluates the cancellation-free residual at every
 /// iterate: from there, quadratic convergence can reach a stop at the next iterate.
@@ -171,6 +167,51 @@ impl<const D: usize> Eval<D> {
                 .max(8.0 * f64::EPSILON * noise / (lin.g_lambda * lambda).abs())
                 .min(0.5),
             _ => options.stall_tolerance(),
+        }
+    }
+
+    /// The residual gate of the stopping rule at the iterate `(z, lambda)` evaluated here.
+    fn passes(&self, options: &DthOptions, last: Option<&Linearization<D>>, lambda: f64) -> bool {
+        self.residual(last, lambda) <= options.residual_tolerance()
+    }
+
+    /// The failure of a segment solve after `iterations` Newton iterations (LU factorizations),
+    /// at the iterate `(z, lambda)` evaluated here.
+    fn diverged(
+        &self,
+        last: Option<&Linearization<D>>,
+        lambda: f64,
+        iterations: u32,
+        step: usize,
+    ) -> Error {
+        Error::NewtonDiverged {
+            step,
+            iterations,
+            residual: self.residual(last, lambda),
+        }
+    }
+
+    /// The end of a segment solve at the iterate `(z, lambda)` evaluated here, after
+    /// `iterations` Newton iterations (LU factorizations): the segment when Newton has
+    /// converged, the failure when it has diverged, `None` to go on.
+    fn finish(
+        &self,
+        status: Status,
+        (z, lambda): (SVector<f64, D>, f64),
+        last: Option<&Linearization<D>>,
+        iterations: u32,
+        step: usize,
+    ) -> Option<Result<Segment<D>, Error>> {
+        match status {
+            Status::Converged => Some(Ok(Segment {
+                zbar: z,
+                lambda,
+                derivatives: self.d,
+                iterations,
+                factorizations: iterations,
+            })),
+            Status::Diverged => Some(Err(self.diverged(last, lambda, iterations, step))),
+            Status::Continue => None,
         }
     }
 }
@@ -367,49 +408,8 @@ fn linearize<const D: usize>(
     Ok(())
 }
 
-/// Convergence bookkeeping on the relative update sizes.
-#[derive(Default)]
-pub(crate) struct Updates {
-    last: Option<f64>,
-    previous: Option<f64>,
-}
-
-impl Updates {
-    /// The last relative update.
-    pub(crate) fn last(&self) -> Option<f64> {
-        self.last
-    }
-    pub(crate) fn push(&mut self, u: f64) {
-        self.previous = self.last;
-        self.last = Some(u);
-    }
-    /// `Some(true)`: the update is at most `4 eps` (nothing left to gain: a residual above
-    /// tolerance is then a failure). `Some(false)`: the error left after the update,
-    /// predicted from the observed contraction `theta = u_i / u_{i-1}`, is at most `4 eps`,
-    /// or the update stalled at roundoff (below the stall tolerance and no longer halving):
-    /// stop if the residual passes, else keep iterating. `None`: keep iterating.
-    pub(crate) fn stopped(&self, stall: f64) -> Option<bool> {
-        let u = self.last?;
-        if u <= TIGHT {
-            return Some(true);
-        }
-        let p = self.previous?;
-        let theta = u / p;
-        // Error left after this update, bounded as for a linear contraction. (A quadratic model
-        // `u theta^2` would save one iteration per step, but stops with a truncation error of
-        // ~1e-18 that is systematic, not random: on the thesis Kepler run it drifted the vertex
-        // angular momentum to 4.6e-14 over 10^4 steps, against 2.5e-15 with this bound.)
-        if theta < 0.5 && u * theta / (1.0 - theta) <= TIGHT {
-            return Some(false);
-        }
-        if u <= stall && theta >= 0.5 {
-            return Some(false);
-        }
-        None
-    }
-}
-
-pub(crate) fn relative_update<const D: usize>(
+/// The DTH measure of an update: the larger of the relative changes of `z` and `lambda`.
+fn relative_update<const D: usize>(
     dz: &SVector<f64, D>,
     z: &SVector<f64, D>,
     dl: f64,
@@ -499,6 +499,16 @@ pub(crate) fn project_onto_energy<H: Hamiltonian<D>, const D: usize>(
     Ok((z, d))
 }
 
+/// A fresh stopping rule for one Newton solve of a segment.
+fn convergence(options: &DthOptions) -> Convergence {
+    Convergence::new(DTH, options.max_iterations() as usize)
+}
+
+/// An iteration count, at most [`DthOptions::max_iterations`] (a `u32`).
+fn count(iterations: usize) -> u32 {
+    u32::try_from(iterations).unwrap_or(u32::MAX)
+}
+
 fn joint<H: Hamiltonian<D>, const D: usize>(
     ham: &H,
     anchor: &Anchor<D>,
@@ -508,8 +518,7 @@ fn joint<H: Hamiltonian<D>, const D: usize>(
     step: usize,
 ) -> Result<Segment<D>, Error> {
     let h = options.dtau();
-    let mut updates = Updates::default();
-    let mut iterations = 0u32;
+    let mut convergence = convergence(options);
     // Workspace, overwritten in place each iteration.
     let mut e = Eval::empty();
     let mut lin = Linearization::empty();
@@ -517,8 +526,8 @@ fn joint<H: Hamiltonian<D>, const D: usize>(
     let mut cf_update = false;
     loop {
         evaluate(ham, anchor, h, &z, lambda, step, &mut e)?;
-        let last = (iterations > 0).then_some(&lin);
-        let mut stop = updates.stopped(e.stall(options, last, lambda));
+        let last = (convergence.iterations() > 0).then_some(&lin);
+        let mut stop = convergence.stop(e.stall(options, last, lambda));
         if let Some(p) = &anchor.previous {
             // The cancellation-free residual (a discrete gradient and its defect) only where it
             // can matter. Far from the solution (relative update above `CF_FROM`, and its
@@ -528,7 +537,7 @@ fn joint<H: Hamiltonian<D>, const D: usize>(
             // cancellation-free iterations remove it. Newton stops only at an iterate reached
             // by a cancellation-free update (below `CF_FROM` a stop after a plain update
             // cannot happen with quadratic convergence; if it does, one more iteration).
-            let near = match (updates.last(), last) {
+            let near = match (convergence.last(), last) {
                 (Some(u), Some(lin)) => {
                     u <= CF_FROM
                         || u * u <= 64.0 * f64::EPSILON * e.scale_r / (lin.g_lambda * lambda).abs()
@@ -542,31 +551,10 @@ fn joint<H: Hamiltonian<D>, const D: usize>(
                 stop = None;
             }
         }
-        if let Some(tiny) = stop {
-            let residual = e.residual(last, lambda);
-            if residual <= options.residual_tolerance() {
-                return Ok(Segment {
-                    zbar: z,
-                    lambda,
-                    derivatives: e.d,
-                    iterations,
-                    factorizations: iterations,
-                });
-            }
-            if tiny {
-                return Err(Error::NewtonDiverged {
-                    step,
-                    iterations,
-                    residual,
-                });
-            }
-        }
-        if iterations >= options.max_iterations() {
-            return Err(Error::NewtonDiverged {
-                step,
-                iterations,
-                residual: e.residual(last, lambda),
-            });
+        let status = convergence.status(stop, || e.passes(options, last, lambda));
+        let iterations = count(convergence.iterations());
+        if let Some(end) = e.finish(status, (z, lambda), last, iterations, step) {
+            return end;
         }
         linearize(&e, h, lambda, step, &mut lin)?;
         cf_update = e.cf.is_some();
@@ -577,15 +565,22 @@ fn joint<H: Hamiltonian<D>, const D: usize>(
         let dz = u + lin.z_lambda * dl;
         z += dz;
         lambda += dl;
-        iterations += 1;
         if !all_finite(&z) || !lambda.is_finite() {
             return Err(Error::NonFinite {
                 step,
                 what: "Newton iterate",
             });
         }
-        updates.push(relative_update(&dz, &z, dl, lambda));
+        convergence.push(relative_update(&dz, &z, dl, lambda));
     }
+}
+
+/// The inner Newton's iterate and workspace in [`nested`].
+struct Inner<'a, const D: usize> {
+    z: SVector<f64, D>,
+    e: &'a mut Eval<D>,
+    lu: &'a mut Lu<D>,
+    factorizations: u32,
 }
 
 fn nested<H: Hamiltonian<D>, const D: usize>(
@@ -597,106 +592,83 @@ fn nested<H: Hamiltonian<D>, const D: usize>(
     step: usize,
 ) -> Result<Segment<D>, Error> {
     let h = options.dtau();
-    let mut outer_updates = Updates::default();
-    let mut outer = 0u32;
+    let mut outer = convergence(options);
     let mut factorizations = 0u32;
     // Workspace, overwritten in place.
     let mut e = Eval::empty();
     let mut lin = Linearization::empty();
     let mut inner_lu = Lu::empty();
+    // Everything at an iterate, with the cancellation-free residual whenever the anchor has it.
+    let evaluate_at = |z: &SVector<f64, D>, lambda: f64, e: &mut Eval<D>| {
+        evaluate(ham, anchor, h, z, lambda, step, e)?;
+        match &anchor.previous {
+            Some(p) => add_cancellation_free(ham, p, h, z, lambda, step, e),
+            None => Ok(()),
+        }
+    };
     loop {
-        let last = (outer > 0).then_some(&lin);
-        // Inner Newton (thesis 4.1.2): z(h, lambda) at fixed lambda.
-        let mut inner_updates = Updates::default();
-        let mut inner = 0u32;
-        loop {
-            evaluate(ham, anchor, h, &z, lambda, step, &mut e)?;
-            if let Some(p) = &anchor.previous {
-                add_cancellation_free(ham, p, h, &z, lambda, step, &mut e)?;
-            }
-            if let Some(tiny) = inner_updates.stopped(options.stall_tolerance()) {
-                if e.f_residual <= options.residual_tolerance() {
-                    break;
-                }
-                if tiny {
-                    return Err(Error::NewtonDiverged {
+        let last = (outer.iterations() > 0).then_some(&lin);
+        // Inner Newton (thesis 4.1.2): z(h, lambda) at fixed lambda, on the residual f alone.
+        evaluate_at(&z, lambda, &mut e)?;
+        let mut inner = Inner {
+            z,
+            e: &mut e,
+            lu: &mut inner_lu,
+            factorizations,
+        };
+        newton::solve(
+            convergence(options),
+            options.stall_tolerance(),
+            &mut inner,
+            |s, _| {
+                factor_newton_matrix(s.lu, &s.e.d.hessian, 0.5 * h * lambda, step)?;
+                s.factorizations += 1;
+                let dz = s.lu.solve(&(-s.e.f));
+                s.z += dz;
+                if !all_finite(&s.z) {
+                    return Err(Error::NonFinite {
                         step,
-                        iterations: factorizations,
-                        residual: e.residual(last, lambda),
+                        what: "inner Newton iterate",
                     });
                 }
-            }
-            if inner >= options.max_iterations() {
-                return Err(Error::NewtonDiverged {
-                    step,
-                    iterations: factorizations,
-                    residual: e.residual(last, lambda),
-                });
-            }
-            factor_newton_matrix(&mut inner_lu, &e.d.hessian, 0.5 * h * lambda, step)?;
-            factorizations += 1;
-            let dz = inner_lu.solve(&(-e.f));
-            z += dz;
-            inner += 1;
-            if !all_finite(&z) {
-                return Err(Error::NonFinite {
-                    step,
-                    what: "inner Newton iterate",
-                });
-            }
-            inner_updates.push(dz.amax() / z.amax().max(f64::MIN_POSITIVE));
-        }
+                evaluate_at(&s.z, lambda, s.e)?;
+                Ok(dz.amax() / s.z.amax().max(f64::MIN_POSITIVE))
+            },
+            |s| s.e.f_residual <= options.residual_tolerance(),
+            |s, _| s.e.diverged(last, lambda, s.factorizations, step),
+        )?;
+        (z, factorizations) = (inner.z, inner.factorizations);
         // Outer Newton (thesis 4.1.1) on g(lambda) = H(z(h, lambda)) - E.
-        if let Some(tiny) = outer_updates.stopped(e.stall(options, last, lambda)) {
-            let residual = e.residual(last, lambda);
-            if residual <= options.residual_tolerance() {
-                return Ok(Segment {
-                    zbar: z,
-                    lambda,
-                    derivatives: e.d,
-                    iterations: factorizations,
-                    factorizations,
-                });
-            }
-            if tiny {
-                return Err(Error::NewtonDiverged {
-                    step,
-                    iterations: factorizations,
-                    residual,
-                });
-            }
-        }
-        if outer >= options.max_iterations() {
-            return Err(Error::NewtonDiverged {
-                step,
-                iterations: factorizations,
-                residual: e.residual(last, lambda),
-            });
+        let status = outer.check(e.stall(options, last, lambda), || {
+            e.passes(options, last, lambda)
+        });
+        if let Some(end) = e.finish(status, (z, lambda), last, factorizations, step) {
+            return end;
         }
         linearize(&e, h, lambda, step, &mut lin)?;
         factorizations += 1;
-        if e.cf.is_some() {
+        let dl = if e.cf.is_some() {
             // Eliminate the inner solve's remaining f to first order, as the joint update does:
             // its roundoff (eps h) must not reach lambda through gbar . f.
             let u = lin.lu.solve(&(-e.f));
             let dl = -(e.r + e.d.gradient.dot(&u)) / lin.g_lambda;
             lambda += dl;
             z += u + lin.z_lambda * dl;
-            outer_updates.push(dl.abs() / lambda.abs().max(f64::MIN_POSITIVE));
+            dl
         } else {
             let dl = -e.r / lin.g_lambda;
             lambda += dl;
             // Warm start of the next inner solve: first-order change of z(h, lambda).
             z += lin.z_lambda * dl;
-            outer_updates.push(dl.abs() / lambda.abs().max(f64::MIN_POSITIVE));
-        }
-        outer += 1;
+            dl
+        };
         if !lambda.is_finite() || !all_finite(&z) {
             return Err(Error::NonFinite {
                 step,
                 what: "outer Newton iterate",
             });
         }
+        outer.push(dl.abs() / lambda.abs().max(f64::MIN_POSITIVE));
     }
 }
 

@@ -2,9 +2,8 @@
 
 use nalgebra::SVector;
 
-use super::newton::{self, Evaluation, NewtonOptions};
-use super::{newton_matrix, OneStepMethod};
-use crate::linalg as linear;
+use super::newton::{self, NewtonOptions};
+use super::OneStepMethod;
 use crate::{j_times, Error, Hamiltonian};
 
 /// The discrete-gradient method `z1 = z0 + dt J gbar(z0, z1)`, with `gbar` the Hamiltonian's
@@ -14,7 +13,7 @@ use crate::{j_times, Error, Hamiltonian};
 /// the energy is conserved exactly (to roundoff once the nonlinear equation is solved to
 /// roundoff). The Newton matrix is `I - (dt/2) J Hess H((z0 + z1)/2)`, the Jacobian up to
 /// `O(dt |z1 - z0|)`: the iteration contracts by `O(dt^2)` per step and is run to roundoff by
-/// the shared stopping rule.
+/// the stopping rule of [`NewtonOptions`].
 ///
 /// On an extended phase space (time-dependent `H`) the Gonzalez correction moves the `t`
 /// coordinate by `O(dt^3)` per step relative to `dt`; the state stays second-order accurate.
@@ -51,23 +50,19 @@ impl<const D: usize, H: Hamiltonian<D>> OneStepMethod<D, H> for DiscreteGradient
     const ORDER: u32 = 2;
 
     fn step(&mut self, h: &H, z0: &SVector<f64, D>, dt: f64) -> Result<SVector<f64, D>, Error> {
-        let predictor = z0 + j_times(&h.gradient(z0)) * dt;
-        let (z1, iterations) = newton::solve(
-            <Self as OneStepMethod<D, H>>::NAME,
+        let name = <Self as OneStepMethod<D, H>>::NAME;
+        newton::one_stage(
+            name,
             &self.newton,
-            predictor,
-            z0.amax(),
-            |z1| {
+            &mut self.iterations,
+            h,
+            z0,
+            dt,
+            |z1, _| {
                 let residual = z1 - z0 - j_times(&h.discrete_gradient(z0, z1)) * dt;
-                let delta = linear::solve(
-                    newton_matrix(0.5 * dt, &h.hessian(&((z0 + z1) * 0.5))),
-                    residual,
-                );
-                Evaluation { residual, delta }
+                (residual, (z0 + z1) * 0.5)
             },
-        )?;
-        self.iterations += iterations;
-        Ok(z1)
+        )
     }
 
     fn newton_iterations(&self) -> usize {

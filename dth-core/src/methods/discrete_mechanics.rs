@@ -2,11 +2,10 @@
 
 use nalgebra::SVector;
 
-use super::newton::{self, Evaluation, NewtonOptions};
-use super::{newton_matrix, OneStepMethod};
-use crate::linalg as linear;
+use super::newton::{self, NewtonOptions};
+use super::OneStepMethod;
 use crate::systems::CentralForce;
-use crate::{j_times, Error};
+use crate::Error;
 
 /// Greenspan's energy- and angular-momentum-conserving discrete mechanics for
 /// `H = |p|^2 / (2m) + phi(|q|)` ([`CentralForce`]), `v = p / m`:
@@ -24,7 +23,7 @@ use crate::{j_times, Error};
 ///
 /// Newton on `z1` with the matrix `I - (dt/2) J Hess H((z0 + z1)/2)`: exact in the `q` rows,
 /// correct to `O(dt |z1 - z0|)` in the `p` rows, so the iteration contracts by `O(dt^2)` and is
-/// run to roundoff by the shared stopping rule.
+/// run to roundoff by the stopping rule of [`NewtonOptions`].
 ///
 /// # References
 /// D. Greenspan, *Conservative numerical methods for x'' = f(x)*, J. Comput. Phys. 56 (1984)
@@ -60,13 +59,15 @@ impl<const D: usize, H: CentralForce<D>> OneStepMethod<D, H> for DiscreteMechani
         let m = h.mass();
         let radius = |z: &SVector<f64, D>| z.rows(0, n).norm();
         let r0 = radius(z0);
-        let predictor = z0 + j_times(&h.gradient(z0)) * dt;
-        let (z1, iterations) = newton::solve(
-            <Self as OneStepMethod<D, H>>::NAME,
+        let name = <Self as OneStepMethod<D, H>>::NAME;
+        newton::one_stage(
+            name,
             &self.newton,
-            predictor,
-            z0.amax(),
-            |z1| {
+            &mut self.iterations,
+            h,
+            z0,
+            dt,
+            |z1, _| {
                 let r1 = radius(z1);
                 let force = h.phi_divided_difference(r0, r1) / (r1 + r0);
                 let mut residual = SVector::<f64, D>::zeros();
@@ -74,15 +75,9 @@ impl<const D: usize, H: CentralForce<D>> OneStepMethod<D, H> for DiscreteMechani
                     residual[i] = z1[i] - z0[i] - (0.5 * dt / m) * (z1[n + i] + z0[n + i]);
                     residual[n + i] = z1[n + i] - z0[n + i] + dt * force * (z1[i] + z0[i]);
                 }
-                let delta = linear::solve(
-                    newton_matrix(0.5 * dt, &h.hessian(&((z0 + z1) * 0.5))),
-                    residual,
-                );
-                Evaluation { residual, delta }
+                (residual, (z0 + z1) * 0.5)
             },
-        )?;
-        self.iterations += iterations;
-        Ok(z1)
+        )
     }
 
     fn newton_iterations(&self) -> usize {

@@ -2,9 +2,8 @@
 
 use nalgebra::SVector;
 
-use super::newton::{self, Evaluation, NewtonOptions};
-use super::{newton_matrix, OneStepMethod};
-use crate::linalg as linear;
+use super::newton::{self, NewtonOptions};
+use super::OneStepMethod;
 use crate::{j_times, Error, Hamiltonian};
 
 /// The implicit midpoint rule `z1 = z0 + dt J grad H((z0 + z1)/2)`.
@@ -43,21 +42,19 @@ impl<const D: usize, H: Hamiltonian<D>> OneStepMethod<D, H> for ImplicitMidpoint
     const ORDER: u32 = 2;
 
     fn step(&mut self, h: &H, z0: &SVector<f64, D>, dt: f64) -> Result<SVector<f64, D>, Error> {
-        let predictor = z0 + j_times(&h.gradient(z0)) * dt;
-        let (z1, iterations) = newton::solve(
-            <Self as OneStepMethod<D, H>>::NAME,
+        let name = <Self as OneStepMethod<D, H>>::NAME;
+        newton::one_stage(
+            name,
             &self.newton,
-            predictor,
-            z0.amax(),
-            |z1| {
+            &mut self.iterations,
+            h,
+            z0,
+            dt,
+            |z1, _| {
                 let zbar = (z0 + z1) * 0.5;
-                let residual = z1 - z0 - j_times(&h.gradient(&zbar)) * dt;
-                let delta = linear::solve(newton_matrix(0.5 * dt, &h.hessian(&zbar)), residual);
-                Evaluation { residual, delta }
+                (z1 - z0 - j_times(&h.gradient(&zbar)) * dt, zbar)
             },
-        )?;
-        self.iterations += iterations;
-        Ok(z1)
+        )
     }
 
     fn newton_iterations(&self) -> usize {

@@ -1,37 +1,29 @@
-//! The Newton solver shared by the implicit peer methods.
+//! The Newton iteration of the implicit peer methods: [`NewtonOptions`], the peers' adapter of
+//! the crate's Newton loop, and the one-stage step shared by the midpoint, trapezoidal,
+//! discrete-gradient and discrete-mechanics methods.
 //!
-//! # Stopping rule
-//! Let `delta_i` be the `i`-th Newton update and `rho_i = |delta_i|_inf / s` its size relative
-//! to the scale `s` of the state (the caller's `scale`, or `|x|_inf` if larger). The iteration
-//! stops with success only when
-//! 1. `rho_i = 0`, or the estimated remaining error `rho_i theta_i / (1 - theta_i)`, with the
-//!    observed contraction `theta_i = rho_i / rho_{i-1} < 1`, is below `eps / 1024`: further
-//!    iterations cannot change the result beyond rounding noise (this is what ends a
-//!    quadratically converging Newton: `rho ~ 1e-16` after `1e-8` gives `theta ~ 1e-8`); or
-//! 2. `rho_i <= stall_tolerance` **and** `rho_i > rho_{i-1} / 2`: the updates have stopped
-//!    shrinking (Newton converges quadratically, the quasi-Newton variants linearly with a
-//!    contraction of `O(dt^2)`), so what is left is the noise of evaluating the residual in
-//!    floating point.
-//!
-//! Stopping as soon as `rho_i <= 4 eps` is *not* enough: a linearly converging iteration then
-//! leaves a remainder of a consistent sign, and the discrete-gradient energy drifted linearly
-//! (3.6e-17 per step on the thesis Kepler orbit, 3.6e-13 after 10^4 steps); iterating to the
-//! noise floor turns that into a random walk (3.5e-14 after 10^4 steps). Rule 1 still ends
-//! quadratic convergence one iteration early (its remainder estimate is reliable there), while
-//! a linear contraction (`theta ~ 0.1`) has to reach the noise floor.
-//!
-//! Updates that stop shrinking above `stall_tolerance` are *not* accepted: the iteration goes on
-//! and fails with [`Error::MethodNotConverged`] at `max_iterations`, reporting the residual.
-//! A failed linear solve is [`Error::MethodSingularMatrix`], a NaN or infinity is
-//! [`Error::MethodNonFinite`]. So a returned value is always converged to roundoff (up to
-//! `stall_tolerance`, whose default is `1024 eps`, and then only where the updates had already
-//! stopped shrinking).
+//! Newton stops by the crate's one stopping rule (`crate::newton`, where it is documented) with
+//! the peers' parameters, summarised for users on [`NewtonOptions`].
 
-use nalgebra::SMatrix;
+use nalgebra::{SMatrix, SVector};
 
-use crate::Error;
+use super::newton_matrix;
+use crate::linalg as linear;
+use crate::newton::{self, Convergence, PEERS};
+use crate::{j_times, Error, Hamiltonian};
 
 /// Settings of the Newton iteration of the implicit peer methods.
+///
+/// Newton measures each update relative to the state (`|delta|_inf` over the larger of
+/// `|x|_inf` and the size of the step's initial state) and stops with success when an update
+/// is zero, when the error left after it, estimated from the observed contraction, is below
+/// `eps / 1024`, or when updates no longer halve below
+/// [`stall_tolerance`](Self::stall_tolerance): a returned value is converged to roundoff.
+/// Linearly converging iterations (the discrete-gradient and discrete-mechanics methods) are
+/// thus run to the noise floor, so that their remainder does not drift the invariants. Updates
+/// that stop shrinking above `stall_tolerance` are not accepted: the step fails with
+/// [`Error::MethodNotConverged`] at `max_iterations`, reporting the residual. A failed linear
+/// solve is [`Error::MethodSingularMatrix`], a NaN or infinity [`Error::MethodNonFinite`].
 ///
 /// ```
 /// use dth_core::methods::NewtonOptions;
@@ -45,8 +37,8 @@ use crate::Error;
 pub struct NewtonOptions {
     /// Iteration limit per step; default 50.
     pub max_iterations: usize,
-    /// Relative update size below which a stalled iteration counts as converged (rule 2 of the
-    /// module docs); default `1024 eps` (about `2.3e-13`).
+    /// Relative update size below which updates that no longer halve count as stalled at
+    /// roundoff, i.e. converged; default `1024 eps` (about `2.3e-13`).
     pub stall_tolerance: f64,
 }
 
@@ -87,9 +79,6 @@ impl NewtonOptions {
     }
 }
 
-/// Rule 1 of the module docs: the estimated remaining error, relative, below 1/1024 ulp.
-const REMAINDER: f64 = f64::EPSILON / 1024.0;
-
 /// One Newton evaluation: the residual `F(x)` and the update `delta = A^{-1} F(x)` (`None` when
 /// the matrix `A` is singular). The iterate moves to `x - delta`.
 pub(crate) struct Evaluation<const R: usize, const C: usize> {
@@ -97,65 +86,79 @@ pub(crate) struct Evaluation<const R: usize, const C: usize> {
     pub delta: Option<SMatrix<f64, R, C>>,
 }
 
-/// Solves `F(x) = 0` from `x0`; `scale` is the size of the state the unknowns belong to (see the
-/// module docs). Returns the solution and the number of iterations.
+/// Solves `F(x) = 0` from `x0`; `scale` is the size of the state the unknowns belong to (see
+/// [`NewtonOptions`]). Returns the solution and the number of iterations.
 pub(crate) fn solve<const R: usize, const C: usize>(
     method: &'static str,
     options: &NewtonOptions,
     x0: SMatrix<f64, R, C>,
     scale: f64,
-    mut evaluate: impl FnMut(&SMatrix<f64, R, C>) -> Evaluation<R, C>,
+    evaluate: impl Fn(&SMatrix<f64, R, C>) -> Evaluation<R, C>,
 ) -> Result<(SMatrix<f64, R, C>, usize), Error> {
     let mut x = x0;
-    let mut previous = f64::INFINITY;
-    for iteration in 1..=options.max_iterations {
-        let Evaluation { residual, delta } = evaluate(&x);
-        let residual_norm = residual.amax();
-        if !residual_norm.is_finite() {
-            return Err(Error::MethodNonFinite {
+    let iterations = newton::solve(
+        Convergence::new(PEERS, options.max_iterations),
+        options.stall_tolerance,
+        &mut x,
+        |x, iteration| {
+            let non_finite = |what| Error::MethodNonFinite {
                 method,
                 step: 0,
-                what: "Newton residual",
-            });
-        }
-        let Some(delta) = delta else {
-            return Err(Error::MethodSingularMatrix {
-                method,
-                step: 0,
-                iteration,
-                residual: residual_norm,
-            });
-        };
-        x -= delta;
-        let size = delta.amax();
-        if !size.is_finite() {
-            return Err(Error::MethodNonFinite {
-                method,
-                step: 0,
-                what: "Newton update",
-            });
-        }
-        let rho = size / scale.max(x.amax()).max(f64::MIN_POSITIVE);
-        // Contraction theta = rho_i / rho_{i-1}; remaining error about rho theta / (1 - theta).
-        let theta = rho / previous;
-        // Not on the first iteration: no contraction observed yet (theta = 0 there).
-        let remainder_negligible =
-            previous.is_finite() && theta < 1.0 && rho * theta / (1.0 - theta) <= REMAINDER;
-        if rho == 0.0
-            || remainder_negligible
-            || (rho <= options.stall_tolerance && rho > 0.5 * previous)
-        {
-            return Ok((x, iteration));
-        }
-        previous = rho;
-    }
-    let residual = evaluate(&x).residual.amax();
-    Err(Error::MethodNotConverged {
-        method,
-        step: 0,
-        iterations: options.max_iterations,
-        residual,
-    })
+                what,
+            };
+            let Evaluation { residual, delta } = evaluate(x);
+            let residual_norm = residual.amax();
+            if !residual_norm.is_finite() {
+                return Err(non_finite("Newton residual"));
+            }
+            let Some(delta) = delta else {
+                return Err(Error::MethodSingularMatrix {
+                    method,
+                    step: 0,
+                    iteration,
+                    residual: residual_norm,
+                });
+            };
+            *x -= delta;
+            let size = delta.amax();
+            if !size.is_finite() {
+                return Err(non_finite("Newton update"));
+            }
+            Ok(size / scale.max(x.amax()).max(f64::MIN_POSITIVE))
+        },
+        |_| true,
+        |x, iterations| Error::MethodNotConverged {
+            method,
+            step: 0,
+            iterations,
+            residual: evaluate(x).residual.amax(),
+        },
+    )?;
+    Ok((x, iterations))
+}
+
+/// One step of a one-stage implicit method from `z0`: Newton on `F(z1) = 0` from the explicit
+/// Euler predictor `z0 + dt J grad H(z0)`, with the matrix `I - (dt/2) J Hess H(y)`.
+/// `equation(z1, grad H(z0))` returns `F(z1)` and the point `y` (the midpoint `(z0 + z1)/2`,
+/// or `z1` for the trapezoidal rule). The Newton iterations are added to `iterations`.
+pub(crate) fn one_stage<H: Hamiltonian<D>, const D: usize>(
+    method: &'static str,
+    options: &NewtonOptions,
+    iterations: &mut usize,
+    h: &H,
+    z0: &SVector<f64, D>,
+    dt: f64,
+    equation: impl Fn(&SVector<f64, D>, &SVector<f64, D>) -> (SVector<f64, D>, SVector<f64, D>),
+) -> Result<SVector<f64, D>, Error> {
+    let g0 = h.gradient(z0);
+    let predictor = z0 + j_times(&g0) * dt;
+    let (z1, n) = solve(method, options, predictor, z0.amax(), |z1| {
+        let (residual, y) = equation(z1, &g0);
+        let delta = linear::solve(newton_matrix(0.5 * dt, &h.hessian(&y)), residual);
+        Evaluation { residual, delta }
+    })?;
+    *iterations += n;
+    Ok(z1)
 }
 
 #[cfg(test)]
