@@ -7,6 +7,7 @@
 use proc_macro::TokenStream;
 
 mod check;
+mod code;
 mod expand;
 mod fallback;
 mod parse;

@@ -39,6 +39,7 @@ pub mod display;
 pub mod divided;
 pub mod error;
 pub mod eval;
+pub mod kernel;
 pub mod lexer;
 pub mod lower;
 pub mod number;
@@ -49,9 +50,9 @@ pub mod system;
 
 pub use arena::{Arena, Func, Id, Node, Var, VarSet};
 pub use check::reserved_name;
-pub use divided::Kernel;
 pub use error::{Error, ErrorKind, Errors, EvalError};
 pub use eval::{Evaluation, PairEvaluation};
+pub use kernel::Kernel;
 pub use lower::{Op, Output, Program, Slot, Stats};
 pub use number::{Num, Rational};
 pub use span::Span;
