@@ -45,6 +45,7 @@ pub mod lower;
 pub mod number;
 pub mod parser;
 pub mod simplify;
+pub mod sources;
 pub mod span;
 pub mod system;
 
