@@ -11,8 +11,14 @@ use crate::code::{constant, kernel};
 use crate::fallback;
 use crate::parse::Input;
 
-/// The expansion of the whole macro: the implementation, or the errors and a stub.
+/// The expansion of the whole macro: the implementation, or the errors and a stub. A broken
+/// item header is reported alone: the body's extent is uncertain then, so it is not compiled.
 pub fn expand(input: Input) -> TokenStream {
+    if let Some(header) = &input.item {
+        if let Some(error) = check::combine(header.errors.clone()) {
+            return fallback::stub(&input, Some(error.to_compile_error()));
+        }
+    }
     let mut errors = input.body.errors.clone();
     let params = check::params(&input, &mut errors);
     let system = check::system(&input, &params, &mut errors);
