@@ -85,6 +85,7 @@ fn imp(name: &Ident, params: &[Ident], system: &System) -> TokenStream {
     let source = system_source(system);
     quote! {
         #[doc = #source]
+        #[automatically_derived]
         #[allow(unused_variables, clippy::all, clippy::pedantic, clippy::nursery)]
         impl #core::Hamiltonian<#d> for #name {
             const TIME_DEPENDENT: bool = #td;

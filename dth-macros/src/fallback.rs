@@ -58,6 +58,7 @@ pub fn stub(input: &Input, errors: Option<TokenStream>) -> TokenStream {
     let (decl, name) = declaration(input, &fields);
     let nalgebra = quote!(::dth::__private::nalgebra);
     let imp = quote! {
+        #[automatically_derived]
         impl<const D: usize> ::dth::__private::dth_core::Hamiltonian<D> for #name {
             fn value(&self, _: &#nalgebra::SVector<f64, D>) -> f64 {
                 ::core::unreachable!("hamiltonian! failed to compile")
