@@ -343,7 +343,7 @@ impl Kernel {
 
     /// The kernel as a hashable key: its name and the bits of its exponent (0 for kernels
     /// without one).
-    pub fn key(self) -> (&'static str, u64) {
+    pub(crate) fn key(self) -> (&'static str, u64) {
         let exponent = match self {
             Kernel::PowRatio(r) | Kernel::PowDefect(r) => r.to_bits(),
             _ => 0,
