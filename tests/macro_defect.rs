@@ -35,8 +35,8 @@ dth::hamiltonian! {
     pub struct PendulumMlg { pub m: f64, pub l: f64, pub g: f64 } = p1^2/(2*m*l^2) - m*g*l*cos(q1)
 }
 
-/// The generated kernels spell out `Kernel::apply`'s formulas and the generated code performs
-/// the engine's program in order: equal bit for bit, at steps in the series branches, in the
+/// The generated kernels are `Kernel::build`'s formulas written as code (the engine runs the
+/// same formulas on `f64`) and the generated code performs the engine's program in order: equal bit for bit, at steps in the series branches, in the
 /// closed-form branches, and at `z0 = z1`.
 #[test]
 fn generated_defect_performs_the_engine_program_bit_for_bit() {

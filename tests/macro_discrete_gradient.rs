@@ -188,8 +188,8 @@ fn time_dependent_discrete_gradient_lives_in_the_extended_phase_space() {
     assert!((h.discrete_gradient(&z0, &z0) - g).abs().max() <= 8.0 * EPS * g.abs().max());
 }
 
-/// The generated kernels spell out `Kernel::apply`'s formulas; the generated code performs
-/// the engine's program in order: equal bit for bit, at distinct points and at `z0 = z1`
+/// The generated kernels are `Kernel::build`'s formulas written as code (the engine runs the
+/// same formulas on `f64`); the generated code performs the engine's program in order: equal bit for bit, at distinct points and at `z0 = z1`
 /// (where every kernel takes its limit branch).
 #[test]
 fn generated_code_performs_the_engine_program_bit_for_bit() {

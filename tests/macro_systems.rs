@@ -513,18 +513,6 @@ fn forced_oscillator_in_extended_phase_space() {
     eprintln!("forced_oscillator_in_extended_phase_space: largest difference {worst:.2} eps * scale (allowed {ULPS})");
 }
 
-/// `H = sum p_i^2 / 2 + exp(-q1) + sum exp(q_i - q_{i+1}) + exp(q_n)`, the chain the compile
-/// cost is measured on (`dth-examples/benches/compile_cost.rs`).
-fn toda_fixed_ends_source(n: usize) -> String {
-    let kinetic: Vec<String> = (1..=n).map(|i| format!("p{i}^2")).collect();
-    let mut src = format!("({})/2 + exp(-q1)", kinetic.join(" + "));
-    for i in 1..n {
-        src.push_str(&format!(" + exp(q{i} - q{})", i + 1));
-    }
-    src.push_str(&format!(" + exp(q{n})"));
-    src
-}
-
 /// Emitted code size is linear in the Hessian's nonzeros, the quantity that blows up in
 /// derivative compilers that expand the Hessian or Psi as trees.
 ///
@@ -549,6 +537,7 @@ fn toda_fixed_ends_source(n: usize) -> String {
 /// `n = 20`.
 #[test]
 fn emitted_code_grows_linearly_in_the_hessian_nonzeros() {
+    use dth_symbolic::sources::toda_fixed_ends;
     use dth_symbolic::{compile, Method};
     let one_point = [
         Method::Value,
@@ -558,7 +547,7 @@ fn emitted_code_grows_linearly_in_the_hessian_nonzeros() {
     ];
     let mut per_nonzero = Vec::new();
     for n in 2..=20 {
-        let system = compile(&toda_fixed_ends_source(n), &[]).unwrap();
+        let system = compile(&toda_fixed_ends(n), &[]).unwrap();
         let d = system.dim();
         let nnz = (0..d)
             .flat_map(|i| (i..d).map(move |j| (i, j)))

@@ -13,6 +13,7 @@ use std::hint::black_box;
 use std::time::{Duration, Instant};
 
 use criterion::{criterion_group, criterion_main, Criterion};
+use dth_symbolic::sources::toda_fixed_ends;
 use dth_symbolic::{compile, Method, Output, System};
 
 /// The chain sizes measured.
@@ -27,17 +28,6 @@ const METHODS: [Method; 5] = [
     Method::Psi,
     Method::All,
 ];
-
-/// `H = sum p_i^2 / 2 + exp(-q1) + sum exp(q_i - q_{i+1}) + exp(q_n)`.
-fn toda_fixed_ends(n: usize) -> String {
-    let kinetic: Vec<String> = (1..=n).map(|i| format!("p{i}^2")).collect();
-    let mut src = format!("({})/2 + exp(-q1)", kinetic.join(" + "));
-    for i in 1..n {
-        src.push_str(&format!(" + exp(q{i} - q{})", i + 1));
-    }
-    src.push_str(&format!(" + exp(q{n})"));
-    src
-}
 
 /// What the macro asks of the engine: compile, then lower every program; the number of
 /// operations emitted.

@@ -1,17 +1,24 @@
 //! Emits `impl Hamiltonian<D>`: one straight-line function per trait method, plain `f64`
 //! arithmetic on locals, fixed-size nalgebra types through `::dth::__private`.
 
-use dth_symbolic::{defect, Kernel, Method, Op, Output, Program, System};
-use proc_macro2::{Literal, TokenStream};
+use dth_symbolic::{Method, Op, Output, Program, System};
+use proc_macro2::TokenStream;
 use quote::{format_ident, quote};
 use syn::Ident;
 
 use crate::check;
+use crate::code::{constant, kernel};
 use crate::fallback;
 use crate::parse::Input;
 
-/// The expansion of the whole macro: the implementation, or the errors and a stub.
+/// The expansion of the whole macro: the implementation, or the errors and a stub. A broken
+/// item header is reported alone: the body's extent is uncertain then, so it is not compiled.
 pub fn expand(input: Input) -> TokenStream {
+    if let Some(header) = &input.item {
+        if let Some(error) = check::combine(header.errors.clone()) {
+            return fallback::stub(&input, Some(error.to_compile_error()));
+        }
+    }
     let mut errors = input.body.errors.clone();
     let params = check::params(&input, &mut errors);
     let system = check::system(&input, &params, &mut errors);
@@ -78,6 +85,7 @@ fn imp(name: &Ident, params: &[Ident], system: &System) -> TokenStream {
     let source = system_source(system);
     quote! {
         #[doc = #source]
+        #[automatically_derived]
         #[allow(unused_variables, clippy::all, clippy::pedantic, clippy::nursery)]
         impl #core::Hamiltonian<#d> for #name {
             const TIME_DEPENDENT: bool = #td;
@@ -319,153 +327,5 @@ fn body(
         let _ = z;
         #(#lets)*
         #out
-    }
-}
-
-/// A divided-difference kernel `k(x, y)` inline, the same formulas as `Kernel::apply` (a test
-/// compares the two).
-fn kernel(k: Kernel, x: &Ident, y: &Ident) -> TokenStream {
-    let f = quote!(::core::primitive::f64);
-    let switch = constant(defect::SERIES_SWITCH);
-    // `(1 - 1/a) + e^(-2a) (1 + 1/a)`, as `dth_symbolic::defect`.
-    let scaled_c = quote! {
-        (|a: f64| (1.0 - 1.0 / a) + #f::exp(-2.0 * a) * (1.0 + 1.0 / a))
-    };
-    let series_or = |k: Kernel, x: &Ident, closed: TokenStream| {
-        let c = series_tokens(&defect::series(k), &format_ident!("x"));
-        quote! {{
-            let x: f64 = #x;
-            if #f::abs(x) < #switch { #c } else { #closed }
-        }}
-    };
-    let quotient = |g: TokenStream| {
-        quote! {{
-            let x: f64 = #x;
-            if x == 0.0 { 1.0 } else { #f::#g(x) / x }
-        }}
-    };
-    match k {
-        Kernel::ExpRatio => quote! {{
-            let (x, y): (f64, f64) = (#x, #y);
-            if x == 0.0 {
-                #f::exp(y)
-            } else if x < 0.0 {
-                #f::exp(y) * (#f::exp_m1(x) / x)
-            } else {
-                #f::exp(y + x) * (#f::exp_m1(-x) / -x)
-            }
-        }},
-        Kernel::Sinc => quotient(quote!(sin)),
-        Kernel::Sinhc => quotient(quote!(sinh)),
-        Kernel::LnRatio => quote! {{
-            let (x, y): (f64, f64) = (#x, #y);
-            let u = x / y;
-            if u == 0.0 { 1.0 / y } else { #f::ln_1p(u) / x }
-        }},
-        Kernel::AtanRatio => quote! {{
-            let (x, y): (f64, f64) = (#x, #y);
-            if x == 0.0 { 1.0 / y } else { #f::atan2(x, y) / x }
-        }},
-        Kernel::TanhRatio => quote! {{
-            let (x, y): (f64, f64) = (#x, #y);
-            if #f::abs(x) > 700.0 {
-                (#f::tanh(y + x) - #f::tanh(y)) / x
-            } else {
-                let s = if x == 0.0 { 1.0 } else { #f::sinh(x) / x };
-                s / (#f::cosh(y) * #f::cosh(y + x))
-            }
-        }},
-        Kernel::CosMinusSinc => series_or(k, x, quote!(#f::cos(x) - #f::sin(x) / x)),
-        Kernel::CoshMinusSinhc => series_or(
-            k,
-            x,
-            quote!(0.5 * #f::exp(#f::abs(x)) * #scaled_c(#f::abs(x))),
-        ),
-        Kernel::SincMinusOne => series_or(k, x, quote!(#f::sin(x) / x - 1.0)),
-        Kernel::SinhcMinusOne => series_or(k, x, quote!(#f::sinh(x) / x - 1.0)),
-        Kernel::ExpDefect => {
-            let c = series_tokens(&defect::series(Kernel::CoshMinusSinhc), &format_ident!("h"));
-            quote! {{
-                let (x, y): (f64, f64) = (#x, #y);
-                let h = 0.5 * x;
-                if #f::abs(h) < #switch {
-                    2.0 * #f::exp(y + h) * #c
-                } else {
-                    #f::exp(y + #f::max(x, 0.0)) * #scaled_c(#f::abs(h))
-                }
-            }}
-        }
-        Kernel::TanhDefect => {
-            let (xi, yi) = (format_ident!("x"), format_ident!("y"));
-            let sinhc_m1 = kernel(Kernel::SinhcMinusOne, &xi, &xi);
-            let ratio = kernel(Kernel::TanhRatio, &xi, &yi);
-            quote! {{
-                let (x, y): (f64, f64) = (#x, #y);
-                let m = y + 0.5 * x;
-                let (s0, s1) = (1.0 / #f::cosh(y), 1.0 / #f::cosh(y + x));
-                if #f::abs(x) <= 700.0 && #f::abs(m) <= 350.0 {
-                    let q = 2.0 * #f::sinh(m) * s0 * #f::sinh(0.5 * x) * s1;
-                    q * q - 2.0 * #sinhc_m1 * s0 * s1
-                } else {
-                    s0 * s0 + s1 * s1 - 2.0 * #ratio
-                }
-            }}
-        }
-        Kernel::PowDefect(r) => {
-            let big = constant(r.abs().max((r - 2.0).abs()));
-            let n = series_tokens(&defect::pow_series(r), &format_ident!("u"));
-            let (c1, c2, rr, r2, r1) = (
-                constant(0.5 * (r - 2.0)),
-                constant(0.5 * r),
-                constant(r),
-                constant(r - 2.0),
-                constant(r - 1.0),
-            );
-            quote! {{
-                let (x, y): (f64, f64) = (#x, #y);
-                let u = 0.5 * #f::ln_1p(x / y);
-                let ratio = if #big * #f::abs(u) < #switch {
-                    let s = if u == 0.0 { 1.0 } else { #f::sinh(u) / u };
-                    (#n) / s
-                } else {
-                    (#c1 * #f::sinh(#rr * u) - #c2 * #f::sinh(#r2 * u)) / #f::sinh(u)
-                };
-                2.0 * #f::exp(#r1 * u) * ratio
-            }}
-        }
-        Kernel::PowRatio(r) => {
-            let r = constant(r);
-            quote! {{
-                let (x, y): (f64, f64) = (#x, #y);
-                let u = x / y;
-                if u == 0.0 { #r / y } else { #f::exp_m1(#r * #f::ln_1p(u)) / x }
-            }}
-        }
-    }
-}
-
-/// `sum_k c_k x^(2k)` by Horner's rule in `x^2`, the operations of
-/// `dth_symbolic::defect::even_series` in the same order.
-fn series_tokens(c: &[f64; defect::SERIES_TERMS], x: &Ident) -> TokenStream {
-    let last = constant(c[defect::SERIES_TERMS - 1]);
-    let steps = c[..defect::SERIES_TERMS - 1].iter().rev().map(|&ck| {
-        let ck = constant(ck);
-        quote!(let p = p * x2 + #ck;)
-    });
-    quote! {{
-        let x2: f64 = #x * #x;
-        let p: f64 = #last;
-        #(#steps)*
-        p * x2
-    }}
-}
-
-/// An `f64` literal; negative values as a negated literal.
-fn constant(c: f64) -> TokenStream {
-    let lit = Literal::f64_suffixed(c.abs());
-    if c.is_sign_negative() {
-        quote!(-#lit)
-    } else {
-        quote!(#lit)
     }
 }

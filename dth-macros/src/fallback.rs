@@ -21,10 +21,10 @@ pub fn declaration(input: &Input, params: &[Ident]) -> (TokenStream, Ident) {
                 };
                 quote!(#(#fattrs)* #fvis #p: f64)
             });
-            let decl = if h.braced {
-                quote!(#(#attrs)* #vis struct #ident { #(#fields),* })
-            } else {
-                quote!(#(#attrs)* #vis struct #ident;)
+            let decl = match &h.tuple {
+                Some(tuple) => quote!(#(#attrs)* #vis struct #ident #tuple;),
+                None if h.braced => quote!(#(#attrs)* #vis struct #ident { #(#fields),* }),
+                None => quote!(#(#attrs)* #vis struct #ident;),
             };
             (decl, ident.clone())
         }
@@ -44,18 +44,21 @@ pub fn declaration(input: &Input, params: &[Ident]) -> (TokenStream, Ident) {
 
 /// The errors, the declaration and a never-run implementation for every `D`. In the
 /// expression form everything sits in one block so the expansion stays one expression.
-/// Every declared field name is kept (once, as `f64`), even one the grammar rejects, so code
-/// constructing the struct adds no error of its own.
+/// Every declared field name is kept (once, as `f64`), even one the grammar rejects or whose
+/// declaration did not parse, so code constructing the struct adds no error of its own.
 pub fn stub(input: &Input, errors: Option<TokenStream>) -> TokenStream {
     let mut fields: Vec<Ident> = Vec::new();
-    for p in input.item.iter().flat_map(|h| &h.params) {
-        if !fields.contains(&p.ident) {
-            fields.push(p.ident.clone());
+    if let Some(h) = &input.item {
+        for ident in h.params.iter().map(|p| &p.ident).chain(&h.unparsed) {
+            if !fields.contains(ident) {
+                fields.push(ident.clone());
+            }
         }
     }
     let (decl, name) = declaration(input, &fields);
     let nalgebra = quote!(::dth::__private::nalgebra);
     let imp = quote! {
+        #[automatically_derived]
         impl<const D: usize> ::dth::__private::dth_core::Hamiltonian<D> for #name {
             fn value(&self, _: &#nalgebra::SVector<f64, D>) -> f64 {
                 ::core::unreachable!("hamiltonian! failed to compile")

@@ -1,12 +1,20 @@
 //! The `hamiltonian!` proc macro. Use it through the `dth` crate, which documents the grammar.
 //!
-//! Routing only: `parse` reads the input (expression or item form) and maps the expression's
-//! tokens to a source string for the engine, `check` runs the engine and the item-form rules,
-//! `expand` emits the trait implementation, `fallback` emits a stub beside the errors.
+//! `lib.rs` only routes. The stages, each importing only from those before it:
+//!
+//! 1. `parse`: reads the input (expression or item form) and maps the expression's tokens to a
+//!    source string for the engine; a broken item header is kept as far as it was read.
+//! 2. `check`: runs the engine (`dth_symbolic`) and the item form's rules, collecting every
+//!    error.
+//! 3. `code`: `f64` values as code, the divided-difference kernels among them (the engine's
+//!    formulas, written through `dth_symbolic::kernel::Scalar`).
+//! 4. `fallback`: the declared type and a stub implementation, emitted beside the errors.
+//! 5. `expand`: the trait implementation, one straight-line function per method.
 
 use proc_macro::TokenStream;
 
 mod check;
+mod code;
 mod expand;
 mod fallback;
 mod parse;

@@ -24,6 +24,14 @@ pub struct Header {
     pub params: Vec<Param>,
     /// `false` for `struct Name = ...`, declared as a unit struct.
     pub braced: bool,
+    /// Mistakes after the name. The header is still read as far as it goes, so the fallback
+    /// declares the type (with every parameter name read) and these are the only errors.
+    pub errors: Vec<syn::Error>,
+    /// Names of parameters whose declaration did not parse: declared by the fallback only.
+    pub unparsed: Vec<Ident>,
+    /// The fields of a tuple struct `Name(..)` (an error): the fallback declares them as
+    /// written, so code constructing the type adds no error.
+    pub tuple: Option<syn::FieldsUnnamed>,
 }
 
 /// One declared parameter `vis name: ty`.
@@ -67,6 +75,9 @@ impl Parse for Input {
     }
 }
 
+/// The header. Only a header without a name is an error here (there is nothing to declare);
+/// after the name, mistakes are collected in [`Header::errors`] and reading goes on where it
+/// can, the rest of the input becoming the body.
 fn header(input: ParseStream) -> syn::Result<Header> {
     let attrs = input.call(Attribute::parse_outer)?;
     let vis: Visibility = input.parse()?;
@@ -74,47 +85,85 @@ fn header(input: ParseStream) -> syn::Result<Header> {
     let ident: Ident = input
         .parse()
         .map_err(|e| syn::Error::new(e.span(), "expected the type's name after `struct`"))?;
+    let mut header = Header {
+        attrs,
+        vis,
+        ident,
+        params: Vec::new(),
+        braced: false,
+        errors: Vec::new(),
+        unparsed: Vec::new(),
+        tuple: None,
+    };
     if input.peek(Token![<]) {
-        return Err(input.error("a Hamiltonian type takes no generic parameters: declare named `f64` parameters in `{ ... }`"));
+        header.errors.push(input.error("a Hamiltonian type takes no generic parameters: declare named `f64` parameters in `{ ... }`"));
+        // Read past the generics, so the parameters are still declared.
+        if input.parse::<syn::Generics>().is_err() {
+            return Ok(header);
+        }
     }
-    let mut params = Vec::new();
-    let braced = input.peek(syn::token::Brace);
-    if braced {
+    if input.peek(syn::token::Brace) {
+        header.braced = true;
         let content;
         syn::braced!(content in input);
-        while !content.is_empty() {
+        params(&content, &mut header);
+    } else if input.peek(syn::token::Paren) {
+        header.errors.push(input.error("expected named parameters `{ name: f64, ... }`: tuple structs cannot name their parameters in the Hamiltonian"));
+        match input.parse::<syn::FieldsUnnamed>() {
+            Ok(fields) => header.tuple = Some(fields),
+            Err(_) => return Ok(header),
+        }
+    }
+    if let Err(e) = input.parse::<Token![=]>() {
+        header.errors.push(syn::Error::new(
+            e.span(),
+            "expected `=` and the Hamiltonian: the item form is `struct Name { param: f64, .. } = <Hamiltonian>`",
+        ));
+    }
+    Ok(header)
+}
+
+/// The parameters `vis name: ty, ..`. A declaration that does not parse is an error in
+/// `header.errors` (its name, if read, goes to `header.unparsed`), and reading resumes after
+/// the next comma.
+fn params(content: ParseStream, header: &mut Header) {
+    while !content.is_empty() {
+        let mut name = None;
+        let param = (|| {
             let attrs = content.call(Attribute::parse_outer)?;
             let vis: Visibility = content.parse()?;
             let ident: Ident = content.parse()?;
-            content.parse::<Token![:]>()?;
+            name = Some(ident.clone());
+            content.parse::<Token![:]>().map_err(|e| {
+                syn::Error::new(
+                    e.span(),
+                    "expected `:` and the type after the parameter's name: parameters are declared `name: f64`",
+                )
+            })?;
             let ty: Type = content.parse()?;
-            params.push(Param {
+            if !content.is_empty() {
+                content.parse::<Token![,]>()?;
+            }
+            Ok(Param {
                 attrs,
                 vis,
                 ident,
                 ty,
-            });
-            if content.is_empty() {
-                break;
+            })
+        })();
+        match param {
+            Ok(p) => header.params.push(p),
+            Err(e) => {
+                header.errors.push(e);
+                header.unparsed.extend(name);
+                // Skip to the next parameter; every token is consumed (syn rejects leftovers).
+                while !content.is_empty() && !content.peek(Token![,]) {
+                    let _ = content.parse::<TokenTree>();
+                }
+                let _ = content.parse::<Option<Token![,]>>();
             }
-            content.parse::<Token![,]>()?;
         }
-    } else if input.peek(syn::token::Paren) {
-        return Err(input.error("expected named parameters `{ name: f64, ... }`: tuple structs cannot name their parameters in the Hamiltonian"));
     }
-    input.parse::<Token![=]>().map_err(|e| {
-        syn::Error::new(
-            e.span(),
-            "expected `=` and the Hamiltonian: the item form is `struct Name { param: f64, .. } = <Hamiltonian>`",
-        )
-    })?;
-    Ok(Header {
-        attrs,
-        vis,
-        ident,
-        params,
-        braced,
-    })
 }
 
 impl Body {

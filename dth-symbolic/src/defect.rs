@@ -46,17 +46,9 @@
 //! `a^r`: with `a = e^u`, `T = 2 e^((r-1) um) (r cosh((r-1) y) - sinh(r y)/sinh y)` and
 //! `N(y) = ((r-2)/2) sinh(r y) - (r/2) sinh((r-2) y)`.)
 //!
-//! The kernels `cos x - sin(x)/x`, `cosh x - sinh(x)/x`, `sin(x)/x - 1`, `sinh(x)/x - 1` are
-//! even series below `|x| = 1` ([`series`], nine terms: the first omitted term is below
-//! `4e-19` of the leading one there) and closed forms above (cancelling at most a factor 12 at
-//! `|x| = 1`, for `sinhc - 1`, and less beyond; `cosh x - sinh(x)/x` is written as
-//! `(e^|x|/2) ((1 - 1/|x|) + e^(-2|x|) (1 + 1/|x|))`, a sum of positive terms).
-//! [`Kernel::PowDefect`] sums `N(y)/y^3 = sum_k n_k y^(2k-2)` ([`pow_series`], nine terms) while
-//! `M |y| < 1`, `M = max(|r|, |r - 2|)` (`|n_k| y^(2k)` is bounded by `|r (r-2)| (M |y|)^(2k)
-//! 2k / (2k+1)!`, so the first omitted term is below `1e-18` of the sum's scale), and the closed
-//! form above, where the two `sinh` terms cancel by at most `3 M^2 / |r - 1|`: a relative error
-//! only for `r` near 1, where `T` itself is `O(|r - 1|)`, and an absolute error of a few `eps`
-//! of the terms' size `|r (r - 2)| y`, `O(delta)`, which is what the stepper needs.
+//! The kernels `cos x - sin(x)/x`, `cosh x - sinh(x)/x`, `sin(x)/x - 1`, `sinh(x)/x - 1`,
+//! [`Kernel::PowDefect`] and the others, their series and why they keep their accuracy, are in
+//! [`crate::kernel`].
 //!
 //! # References
 //! O. Gonzalez, Time integration and discrete Hamiltonian systems, J. Nonlinear Sci. 6 (1996);
@@ -65,134 +57,10 @@
 use std::collections::HashMap;
 
 use crate::arena::{Arena, Func, Id, Node, Var};
-use crate::divided::{Diff, Divided, Kernel};
+use crate::divided::{Diff, Divided};
+use crate::kernel::{Kernel, Midpoint};
 use crate::lower::{Op, Output, Program, Slot};
 use crate::number::Num;
-
-/// Number of terms of the even series kernels.
-pub const SERIES_TERMS: usize = 9;
-
-/// Below this `|x|` the series kernels sum their series.
-pub const SERIES_SWITCH: f64 = 1.0;
-
-/// Coefficients `c_1..c_9` of `sum_k c_k x^(2k)` for the series kernels
-/// ([`Kernel::CosMinusSinc`]: `(-1)^k 2k/(2k+1)!`, [`Kernel::CoshMinusSinhc`]: `2k/(2k+1)!`,
-/// [`Kernel::SincMinusOne`]: `(-1)^k/(2k+1)!`, [`Kernel::SinhcMinusOne`]: `1/(2k+1)!`); zeros
-/// for the other kernels.
-pub fn series(kernel: Kernel) -> [f64; SERIES_TERMS] {
-    let mut c = [0.0; SERIES_TERMS];
-    let mut factorial = 1.0;
-    for (i, c) in c.iter_mut().enumerate() {
-        let k2 = 2.0 * (i as f64 + 1.0);
-        factorial *= k2 * (k2 + 1.0);
-        let sign = if i % 2 == 0 { -1.0 } else { 1.0 };
-        *c = match kernel {
-            Kernel::CosMinusSinc => sign * k2 / factorial,
-            Kernel::CoshMinusSinhc => k2 / factorial,
-            Kernel::SincMinusOne => sign / factorial,
-            Kernel::SinhcMinusOne => 1.0 / factorial,
-            _ => 0.0,
-        };
-    }
-    c
-}
-
-/// Coefficients `n_1..n_9` of `N(y) / y^3 = sum_k n_k y^(2k-2)` for [`Kernel::PowDefect`]:
-/// `n_k = r (r-2) (r^(2k) - (r-2)^(2k)) / (2 (2k+1)!)`, with the difference written as
-/// `2 sum_(j odd) C(2k, j) s^j`, `s = r - 1` (terms of one sign: no cancellation for `r` near 1).
-pub fn pow_series(r: f64) -> [f64; SERIES_TERMS] {
-    let s = r - 1.0;
-    let mut n = [0.0; SERIES_TERMS];
-    let mut factorial = 1.0;
-    for (i, n) in n.iter_mut().enumerate() {
-        let k2 = 2 * (i + 1);
-        factorial *= (k2 as f64) * (k2 as f64 + 1.0);
-        let (mut binom, mut power, mut sum) = (1.0, 1.0, 0.0);
-        for j in 1..=k2 {
-            binom = binom * (k2 + 1 - j) as f64 / j as f64;
-            power *= s;
-            if j % 2 == 1 {
-                sum += binom * power;
-            }
-        }
-        *n = r * (r - 2.0) * sum / factorial;
-    }
-    n
-}
-
-/// `sum_k c_k x^(2k)` by Horner's rule in `x^2` (the generated code performs the same
-/// operations in the same order).
-pub fn even_series(x: f64, c: &[f64; SERIES_TERMS]) -> f64 {
-    let x2 = x * x;
-    let mut p = c[SERIES_TERMS - 1];
-    for &ck in c[..SERIES_TERMS - 1].iter().rev() {
-        p = p * x2 + ck;
-    }
-    p * x2
-}
-
-/// `(1 - 1/a) + e^(-2a) (1 + 1/a)` for `a >= 1`: `2 e^(-a) (cosh a - sinh(a)/a)`, a sum of
-/// nonnegative terms.
-fn cosh_minus_sinhc_scaled(a: f64) -> f64 {
-    (1.0 - 1.0 / a) + (-2.0 * a).exp() * (1.0 + 1.0 / a)
-}
-
-/// The defect kernels of [`Kernel`] in `f64` (the others are [`Kernel::apply`]'s).
-pub(crate) fn apply(kernel: Kernel, x: f64, y: f64) -> f64 {
-    let small = x.abs() < SERIES_SWITCH;
-    match kernel {
-        Kernel::CosMinusSinc if small => even_series(x, &series(kernel)),
-        Kernel::CosMinusSinc => x.cos() - x.sin() / x,
-        Kernel::CoshMinusSinhc if small => even_series(x, &series(kernel)),
-        Kernel::CoshMinusSinhc => 0.5 * x.abs().exp() * cosh_minus_sinhc_scaled(x.abs()),
-        Kernel::SincMinusOne if small => even_series(x, &series(kernel)),
-        Kernel::SincMinusOne => x.sin() / x - 1.0,
-        Kernel::SinhcMinusOne if small => even_series(x, &series(kernel)),
-        Kernel::SinhcMinusOne => x.sinh() / x - 1.0,
-        Kernel::ExpDefect => {
-            // x = delta, y = a0: 2 e^m C(delta/2); from the larger end when |delta/2| >= 1
-            // (e^m C(h) = e^(max a) (1 - 1/|h| + ...)/2: no overflow of cosh h when e^m
-            // underflows).
-            let h = 0.5 * x;
-            if h.abs() < SERIES_SWITCH {
-                2.0 * (y + h).exp() * even_series(h, &series(Kernel::CoshMinusSinhc))
-            } else {
-                (y + x.max(0.0)).exp() * cosh_minus_sinhc_scaled(h.abs())
-            }
-        }
-        Kernel::TanhDefect => {
-            let m = y + 0.5 * x;
-            let (s0, s1) = (1.0 / y.cosh(), 1.0 / (y + x).cosh());
-            if x.abs() <= 700.0 && m.abs() <= 350.0 {
-                // Every cosh and sinh below finite (|a| <= 700); q's factors are ordered so the
-                // partial products stay finite.
-                let q = 2.0 * m.sinh() * s0 * (0.5 * x).sinh() * s1;
-                q * q - 2.0 * apply(Kernel::SinhcMinusOne, x, x) * s0 * s1
-            } else {
-                // A jump of more than 700 (the values are far apart: no cancellation), or
-                // both ends beyond |a| = 350, where every term is below 1e-300.
-                s0 * s0 + s1 * s1 - 2.0 * Kernel::TanhRatio.apply(x, y)
-            }
-        }
-        Kernel::PowDefect(r) => {
-            let u = 0.5 * (x / y).ln_1p();
-            let big = r.abs().max((r - 2.0).abs());
-            let ratio = if big * u.abs() < SERIES_SWITCH {
-                let n = pow_series(r);
-                let u2 = u * u;
-                let mut p = n[SERIES_TERMS - 1];
-                for &nk in n[..SERIES_TERMS - 1].iter().rev() {
-                    p = p * u2 + nk;
-                }
-                u2 * p / Kernel::Sinhc.apply(u, u)
-            } else {
-                (0.5 * (r - 2.0) * (r * u).sinh() - 0.5 * r * ((r - 2.0) * u).sinh()) / u.sinh()
-            };
-            2.0 * ((r - 1.0) * u).exp() * ratio
-        }
-        _ => kernel.apply(x, y),
-    }
-}
 
 /// A scalar map `b -> f(b)` between the two points: `f'` at both ends, the divided difference
 /// `DD_f` (only for chains) and `T_f` (`None`: identically zero), and the image values.
@@ -284,14 +152,6 @@ impl Defect<'_> {
         self.d.mul(h, a)
     }
 
-    fn sum(&mut self, parts: &[Diff]) -> Diff {
-        let parts: Vec<Diff> = parts.iter().filter(|p| !p.is_zero()).cloned().collect();
-        if parts.is_empty() {
-            return Diff::default();
-        }
-        self.d.sum(&parts)
-    }
-
     /// A vector scaled by a constant coefficient (`1`: unchanged).
     fn coefficient(&mut self, v: Diff, c: f64) -> Diff {
         if c == 1.0 || v.is_zero() {
@@ -303,15 +163,7 @@ impl Defect<'_> {
 
     /// The constant coefficient and the other factors of a product.
     fn factors(&self, factors: &[Id]) -> (f64, Vec<Id>) {
-        let coef = factors
-            .iter()
-            .find_map(|&f| self.arena().as_num(f))
-            .unwrap_or(Num::ONE);
-        let rest = factors
-            .iter()
-            .copied()
-            .filter(|&f| self.arena().as_num(f).is_none())
-            .collect();
+        let (coef, rest) = self.d.coefficient_and_factors(factors);
         (coef.to_f64(), rest)
     }
 
@@ -331,7 +183,7 @@ impl Defect<'_> {
             }
             Node::Add(terms) => {
                 let parts: Vec<Diff> = terms.iter().map(|&t| self.gradient(t, z1)).collect();
-                self.sum(&parts)
+                self.d.sum(&parts)
             }
             Node::Mul(factors) => {
                 let (c, rest) = self.factors(&factors);
@@ -341,7 +193,7 @@ impl Defect<'_> {
                     let (gf, fv) = (self.gradient(f, z1), self.at(f, z1));
                     let a = self.d.scaled(&g, fv);
                     let b = self.d.scaled(&gf, p);
-                    g = self.sum(&[a, b]);
+                    g = self.d.sum(&[a, b]);
                     p = self.d.mul(p, fv);
                 }
                 self.coefficient(g, c)
@@ -376,12 +228,18 @@ impl Defect<'_> {
                 // others need no call of f).
                 let value = |this: &mut Self| this.at(id, z1);
                 let one = self.d.one;
-                match f {
-                    Func::Sin => self.emit(Op::Call(Func::Cos, uv)),
-                    Func::Cos => {
-                        let s = self.emit(Op::Call(Func::Sin, uv));
-                        self.emit(Op::Neg(s))
+                // sin, cos, sinh, cosh: f' = sign partner.
+                let mid = |this: &mut Self, rule: Midpoint| {
+                    let s = this.emit(Op::Call(rule.partner, uv));
+                    if rule.sign < 0.0 {
+                        this.emit(Op::Neg(s))
+                    } else {
+                        s
                     }
+                };
+                match f {
+                    Func::Sin => mid(self, Midpoint::SIN),
+                    Func::Cos => mid(self, Midpoint::COS),
                     Func::Tan => {
                         let v = value(self);
                         let vv = self.d.mul(v, v);
@@ -389,8 +247,8 @@ impl Defect<'_> {
                     }
                     Func::Exp => value(self),
                     Func::Ln => self.d.l.recip(uv),
-                    Func::Sinh => self.emit(Op::Call(Func::Cosh, uv)),
-                    Func::Cosh => self.emit(Op::Call(Func::Sinh, uv)),
+                    Func::Sinh => mid(self, Midpoint::SINH),
+                    Func::Cosh => mid(self, Midpoint::COSH),
                     Func::Tanh => {
                         let v = value(self);
                         let vv = self.d.mul(v, v);
@@ -433,7 +291,7 @@ impl Defect<'_> {
             Node::Num(_) | Node::Var(_) => Diff::default(),
             Node::Add(terms) => {
                 let parts: Vec<Diff> = terms.iter().map(|&t| self.dgrad(t)).collect();
-                self.sum(&parts)
+                self.d.sum(&parts)
             }
             Node::Mul(_) | Node::Pow(..) | Node::Func(..) => {
                 self.defect(id);
@@ -475,7 +333,7 @@ impl Defect<'_> {
             Node::Num(_) | Node::Var(_) => Diff::default(),
             Node::Add(terms) => {
                 let parts: Vec<Diff> = terms.iter().map(|&t| self.defect(t)).collect();
-                self.sum(&parts)
+                self.d.sum(&parts)
             }
             Node::Mul(factors) => self.product(id, &factors),
             Node::Pow(b, _) | Node::Func(_, b) => self.composition(id, b),
@@ -514,21 +372,14 @@ impl Defect<'_> {
                 let gmp = self.mean_vec(&g0, &g1);
                 dparts.push(self.d.scaled(&gmp, dfd));
             }
-            t = self.sum(&parts);
-            dg = self.sum(&dparts);
-            // Next partial product, exactly as divided.rs forms it.
-            let mut eparts = Vec::new();
-            if !acc.is_zero() {
-                eparts.push(self.d.scaled(&acc, mf));
-            }
-            if !df.is_zero() {
-                eparts.push(self.d.scaled(&df, mp));
-            }
-            acc = self.sum(&eparts);
+            t = self.d.sum(&parts);
+            dg = self.d.sum(&dparts);
+            // Next partial product, by divided.rs's rule.
+            acc = self.d.product_rule(&acc, (p0, p1), &df, (f0, f1));
             let (a0, b0) = (self.d.scaled(&g0, f0), self.d.scaled(&gf0, p0));
-            g0 = self.sum(&[a0, b0]);
+            g0 = self.d.sum(&[a0, b0]);
             let (a1, b1) = (self.d.scaled(&g1, f1), self.d.scaled(&gf1, p1));
-            g1 = self.sum(&[a1, b1]);
+            g1 = self.d.sum(&[a1, b1]);
             p0 = self.d.mul(p0, f0);
             p1 = self.d.mul(p1, f1);
         }
@@ -565,9 +416,9 @@ impl Defect<'_> {
         let (g0, g1) = (self.gradient(b, false), self.gradient(b, true));
         let gm = self.mean_vec(&g0, &g1);
         let dparts = [self.d.scaled(&dg, md), self.d.scaled(&gm, df)];
-        let dgf = self.sum(&dparts);
+        let dgf = self.d.sum(&dparts);
         self.dgrad.insert(id, dgf);
-        self.sum(&parts)
+        self.d.sum(&parts)
     }
 
     /// `T_f` and `f'(b1) - f'(b0)` of `b^e`, by the chain of pieces divided.rs differences it
@@ -768,66 +619,39 @@ impl Defect<'_> {
         let one = self.d.one;
         let two = self.konst(2.0);
         let kernel = |this: &mut Self, k: Kernel, x: Slot, y: Slot| this.emit(Op::Kernel(k, x, y));
-        // sin, cos, sinh, cosh: T = 2 g(m) K(x), Df' = 2 h(m) s(x), x = delta/2, with
-        // (g, h, s) = (cos, -sin, sin), (-sin, -cos, sin), (cosh, sinh, sinh), (sinh, cosh, sinh).
-        let mid = |this: &mut Self, g: Func, h: Func, k: Kernel, s: Func, sign: [f64; 2]| {
+        // The divided difference DD_f(u0, u1) = (f(u1) - f(u0))/delta, as divided.rs forms it.
+        let ratio = |this: &mut Self| this.d.func_factor(f, (u0, u1, delta));
+        // sin, cos, sinh, cosh: T = 2 f'(m) defect(x), Df' = 2 f''(m) odd(x), x = delta/2,
+        // with f' = sign partner, f'' = curvature f.
+        let mid = |this: &mut Self, rule: Midpoint| {
             let m = this.d.mean(u0, u1);
             let x = this.half(delta);
-            let gm = this.emit(Op::Call(g, m));
-            let kx = kernel(this, k, x, x);
-            let c = this.konst(2.0 * sign[0]);
+            let gm = this.emit(Op::Call(rule.partner, m));
+            let kx = kernel(this, rule.defect, x, x);
+            let c = this.konst(2.0 * rule.sign);
             let p = this.d.mul(gm, kx);
             let t = this.d.mul(c, p);
-            let hm = this.emit(Op::Call(h, m));
-            let sx = this.emit(Op::Call(s, x));
-            let c = this.konst(2.0 * sign[1]);
+            let hm = this.emit(Op::Call(f, m));
+            let sx = this.emit(Op::Call(rule.odd, x));
+            let c = this.konst(2.0 * rule.curvature);
             let p = this.d.mul(hm, sx);
             (Some(t), this.d.mul(c, p))
         };
-        let (sinc_like, sinhc_like) = (Kernel::CosMinusSinc, Kernel::CoshMinusSinhc);
         match f {
-            Func::Sin => mid(
-                self,
-                Func::Cos,
-                Func::Sin,
-                sinc_like,
-                Func::Sin,
-                [1.0, -1.0],
-            ),
-            Func::Cos => mid(
-                self,
-                Func::Sin,
-                Func::Cos,
-                sinc_like,
-                Func::Sin,
-                [-1.0, -1.0],
-            ),
-            Func::Sinh => mid(
-                self,
-                Func::Cosh,
-                Func::Sinh,
-                sinhc_like,
-                Func::Sinh,
-                [1.0, 1.0],
-            ),
-            Func::Cosh => mid(
-                self,
-                Func::Sinh,
-                Func::Cosh,
-                sinhc_like,
-                Func::Sinh,
-                [1.0, 1.0],
-            ),
+            Func::Sin => mid(self, Midpoint::SIN),
+            Func::Cos => mid(self, Midpoint::COS),
+            Func::Sinh => mid(self, Midpoint::SINH),
+            Func::Cosh => mid(self, Midpoint::COSH),
             Func::Exp => {
                 let t = kernel(self, Kernel::ExpDefect, delta, u0);
                 // e^u1 - e^u0 = delta exp_ratio(delta, u0).
-                let r = kernel(self, Kernel::ExpRatio, delta, u0);
+                let r = ratio(self);
                 (Some(t), self.d.mul(r, delta))
             }
             Func::Tanh => {
                 let t = kernel(self, Kernel::TanhDefect, delta, u0);
                 // f' = 1 - tanh^2: Df' = -(tanh u1 - tanh u0)(tanh u0 + tanh u1).
-                let r = kernel(self, Kernel::TanhRatio, delta, u0);
+                let r = ratio(self);
                 let dv = self.d.mul(r, delta);
                 let (v0, v1) = (self.d.val0(id), self.d.val1(id));
                 let sv = self.d.add(v0, v1);
@@ -869,9 +693,7 @@ impl Defect<'_> {
                 let den = self.d.mul(ss, sp);
                 let r = self.div(num, den);
                 let rr = self.d.mul(r, r);
-                let uu = self.d.mul(u0, u1);
-                let p = self.d.add(one, uu);
-                let a = kernel(self, Kernel::AtanRatio, delta, p);
+                let a = ratio(self);
                 let theta = self.d.mul(a, delta);
                 let k = kernel(self, Kernel::SincMinusOne, theta, theta);
                 let ka = self.d.mul(k, a);
@@ -884,7 +706,7 @@ impl Defect<'_> {
                 (Some(t), self.emit(Op::Neg(ddn)))
             }
             Func::Ln => {
-                let l = kernel(self, Kernel::LnRatio, delta, u0);
+                let l = ratio(self);
                 let ell = self.d.mul(l, delta);
                 let k = kernel(self, Kernel::SinhcMinusOne, ell, ell);
                 let kl = self.d.mul(k, l);

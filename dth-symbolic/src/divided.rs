@@ -25,7 +25,8 @@
 //! | `tanh a` | `Delta[a] sinhc(delta) / (cosh(a0) cosh(a0 + delta))` |
 //! | `atan a` | `Delta[a] atan2(delta, 1 + a0 a1)/delta` |
 //!
-//! where `delta = delta[a]` and each `g(x)/x` is a [`Kernel`] with its limit at `x = 0`.
+//! where `delta = delta[a]` and each `g(x)/x` is a [`Kernel`] with its limit at `x = 0`
+//! (their formulas are in [`crate::kernel`]).
 //!
 //! **Why no cancellation.** The inputs are subtracted once, `d_i = z1_i - z0_i` (exact when
 //! `z1_i` and `z0_i` are within a factor 2 of each other, Sterbenz). Every other sum in the
@@ -53,122 +54,9 @@
 use std::collections::{BTreeMap, HashMap};
 
 use crate::arena::{Arena, Func, Id, Node, Var};
+use crate::kernel::{Kernel, Midpoint};
 use crate::lower::{Lowerer, Op, Output, Program, Slot};
 use crate::number::Num;
-
-/// A divided-difference kernel `k(x, y)`: a quotient by `x` written so it has no cancellation
-/// and a finite value at `x = 0` (its limit, returned exactly when `x == 0`). `x` is the
-/// difference `delta = a1 - a0` of a subexpression, `y` a base (ignored by `sinc`, `sinhc`).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Kernel {
-    /// `(exp(y + x) - exp(y))/x`, `exp(y)` at 0: `exp(y) expm1(x)/x` for `x <= 0`, and
-    /// `exp(y + x) expm1(-x)/(-x)` for `x > 0`, so the exponential is taken at the larger end
-    /// and the quotient stays in (0, 1]: no `0 * inf` when `exp(y)` underflows and `x` is large.
-    ExpRatio,
-    /// `sin(x)/x`, 1 at 0.
-    Sinc,
-    /// `sinh(x)/x`, 1 at 0.
-    Sinhc,
-    /// `ln1p(x/y)/x = (ln(y + x) - ln y)/x`, `1/y` at 0.
-    LnRatio,
-    /// `atan2(x, y)/x`, `1/y` at 0.
-    AtanRatio,
-    /// `expm1(r ln1p(x/y))/x = ((y + x)^r - y^r)/(x y^r)`, `r/y` at 0.
-    PowRatio(f64),
-    /// `(tanh(y + x) - tanh y)/x`, `1 - tanh^2 y` at 0: `sinhc(x)/(cosh(y) cosh(y + x))`, or
-    /// the plain quotient once `|x| > 700` (where `sinh x` would overflow and the two values
-    /// are far apart, so the difference does not cancel).
-    TanhRatio,
-    /// `cos x - sin(x)/x` (`S(x)`, 0 at 0): the defect of `sin`, `cos`
-    /// (see [`crate::defect::series`]).
-    CosMinusSinc,
-    /// `cosh x - sinh(x)/x` (`C(x)`, 0 at 0): the defect of `sinh`, `cosh`.
-    CoshMinusSinhc,
-    /// `sin(x)/x - 1`, 0 at 0.
-    SincMinusOne,
-    /// `sinh(x)/x - 1`, 0 at 0.
-    SinhcMinusOne,
-    /// The defect `T = f'(y) + f'(y + x) - 2 (f(y + x) - f(y))/x` of `f = exp`.
-    ExpDefect,
-    /// The defect `T` of `f = tanh` (as [`Kernel::ExpDefect`]).
-    TanhDefect,
-    /// `T / y^(r - 1)` for `f = y^r`, `r` real, `y > 0` (as [`Kernel::ExpDefect`]).
-    PowDefect(f64),
-}
-
-impl Kernel {
-    /// The name used when printing programs.
-    pub fn name(self) -> &'static str {
-        match self {
-            Kernel::ExpRatio => "exp_ratio",
-            Kernel::Sinc => "sinc",
-            Kernel::Sinhc => "sinhc",
-            Kernel::LnRatio => "ln_ratio",
-            Kernel::AtanRatio => "atan_ratio",
-            Kernel::PowRatio(_) => "pow_ratio",
-            Kernel::TanhRatio => "tanh_ratio",
-            Kernel::CosMinusSinc => "cos_minus_sinc",
-            Kernel::CoshMinusSinhc => "cosh_minus_sinhc",
-            Kernel::SincMinusOne => "sinc_minus_one",
-            Kernel::SinhcMinusOne => "sinhc_minus_one",
-            Kernel::ExpDefect => "exp_defect",
-            Kernel::TanhDefect => "tanh_defect",
-            Kernel::PowDefect(_) => "pow_defect",
-        }
-    }
-
-    /// `k(x, y)` in `f64`. The generated code of `hamiltonian!` spells out the same formulas.
-    ///
-    /// ```
-    /// use dth_symbolic::Kernel;
-    /// assert_eq!(Kernel::ExpRatio.apply(0.0, 0.0), 1.0);
-    /// let x = 1e-9;
-    /// // (exp(x) - 1)/x to full precision, where the plain quotient keeps ~7 digits.
-    /// assert!((Kernel::ExpRatio.apply(x, 0.0) - (1.0 + x / 2.0)).abs() < 1e-16);
-    /// // (exp(100) - exp(-800))/900, though exp(-800) underflows and expm1(900) overflows.
-    /// let r = Kernel::ExpRatio.apply(900.0, -800.0);
-    /// assert!((r / (100f64.exp() / 900.0) - 1.0).abs() < 1e-13);
-    /// assert!((Kernel::LnRatio.apply(0.0, 4.0) - 0.25).abs() == 0.0);
-    /// ```
-    pub fn apply(self, x: f64, y: f64) -> f64 {
-        match self {
-            Kernel::ExpRatio if x == 0.0 => y.exp(),
-            Kernel::ExpRatio if x < 0.0 => y.exp() * (x.exp_m1() / x),
-            Kernel::ExpRatio => (y + x).exp() * ((-x).exp_m1() / -x),
-            Kernel::Sinc if x == 0.0 => 1.0,
-            Kernel::Sinc => x.sin() / x,
-            Kernel::Sinhc if x == 0.0 => 1.0,
-            Kernel::Sinhc => x.sinh() / x,
-            Kernel::LnRatio => {
-                let u = x / y;
-                if u == 0.0 {
-                    1.0 / y
-                } else {
-                    u.ln_1p() / x
-                }
-            }
-            Kernel::AtanRatio if x == 0.0 => 1.0 / y,
-            Kernel::AtanRatio => x.atan2(y) / x,
-            Kernel::PowRatio(r) => {
-                let u = x / y;
-                if u == 0.0 {
-                    r / y
-                } else {
-                    (r * u.ln_1p()).exp_m1() / x
-                }
-            }
-            Kernel::TanhRatio if x.abs() > 700.0 => ((y + x).tanh() - y.tanh()) / x,
-            Kernel::TanhRatio => Kernel::Sinhc.apply(x, x) / (y.cosh() * (y + x).cosh()),
-            Kernel::CosMinusSinc
-            | Kernel::CoshMinusSinhc
-            | Kernel::SincMinusOne
-            | Kernel::SinhcMinusOne
-            | Kernel::ExpDefect
-            | Kernel::TanhDefect
-            | Kernel::PowDefect(_) => crate::defect::apply(self, x, y),
-        }
-    }
-}
 
 /// `Delta[a]` of one node: `delta = a(z1) - a(z0)` (`None`: identically 0) and the nonzero
 /// components of the vector, by coordinate.
@@ -361,7 +249,9 @@ impl Divided<'_> {
                 if du.is_zero() {
                     return du;
                 }
-                let f = self.func_factor(f, u, &du);
+                let delta = du.delta.unwrap_or(self.one);
+                let (u0, u1) = (self.val0(u), self.val1(u));
+                let f = self.func_factor(f, (u0, u1, delta));
                 self.scaled(&du, f)
             }
         }
@@ -370,15 +260,7 @@ impl Divided<'_> {
     /// `Delta` of a product: a constant coefficient scales; the other factors fold with the
     /// symmetric product rule `Delta[P F] = Delta[P] mean(F) + mean(P) Delta[F]`.
     fn product(&mut self, factors: &[Id]) -> Diff {
-        let coef = factors
-            .iter()
-            .find_map(|&f| self.arena().as_num(f))
-            .unwrap_or(Num::ONE);
-        let rest: Vec<Id> = factors
-            .iter()
-            .copied()
-            .filter(|&f| self.arena().as_num(f).is_none())
-            .collect();
+        let (coef, rest) = self.coefficient_and_factors(factors);
         let mut acc = self.diff(rest[0]);
         // Values of the partial product at z0 and z1, emitted only when a factor follows.
         let mut partial: Option<(Slot, Slot)> = None;
@@ -389,16 +271,7 @@ impl Divided<'_> {
             };
             let df = self.diff(f);
             let (f0, f1) = (self.val0(f), self.val1(f));
-            let mut parts = Vec::new();
-            if !acc.is_zero() {
-                let mf = self.mean(f0, f1);
-                parts.push(self.scaled(&acc, mf));
-            }
-            if !df.is_zero() {
-                let mp = self.mean(p0, p1);
-                parts.push(self.scaled(&df, mp));
-            }
-            acc = self.sum(&parts);
+            acc = self.product_rule(&acc, (p0, p1), &df, (f0, f1));
             if i + 1 < rest.len() {
                 let same = p0 == p1 && f0 == f1;
                 let q0 = self.mul(p0, f0);
@@ -421,6 +294,41 @@ impl Divided<'_> {
             delta: acc.delta.map(|s| neg(self, s)),
             grad: acc.grad.iter().map(|&(k, s)| (k, neg(self, s))).collect(),
         }
+    }
+
+    /// The constant coefficient of a product (1 if none) and its other factors.
+    pub(crate) fn coefficient_and_factors(&self, factors: &[Id]) -> (Num, Vec<Id>) {
+        let coef = factors
+            .iter()
+            .find_map(|&f| self.arena().as_num(f))
+            .unwrap_or(Num::ONE);
+        let rest = factors
+            .iter()
+            .copied()
+            .filter(|&f| self.arena().as_num(f).is_none())
+            .collect();
+        (coef, rest)
+    }
+
+    /// The symmetric product rule `Delta[P F] = Delta[P] mean(F) + mean(P) Delta[F]`, from
+    /// `Delta[P]`, `Delta[F]` and the values of `P` and `F` at `z0` and `z1`.
+    pub(crate) fn product_rule(
+        &mut self,
+        dp: &Diff,
+        (p0, p1): (Slot, Slot),
+        df: &Diff,
+        (f0, f1): (Slot, Slot),
+    ) -> Diff {
+        let mut parts = Vec::new();
+        if !dp.is_zero() {
+            let mf = self.mean(f0, f1);
+            parts.push(self.scaled(dp, mf));
+        }
+        if !df.is_zero() {
+            let mp = self.mean(p0, p1);
+            parts.push(self.scaled(df, mp));
+        }
+        self.sum(&parts)
     }
 
     /// `sum_{j=0}^{k-1} a1^j a0^(k-1-j) = (a1^k - a0^k)/(a1 - a0)`, `k >= 1`: halving `k`
@@ -493,21 +401,24 @@ impl Divided<'_> {
         }
     }
 
-    /// `(f(u1) - f(u0))/(u1 - u0)` for the node `f(u)`.
-    fn func_factor(&mut self, f: Func, u: Id, du: &Diff) -> Slot {
-        let delta = du.delta.unwrap_or(self.one);
-        let (u0, u1) = (self.val0(u), self.val1(u));
+    /// `DD_f(u0, u1) = (f(u1) - f(u0))/(u1 - u0)` for the elementary function `f`, from `u0`,
+    /// `u1` and `delta = u1 - u0` (shared with [`crate::defect`], which needs it for `f'`).
+    pub(crate) fn func_factor(&mut self, f: Func, (u0, u1, delta): (Slot, Slot, Slot)) -> Slot {
         let half_delta = |this: &mut Self| {
             let h = this.l.konst(0.5);
             this.l.emit(Op::Mul(h, delta))
         };
-        // g(mean u) * kernel(delta/2): sin, cos, sinh, cosh.
-        let mid = |this: &mut Self, g: Func, k: Kernel, negate: bool| {
+        // f'(mean u) * ratio(delta/2): sin, cos, sinh, cosh.
+        let mid = |this: &mut Self, rule: Midpoint| {
             let m = this.mean(u0, u1);
-            let gm = this.l.emit(Op::Call(g, m));
-            let gm = if negate { this.l.emit(Op::Neg(gm)) } else { gm };
+            let gm = this.l.emit(Op::Call(rule.partner, m));
+            let gm = if rule.sign < 0.0 {
+                this.l.emit(Op::Neg(gm))
+            } else {
+                gm
+            };
             let hd = half_delta(this);
-            let kk = this.l.emit(Op::Kernel(k, hd, hd));
+            let kk = this.l.emit(Op::Kernel(rule.ratio, hd, hd));
             this.mul(gm, kk)
         };
         // sinc(delta) / (cos(u0) cos(u1)): tan.
@@ -521,10 +432,10 @@ impl Divided<'_> {
         match f {
             Func::Exp => self.l.emit(Op::Kernel(Kernel::ExpRatio, delta, u0)),
             Func::Ln => self.l.emit(Op::Kernel(Kernel::LnRatio, delta, u0)),
-            Func::Sin => mid(self, Func::Cos, Kernel::Sinc, false),
-            Func::Cos => mid(self, Func::Sin, Kernel::Sinc, true),
-            Func::Sinh => mid(self, Func::Cosh, Kernel::Sinhc, false),
-            Func::Cosh => mid(self, Func::Sinh, Kernel::Sinhc, false),
+            Func::Sin => mid(self, Midpoint::SIN),
+            Func::Cos => mid(self, Midpoint::COS),
+            Func::Sinh => mid(self, Midpoint::SINH),
+            Func::Cosh => mid(self, Midpoint::COSH),
             Func::Tan => quotient(self),
             Func::Tanh => self.l.emit(Op::Kernel(Kernel::TanhRatio, delta, u0)),
             Func::Atan => {

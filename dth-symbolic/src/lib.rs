@@ -1,13 +1,28 @@
 //! The symbolic engine behind `dth::hamiltonian!`, in plain Rust so it is tested without a
 //! compiler and can serve a run-time path.
 //!
-//! One module per stage: [`lexer`] and [`parser`] (`&str` to a syntax tree with byte spans),
-//! [`build`](crate::compile) (names resolved by [`check`], nodes built in the hash-consed
-//! [`arena`] through the simplifying constructors of [`simplify`]), [`diff`] (symbolic
-//! derivatives), [`system`] (gradient, Hessian upper triangle, Psi), [`divided`] (exact,
-//! cancellation-free discrete gradients by divided differences), [`defect`] (their trapezoid
-//! defect `g0 + g1 - 2 gbar`, also without cancellation), [`lower`] (straight-line
-//! programs, one per trait method) and [`eval`] (an interpreter for those programs).
+//! # Layers
+//!
+//! One module per stage; each imports only from the modules listed before it:
+//!
+//! 1. [`span`], [`number`], [`error`]: byte ranges, exact numbers, the errors.
+//! 2. [`lexer`] -> [`parser`]: `&str` to a syntax tree with byte spans.
+//! 3. [`arena`] -> [`simplify`] -> [`check`] -> `build`: the hash-consed expression arena,
+//!    its simplifying constructors (the only way nodes enter it), name resolution, and the
+//!    syntax tree built into the arena.
+//! 4. [`diff`], [`display`]: symbolic derivatives; expressions printed.
+//! 5. [`kernel`]: the divided-difference kernels, each formula written once for the
+//!    interpreter and for the macro's generated code, and the per-function rules they serve.
+//! 6. [`lower`]: straight-line programs, one per trait method.
+//! 7. [`divided`] -> [`defect`]: the exact, cancellation-free discrete gradient by divided
+//!    differences, and its trapezoid defect `g0 + g1 - 2 gbar`, also without cancellation,
+//!    lowered to two-point programs.
+//! 8. [`eval`]: an interpreter for programs.
+//! 9. [`system`]: [`compile`], the whole pipeline (gradient, Hessian upper triangle, Psi, and
+//!    the programs).
+//!
+//! [`sources`] (Hamiltonians as text, for tests and benchmarks) stands apart and imports
+//! nothing.
 //!
 //! ```
 //! use dth_symbolic::{compile, Method};
@@ -39,19 +54,21 @@ pub mod display;
 pub mod divided;
 pub mod error;
 pub mod eval;
+pub mod kernel;
 pub mod lexer;
 pub mod lower;
 pub mod number;
 pub mod parser;
 pub mod simplify;
+pub mod sources;
 pub mod span;
 pub mod system;
 
 pub use arena::{Arena, Func, Id, Node, Var, VarSet};
 pub use check::reserved_name;
-pub use divided::Kernel;
 pub use error::{Error, ErrorKind, Errors, EvalError};
 pub use eval::{Evaluation, PairEvaluation};
+pub use kernel::Kernel;
 pub use lower::{Op, Output, Program, Slot, Stats};
 pub use number::{Num, Rational};
 pub use span::Span;

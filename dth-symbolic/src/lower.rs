@@ -9,7 +9,7 @@
 use std::collections::HashMap;
 
 use crate::arena::{Arena, Func, Id, Node, Var};
-use crate::divided::Kernel;
+use crate::kernel::Kernel;
 use crate::number::Num;
 
 /// Index of an operation's result in a [`Program`].
@@ -291,26 +291,6 @@ fn cheaper(lower: impl Fn(bool) -> (Program, bool)) -> Program {
     }
 }
 
-/// A [`Kernel`] as a key: its variant, and the bits of the exponent of a `PowRatio`.
-fn kernel_key(k: Kernel) -> (u8, u64) {
-    match k {
-        Kernel::ExpRatio => (0, 0),
-        Kernel::Sinc => (1, 0),
-        Kernel::Sinhc => (2, 0),
-        Kernel::LnRatio => (3, 0),
-        Kernel::AtanRatio => (4, 0),
-        Kernel::TanhRatio => (5, 0),
-        Kernel::PowRatio(r) => (6, r.to_bits()),
-        Kernel::CosMinusSinc => (7, 0),
-        Kernel::CoshMinusSinhc => (8, 0),
-        Kernel::SincMinusOne => (9, 0),
-        Kernel::SinhcMinusOne => (10, 0),
-        Kernel::ExpDefect => (11, 0),
-        Kernel::TanhDefect => (12, 0),
-        Kernel::PowDefect(r) => (13, r.to_bits()),
-    }
-}
-
 /// The slots `op` reads.
 fn operands(op: &Op) -> Vec<Slot> {
     match *op {
@@ -390,33 +370,34 @@ pub(crate) struct Lowerer<'a> {
     pub(crate) joinable: bool,
 }
 
-/// An [`Op`] as a hashable key, operands of `+` and `*` in order (both commute exactly).
-type OpKey = (u8, u32, u32, u64);
+/// An [`Op`] as a hashable key, operands of `+` and `*` in order (both commute exactly); the
+/// last field names a kernel ([`Kernel::key`]).
+type OpKey = (u8, u32, u32, u64, &'static str);
 
 fn op_key(op: &Op) -> OpKey {
     let sorted = |a: Slot, b: Slot| (a.min(b), a.max(b));
     match *op {
-        Op::Input(k) => (0, k, 0, 0),
-        Op::Input1(k) => (1, k, 0, 0),
-        Op::Param(k) => (2, k, 0, 0),
-        Op::Const(c) => (3, 0, 0, c.to_bits()),
+        Op::Input(k) => (0, k, 0, 0, ""),
+        Op::Input1(k) => (1, k, 0, 0, ""),
+        Op::Param(k) => (2, k, 0, 0, ""),
+        Op::Const(c) => (3, 0, 0, c.to_bits(), ""),
         Op::Add(a, b) => {
             let (a, b) = sorted(a, b);
-            (4, a, b, 0)
+            (4, a, b, 0, "")
         }
-        Op::Sub(a, b) => (5, a, b, 0),
+        Op::Sub(a, b) => (5, a, b, 0, ""),
         Op::Mul(a, b) => {
             let (a, b) = sorted(a, b);
-            (6, a, b, 0)
+            (6, a, b, 0, "")
         }
-        Op::Div(a, b) => (7, a, b, 0),
-        Op::Neg(a) => (8, a, 0, 0),
-        Op::Sqrt(a) => (9, a, 0, 0),
-        Op::Powf(a, e) => (10, a, 0, e.to_bits()),
-        Op::Call(f, a) => (11, a, 0, f as u64),
+        Op::Div(a, b) => (7, a, b, 0, ""),
+        Op::Neg(a) => (8, a, 0, 0, ""),
+        Op::Sqrt(a) => (9, a, 0, 0, ""),
+        Op::Powf(a, e) => (10, a, 0, e.to_bits(), ""),
+        Op::Call(f, a) => (11, a, 0, f as u64, ""),
         Op::Kernel(k, a, b) => {
-            let (variant, bits) = kernel_key(k);
-            (12 + variant, a, b, bits)
+            let (name, bits) = k.key();
+            (12, a, b, bits, name)
         }
     }
 }

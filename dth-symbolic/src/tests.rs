@@ -2,6 +2,7 @@
 
 use crate::arena::Var;
 use crate::error::ErrorKind;
+use crate::sources::toda_fixed_ends;
 use crate::{compile, expression, Method};
 
 /// `src`, simplified.
@@ -347,18 +348,6 @@ fn dimension_and_time_dependence_follow_the_source() {
 }
 
 // --- engine work ------------------------------------------------------------------------
-
-/// The Toda chain between walls with `n` degrees of freedom: `3n - 1` nonzero Hessian entries
-/// in the upper triangle (tridiagonal q-block, identity on p).
-fn toda_fixed_ends(n: usize) -> String {
-    let kinetic: Vec<String> = (1..=n).map(|i| format!("p{i}^2")).collect();
-    let mut src = format!("({})/2 + exp(-q1)", kinetic.join(" + "));
-    for i in 1..n {
-        src.push_str(&format!(" + exp(q{i} - q{})", i + 1));
-    }
-    src.push_str(&format!(" + exp(q{n})"));
-    src
-}
 
 /// Differentiation skips subtrees free of the variable and the Hessian visits only pairs that
 /// can be nonzero, so the derivative rules applied (gradient, Hessian) grow exactly linearly in

@@ -1,0 +1,25 @@
+//! Hamiltonians as source text, for any size: the systems that the engine's tests, the
+//! macro's tests and the compile-cost benchmark grow, defined once so all of them measure the
+//! same Hamiltonian.
+
+/// The Toda chain between walls with `n >= 1` degrees of freedom (`D = 2n`):
+/// `H = sum p_i^2 / 2 + exp(-q1) + sum exp(q_i - q_{i+1}) + exp(q_n)`. The upper triangle of its
+/// Hessian has `3n - 1` nonzero entries (tridiagonal q-block, identity on p).
+///
+/// ```
+/// use dth_symbolic::sources::toda_fixed_ends;
+/// assert_eq!(
+///     toda_fixed_ends(2),
+///     "(p1^2 + p2^2)/2 + exp(-q1) + exp(q1 - q2) + exp(q2)"
+/// );
+/// assert_eq!(dth_symbolic::compile(&toda_fixed_ends(3), &[]).unwrap().dim(), 6);
+/// ```
+pub fn toda_fixed_ends(n: usize) -> String {
+    let kinetic: Vec<String> = (1..=n).map(|i| format!("p{i}^2")).collect();
+    let mut src = format!("({})/2 + exp(-q1)", kinetic.join(" + "));
+    for i in 1..n {
+        src.push_str(&format!(" + exp(q{i} - q{})", i + 1));
+    }
+    src.push_str(&format!(" + exp(q{n})"));
+    src
+}

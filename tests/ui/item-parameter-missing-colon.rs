@@ -1,0 +1,18 @@
+// A parameter without `:` is the only error: every field name is still declared, so
+// constructing the struct adds none.
+dth::hamiltonian! {
+    pub struct Spring { k f64, m: f64 } = p1^2/(2*m) + k*q1^2/2
+}
+
+// Used from another module, where rustc reports a missing type even after a macro error.
+mod energy {
+    use dth::Hamiltonian;
+
+    pub fn of(s: &super::Spring) -> f64 {
+        s.value(&dth::nalgebra::Vector2::new(1.0, 0.0))
+    }
+}
+
+fn main() {
+    let _ = energy::of(&Spring { k: 2.0, m: 1.0 });
+}
