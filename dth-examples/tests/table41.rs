@@ -1,20 +1,13 @@
-//! `dth table41 --json PATH` reproduces the thesis's Table 4.1 (issue 3), through the binary.
+//! `dth table41 --json PATH` reproduces the thesis's Table 4.1, through the binary.
 
 mod common;
 
 use common::*;
 
-/// The thesis's values (Table 4.1; NOTES.md), `(method, energy, angular momentum)`.
-const THESIS: [(&str, f64, f64); 5] = [
-    ("trapezoidal", 1.322e-1, 4.593e-2),
-    ("midpoint", 5.969e-2, 7.387e-16),
-    ("discrete_mechanics", 3.901e-15, 1.738e-15),
-    ("dth_midpoints", 1.285e-14, 8.204e-4),
-    ("dth_vertices", 1.750e-2, 2.221e-15),
-];
+use dth::kepler::THESIS_TABLE_4_1 as THESIS;
 
 /// An entry is "at roundoff" when the thesis's value is: below 1e-13, i.e. a few hundred eps
-/// times the O(1) energy and angular momentum. Ours must then be at most 3e-14 (issue 3): the
+/// times the O(1) energy and angular momentum. Ours must then be at most 3e-14: the
 /// average of |Q_k - Q_0| for a quantity conserved exactly by the method is a random walk of
 /// roundoff, a few eps sqrt(k) at worst over 10^4 steps.
 const ROUNDOFF: f64 = 1e-13;
@@ -33,7 +26,8 @@ fn table41_matches_the_thesis() {
     assert_eq!(obj.keys().collect::<Vec<_>>(), ["rows"]);
     let rows = json["rows"].as_array().unwrap();
     assert_eq!(rows.len(), THESIS.len());
-    for (row, &(method, e_thesis, l_thesis)) in rows.iter().zip(&THESIS) {
+    for (row, t) in rows.iter().zip(&THESIS) {
+        let (method, e_thesis, l_thesis) = (t.method, t.energy, t.angular_momentum);
         let mut keys: Vec<_> = row.as_object().unwrap().keys().cloned().collect();
         keys.sort();
         assert_eq!(keys, ["angular_momentum", "energy", "method"]);

@@ -3,6 +3,7 @@
 
 use std::path::Path;
 
+use crate::effects::{DeviationStats, Series};
 use crate::error::Error;
 use crate::plot::{Figure, Mark, Series as PlotSeries};
 use crate::scene::{Coord, EffectSpec, Scene};
@@ -25,62 +26,27 @@ pub fn write(
         match spec {
             EffectSpec::EnergyDeviation { .. } if !seen_energy => {
                 seen_energy = true;
-                let mut f = Figure::new(
+                let f = deviation_figure(
                     &format!("{}: energy deviation", scene.title),
-                    "t",
                     "|H - H0|",
-                )
-                .with_log(false, true);
-                for r in results {
-                    if let Some((_, a, b)) = &r.outputs.energy {
-                        let name = if b.is_empty() {
-                            r.summary.label.clone()
-                        } else {
-                            format!("{} (midpoints)", r.summary.label)
-                        };
-                        f = f.with_series(PlotSeries::new(
-                            &name,
-                            Mark::Line,
-                            a.iter().map(|p| (p.1, p.2)),
-                        ));
-                        if !b.is_empty() {
-                            f = f.with_series(PlotSeries::new(
-                                &format!("{} (vertices)", r.summary.label),
-                                Mark::Line,
-                                b.iter().map(|p| (p.1, p.2)),
-                            ));
-                        }
-                    }
-                }
+                    results
+                        .iter()
+                        .filter_map(|r| Some((r, r.outputs.energy.as_ref()?))),
+                    " (midpoints)",
+                );
                 figs.push(("energy_deviation".into(), f));
             }
             EffectSpec::Invariants { .. } if !seen_invariants => {
                 seen_invariants = true;
                 for (j, name) in invariant_names.iter().enumerate() {
-                    let mut f = Figure::new(
+                    let f = deviation_figure(
                         &format!("{}: {name} deviation", scene.title),
-                        "t",
                         &format!("|{name} - {name}0|"),
-                    )
-                    .with_log(false, true);
-                    for r in results {
-                        if let Some((_, a, b)) =
-                            r.outputs.invariants.as_ref().and_then(|v| v.get(j))
-                        {
-                            f = f.with_series(PlotSeries::new(
-                                &r.summary.label,
-                                Mark::Line,
-                                a.iter().map(|p| (p.1, p.2)),
-                            ));
-                            if !b.is_empty() {
-                                f = f.with_series(PlotSeries::new(
-                                    &format!("{} (vertices)", r.summary.label),
-                                    Mark::Line,
-                                    b.iter().map(|p| (p.1, p.2)),
-                                ));
-                            }
-                        }
-                    }
+                        results
+                            .iter()
+                            .filter_map(|r| Some((r, r.outputs.invariants.as_ref()?.get(j)?))),
+                        "",
+                    );
                     figs.push((format!("invariant_{name}"), f));
                 }
             }
@@ -201,4 +167,36 @@ pub fn write(
         files.push(format!("{stem}.svg"));
     }
     Ok(files)
+}
+
+/// A log-scale figure of deviation series against `t`: per method its states' series
+/// (labelled with `points_suffix` when it also has vertices) and its vertices' series.
+fn deviation_figure<'r>(
+    title: &str,
+    y_label: &str,
+    series: impl Iterator<Item = (&'r MethodResult, &'r (DeviationStats, Series, Series))>,
+    points_suffix: &str,
+) -> Figure {
+    let mut f = Figure::new(title, "t", y_label).with_log(false, true);
+    for (r, (_, points, vertices)) in series {
+        let label = &r.summary.label;
+        let name = if vertices.is_empty() {
+            label.clone()
+        } else {
+            format!("{label}{points_suffix}")
+        };
+        f = f.with_series(PlotSeries::new(
+            &name,
+            Mark::Line,
+            points.iter().map(|p| (p.1, p.2)),
+        ));
+        if !vertices.is_empty() {
+            f = f.with_series(PlotSeries::new(
+                &format!("{label} (vertices)"),
+                Mark::Line,
+                vertices.iter().map(|p| (p.1, p.2)),
+            ));
+        }
+    }
+    f
 }

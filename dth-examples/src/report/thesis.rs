@@ -158,22 +158,21 @@ fn points_per_orbit(states: &[State], period: f64) -> f64 {
     }
 }
 
-/// The polar angle of `q` swept, in degrees, by the states with `t <= t_end`.
+/// The polar angle of `q` swept from the first state to time `t_end`, in degrees: the
+/// unwrapped angle through the states, interpolated linearly between the two around `t_end`.
 fn swept_degrees(states: &[State], t_end: f64) -> f64 {
     let angle = |s: &State| s.1[1].atan2(s.1[0]);
     let turn = std::f64::consts::TAU;
-    let swept: f64 = states
-        .windows(2)
-        .take_while(|w| w[1].0 <= t_end)
-        .map(|w| {
-            let d = (angle(&w[1]) - angle(&w[0])).rem_euclid(turn);
-            if d > 0.5 * turn {
-                d - turn
-            } else {
-                d
-            }
-        })
-        .sum();
+    let mut swept = 0.0;
+    for w in states.windows(2) {
+        let d = (angle(&w[1]) - angle(&w[0])).rem_euclid(turn);
+        let d = if d > 0.5 * turn { d - turn } else { d };
+        if w[1].0 >= t_end {
+            swept += d * (t_end - w[0].0) / (w[1].0 - w[0].0);
+            break;
+        }
+        swept += d;
+    }
     swept.to_degrees()
 }
 
@@ -276,10 +275,9 @@ pub fn figures<const D: usize, S: SceneSystem<D>>(
 
     // Figures 4.1-4.4: one orbit of each coordinate against t (and one step more, so that the
     // return to the start is visible), the exact solution as a smooth curve.
-    // Points per orbit of the runs (the thesis: 25 for every method), and which methods are
-    // more than half a step off one orbit after one period (the thesis's observation on
-    // Figures 4.1-4.4: "the trapezoidal method has not completed an orbit; the midpoint
-    // method has begun a second").
+    // Points per orbit of the runs (the thesis: 25 for every method), and how far each method
+    // gets in one period (the thesis's observation on Figures 4.1-4.4: "the trapezoidal method
+    // has not completed an orbit; the midpoint method has begun a second").
     let moving: Vec<_> = runs
         .iter()
         .filter(|r| r.0.kind != MethodKind::Exact)
@@ -289,21 +287,14 @@ pub fn figures<const D: usize, S: SceneSystem<D>>(
         .map(|r| points_per_orbit(&r.3, period))
         .sum::<f64>()
         / moving.len().max(1) as f64;
-    let mut orbit_notes = Vec::new();
-    for r in &moving {
-        let swept = swept_degrees(&r.3, scene.t0 + period);
-        let half_step = 180.0 / points_per_orbit(&r.3, period);
-        let kind = r.0.kind.name().replace('_', " ");
-        if swept < 360.0 - half_step {
-            orbit_notes.push(format!("the {kind} method has not completed an orbit"));
-        } else if swept > 360.0 + half_step {
-            orbit_notes.push(format!("the {kind} method has begun a second"));
-        }
-    }
-    let orbit_note = match orbit_notes.join("; ") {
-        n if n.is_empty() => String::new(),
-        n => format!(" {}{}.", n[..1].to_uppercase(), &n[1..]),
-    };
+    let swept: Vec<String> = moving
+        .iter()
+        .map(|r| format!("{} {:.2}", r.1, swept_degrees(&r.3, scene.t0 + period)))
+        .collect();
+    let orbit_note = format!(
+        " Polar angle of q swept in one period (degrees; 360 is one orbit): {}.",
+        swept.join(", ")
+    );
     let t_end = scene.t0 + period * (1.0 + 1.0 / ppo);
     let exact: Vec<State> = (0..=400)
         .filter_map(|i| {
@@ -683,6 +674,8 @@ mod tests {
             .collect();
         assert!((swept_degrees(&states, 100.0) - 360.0).abs() < 1e-9);
         assert!((swept_degrees(&states, 50.0) - 180.0).abs() < 1e-9);
+        // Between states: linear in time.
+        assert!((swept_degrees(&states, 50.5) - 181.8).abs() < 1e-9);
         assert!((points_per_orbit(&states, 100.0) - 100.0).abs() < 1e-12);
     }
 }
