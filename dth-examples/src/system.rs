@@ -69,7 +69,8 @@ pub trait SceneSystem<const D: usize>: Hamiltonian<D> + Clone {
     /// Runs the DTH stepper (`runner`) on this system. Keep the default: it is the only place
     /// the scene runner instantiates the stepper for `Self`, so a system whose `Psi` is
     /// identically zero (rejected by the stepper at compile time) runs through [`WithoutDth`]
-    /// instead, which returns `None` here ([`SystemEntry::runnable_without_dth`] does that).
+    /// instead, which returns `None` here ([`SystemEntry::runnable_without_dth`](crate::catalogue::SystemEntry::runnable_without_dth)
+    /// does that).
     fn run_dth<O: Observer<D>>(
         &self,
         runner: &DthRunner,

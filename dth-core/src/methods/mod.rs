@@ -3,7 +3,7 @@
 //! Every method implements [`OneStepMethod`] for the Hamiltonians it applies to (generic and
 //! monomorphized: no `dyn`, no heap allocation per step); [`run`] takes `N` steps and calls an
 //! [`Observer`] after each one (the same protocol as the DTH stepper's), storing nothing unless
-//! the observer does ([`Recorder`]).
+//! the observer does ([`Recorder`](crate::observer::Recorder)).
 //!
 //! | module | method | order | exact invariants |
 //! |---|---|---|---|

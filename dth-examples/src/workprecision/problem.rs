@@ -1,4 +1,4 @@
-//! What one work-precision problem is ([`Problem`]) and what the results say about it
+//! What one work-precision problem is (`Problem`) and what the results say about it
 //! ([`ProblemInfo`]): the data the runners measure and the reports print, apart from the list
 //! of problems ([`super::problems`]) that drives them.
 
