@@ -94,13 +94,14 @@ pub struct DthRunner {
 }
 
 impl DthRunner {
-    /// The runner for a scene's DTH step (`dtau`, `lambda0`, `solver`).
-    pub fn new(dtau: f64, lambda0: f64, solver: Solver) -> Result<Self, dth::Error> {
+    /// The runner for a scene's DTH step (`dtau`, `lambda0`, `solver`, robust mode).
+    pub fn new(dtau: f64, lambda0: f64, solver: Solver, robust: bool) -> Result<Self, dth::Error> {
         Ok(DthRunner {
             options: DthOptions::default()
                 .with_dtau(dtau)?
                 .with_lambda0(lambda0)?
-                .with_solver(solver),
+                .with_solver(solver)
+                .with_robust(robust),
         })
     }
 

@@ -106,6 +106,13 @@ pub enum Error {
         /// The backend's message.
         reason: String,
     },
+    /// A Hamiltonian given as text is malformed (exit code 2): every error, each under the
+    /// expression with a caret line at its position.
+    #[error("invalid Hamiltonian:\n{diagnostics}")]
+    Hamiltonian {
+        /// The errors, rendered.
+        diagnostics: String,
+    },
     /// A system registration is invalid (e.g. a duplicate name).
     #[error("invalid system registration `{name}`: {reason}")]
     Registration {
@@ -120,7 +127,10 @@ impl Error {
     /// The process exit code for this error: 2 for bad input (scene errors), 1 otherwise.
     pub fn exit_code(&self) -> i32 {
         match self {
-            Error::Scene(_) | Error::SceneUnreadable { .. } | Error::OutputRefused { .. } => 2,
+            Error::Scene(_)
+            | Error::SceneUnreadable { .. }
+            | Error::OutputRefused { .. }
+            | Error::Hamiltonian { .. } => 2,
             _ => 1,
         }
     }

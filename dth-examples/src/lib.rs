@@ -24,8 +24,9 @@
 //! 9. [`catalogue`]: the systems scenes can name, each bound to the pipeline; then this file
 //!    and `main.rs`.
 //!
-//! [`workprecision`] (the benchmark behind `dth workprecision`) sits beside the scene stack and
-//! uses only layer 1.
+//! [`workprecision`] (the benchmark behind `dth workprecision`) and [`derive`] (what the
+//! symbolic engine derives from a Hamiltonian as text, `dth derive`) sit beside the scene
+//! stack and use only layer 1.
 //!
 //! ```
 //! use dth_examples::{catalogue::Catalogue, check_scene};
@@ -59,6 +60,7 @@ pub mod pipeline;
 
 pub mod catalogue;
 
+pub mod derive;
 pub mod workprecision;
 
 pub use error::Error;

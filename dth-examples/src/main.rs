@@ -84,6 +84,17 @@ enum Command {
         #[arg(long)]
         quick: bool,
     },
+    /// Show what the symbolic engine derives from a Hamiltonian (the `hamiltonian!` grammar):
+    /// the simplified gradient, the Hessian's nonzero entries, Psi = (J gradH)^T HessH (J gradH),
+    /// and the flags (separable, time-dependent, Psi identically zero). Exit 2 with the
+    /// position of each error for a malformed expression.
+    Derive {
+        /// The Hamiltonian, e.g. "p1^2/(2*m) + k*q1^2/2" (quote it for the shell).
+        expr: String,
+        /// A parameter name the expression uses (repeat, or separate with commas).
+        #[arg(long = "param", short = 'p', value_delimiter = ',')]
+        params: Vec<String>,
+    },
 }
 
 fn default_out(scene: &Path) -> PathBuf {
@@ -228,6 +239,11 @@ fn main_inner(cli: Cli) -> Result<ExitCode, CliError> {
             if let Some(path) = json {
                 dth_examples::report::write_json(&path, &table)?;
             }
+            Ok(ExitCode::SUCCESS)
+        }
+        Some(Command::Derive { expr, params }) => {
+            let params: Vec<&str> = params.iter().map(String::as_str).collect();
+            print!("{}", dth_examples::derive::derive(&expr, &params)?);
             Ok(ExitCode::SUCCESS)
         }
         Some(Command::Workprecision { out, quick }) => {

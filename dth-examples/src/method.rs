@@ -77,10 +77,11 @@ pub fn run_method<const D: usize, H: SceneSystem<D>, O: Observer<D>>(
                 dtau,
                 lambda0,
                 solver,
+                robust,
             },
         ) => {
-            let runner =
-                DthRunner::new(dtau, lambda0, solver).map_err(|e| not_available(&e.to_string()))?;
+            let runner = DthRunner::new(dtau, lambda0, solver, robust)
+                .map_err(|e| not_available(&e.to_string()))?;
             return system
                 .run_dth(&runner, z0, t0, stop, observer)
                 .ok_or_else(|| {

@@ -279,10 +279,15 @@ fn step_summary(step: StepSpec) -> BTreeMap<String, serde_json::Value> {
             dtau,
             lambda0,
             solver,
+            robust,
         } => {
             m.insert("dtau".into(), dtau.into());
             m.insert("lambda0".into(), lambda0.into());
             m.insert("solver".into(), solver.name().into());
+            // Shown when on (a run without it reads as before).
+            if robust {
+                m.insert("robust".into(), robust.into());
+            }
         }
     }
     m

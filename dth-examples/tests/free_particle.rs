@@ -108,6 +108,7 @@ fn the_runner_refuses_dth_even_when_validation_is_bypassed() {
         dtau: 0.1,
         lambda0: 1.0,
         solver: Solver::Joint,
+        robust: false,
     };
     let err = compute(
         &WithoutDth(FreeParticle { m: 2.0 }),

@@ -184,10 +184,12 @@ fn refined(spec: &MethodSpec, factor: f64) -> MethodSpec {
             dtau,
             lambda0,
             solver,
+            robust,
         } => StepSpec::Dth {
             dtau: dtau / factor,
             lambda0,
             solver,
+            robust,
         },
     };
     MethodSpec {

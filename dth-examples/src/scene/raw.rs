@@ -57,6 +57,7 @@ pub(super) struct RawMethod {
     pub(super) dtau: Option<Spanned<f64>>,
     pub(super) lambda0: Option<Spanned<f64>>,
     pub(super) solver: Option<Spanned<String>>,
+    pub(super) robust: Option<Spanned<bool>>,
 }
 
 #[derive(Deserialize)]

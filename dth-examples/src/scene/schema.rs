@@ -80,6 +80,10 @@ pub enum StepSpec {
         lambda0: f64,
         /// Which Newton iteration (`dth::dth::Solver`, named in scenes by [`Solver::name`]).
         solver: Solver,
+        /// Robust mode (`dth::dth::DthOptions::with_robust`): where DTH has no positive root
+        /// (a breakdown, `Psi` changing sign), carry on with energy-conserving fallback steps
+        /// instead of stopping. Default `false`.
+        robust: bool,
     },
 }
 
@@ -148,7 +152,7 @@ impl MethodKind {
     /// One line for `dth list`.
     pub fn doc(self) -> &'static str {
         match self {
-            MethodKind::Dth => "Discrete-Time Hamiltonian dynamics; keys dtau, lambda0 (default 1), solver = \"joint\" | \"nested\"",
+            MethodKind::Dth => "Discrete-Time Hamiltonian dynamics; keys dtau, lambda0 (default 1), solver = \"joint\" | \"nested\", robust = true | false (default false: stop at a breakdown)",
             MethodKind::Trapezoidal => "trapezoidal rule; key dt",
             MethodKind::Midpoint => "implicit midpoint rule; key dt",
             MethodKind::DiscreteMechanics => "Greenspan's discrete mechanics (central-force H); key dt",

@@ -458,7 +458,7 @@ fn validate_method(m: Spanned<RawMethod>, cx: &mut Ctxt<'_>) -> Option<MethodSpe
     }
     let step = if kind == MethodKind::Dth {
         if let Some(dt) = &m.dt {
-            cx.error(dt.span(), "`dt` is not a key of method `dth`: expected `dtau` (the step in tau) and optionally `lambda0`, `solver`");
+            cx.error(dt.span(), "`dt` is not a key of method `dth`: expected `dtau` (the step in tau) and optionally `lambda0`, `solver`, `robust`");
         }
         let dtau = match &m.dtau {
             None => {
@@ -493,6 +493,7 @@ fn validate_method(m: Spanned<RawMethod>, cx: &mut Ctxt<'_>) -> Option<MethodSpe
             dtau: dtau?,
             lambda0: lambda0?,
             solver: solver?,
+            robust: m.robust.as_ref().is_some_and(|r| *r.get_ref()),
         }
     } else {
         for (key, v) in [("dtau", &m.dtau), ("lambda0", &m.lambda0)] {
@@ -506,11 +507,13 @@ fn validate_method(m: Spanned<RawMethod>, cx: &mut Ctxt<'_>) -> Option<MethodSpe
                 );
             }
         }
-        if let Some(s) = &m.solver {
+        let solver = m.solver.as_ref().map(|s| ("solver", s.span()));
+        let robust = m.robust.as_ref().map(|r| ("robust", r.span()));
+        for (key, span) in solver.into_iter().chain(robust) {
             cx.error(
-                s.span(),
+                span,
                 format!(
-                    "`solver` is a key of method `dth` only: `{}` takes `dt`",
+                    "`{key}` is a key of method `dth` only: `{}` takes `dt`",
                     kind.name()
                 ),
             );

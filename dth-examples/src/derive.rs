@@ -1,0 +1,189 @@
+//! `dth derive`: what the symbolic engine derives from a Hamiltonian written as text — the
+//! simplified gradient, the Hessian's nonzero entries, `Psi = (J gradH)^T HessH (J gradH)` and
+//! the flags the integrators use — so a user can see what the compiled code computes.
+//!
+//! ```
+//! let text = dth_examples::derive::derive("p1^2/(2*m) + k*q1^2/2", &["m", "k"])?;
+//! assert!(text.contains("dH/dq1 = k*q1"));
+//! assert!(text.contains("separable: yes"));
+//! # Ok::<(), dth_examples::Error>(())
+//! ```
+
+use std::fmt::Write as _;
+
+use dth_symbolic::{compile, Errors, System, Var};
+
+use crate::error::Error;
+
+/// The report of what the engine derives from `source` (the `hamiltonian!` grammar) with the
+/// declared parameter names `params`.
+///
+/// # Errors
+/// [`Error::Hamiltonian`] with every independent error of the expression, each shown under
+/// the expression with a caret line at its position.
+pub fn derive(source: &str, params: &[&str]) -> Result<String, Error> {
+    let system = compile(source, params).map_err(|errors| Error::Hamiltonian {
+        diagnostics: render_errors(source, &errors),
+    })?;
+    Ok(report(source, &system))
+}
+
+/// The name of a phase-space coordinate.
+fn name(v: Var) -> String {
+    match v {
+        Var::Q(i) => format!("q{i}"),
+        Var::P(i) => format!("p{i}"),
+        Var::T => "t".into(),
+        Var::Pt => "p_t".into(),
+        Var::Param(k) => format!("param{k}"),
+    }
+}
+
+fn yes(b: bool) -> &'static str {
+    if b {
+        "yes"
+    } else {
+        "no"
+    }
+}
+
+fn report(source: &str, s: &System) -> String {
+    let names: Vec<String> = s.coordinates().iter().map(|&v| name(v)).collect();
+    let mut out = String::new();
+    let _ = writeln!(out, "H = {}", source.trim());
+    if s.time_dependent() {
+        let _ = writeln!(
+            out,
+            "extended phase space (H uses t): calH = p_t + H, z = ({})",
+            names.join(", ")
+        );
+    } else {
+        let _ = writeln!(out, "z = ({})", names.join(", "));
+    }
+    let _ = writeln!(
+        out,
+        "n = {} degrees of freedom, D = {}, parameters: {}",
+        s.n(),
+        s.dim(),
+        if s.params().is_empty() {
+            "none".to_string()
+        } else {
+            s.params().join(", ")
+        }
+    );
+    let _ = writeln!(out, "simplified: {}", s.expr(s.value()));
+    let _ = writeln!(out, "\nflags");
+    let _ = writeln!(out, "  separable: {} (H = T(p) + V(q))", yes(s.separable()));
+    let _ = writeln!(out, "  time-dependent: {}", yes(s.time_dependent()));
+    let _ = writeln!(
+        out,
+        "  Psi identically zero: {}{}",
+        yes(s.psi_identically_zero()),
+        if s.psi_identically_zero() {
+            " (DTH cannot run on it: the energy condition does not determine lambda)"
+        } else {
+            ""
+        }
+    );
+    let _ = writeln!(out, "\ngradient");
+    for (i, &g) in s.gradient().iter().enumerate() {
+        let _ = writeln!(out, "  dH/d{} = {}", names[i], s.expr(g));
+    }
+    let _ = writeln!(
+        out,
+        "\nHessian: {} nonzero entries in the upper triangle (of {})",
+        s.hessian_nonzeros().len(),
+        s.dim() * (s.dim() + 1) / 2
+    );
+    for &(i, j, h) in s.hessian_nonzeros() {
+        let _ = writeln!(out, "  d2H/d{}d{} = {}", names[i], names[j], s.expr(h));
+    }
+    let _ = writeln!(
+        out,
+        "\nPsi = (J gradH)^T HessH (J gradH)\n  = {}",
+        s.expr(s.psi())
+    );
+    out
+}
+
+/// Each error of `errors` as `error: MESSAGE (column C)` (with the line for a multi-line
+/// source), then the source line and a caret line under the offending characters.
+pub fn render_errors(source: &str, errors: &Errors) -> String {
+    let mut out = String::new();
+    for e in &errors.0 {
+        let range = e.span.range();
+        let start = range.start.min(source.len());
+        let line_start = source[..start].rfind('\n').map_or(0, |i| i + 1);
+        let line_end = source[start..]
+            .find('\n')
+            .map_or(source.len(), |i| start + i);
+        let line = &source[line_start..line_end];
+        let column = source[line_start..start].chars().count();
+        let width = source
+            .get(start..range.end.min(line_end))
+            .map_or(1, |s| s.chars().count().max(1));
+        let line_no = source[..line_start].matches('\n').count() + 1;
+        let at = if line_start == 0 && line_end == source.len() {
+            format!("column {}", column + 1)
+        } else {
+            format!("line {line_no}, column {}", column + 1)
+        };
+        let _ = writeln!(
+            out,
+            "error: {e} ({at})\n  {line}\n  {}{}",
+            " ".repeat(column),
+            "^".repeat(width)
+        );
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn report_shows_gradient_hessian_psi_and_flags() {
+        let text = derive("p1^2 + p2^2 - (q1^2 + q2^2)^(-1/2)", &[]).unwrap_or_default();
+        assert!(text.contains("dH/dp1 = 2*p1"), "{text}");
+        assert!(text.contains("Hessian: "), "{text}");
+        assert!(text.contains("Psi = "), "{text}");
+        assert!(text.contains("separable: yes"), "{text}");
+        assert!(text.contains("time-dependent: no"), "{text}");
+        assert!(text.contains("Psi identically zero: no"), "{text}");
+    }
+
+    #[test]
+    fn time_dependent_and_degenerate_systems_are_flagged() {
+        let forced = derive("p1^2/2 - f*q1*cos(w*t)", &["f", "w"]).unwrap_or_default();
+        assert!(forced.contains("time-dependent: yes"), "{forced}");
+        assert!(forced.contains("z = (q1, t, p1, p_t)"), "{forced}");
+        let free = derive("p1^2/2 + p2^2/2", &[]).unwrap_or_default();
+        assert!(
+            free.contains("Psi identically zero: yes (DTH cannot run"),
+            "{free}"
+        );
+    }
+
+    #[test]
+    fn errors_point_at_the_offending_token() {
+        let Err(Error::Hamiltonian { diagnostics }) = derive("p1^2 + x1", &[]) else {
+            panic!("`x1` is not a variable");
+        };
+        assert!(
+            diagnostics.contains("unknown variable `x1`"),
+            "{diagnostics}"
+        );
+        assert!(
+            diagnostics.contains("(column 8)\n  p1^2 + x1\n         ^^"),
+            "{diagnostics}"
+        );
+        let Err(Error::Hamiltonian { diagnostics }) = derive("p1^2\n + x1", &[]) else {
+            panic!("`x1` is not a variable");
+        };
+        assert!(
+            diagnostics.contains("(line 2, column 4)\n   + x1\n     ^^"),
+            "{diagnostics}"
+        );
+    }
+}
