@@ -24,7 +24,7 @@
 //! 9. [`catalogue`]: the systems scenes can name, each bound to the pipeline; then this file
 //!    and `main.rs`.
 //!
-//! [`workprecision`] (the benchmark behind `dth workprecision`) and [`derive`] (what the
+//! [`workprecision`] (the benchmark behind `dth workprecision`) and [`derive`](mod@derive) (what the
 //! symbolic engine derives from a Hamiltonian as text, `dth derive`) sit beside the scene
 //! stack and use only layer 1.
 //!
