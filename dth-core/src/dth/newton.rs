@@ -438,15 +438,26 @@ pub(crate) fn solve_segment<H: Hamiltonian<D>, const D: usize>(
 }
 
 /// Check a cancellation-free solution against the energy level `E` and project it onto it
-/// (see [`EnergyResidual`](super::EnergyResidual)).
+/// (see [`EnergyResidual`](super::EnergyResidual)). `from_scale` is the roundoff scale of the
+/// previous midpoint (see [`roundoff_scale`]).
 pub(crate) fn project<H: Hamiltonian<D>, const D: usize>(
     ham: &H,
     energy: f64,
     mut s: Segment<D>,
+    from_scale: f64,
     options: &DthOptions,
     step: usize,
 ) -> Result<Segment<D>, Error> {
-    let (z, d) = project_onto_energy(ham, energy, s.zbar, s.derivatives, 0.0, options, step)?;
+    let (z, d) = project_onto_energy(
+        ham,
+        energy,
+        s.zbar,
+        s.derivatives,
+        from_scale,
+        0.0,
+        options,
+        step,
+    )?;
     s.zbar = z;
     s.derivatives = d;
     Ok(s)
@@ -457,13 +468,22 @@ pub(crate) fn project<H: Hamiltonian<D>, const D: usize>(
 /// `grad H` (one Newton step of `H(z) = E` in that direction). The move is a few ulps of `z`,
 /// inside the roundoff of the equation that produced `z`; it keeps the roundoff of successive
 /// energy-difference solves from random-walking.
-/// `explained` is a part of the deviation that the caller knows the size of (the fallback
-/// step's `gbar . f`), allowed on top of the tolerance.
+///
+/// The tolerance is relative to the roundoff scale of the evaluations involved: that of `z`,
+/// and `from_scale`, that of the point the step started from. The step solved an equation
+/// relative to that point (`H(z) = H(z_from)` through an exact discrete gradient), and the
+/// point lies on `H = E` only to within its own evaluation roundoff, `eps` times its scale: so
+/// `H(z) - E` carries both. They differ a lot where a term of `H` changes fast: for a
+/// time-dependent `H` the `t` coordinate grows, and `t dH/dt` may be large at one end of a
+/// step and near zero at the other. `explained` is a part of the deviation that the caller knows
+/// the size of (the fallback step's `gbar . f`), allowed on top of the tolerance.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn project_onto_energy<H: Hamiltonian<D>, const D: usize>(
     ham: &H,
     energy: f64,
     z: SVector<f64, D>,
     d: Derivatives<D>,
+    from_scale: f64,
     explained: f64,
     options: &DthOptions,
     step: usize,
@@ -472,7 +492,8 @@ pub(crate) fn project_onto_energy<H: Hamiltonian<D>, const D: usize>(
     let scale = energy
         .abs()
         .max(d.value.abs())
-        .max(z.component_mul(&d.gradient).abs().sum())
+        .max(roundoff_scale(&z, &d.gradient))
+        .max(from_scale)
         .max(f64::MIN_POSITIVE);
     let scaled = deviation.abs() / scale;
     if deviation.abs() > options.residual_tolerance() * scale + 2.0 * explained.abs() {
@@ -497,6 +518,16 @@ pub(crate) fn project_onto_energy<H: Hamiltonian<D>, const D: usize>(
         }
     }
     Ok((z, d))
+}
+
+/// The roundoff scale of evaluating `H` at `z`: `sum_i |z_i dH/dz_i|`, the size of the terms
+/// whose rounding (of `z_i` by an ulp, propagated through `dH/dz_i`) the computed `H(z)`
+/// carries.
+pub(crate) fn roundoff_scale<const D: usize>(
+    z: &SVector<f64, D>,
+    gradient: &SVector<f64, D>,
+) -> f64 {
+    z.component_mul(gradient).abs().sum()
 }
 
 /// A fresh stopping rule for one Newton solve of a segment.

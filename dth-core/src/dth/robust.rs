@@ -18,7 +18,7 @@
 
 use nalgebra::SVector;
 
-use super::newton::{all_finite, project_onto_energy};
+use super::newton::{all_finite, project_onto_energy, roundoff_scale};
 use super::options::DthOptions;
 use crate::methods::{DiscreteGradient, NewtonOptions, OneStepMethod};
 use crate::{j_times, Derivatives, Error, Hamiltonian};
@@ -114,7 +114,16 @@ pub(crate) fn fallback_step<H: Hamiltonian<D>, const D: usize>(
             residual,
         });
     }
-    let (z, derivatives) = project_onto_energy(ham, energy, z, d, gbar.dot(&f), options, step)?;
+    let (z, derivatives) = project_onto_energy(
+        ham,
+        energy,
+        z,
+        d,
+        roundoff_scale(z0, &g0),
+        gbar.dot(&f),
+        options,
+        step,
+    )?;
     Ok(FallbackStep {
         z,
         derivatives,

@@ -3,7 +3,7 @@
 use nalgebra::SVector;
 
 use super::newton::all_finite;
-use super::newton::{predict, project, solve_segment, Anchor, Previous};
+use super::newton::{predict, project, roundoff_scale, solve_segment, Anchor, Previous};
 use super::options::DthOptions;
 use super::options::EnergyResidual;
 use super::robust::fallback_step;
@@ -572,7 +572,15 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
             });
         }
         let s = if anchor.previous.is_some() {
-            project(&self.hamiltonian, self.energy, s, &self.options, step)?
+            let from_scale = roundoff_scale(&self.zbar, &self.gradient);
+            project(
+                &self.hamiltonian,
+                self.energy,
+                s,
+                from_scale,
+                &self.options,
+                step,
+            )?
         } else {
             s
         };
