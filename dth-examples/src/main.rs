@@ -53,7 +53,8 @@ enum Command {
     /// only when the run succeeds. An existing target is replaced (after success) only if it
     /// is empty or is a dth output folder (it holds a .dth-output marker); otherwise the run is
     /// refused. Exit codes: 0 success, 2 bad input (scene errors, refused output folder),
-    /// 1 run failures (a method failed mid-run: what it computed is still written).
+    /// 1 run failures (a method failed mid-run: what it computed is still written), 130
+    /// interrupted by SIGINT or SIGTERM (nothing written, no temporary folder left).
     Run {
         /// The scene file (TOML).
         scene: PathBuf,
@@ -269,7 +270,19 @@ fn main_inner(cli: Cli) -> Result<ExitCode, CliError> {
     }
 }
 
+/// Exit code of a run stopped by SIGINT or SIGTERM (128 + SIGINT, the shell's convention).
+const INTERRUPTED: i32 = 130;
+
 fn main() -> ExitCode {
+    // An interrupted run leaves nothing behind: its staging folder is removed, the previous
+    // output folder is untouched (see `output::remove_live_staging`).
+    if let Err(e) = ctrlc::set_handler(|| {
+        dth_examples::output::remove_live_staging();
+        eprintln!("interrupted: nothing was written");
+        std::process::exit(INTERRUPTED);
+    }) {
+        eprintln!("warning: cannot install the SIGINT/SIGTERM handler ({e}): an interrupted run may leave a temporary folder behind");
+    }
     let cli = Cli::parse();
     match main_inner(cli) {
         Ok(code) => code,

@@ -7,9 +7,13 @@
 //!   [`MARKER`] that every dth output folder contains (so `--out ~` cannot wipe a home
 //!   folder); otherwise the run is refused before it starts ([`Error::OutputRefused`]);
 //! - the old folder is swapped out only after the new one is complete: on any failure the old
-//!   folder is untouched and the temporary folder is removed.
+//!   folder is untouched and the temporary folder is removed;
+//! - an interrupted run (SIGINT, SIGTERM) leaves nothing behind: the `dth` command's signal
+//!   handler calls [`remove_live_staging`] before exiting, so the old folder is untouched and
+//!   no temporary folder is left.
 
 use std::path::{Path, PathBuf};
+use std::sync::Mutex;
 
 use tempfile::TempDir;
 
@@ -17,6 +21,46 @@ use crate::error::Error;
 
 /// Name of the marker file in every output folder.
 pub const MARKER: &str = ".dth-output";
+
+/// The temporary folders of the stagings alive in this process, with the outermost parent
+/// folder each created (see [`remove_live_staging`]).
+static LIVE: Mutex<Vec<(PathBuf, Option<PathBuf>)>> = Mutex::new(Vec::new());
+
+fn live() -> std::sync::MutexGuard<'static, Vec<(PathBuf, Option<PathBuf>)>> {
+    // A panic while holding the lock cannot leave the list inconsistent (push and retain).
+    LIVE.lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner)
+}
+
+/// Removes the temporary folder of every staging alive in this process (and the parent
+/// folders it created, if empty), for a process about to exit on a signal: the run's partial
+/// output is not kept, and no temporary folder is left. The stagings themselves are not
+/// usable afterwards.
+pub fn remove_live_staging() {
+    for (tmp, created) in live().iter() {
+        // The run may still be writing into it: retry until the folder is gone.
+        for _ in 0..10 {
+            if std::fs::remove_dir_all(tmp).is_ok() || !tmp.exists() {
+                break;
+            }
+        }
+        remove_empty_parents(tmp, created.as_deref());
+    }
+}
+
+/// Removes the empty folders from `path`'s parent up to `top` (the outermost one a staging
+/// created); stops at the first that is not empty.
+fn remove_empty_parents(path: &Path, top: Option<&Path>) {
+    let Some(top) = top else { return };
+    let mut dir = path.parent().map(Path::to_path_buf);
+    while let Some(d) = dir {
+        // `remove_dir` removes only empty folders: nothing else is touched.
+        if std::fs::remove_dir(&d).is_err() || d == top {
+            break;
+        }
+        dir = d.parent().map(Path::to_path_buf);
+    }
+}
 
 /// A temporary folder that becomes the output folder on [`Staging::commit`].
 #[derive(Debug)]
@@ -31,17 +75,10 @@ pub struct Staging {
 impl Drop for Staging {
     fn drop(&mut self) {
         if let Some(tmp) = self.tmp.take() {
+            let path = tmp.path().to_path_buf();
             drop(tmp);
-            if let Some(top) = &self.created {
-                let mut dir = self.target.parent().map(Path::to_path_buf);
-                while let Some(d) = dir {
-                    // `remove_dir` removes only empty folders: nothing else is touched.
-                    if std::fs::remove_dir(&d).is_err() || d == *top {
-                        break;
-                    }
-                    dir = d.parent().map(Path::to_path_buf);
-                }
-            }
+            live().retain(|(p, _)| *p != path);
+            remove_empty_parents(&self.target, self.created.as_deref());
         }
     }
 }
@@ -101,6 +138,7 @@ impl Staging {
             .prefix(&format!(".{name}.tmp-"))
             .tempdir_in(&parent)
             .map_err(io("cannot create temporary folder in", &parent))?;
+        live().push((tmp.path().to_path_buf(), created.clone()));
         Ok(Staging {
             tmp: Some(tmp),
             target: target.to_path_buf(),
@@ -138,6 +176,7 @@ impl Staging {
             return Ok(self.target.clone());
         };
         let tmp = tmp.keep();
+        live().retain(|(p, _)| *p != tmp);
         if let Err(source) = std::fs::rename(&tmp, &self.target) {
             if let Some(old) = &old {
                 let _ = std::fs::rename(old, &self.target);
