@@ -35,7 +35,7 @@ fn interrupt(signal: &str) {
     assert_eq!(first.status.code(), Some(0), "{}", stderr(&first));
     let before = entries(&dir.path().join("out"));
 
-    let mut child = Command::new(env!("CARGO_BIN_EXE_dth"))
+    let child = Command::new(env!("CARGO_BIN_EXE_dth"))
         .args(["run", "long.toml", "--out", "out"])
         .current_dir(dir.path())
         .stdout(Stdio::null())
