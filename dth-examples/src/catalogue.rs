@@ -19,11 +19,12 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
+use crate::budget::{self, MemoryEstimate};
 use crate::error::Error;
 use crate::pipeline::run_system;
 use crate::report::RunReport;
 use crate::scene::{ParamSpec, Scene, SystemInfo, SystemLookup};
-use crate::simulate::RunOptions;
+use crate::simulate::{initial_state, stop_for, RunOptions};
 use crate::system::{SceneSystem, WithoutDth};
 use crate::systems::{
     DoublePendulum, ForcedOscillator, FreeParticle, HarmonicOscillator, HenonHeiles, Kepler,
@@ -31,6 +32,8 @@ use crate::systems::{
 };
 
 type RunFn = dyn Fn(&Scene, &Path, &RunOptions) -> Result<RunReport, Error> + Send + Sync + 'static;
+type EstimateFn =
+    dyn Fn(&Scene, &RunOptions) -> Result<MemoryEstimate, Error> + Send + Sync + 'static;
 
 /// One system of a [`Catalogue`].
 pub struct SystemEntry {
@@ -46,6 +49,7 @@ pub struct SystemEntry {
     dth: bool,
     psi_identically_zero: bool,
     run: Box<RunFn>,
+    estimate: Box<EstimateFn>,
 }
 
 impl std::fmt::Debug for SystemEntry {
@@ -189,7 +193,17 @@ impl SystemEntry {
         } else {
             D / 2
         };
+        let build = std::sync::Arc::new(build);
+        let make = move |name: &str, params: &Params| {
+            build(params).map_err(|reason| Error::NotAvailable {
+                what: "system",
+                name: name.to_string(),
+                reason,
+            })
+        };
+        let make_too = make.clone();
         let entry_name = name.to_string();
+        let estimate_name = name.to_string();
         SystemEntry {
             name: name.to_string(),
             doc: doc.to_string(),
@@ -203,12 +217,14 @@ impl SystemEntry {
             dth,
             psi_identically_zero: S::PSI_IDENTICALLY_ZERO,
             run: Box::new(move |scene, out, options| {
-                let system = build(&scene.params).map_err(|reason| Error::NotAvailable {
-                    what: "system",
-                    name: entry_name.clone(),
-                    reason,
-                })?;
+                let system = make(&entry_name, &scene.params)?;
                 run_system::<D, S>(&system, scene, out, options)
+            }),
+            estimate: Box::new(move |scene, options| {
+                let system = make_too(&estimate_name, &scene.params)?;
+                let z0 = initial_state(&system, scene)?;
+                let stop = stop_for(&system, scene, &z0, options)?;
+                budget::check(&system, scene, stop, options.memory_limit())
             }),
         }
     }
@@ -396,6 +412,18 @@ impl Catalogue {
             reason: "it is not in this catalogue".into(),
         })?;
         (entry.run)(scene, out, options)
+    }
+
+    /// What a validated scene's effects would keep in memory ([`crate::budget`]), refused
+    /// ([`Error::MemoryLimit`]) above `options`' limit, as a run would refuse it: so that
+    /// `dth check` and `dth run` agree.
+    pub fn estimate(&self, scene: &Scene, options: &RunOptions) -> Result<MemoryEstimate, Error> {
+        let entry = self.get(&scene.system).ok_or_else(|| Error::NotAvailable {
+            what: "system",
+            name: scene.system.clone(),
+            reason: "it is not in this catalogue".into(),
+        })?;
+        (entry.estimate)(scene, options)
     }
 }
 

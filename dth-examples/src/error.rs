@@ -113,6 +113,17 @@ pub enum Error {
         /// The errors, rendered.
         diagnostics: String,
     },
+    /// The run's effects would keep more memory than allowed (exit code 2): refused before
+    /// anything runs.
+    #[error("refusing to run: {detail}")]
+    MemoryLimit {
+        /// The estimate, in bytes.
+        estimate: u64,
+        /// The limit, in bytes.
+        limit: u64,
+        /// What would keep it, the limit, and what to do.
+        detail: String,
+    },
     /// A system registration is invalid (e.g. a duplicate name).
     #[error("invalid system registration `{name}`: {reason}")]
     Registration {
@@ -130,7 +141,8 @@ impl Error {
             Error::Scene(_)
             | Error::SceneUnreadable { .. }
             | Error::OutputRefused { .. }
-            | Error::Hamiltonian { .. } => 2,
+            | Error::Hamiltonian { .. }
+            | Error::MemoryLimit { .. } => 2,
             _ => 1,
         }
     }

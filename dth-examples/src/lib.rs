@@ -18,7 +18,8 @@
 //! 4. [`system`] (what a scene needs of a system) and [`systems`] (the built-in ones);
 //! 5. [`method`] (a scene's method name to an integrator) and [`effects`] (observers for the
 //!    requested effects);
-//! 6. [`simulate`]: every method of a scene on a system, results in memory;
+//! 6. [`budget`] (the memory a run's effects will keep, checked before it runs), then
+//!    [`simulate`]: every method of a scene on a system, results in memory;
 //! 7. [`report`]: CSV, figures, Table 4.1, the thesis's figures, `index.html`;
 //! 8. [`pipeline`]: simulate, report, stage;
 //! 9. [`catalogue`]: the systems scenes can name, each bound to the pipeline; then this file
@@ -52,6 +53,7 @@ pub mod systems;
 pub mod effects;
 pub mod method;
 
+pub mod budget;
 pub mod simulate;
 
 pub mod report;

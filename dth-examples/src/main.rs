@@ -4,6 +4,7 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
+use dth_examples::budget;
 use dth_examples::catalogue::Catalogue;
 use dth_examples::output::Staging;
 use dth_examples::report::table41;
@@ -43,6 +44,37 @@ struct Cli {
     /// Output folder for the default run (default: dth-out/thesis-kepler).
     #[arg(long, global = false)]
     out: Option<PathBuf>,
+    /// The most memory a run's effects may keep, e.g. 4G, 512M (default: half the available
+    /// memory). A scene estimated above it is refused, by `check` and `run`, before it runs.
+    #[arg(long, global = true, value_parser = parse_size)]
+    max_memory: Option<u64>,
+}
+
+/// A size in bytes: a number with an optional `k`, `M`, `G` or `T` (powers of 1000).
+fn parse_size(s: &str) -> Result<u64, String> {
+    let s = s.trim();
+    let not_a_size = || format!("`{s}` is not a size: expected e.g. 4G, 512M or 1000000");
+    let (digits, unit) = match s.char_indices().last() {
+        Some((i, c)) if c.is_ascii_alphabetic() => (&s[..i], Some(c)),
+        _ => (s, None),
+    };
+    let value: f64 = digits.trim().parse().map_err(|_| not_a_size())?;
+    let factor: u64 = match unit.map(|c| c.to_ascii_uppercase()) {
+        None => 1,
+        Some('K') => 1_000,
+        Some('M') => 1_000_000,
+        Some('G') => 1_000_000_000,
+        Some('T') => 1_000_000_000_000,
+        Some(c) => {
+            return Err(format!(
+                "unknown unit `{c}` in `{s}`: expected k, M, G or T"
+            ))
+        }
+    };
+    if !(value.is_finite() && value > 0.0) {
+        return Err(format!("`{s}`: expected a positive size"));
+    }
+    Ok((value * factor as f64) as u64)
 }
 
 #[derive(Subcommand)]
@@ -106,14 +138,14 @@ fn default_out(scene: &Path) -> PathBuf {
     Path::new(DEFAULT_OUT).join(stem)
 }
 
-fn run(text: &str, file: &str, out: &Path, thesis_table: bool) -> Result<ExitCode, CliError> {
-    let report = dth_examples::run_scene(
-        text,
-        file,
-        &Catalogue::builtin(),
-        out,
-        &RunOptions::default(),
-    )?;
+fn run(
+    text: &str,
+    file: &str,
+    out: &Path,
+    thesis_table: bool,
+    options: &RunOptions,
+) -> Result<ExitCode, CliError> {
+    let report = dth_examples::run_scene(text, file, &Catalogue::builtin(), out, options)?;
     let deviations = report.deviation_markdown();
     if !deviations.is_empty() {
         println!("{deviations}");
@@ -200,33 +232,37 @@ fn list() {
 }
 
 fn main_inner(cli: Cli) -> Result<ExitCode, CliError> {
+    let mut options = RunOptions::default();
+    if let Some(bytes) = cli.max_memory {
+        options = options.with_memory_limit(bytes);
+    }
     match cli.command {
         None => {
             let out = cli
                 .out
                 .unwrap_or_else(|| default_out(Path::new("thesis-kepler.toml")));
-            run(DEFAULT_SCENE, DEFAULT_SCENE_NAME, &out, true)
+            run(DEFAULT_SCENE, DEFAULT_SCENE_NAME, &out, true, &options)
         }
         Some(Command::Run { scene, out }) => {
             let text = dth_examples::read_scene(&scene)?;
             let out = out.unwrap_or_else(|| default_out(&scene));
-            run(&text, &scene.display().to_string(), &out, false)
+            run(&text, &scene.display().to_string(), &out, false, &options)
         }
         Some(Command::Check { scene }) => {
             let text = dth_examples::read_scene(&scene)?;
-            let s = dth_examples::check_scene(
-                &text,
-                &scene.display().to_string(),
-                &Catalogue::builtin(),
-            )?;
+            let catalogue = Catalogue::builtin();
+            let s = dth_examples::check_scene(&text, &scene.display().to_string(), &catalogue)?;
+            let memory = catalogue.estimate(&s, &options)?;
             println!(
-                "{}: ok ({}, {} method{}, {} effect{})",
+                "{}: ok ({}, {} method{}, {} effect{}; effects keep about {}, limit {})",
                 scene.display(),
                 s.system,
                 s.methods.len(),
                 if s.methods.len() == 1 { "" } else { "s" },
                 s.effects.len(),
-                if s.effects.len() == 1 { "" } else { "s" }
+                if s.effects.len() == 1 { "" } else { "s" },
+                budget::human(memory.bytes()),
+                budget::human(options.memory_limit())
             );
             Ok(ExitCode::SUCCESS)
         }
@@ -235,7 +271,7 @@ fn main_inner(cli: Cli) -> Result<ExitCode, CliError> {
             Ok(ExitCode::SUCCESS)
         }
         Some(Command::Table41 { json }) => {
-            let table = dth_examples::table41(&RunOptions::default())?;
+            let table = dth_examples::table41(&options)?;
             print!("{}", table41::markdown(&table));
             if let Some(path) = json {
                 dth_examples::report::write_json(&path, &table)?;

@@ -9,6 +9,7 @@ use dth::observer::{Observer, StepRecord};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
 
+use crate::budget;
 use crate::driver::{MethodFailure, Stop};
 use crate::effects::{DeviationStats, EffectOutputs, Effects, FinalState};
 use crate::error::Error;
@@ -26,6 +27,10 @@ pub struct RunOptions {
     /// Safety cap on the steps of a run whose duration is a time or a number of orbits.
     /// Default 100,000,000.
     pub max_steps: usize,
+    /// The most memory, in bytes, the effects may keep ([`budget`](crate::budget)); a run
+    /// estimated above it is refused before it starts. Default `None`: half the memory the
+    /// system reports available ([`budget::default_limit`](crate::budget::default_limit)).
+    pub memory_limit: Option<u64>,
 }
 
 impl Default for RunOptions {
@@ -33,6 +38,7 @@ impl Default for RunOptions {
         RunOptions {
             progress: true,
             max_steps: 100_000_000,
+            memory_limit: None,
         }
     }
 }
@@ -42,6 +48,17 @@ impl RunOptions {
     pub fn with_progress(mut self, progress: bool) -> Self {
         self.progress = progress;
         self
+    }
+
+    /// Sets [`RunOptions::memory_limit`] (bytes).
+    pub fn with_memory_limit(mut self, bytes: u64) -> Self {
+        self.memory_limit = Some(bytes);
+        self
+    }
+
+    /// The memory limit in force: the one set, or the default.
+    pub fn memory_limit(&self) -> u64 {
+        self.memory_limit.unwrap_or_else(budget::default_limit)
     }
 }
 
@@ -302,6 +319,7 @@ pub fn compute<const D: usize, S: SceneSystem<D>>(
 ) -> Result<Vec<MethodResult>, Error> {
     let z0 = initial_state(system, scene)?;
     let stop = stop_for(system, scene, &z0, options)?;
+    budget::check(system, scene, stop, options.memory_limit())?;
     let mut results = Vec::new();
     for m in &scene.methods {
         let bar = progress_bar(m, stop, options);

@@ -1,0 +1,157 @@
+//! The memory a run's effects will store, estimated before anything runs ([`estimate`]), so a
+//! scene that would exhaust the machine is refused with the estimate ([`check`]) instead of
+//! growing until it is killed.
+//!
+//! The estimate counts the numbers the requested effects keep (the same accounting as
+//! [`Effects::stored_values`](crate::effects::Effects::stored_values)), per method, from the
+//! number of steps the duration implies: exact for `steps` and for fixed-step methods run for a
+//! time; for DTH run for a time it assumes the initial step `lambda0 dtau` throughout (DTH's
+//! time step varies along the orbit, so this is an estimate). Poincare crossings are bounded by
+//! one per two steps (one per step for `direction = "both"`). The thesis figures keep every
+//! state of their long runs.
+
+use crate::driver::Stop;
+use crate::error::Error;
+use crate::scene::{Direction, EffectSpec, MethodKind, Scene, StepSpec};
+use crate::system::SceneSystem;
+
+/// Bytes per stored number (`f64`).
+const BYTES: u64 = 8;
+
+/// What a run would store, by method.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MemoryEstimate {
+    /// Per method: its label, the steps it would take, and the bytes its effects would keep.
+    pub methods: Vec<(String, u64, u64)>,
+}
+
+impl MemoryEstimate {
+    /// The total, in bytes.
+    pub fn bytes(&self) -> u64 {
+        self.methods.iter().map(|m| m.2).sum()
+    }
+}
+
+/// The steps a method takes until `stop` (see the module docs for DTH run for a time).
+fn steps(step: StepSpec, t0: f64, stop: Stop) -> u64 {
+    match stop {
+        Stop::Steps(n) => n as u64,
+        Stop::Time { t_end, max_steps } => {
+            let dt = match step {
+                StepSpec::Fixed { dt } => dt,
+                StepSpec::Dth { dtau, lambda0, .. } => dtau * lambda0,
+            };
+            let n = ((t_end - t0) / dt).ceil().max(0.0);
+            if n < max_steps as f64 {
+                n as u64
+            } else {
+                max_steps as u64
+            }
+        }
+    }
+}
+
+/// The memory the effects of `scene` would keep when run on `system` from `z0` until `stop`.
+pub fn estimate<const D: usize, S: SceneSystem<D>>(
+    system: &S,
+    scene: &Scene,
+    stop: Stop,
+) -> MemoryEstimate {
+    let d = D as u64;
+    let invariants = system.invariant_names().len() as u64;
+    let methods = scene
+        .methods
+        .iter()
+        .map(|m| {
+            let n = steps(m.step, scene.t0, stop);
+            let dth = u64::from(matches!(m.step, StepSpec::Dth { .. })) + 1;
+            let samples = |every: usize| n / every.max(1) as u64 + 1;
+            let mut values: u64 = scene
+                .effects
+                .iter()
+                .map(|e| match *e {
+                    EffectSpec::FinalState => d + 3,
+                    EffectSpec::Trajectory { every } => samples(every) * (d + 3),
+                    EffectSpec::EnergyDeviation { every } => samples(every) * 3 * dth,
+                    EffectSpec::Invariants { every } => samples(every) * 3 * dth * invariants,
+                    EffectSpec::TimeLaw { every } => samples(every) * 3,
+                    EffectSpec::PhasePlot { every, .. } => samples(every) * 2,
+                    EffectSpec::Poincare { direction, .. } => {
+                        let crossings = match direction {
+                            Direction::Both => n,
+                            Direction::Up | Direction::Down => n / 2 + 1,
+                        };
+                        crossings * 3
+                    }
+                    EffectSpec::ComparisonTable => 0,
+                })
+                .sum();
+            if let Some(e) = &scene.ensemble {
+                values += (e.per_side * e.per_side) as u64 * (d + 1);
+            }
+            if scene.thesis_figures && MethodKind::THESIS_FIGURES.contains(&m.kind) {
+                // Every state of the long run: time and (q1, q2, p1, p2).
+                values += (n + 1) * 5;
+            }
+            (m.label.clone(), n, values * BYTES)
+        })
+        .collect();
+    MemoryEstimate { methods }
+}
+
+/// The default limit: half the memory the system reports available (`/proc/meminfo`), or
+/// 8 GiB where it does not say.
+pub fn default_limit() -> u64 {
+    let available = std::fs::read_to_string("/proc/meminfo").ok().and_then(|s| {
+        s.lines()
+            .find_map(|l| l.strip_prefix("MemAvailable:"))
+            .and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<u64>().ok())
+            .map(|kib| kib * 1024)
+    });
+    available.map_or(8 << 30, |bytes| bytes / 2)
+}
+
+/// `bytes` for people: `"3.7 GB"`, `"512.0 MB"`, `"12 bytes"`.
+pub fn human(bytes: u64) -> String {
+    const UNITS: [(&str, f64); 3] = [("GB", 1e9), ("MB", 1e6), ("kB", 1e3)];
+    for (unit, size) in UNITS {
+        if bytes as f64 >= size {
+            return format!("{:.1} {unit}", bytes as f64 / size);
+        }
+    }
+    format!("{bytes} bytes")
+}
+
+/// Refuses a run whose effects would keep more than `limit` bytes, naming the estimate and the
+/// largest consumer.
+pub fn check<const D: usize, S: SceneSystem<D>>(
+    system: &S,
+    scene: &Scene,
+    stop: Stop,
+    limit: u64,
+) -> Result<MemoryEstimate, Error> {
+    let e = estimate(system, scene, stop);
+    let total = e.bytes();
+    if total <= limit {
+        return Ok(e);
+    }
+    let largest = e
+        .methods
+        .iter()
+        .max_by_key(|m| m.2)
+        .map_or(String::new(), |(label, n, bytes)| {
+            format!("; the largest: `{label}`, {n} steps, {}", human(*bytes))
+        });
+    Err(Error::MemoryLimit {
+        estimate: total,
+        limit,
+        detail: format!(
+            "the effects would keep about {} for {} method(s){largest}, above the limit of {}: \
+             sample less often (`every`), shorten the duration, drop effects, or raise the limit \
+             (--max-memory)",
+            human(total),
+            e.methods.len(),
+            human(limit)
+        ),
+    })
+}

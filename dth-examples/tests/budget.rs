@@ -1,0 +1,74 @@
+//! The memory budget: the estimate is what the effects store (exactly, where the step count is
+//! known), and a scene above the limit is refused by `check` and `run` before anything runs.
+
+mod common;
+
+use common::*;
+use dth_examples::budget::estimate;
+use dth_examples::catalogue::Catalogue;
+use dth_examples::driver::Stop;
+use dth_examples::simulate::{compute, RunOptions};
+use dth_examples::systems::Kepler;
+
+const EFFECTS: &str = "[[effect]]\nkind = \"final_state\"\n\
+    [[effect]]\nkind = \"trajectory\"\nevery = 3\n\
+    [[effect]]\nkind = \"energy_deviation\"\nevery = 2\n\
+    [[effect]]\nkind = \"invariants\"\nevery = 5\n\
+    [[effect]]\nkind = \"time_law\"\nevery = 7\n\
+    [[effect]]\nkind = \"phase_plot\"\nx = \"q1\"\ny = \"p1\"\nevery = 4\n";
+
+fn scene(steps: &str) -> String {
+    format!(
+        "[system]\nname = \"kepler\"\n[initial]\nq = [0.5, 0.0]\np = [0.0, 1.2]\n\
+         [[method]]\nkind = \"dth\"\ndtau = 0.06277\n\
+         [[method]]\nkind = \"midpoint\"\ndt = 0.15\n\
+         [duration]\nsteps = {steps}\n{EFFECTS}"
+    )
+}
+
+#[test]
+fn the_estimate_is_what_the_effects_store() {
+    let text = scene("1000");
+    let scene = dth_examples::check_scene(&text, "budget.toml", &Catalogue::builtin()).unwrap();
+    let results = compute(
+        &Kepler::thesis(),
+        &scene,
+        &RunOptions::default().with_progress(false),
+    )
+    .unwrap();
+    let e = estimate(&Kepler::thesis(), &scene, Stop::Steps(1000));
+    for (r, (label, steps, bytes)) in results.iter().zip(&e.methods) {
+        assert_eq!(&r.summary.label, label);
+        assert_eq!(*steps, 1000);
+        assert_eq!(*bytes, 8 * r.summary.stored_values as u64, "{label}");
+    }
+}
+
+#[test]
+fn a_scene_above_the_limit_is_refused_by_check_and_run() {
+    let dir = tempfile::tempdir().unwrap();
+    // 10^9 steps of two methods with per-step effects: hundreds of GB.
+    std::fs::write(dir.path().join("huge.toml"), scene("1000000000")).unwrap();
+    let o = dth(&["check", "huge.toml"], dir.path());
+    assert_eq!(o.status.code(), Some(2), "{}", stdout(&o));
+    let err = stderr(&o);
+    assert!(
+        err.contains("refusing to run: the effects would keep about"),
+        "{err}"
+    );
+    assert!(err.contains("--max-memory"), "{err}");
+    let o = dth(&["run", "huge.toml", "--out", "out"], dir.path());
+    assert_eq!(o.status.code(), Some(2), "{}", stdout(&o));
+    assert!(stderr(&o).contains("refusing to run"), "{}", stderr(&o));
+    assert_eq!(entries(dir.path()), ["huge.toml"]);
+    // A lower limit refuses a small scene too, and `check` reports the estimate when it fits.
+    std::fs::write(dir.path().join("small.toml"), scene("1000")).unwrap();
+    let o = dth(&["check", "small.toml"], dir.path());
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(stdout(&o).contains("effects keep about"), "{}", stdout(&o));
+    let o = dth(&["check", "small.toml", "--max-memory", "10k"], dir.path());
+    assert_eq!(o.status.code(), Some(2), "{}", stdout(&o));
+    let o = dth(&["check", "small.toml", "--max-memory", "lots"], dir.path());
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("is not a size"), "{}", stderr(&o));
+}
