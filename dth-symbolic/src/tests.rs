@@ -463,3 +463,37 @@ fn psi_reuses_the_gradient_and_hessian() {
     // Both sum the same ~5 terms of size ~10: a few ulps of 10 apart at most.
     assert!((e.psi - direct.psi).abs() <= 1e-13 * (1.0 + e.psi.abs()));
 }
+
+/// Exponents at the edges of the exact rationals: `(-2)^127` is `i128::MIN`, whose negation
+/// overflowed when the power was lowered; huge integer exponents fold to `f64` or lower in
+/// `O(log k)` operations; every program's constants stay finite.
+#[test]
+fn extreme_exponents_compile_to_finite_programs() {
+    for src in [
+        "p1 + q1^((-2)^127)",
+        "p1 + q1^(-(-2)^127)",
+        "p1 + (q1 + 1)^((-2)^126)",
+        "p1^2 + q1^(2^100)",
+        "p1 + (q1^(3/7))^(10^30)",
+        "p1 + q1^170141183460469231731687303715884105727",
+        "p1^2/2 + q1^1024",
+        "(q1 + p1)^1000000",
+    ] {
+        let h = compile(src, &[]).unwrap_or_else(|e| panic!("{src}: {e}"));
+        for m in [
+            Method::All,
+            Method::DiscreteGradient,
+            Method::DiscreteGradientDefect,
+        ] {
+            let p = h.program(m);
+            assert!(p.ops.len() < 5000, "{src} {m:?}: {} operations", p.ops.len());
+            assert!(
+                p.ops.iter().all(|op| match op {
+                    crate::Op::Const(c) | crate::Op::Powf(_, c) => c.is_finite(),
+                    _ => true,
+                }),
+                "{src} {m:?}: a constant overflows"
+            );
+        }
+    }
+}
