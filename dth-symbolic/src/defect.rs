@@ -999,7 +999,12 @@ mod tests {
             let dir = 2.0 / f64::from(k.abs());
             let rounding = 64.0 + 4.0 * f64::from(k.abs());
             let q = if k > 0 { 1.02 } else { 0.98 };
-            check_with(&format!("p1^2 + q1^({k})"), &[q, 0.3], &[dir, 0.5], rounding);
+            check_with(
+                &format!("p1^2 + q1^({k})"),
+                &[q, 0.3],
+                &[dir, 0.5],
+                rounding,
+            );
             let src = format!("p1^2 + (q1 + p1)^({k})");
             check_with(&src, &[0.7, 0.3], &[dir, -dir / 2.0], rounding);
         }

@@ -101,16 +101,18 @@ pub fn expression(src: &str, params: &[&str]) -> Result<(Arena, Id, Span), Error
     let (tokens, lex_errors) = lex(src);
     let had_lex_errors = !lex_errors.is_empty();
     errors.extend(lex_errors);
-    let ast = match parse(src, &tokens) {
-        Ok(ast) => ast,
-        Err(e) => {
-            // With bad characters dropped, a syntax error is most likely their consequence.
-            if !had_lex_errors {
-                errors.push(e);
-            }
-            return Err(Errors(errors));
+    let (ast, syntax) = parse(src, &tokens);
+    let Some(ast) = ast else {
+        // With bad characters dropped, a syntax error is most likely their consequence.
+        if !had_lex_errors {
+            errors.extend(syntax);
         }
+        // The names do not depend on the syntax: their errors are reported too.
+        errors.extend(check::name_errors(src, &tokens, params));
+        errors.sort_by_key(|e| e.span.start);
+        return Err(Errors(errors));
     };
+    errors.extend(syntax);
     let mut b = Builder {
         src,
         arena: Arena::new(params),
