@@ -102,15 +102,19 @@ pub fn expression(src: &str, params: &[&str]) -> Result<(Arena, Id, Span), Error
     let had_lex_errors = !lex_errors.is_empty();
     errors.extend(lex_errors);
     let (ast, syntax) = parse(src, &tokens);
-    let Some(ast) = ast else {
-        // With bad characters dropped, a syntax error is most likely their consequence.
-        if !had_lex_errors {
-            errors.extend(syntax);
+    // With bad characters dropped, a syntax error is most likely their consequence (`2*π*q1`
+    // reads as `2**q1`), and so would be the tree's errors: the names are checked alone.
+    let ast = match ast {
+        Some(ast) if !had_lex_errors => ast,
+        _ => {
+            if !had_lex_errors {
+                errors.extend(syntax);
+            }
+            // The names do not depend on the syntax: their errors are reported too.
+            errors.extend(check::name_errors(src, &tokens, params));
+            errors.sort_by_key(|e| e.span.start);
+            return Err(Errors(errors));
         }
-        // The names do not depend on the syntax: their errors are reported too.
-        errors.extend(check::name_errors(src, &tokens, params));
-        errors.sort_by_key(|e| e.span.start);
-        return Err(Errors(errors));
     };
     errors.extend(syntax);
     let mut b = Builder {

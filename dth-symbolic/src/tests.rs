@@ -572,6 +572,12 @@ fn euler_number_suggests_exp() {
 fn greek_letters_suggest_names() {
     let (m, at) = one_message("p1^2 + π*q1");
     assert_eq!(at, "π");
+    // Without the `π`, `2*π*q1` would read `2**q1`: no cascade.
+    let (_, at) = one_message("p1^2 + cos(2*π*q1)");
+    assert_eq!(at, "π");
+    // Names are still checked.
+    let both = messages("p1^2 + cos(2*π*x)");
+    assert_eq!(both.len(), 2, "{both:?}");
     assert_eq!(
         m,
         "unexpected `π`: names are ASCII, the constant is written `pi`"
