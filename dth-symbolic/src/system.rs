@@ -135,8 +135,9 @@ pub fn expression(src: &str, params: &[&str]) -> Result<(Arena, Id, Span), Error
 
 /// Builds `calH`, the gradient, the Hessian's upper triangle and Psi from `H`.
 fn derive(mut arena: Arena, h: Id) -> Result<System, (Fault, Span)> {
-    // Faults here would need a constant to fold badly, and constants were folded while
-    // building; they are still reported (on the node being differentiated), never hidden.
+    // Faults here need a constant to fold badly (`q1^(1e300)` has the second derivative
+    // `1e300 * (1e300 - 1) * q1^...`, which overflows): reported on the node whose derivative
+    // failed, never hidden.
     let arena = &mut arena;
     // The dimension and time dependence follow the source text, not what survives
     // simplification: `p1^2 + 0*q2` is a 2-degree-of-freedom system, as written. Every
@@ -172,7 +173,7 @@ fn derive(mut arena: Arena, h: Id) -> Result<System, (Fault, Span)> {
     let mut gradient = Vec::with_capacity(d);
     for &x in &coordinates {
         gradient.push(if arena.depends_on(value, x) {
-            arena.diff(value, x).map_err(|f| (f, Span::default()))?
+            arena.diff(value, x).map_err(|f| (f, arena.span))?
         } else {
             zero
         });
@@ -183,7 +184,7 @@ fn derive(mut arena: Arena, h: Id) -> Result<System, (Fault, Span)> {
     for (i, &g) in gradient.iter().enumerate() {
         for (j, &x) in coordinates.iter().enumerate().skip(i) {
             if arena.depends_on(g, x) {
-                let h = arena.diff(g, x).map_err(|f| (f, Span::default()))?;
+                let h = arena.diff(g, x).map_err(|f| (f, arena.span))?;
                 if !arena.is_zero(h) {
                     hessian[k] = h;
                     nonzeros.push((i, j, h));
@@ -192,7 +193,8 @@ fn derive(mut arena: Arena, h: Id) -> Result<System, (Fault, Span)> {
             k += 1;
         }
     }
-    let psi = psi(arena, &gradient, &nonzeros, d).map_err(|f| (f, Span::default()))?;
+    // Psi combines every entry: a fault there belongs to the whole Hamiltonian.
+    let psi = psi(arena, &gradient, &nonzeros, d).map_err(|f| (f, arena.span(h)))?;
     let mut system = System {
         arena: arena.clone(),
         n: n as usize,

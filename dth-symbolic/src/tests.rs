@@ -654,3 +654,18 @@ fn extreme_exponents_compile_to_finite_programs() {
         }
     }
 }
+
+/// A fault while differentiating lands on the node whose derivative failed, not on an empty
+/// span at the start (found by `tests/no_input_crashes.rs`): the Hessian of `q1^(1e300)`
+/// overflows.
+#[test]
+fn derivative_faults_are_spanned() {
+    let src = "p1^2/2 + q1 + (q1)^(1e300)";
+    let e = compile(src, &[]).unwrap_err().0;
+    assert_eq!(e.len(), 1);
+    assert!(matches!(
+        e[0].kind,
+        ErrorKind::Fault(crate::number::Fault::NonFinite)
+    ));
+    assert_eq!(&src[e[0].span.range()], "(q1)^(1e300)");
+}
