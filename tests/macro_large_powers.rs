@@ -27,9 +27,12 @@ fn q1_to_the_1024_is_exact() {
     assert_eq!(h.value(&z), 0.5f64.powi(1024));
 }
 
+/// The generated defect `t(z0, z1)`.
+type Defect<'a> = &'a dyn Fn(&Vector2<f64>, &Vector2<f64>) -> Vector2<f64>;
+
 #[test]
 fn generated_defects_match_the_engine() {
-    let cases: [(&str, &dyn Fn(&Vector2<f64>, &Vector2<f64>) -> Vector2<f64>); 2] = [
+    let cases: [(&str, Defect); 2] = [
         ("p1^2/2 + q1^1024", &|z0, z1| {
             Power1024.discrete_gradient_defect(z0, z1, &Power1024.discrete_gradient(z0, z1))
         }),
