@@ -111,6 +111,11 @@ pub enum ErrorKind {
     },
     /// A `,` outside a function call's parentheses.
     StrayComma,
+    /// The value and its derivatives exceed [`crate::MAX_SIZE`].
+    TooLarge {
+        /// The bound.
+        limit: usize,
+    },
     /// Constant folding failed (division by zero, `ln(-1)`, overflow).
     Fault(Fault),
     /// A declared parameter name that cannot be used.
@@ -236,6 +241,10 @@ impl fmt::Display for Error {
             ),
             StrayComma => f.write_str(
                 "unexpected `,`: a Hamiltonian is one expression and every function takes one argument",
+            ),
+            TooLarge { limit } => write!(
+                f,
+                "the derivatives of this Hamiltonian are too large: more than {limit} expression nodes and operands (value, gradient, Hessian and Psi); the bound keeps compile time and generated code in check"
             ),
             Fault(fault) => write!(f, "{fault}"),
             BadParameter { name, reason } => write!(

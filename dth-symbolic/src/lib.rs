@@ -78,5 +78,12 @@ pub use system::{compile, expression, Method, System};
 /// silently produce a 2000-dimensional system.
 pub const MAX_INDEX: usize = 256;
 
+/// The largest arena [`compile`] builds ([`Arena::size`]: nodes plus operands, summed), value,
+/// gradient, Hessian and Psi together: about 60,000 for 20 bodies in 3D with all pairwise
+/// forces, 4 million for `exp` of the product of 128 variables (whose Hessian alone has 8,000
+/// dense products of 126 factors), which took minutes in the macro and would emit a million
+/// lines of code. Beyond it, compiling is an error, so no input exhausts the machine.
+pub const MAX_SIZE: usize = 1_000_000;
+
 #[cfg(test)]
 mod tests;

@@ -66,8 +66,7 @@ pub fn compile(src: &str, params: &[&str]) -> Result<System, Errors> {
     if !structural.is_empty() {
         return Err(Errors(structural));
     }
-    derive(arena, h)
-        .map_err(|(fault, span)| Errors(vec![Error::new(ErrorKind::Fault(fault), span)]))
+    derive(arena, h, whole).map_err(|e| Errors(vec![e]))
 }
 
 /// Parses and simplifies `src` without the checks that make it a Hamiltonian: the arena, the
@@ -134,7 +133,22 @@ pub fn expression(src: &str, params: &[&str]) -> Result<(Arena, Id, Span), Error
 }
 
 /// Builds `calH`, the gradient, the Hessian's upper triangle and Psi from `H`.
-fn derive(mut arena: Arena, h: Id) -> Result<System, (Fault, Span)> {
+fn derive(mut arena: Arena, h: Id, whole: Span) -> Result<System, Error> {
+    let fault = |f: Fault, span: Span| Error::new(ErrorKind::Fault(f), span);
+    // The bound on the arena, checked after each derivative: one derivative is at most
+    // quadratic in its operand, so the work stops soon after the bound is crossed.
+    let bounded = |arena: &Arena| {
+        if arena.size() > crate::MAX_SIZE {
+            Err(Error::new(
+                ErrorKind::TooLarge {
+                    limit: crate::MAX_SIZE,
+                },
+                whole,
+            ))
+        } else {
+            Ok(())
+        }
+    };
     // Faults here need a constant to fold badly (`q1^(1e300)` has the second derivative
     // `1e300 * (1e300 - 1) * q1^...`, which overflows): reported on the node whose derivative
     // failed, never hidden.
@@ -162,7 +176,7 @@ fn derive(mut arena: Arena, h: Id) -> Result<System, (Fault, Span)> {
     let value = if time_dependent {
         arena.span = arena.span(h);
         let pt = arena.var(Var::Pt);
-        arena.add(&[h, pt]).map_err(|f| (f, arena.span(h)))?
+        arena.add(&[h, pt]).map_err(|f| fault(f, arena.span(h)))?
     } else {
         h
     };
@@ -173,7 +187,9 @@ fn derive(mut arena: Arena, h: Id) -> Result<System, (Fault, Span)> {
     let mut gradient = Vec::with_capacity(d);
     for &x in &coordinates {
         gradient.push(if arena.depends_on(value, x) {
-            arena.diff(value, x).map_err(|f| (f, arena.span))?
+            let g = arena.diff(value, x).map_err(|f| fault(f, arena.span))?;
+            bounded(arena)?;
+            g
         } else {
             zero
         });
@@ -184,7 +200,8 @@ fn derive(mut arena: Arena, h: Id) -> Result<System, (Fault, Span)> {
     for (i, &g) in gradient.iter().enumerate() {
         for (j, &x) in coordinates.iter().enumerate().skip(i) {
             if arena.depends_on(g, x) {
-                let h = arena.diff(g, x).map_err(|f| (f, arena.span))?;
+                let h = arena.diff(g, x).map_err(|f| fault(f, arena.span))?;
+                bounded(arena)?;
                 if !arena.is_zero(h) {
                     hessian[k] = h;
                     nonzeros.push((i, j, h));
@@ -194,7 +211,8 @@ fn derive(mut arena: Arena, h: Id) -> Result<System, (Fault, Span)> {
         }
     }
     // Psi combines every entry: a fault there belongs to the whole Hamiltonian.
-    let psi = psi(arena, &gradient, &nonzeros, d).map_err(|f| (f, arena.span(h)))?;
+    let psi = psi(arena, &gradient, &nonzeros, d).map_err(|f| fault(f, arena.span(h)))?;
+    bounded(arena)?;
     let mut system = System {
         arena: arena.clone(),
         n: n as usize,

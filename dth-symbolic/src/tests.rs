@@ -669,3 +669,42 @@ fn derivative_faults_are_spanned() {
     ));
     assert_eq!(&src[e[0].span.range()], "(q1)^(1e300)");
 }
+
+/// A short input whose derivatives would take gigabytes (`exp` of the product of all 512
+/// variables: 131,000 Hessian entries, each a product of 512 factors) is rejected once the
+/// arena passes [`crate::MAX_SIZE`], soon and on the whole expression; 20 bodies in 3D with
+/// all pairwise forces stay far below the bound.
+#[test]
+fn derivatives_beyond_the_size_bound_are_an_error() {
+    let names: Vec<String> = (1..=256)
+        .map(|i| format!("q{i}"))
+        .chain((1..=256).map(|i| format!("p{i}")))
+        .collect();
+    let src = format!("exp({})", names.join("*"));
+    let start = std::time::Instant::now();
+    let e = compile(&src, &[]).unwrap_err().0;
+    assert!(
+        matches!(e[..], [crate::Error { kind: ErrorKind::TooLarge { limit: crate::MAX_SIZE }, span }] if span.range() == (0..src.len())),
+        "{e:?}"
+    );
+    assert!(e[0].to_string().contains("more than 1000000"));
+    // Measured about 1 s in the test profile; minutes and gigabytes before the bound.
+    assert!(start.elapsed().as_secs() < 30, "{:?}", start.elapsed());
+
+    let mut nbody = String::new();
+    for i in 1..=60 {
+        nbody += &format!("p{i}^2/2 + ");
+    }
+    for i in 0..20 {
+        for j in i + 1..20 {
+            let d = |k: usize| format!("(q{} - q{})^2", 3 * i + k, 3 * j + k);
+            nbody += &format!("- 1/sqrt({} + {} + {}) ", d(1), d(2), d(3));
+        }
+    }
+    let h = compile(&nbody, &[]).unwrap();
+    assert!(
+        h.arena().size() < crate::MAX_SIZE / 10,
+        "{}",
+        h.arena().size()
+    );
+}
