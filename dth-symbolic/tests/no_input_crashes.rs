@@ -251,3 +251,34 @@ proptest! {
         check(&format!("p1^2/2 + {h}"), &z)?;
     }
 }
+
+/// Nesting up to the parser's limit (256 levels) of every construct, in the test thread's
+/// small stack: compiled and run, or rejected with spanned errors, never a stack overflow.
+#[test]
+fn deep_nesting_never_crashes() -> Result<(), TestCaseError> {
+    let z = [0.3, -0.2, 0.5, 0.1, -0.4, 0.2];
+    for depth in [100, 240] {
+        let mut wraps: Vec<(String, String)> = [
+            "sin", "cos", "tan", "exp", "ln", "sqrt", "sinh", "cosh", "tanh", "atan",
+        ]
+        .iter()
+        .map(|f| (format!("{f}("), ")".to_string()))
+        .collect();
+        for (open, close) in [
+            ("(", "^2)"),
+            ("(", "^(-1/2))"),
+            ("(", "^q1)"),
+            ("-(", ")"),
+            ("1/(1 + ", ")"),
+            ("(q1 + p1*", ")"),
+            ("(q1*", " + p2)"),
+        ] {
+            wraps.push((open.to_string(), close.to_string()));
+        }
+        for (open, close) in &wraps {
+            let src = format!("p1^2/2 + {}q1{}", open.repeat(depth), close.repeat(depth));
+            check(&src, &z)?;
+        }
+    }
+    Ok(())
+}
