@@ -117,13 +117,15 @@ pub fn name_errors(src: &str, tokens: &[Token], params: &[&str]) -> Vec<Error> {
                 name: name.to_string(),
             },
             (Err(ErrorKind::EulerNumber { .. }), false) => {
-                // `e^x`, with a one-token exponent: suggest `exp(x)`.
+                // `e^x`: suggest `exp(x)` for a one-token exponent, `exp(...)` for another
+                // (without a tree, its extent is unknown).
                 let exponent = match (kind_at(k + 1), tokens.get(k + 2)) {
                     (Some(TokenKind::Caret), Some(x))
                         if matches!(x.kind, TokenKind::Ident | TokenKind::Number) =>
                     {
                         Some(src[x.span.range()].to_string())
                     }
+                    (Some(TokenKind::Caret), _) => Some("...".to_string()),
                     _ => None,
                 };
                 ErrorKind::EulerNumber { exponent }

@@ -601,6 +601,8 @@ fn syntax_and_name_errors_are_reported_together() {
     let kinds: Vec<&str> = m.iter().map(|(_, at)| at.as_str()).collect();
     assert_eq!(kinds, ["foo", "p1", "q0", "e", "q1"], "{m:?}");
     assert!(m[3].0.ends_with("`exp(q1)`"), "{m:?}");
+    let m = messages("e^(q1 + p1) p1");
+    assert!(m[0].0.ends_with("`exp(...)`"), "{m:?}");
     // The mistakes read past do not stop the names' errors either.
     let m = messages("sin x + p1**2");
     let at: Vec<&str> = m.iter().map(|(_, at)| at.as_str()).collect();
