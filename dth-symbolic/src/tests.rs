@@ -689,7 +689,9 @@ fn derivatives_beyond_the_size_bound_are_an_error() {
         matches!(e[..], [crate::Error { kind: ErrorKind::TooLarge { limit: crate::MAX_SIZE }, span }] if span.range() == (0..src.len())),
         "{e:?}"
     );
-    assert!(e[0].to_string().contains("more than 1000000"));
+    assert!(e[0]
+        .to_string()
+        .contains(&format!("more than {}", crate::MAX_SIZE)));
     // Measured about 1 s in the test profile; minutes and gigabytes before the bound.
     assert!(start.elapsed().as_secs() < 30, "{:?}", start.elapsed());
 
@@ -705,7 +707,7 @@ fn derivatives_beyond_the_size_bound_are_an_error() {
     }
     let h = compile(&nbody, &[]).unwrap();
     assert!(
-        h.arena().size() < crate::MAX_SIZE / 10,
+        h.arena().size() < crate::MAX_SIZE / 5,
         "{}",
         h.arena().size()
     );
