@@ -17,8 +17,20 @@ pub fn kernel(k: Kernel, x: &Ident, y: &Ident) -> TokenStream {
         .tokens
 }
 
-/// An `f64` literal; negative values as a negated literal.
+/// An `f64` literal; negative values as a negated literal. The engine folds no constant to
+/// infinity or NaN (an overflow is a spanned error there), but should one reach this point it
+/// is written as the named constant: `Literal::f64_suffixed` would panic the macro.
 pub fn constant(c: f64) -> TokenStream {
+    if c.is_nan() {
+        return quote!(::core::primitive::f64::NAN);
+    }
+    if c.is_infinite() {
+        return if c > 0.0 {
+            quote!(::core::primitive::f64::INFINITY)
+        } else {
+            quote!(::core::primitive::f64::NEG_INFINITY)
+        };
+    }
     let lit = Literal::f64_suffixed(c.abs());
     if c.is_sign_negative() {
         quote!(-#lit)
@@ -89,7 +101,7 @@ impl Scalar for Code {
 
     fn constant(c: f64) -> Code {
         let lit = constant(c);
-        if c.is_sign_negative() {
+        if c.is_sign_negative() && c.is_finite() {
             Code::compound(lit)
         } else {
             Code::atom(lit)

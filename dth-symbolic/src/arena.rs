@@ -184,6 +184,8 @@ pub struct Arena {
     /// Derivative rules applied so far ([`Arena::diff`] on a node that depends on the
     /// variable): the engine's work, which tests check grows linearly.
     pub(crate) diff_work: usize,
+    /// Nodes plus their children, summed: the memory the expressions take, in `Id`s.
+    size: usize,
 }
 
 impl Arena {
@@ -219,6 +221,12 @@ impl Arena {
     /// The source span of the node `id` (of the first place it was built from).
     pub fn span(&self, id: Id) -> Span {
         self.spans[id.index()]
+    }
+
+    /// Nodes plus their children, summed over the distinct nodes: the arena's memory in
+    /// `Id`s, and the bound [`crate::compile`] keeps ([`crate::MAX_SIZE`]).
+    pub fn size(&self) -> usize {
+        self.size
     }
 
     /// Number of distinct nodes.
@@ -262,6 +270,11 @@ impl Arena {
             Node::Add(c) | Node::Mul(c) => c.iter().for_each(|c| deps.union(&self.deps[c.index()])),
             Node::Pow(b, _) | Node::Func(_, b) => deps = self.deps[b.index()],
         }
+        self.size += 1 + match &node {
+            Node::Num(_) | Node::Var(_) => 0,
+            Node::Add(c) | Node::Mul(c) => c.len(),
+            Node::Pow(..) | Node::Func(..) => 1,
+        };
         self.deps.push(deps);
         self.nodes.push(node.clone());
         self.spans.push(self.span);

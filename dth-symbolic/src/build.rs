@@ -5,7 +5,7 @@ use crate::arena::{Arena, Id, Var};
 use crate::check::{resolve, Name};
 use crate::error::{Error, ErrorKind};
 use crate::number::{parse_literal, Fault, LiteralError, Num};
-use crate::parser::{Ast, BinOp};
+use crate::parser::{operand_text, Ast, BinOp};
 use crate::span::Span;
 
 pub(crate) struct Builder<'a> {
@@ -58,6 +58,48 @@ impl Builder<'_> {
                     }
                 }
             }
+            Ast::Call {
+                name, arg, extra, ..
+            } if !extra.is_empty() => {
+                let text = &self.src[name.range()];
+                let params = self.arena.params().to_vec();
+                let kind = match resolve(text, &params) {
+                    _ if text == "pow" && extra.len() == 1 => ErrorKind::PowFunction {
+                        power: format!(
+                            "{}^{}",
+                            operand_text(self.src, arg),
+                            operand_text(self.src, &extra[0])
+                        ),
+                    },
+                    Ok(Name::Func(_)) | Err(ErrorKind::FunctionWithoutCall { .. }) => {
+                        ErrorKind::TooManyArguments {
+                            name: text.to_string(),
+                            found: 1 + extra.len(),
+                        }
+                    }
+                    Ok(_) | Err(ErrorKind::BadIndex { .. } | ErrorKind::IndexTooLarge { .. }) => {
+                        ErrorKind::NotAFunction {
+                            name: text.to_string(),
+                        }
+                    }
+                    Err(_) => ErrorKind::UnknownFunction {
+                        name: text.to_string(),
+                    },
+                };
+                // The extra arguments are the offending piece of a known function's call.
+                let at = match &kind {
+                    ErrorKind::TooManyArguments { .. } => {
+                        extra[0].span().to(extra[extra.len() - 1].span())
+                    }
+                    _ => *name,
+                };
+                self.errors.push(Error::new(kind, at));
+                self.build(arg);
+                for x in extra {
+                    self.build(x);
+                }
+                return None;
+            }
             Ast::Call { name, arg, .. } => {
                 let text = &self.src[name.range()];
                 let params = self.arena.params().to_vec();
@@ -105,6 +147,23 @@ impl Builder<'_> {
             }
             Ast::Chain { first, rest } => return self.chain(first, rest, span),
             Ast::Binary { lhs, rhs, .. } => {
+                if let Ast::Name(e) = &**lhs {
+                    let params = self.arena.params().to_vec();
+                    if let Err(ErrorKind::EulerNumber { .. }) =
+                        resolve(&self.src[e.range()], &params)
+                    {
+                        // `e^x` is `exp(x)`.
+                        let x = match &**rhs {
+                            Ast::Paren { inner, .. } => inner.span(),
+                            x => x.span(),
+                        };
+                        let exponent = Some(self.src[x.range()].to_string());
+                        self.errors
+                            .push(Error::new(ErrorKind::EulerNumber { exponent }, *e));
+                        self.build(rhs);
+                        return None;
+                    }
+                }
                 let (a, b) = (self.build(lhs), self.build(rhs));
                 let (a, b) = (a?, b?);
                 self.arena.span = span;

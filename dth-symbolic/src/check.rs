@@ -2,6 +2,7 @@
 
 use crate::arena::{Arena, Func, Id, Var};
 use crate::error::{Error, ErrorKind};
+use crate::lexer::{Token, TokenKind};
 use crate::span::Span;
 
 /// What a name in the source denotes.
@@ -24,6 +25,7 @@ pub fn resolve(name: &str, params: &[String]) -> Result<Name, ErrorKind> {
     match name {
         "t" => return Ok(Name::Var(Var::T)),
         "pi" => return Ok(Name::Pi),
+        "e" => return Err(ErrorKind::EulerNumber { exponent: None }),
         _ => {}
     }
     if let Some(f) = Func::ALL.iter().find(|f| f.name() == name) {
@@ -88,4 +90,49 @@ pub fn structure(arena: &Arena, h: Id, whole: Span) -> Vec<Error> {
         return vec![Error::new(ErrorKind::NoMomentum, whole)];
     }
     Vec::new()
+}
+
+/// The errors of the names in `tokens`, read without a syntax tree (after a syntax error, so
+/// they are reported with it): names that denote nothing, calls of unknown functions and of
+/// variables. Bare function names are left out: the syntax error is usually about them.
+pub fn name_errors(src: &str, tokens: &[Token], params: &[&str]) -> Vec<Error> {
+    let params: Vec<String> = params.iter().map(|p| p.to_string()).collect();
+    let kind_at = |k: usize| tokens.get(k).map(|t| t.kind);
+    let mut errors = Vec::new();
+    for (k, t) in tokens.iter().enumerate() {
+        if t.kind != TokenKind::Ident {
+            continue;
+        }
+        let name = &src[t.span.range()];
+        let called = kind_at(k + 1) == Some(TokenKind::LParen);
+        let kind = match (resolve(name, &params), called) {
+            (Ok(Name::Func(_)), _) | (Err(ErrorKind::FunctionWithoutCall { .. }), _) => continue,
+            (Ok(_), false) => continue,
+            (Ok(_) | Err(ErrorKind::BadIndex { .. } | ErrorKind::IndexTooLarge { .. }), true) => {
+                ErrorKind::NotAFunction {
+                    name: name.to_string(),
+                }
+            }
+            (Err(_), true) => ErrorKind::UnknownFunction {
+                name: name.to_string(),
+            },
+            (Err(ErrorKind::EulerNumber { .. }), false) => {
+                // `e^x`: suggest `exp(x)` for a one-token exponent, `exp(...)` for another
+                // (without a tree, its extent is unknown).
+                let exponent = match (kind_at(k + 1), tokens.get(k + 2)) {
+                    (Some(TokenKind::Caret), Some(x))
+                        if matches!(x.kind, TokenKind::Ident | TokenKind::Number) =>
+                    {
+                        Some(src[x.span.range()].to_string())
+                    }
+                    (Some(TokenKind::Caret), _) => Some("...".to_string()),
+                    _ => None,
+                };
+                ErrorKind::EulerNumber { exponent }
+            }
+            (Err(kind), false) => kind,
+        };
+        errors.push(Error::new(kind, t.span));
+    }
+    errors
 }

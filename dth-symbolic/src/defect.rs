@@ -111,6 +111,10 @@ struct Defect<'a> {
     t: HashMap<Id, Diff>,
 }
 
+/// The largest integer power whose `T` is the polynomial series of [`Defect::powi_series`]
+/// (`k/2` terms); larger ones are built by squaring, in `O(log k)` operations.
+const SERIES_MAX: i128 = 64;
+
 fn vector(d: &Diff) -> Diff {
     Diff {
         delta: None,
@@ -500,9 +504,67 @@ impl Defect<'_> {
         }
     }
 
-    /// `a -> a^k`, `k >= 2`: `T = 2 X m^(k-1-2J) sum_(j=1..J) c_j M^(J-j) X^(j-1)`,
+    /// `a -> a^k`, `k >= 2`. Up to [`SERIES_MAX`], the series below; beyond, by squaring
+    /// (`a^2m = (a^m)^2`, [`Defect::compose`]) and peeling one factor (`a^k = a a^(k-1)`,
+    /// [`Defect::times_base`]), so the work grows with `log k`: the series has `k/2` terms and
+    /// binomial coefficients that overflow `f64` from `k = 1020`.
+    fn powi(&mut self, a: (Slot, Slot, Slot), k: i128) -> Piece {
+        if k <= SERIES_MAX {
+            return self.powi_series(a, k);
+        }
+        if k % 2 == 0 {
+            let h = self.powi(a, k / 2);
+            let g = self.powi_series(h.out, 2);
+            self.compose(h, g)
+        } else {
+            let h = self.powi(a, k - 1);
+            self.times_base(a, h)
+        }
+    }
+
+    /// `b -> b h(b)` for the piece `h` of `b = a`: the product rule of the module table with
+    /// `f = b` (`f' = 1`, `T_f = 0`, `f'(b1) - f'(b0) = 0`): `T = mean(a) T_h + delta Dh'/2`.
+    fn times_base(&mut self, (a0, a1, delta): (Slot, Slot, Slot), h: Piece) -> Piece {
+        let (h0, h1, dh) = h.out;
+        let (ma, mh) = (self.d.mean(a0, a1), self.d.mean(h0, h1));
+        // (b h)' = h' b + h at both ends.
+        let x0 = self.d.mul(h.d0, a0);
+        let x1 = self.d.mul(h.d1, a1);
+        let (d0, d1) = (self.d.add(x0, h0), self.d.add(x1, h1));
+        // DD = mean(b) DD_h + mean(h) DD_b, DD_b = 1.
+        let x = self.d.mul(ma, h.dd);
+        let dd = self.d.add(x, mh);
+        // (h'1 a1 - h'0 a0) + (h1 - h0) = mean(h') delta + Dh' mean(a) + Delta h.
+        let mdh = self.d.mean(h.d0, h.d1);
+        let (x, y) = (self.d.mul(mdh, delta), self.d.mul(h.df, ma));
+        let xy = self.d.add(x, y);
+        let df = self.d.add(xy, dh);
+        let p = self.d.mul(delta, h.df);
+        let hp = self.half(p);
+        let t = match h.t {
+            Some(th) => {
+                let x = self.d.mul(ma, th);
+                self.d.add(x, hp)
+            }
+            None => hp,
+        };
+        // Values: a_i h_i, and Delta(b h) = mean(a) Delta h + delta mean(h).
+        let (y0, y1) = (self.d.mul(a0, h0), self.d.mul(a1, h1));
+        let (x, y) = (self.d.mul(ma, dh), self.d.mul(delta, mh));
+        let dy = self.d.add(x, y);
+        Piece {
+            d0,
+            d1,
+            dd,
+            df,
+            t: Some(t),
+            out: (y0, y1, dy),
+        }
+    }
+
+    /// `a -> a^k`, `2 <= k <= SERIES_MAX`: `T = 2 X m^(k-1-2J) sum_(j=1..J) c_j M^(J-j) X^(j-1)`,
     /// `c_j = 2j C(k, 2j+1)`, `M = m^2`, `X = x^2`, `J = floor((k-1)/2)` (zero for `k = 2`).
-    fn powi(&mut self, (a0, a1, delta): (Slot, Slot, Slot), k: i128) -> Piece {
+    fn powi_series(&mut self, (a0, a1, delta): (Slot, Slot, Slot), k: i128) -> Piece {
         let kf = self.konst(k as f64);
         let (p0, p1) = (self.d.l.powi(a0, k - 1), self.d.l.powi(a1, k - 1));
         let (d0, d1) = (self.d.mul(kf, p0), self.d.mul(kf, p1));
@@ -767,6 +829,13 @@ mod tests {
     }
 
     fn check(src: &str, z0: &[f64], dir: &[f64]) {
+        check_with(src, z0, dir, 64.0);
+    }
+
+    /// [`check`], with the plain form's error at the large step allowed to be `rounding` eps
+    /// of `|g|` (64 in `check`; `a^k` has condition number `k`, so its evaluation carries up to
+    /// about `k` eps whatever the formula).
+    fn check_with(src: &str, z0: &[f64], dir: &[f64], rounding: f64) {
         let case = Case::new(src);
         let step = |s: f64| -> Vec<f64> { z0.iter().zip(dir).map(|(z, d)| z + s * d).collect() };
         let z1 = step(0.2);
@@ -774,7 +843,7 @@ mod tests {
         for i in 0..t.len() {
             // The plain form's error: a few roundings of |g| in each of g0, g1, gbar.
             assert!(
-                (t[i] - plain[i]).abs() <= 64.0 * EPS * g.max(1.0),
+                (t[i] - plain[i]).abs() <= rounding * EPS * g.max(1.0),
                 "{src}: t_{i} = {} vs plain {}",
                 t[i],
                 plain[i]
@@ -917,6 +986,40 @@ mod tests {
         }
         // A base crossing zero: the polynomial form has no sign assumption.
         check("p1^2 + q1^5 + q1^4", &[-0.05, 0.3], &[1.0, 0.5]);
+    }
+
+    /// Beyond the series (`k > 64`), powers are built by squaring: the same accuracy, work
+    /// in `log k`, and no binomial coefficient overflowing `f64` (`q1^1024` had an infinite
+    /// constant). The base stays near 1 so `q1^k` stays finite along the step, and the step
+    /// in the base scales as `1/k`, keeping the O(s) term of `t/s^2` (relative size about
+    /// `k s |dir|`) within what `check` allows.
+    #[test]
+    fn large_integer_powers() {
+        for k in [63i32, 64, 65, 66, 100, 127, 1023, 1024, -1024] {
+            let dir = 2.0 / f64::from(k.abs());
+            let rounding = 64.0 + 4.0 * f64::from(k.abs());
+            let q = if k > 0 { 1.02 } else { 0.98 };
+            check_with(
+                &format!("p1^2 + q1^({k})"),
+                &[q, 0.3],
+                &[dir, 0.5],
+                rounding,
+            );
+            let src = format!("p1^2 + (q1 + p1)^({k})");
+            check_with(&src, &[0.7, 0.3], &[dir, -dir / 2.0], rounding);
+        }
+        for k in [1024i64, 1_000_000, 1_000_000_007] {
+            let h = compile(&format!("p1^2 + (q1 + p1)^{k}"), &[]).unwrap();
+            let p = h.program(Method::DiscreteGradientDefect);
+            assert!(p.ops.len() < 2000, "{k}: {} operations", p.ops.len());
+            assert!(
+                p.ops.iter().all(|op| match op {
+                    crate::Op::Const(c) | crate::Op::Powf(_, c) => c.is_finite(),
+                    _ => true,
+                }),
+                "{k}: a constant overflows"
+            );
+        }
     }
 
     #[test]

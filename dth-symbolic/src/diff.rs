@@ -16,7 +16,8 @@ use crate::arena::{Arena, Func, Id, Node, Var};
 use crate::number::{Fault, Num};
 
 impl Arena {
-    /// `d node / d x`, simplified.
+    /// `d node / d x`, simplified. On a fault (a constant that overflows, say),
+    /// `self.span` is the span of the innermost node whose derivative failed.
     pub fn diff(&mut self, node: Id, x: Var) -> Result<Id, Fault> {
         let mut memo = HashMap::new();
         self.diff_memo(node, x, &mut memo)
@@ -33,9 +34,10 @@ impl Arena {
         self.diff_work += 1;
         let saved = self.span;
         self.span = self.span(node);
-        let d = self.diff_rule(node, x, memo);
+        // On a fault the span is left on the innermost node that failed: the caller reports it
+        // there (`arena.span` after the error).
+        let d = self.diff_rule(node, x, memo)?;
         self.span = saved;
-        let d = d?;
         memo.insert(node, d);
         Ok(d)
     }

@@ -80,6 +80,42 @@ pub enum ErrorKind {
         /// The name.
         name: String,
     },
+    /// A function name followed by an operand without parentheses (`sin q1`).
+    CallWithoutParens {
+        /// The function name.
+        name: String,
+        /// The operand as written.
+        arg: String,
+    },
+    /// `**` (a power in other languages).
+    DoubleStar {
+        /// The power as the grammar writes it (`p1^2`).
+        power: String,
+    },
+    /// A function of the grammar called with more than one argument (`cos(q1, q2)`).
+    TooManyArguments {
+        /// The name.
+        name: String,
+        /// How many arguments were written.
+        found: usize,
+    },
+    /// `pow(a, b)`.
+    PowFunction {
+        /// The power as the grammar writes it (`q1^2`).
+        power: String,
+    },
+    /// `e`, which is not a name of the grammar (`e^q1` is `exp(q1)`).
+    EulerNumber {
+        /// The exponent as written, when `e` is raised to one.
+        exponent: Option<String>,
+    },
+    /// A `,` outside a function call's parentheses.
+    StrayComma,
+    /// The value and its derivatives exceed [`crate::MAX_SIZE`].
+    TooLarge {
+        /// The bound.
+        limit: usize,
+    },
     /// Constant folding failed (division by zero, `ln(-1)`, overflow).
     Fault(Fault),
     /// A declared parameter name that cannot be used.
@@ -118,14 +154,20 @@ impl fmt::Display for Error {
             Empty => f.write_str(
                 "empty Hamiltonian: expected an expression in q1..qN, p1..pN (and t, parameters)",
             ),
-            UnexpectedChar { ch } => write!(
-                f,
-                "unexpected `{ch}`: the grammar has numbers, names, `+ - * / ^` and parentheses"
+            UnexpectedChar { ch: 'π' } => f.write_str(
+                "unexpected `π`: names are ASCII, the constant is written `pi`",
             ),
-            InvalidNumber { text } => write!(
-                f,
-                "invalid number `{text}`: expected an integer, decimal or scientific literal without suffix (write `2*q1`, not `2q1`)"
-            ),
+            UnexpectedChar { ch } => match greek_name(*ch) {
+                Some(name) => write!(
+                    f,
+                    "unexpected `{ch}`: names are ASCII: write `{name}` and declare it as a parameter (`struct H {{ {name}: f64 }} = ...`)"
+                ),
+                None => write!(
+                    f,
+                    "unexpected `{ch}`: the grammar has numbers, names, `+ - * / ^` and parentheses"
+                ),
+            },
+            InvalidNumber { text } => invalid_number(f, text),
             LiteralOverflow { text } => {
                 write!(f, "literal `{text}` overflows f64 (largest is about 1.8e308)")
             }
@@ -164,6 +206,9 @@ impl fmt::Display for Error {
                 f,
                 "unknown function `log`: the natural logarithm is `ln` (functions: {FUNCTIONS})"
             ),
+            UnknownFunction { name } if name == "pow" => f.write_str(
+                "unknown function `pow`: powers are written with `^`, as in `q1^2`",
+            ),
             UnknownFunction { name } => {
                 write!(f, "unknown function `{name}`: expected one of {FUNCTIONS}")
             }
@@ -174,6 +219,33 @@ impl fmt::Display for Error {
             FunctionWithoutCall { name } => {
                 write!(f, "`{name}` is a function: call it with parentheses, `{name}(...)`")
             }
+            CallWithoutParens { name, arg } => write!(
+                f,
+                "`{name}` is a function: its argument goes in parentheses, `{name}({arg})`"
+            ),
+            DoubleStar { power } => write!(
+                f,
+                "`**` is not an operator: powers are written with `^`, as in `{power}`"
+            ),
+            TooManyArguments { name, found } => {
+                write!(f, "`{name}` takes one argument, found {found}")
+            }
+            PowFunction { power } => write!(
+                f,
+                "unknown function `pow`: powers are written with `^`, as in `{power}`"
+            ),
+            EulerNumber { exponent } => write!(
+                f,
+                "unknown variable `e`: Euler's number is not a name of the grammar, the exponential is `exp({})`",
+                exponent.as_deref().unwrap_or("1")
+            ),
+            StrayComma => f.write_str(
+                "unexpected `,`: a Hamiltonian is one expression and every function takes one argument",
+            ),
+            TooLarge { limit } => write!(
+                f,
+                "the derivatives of this Hamiltonian are too large: more than {limit} expression nodes and operands (value, gradient, Hessian and Psi); the bound keeps compile time and generated code in check"
+            ),
             Fault(fault) => write!(f, "{fault}"),
             BadParameter { name, reason } => write!(
                 f,
@@ -190,6 +262,75 @@ impl fmt::Display for Error {
 }
 
 impl std::error::Error for Error {}
+
+/// The message of [`ErrorKind::InvalidNumber`]: what the literal's mistake most likely is.
+fn invalid_number(f: &mut fmt::Formatter<'_>, text: &str) -> fmt::Result {
+    const PLAIN: &str = "number literals are plain decimals like `2.0` or `1000`";
+    if text.contains('_') {
+        return write!(
+            f,
+            "invalid number `{text}`: {PLAIN}, without `_` (write `{}`)",
+            text.replace('_', "")
+        );
+    }
+    // The numeric prefix: digits, a fraction, an exponent.
+    let end = text
+        .char_indices()
+        .find(|&(i, c)| {
+            !(c.is_ascii_digit()
+                || c == '.'
+                || (matches!(c, 'e' | 'E')
+                    && text[i + 1..]
+                        .starts_with(|d: char| d.is_ascii_digit() || d == '-' || d == '+'))
+                || (matches!(c, '-' | '+') && i > 0 && text[..i].ends_with(['e', 'E'])))
+        })
+        .map_or(text.len(), |(i, _)| i);
+    let (number, rest) = text.split_at(end);
+    const SUFFIXES: [&str; 14] = [
+        "f32", "f64", "i8", "i16", "i32", "i64", "i128", "isize", "u8", "u16", "u32", "u64",
+        "u128", "usize",
+    ];
+    if !number.is_empty() && SUFFIXES.contains(&rest) {
+        return write!(
+            f,
+            "invalid number `{text}`: {PLAIN}, without a type suffix (write `{number}`)"
+        );
+    }
+    if !number.is_empty() && !rest.is_empty() && rest.starts_with(|c: char| c.is_ascii_alphabetic())
+    {
+        return write!(
+            f,
+            "invalid number `{text}`: multiplication needs an explicit `*` (write `{number}*{rest}`)"
+        );
+    }
+    write!(
+        f,
+        "invalid number `{text}`: {PLAIN}, or scientific like `1e-3`"
+    )
+}
+
+/// The ASCII name of a Greek letter, for the hint on `ω` and the like.
+fn greek_name(ch: char) -> Option<&'static str> {
+    const NAMES: [&str; 25] = [
+        "alpha", "beta", "gamma", "delta", "epsilon", "zeta", "eta", "theta", "iota", "kappa",
+        "lambda", "mu", "nu", "xi", "omicron", "pi", "rho", "sigma", "sigma", "tau", "upsilon",
+        "phi", "chi", "psi", "omega",
+    ];
+    // Lower case U+03B1..U+03C9 (with final sigma U+03C2); upper case U+0391..U+03A9 has a
+    // gap at U+03A2 where the final sigma would be.
+    let k = match ch {
+        'α'..='ω' => ch as u32 - 'α' as u32,
+        'Α'..='Ω' if ch != '\u{3a2}' => ch as u32 - 'Α' as u32,
+        'ϑ' => 7,
+        'ϕ' => 21,
+        'ϵ' => 4,
+        'ϖ' => 15,
+        'ϱ' => 16,
+        _ => return None,
+    };
+    // `Π` and `ϖ` are not `pi`, and `pi` cannot be a parameter: no hint for them.
+    NAMES.get(k as usize).copied().filter(|&n| n != "pi")
+}
 
 /// All the independent errors found in one source, in source order.
 #[derive(Clone, Debug, PartialEq)]

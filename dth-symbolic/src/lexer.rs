@@ -24,6 +24,9 @@ pub enum TokenKind {
     LParen,
     /// `)`
     RParen,
+    /// `,`: no function takes two arguments, but `cos(q1, q2)` and `pow(q1, 2)` are read so
+    /// their errors can say what to write instead.
+    Comma,
 }
 
 /// A token and its byte range.
@@ -52,6 +55,7 @@ pub fn lex(src: &str) -> (Vec<Token>, Vec<Error>) {
             b'^' => Some(TokenKind::Caret),
             b'(' => Some(TokenKind::LParen),
             b')' => Some(TokenKind::RParen),
+            b',' => Some(TokenKind::Comma),
             _ => None,
         };
         if let Some(kind) = single {

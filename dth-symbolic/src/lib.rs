@@ -78,5 +78,14 @@ pub use system::{compile, expression, Method, System};
 /// silently produce a 2000-dimensional system.
 pub const MAX_INDEX: usize = 256;
 
+/// The largest arena [`compile`] builds ([`Arena::size`]: nodes plus operands, summed), value,
+/// gradient, Hessian and Psi together: about 60,000 for 20 bodies in 3D with all pairwise
+/// forces; 570,000, just beyond, for `exp` of the product of 64 variables, which took a
+/// minute of `cargo build` (most of it compiling the generated code); 4 million for 128
+/// variables (whose Hessian alone has 8,000 dense products of 126 factors: minutes in the
+/// macro, a million lines of code). Beyond it, compiling is an error, so no input exhausts
+/// the machine.
+pub const MAX_SIZE: usize = 500_000;
+
 #[cfg(test)]
 mod tests;

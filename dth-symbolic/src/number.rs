@@ -46,9 +46,10 @@ impl Rational {
     /// One.
     pub const ONE: Rational = Rational { num: 1, den: 1 };
 
-    /// `num/den` in lowest terms; `None` when `den == 0` or on overflow.
+    /// `num/den` in lowest terms; `None` when `den == 0` or on overflow. `i128::MIN` is
+    /// outside the range too, so negating or taking the magnitude of a part never overflows.
     pub fn new(num: i128, den: i128) -> Option<Self> {
-        if den == 0 {
+        if den == 0 || num == i128::MIN || den == i128::MIN {
             return None;
         }
         let g = gcd(num, den);
@@ -268,7 +269,7 @@ impl std::ops::Neg for Num {
 
     fn neg(self) -> Num {
         match self {
-            Num::Rat(r) => match Rational::new(-r.num, r.den) {
+            Num::Rat(r) => match r.num.checked_neg().and_then(|n| Rational::new(n, r.den)) {
                 Some(r) => Num::Rat(r),
                 None => Num::Float(-r.to_f64()),
             },

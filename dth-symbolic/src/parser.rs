@@ -7,6 +7,10 @@
 //! power   := atom ('^' unary)?          right-associative; binds tighter than unary minus
 //! atom    := number | name | name '(' expr ')' | '(' expr ')'
 //! ```
+//!
+//! Three mistakes are read as what they most likely mean, reported, and parsing goes on (so
+//! the rest of the expression is still checked): `sin q1` as `sin(q1)`, `p1**2` as `p1^2`,
+//! and a call with several arguments `cos(q1, q2)`, kept whole for the builder to report.
 
 use crate::error::{Error, ErrorKind};
 use crate::lexer::{Token, TokenKind};
@@ -40,6 +44,8 @@ pub enum Ast {
         name: Span,
         /// The argument.
         arg: Box<Ast>,
+        /// Arguments after the first (an error for every function of the grammar).
+        extra: Vec<Ast>,
         /// From the name to the `)`.
         span: Span,
     },
@@ -100,34 +106,59 @@ struct Parser<'a> {
     tokens: &'a [Token],
     pos: usize,
     depth: usize,
+    /// Mistakes read past (see the module docs).
+    errors: Vec<Error>,
 }
 
 /// Nesting beyond this is rejected rather than risking the stack.
 const MAX_DEPTH: usize = 256;
 
-/// Parses a whole expression. Syntax errors stop the parse (later ones would be cascades).
-pub fn parse(src: &str, tokens: &[Token]) -> Result<Ast, Error> {
+/// Parses a whole expression: the tree (`None` after a syntax error that stops the parse,
+/// as later ones would be cascades) and the errors, in source order.
+pub fn parse(src: &str, tokens: &[Token]) -> (Option<Ast>, Vec<Error>) {
     if tokens.is_empty() {
-        return Err(Error::new(ErrorKind::Empty, Span::new(0, src.len())));
+        return (
+            None,
+            vec![Error::new(ErrorKind::Empty, Span::new(0, src.len()))],
+        );
     }
     let mut p = Parser {
         src,
         tokens,
         pos: 0,
         depth: 0,
+        errors: Vec::new(),
     };
-    let ast = p.expr()?;
-    match p.peek() {
+    let result = p.expr().and_then(|ast| match p.peek() {
         None => Ok(ast),
         Some(t) if t.kind == TokenKind::RParen => {
             Err(Error::new(ErrorKind::UnmatchedParen, t.span))
         }
-        Some(t) => Err(Error::new(
-            ErrorKind::ExpectedOperator {
-                found: p.text(t.span).to_string(),
-            },
-            t.span,
-        )),
+        Some(t) => Err(p.unexpected(t)),
+    });
+    let mut errors = p.errors;
+    let ast = match result {
+        Ok(ast) => Some(ast),
+        Err(e) => {
+            errors.push(e);
+            None
+        }
+    };
+    errors.sort_by_key(|e| e.span.start);
+    (ast, errors)
+}
+
+/// `true` for the names of the grammar's functions.
+fn is_function(name: &str) -> bool {
+    crate::error::FUNCTIONS.split(", ").any(|f| f == name)
+}
+
+/// `ast` as an operand of `^` in a suggestion: parenthesized unless it is a single operand.
+pub(crate) fn operand_text(src: &str, ast: &Ast) -> String {
+    let text = &src[ast.span().range()];
+    match ast {
+        Ast::Number(_) | Ast::Name(_) | Ast::Call { .. } | Ast::Paren { .. } => text.to_string(),
+        _ => format!("({text})"),
     }
 }
 
@@ -138,6 +169,19 @@ impl<'a> Parser<'a> {
 
     fn text(&self, s: Span) -> &'a str {
         &self.src[s.range()]
+    }
+
+    /// The error for `t` where an operator or the end was expected.
+    fn unexpected(&self, t: Token) -> Error {
+        if t.kind == TokenKind::Comma {
+            return Error::new(ErrorKind::StrayComma, t.span);
+        }
+        Error::new(
+            ErrorKind::ExpectedOperator {
+                found: self.text(t.span).to_string(),
+            },
+            t.span,
+        )
     }
 
     fn eat(&mut self, kind: TokenKind) -> Option<Token> {
@@ -222,16 +266,32 @@ impl<'a> Parser<'a> {
 
     fn power(&mut self) -> Result<Ast, Error> {
         let base = self.atom()?;
-        if let Some(t) = self.eat(TokenKind::Caret) {
-            let exp = self.unary()?;
-            return Ok(Ast::Binary {
-                op: BinOp::Pow,
-                op_span: t.span,
-                lhs: Box::new(base),
-                rhs: Box::new(exp),
-            });
+        let op_span = match (self.peek(), self.tokens.get(self.pos + 1)) {
+            (Some(t), _) if t.kind == TokenKind::Caret => t.span,
+            // `**`: read as `^` and reported.
+            (Some(a), Some(b)) if a.kind == TokenKind::Star && b.kind == TokenKind::Star => {
+                a.span.to(b.span)
+            }
+            _ => return Ok(base),
+        };
+        let double_star = self.tokens[self.pos].kind == TokenKind::Star;
+        self.pos += if double_star { 2 } else { 1 };
+        let exp = self.unary()?;
+        if double_star {
+            let power = format!(
+                "{}^{}",
+                operand_text(self.src, &base),
+                operand_text(self.src, &exp)
+            );
+            self.errors
+                .push(Error::new(ErrorKind::DoubleStar { power }, op_span));
         }
-        Ok(base)
+        Ok(Ast::Binary {
+            op: BinOp::Pow,
+            op_span,
+            lhs: Box::new(base),
+            rhs: Box::new(exp),
+        })
     }
 
     fn atom(&mut self) -> Result<Ast, Error> {
@@ -246,11 +306,38 @@ impl<'a> Parser<'a> {
             TokenKind::Ident => {
                 if let Some(open) = self.eat(TokenKind::LParen) {
                     let arg = self.expr()?;
+                    let mut extra = Vec::new();
+                    while self.eat(TokenKind::Comma).is_some() {
+                        extra.push(self.expr()?);
+                    }
                     let close = self.close(open.span)?;
                     Ok(Ast::Call {
                         name: t.span,
                         arg: Box::new(arg),
+                        extra,
                         span: t.span.to(close),
+                    })
+                } else if is_function(self.text(t.span))
+                    && self
+                        .peek()
+                        .is_some_and(|n| matches!(n.kind, TokenKind::Ident | TokenKind::Number))
+                {
+                    // `sin q1`: read as `sin(q1)` (the operand with its power, `sin q1^2` as
+                    // `sin(q1^2)`) and reported.
+                    let arg = self.unary()?;
+                    self.errors.push(Error::new(
+                        ErrorKind::CallWithoutParens {
+                            name: self.text(t.span).to_string(),
+                            arg: self.text(arg.span()).to_string(),
+                        },
+                        t.span,
+                    ));
+                    let span = t.span.to(arg.span());
+                    Ok(Ast::Call {
+                        name: t.span,
+                        arg: Box::new(arg),
+                        extra: Vec::new(),
+                        span,
                     })
                 } else {
                     Ok(Ast::Name(t.span))
@@ -280,12 +367,7 @@ impl<'a> Parser<'a> {
                 Ok(t.span)
             }
             None => Err(Error::new(ErrorKind::UnclosedParen, open)),
-            Some(t) => Err(Error::new(
-                ErrorKind::ExpectedOperator {
-                    found: self.text(t.span).to_string(),
-                },
-                t.span,
-            )),
+            Some(t) => Err(self.unexpected(t)),
         }
     }
 }

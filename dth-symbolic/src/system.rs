@@ -66,8 +66,7 @@ pub fn compile(src: &str, params: &[&str]) -> Result<System, Errors> {
     if !structural.is_empty() {
         return Err(Errors(structural));
     }
-    derive(arena, h)
-        .map_err(|(fault, span)| Errors(vec![Error::new(ErrorKind::Fault(fault), span)]))
+    derive(arena, h, whole).map_err(|e| Errors(vec![e]))
 }
 
 /// Parses and simplifies `src` without the checks that make it a Hamiltonian: the arena, the
@@ -101,16 +100,22 @@ pub fn expression(src: &str, params: &[&str]) -> Result<(Arena, Id, Span), Error
     let (tokens, lex_errors) = lex(src);
     let had_lex_errors = !lex_errors.is_empty();
     errors.extend(lex_errors);
-    let ast = match parse(src, &tokens) {
-        Ok(ast) => ast,
-        Err(e) => {
-            // With bad characters dropped, a syntax error is most likely their consequence.
+    let (ast, syntax) = parse(src, &tokens);
+    // With bad characters dropped, a syntax error is most likely their consequence (`2*π*q1`
+    // reads as `2**q1`), and so would be the tree's errors: the names are checked alone.
+    let ast = match ast {
+        Some(ast) if !had_lex_errors => ast,
+        _ => {
             if !had_lex_errors {
-                errors.push(e);
+                errors.extend(syntax);
             }
+            // The names do not depend on the syntax: their errors are reported too.
+            errors.extend(check::name_errors(src, &tokens, params));
+            errors.sort_by_key(|e| e.span.start);
             return Err(Errors(errors));
         }
     };
+    errors.extend(syntax);
     let mut b = Builder {
         src,
         arena: Arena::new(params),
@@ -128,9 +133,25 @@ pub fn expression(src: &str, params: &[&str]) -> Result<(Arena, Id, Span), Error
 }
 
 /// Builds `calH`, the gradient, the Hessian's upper triangle and Psi from `H`.
-fn derive(mut arena: Arena, h: Id) -> Result<System, (Fault, Span)> {
-    // Faults here would need a constant to fold badly, and constants were folded while
-    // building; they are still reported (on the node being differentiated), never hidden.
+fn derive(mut arena: Arena, h: Id, whole: Span) -> Result<System, Error> {
+    let fault = |f: Fault, span: Span| Error::new(ErrorKind::Fault(f), span);
+    // The bound on the arena, checked after each derivative: one derivative is at most
+    // quadratic in its operand, so the work stops soon after the bound is crossed.
+    let bounded = |arena: &Arena| {
+        if arena.size() > crate::MAX_SIZE {
+            Err(Error::new(
+                ErrorKind::TooLarge {
+                    limit: crate::MAX_SIZE,
+                },
+                whole,
+            ))
+        } else {
+            Ok(())
+        }
+    };
+    // Faults here need a constant to fold badly (`q1^(1e300)` has the second derivative
+    // `1e300 * (1e300 - 1) * q1^...`, which overflows): reported on the node whose derivative
+    // failed, never hidden.
     let arena = &mut arena;
     // The dimension and time dependence follow the source text, not what survives
     // simplification: `p1^2 + 0*q2` is a 2-degree-of-freedom system, as written. Every
@@ -155,7 +176,7 @@ fn derive(mut arena: Arena, h: Id) -> Result<System, (Fault, Span)> {
     let value = if time_dependent {
         arena.span = arena.span(h);
         let pt = arena.var(Var::Pt);
-        arena.add(&[h, pt]).map_err(|f| (f, arena.span(h)))?
+        arena.add(&[h, pt]).map_err(|f| fault(f, arena.span(h)))?
     } else {
         h
     };
@@ -166,7 +187,9 @@ fn derive(mut arena: Arena, h: Id) -> Result<System, (Fault, Span)> {
     let mut gradient = Vec::with_capacity(d);
     for &x in &coordinates {
         gradient.push(if arena.depends_on(value, x) {
-            arena.diff(value, x).map_err(|f| (f, Span::default()))?
+            let g = arena.diff(value, x).map_err(|f| fault(f, arena.span))?;
+            bounded(arena)?;
+            g
         } else {
             zero
         });
@@ -177,7 +200,8 @@ fn derive(mut arena: Arena, h: Id) -> Result<System, (Fault, Span)> {
     for (i, &g) in gradient.iter().enumerate() {
         for (j, &x) in coordinates.iter().enumerate().skip(i) {
             if arena.depends_on(g, x) {
-                let h = arena.diff(g, x).map_err(|f| (f, Span::default()))?;
+                let h = arena.diff(g, x).map_err(|f| fault(f, arena.span))?;
+                bounded(arena)?;
                 if !arena.is_zero(h) {
                     hessian[k] = h;
                     nonzeros.push((i, j, h));
@@ -186,7 +210,9 @@ fn derive(mut arena: Arena, h: Id) -> Result<System, (Fault, Span)> {
             k += 1;
         }
     }
-    let psi = psi(arena, &gradient, &nonzeros, d).map_err(|f| (f, Span::default()))?;
+    // Psi combines every entry: a fault there belongs to the whole Hamiltonian.
+    let psi = psi(arena, &gradient, &nonzeros, d).map_err(|f| fault(f, arena.span(h)))?;
+    bounded(arena)?;
     let mut system = System {
         arena: arena.clone(),
         n: n as usize,

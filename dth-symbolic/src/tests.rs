@@ -463,3 +463,252 @@ fn psi_reuses_the_gradient_and_hessian() {
     // Both sum the same ~5 terms of size ~10: a few ulps of 10 apart at most.
     assert!((e.psi - direct.psi).abs() <= 1e-13 * (1.0 + e.psi.abs()));
 }
+
+// --- messages for common mistakes ---------------------------------------------------------
+
+/// Each error's message and the source text it points at.
+fn messages(src: &str) -> Vec<(String, String)> {
+    compile(src, &["a"])
+        .unwrap_err()
+        .0
+        .into_iter()
+        .map(|e| (e.to_string(), src[e.span.range()].to_string()))
+        .collect()
+}
+
+fn one_message(src: &str) -> (String, String) {
+    let m = messages(src);
+    assert_eq!(m.len(), 1, "{src}: {m:?}");
+    m.into_iter().next().unwrap()
+}
+
+#[test]
+fn function_without_parentheses_suggests_the_call() {
+    let (m, at) = one_message("p1^2 + sin q1");
+    assert_eq!(at, "sin");
+    assert_eq!(
+        m,
+        "`sin` is a function: its argument goes in parentheses, `sin(q1)`"
+    );
+    assert!(matches!(
+        kinds("p1^2 + cos q1^2")[..],
+        [ErrorKind::CallWithoutParens { ref arg, .. }] if arg == "q1^2"
+    ));
+}
+
+#[test]
+fn double_star_suggests_caret() {
+    let (m, at) = one_message("p1**2 + q1");
+    assert_eq!(at, "**");
+    assert_eq!(
+        m,
+        "`**` is not an operator: powers are written with `^`, as in `p1^2`"
+    );
+    assert!(matches!(
+        kinds("(q1 + p1)**(1/2)")[..],
+        [ErrorKind::DoubleStar { ref power }] if power == "(q1 + p1)^(1/2)"
+    ));
+}
+
+#[test]
+fn functions_take_one_argument() {
+    let (m, at) = one_message("p1^2 + cos(q1, q2)");
+    assert_eq!(
+        (m.as_str(), at.as_str()),
+        ("`cos` takes one argument, found 2", "q2")
+    );
+    let (m, at) = one_message("p1^2 + pow(q1, 2)");
+    assert_eq!(at, "pow");
+    assert_eq!(
+        m,
+        "unknown function `pow`: powers are written with `^`, as in `q1^2`"
+    );
+    assert!(matches!(
+        kinds("p1^2 + pow(q1 + 1, -2)")[..],
+        [ErrorKind::PowFunction { ref power }] if power == "(q1 + 1)^(-2)"
+    ));
+    // A comma outside a call.
+    let (m, at) = one_message("p1^2, q1");
+    assert_eq!(at, ",");
+    assert!(
+        m.starts_with("unexpected `,`: a Hamiltonian is one expression"),
+        "{m}"
+    );
+}
+
+#[test]
+fn literals_are_plain_decimals() {
+    let (m, at) = one_message("p1^2 + 2.0f64*q1");
+    assert_eq!(at, "2.0f64");
+    assert_eq!(m, "invalid number `2.0f64`: number literals are plain decimals like `2.0` or `1000`, without a type suffix (write `2.0`)");
+    let (m, _) = one_message("p1^2 + 1_000*q1");
+    assert_eq!(m, "invalid number `1_000`: number literals are plain decimals like `2.0` or `1000`, without `_` (write `1000`)");
+    // Glued to a variable, the hint stays the explicit `*`.
+    let (m, _) = one_message("p1^2 + 2q1");
+    assert_eq!(
+        m,
+        "invalid number `2q1`: multiplication needs an explicit `*` (write `2*q1`)"
+    );
+}
+
+#[test]
+fn euler_number_suggests_exp() {
+    let (m, at) = one_message("p1^2 + e^q1");
+    assert_eq!(at, "e");
+    assert_eq!(m, "unknown variable `e`: Euler's number is not a name of the grammar, the exponential is `exp(q1)`");
+    assert!(matches!(
+        kinds("p1^2 + e^(-q1^2)")[..],
+        [ErrorKind::EulerNumber { exponent: Some(ref x) }] if x == "-q1^2"
+    ));
+    assert!(matches!(
+        kinds("p1^2 + 2*e")[..],
+        [ErrorKind::EulerNumber { exponent: None }]
+    ));
+    // A declared parameter named `e` is a parameter.
+    assert!(compile("p1^2 + e*q1", &["e"]).is_ok());
+}
+
+#[test]
+fn greek_letters_suggest_names() {
+    let (m, at) = one_message("p1^2 + π*q1");
+    assert_eq!(at, "π");
+    // Without the `π`, `2*π*q1` would read `2**q1`: no cascade.
+    let (_, at) = one_message("p1^2 + cos(2*π*q1)");
+    assert_eq!(at, "π");
+    // Names are still checked.
+    let both = messages("p1^2 + cos(2*π*x)");
+    assert_eq!(both.len(), 2, "{both:?}");
+    assert_eq!(
+        m,
+        "unexpected `π`: names are ASCII, the constant is written `pi`"
+    );
+    let (m, at) = one_message("p1^2 + ω^2*q1^2");
+    assert_eq!(at, "ω");
+    assert_eq!(m, "unexpected `ω`: names are ASCII: write `omega` and declare it as a parameter (`struct H { omega: f64 } = ...`)");
+    let (m, _) = one_message("p1^2 + Θ");
+    assert!(m.contains("`theta`"), "{m}");
+    let (m, _) = one_message("p1^2 + ☃");
+    assert!(m.contains("the grammar has numbers"), "{m}");
+}
+
+#[test]
+fn syntax_and_name_errors_are_reported_together() {
+    let m = messages("x1 + p1^2 + (q1");
+    assert_eq!(m.len(), 2, "{m:?}");
+    assert!(m[0].0.starts_with("unknown variable `x1`"));
+    assert!(m[1].0.starts_with("unclosed `(`"));
+    let m = messages("foo(q1) + p1 p1 + q0 + e^q1 + q1(2)");
+    let kinds: Vec<&str> = m.iter().map(|(_, at)| at.as_str()).collect();
+    assert_eq!(kinds, ["foo", "p1", "q0", "e", "q1"], "{m:?}");
+    assert!(m[3].0.ends_with("`exp(q1)`"), "{m:?}");
+    let m = messages("e^(q1 + p1) p1");
+    assert!(m[0].0.ends_with("`exp(...)`"), "{m:?}");
+    // The mistakes read past do not stop the names' errors either.
+    let m = messages("sin x + p1**2");
+    let at: Vec<&str> = m.iter().map(|(_, at)| at.as_str()).collect();
+    assert_eq!(at, ["sin", "x", "**"], "{m:?}");
+}
+
+/// A coordinate may be absent: `p1^2/2 + p2^2/(2 q1^2) - 1/q1` (Kepler in polar coordinates)
+/// has no `q2`, the angle: it is cyclic and `p2` is conserved. This is physics, not a typo, so
+/// it compiles; the dimension is set by the largest index, as documented.
+#[test]
+fn a_cyclic_coordinate_may_be_absent() {
+    let h = compile("p1^2/2 + p2^2/(2*q1^2) - 1/q1", &[]).unwrap();
+    assert_eq!(h.dim(), 4);
+    assert_eq!(h.expr(h.gradient()[1]).to_string(), "0");
+}
+
+/// Exponents at the edges of the exact rationals: `(-2)^127` is `i128::MIN`, whose negation
+/// overflowed when the power was lowered; huge integer exponents fold to `f64` or lower in
+/// `O(log k)` operations; every program's constants stay finite.
+#[test]
+fn extreme_exponents_compile_to_finite_programs() {
+    for src in [
+        "p1 + q1^((-2)^127)",
+        "p1 + q1^(-(-2)^127)",
+        "p1 + (q1 + 1)^((-2)^126)",
+        "p1^2 + q1^(2^100)",
+        "p1 + (q1^(3/7))^(10^30)",
+        "p1 + q1^170141183460469231731687303715884105727",
+        "p1^2/2 + q1^1024",
+        "(q1 + p1)^1000000",
+    ] {
+        let h = compile(src, &[]).unwrap_or_else(|e| panic!("{src}: {e}"));
+        for m in [
+            Method::All,
+            Method::DiscreteGradient,
+            Method::DiscreteGradientDefect,
+        ] {
+            let p = h.program(m);
+            assert!(
+                p.ops.len() < 5000,
+                "{src} {m:?}: {} operations",
+                p.ops.len()
+            );
+            assert!(
+                p.ops.iter().all(|op| match op {
+                    crate::Op::Const(c) | crate::Op::Powf(_, c) => c.is_finite(),
+                    _ => true,
+                }),
+                "{src} {m:?}: a constant overflows"
+            );
+        }
+    }
+}
+
+/// A fault while differentiating lands on the node whose derivative failed, not on an empty
+/// span at the start (found by `tests/no_input_crashes.rs`): the Hessian of `q1^(1e300)`
+/// overflows.
+#[test]
+fn derivative_faults_are_spanned() {
+    let src = "p1^2/2 + q1 + (q1)^(1e300)";
+    let e = compile(src, &[]).unwrap_err().0;
+    assert_eq!(e.len(), 1);
+    assert!(matches!(
+        e[0].kind,
+        ErrorKind::Fault(crate::number::Fault::NonFinite)
+    ));
+    assert_eq!(&src[e[0].span.range()], "(q1)^(1e300)");
+}
+
+/// A short input whose derivatives would take gigabytes (`exp` of the product of all 512
+/// variables: 131,000 Hessian entries, each a product of 512 factors) is rejected once the
+/// arena passes [`crate::MAX_SIZE`], soon and on the whole expression; 20 bodies in 3D with
+/// all pairwise forces stay far below the bound.
+#[test]
+fn derivatives_beyond_the_size_bound_are_an_error() {
+    let names: Vec<String> = (1..=256)
+        .map(|i| format!("q{i}"))
+        .chain((1..=256).map(|i| format!("p{i}")))
+        .collect();
+    let src = format!("exp({})", names.join("*"));
+    let start = std::time::Instant::now();
+    let e = compile(&src, &[]).unwrap_err().0;
+    assert!(
+        matches!(e[..], [crate::Error { kind: ErrorKind::TooLarge { limit: crate::MAX_SIZE }, span }] if span.range() == (0..src.len())),
+        "{e:?}"
+    );
+    assert!(e[0]
+        .to_string()
+        .contains(&format!("more than {}", crate::MAX_SIZE)));
+    // Measured about 1 s in the test profile; minutes and gigabytes before the bound.
+    assert!(start.elapsed().as_secs() < 30, "{:?}", start.elapsed());
+
+    let mut nbody = String::new();
+    for i in 1..=60 {
+        nbody += &format!("p{i}^2/2 + ");
+    }
+    for i in 0..20 {
+        for j in i + 1..20 {
+            let d = |k: usize| format!("(q{} - q{})^2", 3 * i + k, 3 * j + k);
+            nbody += &format!("- 1/sqrt({} + {} + {}) ", d(1), d(2), d(3));
+        }
+    }
+    let h = compile(&nbody, &[]).unwrap();
+    assert!(
+        h.arena().size() < crate::MAX_SIZE / 5,
+        "{}",
+        h.arena().size()
+    );
+}

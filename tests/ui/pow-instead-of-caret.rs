@@ -1,0 +1,3 @@
+fn main() {
+    let _h = dth::hamiltonian!(p1^2/2 + pow(q1, 2));
+}
