@@ -42,4 +42,4 @@ pub use schema::{
     component_names, Coord, Direction, Duration, EffectKind, EffectSpec, Ensemble, MethodKind,
     MethodSpec, Scene, StepSpec,
 };
-pub use validate::{line_col, parse, ParamSpec, SystemInfo, SystemLookup};
+pub use validate::{line_col, parse, ParamRule, ParamSpec, SystemInfo, SystemLookup};

@@ -25,6 +25,82 @@ pub struct ParamSpec {
     pub default: Option<f64>,
     /// One line of documentation.
     pub doc: &'static str,
+    /// The values it may take. Validation enforces it (on the value a scene gives, or on the
+    /// default), so a system's builder receives only values that satisfy it.
+    pub rule: ParamRule,
+}
+
+/// The values a parameter may take (beyond being finite, which every parameter must be).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[non_exhaustive]
+pub enum ParamRule {
+    /// Any finite number.
+    #[default]
+    Any,
+    /// `> 0` (a mass, a length, a force constant).
+    Positive,
+    /// `>= 0`.
+    NonNegative,
+}
+
+impl ParamRule {
+    /// `true` when `value` satisfies the rule (`value` is finite).
+    pub fn allows(self, value: f64) -> bool {
+        match self {
+            ParamRule::Any => true,
+            ParamRule::Positive => value > 0.0,
+            ParamRule::NonNegative => value >= 0.0,
+        }
+    }
+
+    /// What the rule expects, for messages ("a positive number (> 0)").
+    pub fn expected(self) -> &'static str {
+        match self {
+            ParamRule::Any => "a finite number",
+            ParamRule::Positive => "a positive number (> 0)",
+            ParamRule::NonNegative => "a non-negative number (>= 0)",
+        }
+    }
+}
+
+impl ParamSpec {
+    /// A parameter that may take any finite value, with a default (`None`: required).
+    pub const fn new(name: &'static str, default: Option<f64>, doc: &'static str) -> Self {
+        ParamSpec {
+            name,
+            default,
+            doc,
+            rule: ParamRule::Any,
+        }
+    }
+
+    /// The same parameter, restricted to `rule`.
+    pub const fn with_rule(mut self, rule: ParamRule) -> Self {
+        self.rule = rule;
+        self
+    }
+
+    /// The same parameter, restricted to positive values ([`ParamRule::Positive`]).
+    pub const fn positive(self) -> Self {
+        self.with_rule(ParamRule::Positive)
+    }
+
+    /// Checks `value` against the parameter's rule (and finiteness) for `system`; the error
+    /// says what was expected ("parameter `m` of system `pendulum` = 0: expected a positive
+    /// number (> 0)"). Validation reports it at the value; [`crate::catalogue::Catalogue::run`]
+    /// checks a hand-built scene with it too.
+    pub fn check(&self, system: &str, value: f64) -> Result<f64, String> {
+        if value.is_finite() && self.rule.allows(value) {
+            Ok(value)
+        } else {
+            Err(format!(
+                "parameter `{}` ({}) of system `{system}` = {value}: expected {}",
+                self.name,
+                self.doc,
+                self.rule.expected()
+            ))
+        }
+    }
 }
 
 /// What validation needs to know about a system.
@@ -164,16 +240,31 @@ fn validate(raw: RawScene, systems: &dyn SystemLookup, cx: &mut Ctxt<'_>) -> Opt
                     v.span(),
                     format!("parameter `{}` must be finite", k.get_ref()),
                 );
-            } else {
-                params.insert(k.get_ref().clone(), *v.get_ref());
+            } else if let Some(p) = info.params.iter().find(|p| p.name == k.get_ref().as_str()) {
+                // The parameter's declared rule, at the value that breaks it.
+                match p.check(&name, *v.get_ref()) {
+                    Ok(v) => {
+                        params.insert(k.get_ref().clone(), v);
+                    }
+                    Err(message) => cx.error(v.span(), message),
+                }
             }
         }
         for p in info.params {
-            if !params.contains_key(p.name) {
+            if !params.contains_key(p.name) && !system.params.keys().any(|k| k.get_ref() == p.name)
+            {
                 match p.default {
-                    Some(d) => {
-                        params.insert(p.name.to_string(), d);
-                    }
+                    // A default that breaks its own rule is the registration's mistake; it is
+                    // reported at the system's name, where the scene chose the system.
+                    Some(d) => match p.check(&name, d) {
+                        Ok(d) => {
+                            params.insert(p.name.to_string(), d);
+                        }
+                        Err(message) => cx.error(
+                            system.name.span(),
+                            format!("{message} (the default: give `{}` in `params`)", p.name),
+                        ),
+                    },
                     None => cx.error(
                         system.name.span(),
                         format!(
