@@ -91,7 +91,7 @@ pub fn catalogue() -> Result<Catalogue, dth_examples::Error> {
 
 /// Runs [`SCENE`] on the registered Duffing oscillator into `out` (staged, moved into place
 /// on success, like `dth run`).
-pub fn run(out: &Path, options: &RunOptions) -> Result<RunReport, dth_examples::Error> {
+pub fn run(out: &Path, options: &RunOptions) -> Result<RunReport, dth_examples::RunError> {
     dth_examples::run_scene(SCENE, "custom_system.rs", &catalogue()?, out, options)
 }
 

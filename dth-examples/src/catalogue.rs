@@ -20,7 +20,7 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 use crate::error::Error;
-use crate::pipeline::run_system;
+use crate::pipeline::{run_system, RunError};
 use crate::report::RunReport;
 use crate::scene::{ParamSpec, Scene, SystemInfo, SystemLookup};
 use crate::simulate::RunOptions;
@@ -30,7 +30,8 @@ use crate::systems::{
     Pendulum, TodaChain10, TodaChain4,
 };
 
-type RunFn = dyn Fn(&Scene, &Path, &RunOptions) -> Result<RunReport, Error> + Send + Sync + 'static;
+type RunFn =
+    dyn Fn(&Scene, &Path, &RunOptions) -> Result<RunReport, RunError> + Send + Sync + 'static;
 
 /// One system of a [`Catalogue`].
 pub struct SystemEntry {
@@ -375,8 +376,14 @@ impl Catalogue {
     }
 
     /// Runs a validated scene into `out` (see [`crate::pipeline::run_system`] for the output
-    /// folder's rules).
-    pub fn run(&self, scene: &Scene, out: &Path, options: &RunOptions) -> Result<RunReport, Error> {
+    /// folder's rules). A run that lost a method is [`RunError::MethodsFailed`], with the
+    /// report of what was written.
+    pub fn run(
+        &self,
+        scene: &Scene,
+        out: &Path,
+        options: &RunOptions,
+    ) -> Result<RunReport, RunError> {
         let entry = self.get(&scene.system).ok_or_else(|| Error::NotAvailable {
             what: "system",
             name: scene.system.clone(),

@@ -95,13 +95,17 @@ fn default_out(scene: &Path) -> PathBuf {
 }
 
 fn run(text: &str, file: &str, out: &Path, thesis_table: bool) -> Result<ExitCode, CliError> {
-    let report = dth_examples::run_scene(
+    // A run that lost a method still wrote its outputs: report them, then exit 1.
+    let report = match dth_examples::run_scene(
         text,
         file,
         &Catalogue::builtin(),
         out,
         &RunOptions::default(),
-    )?;
+    ) {
+        Ok(report) => report,
+        Err(e) => e.partial_report()?,
+    };
     let deviations = report.deviation_markdown();
     if !deviations.is_empty() {
         println!("{deviations}");
