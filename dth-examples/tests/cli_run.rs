@@ -324,6 +324,7 @@ fn no_arguments_runs_the_thesis_experiment_with_every_figure() {
     // The page shows Table 4.1 and every figure by relative path, with nothing from the network.
     let html = std::fs::read_to_string(out.join("index.html")).unwrap();
     assert!(html.contains("<h2>Table 4.1</h2>"));
+    assert!(html.contains("; duration 10,000 steps.</p>"), "{html}");
     for i in 1..=15 {
         assert!(
             html.contains(&format!("<img src=\"fig4_{i}.png\"")),
@@ -335,3 +336,30 @@ fn no_arguments_runs_the_thesis_experiment_with_every_figure() {
     assert_eq!(entries(dir.path()), ["dth-out"]);
     assert_eq!(entries(&dir.path().join("dth-out")), ["thesis-kepler"]);
 }
+
+/// The files and the page say what they hold: CSV columns named after the effect's
+/// coordinates (not `x,y`), the duration as people write it (not Rust's debug text).
+#[test]
+fn outputs_name_what_they_hold() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = manifest_dir().join("tests/scenes/pipeline-kepler.toml");
+    let o = dth(&["run", scene.to_str().unwrap(), "--out", "o"], dir.path());
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let out = dir.path().join("o");
+    let header = |f: &str| {
+        std::fs::read_to_string(out.join(f))
+            .unwrap()
+            .lines()
+            .next()
+            .unwrap_or_default()
+            .to_string()
+    };
+    // phase_plot x = "q1", y = "q2"; then x = "t", y = "q1"; the section is plotted in q1, p1.
+    assert_eq!(header("midpoint_phase1.csv"), "q1,q2");
+    assert_eq!(header("dth_coarse_phase2.csv"), "t,q1");
+    assert_eq!(header("midpoint_poincare1.csv"), "t,q1,p1");
+    let html = std::fs::read_to_string(out.join("index.html")).unwrap();
+    assert!(html.contains("; duration 2 orbits.</p>"), "{html}");
+    assert!(!html.contains("Orbits("), "{html}");
+}
+

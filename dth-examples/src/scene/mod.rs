@@ -38,6 +38,7 @@ mod raw;
 mod schema;
 mod validate;
 
+pub(crate) use schema::thousands;
 pub use schema::{
     component_names, Coord, Direction, Duration, EffectKind, EffectSpec, Ensemble, MethodKind,
     MethodSpec, Scene, StepSpec,
