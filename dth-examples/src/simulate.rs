@@ -75,7 +75,8 @@ pub struct MethodSummary {
     pub step: BTreeMap<String, serde_json::Value>,
     /// Steps taken.
     pub steps: usize,
-    /// Final physical time.
+    /// Final physical time; for a method that failed, the time of the last state it reached
+    /// (the last row of its trajectory).
     pub t_end: f64,
     /// Set when the method failed mid-run.
     pub failure: Option<Failure>,
@@ -242,6 +243,17 @@ impl<const D: usize> Observer<D> for Progress {
     }
 }
 
+/// The time of the last state a run reached (the trajectory's last row): where a method that
+/// failed stopped.
+struct LastTime(f64);
+
+impl<const D: usize> Observer<D> for LastTime {
+    #[inline(always)]
+    fn on_step(&mut self, record: &StepRecord<D>) {
+        self.0 = record.t;
+    }
+}
+
 /// The progress bar of method `m` running until `stop` (hidden unless `options.progress`).
 pub fn progress_bar(m: &MethodSpec, stop: Stop, options: &RunOptions) -> ProgressBar {
     if !options.progress {
@@ -300,23 +312,25 @@ pub fn compute<const D: usize, S: SceneSystem<D>>(
     let mut results = Vec::new();
     for m in &scene.methods {
         let bar = progress_bar(m, stop, options);
-        let (end, outputs, calls, stored) = match Effects::new(system, &scene.effects) {
+        let progress = (Progress(bar.clone()), LastTime(scene.t0));
+        let (end, outputs, calls, stored, last_t) = match Effects::new(system, &scene.effects) {
             Some(effects) => {
-                let mut observers = (Progress(bar.clone()), effects);
+                let mut observers = (progress, effects);
                 let end = run_method(m, system, z0, scene.t0, stop, &mut observers)?;
-                let (_, effects) = observers;
+                let ((_, last), effects) = observers;
                 let (calls, stored) = (effects.observer_calls(), effects.stored_values());
-                (end, effects.finish(), calls, stored)
+                (end, effects.finish(), calls, stored, last.0)
             }
             None => {
-                let end = run_method(m, system, z0, scene.t0, stop, &mut Progress(bar.clone()))?;
-                (end, EffectOutputs::default(), 0, 0)
+                let mut observers = progress;
+                let end = run_method(m, system, z0, scene.t0, stop, &mut observers)?;
+                (end, EffectOutputs::default(), 0, 0, observers.1 .0)
             }
         };
         bar.finish_and_clear();
         let (steps, t_end, failure) = match &end {
             Ok(e) => (e.steps, e.t, None),
-            Err(f) => (f.step.saturating_sub(1), f64::NAN, Some(Failure::from(f))),
+            Err(f) => (f.step.saturating_sub(1), last_t, Some(Failure::from(f))),
         };
         let summary = MethodSummary {
             label: m.label.clone(),

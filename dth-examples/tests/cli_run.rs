@@ -363,3 +363,28 @@ fn outputs_name_what_they_hold() {
     assert!(!html.contains("Orbits("), "{html}");
 }
 
+/// A method that failed shows the last time it reached, marked, not `-`.
+#[test]
+fn a_failed_method_shows_where_it_stopped() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = manifest_dir().join("tests/scenes/rk4-blowup.toml");
+    let o = dth(&["run", scene.to_str().unwrap(), "--out", "o"], dir.path());
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("o/summary.json")).unwrap())
+            .unwrap();
+    let m = &summary["methods"][0];
+    let steps = m["steps"].as_f64().unwrap();
+    assert_eq!(steps + 1.0, m["failure"]["step"].as_f64().unwrap());
+    // dt = 3 from t = 0: the last state before the failing step is at t = 3 steps.
+    let t_end = m["t_end"].as_f64().expect("t_end is the last time reached");
+    assert_eq!(t_end, 3.0 * steps);
+    let html = std::fs::read_to_string(dir.path().join("o/index.html")).unwrap();
+    assert!(
+        html.contains(&format!(
+            "<td><span class=\"fail\">{t_end:.4e} (stopped)</span></td>"
+        )),
+        "{html}"
+    );
+    assert!(html.contains("duration 3,000 steps"), "{html}");
+}

@@ -68,6 +68,11 @@ pub fn index(scene: &Scene, report: &RunReport) -> String {
                 escape(&f.reason)
             ),
         };
+        // A failed method's end is the last time it reached, marked as where it stopped.
+        let t_end = match &m.failure {
+            None => num(m.t_end),
+            Some(_) => format!("<span class=\"fail\">{} (stopped)</span>", num(m.t_end)),
+        };
         let _ = writeln!(
             h,
             "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
@@ -75,7 +80,7 @@ pub fn index(scene: &Scene, report: &RunReport) -> String {
             escape(&m.kind),
             escape(&step.join(", ")),
             m.steps,
-            num(m.t_end),
+            t_end,
             status
         );
     }
