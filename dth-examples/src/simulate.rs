@@ -254,6 +254,16 @@ impl<const D: usize> Observer<D> for LastTime {
     }
 }
 
+/// The progress bar's template: with an ETA when the number of steps is known in advance
+/// (`known_length`), a spinner otherwise.
+pub fn progress_template(known_length: bool) -> &'static str {
+    if known_length {
+        "{prefix:>20} [{bar:40}] {pos}/{len} steps {elapsed} (eta {eta})"
+    } else {
+        "{prefix:>20} {spinner} {pos} steps {elapsed}"
+    }
+}
+
 /// The progress bar of method `m` running until `stop` (hidden unless `options.progress`).
 pub fn progress_bar(m: &MethodSpec, stop: Stop, options: &RunOptions) -> ProgressBar {
     if !options.progress {
@@ -264,17 +274,11 @@ pub fn progress_bar(m: &MethodSpec, stop: Stop, options: &RunOptions) -> Progres
         (Stop::Time { t_end, .. }, StepSpec::Fixed { dt }) => Some((t_end / dt).ceil() as u64),
         _ => None,
     };
-    let (bar, template) = match len {
-        Some(n) => (
-            ProgressBar::new(n),
-            "{prefix:>20} [{bar:40}] {pos}/{len} steps {elapsed}",
-        ),
-        None => (
-            ProgressBar::new_spinner(),
-            "{prefix:>20} {spinner} {pos} steps {elapsed}",
-        ),
+    let bar = match len {
+        Some(n) => ProgressBar::new(n),
+        None => ProgressBar::new_spinner(),
     };
-    if let Ok(style) = ProgressStyle::with_template(template) {
+    if let Ok(style) = ProgressStyle::with_template(progress_template(len.is_some())) {
         bar.set_style(style.progress_chars("=> "));
     }
     bar.set_prefix(m.label.clone());
@@ -361,4 +365,20 @@ pub fn compute<const D: usize, S: SceneSystem<D>>(
         });
     }
     Ok(results)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_progress_bar_of_known_length_shows_its_eta() {
+        assert!(progress_template(true).contains("{eta}"));
+        assert!(progress_template(true).contains("{len}"));
+        // A spinner has no length, so no ETA to show.
+        assert!(!progress_template(false).contains("{eta}"));
+        for known in [true, false] {
+            assert!(ProgressStyle::with_template(progress_template(known)).is_ok());
+        }
+    }
 }
