@@ -184,6 +184,16 @@ fn list() {
     println!("\nMethods:");
     for k in MethodKind::ALL {
         println!("  {:<20} {}", k.name(), k.doc());
+        // Where a method does not run everywhere, the systems it runs on, from the catalogue.
+        let offered: Vec<&str> = c
+            .entries()
+            .iter()
+            .filter(|e| e.info().offers(k))
+            .map(|e| e.name())
+            .collect();
+        if offered.len() < c.entries().len() {
+            println!("  {:<20} systems: {}", "", offered.join(", "));
+        }
     }
     println!("\nEffects:");
     for k in EffectKind::ALL {

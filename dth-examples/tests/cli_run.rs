@@ -388,3 +388,29 @@ fn a_failed_method_shows_where_it_stopped() {
     );
     assert!(html.contains("duration 3,000 steps"), "{html}");
 }
+
+/// `dth list` names every system a method is restricted to, from the catalogue: `exact`
+/// serves the free particle as well as Kepler.
+#[test]
+fn list_names_the_systems_each_restricted_method_runs_on() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = dth(&["list"], dir.path());
+    assert_eq!(o.status.code(), Some(0));
+    let s = stdout(&o);
+    let systems_of = |method: &str| {
+        let mut lines = s
+            .lines()
+            .skip_while(|l| !l.starts_with(&format!("  {method} ")));
+        let doc = lines.next().unwrap_or_default().to_string();
+        (doc, lines.next().unwrap_or_default().trim().to_string())
+    };
+    let (doc, systems) = systems_of("exact");
+    assert!(!doc.contains("kepler"), "{doc}");
+    assert_eq!(systems, "systems: kepler, free_particle");
+    assert_eq!(
+        systems_of("discrete_mechanics").1,
+        "systems: kepler, free_particle"
+    );
+    // Every system runs midpoint: no list.
+    assert!(!systems_of("midpoint").1.starts_with("systems:"), "{s}");
+}

@@ -156,7 +156,7 @@ impl MethodKind {
             MethodKind::Rk4 => "classical Runge-Kutta 4; key dt",
             MethodKind::GaussLegendre2 => "2-stage Gauss-Legendre (order 4, symplectic); key dt",
             MethodKind::DiscreteGradient => "energy-preserving discrete gradient; key dt",
-            MethodKind::Exact => "the system's exact solution sampled every dt (systems that have one: kepler); key dt",
+            MethodKind::Exact => "the system's exact solution sampled every dt (systems that have one); key dt",
         }
     }
 

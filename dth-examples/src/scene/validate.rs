@@ -127,6 +127,25 @@ pub struct SystemInfo<'a> {
     pub psi_identically_zero: bool,
 }
 
+impl SystemInfo<'_> {
+    /// `true` when method `kind` can run on this system: `exact` needs an exact solution,
+    /// `discrete_mechanics` a central force, `stormer_verlet` a separable `H`, `dth` a `Psi`
+    /// not identically zero; the others run on every system. Validation rejects the rest.
+    pub fn offers(&self, kind: MethodKind) -> bool {
+        match kind {
+            MethodKind::Exact => self.has_exact,
+            MethodKind::DiscreteMechanics => self.central_force,
+            MethodKind::StormerVerlet => self.separable,
+            MethodKind::Dth => self.dth,
+            MethodKind::Trapezoidal
+            | MethodKind::Midpoint
+            | MethodKind::Rk4
+            | MethodKind::GaussLegendre2
+            | MethodKind::DiscreteGradient => true,
+        }
+    }
+}
+
 /// The systems a scene may name, as validation sees them (implemented by
 /// [`Catalogue`](crate::catalogue::Catalogue)).
 pub trait SystemLookup {
@@ -333,21 +352,24 @@ fn validate(raw: RawScene, systems: &dyn SystemLookup, cx: &mut Ctxt<'_>) -> Opt
             for m in ms.into_inner() {
                 let span = m.get_ref().kind.span();
                 if let Some(spec) = validate_method(m, cx) {
-                    if spec.kind == MethodKind::Exact && info.is_some_and(|i| !i.has_exact) {
+                    if spec.kind == MethodKind::Exact && info.is_some_and(|i| !i.offers(spec.kind))
+                    {
                         cx.error(
                             span.clone(),
                             format!("system `{name}` has no exact solution: remove method `exact`"),
                         );
                     }
                     if spec.kind == MethodKind::DiscreteMechanics
-                        && info.is_some_and(|i| !i.central_force)
+                        && info.is_some_and(|i| !i.offers(spec.kind))
                     {
                         cx.error(
                             span.clone(),
                             format!("method `discrete_mechanics` needs a central-force system H = |p|^2/(2m) + phi(|q|), which `{name}` is not: expected another method"),
                         );
                     }
-                    if let Some(i) = info.filter(|i| spec.kind == MethodKind::Dth && !i.dth) {
+                    if let Some(i) =
+                        info.filter(|i| spec.kind == MethodKind::Dth && !i.offers(spec.kind))
+                    {
                         cx.error(
                             span.clone(),
                             if i.psi_identically_zero {
@@ -357,7 +379,8 @@ fn validate(raw: RawScene, systems: &dyn SystemLookup, cx: &mut Ctxt<'_>) -> Opt
                             },
                         );
                     }
-                    if spec.kind == MethodKind::StormerVerlet && info.is_some_and(|i| !i.separable)
+                    if spec.kind == MethodKind::StormerVerlet
+                        && info.is_some_and(|i| !i.offers(spec.kind))
                     {
                         cx.error(
                             span.clone(),
