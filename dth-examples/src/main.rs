@@ -158,8 +158,8 @@ fn list() {
             .params
             .iter()
             .map(|p| match p.default {
-                Some(d) => format!("{} = {d} ({})", p.name, p.doc),
-                None => format!("{} (required; {})", p.name, p.doc),
+                Some(d) => format!("{} = {d} ({}{})", p.name, p.doc, p.rule.bound()),
+                None => format!("{} (required; {}{})", p.name, p.doc, p.rule.bound()),
             })
             .collect();
         println!(

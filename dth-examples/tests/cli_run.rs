@@ -411,6 +411,9 @@ fn list_names_the_systems_each_restricted_method_runs_on() {
         systems_of("discrete_mechanics").1,
         "systems: kepler, free_particle"
     );
+    // Each parameter's rule, as validation enforces it.
+    assert!(s.contains("m = 1 (mass, > 0)"), "{s}");
+    assert!(s.contains("f = 0.1 (forcing amplitude)"), "{s}");
     // Every system runs midpoint: no list.
     assert!(!systems_of("midpoint").1.starts_with("systems:"), "{s}");
 }

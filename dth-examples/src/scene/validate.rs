@@ -53,6 +53,15 @@ impl ParamRule {
         }
     }
 
+    /// The rule as a suffix for listings (", > 0"; empty for [`ParamRule::Any`]).
+    pub fn bound(self) -> &'static str {
+        match self {
+            ParamRule::Any => "",
+            ParamRule::Positive => ", > 0",
+            ParamRule::NonNegative => ", >= 0",
+        }
+    }
+
     /// What the rule expects, for messages ("a positive number (> 0)").
     pub fn expected(self) -> &'static str {
         match self {
