@@ -87,7 +87,8 @@ fn params<const N: usize>(
 impl SystemEntry {
     /// A runnable entry: `build` makes the Hamiltonian from the scene's parameters (returning a
     /// message for an invalid combination), and scenes naming `name` run on it with every
-    /// method that applies, DTH included.
+    /// method that applies, DTH included. Each parameter's [`ParamSpec::rule`] is checked
+    /// before `build` runs (by validation, at the scene's value), so `build` need not repeat it.
     ///
     /// `D` must be `2 n` (or `2 n + 2` for a time-dependent `S`); a mismatch is reported by
     /// [`Catalogue::register`]. A system whose `Psi` is identically zero does not compile here

@@ -245,7 +245,8 @@ fn validate(raw: RawScene, systems: &dyn SystemLookup, cx: &mut Ctxt<'_>) -> Opt
         }
     };
 
-    // Parameters: known names only, defaults filled, required ones present, finite values.
+    // Parameters: known names only, defaults filled, required ones present, finite values,
+    // each within its declared rule (`ParamSpec::rule`).
     let mut params = BTreeMap::new();
     if let Some(info) = info {
         for (k, v) in &system.params {
