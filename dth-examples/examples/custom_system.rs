@@ -15,7 +15,7 @@ use std::path::Path;
 
 use dth_examples::catalogue::{Catalogue, SystemEntry};
 use dth_examples::report::RunReport;
-use dth_examples::scene::ParamSpec;
+use dth_examples::scene::{ParamRule, ParamSpec};
 use dth_examples::simulate::RunOptions;
 use dth_examples::system::SceneSystem;
 
@@ -74,27 +74,16 @@ pub fn catalogue() -> Result<Catalogue, dth_examples::Error> {
         "duffing",
         "Duffing oscillator H = p1^2/2 + a q1^2/2 + b q1^4/4, n = 1",
         &[
-            ParamSpec {
-                name: "a",
-                default: Some(1.0),
-                doc: "linear stiffness",
-            },
-            ParamSpec {
-                name: "b",
-                default: Some(1.0),
-                doc: "cubic stiffness",
-            },
+            ParamSpec::new("a", Some(1.0), "linear stiffness").positive(),
+            ParamSpec::new("b", Some(1.0), "cubic stiffness").with_rule(ParamRule::NonNegative),
         ],
+        // Validation filled in every declared parameter (given or default) and checked its
+        // rule, so the builder only reads them.
         |p| {
-            // Validation filled in every declared parameter (given or default).
-            let (a, b) = (p["a"], p["b"]);
-            if a > 0.0 && b >= 0.0 {
-                Ok(Duffing { a, b })
-            } else {
-                Err(format!(
-                    "duffing needs a > 0 and b >= 0 (got a = {a}, b = {b})"
-                ))
-            }
+            Ok(Duffing {
+                a: p["a"],
+                b: p["b"],
+            })
         },
     ))?;
     Ok(catalogue)
@@ -102,7 +91,7 @@ pub fn catalogue() -> Result<Catalogue, dth_examples::Error> {
 
 /// Runs [`SCENE`] on the registered Duffing oscillator into `out` (staged, moved into place
 /// on success, like `dth run`).
-pub fn run(out: &Path, options: &RunOptions) -> Result<RunReport, dth_examples::Error> {
+pub fn run(out: &Path, options: &RunOptions) -> Result<RunReport, dth_examples::RunError> {
     dth_examples::run_scene(SCENE, "custom_system.rs", &catalogue()?, out, options)
 }
 

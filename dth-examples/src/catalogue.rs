@@ -21,7 +21,7 @@ use std::path::Path;
 
 use crate::budget::{self, MemoryEstimate};
 use crate::error::Error;
-use crate::pipeline::run_system;
+use crate::pipeline::{run_system, RunError};
 use crate::report::RunReport;
 use crate::scene::{ParamSpec, Scene, SystemInfo, SystemLookup};
 use crate::simulate::{initial_state, stop_for, RunOptions};
@@ -31,7 +31,8 @@ use crate::systems::{
     Pendulum, TodaChain10, TodaChain4,
 };
 
-type RunFn = dyn Fn(&Scene, &Path, &RunOptions) -> Result<RunReport, Error> + Send + Sync + 'static;
+type RunFn =
+    dyn Fn(&Scene, &Path, &RunOptions) -> Result<RunReport, RunError> + Send + Sync + 'static;
 type EstimateFn =
     dyn Fn(&Scene, &RunOptions) -> Result<MemoryEstimate, Error> + Send + Sync + 'static;
 
@@ -72,9 +73,10 @@ fn param(system: &str, params: &Params, name: &str) -> Result<f64, String> {
     })
 }
 
-/// The parameters `names` of a built-in `system`, each required to be `> 0`; otherwise a message
-/// naming all of them with the values given ("kepler needs m, k > 0 (got m = -1, k = 1)").
-fn positive_params<const N: usize>(
+/// The parameters `names` of a built-in `system` ([`param`] for each). Their rules (e.g.
+/// `> 0`) are declared in the entry's [`ParamSpec`]s and enforced before a builder runs, by
+/// validation and again by [`Catalogue::run`]; builders do not re-check them.
+fn params<const N: usize>(
     system: &str,
     params: &Params,
     names: [&str; N],
@@ -83,26 +85,14 @@ fn positive_params<const N: usize>(
     for (v, n) in values.iter_mut().zip(names) {
         *v = param(system, params, n)?;
     }
-    if values.iter().all(|&v| v > 0.0) {
-        Ok(values)
-    } else {
-        let got: Vec<String> = names
-            .iter()
-            .zip(&values)
-            .map(|(n, v)| format!("{n} = {v}"))
-            .collect();
-        Err(format!(
-            "{system} needs {} > 0 (got {})",
-            names.join(", "),
-            got.join(", ")
-        ))
-    }
+    Ok(values)
 }
 
 impl SystemEntry {
     /// A runnable entry: `build` makes the Hamiltonian from the scene's parameters (returning a
     /// message for an invalid combination), and scenes naming `name` run on it with every
-    /// method that applies, DTH included.
+    /// method that applies, DTH included. Each parameter's [`ParamSpec::rule`] is checked
+    /// before `build` runs (by validation, at the scene's value), so `build` need not repeat it.
     ///
     /// `D` must be `2 n` (or `2 n + 2` for a time-dependent `S`); a mismatch is reported by
     /// [`Catalogue::register`]. A system whose `Psi` is identically zero does not compile here
@@ -150,7 +140,7 @@ impl SystemEntry {
     /// c.register(SystemEntry::runnable_without_dth::<4, FreeParticle, _>(
     ///     "particle",
     ///     "H = |p|^2/(2 m)",
-    ///     &[ParamSpec { name: "m", default: Some(1.0), doc: "mass" }],
+    ///     &[ParamSpec::new("m", Some(1.0), "mass").positive()],
     ///     |p| Ok(FreeParticle { m: p["m"] }),
     /// ))?;
     /// let text = "[system]\nname = \"particle\"\n[initial]\nq = [0.0, 0.0]\np = [1.0, 0.0]\n\
@@ -276,33 +266,34 @@ impl Catalogue {
                 "kepler",
                 "planar Kepler H = (p1^2 + p2^2)/(2 m) - k (q1^2 + q2^2)^(-1/2) (thesis: m = 1/2, k = 1), n = 2",
                 &[
-                    ParamSpec { name: "m", default: Some(0.5), doc: "mass" },
-                    ParamSpec { name: "k", default: Some(1.0), doc: "force constant" },
+                    ParamSpec::new("m", Some(0.5), "mass").positive(),
+                    ParamSpec::new("k", Some(1.0), "force constant").positive(),
                 ],
-                |p| positive_params("kepler", p, ["m", "k"]).map(|[m, k]| Kepler { m, k }),
+                |p| Ok(Kepler { m: param("kepler", p, "m")?, k: param("kepler", p, "k")? }),
             ),
             SystemEntry::runnable::<2, HarmonicOscillator, _>(
                 "harmonic_oscillator",
                 "H = p1^2/(2 m) + k q1^2/2, n = 1",
                 &[
-                    ParamSpec { name: "m", default: Some(1.0), doc: "mass" },
-                    ParamSpec { name: "k", default: Some(1.0), doc: "spring constant" },
+                    ParamSpec::new("m", Some(1.0), "mass").positive(),
+                    ParamSpec::new("k", Some(1.0), "spring constant").positive(),
                 ],
                 |p| {
-                    positive_params("harmonic_oscillator", p, ["m", "k"])
-                        .map(|[m, k]| HarmonicOscillator { m, k })
+                    let [m, k] = params("harmonic_oscillator", p, ["m", "k"])?;
+                    Ok(HarmonicOscillator { m, k })
                 },
             ),
             SystemEntry::runnable::<2, Pendulum, _>(
                 "pendulum",
                 "H = p1^2/(2 m l^2) - m g l cos(q1), n = 1",
                 &[
-                    ParamSpec { name: "m", default: Some(1.0), doc: "mass" },
-                    ParamSpec { name: "l", default: Some(1.0), doc: "length" },
-                    ParamSpec { name: "g", default: Some(1.0), doc: "gravity" },
+                    ParamSpec::new("m", Some(1.0), "mass").positive(),
+                    ParamSpec::new("l", Some(1.0), "length").positive(),
+                    ParamSpec::new("g", Some(1.0), "gravity").positive(),
                 ],
                 |p| {
-                    positive_params("pendulum", p, ["m", "l", "g"]).map(|[m, l, g]| Pendulum { m, l, g })
+                    let [m, l, g] = params("pendulum", p, ["m", "l", "g"])?;
+                    Ok(Pendulum { m, l, g })
                 },
             ),
             SystemEntry::runnable::<4, HenonHeiles, _>(
@@ -315,15 +306,15 @@ impl Catalogue {
                 "double_pendulum",
                 "planar double pendulum in canonical coordinates: masses m1, m2, lengths l1, l2, angles q1, q2 from the downward vertical, n = 2",
                 &[
-                    ParamSpec { name: "m1", default: Some(1.0), doc: "upper bob mass" },
-                    ParamSpec { name: "m2", default: Some(1.0), doc: "lower bob mass" },
-                    ParamSpec { name: "l1", default: Some(1.0), doc: "upper rod length" },
-                    ParamSpec { name: "l2", default: Some(1.0), doc: "lower rod length" },
-                    ParamSpec { name: "g", default: Some(1.0), doc: "gravity" },
+                    ParamSpec::new("m1", Some(1.0), "upper bob mass").positive(),
+                    ParamSpec::new("m2", Some(1.0), "lower bob mass").positive(),
+                    ParamSpec::new("l1", Some(1.0), "upper rod length").positive(),
+                    ParamSpec::new("l2", Some(1.0), "lower rod length").positive(),
+                    ParamSpec::new("g", Some(1.0), "gravity").positive(),
                 ],
                 |p| {
-                    positive_params("double_pendulum", p, ["m1", "m2", "l1", "l2", "g"])
-                        .map(|[m1, m2, l1, l2, g]| DoublePendulum { m1, m2, l1, l2, g })
+                    let [m1, m2, l1, l2, g] = params("double_pendulum", p, ["m1", "m2", "l1", "l2", "g"])?;
+                    Ok(DoublePendulum { m1, m2, l1, l2, g })
                 },
             ),
             SystemEntry::runnable::<8, TodaChain4, _>(
@@ -342,23 +333,21 @@ impl Catalogue {
                 "forced_oscillator",
                 "time-dependent H = p1^2/2 + omega0^2 q1^2/2 - f q1 cos(omega t), n = 1 (extended phase space)",
                 &[
-                    ParamSpec { name: "omega0", default: Some(1.0), doc: "natural frequency" },
-                    ParamSpec { name: "f", default: Some(0.1), doc: "forcing amplitude" },
-                    ParamSpec { name: "omega", default: Some(1.3), doc: "forcing frequency" },
+                    ParamSpec::new("omega0", Some(1.0), "natural frequency").positive(),
+                    // Any forcing is allowed.
+                    ParamSpec::new("f", Some(0.1), "forcing amplitude"),
+                    ParamSpec::new("omega", Some(1.3), "forcing frequency"),
                 ],
                 |p| {
-                    // Only the natural frequency must be positive; any forcing is allowed.
-                    let [omega0] = positive_params("forced_oscillator", p, ["omega0"])?;
-                    let f = param("forced_oscillator", p, "f")?;
-                    let omega = param("forced_oscillator", p, "omega")?;
+                    let [omega0, f, omega] = params("forced_oscillator", p, ["omega0", "f", "omega"])?;
                     Ok(ForcedOscillator { omega0, f, omega })
                 },
             ),
             SystemEntry::runnable_without_dth::<4, FreeParticle, _>(
                 "free_particle",
                 "free particle H = (p1^2 + p2^2)/(2 m), n = 2; every method but dth (Psi is identically zero, thesis Section 3.4)",
-                &[ParamSpec { name: "m", default: Some(1.0), doc: "mass" }],
-                |p| positive_params("free_particle", p, ["m"]).map(|[m]| FreeParticle { m }),
+                &[ParamSpec::new("m", Some(1.0), "mass").positive()],
+                |p| Ok(FreeParticle { m: param("free_particle", p, "m")? }),
             ),
         ];
         for e in entries {
@@ -404,13 +393,31 @@ impl Catalogue {
     }
 
     /// Runs a validated scene into `out` (see [`crate::pipeline::run_system`] for the output
-    /// folder's rules).
-    pub fn run(&self, scene: &Scene, out: &Path, options: &RunOptions) -> Result<RunReport, Error> {
+    /// folder's rules). A run that lost a method is [`RunError::MethodsFailed`], with the
+    /// report of what was written.
+    pub fn run(
+        &self,
+        scene: &Scene,
+        out: &Path,
+        options: &RunOptions,
+    ) -> Result<RunReport, RunError> {
         let entry = self.get(&scene.system).ok_or_else(|| Error::NotAvailable {
             what: "system",
             name: scene.system.clone(),
             reason: "it is not in this catalogue".into(),
         })?;
+        // A scene built by hand skipped validation: hold it to the same parameter rules, so a
+        // builder never sees a value its entry declares invalid.
+        for p in &entry.params {
+            if let Some(&v) = scene.params.get(p.name) {
+                p.check(&entry.name, v)
+                    .map_err(|reason| Error::NotAvailable {
+                        what: "system",
+                        name: entry.name.clone(),
+                        reason,
+                    })?;
+            }
+        }
         (entry.run)(scene, out, options)
     }
 
@@ -475,21 +482,73 @@ mod tests {
         }
     }
 
+    const KEPLER: &str = "[system]\nname = \"kepler\"\nparams = { m = -1.0 }\n[initial]\n\
+                          q = [0.5, 0.0]\np = [0.0, 1.2]\n[[method]]\nkind = \"midpoint\"\n\
+                          dt = 0.1\n[duration]\nsteps = 1\n";
+
     #[test]
-    fn invalid_parameters_are_named() {
+    fn parameter_rules_are_checked_by_validation_at_the_value() {
         let c = Catalogue::builtin();
-        let text = "[system]\nname = \"kepler\"\nparams = { m = -1.0 }\n[initial]\nq = [0.5, 0.0]\n\
-                    p = [0.0, 1.2]\n[[method]]\nkind = \"midpoint\"\ndt = 0.1\n[duration]\nsteps = 1\n";
-        let scene = crate::check_scene(text, "bad.toml", &c).unwrap();
-        let dir = std::env::temp_dir().join("dth-catalogue-invalid-parameters");
+        let err = crate::check_scene(KEPLER, "bad.toml", &c).unwrap_err();
+        assert!(matches!(err, Error::Scene(_)), "{err:?}");
+        assert_eq!(err.exit_code(), 2);
+        assert!(
+            err.to_string().contains(
+                "bad.toml:3:16: parameter `m` (mass) of system `kepler` = -1: expected a positive number (> 0)"
+            ),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn a_hand_built_scene_is_held_to_the_same_parameter_rules() {
+        let c = Catalogue::builtin();
+        let good = KEPLER.replace("m = -1.0", "m = 1.0");
+        let mut scene = crate::check_scene(&good, "good.toml", &c).unwrap();
+        scene.params.insert("m".into(), -1.0);
+        let dir = std::env::temp_dir().join("dth-catalogue-hand-built-parameters");
         let err = c
             .run(&scene, &dir, &RunOptions::default().with_progress(false))
             .unwrap_err();
         assert!(
-            err.to_string()
-                .contains("kepler needs m, k > 0 (got m = -1, k = 1)"),
+            err.to_string().contains(
+                "parameter `m` (mass) of system `kepler` = -1: expected a positive number (> 0)"
+            ),
             "{err}"
         );
         assert!(!dir.exists());
+    }
+
+    #[test]
+    fn a_default_that_breaks_its_rule_is_reported_at_the_system_name() {
+        let mut c = Catalogue::new();
+        c.register(SystemEntry::runnable::<2, HarmonicOscillator, _>(
+            "spring",
+            "",
+            &[
+                ParamSpec::new("m", Some(0.0), "mass").positive(),
+                ParamSpec::new("k", Some(1.0), "spring constant"),
+            ],
+            |p| {
+                let [m, k] = params("spring", p, ["m", "k"])?;
+                Ok(HarmonicOscillator { m, k })
+            },
+        ))
+        .unwrap();
+        let text = "[system]\nname = \"spring\"\n[initial]\nq = [1.0]\np = [0.0]\n\
+                    [[method]]\nkind = \"midpoint\"\ndt = 0.1\n[duration]\nsteps = 1\n";
+        let err = crate::check_scene(text, "s.toml", &c)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("s.toml:2:8: parameter `m` (mass) of system `spring` = 0: expected a positive number (> 0) (the default: give `m` in `params`)"),
+            "{err}"
+        );
+        // Given in the scene, the default is not used.
+        let ok = text.replace(
+            "name = \"spring\"",
+            "name = \"spring\"\nparams = { m = 2.0 }",
+        );
+        assert!(crate::check_scene(&ok, "s.toml", &c).is_ok());
     }
 }

@@ -66,6 +66,7 @@ pub mod derive;
 pub mod workprecision;
 
 pub use error::Error;
+pub use pipeline::RunError;
 
 /// The default scene (the thesis's Kepler experiment), embedded in the binary.
 pub const DEFAULT_SCENE: &str = include_str!("../scenes/thesis-kepler.toml");
@@ -85,14 +86,20 @@ pub fn check_scene(
     scene::parse(text, file, catalogue)
 }
 
-/// Validates and runs a scene into `out` (staged; moved into place only on success).
+/// Validates and runs a scene into `out` (staged; moved into place once every output is
+/// written).
+///
+/// # Errors
+/// [`RunError::NotRun`] when the scene is invalid or cannot run (nothing is written), and
+/// [`RunError::MethodsFailed`] when a method failed mid-run: the outputs are written and the
+/// error carries their report, so a caller cannot mistake a partial run for a complete one.
 pub fn run_scene(
     text: &str,
     file: &str,
     catalogue: &catalogue::Catalogue,
     out: &Path,
     options: &simulate::RunOptions,
-) -> Result<report::RunReport, Error> {
+) -> Result<report::RunReport, RunError> {
     let scene = scene::parse(text, file, catalogue)?;
     output::check_target(out)?;
     catalogue.run(&scene, out, options)

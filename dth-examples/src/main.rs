@@ -145,7 +145,11 @@ fn run(
     thesis_table: bool,
     options: &RunOptions,
 ) -> Result<ExitCode, CliError> {
-    let report = dth_examples::run_scene(text, file, &Catalogue::builtin(), out, options)?;
+    // A run that lost a method still wrote its outputs: report them, then exit 1.
+    let report = match dth_examples::run_scene(text, file, &Catalogue::builtin(), out, options) {
+        Ok(report) => report,
+        Err(e) => e.partial_report()?,
+    };
     let deviations = report.deviation_markdown();
     if !deviations.is_empty() {
         println!("{deviations}");
@@ -198,8 +202,8 @@ fn list() {
             .params
             .iter()
             .map(|p| match p.default {
-                Some(d) => format!("{} = {d} ({})", p.name, p.doc),
-                None => format!("{} (required; {})", p.name, p.doc),
+                Some(d) => format!("{} = {d} ({}{})", p.name, p.doc, p.rule.bound()),
+                None => format!("{} (required; {}{})", p.name, p.doc, p.rule.bound()),
             })
             .collect();
         println!(
@@ -224,6 +228,16 @@ fn list() {
     println!("\nMethods:");
     for k in MethodKind::ALL {
         println!("  {:<20} {}", k.name(), k.doc());
+        // Where a method does not run everywhere, the systems it runs on, from the catalogue.
+        let offered: Vec<&str> = c
+            .entries()
+            .iter()
+            .filter(|e| e.info().offers(k))
+            .map(|e| e.name())
+            .collect();
+        if offered.len() < c.entries().len() {
+            println!("  {:<20} systems: {}", "", offered.join(", "));
+        }
     }
     println!("\nEffects:");
     for k in EffectKind::ALL {

@@ -1,6 +1,7 @@
 //! The pipeline of `dth run`: simulate a validated scene on a concrete system, report the
 //! results into a staged folder, and move the folder into place only when everything
-//! succeeded ([`run_system`]).
+//! succeeded ([`run_system`]). A run that lost a method is an error ([`RunError`]) that
+//! still carries everything written.
 
 use std::path::Path;
 
@@ -11,18 +12,78 @@ use crate::scene::Scene;
 use crate::simulate::{compute, initial_state, MethodSummary, RunOptions};
 use crate::system::SceneSystem;
 
+/// Why a run did not complete: it did not run, or it ran and lost methods.
+///
+/// A run that lost a method is not `Ok`: a program built on [`run_system`] (or
+/// `dth_examples::run_scene`) that does `run(...)?` stops there, as `dth run` exits with 1.
+/// The partial report (every file written, the failures in [`RunReport::failures`]) is in
+/// [`RunError::MethodsFailed`]; [`RunError::partial_report`] takes it out.
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    /// The scene did not run (invalid scene, refused or unwritable output folder, a system
+    /// or method that cannot run): nothing was written to the output folder.
+    #[error(transparent)]
+    NotRun(#[from] Error),
+    /// The scene ran and every output was written, but at least one method failed mid-run
+    /// (its results up to the failing step are in the output).
+    #[error("{}", failures_message(report))]
+    MethodsFailed {
+        /// What the run wrote; [`RunReport::failures`] lists the failed methods.
+        report: Box<RunReport>,
+    },
+}
+
+impl RunError {
+    /// The process exit code: the error's ([`Error::exit_code`]), or 1 for failed methods.
+    pub fn exit_code(&self) -> i32 {
+        match self {
+            RunError::NotRun(e) => e.exit_code(),
+            RunError::MethodsFailed { .. } => 1,
+        }
+    }
+
+    /// The report of a run that lost methods (its outputs are written); the error itself
+    /// when nothing ran.
+    pub fn partial_report(self) -> Result<RunReport, Error> {
+        match self {
+            RunError::NotRun(e) => Err(e),
+            RunError::MethodsFailed { report } => Ok(*report),
+        }
+    }
+}
+
+/// "method `a` failed at step 3: why; method `b` ... (what they computed is in OUT)".
+fn failures_message(report: &RunReport) -> String {
+    let failed: Vec<String> = report
+        .failures()
+        .filter_map(|m| {
+            m.failure.as_ref().map(|f| {
+                format!(
+                    "method `{}` failed at step {}: {}",
+                    m.label, f.step, f.reason
+                )
+            })
+        })
+        .collect();
+    format!(
+        "{} (what was computed up to there is in `{}`)",
+        failed.join("; "),
+        report.out.display()
+    )
+}
+
 /// Runs `scene` on `system` and writes the output folder `out` (see [`crate::output`] for
 /// the rules: staged, moved into place only on success, replaces only dth output folders).
 ///
 /// A method that fails mid-run does not abort the run: its results up to the failing step
-/// are written, and the failure is in [`RunReport::failures`] (the `dth` command then exits
-/// with code 1 after writing).
+/// are written, the folder is moved into place, and the run returns
+/// [`RunError::MethodsFailed`] with the report (the `dth` command then exits with code 1).
 pub fn run_system<const D: usize, S: SceneSystem<D>>(
     system: &S,
     scene: &Scene,
     out: &Path,
     options: &RunOptions,
-) -> Result<RunReport, Error> {
+) -> Result<RunReport, RunError> {
     let staging = Staging::new(out)?;
     let results = compute(system, scene, options)?;
     let dir = staging.path().to_path_buf();
@@ -63,5 +124,10 @@ pub fn run_system<const D: usize, S: SceneSystem<D>>(
     write_file(&dir.join("index.html"), html::index(scene, &report))?;
     write_json(&dir.join("summary.json"), &report)?;
     report.out = staging.commit()?;
+    if report.failures().next().is_some() {
+        return Err(RunError::MethodsFailed {
+            report: Box::new(report),
+        });
+    }
     Ok(report)
 }

@@ -92,7 +92,8 @@ pub struct MethodSummary {
     pub step: BTreeMap<String, serde_json::Value>,
     /// Steps taken.
     pub steps: usize,
-    /// Final physical time.
+    /// Final physical time; for a method that failed, the time of the last state it reached
+    /// (the last row of its trajectory).
     pub t_end: f64,
     /// Set when the method failed mid-run.
     pub failure: Option<Failure>,
@@ -259,6 +260,27 @@ impl<const D: usize> Observer<D> for Progress {
     }
 }
 
+/// The time of the last state a run reached (the trajectory's last row): where a method that
+/// failed stopped.
+struct LastTime(f64);
+
+impl<const D: usize> Observer<D> for LastTime {
+    #[inline(always)]
+    fn on_step(&mut self, record: &StepRecord<D>) {
+        self.0 = record.t;
+    }
+}
+
+/// The progress bar's template: with an ETA when the number of steps is known in advance
+/// (`known_length`), a spinner otherwise.
+pub fn progress_template(known_length: bool) -> &'static str {
+    if known_length {
+        "{prefix:>20} [{bar:40}] {pos}/{len} steps {elapsed} (eta {eta})"
+    } else {
+        "{prefix:>20} {spinner} {pos} steps {elapsed}"
+    }
+}
+
 /// The progress bar of method `m` running until `stop` (hidden unless `options.progress`).
 pub fn progress_bar(m: &MethodSpec, stop: Stop, options: &RunOptions) -> ProgressBar {
     if !options.progress {
@@ -269,17 +291,11 @@ pub fn progress_bar(m: &MethodSpec, stop: Stop, options: &RunOptions) -> Progres
         (Stop::Time { t_end, .. }, StepSpec::Fixed { dt }) => Some((t_end / dt).ceil() as u64),
         _ => None,
     };
-    let (bar, template) = match len {
-        Some(n) => (
-            ProgressBar::new(n),
-            "{prefix:>20} [{bar:40}] {pos}/{len} steps {elapsed}",
-        ),
-        None => (
-            ProgressBar::new_spinner(),
-            "{prefix:>20} {spinner} {pos} steps {elapsed}",
-        ),
+    let bar = match len {
+        Some(n) => ProgressBar::new(n),
+        None => ProgressBar::new_spinner(),
     };
-    if let Ok(style) = ProgressStyle::with_template(template) {
+    if let Ok(style) = ProgressStyle::with_template(progress_template(len.is_some())) {
         bar.set_style(style.progress_chars("=> "));
     }
     bar.set_prefix(m.label.clone());
@@ -323,23 +339,25 @@ pub fn compute<const D: usize, S: SceneSystem<D>>(
     let mut results = Vec::new();
     for m in &scene.methods {
         let bar = progress_bar(m, stop, options);
-        let (end, outputs, calls, stored) = match Effects::new(system, &scene.effects) {
+        let progress = (Progress(bar.clone()), LastTime(scene.t0));
+        let (end, outputs, calls, stored, last_t) = match Effects::new(system, &scene.effects) {
             Some(effects) => {
-                let mut observers = (Progress(bar.clone()), effects);
+                let mut observers = (progress, effects);
                 let end = run_method(m, system, z0, scene.t0, stop, &mut observers)?;
-                let (_, effects) = observers;
+                let ((_, last), effects) = observers;
                 let (calls, stored) = (effects.observer_calls(), effects.stored_values());
-                (end, effects.finish(), calls, stored)
+                (end, effects.finish(), calls, stored, last.0)
             }
             None => {
-                let end = run_method(m, system, z0, scene.t0, stop, &mut Progress(bar.clone()))?;
-                (end, EffectOutputs::default(), 0, 0)
+                let mut observers = progress;
+                let end = run_method(m, system, z0, scene.t0, stop, &mut observers)?;
+                (end, EffectOutputs::default(), 0, 0, observers.1 .0)
             }
         };
         bar.finish_and_clear();
         let (steps, t_end, failure) = match &end {
             Ok(e) => (e.steps, e.t, None),
-            Err(f) => (f.step.saturating_sub(1), f64::NAN, Some(Failure::from(f))),
+            Err(f) => (f.step.saturating_sub(1), last_t, Some(Failure::from(f))),
         };
         let summary = MethodSummary {
             label: m.label.clone(),
@@ -370,4 +388,20 @@ pub fn compute<const D: usize, S: SceneSystem<D>>(
         });
     }
     Ok(results)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_progress_bar_of_known_length_shows_its_eta() {
+        assert!(progress_template(true).contains("{eta}"));
+        assert!(progress_template(true).contains("{len}"));
+        // A spinner has no length, so no ETA to show.
+        assert!(!progress_template(false).contains("{eta}"));
+        for known in [true, false] {
+            assert!(ProgressStyle::with_template(progress_template(known)).is_ok());
+        }
+    }
 }

@@ -258,3 +258,37 @@ fn thesis_figures_need_kepler_and_the_thesis_methods() {
         "expected a planar system with a period and an exact solution (kepler), not `henon_heiles`",
     );
 }
+
+/// `dth check` used to pass a pendulum with `m = 0` or `g < 0`, which `dth run` then refused
+/// with exit 1: the parameter rules (`> 0`) are now validation's, at the offending value.
+#[test]
+fn parameter_outside_its_rule() {
+    let pendulum = "[system]
+name = \"pendulum\"
+params = { m = 0.0 }
+[initial]
+q = [1.0]
+p = [0.0]
+[[method]]
+kind = \"midpoint\"
+dt = 0.01
+[duration]
+steps = 10
+";
+    rejects(
+        pendulum,
+        "3:16",
+        "parameter `m` (mass) of system `pendulum` = 0: expected a positive number (> 0)",
+    );
+    rejects(
+        &pendulum.replace("m = 0.0", "g = -9.81"),
+        "3:16",
+        "parameter `g` (gravity) of system `pendulum` = -9.81: expected a positive number (> 0)",
+    );
+    // Every broken rule at once, each at its value.
+    rejects(
+        &pendulum.replace("m = 0.0", "m = 0.0, l = 1.0, g = -9.81"),
+        "3:34",
+        "parameter `g` (gravity)",
+    );
+}

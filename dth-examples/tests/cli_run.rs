@@ -324,6 +324,7 @@ fn no_arguments_runs_the_thesis_experiment_with_every_figure() {
     // The page shows Table 4.1 and every figure by relative path, with nothing from the network.
     let html = std::fs::read_to_string(out.join("index.html")).unwrap();
     assert!(html.contains("<h2>Table 4.1</h2>"));
+    assert!(html.contains("; duration 10,000 steps.</p>"), "{html}");
     for i in 1..=15 {
         assert!(
             html.contains(&format!("<img src=\"fig4_{i}.png\"")),
@@ -334,4 +335,85 @@ fn no_arguments_runs_the_thesis_experiment_with_every_figure() {
     // Only the output folder was created.
     assert_eq!(entries(dir.path()), ["dth-out"]);
     assert_eq!(entries(&dir.path().join("dth-out")), ["thesis-kepler"]);
+}
+
+/// The files and the page say what they hold: CSV columns named after the effect's
+/// coordinates (not `x,y`), the duration as people write it (not Rust's debug text).
+#[test]
+fn outputs_name_what_they_hold() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = manifest_dir().join("tests/scenes/pipeline-kepler.toml");
+    let o = dth(&["run", scene.to_str().unwrap(), "--out", "o"], dir.path());
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let out = dir.path().join("o");
+    let header = |f: &str| {
+        std::fs::read_to_string(out.join(f))
+            .unwrap()
+            .lines()
+            .next()
+            .unwrap_or_default()
+            .to_string()
+    };
+    // phase_plot x = "q1", y = "q2"; then x = "t", y = "q1"; the section is plotted in q1, p1.
+    assert_eq!(header("midpoint_phase1.csv"), "q1,q2");
+    assert_eq!(header("dth_coarse_phase2.csv"), "t,q1");
+    assert_eq!(header("midpoint_poincare1.csv"), "t,q1,p1");
+    let html = std::fs::read_to_string(out.join("index.html")).unwrap();
+    assert!(html.contains("; duration 2 orbits.</p>"), "{html}");
+    assert!(!html.contains("Orbits("), "{html}");
+}
+
+/// A method that failed shows the last time it reached, marked, not `-`.
+#[test]
+fn a_failed_method_shows_where_it_stopped() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = manifest_dir().join("tests/scenes/rk4-blowup.toml");
+    let o = dth(&["run", scene.to_str().unwrap(), "--out", "o"], dir.path());
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("o/summary.json")).unwrap())
+            .unwrap();
+    let m = &summary["methods"][0];
+    let steps = m["steps"].as_f64().unwrap();
+    assert_eq!(steps + 1.0, m["failure"]["step"].as_f64().unwrap());
+    // dt = 3 from t = 0: the last state before the failing step is at t = 3 steps.
+    let t_end = m["t_end"].as_f64().expect("t_end is the last time reached");
+    assert_eq!(t_end, 3.0 * steps);
+    let html = std::fs::read_to_string(dir.path().join("o/index.html")).unwrap();
+    assert!(
+        html.contains(&format!(
+            "<td><span class=\"fail\">{t_end:.4e} (stopped)</span></td>"
+        )),
+        "{html}"
+    );
+    assert!(html.contains("duration 3,000 steps"), "{html}");
+}
+
+/// `dth list` names every system a method is restricted to, from the catalogue: `exact`
+/// serves the free particle as well as Kepler.
+#[test]
+fn list_names_the_systems_each_restricted_method_runs_on() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = dth(&["list"], dir.path());
+    assert_eq!(o.status.code(), Some(0));
+    let s = stdout(&o);
+    let systems_of = |method: &str| {
+        let mut lines = s
+            .lines()
+            .skip_while(|l| !l.starts_with(&format!("  {method} ")));
+        let doc = lines.next().unwrap_or_default().to_string();
+        (doc, lines.next().unwrap_or_default().trim().to_string())
+    };
+    let (doc, systems) = systems_of("exact");
+    assert!(!doc.contains("kepler"), "{doc}");
+    assert_eq!(systems, "systems: kepler, free_particle");
+    assert_eq!(
+        systems_of("discrete_mechanics").1,
+        "systems: kepler, free_particle"
+    );
+    // Each parameter's rule, as validation enforces it.
+    assert!(s.contains("m = 1 (mass, > 0)"), "{s}");
+    assert!(s.contains("f = 0.1 (forcing amplitude)"), "{s}");
+    // Every system runs midpoint: no list.
+    assert!(!systems_of("midpoint").1.starts_with("systems:"), "{s}");
 }

@@ -66,7 +66,7 @@ fn the_example_system_has_the_derivatives_of_its_formula() {
 }
 
 #[test]
-fn bad_parameters_are_reported_by_the_users_builder() {
+fn bad_parameters_are_reported_at_the_value_by_their_declared_rule() {
     let dir = tempfile::tempdir().unwrap();
     let text = custom_system::SCENE.replace("params = { b = 0.5 }", "params = { a = -1.0 }");
     let err = dth_examples::run_scene(
@@ -77,9 +77,11 @@ fn bad_parameters_are_reported_by_the_users_builder() {
         &RunOptions::default().with_progress(false),
     )
     .unwrap_err();
+    assert_eq!(err.exit_code(), 2, "{err}");
     assert!(
-        err.to_string()
-            .contains("duffing needs a > 0 and b >= 0 (got a = -1, b = 1)"),
+        err.to_string().contains(
+            "duffing.toml:6:16: parameter `a` (linear stiffness) of system `duffing` = -1: expected a positive number (> 0)"
+        ),
         "{err}"
     );
     assert!(entries(dir.path()).is_empty(), "output left behind");

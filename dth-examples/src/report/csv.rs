@@ -6,7 +6,7 @@ use std::path::Path;
 use super::write_file;
 use crate::effects::Series;
 use crate::error::Error;
-use crate::scene::{component_names, Scene};
+use crate::scene::{component_names, EffectKind, EffectSpec, Scene};
 use crate::simulate::MethodResult;
 
 /// Writes the CSV files of every method's effects into `dir`; returns their names.
@@ -77,8 +77,13 @@ pub fn write(dir: &Path, scene: &Scene, results: &[MethodResult]) -> Result<Vec<
             }
             put(format!("{l}_time_law.csv"), s, &mut files)?;
         }
-        for (i, c) in o.poincare.iter().enumerate() {
-            let mut s = String::from("t,x,y\n");
+        for (i, (c, (x, y))) in o
+            .poincare
+            .iter()
+            .zip(axes(scene, EffectKind::Poincare))
+            .enumerate()
+        {
+            let mut s = format!("t,{x},{y}\n");
             for (t, x, y) in c {
                 let _ = writeln!(s, "{t:e},{x:e},{y:e}");
             }
@@ -116,8 +121,13 @@ pub fn write(dir: &Path, scene: &Scene, results: &[MethodResult]) -> Result<Vec<
             }
             put(format!("{l}_ensemble.csv"), s, &mut files)?;
         }
-        for (i, pts) in o.phase.iter().enumerate() {
-            let mut s = String::from("x,y\n");
+        for (i, (pts, (x, y))) in o
+            .phase
+            .iter()
+            .zip(axes(scene, EffectKind::PhasePlot))
+            .enumerate()
+        {
+            let mut s = format!("{x},{y}\n");
             for (x, y) in pts {
                 let _ = writeln!(s, "{x:e},{y:e}");
             }
@@ -125,6 +135,22 @@ pub fn write(dir: &Path, scene: &Scene, results: &[MethodResult]) -> Result<Vec<
         }
     }
     Ok(files)
+}
+
+/// The `(x, y)` coordinate names of the scene's effects of `kind` (`poincare` or
+/// `phase_plot`), in scene order: the columns of their CSV files (`q1,p1`, `t,q1`).
+fn axes(scene: &Scene, kind: EffectKind) -> Vec<(String, String)> {
+    scene
+        .effects
+        .iter()
+        .filter(|e| e.kind() == kind)
+        .filter_map(|e| match e {
+            EffectSpec::PhasePlot { x, y, .. } | EffectSpec::Poincare { x, y, .. } => {
+                Some((x.name(), y.name()))
+            }
+            _ => None,
+        })
+        .collect()
 }
 
 fn csv_series(header: &str, a: &Series, b: &Series) -> String {

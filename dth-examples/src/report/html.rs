@@ -5,7 +5,7 @@ use std::fmt::Write as _;
 
 use super::table41::thesis_cells;
 use super::RunReport;
-use crate::scene::Scene;
+use crate::scene::{Duration, Scene};
 
 /// Escapes text for HTML.
 pub fn escape(s: &str) -> String {
@@ -45,13 +45,17 @@ pub fn index(scene: &Scene, report: &RunReport) -> String {
         .collect();
     let _ = writeln!(
         h,
-        "<p>System <b>{}</b> ({}); q = {:?}, p = {:?}, t0 = {}; duration {:?}.</p>",
+        "<p>System <b>{}</b> ({}); q = {:?}, p = {:?}, t0 = {}; duration {}{}.</p>",
         escape(&report.system),
         escape(&params.join(", ")),
         scene.q,
         scene.p,
         scene.t0,
-        scene.duration
+        scene.duration,
+        match scene.duration {
+            Duration::Time(_) if scene.t0 != 0.0 => " after t0",
+            _ => "",
+        }
     );
     h.push_str("<h2>Methods</h2>\n<table><tr><th>method</th><th>kind</th><th>step</th><th>steps</th><th>t end</th><th>status</th></tr>\n");
     for m in &report.methods {
@@ -64,6 +68,11 @@ pub fn index(scene: &Scene, report: &RunReport) -> String {
                 escape(&f.reason)
             ),
         };
+        // A failed method's end is the last time it reached, marked as where it stopped.
+        let t_end = match &m.failure {
+            None => num(m.t_end),
+            Some(_) => format!("<span class=\"fail\">{} (stopped)</span>", num(m.t_end)),
+        };
         let _ = writeln!(
             h,
             "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
@@ -71,7 +80,7 @@ pub fn index(scene: &Scene, report: &RunReport) -> String {
             escape(&m.kind),
             escape(&step.join(", ")),
             m.steps,
-            num(m.t_end),
+            t_end,
             status
         );
     }

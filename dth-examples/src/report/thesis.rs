@@ -25,7 +25,7 @@ use crate::driver::{MethodFailure, Stop};
 use crate::error::Error;
 use crate::method::run_method;
 use crate::plot::{Figure, Grid, Legend, Mark, Series};
-use crate::scene::{MethodKind, MethodSpec, Scene, StepSpec};
+use crate::scene::{thousands, MethodKind, MethodSpec, Scene, StepSpec};
 use crate::simulate::{ensemble_starts, progress_bar, stop_for, Progress, RunOptions};
 use crate::system::SceneSystem;
 
@@ -638,33 +638,9 @@ pub fn figures<const D: usize, S: SceneSystem<D>>(
     Ok(out)
 }
 
-/// `x` rounded to an integer with thousands separators (`3500` -> `"3,500"`).
-fn thousands(x: f64) -> String {
-    let digits = format!("{:.0}", x.abs());
-    let mut out = String::new();
-    for (i, c) in digits.chars().enumerate() {
-        if i > 0 && (digits.len() - i).is_multiple_of(3) {
-            out.push(',');
-        }
-        out.push(c);
-    }
-    if x < 0.0 && digits != "0" {
-        out.insert(0, '-');
-    }
-    out
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn thousands_groups_digits() {
-        assert_eq!(thousands(3500.0), "3,500");
-        assert_eq!(thousands(400.0), "400");
-        assert_eq!(thousands(1_234_567.0), "1,234,567");
-        assert_eq!(thousands(-10_000.0), "-10,000");
-    }
 
     #[test]
     fn swept_angle_of_one_circle_is_360_degrees() {

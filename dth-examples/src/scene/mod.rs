@@ -38,8 +38,9 @@ mod raw;
 mod schema;
 mod validate;
 
+pub(crate) use schema::thousands;
 pub use schema::{
     component_names, Coord, Direction, Duration, EffectKind, EffectSpec, Ensemble, MethodKind,
     MethodSpec, Scene, StepSpec,
 };
-pub use validate::{line_col, parse, ParamSpec, SystemInfo, SystemLookup};
+pub use validate::{line_col, parse, ParamRule, ParamSpec, SystemInfo, SystemLookup};

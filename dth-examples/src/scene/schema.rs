@@ -160,7 +160,7 @@ impl MethodKind {
             MethodKind::Rk4 => "classical Runge-Kutta 4; key dt",
             MethodKind::GaussLegendre2 => "2-stage Gauss-Legendre (order 4, symplectic); key dt",
             MethodKind::DiscreteGradient => "energy-preserving discrete gradient; key dt",
-            MethodKind::Exact => "the system's exact solution sampled every dt (systems that have one: kepler); key dt",
+            MethodKind::Exact => "the system's exact solution sampled every dt (systems that have one); key dt",
         }
     }
 
@@ -179,6 +179,40 @@ pub enum Duration {
     Time(f64),
     /// A number of orbits of the system's period (systems that know it, e.g. bound Kepler).
     Orbits(f64),
+}
+
+/// As people read it: "10,000 steps", "t = 300" (a span from the initial time), "400 orbits".
+impl std::fmt::Display for Duration {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match *self {
+            Duration::Steps(n) => {
+                write!(
+                    f,
+                    "{} step{}",
+                    thousands(n as f64),
+                    if n == 1 { "" } else { "s" }
+                )
+            }
+            Duration::Time(t) => write!(f, "t = {t}"),
+            Duration::Orbits(k) => write!(f, "{k} orbit{}", if k == 1.0 { "" } else { "s" }),
+        }
+    }
+}
+
+/// `x` rounded to an integer with thousands separators (`3500` -> `"3,500"`).
+pub(crate) fn thousands(x: f64) -> String {
+    let digits = format!("{:.0}", x.abs());
+    let mut out = String::new();
+    for (i, c) in digits.chars().enumerate() {
+        if i > 0 && (digits.len() - i).is_multiple_of(3) {
+            out.push(',');
+        }
+        out.push(c);
+    }
+    if x < 0.0 && digits != "0" {
+        out.insert(0, '-');
+    }
+    out
 }
 
 /// A phase-space coordinate named in a scene: `q1..qn`, `p1..pn` (index into `(q, p)`), or `t`.
@@ -402,5 +436,30 @@ impl EffectKind {
             EffectKind::PhasePlot => "figure of y against x for all methods (x = \"t\": a time series); keys x, y, every, until (time span from t0)",
             EffectKind::ComparisonTable => "table of mean/max energy and invariant deviations of all methods",
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn thousands_groups_digits() {
+        assert_eq!(thousands(3500.0), "3,500");
+        assert_eq!(thousands(400.0), "400");
+        assert_eq!(thousands(1_234_567.0), "1,234,567");
+        assert_eq!(thousands(-10_000.0), "-10,000");
+    }
+
+    #[test]
+    fn durations_read_as_people_write_them() {
+        assert_eq!(Duration::Steps(10_000).to_string(), "10,000 steps");
+        assert_eq!(Duration::Steps(1).to_string(), "1 step");
+        assert_eq!(Duration::Steps(999).to_string(), "999 steps");
+        assert_eq!(Duration::Steps(1_234_567).to_string(), "1,234,567 steps");
+        assert_eq!(Duration::Time(300.0).to_string(), "t = 300");
+        assert_eq!(Duration::Time(2.5).to_string(), "t = 2.5");
+        assert_eq!(Duration::Orbits(400.0).to_string(), "400 orbits");
+        assert_eq!(Duration::Orbits(1.0).to_string(), "1 orbit");
     }
 }

@@ -25,6 +25,91 @@ pub struct ParamSpec {
     pub default: Option<f64>,
     /// One line of documentation.
     pub doc: &'static str,
+    /// The values it may take. Validation enforces it (on the value a scene gives, or on the
+    /// default), so a system's builder receives only values that satisfy it.
+    pub rule: ParamRule,
+}
+
+/// The values a parameter may take (beyond being finite, which every parameter must be).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[non_exhaustive]
+pub enum ParamRule {
+    /// Any finite number.
+    #[default]
+    Any,
+    /// `> 0` (a mass, a length, a force constant).
+    Positive,
+    /// `>= 0`.
+    NonNegative,
+}
+
+impl ParamRule {
+    /// `true` when `value` satisfies the rule (`value` is finite).
+    pub fn allows(self, value: f64) -> bool {
+        match self {
+            ParamRule::Any => true,
+            ParamRule::Positive => value > 0.0,
+            ParamRule::NonNegative => value >= 0.0,
+        }
+    }
+
+    /// The rule as a suffix for listings (", > 0"; empty for [`ParamRule::Any`]).
+    pub fn bound(self) -> &'static str {
+        match self {
+            ParamRule::Any => "",
+            ParamRule::Positive => ", > 0",
+            ParamRule::NonNegative => ", >= 0",
+        }
+    }
+
+    /// What the rule expects, for messages ("a positive number (> 0)").
+    pub fn expected(self) -> &'static str {
+        match self {
+            ParamRule::Any => "a finite number",
+            ParamRule::Positive => "a positive number (> 0)",
+            ParamRule::NonNegative => "a non-negative number (>= 0)",
+        }
+    }
+}
+
+impl ParamSpec {
+    /// A parameter that may take any finite value, with a default (`None`: required).
+    pub const fn new(name: &'static str, default: Option<f64>, doc: &'static str) -> Self {
+        ParamSpec {
+            name,
+            default,
+            doc,
+            rule: ParamRule::Any,
+        }
+    }
+
+    /// The same parameter, restricted to `rule`.
+    pub const fn with_rule(mut self, rule: ParamRule) -> Self {
+        self.rule = rule;
+        self
+    }
+
+    /// The same parameter, restricted to positive values ([`ParamRule::Positive`]).
+    pub const fn positive(self) -> Self {
+        self.with_rule(ParamRule::Positive)
+    }
+
+    /// Checks `value` against the parameter's rule (and finiteness) for `system`; the error
+    /// says what was expected ("parameter `m` of system `pendulum` = 0: expected a positive
+    /// number (> 0)"). Validation reports it at the value; [`crate::catalogue::Catalogue::run`]
+    /// checks a hand-built scene with it too.
+    pub fn check(&self, system: &str, value: f64) -> Result<f64, String> {
+        if value.is_finite() && self.rule.allows(value) {
+            Ok(value)
+        } else {
+            Err(format!(
+                "parameter `{}` ({}) of system `{system}` = {value}: expected {}",
+                self.name,
+                self.doc,
+                self.rule.expected()
+            ))
+        }
+    }
 }
 
 /// What validation needs to know about a system.
@@ -49,6 +134,25 @@ pub struct SystemInfo<'a> {
     /// `true` when `Psi` is identically zero (`Hamiltonian::PSI_IDENTICALLY_ZERO`): the reason
     /// DTH is not offered, when it is not.
     pub psi_identically_zero: bool,
+}
+
+impl SystemInfo<'_> {
+    /// `true` when method `kind` can run on this system: `exact` needs an exact solution,
+    /// `discrete_mechanics` a central force, `stormer_verlet` a separable `H`, `dth` a `Psi`
+    /// not identically zero; the others run on every system. Validation rejects the rest.
+    pub fn offers(&self, kind: MethodKind) -> bool {
+        match kind {
+            MethodKind::Exact => self.has_exact,
+            MethodKind::DiscreteMechanics => self.central_force,
+            MethodKind::StormerVerlet => self.separable,
+            MethodKind::Dth => self.dth,
+            MethodKind::Trapezoidal
+            | MethodKind::Midpoint
+            | MethodKind::Rk4
+            | MethodKind::GaussLegendre2
+            | MethodKind::DiscreteGradient => true,
+        }
+    }
 }
 
 /// The systems a scene may name, as validation sees them (implemented by
@@ -141,7 +245,8 @@ fn validate(raw: RawScene, systems: &dyn SystemLookup, cx: &mut Ctxt<'_>) -> Opt
         }
     };
 
-    // Parameters: known names only, defaults filled, required ones present, finite values.
+    // Parameters: known names only, defaults filled, required ones present, finite values,
+    // each within its declared rule (`ParamSpec::rule`).
     let mut params = BTreeMap::new();
     if let Some(info) = info {
         for (k, v) in &system.params {
@@ -164,16 +269,31 @@ fn validate(raw: RawScene, systems: &dyn SystemLookup, cx: &mut Ctxt<'_>) -> Opt
                     v.span(),
                     format!("parameter `{}` must be finite", k.get_ref()),
                 );
-            } else {
-                params.insert(k.get_ref().clone(), *v.get_ref());
+            } else if let Some(p) = info.params.iter().find(|p| p.name == k.get_ref().as_str()) {
+                // The parameter's declared rule, at the value that breaks it.
+                match p.check(&name, *v.get_ref()) {
+                    Ok(v) => {
+                        params.insert(k.get_ref().clone(), v);
+                    }
+                    Err(message) => cx.error(v.span(), message),
+                }
             }
         }
         for p in info.params {
-            if !params.contains_key(p.name) {
+            if !params.contains_key(p.name) && !system.params.keys().any(|k| k.get_ref() == p.name)
+            {
                 match p.default {
-                    Some(d) => {
-                        params.insert(p.name.to_string(), d);
-                    }
+                    // A default that breaks its own rule is the registration's mistake; it is
+                    // reported at the system's name, where the scene chose the system.
+                    Some(d) => match p.check(&name, d) {
+                        Ok(d) => {
+                            params.insert(p.name.to_string(), d);
+                        }
+                        Err(message) => cx.error(
+                            system.name.span(),
+                            format!("{message} (the default: give `{}` in `params`)", p.name),
+                        ),
+                    },
                     None => cx.error(
                         system.name.span(),
                         format!(
@@ -242,21 +362,24 @@ fn validate(raw: RawScene, systems: &dyn SystemLookup, cx: &mut Ctxt<'_>) -> Opt
             for m in ms.into_inner() {
                 let span = m.get_ref().kind.span();
                 if let Some(spec) = validate_method(m, cx) {
-                    if spec.kind == MethodKind::Exact && info.is_some_and(|i| !i.has_exact) {
+                    if spec.kind == MethodKind::Exact && info.is_some_and(|i| !i.offers(spec.kind))
+                    {
                         cx.error(
                             span.clone(),
                             format!("system `{name}` has no exact solution: remove method `exact`"),
                         );
                     }
                     if spec.kind == MethodKind::DiscreteMechanics
-                        && info.is_some_and(|i| !i.central_force)
+                        && info.is_some_and(|i| !i.offers(spec.kind))
                     {
                         cx.error(
                             span.clone(),
                             format!("method `discrete_mechanics` needs a central-force system H = |p|^2/(2m) + phi(|q|), which `{name}` is not: expected another method"),
                         );
                     }
-                    if let Some(i) = info.filter(|i| spec.kind == MethodKind::Dth && !i.dth) {
+                    if let Some(i) =
+                        info.filter(|i| spec.kind == MethodKind::Dth && !i.offers(spec.kind))
+                    {
                         cx.error(
                             span.clone(),
                             if i.psi_identically_zero {
@@ -266,7 +389,8 @@ fn validate(raw: RawScene, systems: &dyn SystemLookup, cx: &mut Ctxt<'_>) -> Opt
                             },
                         );
                     }
-                    if spec.kind == MethodKind::StormerVerlet && info.is_some_and(|i| !i.separable)
+                    if spec.kind == MethodKind::StormerVerlet
+                        && info.is_some_and(|i| !i.offers(spec.kind))
                     {
                         cx.error(
                             span.clone(),
