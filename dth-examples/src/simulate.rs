@@ -27,9 +27,9 @@ pub struct RunOptions {
     /// Safety cap on the steps of a run whose duration is a time or a number of orbits.
     /// Default 100,000,000.
     pub max_steps: usize,
-    /// The most memory, in bytes, the effects may keep ([`budget`](crate::budget)); a run
+    /// The most memory, in bytes, the effects may keep ([`budget`]); a run
     /// estimated above it is refused before it starts. Default `None`: half the memory the
-    /// system reports available ([`budget::default_limit`](crate::budget::default_limit)).
+    /// system reports available ([`budget::default_limit`]).
     pub memory_limit: Option<u64>,
 }
 
