@@ -103,13 +103,16 @@ pub struct Figure {
     pub x_range: Option<(f64, f64)>,
     /// Fixed vertical range (default: the data's, padded 5%).
     pub y_range: Option<(f64, f64)>,
-    /// Where the legend goes (default upper right); `None` hides it.
+    /// Where the legend goes (default [`Legend::Below`]: under the plot, where it covers no
+    /// data); `None` hides it.
     pub legend: Option<Legend>,
 }
 
 /// Legend position.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Legend {
+    /// Under the plot, one entry a line, outside the data (the default).
+    Below,
     /// Upper right corner.
     UpperRight,
     /// Upper left corner.
@@ -211,7 +214,7 @@ impl Figure {
             max_points_per_series: 50_000,
             x_range: None,
             y_range: None,
-            legend: Some(Legend::UpperRight),
+            legend: Some(Legend::Below),
         }
     }
 
@@ -239,6 +242,24 @@ impl Figure {
         self.log_x = log_x;
         self.log_y = log_y;
         self
+    }
+
+    /// How many points of `s` a logarithmic axis drops, as exactly zero and as negative (the
+    /// legend says so: a curve of exact zeros is otherwise invisible, or reads as a floor).
+    fn dropped(&self, s: &Series) -> (usize, usize) {
+        let on_log = |&(x, y): &(f64, f64)| {
+            let mut v = f64::INFINITY;
+            if self.log_x {
+                v = v.min(x);
+            }
+            if self.log_y {
+                v = v.min(y);
+            }
+            v
+        };
+        let zeros = s.points.iter().filter(|p| on_log(p) == 0.0).count();
+        let negative = s.points.iter().filter(|p| on_log(p) < 0.0).count();
+        (zeros, negative)
     }
 
     /// The series as drawn: logarithmic axes take `log10`, dropping non-positive values.
@@ -307,7 +328,17 @@ impl Figure {
             self.log_y,
             &mut data.iter().flatten().map(|p| p.1),
         );
-        let mut chart = ChartBuilder::on(area)
+        // A legend below the plot gets a strip of its own, one line an entry.
+        let below = self.legend == Some(Legend::Below) && !self.series.is_empty();
+        let (plot_area, legend_area) = if below {
+            let h = area.dim_in_pixel().1;
+            let strip = (self.series.len() as u32 * 20 + 14).min(h / 3);
+            let (top, bottom) = area.split_vertically(h - strip);
+            (top, Some(bottom))
+        } else {
+            (area.clone(), None)
+        };
+        let mut chart = ChartBuilder::on(&plot_area)
             .caption(&self.title, ("sans-serif", title_size))
             .margin(15)
             .x_label_area_size(50)
@@ -381,11 +412,32 @@ impl Figure {
                         .legend(move |(x, y)| Circle::new((x + 10, y), 4, color.filled()))
                 }
             };
-            anno.label(s.name.as_str());
+            anno.label(legend_label(s, self.dropped(s)));
         }
-        if let (Some(legend), false) = (self.legend, self.series.is_empty()) {
+        if let Some(strip) = legend_area {
+            // Aligned with the plot's left edge (margin and y label area).
+            let x0 = 95;
+            for (i, s) in self.series.iter().enumerate() {
+                let color = PALETTE[s.color.unwrap_or(i) % PALETTE.len()];
+                let y = 10 + 20 * i as i32;
+                match s.mark {
+                    Mark::Points | Mark::SmallPoints => {
+                        strip.draw(&Circle::new((x0 + 10, y), 4, color.filled()))?
+                    }
+                    _ => strip.draw(&PathElement::new(
+                        vec![(x0, y), (x0 + 20, y)],
+                        color.stroke_width(2),
+                    ))?,
+                }
+                strip.draw(&Text::new(
+                    legend_label(s, self.dropped(s)),
+                    (x0 + 28, y - 8),
+                    ("sans-serif", 14).into_font(),
+                ))?;
+            }
+        } else if let (Some(legend), false) = (self.legend, self.series.is_empty()) {
             let position = match legend {
-                Legend::UpperRight => SeriesLabelPosition::UpperRight,
+                Legend::Below | Legend::UpperRight => SeriesLabelPosition::UpperRight,
                 Legend::UpperLeft => SeriesLabelPosition::UpperLeft,
                 Legend::UpperMiddle => SeriesLabelPosition::UpperMiddle,
                 Legend::LowerLeft => SeriesLabelPosition::LowerLeft,
@@ -411,6 +463,27 @@ impl Figure {
             self.size,
             |root| self.draw(root, &data),
             |root| self.draw(root, &data),
+        )
+    }
+}
+
+/// The legend entry of `s`: its name, and what a logarithmic axis left out of it.
+fn legend_label(s: &Series, (zeros, negative): (usize, usize)) -> String {
+    let n = s.points.len();
+    let mut notes = Vec::new();
+    if zeros > 0 {
+        notes.push(format!("{zeros} of {n} exactly 0"));
+    }
+    if negative > 0 {
+        notes.push(format!("{negative} of {n} negative"));
+    }
+    if notes.is_empty() {
+        s.name.clone()
+    } else {
+        format!(
+            "{} ({}: not drawn on the log scale)",
+            s.name,
+            notes.join(", ")
         )
     }
 }

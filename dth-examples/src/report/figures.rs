@@ -60,7 +60,7 @@ pub fn write(
                 );
                 for r in results {
                     if let Some(rows) = &r.outputs.time_law {
-                        let l = &r.summary.label;
+                        let l = &series_name(r);
                         ft = ft.with_series(PlotSeries::new(
                             l,
                             Mark::Line,
@@ -99,7 +99,7 @@ pub fn write(
                 for r in results {
                     if let Some(c) = r.outputs.poincare.get(poincare_i) {
                         f = f.with_series(PlotSeries::new(
-                            &r.summary.label,
+                            &series_name(r),
                             Mark::Points,
                             c.iter().map(|p| (p.1, p.2)),
                         ));
@@ -117,7 +117,7 @@ pub fn write(
                 for r in results {
                     if let Some(pts) = r.outputs.phase.get(phase_i) {
                         f = f.with_series(PlotSeries::new(
-                            &r.summary.label,
+                            &series_name(r),
                             Mark::Line,
                             pts.iter().copied(),
                         ));
@@ -179,7 +179,7 @@ fn deviation_figure<'r>(
 ) -> Figure {
     let mut f = Figure::new(title, "t", y_label).with_log(false, true);
     for (r, (_, points, vertices)) in series {
-        let label = &r.summary.label;
+        let label = &series_name(r);
         let name = if vertices.is_empty() {
             label.clone()
         } else {
@@ -199,4 +199,13 @@ fn deviation_figure<'r>(
         }
     }
     f
+}
+
+/// A method's name in a figure's legend: its label, marked when the method stopped early (a
+/// figure of it ends there).
+fn series_name(r: &MethodResult) -> String {
+    match &r.failure {
+        Some(f) => format!("{} (stopped: failed at step {})", r.summary.label, f.step),
+        None => r.summary.label.clone(),
+    }
 }
