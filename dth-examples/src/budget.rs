@@ -28,27 +28,20 @@ pub struct MemoryEstimate {
 impl MemoryEstimate {
     /// The total, in bytes.
     pub fn bytes(&self) -> u64 {
-        self.methods.iter().map(|m| m.2).sum()
+        self.methods
+            .iter()
+            .map(|m| m.2)
+            .fold(0, u64::saturating_add)
     }
 }
 
 /// The steps a method takes until `stop` (see the module docs for DTH run for a time).
 fn steps(step: StepSpec, t0: f64, stop: Stop) -> u64 {
-    match stop {
-        Stop::Steps(n) => n as u64,
-        Stop::Time { t_end, max_steps } => {
-            let dt = match step {
-                StepSpec::Fixed { dt } => dt,
-                StepSpec::Dth { dtau, lambda0, .. } => dtau * lambda0,
-            };
-            let n = ((t_end - t0) / dt).ceil().max(0.0);
-            if n < max_steps as f64 {
-                n as u64
-            } else {
-                max_steps as u64
-            }
-        }
-    }
+    let dt = match step {
+        StepSpec::Fixed { dt } => dt,
+        StepSpec::Dth { dtau, lambda0, .. } => dtau * lambda0,
+    };
+    stop.fixed_steps(t0, dt) as u64
 }
 
 /// The memory the effects of `scene` would keep when run on `system` from `z0` until `stop`.
@@ -65,35 +58,39 @@ pub fn estimate<const D: usize, S: SceneSystem<D>>(
         .map(|m| {
             let n = steps(m.step, scene.t0, stop);
             let dth = u64::from(matches!(m.step, StepSpec::Dth { .. })) + 1;
-            let samples = |every: usize| n / every.max(1) as u64 + 1;
-            let mut values: u64 = scene
+            // Saturating: a scene may ask for up to 2^63 steps, and a wrapped estimate would
+            // pass the check.
+            let samples = |every: usize| (n / every.max(1) as u64).saturating_add(1);
+            let mut values = scene
                 .effects
                 .iter()
                 .map(|e| match *e {
                     EffectSpec::FinalState => d + 3,
-                    EffectSpec::Trajectory { every } => samples(every) * (d + 3),
-                    EffectSpec::EnergyDeviation { every } => samples(every) * 3 * dth,
-                    EffectSpec::Invariants { every } => samples(every) * 3 * dth * invariants,
-                    EffectSpec::TimeLaw { every } => samples(every) * 3,
-                    EffectSpec::PhasePlot { every, .. } => samples(every) * 2,
+                    EffectSpec::Trajectory { every } => samples(every).saturating_mul(d + 3),
+                    EffectSpec::EnergyDeviation { every } => samples(every).saturating_mul(3 * dth),
+                    EffectSpec::Invariants { every } => {
+                        samples(every).saturating_mul(3 * dth * invariants)
+                    }
+                    EffectSpec::TimeLaw { every } => samples(every).saturating_mul(3),
+                    EffectSpec::PhasePlot { every, .. } => samples(every).saturating_mul(2),
                     EffectSpec::Poincare { direction, .. } => {
                         let crossings = match direction {
                             Direction::Both => n,
                             Direction::Up | Direction::Down => n / 2 + 1,
                         };
-                        crossings * 3
+                        crossings.saturating_mul(3)
                     }
                     EffectSpec::ComparisonTable => 0,
                 })
-                .sum();
+                .fold(0u64, u64::saturating_add);
             if let Some(e) = &scene.ensemble {
-                values += (e.per_side * e.per_side) as u64 * (d + 1);
+                values = values.saturating_add((e.per_side * e.per_side) as u64 * (d + 1));
             }
             if scene.thesis_figures && MethodKind::THESIS_FIGURES.contains(&m.kind) {
                 // Every state of the long run: time and (q1, q2, p1, p2).
-                values += (n + 1) * 5;
+                values = values.saturating_add(n.saturating_add(1).saturating_mul(5));
             }
-            (m.label.clone(), n, values * BYTES)
+            (m.label.clone(), n, values.saturating_mul(BYTES))
         })
         .collect();
     MemoryEstimate { methods }

@@ -94,8 +94,8 @@ impl SystemEntry {
     /// method that applies, DTH included. Each parameter's [`ParamSpec::rule`] is checked
     /// before `build` runs (by validation, at the scene's value), so `build` need not repeat it.
     ///
-    /// `D` must be `2 n` (or `2 n + 2` for a time-dependent `S`); a mismatch is reported by
-    /// [`Catalogue::register`]. A system whose `Psi` is identically zero does not compile here
+    /// `n` is `D / 2` (or `(D - 2) / 2` for a time-dependent `S`); a scene whose `q` and `p`
+    /// do not have that length is rejected by validation. A system whose `Psi` is identically zero does not compile here
     /// (DTH is undetermined for it): use [`SystemEntry::runnable_without_dth`].
     ///
     /// ```compile_fail
@@ -184,12 +184,22 @@ impl SystemEntry {
             D / 2
         };
         let build = std::sync::Arc::new(build);
+        let specs = std::sync::Arc::new(params.to_vec());
+        // The one place parameters become a system: a scene built by hand skipped validation,
+        // so hold it to the same parameter rules, and a builder never sees a value its entry
+        // declares invalid.
         let make = move |name: &str, params: &Params| {
-            build(params).map_err(|reason| Error::NotAvailable {
+            let unavailable = |reason| Error::NotAvailable {
                 what: "system",
                 name: name.to_string(),
                 reason,
-            })
+            };
+            for p in specs.iter() {
+                if let Some(&v) = params.get(p.name) {
+                    p.check(name, v).map_err(unavailable)?;
+                }
+            }
+            build(params).map_err(unavailable)
         };
         let make_too = make.clone();
         let entry_name = name.to_string();
@@ -401,36 +411,23 @@ impl Catalogue {
         out: &Path,
         options: &RunOptions,
     ) -> Result<RunReport, RunError> {
-        let entry = self.get(&scene.system).ok_or_else(|| Error::NotAvailable {
+        (self.entry(scene)?.run)(scene, out, options)
+    }
+
+    /// The entry of the system `scene` names.
+    fn entry(&self, scene: &Scene) -> Result<&SystemEntry, Error> {
+        self.get(&scene.system).ok_or_else(|| Error::NotAvailable {
             what: "system",
             name: scene.system.clone(),
             reason: "it is not in this catalogue".into(),
-        })?;
-        // A scene built by hand skipped validation: hold it to the same parameter rules, so a
-        // builder never sees a value its entry declares invalid.
-        for p in &entry.params {
-            if let Some(&v) = scene.params.get(p.name) {
-                p.check(&entry.name, v)
-                    .map_err(|reason| Error::NotAvailable {
-                        what: "system",
-                        name: entry.name.clone(),
-                        reason,
-                    })?;
-            }
-        }
-        (entry.run)(scene, out, options)
+        })
     }
 
     /// What a validated scene's effects would keep in memory ([`crate::budget`]), refused
     /// ([`Error::MemoryLimit`]) above `options`' limit, as a run would refuse it: so that
     /// `dth check` and `dth run` agree.
     pub fn estimate(&self, scene: &Scene, options: &RunOptions) -> Result<MemoryEstimate, Error> {
-        let entry = self.get(&scene.system).ok_or_else(|| Error::NotAvailable {
-            what: "system",
-            name: scene.system.clone(),
-            reason: "it is not in this catalogue".into(),
-        })?;
-        (entry.estimate)(scene, options)
+        (self.entry(scene)?.estimate)(scene, options)
     }
 }
 

@@ -121,8 +121,8 @@ impl DthRunner {
         if !H::TIME_DEPENDENT {
             dth = dth.with_tbar0(t0).map_err(start)?;
         }
+        let mut record = dth.record();
         loop {
-            let record = dth.record();
             observer.on_step(&record);
             if stop.done(record.k, record.t) {
                 return Ok(RunEnd {
@@ -131,9 +131,9 @@ impl DthRunner {
                     steps: record.k,
                 });
             }
-            if let Err(e) = dth.step() {
-                return Err(MethodFailure::integrator(record.k + 1, e));
-            }
+            record = dth
+                .step()
+                .map_err(|e| MethodFailure::integrator(record.k + 1, e))?;
         }
     }
 }

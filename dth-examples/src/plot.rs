@@ -360,6 +360,11 @@ impl Figure {
             .light_line_style(RGBColor(235, 235, 235))
             .draw()?;
         let inside = |&(x, y): &(f64, f64)| xr.contains(&x) && yr.contains(&y);
+        let labels: Vec<String> = self
+            .series
+            .iter()
+            .map(|s| legend_label(s, self.dropped(s)))
+            .collect();
         for (i, (s, pts)) in self.series.iter().zip(data).enumerate() {
             let color = PALETTE[s.color.unwrap_or(i) % PALETTE.len()];
             let anno = match s.mark {
@@ -412,7 +417,7 @@ impl Figure {
                         .legend(move |(x, y)| Circle::new((x + 10, y), 4, color.filled()))
                 }
             };
-            anno.label(legend_label(s, self.dropped(s)));
+            anno.label(labels[i].as_str());
         }
         if let Some(strip) = legend_area {
             // Aligned with the plot's left edge (margin and y label area).
@@ -430,7 +435,7 @@ impl Figure {
                     ))?,
                 }
                 strip.draw(&Text::new(
-                    legend_label(s, self.dropped(s)),
+                    labels[i].as_str(),
                     (x0 + 28, y - 8),
                     ("sans-serif", 14).into_font(),
                 ))?;

@@ -281,14 +281,15 @@ pub fn progress_template(known_length: bool) -> &'static str {
     }
 }
 
-/// The progress bar of method `m` running until `stop` (hidden unless `options.progress`).
-pub fn progress_bar(m: &MethodSpec, stop: Stop, options: &RunOptions) -> ProgressBar {
+/// The progress bar of method `m` running from `t0` until `stop` (hidden unless
+/// `options.progress`).
+pub fn progress_bar(m: &MethodSpec, t0: f64, stop: Stop, options: &RunOptions) -> ProgressBar {
     if !options.progress {
         return ProgressBar::hidden();
     }
     let len = match (stop, m.step) {
         (Stop::Steps(n), _) => Some(n as u64),
-        (Stop::Time { t_end, .. }, StepSpec::Fixed { dt }) => Some((t_end / dt).ceil() as u64),
+        (Stop::Time { .. }, StepSpec::Fixed { dt }) => Some(stop.fixed_steps(t0, dt) as u64),
         _ => None,
     };
     let bar = match len {
@@ -338,7 +339,7 @@ pub fn compute<const D: usize, S: SceneSystem<D>>(
     budget::check(system, scene, stop, options.memory_limit())?;
     let mut results = Vec::new();
     for m in &scene.methods {
-        let bar = progress_bar(m, stop, options);
+        let bar = progress_bar(m, scene.t0, stop, options);
         let progress = (Progress(bar.clone()), LastTime(scene.t0));
         let (end, outputs, calls, stored, last_t) = match Effects::new(system, &scene.effects) {
             Some(effects) => {

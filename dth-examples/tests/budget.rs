@@ -61,6 +61,12 @@ fn a_scene_above_the_limit_is_refused_by_check_and_run() {
     assert_eq!(o.status.code(), Some(2), "{}", stdout(&o));
     assert!(stderr(&o).contains("refusing to run"), "{}", stderr(&o));
     assert_eq!(entries(dir.path()), ["huge.toml"]);
+    std::fs::remove_file(dir.path().join("huge.toml")).unwrap();
+    // The largest step count a scene can give does not overflow the estimate into a pass.
+    std::fs::write(dir.path().join("max.toml"), scene(&i64::MAX.to_string())).unwrap();
+    let o = dth(&["check", "max.toml"], dir.path());
+    assert_eq!(o.status.code(), Some(2), "{}", stdout(&o));
+    assert!(stderr(&o).contains("refusing to run"), "{}", stderr(&o));
     // A lower limit refuses a small scene too, and `check` reports the estimate when it fits.
     std::fs::write(dir.path().join("small.toml"), scene("1000")).unwrap();
     let o = dth(&["check", "small.toml"], dir.path());

@@ -9,7 +9,9 @@ use crate::observer::{DthRecord, Observer, StepKind, StepRecord};
 /// A DTH trajectory with `N` midpoints and (once the run has finished) `N + 1` vertices.
 ///
 /// It is an [`Observer`]: pass it to [`Dth::run`](super::Dth::run), or get one from
-/// [`Dth::trajectory`](super::Dth::trajectory) / [`integrate`](super::integrate).
+/// [`Dth::trajectory`](super::Dth::trajectory) / [`integrate`](super::integrate). It stores
+/// DTH records only: a fixed-step method's records (no [`StepRecord::dth`]) are skipped, so
+/// record those with [`Recorder`](crate::observer::Recorder).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Trajectory<const D: usize> {
     midpoints: Vec<SVector<f64, D>>,

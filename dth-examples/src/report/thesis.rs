@@ -267,7 +267,7 @@ pub fn figures<const D: usize, S: SceneSystem<D>>(
     // The long runs (Figures 4.1-4.9): every state of every method.
     let mut runs: Vec<(&MethodSpec, &str, usize, Vec<State>)> = Vec::new();
     for &(spec, name, color) in &specs {
-        let bar = progress_bar(spec, stop, options);
+        let bar = progress_bar(spec, scene.t0, stop, options);
         let mut observers = (Progress(bar.clone()), Record(Vec::new()));
         let end = run_method(spec, system, *z0, scene.t0, stop, &mut observers)?;
         bar.finish_and_clear();
@@ -586,7 +586,7 @@ pub fn figures<const D: usize, S: SceneSystem<D>>(
     let mut sections = Vec::new();
     for (spec, label, color, _) in runs.iter().filter(|r| r.0.kind != MethodKind::Exact) {
         let fine = refined(spec, factor);
-        let bar = progress_bar(&fine, stop, options);
+        let bar = progress_bar(&fine, scene.t0, stop, options);
         let mut observers = (Progress(bar.clone()), Section::default());
         run_method(&fine, system, *z0, scene.t0, stop, &mut observers)?
             .map_err(|f| failed(spec, "thesis Figure 4.15", f))?;

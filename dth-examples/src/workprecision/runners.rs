@@ -292,6 +292,7 @@ pub(crate) fn sweep_dth<H: Hamiltonian<D> + Clone, const D: usize>(
         let mut last_vertex = (*z0, 0.0);
         let result = dth_to_time(h, z0, dth_options, t_end, |dth| {
             let r = dth.record();
+            // A DTH stepper's records always carry its DTH data.
             let Some(d) = r.dth else { return };
             energy.push(h.value(&r.z));
             vertex_energy
