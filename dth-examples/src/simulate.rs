@@ -153,8 +153,7 @@ pub fn ensemble_starts<const D: usize, S: SceneSystem<D>>(
             z[iy] += -e.half_width + j as f64 * h;
             if S::TIME_DEPENDENT {
                 // Keep calH = 0 for the shifted state.
-                z[D - 1] = 0.0;
-                z[D - 1] = -system.value(&z);
+                put_on_zero_level(system, &mut z);
             }
             starts.push(z);
         }
@@ -212,10 +211,16 @@ pub fn initial_state<const D: usize, S: SceneSystem<D>>(
     }
     if S::TIME_DEPENDENT {
         z[n] = scene.t0;
-        z[D - 1] = 0.0;
-        z[D - 1] = -system.value(&z);
+        put_on_zero_level(system, &mut z);
     }
     Ok(z)
+}
+
+/// Sets the momentum of time `p_t` (the last component of the extended state) so that
+/// `calH(z) = p_t + H(t, q, p) = 0`, the level every extended-phase-space run starts on.
+fn put_on_zero_level<const D: usize, S: SceneSystem<D>>(system: &S, z: &mut SVector<f64, D>) {
+    z[D - 1] = 0.0;
+    z[D - 1] = -system.value(z);
 }
 
 /// When a run of `scene` stops: after its steps, or at its end time (a duration in orbits
