@@ -72,6 +72,13 @@ fn report(source: &str, s: &System) -> String {
         }
     );
     let _ = writeln!(out, "simplified: {}", s.expr(s.value()));
+    for w in s.warnings() {
+        let _ = write!(
+            out,
+            "{}",
+            render("warning", source, &w.to_string(), w.span.range())
+        );
+    }
     let _ = writeln!(out, "\nflags");
     let _ = writeln!(out, "  separable: {} (H = T(p) + V(q))", yes(s.separable()));
     let _ = writeln!(out, "  time-dependent: {}", yes(s.time_dependent()));
@@ -109,33 +116,36 @@ fn report(source: &str, s: &System) -> String {
 /// Each error of `errors` as `error: MESSAGE (column C)` (with the line for a multi-line
 /// source), then the source line and a caret line under the offending characters.
 pub fn render_errors(source: &str, errors: &Errors) -> String {
-    let mut out = String::new();
-    for e in &errors.0 {
-        let range = e.span.range();
-        let start = range.start.min(source.len());
-        let line_start = source[..start].rfind('\n').map_or(0, |i| i + 1);
-        let line_end = source[start..]
-            .find('\n')
-            .map_or(source.len(), |i| start + i);
-        let line = &source[line_start..line_end];
-        let column = source[line_start..start].chars().count();
-        let width = source
-            .get(start..range.end.min(line_end))
-            .map_or(1, |s| s.chars().count().max(1));
-        let line_no = source[..line_start].matches('\n').count() + 1;
-        let at = if line_start == 0 && line_end == source.len() {
-            format!("column {}", column + 1)
-        } else {
-            format!("line {line_no}, column {}", column + 1)
-        };
-        let _ = writeln!(
-            out,
-            "error: {e} ({at})\n  {line}\n  {}{}",
-            " ".repeat(column),
-            "^".repeat(width)
-        );
-    }
-    out
+    errors
+        .0
+        .iter()
+        .map(|e| render("error", source, &e.to_string(), e.span.range()))
+        .collect()
+}
+
+/// One diagnostic: `LABEL: MESSAGE (column C)`, the source line, and carets under `range`.
+fn render(label: &str, source: &str, message: &str, range: std::ops::Range<usize>) -> String {
+    let start = range.start.min(source.len());
+    let line_start = source[..start].rfind('\n').map_or(0, |i| i + 1);
+    let line_end = source[start..]
+        .find('\n')
+        .map_or(source.len(), |i| start + i);
+    let line = &source[line_start..line_end];
+    let column = source[line_start..start].chars().count();
+    let width = source
+        .get(start..range.end.min(line_end))
+        .map_or(1, |s| s.chars().count().max(1));
+    let line_no = source[..line_start].matches('\n').count() + 1;
+    let at = if line_start == 0 && line_end == source.len() {
+        format!("column {}", column + 1)
+    } else {
+        format!("line {line_no}, column {}", column + 1)
+    };
+    format!(
+        "{label}: {message} ({at})\n  {line}\n  {}{}\n",
+        " ".repeat(column),
+        "^".repeat(width)
+    )
 }
 
 #[cfg(test)]
@@ -163,6 +173,17 @@ mod tests {
             free.contains("Psi identically zero: yes (DTH cannot run"),
             "{free}"
         );
+    }
+
+    #[test]
+    fn warnings_point_at_the_coordinate_without_its_conjugate() {
+        let frozen = derive("p1^2/2 + q1^2/2 + eps*q1*q2", &["eps"]).unwrap_or_default();
+        assert!(
+            frozen.contains("warning: `q2` appears without `p2`: `q2` never moves (dH/dp2 = 0) and `p2` only drifts; a constant is better declared as a parameter (column 26)\n  p1^2/2 + q1^2/2 + eps*q1*q2\n                           ^^\n"),
+            "{frozen}"
+        );
+        let kepler = derive("p1^2 + p2^2 - (q1^2 + q2^2)^(-1/2)", &[]).unwrap_or_default();
+        assert!(!kepler.contains("warning"), "{kepler}");
     }
 
     #[test]

@@ -10,6 +10,7 @@ use crate::check;
 use crate::code::{constant, kernel};
 use crate::fallback;
 use crate::parse::Input;
+use crate::warning::warnings;
 
 /// The expansion of the whole macro: the implementation, or the errors and a stub. A broken
 /// item header is reported alone: the body's extent is uncertain then, so it is not compiled.
@@ -32,14 +33,17 @@ pub fn expand(input: Input) -> TokenStream {
 fn implementation(input: &Input, params: &[Ident], system: &System) -> TokenStream {
     let (decl, name) = fallback::declaration(input, params);
     let imp = imp(&name, params, system);
+    let warnings = warnings(input, system);
     match &input.item {
         Some(_) => quote! {
             #decl
             const _: () = { #imp };
+            #warnings
         },
         None => quote! {{
             #decl
             #imp
+            #warnings
             #name
         }},
     }

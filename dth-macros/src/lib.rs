@@ -9,7 +9,8 @@
 //! 3. `code`: `f64` values as code, the divided-difference kernels among them (the engine's
 //!    formulas, written through `dth_symbolic::kernel::Scalar`).
 //! 4. `fallback`: the declared type and a stub implementation, emitted beside the errors.
-//! 5. `expand`: the trait implementation, one straight-line function per method.
+//! 5. `warning`: the engine's warnings (legal but suspicious input) as compiler warnings.
+//! 6. `expand`: the trait implementation, one straight-line function per method.
 
 use proc_macro::TokenStream;
 
@@ -18,6 +19,7 @@ mod code;
 mod expand;
 mod fallback;
 mod parse;
+mod warning;
 
 /// Generates a type implementing `dth::Hamiltonian<D>` from a Hamiltonian written as a math
 /// literal, with exact compiled derivatives. The grammar is documented in the `Grammar`

@@ -205,18 +205,7 @@ impl Body {
 
     /// A `syn::Error` covering the tokens that produced `bytes` of the source.
     pub fn error(&self, bytes: Range<usize>, message: impl std::fmt::Display) -> syn::Error {
-        let hit =
-            |r: &Range<usize>| r.start < bytes.end.max(bytes.start + 1) && bytes.start < r.end;
-        let first = self.tokens.iter().position(|(r, _)| hit(r));
-        let last = self.tokens.iter().rposition(|(r, _)| hit(r));
-        let (first, last) = match (first, last) {
-            (Some(f), Some(l)) => (self.tokens[f].1, self.tokens[l].1),
-            // An empty range at the end (e.g. a missing operand): the last token.
-            _ => match self.tokens.last() {
-                Some((_, s)) => (*s, *s),
-                None => (Span::call_site(), Span::call_site()),
-            },
-        };
+        let (first, last) = self.spans(bytes);
         // `new_spanned` underlines from the first token's start to the last one's end.
         let mut range = TokenStream::new();
         range.extend([
@@ -224,5 +213,21 @@ impl Body {
             TokenTree::Ident(Ident::new("last", last)),
         ]);
         syn::Error::new_spanned(range, message)
+    }
+
+    /// The spans of the first and last tokens that overlap the source bytes `bytes`.
+    pub fn spans(&self, bytes: Range<usize>) -> (Span, Span) {
+        let hit =
+            |r: &Range<usize>| r.start < bytes.end.max(bytes.start + 1) && bytes.start < r.end;
+        let first = self.tokens.iter().position(|(r, _)| hit(r));
+        let last = self.tokens.iter().rposition(|(r, _)| hit(r));
+        match (first, last) {
+            (Some(f), Some(l)) => (self.tokens[f].1, self.tokens[l].1),
+            // An empty range at the end (e.g. a missing operand): the last token.
+            _ => match self.tokens.last() {
+                Some((_, s)) => (*s, *s),
+                None => (Span::call_site(), Span::call_site()),
+            },
+        }
     }
 }

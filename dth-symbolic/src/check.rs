@@ -1,7 +1,7 @@
 //! The rules of the grammar's names, and the structural checks on a built Hamiltonian.
 
 use crate::arena::{Arena, Func, Id, Var};
-use crate::error::{Error, ErrorKind};
+use crate::error::{Error, ErrorKind, Warning, WarningKind};
 use crate::lexer::{Token, TokenKind};
 use crate::span::Span;
 
@@ -90,6 +90,60 @@ pub fn structure(arena: &Arena, h: Id, whole: Span) -> Vec<Error> {
         return vec![Error::new(ErrorKind::NoMomentum, whole)];
     }
     Vec::new()
+}
+
+/// The numbering of the coordinates, from the variables written in the source (`written`:
+/// each variable with the span of its first occurrence). `n` is the largest index: an index
+/// below it with neither `q<i>` nor `p<i>` is an error at the variable that sets `n` (a gap
+/// is a misnumbering: the pair would only sit still). A `q<i>` without `p<i>` is legal but a
+/// warning (it never moves). A `p<i>` without `q<i>` is a cyclic coordinate (an angle, a free
+/// particle) and fine, unless some position lacks its momentum too: then it is a warning, as
+/// the pair of mistakes looks like a misnumbering.
+pub fn indices(written: &[(Var, Span)]) -> (Vec<Error>, Vec<Warning>) {
+    let find = |v: Var| written.iter().find(|(w, _)| *w == v).map(|&(_, s)| s);
+    let largest = written
+        .iter()
+        .filter_map(|&(v, s)| match v {
+            Var::Q(i) | Var::P(i) => Some((i, v, s)),
+            _ => None,
+        })
+        .max_by_key(|&(i, _, s)| (i, std::cmp::Reverse(s.start)));
+    let Some((n, top, top_span)) = largest else {
+        return (Vec::new(), Vec::new());
+    };
+    let (mut errors, mut frozen, mut cyclic) = (Vec::new(), Vec::new(), Vec::new());
+    for i in 1..=n {
+        match (find(Var::Q(i)), find(Var::P(i))) {
+            (None, None) => errors.push(Error::new(
+                ErrorKind::SkippedIndex {
+                    missing: i,
+                    largest: match top {
+                        Var::Q(_) => format!("q{n}"),
+                        _ => format!("p{n}"),
+                    },
+                },
+                top_span,
+            )),
+            (None, Some(span)) => cyclic.push((i, span)),
+            (Some(span), None) => frozen.push((i, span)),
+            (Some(_), Some(_)) => {}
+        }
+    }
+    let mut warnings: Vec<Warning> = frozen
+        .iter()
+        .map(|&(index, span)| Warning {
+            kind: WarningKind::FrozenCoordinate { index },
+            span,
+        })
+        .collect();
+    if let Some(&(position, _)) = frozen.first() {
+        warnings.extend(cyclic.iter().map(|&(momentum, span)| Warning {
+            kind: WarningKind::Misnumbered { momentum, position },
+            span,
+        }));
+    }
+    warnings.sort_by_key(|w| w.span.start);
+    (errors, warnings)
 }
 
 /// The errors of the names in `tokens`, read without a syntax tree (after a syntax error, so

@@ -129,6 +129,14 @@ pub enum ErrorKind {
     NoMomentum,
     /// `H` uses no variable at all.
     ConstantHamiltonian,
+    /// Neither `q<i>` nor `p<i>` is written, yet a larger index sets `n` (`p1^2 + p3^2`): a
+    /// coordinate pair with no part in `H` is almost always a misnumbering.
+    SkippedIndex {
+        /// The index that appears nowhere.
+        missing: u32,
+        /// The variable with the largest index, which sets `n`.
+        largest: String,
+    },
 }
 
 /// One error: what, and where in the source.
@@ -257,6 +265,11 @@ impl fmt::Display for Error {
             ConstantHamiltonian => f.write_str(
                 "the Hamiltonian is constant (after simplification): it must depend on q1..qN, p1..pN",
             ),
+            SkippedIndex { missing, largest } => write!(
+                f,
+                "neither `q{missing}` nor `p{missing}` appears, yet `{largest}` makes the system's degrees of freedom 1..{n}: number the coordinates without gaps",
+                n = &largest[1..]
+            ),
         }
     }
 }
@@ -349,6 +362,55 @@ impl fmt::Display for Errors {
 }
 
 impl std::error::Error for Errors {}
+
+/// Something legal but easily a mistake, with the span it concerns. A Hamiltonian with
+/// warnings compiles; the macro shows them as compiler warnings, the command line prints them.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Warning {
+    /// What is suspicious.
+    pub kind: WarningKind,
+    /// Where: bytes of the source.
+    pub span: Span,
+}
+
+/// What a [`Warning`] is about.
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub enum WarningKind {
+    /// `q<i>` is written but `p<i>` is not: `q<i>` never moves (`dH/dp<i> = 0`) and `p<i>`
+    /// only drifts, so `q<i>` acts as a constant that is better declared as a parameter.
+    FrozenCoordinate {
+        /// The index.
+        index: u32,
+    },
+    /// `p<i>` is written without `q<i>` while some `q<j>` is written without `p<j>`: alone,
+    /// a momentum without its position is a cyclic coordinate (an angle, a free particle) and
+    /// no warning; beside a frozen position it looks like a misnumbering.
+    Misnumbered {
+        /// The momentum's index `i`.
+        momentum: u32,
+        /// The index `j` of the first position without its momentum.
+        position: u32,
+    },
+}
+
+impl fmt::Display for Warning {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.kind {
+            WarningKind::FrozenCoordinate { index: i } => write!(
+                f,
+                "`q{i}` appears without `p{i}`: `q{i}` never moves (dH/dp{i} = 0) and `p{i}` only drifts; a constant is better declared as a parameter"
+            ),
+            WarningKind::Misnumbered {
+                momentum: i,
+                position: j,
+            } => write!(
+                f,
+                "`p{i}` appears without `q{i}` while `q{j}` appears without `p{j}`: is an index misnumbered?"
+            ),
+        }
+    }
+}
 
 /// Why [`crate::Program::eval`] could not run.
 #[derive(Clone, Debug, PartialEq, Eq)]

@@ -66,7 +66,7 @@ pub mod system;
 
 pub use arena::{Arena, Func, Id, Node, Var, VarSet};
 pub use check::reserved_name;
-pub use error::{Error, ErrorKind, Errors, EvalError};
+pub use error::{Error, ErrorKind, Errors, EvalError, Warning, WarningKind};
 pub use eval::{Evaluation, PairEvaluation};
 pub use kernel::Kernel;
 pub use lower::{Op, Output, Program, Slot, Stats};

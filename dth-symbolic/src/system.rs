@@ -4,7 +4,7 @@
 use crate::arena::{Arena, Id, Node, Var};
 use crate::build::{coordinates, Builder};
 use crate::check;
-use crate::error::{Error, ErrorKind, Errors};
+use crate::error::{Error, ErrorKind, Errors, Warning};
 use crate::lexer::lex;
 use crate::lower::{Output, Program};
 use crate::number::{Fault, Num};
@@ -45,6 +45,8 @@ pub struct System {
     /// The nonzero entries of the upper triangle, row by row: `(i, j, node)`, `i <= j`.
     nonzeros: Vec<(usize, usize, Id)>,
     psi: Id,
+    /// What is legal but easily a mistake ([`check::indices`]).
+    warnings: Vec<Warning>,
     /// Psi is lowered from the gradient and Hessian slots ([`Program::lower_assembling_psi`])
     /// rather than from its own node: decided once, on the fused program, so `Psi` and `All`
     /// use the same form and `psi()` and `derivatives().psi` agree to the bit.
@@ -62,11 +64,27 @@ pub struct System {
 /// ```
 pub fn compile(src: &str, params: &[&str]) -> Result<System, Errors> {
     let (arena, h, whole) = expression(src, params)?;
-    let structural = check::structure(&arena, h, whole);
-    if !structural.is_empty() {
-        return Err(Errors(structural));
+    let (mut errors, warnings) = check::indices(&written(&arena));
+    errors.extend(check::structure(&arena, h, whole));
+    if !errors.is_empty() {
+        errors.sort_by_key(|e| e.span.start);
+        return Err(Errors(errors));
     }
-    derive(arena, h, whole).map_err(|e| Errors(vec![e]))
+    let mut system = derive(arena, h, whole).map_err(|e| Errors(vec![e]))?;
+    system.warnings = warnings;
+    Ok(system)
+}
+
+/// The variables written in the source, each with the span of its first occurrence: before
+/// differentiation every variable node in the arena was named in the source (simplification
+/// may drop them from `H`, not from the arena).
+fn written(arena: &Arena) -> Vec<(Var, Span)> {
+    (0..arena.len())
+        .filter_map(|i| match arena.node(Id(i as u32)) {
+            Node::Var(v) => Some((*v, arena.span(Id(i as u32)))),
+            _ => None,
+        })
+        .collect()
 }
 
 /// Parses and simplifies `src` without the checks that make it a Hamiltonian: the arena, the
@@ -156,12 +174,7 @@ fn derive(mut arena: Arena, h: Id, whole: Span) -> Result<System, Error> {
     // The dimension and time dependence follow the source text, not what survives
     // simplification: `p1^2 + 0*q2` is a 2-degree-of-freedom system, as written. Every
     // variable node in the arena at this point was named in the source.
-    let vars: Vec<Var> = (0..arena.len())
-        .filter_map(|i| match arena.node(Id(i as u32)) {
-            Node::Var(v) => Some(*v),
-            _ => None,
-        })
-        .collect();
+    let vars: Vec<Var> = written(arena).into_iter().map(|(v, _)| v).collect();
     let n = vars
         .iter()
         .filter_map(|v| match v {
@@ -223,6 +236,7 @@ fn derive(mut arena: Arena, h: Id, whole: Span) -> Result<System, Error> {
         hessian,
         nonzeros,
         psi,
+        warnings: Vec::new(),
         psi_assembled: false,
     };
     if !system.psi_identically_zero() {
@@ -294,6 +308,25 @@ impl System {
     /// zero for these cases; an identity it cannot see (`sin^2 + cos^2 - 1`) reports `false`.
     pub fn psi_identically_zero(&self) -> bool {
         self.arena.is_zero(self.psi)
+    }
+
+    /// What is legal but easily a mistake, in source order: a `q<i>` without its `p<i>`, and
+    /// beside one, a `p<j>` without its `q<j>` ([`check::indices`]).
+    ///
+    /// ```
+    /// let h = dth_symbolic::compile("p1^2/2 + p3^2/2 + q1^2 + q2^2", &[]).unwrap();
+    /// let w: Vec<String> = h.warnings().iter().map(|w| w.to_string()).collect();
+    /// assert_eq!(w, [
+    ///     "`p3` appears without `q3` while `q2` appears without `p2`: is an index misnumbered?",
+    ///     "`q2` appears without `p2`: `q2` never moves (dH/dp2 = 0) and `p2` only drifts; a constant is better declared as a parameter",
+    /// ]);
+    /// assert_eq!(h.warnings()[0].span.range(), 9..11);
+    /// // A cyclic coordinate alone (the angle of Kepler in polar coordinates) is no warning.
+    /// let polar = dth_symbolic::compile("p1^2/2 + p2^2/(2*q1^2) - 1/q1", &[]).unwrap();
+    /// assert!(polar.warnings().is_empty());
+    /// ```
+    pub fn warnings(&self) -> &[Warning] {
+        &self.warnings
     }
 
     /// The arena holding every expression.

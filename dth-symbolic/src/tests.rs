@@ -1,7 +1,7 @@
 //! One test per differentiation and simplification rule, through the printer.
 
 use crate::arena::Var;
-use crate::error::ErrorKind;
+use crate::error::{ErrorKind, WarningKind};
 use crate::sources::toda_fixed_ends;
 use crate::{compile, expression, Method};
 
@@ -610,13 +610,82 @@ fn syntax_and_name_errors_are_reported_together() {
 }
 
 /// A coordinate may be absent: `p1^2/2 + p2^2/(2 q1^2) - 1/q1` (Kepler in polar coordinates)
-/// has no `q2`, the angle: it is cyclic and `p2` is conserved. This is physics, not a typo, so
-/// it compiles; the dimension is set by the largest index, as documented.
+/// has no `q2`, the angle: it is cyclic and `p2` is conserved. This is physics (so is a free
+/// particle), so it compiles silently; the dimension is set by the largest index, as
+/// documented. A position without its momentum never moves: a warning at it, and then a
+/// momentum without its position looks like a misnumbering: a warning at it too.
 #[test]
 fn a_cyclic_coordinate_may_be_absent() {
     let h = compile("p1^2/2 + p2^2/(2*q1^2) - 1/q1", &[]).unwrap();
     assert_eq!(h.dim(), 4);
     assert_eq!(h.expr(h.gradient()[1]).to_string(), "0");
+    assert!(h.warnings().is_empty());
+    let warnings = |src| {
+        let h = compile(src, &[]).unwrap();
+        let w: Vec<_> = h
+            .warnings()
+            .iter()
+            .map(|w| (w.kind.clone(), w.span.range()))
+            .collect();
+        w
+    };
+    assert_eq!(
+        warnings("p1^2/2 + q1^2/2 + 0.1*q2*q1"),
+        [(WarningKind::FrozenCoordinate { index: 2 }, 22..24)]
+    );
+    assert_eq!(
+        warnings("p1^2/2 + p3^2/2 + q1^2 + q2^2"),
+        [
+            (
+                WarningKind::Misnumbered {
+                    momentum: 3,
+                    position: 2
+                },
+                9..11
+            ),
+            (WarningKind::FrozenCoordinate { index: 2 }, 25..27)
+        ]
+    );
+    // Every pair complete (or written in a term that simplifies away), or momenta alone.
+    for src in [
+        "p1^2 + p2^2 - (q1^2 + q2^2)^(-1/2)",
+        "p1^2/2 + q1^2/2 + 0*q2*p2",
+        "(p1^2 + p2^2)/2",
+    ] {
+        assert!(warnings(src).is_empty(), "{src}");
+    }
+}
+
+/// An index with neither `q<i>` nor `p<i>` below the largest one is a misnumbering: an error
+/// at the variable that sets `n`, one per missing index, beside the expression's other errors.
+#[test]
+fn a_skipped_index_is_an_error_at_the_largest() {
+    let e = compile("p1^2 + p3^2 + q3 + q4^2", &[]).unwrap_err();
+    let got: Vec<_> =
+        e.0.iter()
+            .map(|e| (e.kind.clone(), e.span.range()))
+            .collect();
+    let skipped = |missing| ErrorKind::SkippedIndex {
+        missing,
+        largest: "q4".into(),
+    };
+    assert_eq!(got, [(skipped(2), 19..21)]);
+    assert_eq!(
+        e.0[0].to_string(),
+        "neither `q2` nor `p2` appears, yet `q4` makes the system's degrees of freedom 1..4: number the coordinates without gaps"
+    );
+    let e = compile("p1^2 + p4^2 + q4 + q1", &[]).unwrap_err();
+    assert_eq!(e.0.len(), 2, "{e}");
+    // Reported with the structural errors of the same expression.
+    let e = compile("q1 + q3", &[]).unwrap_err();
+    let kinds: Vec<_> = e.0.iter().map(|e| e.kind.clone()).collect();
+    assert!(kinds.contains(&ErrorKind::NoMomentum), "{e}");
+    assert!(
+        kinds
+            .iter()
+            .any(|k| matches!(k, ErrorKind::SkippedIndex { missing: 2, .. })),
+        "{e}"
+    );
 }
 
 /// Exponents at the edges of the exact rationals: `(-2)^127` is `i128::MIN`, whose negation
