@@ -14,6 +14,7 @@ use dth::methods::{
 use dth::nalgebra::{SMatrix, SVector};
 use dth::Hamiltonian;
 
+include!("chains/fput_alpha_2.rs");
 include!("chains/fput_alpha_8.rs");
 include!("chains/fput_alpha_32.rs");
 include!("chains/toda_32.rs");
@@ -63,7 +64,7 @@ fn chain_sources_are_current() {
     use dth_symbolic::sources::{fput_alpha_fixed_ends, toda_fixed_ends};
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/chains");
     let regenerate = std::env::var_os("DTH_REGENERATE_CHAINS").is_some();
-    for n in [8, 32, 128, 512] {
+    for n in [2, 4, 8, 12, 16, 32, 128, 512] {
         for (file, ty, fname, src) in [
             (
                 "fput_alpha",
@@ -119,8 +120,9 @@ fn generated_pattern_and_nonzeros_match_the_dense_hessian() {
     pattern_matches_the_hessian(&FputAlpha8, &state::<16>(1));
     pattern_matches_the_hessian(&FputAlpha32, &state::<64>(2));
     pattern_matches_the_hessian(&Toda32, &state::<64>(3));
-    // The crossover: below it the dense path, from it the structured one.
-    assert!(!<FputAlpha8 as Hamiltonian<16>>::STRUCTURED_NEWTON);
+    // The crossover (D = 8): below it the dense path, from it the structured one.
+    assert!(!<FputAlpha2 as Hamiltonian<4>>::STRUCTURED_NEWTON);
+    assert!(<FputAlpha8 as Hamiltonian<16>>::STRUCTURED_NEWTON);
     assert!(<FputAlpha32 as Hamiltonian<64>>::STRUCTURED_NEWTON);
     assert!(<FputAlpha512 as Hamiltonian<1024>>::STRUCTURED_NEWTON);
 }

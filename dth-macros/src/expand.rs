@@ -93,7 +93,8 @@ fn imp(name: &Ident, params: &[Ident], system: &System) -> TokenStream {
     });
     let nnz = pattern.len();
     let pattern_rows = pattern.iter().map(|(i, j)| quote!((#i, #j)));
-    let structured = structured_newton(d, nnz);
+    let diagonal = pattern.iter().filter(|(i, j)| i == j).count();
+    let structured = structured_newton(d, nnz, diagonal);
     let source = system_source(system);
     quote! {
         #[doc = #source]
@@ -202,17 +203,20 @@ const LITERAL_MAX_DIM: usize = 8;
 const CHUNK_OPS: usize = 1000;
 
 /// The smallest dimension from which generated types take the structured Newton path
-/// ([`Hamiltonian::STRUCTURED_NEWTON`](../dth_core/hamiltonian/trait.Hamiltonian.html)):
-/// below it the dense fixed-size LU is faster. Measured on the FPUT and Toda chains
-/// (`docs/benchmarks.md`, `step_vs_size` bench).
-const STRUCTURED_MIN_DIM: usize = 24;
+/// (`Hamiltonian::STRUCTURED_NEWTON`): below it the dense fixed-size LU is faster. Measured
+/// side by side (`dth-examples/benches/step_vs_size.rs`, `docs/benchmarks.md`): one
+/// implicit-midpoint step on `D = 4` (Kepler, FPUT and Toda with 2 particles) is 1.4-1.6x
+/// faster dense, on `D = 8` the two are within 10% (structured ahead), from `D = 16` the
+/// structured step is 2.7x faster and the gap grows like `D^2`.
+const STRUCTURED_MIN_DIM: usize = 8;
 
-/// Whether a generated type of dimension `d` with `nnz` nonzero upper-triangle Hessian entries
-/// takes the structured Newton path: from [`STRUCTURED_MIN_DIM`] on, unless the Hessian is
-/// dense enough (more than `d / 8` nonzeros per row on average) that a banded LU has no
-/// advantage over the dense one.
-fn structured_newton(d: usize, nnz: usize) -> bool {
-    d >= STRUCTURED_MIN_DIM && 2 * nnz <= d * d / 8
+/// Whether a generated type of dimension `d` whose Hessian's upper triangle has `nnz` nonzero
+/// entries, `diagonal` of them on the diagonal, takes the structured Newton path: from
+/// [`STRUCTURED_MIN_DIM`] on, unless more than a quarter of the full Hessian is nonzero (all
+/// pairs coupled, as in N-body gravity: after any ordering the band is then nearly the whole
+/// matrix, and the banded LU does the dense LU's work with more indexing).
+fn structured_newton(d: usize, nnz: usize, diagonal: usize) -> bool {
+    d >= STRUCTURED_MIN_DIM && 4 * (2 * nnz - diagonal) <= d * d
 }
 
 impl Values {
