@@ -121,10 +121,12 @@ fn generated_pattern_and_nonzeros_match_the_dense_hessian() {
     pattern_matches_the_hessian(&FputAlpha32, &state::<64>(2));
     pattern_matches_the_hessian(&Toda32, &state::<64>(3));
     // The crossover (D = 8): below it the dense path, from it the structured one.
-    assert!(!<FputAlpha2 as Hamiltonian<4>>::STRUCTURED_NEWTON);
-    assert!(<FputAlpha8 as Hamiltonian<16>>::STRUCTURED_NEWTON);
-    assert!(<FputAlpha32 as Hamiltonian<64>>::STRUCTURED_NEWTON);
-    assert!(<FputAlpha512 as Hamiltonian<1024>>::STRUCTURED_NEWTON);
+    const {
+        assert!(!<FputAlpha2 as Hamiltonian<4>>::STRUCTURED_NEWTON);
+        assert!(<FputAlpha8 as Hamiltonian<16>>::STRUCTURED_NEWTON);
+        assert!(<FputAlpha32 as Hamiltonian<64>>::STRUCTURED_NEWTON);
+        assert!(<FputAlpha512 as Hamiltonian<1024>>::STRUCTURED_NEWTON);
+    };
 }
 
 /// `steps` steps of `method` on the structured type and of a fresh copy of it on the dense

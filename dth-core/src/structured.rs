@@ -27,7 +27,7 @@
 //! // The 4 x 4 matrix [[4, 1, 0, 0], [1, 4, 1, 0], [0, 1, 4, 1], [0, 0, 1, 4]], entry by entry.
 //! let mut entries = Vec::new();
 //! let mut values = Vec::new();
-//! for i in 0..4 {
+//! for i in 0..4usize {
 //!     for j in 0..4 {
 //!         if i.abs_diff(j) <= 1 {
 //!             entries.push((i, j));
@@ -254,8 +254,9 @@ impl BandedLu {
             let xj = x[j] / self.ab[at(j, j)];
             x[j] = xj;
             if xj != 0.0 {
-                for i in j.saturating_sub(kv)..j {
-                    x[i] -= self.ab[at(i, j)] * xj;
+                let top = j.saturating_sub(kv);
+                for (i, xi) in x[top..j].iter_mut().enumerate() {
+                    *xi -= self.ab[at(top + i, j)] * xj;
                 }
             }
         }
