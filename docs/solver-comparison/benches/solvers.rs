@@ -100,8 +100,10 @@ struct Faer {
 
 impl Faer {
     fn analyse(d: usize, entries: &[(usize, usize)]) -> Faer {
-        let triplets: Vec<Triplet<usize, usize, f64>> =
-            entries.iter().map(|&(r, c)| Triplet::new(r, c, 1.0)).collect();
+        let triplets: Vec<Triplet<usize, usize, f64>> = entries
+            .iter()
+            .map(|&(r, c)| Triplet::new(r, c, 1.0))
+            .collect();
         let m = faer::sparse::SparseColMat::<usize, f64>::try_new_from_triplets(d, d, &triplets)
             .expect("valid pattern");
         let symbolic_matrix = m.symbolic().to_owned().expect("memory");
@@ -159,7 +161,11 @@ fn solvers(c: &mut Criterion) {
             banded.solve(&mut x);
             let mut y = rhs.clone();
             faer.factor_solve(&values, &mut y);
-            let diff = x.iter().zip(&y).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+            let diff = x
+                .iter()
+                .zip(&y)
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0, f64::max);
             let (kl, ku) = banded.bandwidths();
             eprintln!("{kind} D = {d}: bandwidths ({kl}, {ku}), |banded - faer| = {diff:.1e}");
             assert!(diff < 1e-12, "{kind} {d}: solvers disagree by {diff}");
