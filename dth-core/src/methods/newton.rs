@@ -27,12 +27,12 @@ use crate::structured::NewtonMatrix;
 use crate::{j_times, Error, Hamiltonian};
 
 /// The structured Newton storage of a peer method: the analysed Newton matrix, built on the
-/// first structured step (the only allocation) and reused while the dimension, the number of
-/// stages and the pattern's length stay the same. A cache, not part of the method's value:
-/// two methods compare equal whatever their storage holds.
+/// first structured step (the only allocation) and reused while the pattern (the same
+/// `&'static` constant), the dimension and the number of stages stay the same. A cache, not
+/// part of the method's value: two methods compare equal whatever their storage holds.
 #[derive(Clone, Debug, Default)]
 pub(crate) struct Structured {
-    matrix: Option<NewtonMatrix>,
+    matrix: Option<(&'static [(usize, usize)], NewtonMatrix)>,
 }
 
 impl PartialEq for Structured {
@@ -56,13 +56,15 @@ impl Structured {
         let fits = self
             .matrix
             .as_ref()
-            .is_some_and(|m| m.fits(D, stages, pattern.len()));
+            .is_some_and(|(p, m)| std::ptr::eq(*p, pattern) && m.fits(D, stages, pattern.len()));
         if !fits {
             // A generated pattern is valid by construction; a hand-written one that is not
             // falls back to the dense path.
-            self.matrix = NewtonMatrix::analyse(D, stages, pattern).ok();
+            self.matrix = NewtonMatrix::analyse(D, stages, pattern)
+                .ok()
+                .map(|m| (pattern, m));
         }
-        self.matrix.as_mut()
+        self.matrix.as_mut().map(|(_, m)| m)
     }
 }
 
