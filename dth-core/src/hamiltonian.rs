@@ -38,6 +38,17 @@ pub trait Hamiltonian<const D: usize> {
     /// stepper then solves its energy equation in a cancellation-free form by default
     /// (`dth::EnergyResidual::Auto`).
     const EXACT_DIVIDED_DIFFERENCES: bool = false;
+    /// The nonzero entries of the upper triangle of the Hessian, `(i, j)` with `i <= j < D`,
+    /// in the order [`Hamiltonian::hessian_nonzeros`] writes them; `None` (the default) when
+    /// the structure is not declared. `hamiltonian!` emits it from the symbolic Hessian.
+    const HESSIAN_PATTERN: Option<&'static [(usize, usize)]> = None;
+    /// `true` when the implicit methods should solve their Newton systems with the structured
+    /// solver ([`crate::structured`]) on [`Hamiltonian::HESSIAN_PATTERN`] and
+    /// [`Hamiltonian::hessian_nonzeros`], never forming a `D x D` matrix; `false` (the default)
+    /// for the dense fixed-size LU, the faster one for small `D`. Without a pattern it has no
+    /// effect. `hamiltonian!` sets it per generated type from the measured crossover (see
+    /// `docs/benchmarks.md`).
+    const STRUCTURED_NEWTON: bool = false;
 
     /// `H(z)`.
     fn value(&self, z: &SVector<f64, D>) -> f64;
@@ -45,6 +56,21 @@ pub trait Hamiltonian<const D: usize> {
     fn gradient(&self, z: &SVector<f64, D>) -> SVector<f64, D>;
     /// `Hess H(z)`, symmetric.
     fn hessian(&self, z: &SVector<f64, D>) -> SMatrix<f64, D, D>;
+
+    /// The Hessian's entries at [`Hamiltonian::HESSIAN_PATTERN`], written into `values` in
+    /// the pattern's order (`values` as long as the pattern; extra slots are left alone).
+    ///
+    /// The default reads them from [`Hamiltonian::hessian`] (a `D x D` matrix) and writes
+    /// nothing without a pattern; `hamiltonian!` overrides it with a fused evaluation that
+    /// computes only the nonzeros.
+    fn hessian_nonzeros(&self, z: &SVector<f64, D>, values: &mut [f64]) {
+        if let Some(pattern) = Self::HESSIAN_PATTERN {
+            let hessian = self.hessian(z);
+            for (v, &(i, j)) in values.iter_mut().zip(pattern) {
+                *v = hessian[(i, j)];
+            }
+        }
+    }
 
     /// `Psi(z) = (J grad H)^T Hess H (J grad H)`.
     fn psi(&self, z: &SVector<f64, D>) -> f64 {

@@ -8,8 +8,9 @@
 //! # Layers
 //! Each layer imports only from the layers above it:
 //! 1. [`error`], [`hamiltonian`] (the traits), [`observer`] (the one per-step protocol every
-//!    integrator reports to), `linalg` (small dense LU) and `newton` (the one Newton stopping
-//!    rule and loop);
+//!    integrator reports to), `linalg` (small dense LU), [`structured`] (banded LU and the
+//!    sparse Newton matrices of large systems) and `newton` (the one Newton stopping rule and
+//!    loop);
 //! 2. [`systems`] (concrete Hamiltonians), then [`kepler`] (the exact Kepler solution);
 //! 3. [`methods`] (the peer integrators), then [`dth`] (the DTH stepper, whose robust mode
 //!    steps with a peer);
@@ -25,6 +26,7 @@ mod linalg;
 pub mod methods;
 mod newton;
 pub mod observer;
+pub mod structured;
 pub mod systems;
 
 pub use error::Error;

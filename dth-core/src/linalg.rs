@@ -1,16 +1,19 @@
 //! Small dense LU with partial pivoting on `SMatrix<f64, D, D>`, generic over `const D` without
 //! the `DimMin` bounds nalgebra's `lu()` would push onto every caller. No heap allocation.
-//! Shared by the DTH Newton solvers and the implicit peer methods.
+//! Shared by the DTH Newton solvers and the implicit peer methods; the fastest path for small
+//! `D` (see [`crate::structured`] for large sparse systems).
 
 use nalgebra::SMatrix;
 
-/// Why a factorization failed.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) enum Pivot {
-    /// A pivot is at or below `D eps max|A_ij|`: the matrix is numerically singular (a solve
-    /// would carry no correct digits).
+/// Why a factorization failed (dense here, banded in [`crate::structured`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum Pivot {
+    /// A pivot is at or below `m eps max|A_ij|` for an `m x m` matrix: the matrix is
+    /// numerically singular (a solve would carry no correct digits).
+    #[error("the matrix is numerically singular (a pivot at or below m eps max|A_ij|)")]
     Singular,
     /// A pivot was NaN or infinite.
+    #[error("a pivot is not finite")]
     NonFinite,
 }
 

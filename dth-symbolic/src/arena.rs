@@ -123,8 +123,8 @@ pub enum Node {
     Func(Func, Id),
 }
 
-/// Number of 64-bit words of a [`VarSet`]: one bit per phase-space variable `q1..q256`,
-/// `p1..p256`, `t`, `p_t` (see [`VarSet::bit`]).
+/// Number of 64-bit words of a [`VarSet`]: one bit per phase-space variable `q1..q512`,
+/// `p1..p512`, `t`, `p_t` (see [`VarSet::bit`]).
 const WORDS: usize = (2 * crate::MAX_INDEX + 2).div_ceil(64);
 
 /// The phase-space variables a node depends on, as a bitset (parameters are constants for

@@ -74,9 +74,9 @@ pub use number::{Num, Rational};
 pub use span::Span;
 pub use system::{compile, expression, Method, System};
 
-/// The largest coordinate index accepted (`q256`): a typo like `q1000` would otherwise
+/// The largest coordinate index accepted (`q512`, a chain of 512 particles): a typo like `q1000` would otherwise
 /// silently produce a 2000-dimensional system.
-pub const MAX_INDEX: usize = 256;
+pub const MAX_INDEX: usize = 512;
 
 /// The largest arena [`compile`] builds ([`Arena::size`]: nodes plus operands, summed), value,
 /// gradient, Hessian and Psi together: about 60,000 for 20 bodies in 3D with all pairwise

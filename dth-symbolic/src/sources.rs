@@ -23,3 +23,31 @@ pub fn toda_fixed_ends(n: usize) -> String {
     src.push_str(&format!(" + exp(q{n})"));
     src
 }
+
+/// The FPUT-alpha chain (Fermi-Pasta-Ulam-Tsingou) with fixed ends, `n >= 1` particles
+/// (`D = 2n`) and `alpha = 1/4`:
+/// `H = sum p_i^2 / 2 + sum_{i=0}^{n} [(q_{i+1} - q_i)^2 / 2 + alpha (q_{i+1} - q_i)^3 / 3]`
+/// with `q_0 = q_{n+1} = 0`. Like the Toda chain, the upper triangle of its Hessian has
+/// `3n - 1` nonzero entries (tridiagonal q-block, identity on p).
+///
+/// ```
+/// use dth_symbolic::sources::fput_alpha_fixed_ends;
+/// assert_eq!(
+///     fput_alpha_fixed_ends(2),
+///     "(p1^2 + p2^2)/2 + q1^2/2 + q1^3/12 + (q2 - q1)^2/2 + (q2 - q1)^3/12 \
+///      + q2^2/2 - q2^3/12"
+/// );
+/// let h = dth_symbolic::compile(&fput_alpha_fixed_ends(4), &[]).unwrap();
+/// assert_eq!((h.dim(), h.hessian_nonzeros().len()), (8, 11));
+/// ```
+pub fn fput_alpha_fixed_ends(n: usize) -> String {
+    let kinetic: Vec<String> = (1..=n).map(|i| format!("p{i}^2")).collect();
+    // alpha / 3 = 1/12; the last bond is `0 - q_n`, whose cube changes sign.
+    let mut src = format!("({})/2 + q1^2/2 + q1^3/12", kinetic.join(" + "));
+    for i in 1..n {
+        let d = format!("(q{} - q{i})", i + 1);
+        src.push_str(&format!(" + {d}^2/2 + {d}^3/12"));
+    }
+    src.push_str(&format!(" + q{n}^2/2 - q{n}^3/12"));
+    src
+}

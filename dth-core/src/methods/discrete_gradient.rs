@@ -2,7 +2,7 @@
 
 use nalgebra::SVector;
 
-use super::newton::{self, NewtonOptions};
+use super::newton::{self, NewtonOptions, Structured};
 use super::OneStepMethod;
 use crate::{j_times, Error, Hamiltonian};
 
@@ -23,11 +23,12 @@ use crate::{j_times, Error, Hamiltonian};
 /// 449-467, eq. (3.6); R. McLachlan, G. Quispel, N. Robidoux, *Geometric integration using
 /// discrete gradients*, Phil. Trans. R. Soc. A 357 (1999) 1021-1045. Compared with DTH, which
 /// conserves energy at midpoints (thesis eq. 2.3.7).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct DiscreteGradient {
     /// Newton settings.
     pub newton: NewtonOptions,
     iterations: usize,
+    structured: Structured,
 }
 
 impl DiscreteGradient {
@@ -41,6 +42,7 @@ impl DiscreteGradient {
         DiscreteGradient {
             newton,
             iterations: 0,
+            structured: Structured::default(),
         }
     }
 }
@@ -55,6 +57,7 @@ impl<const D: usize, H: Hamiltonian<D>> OneStepMethod<D, H> for DiscreteGradient
             name,
             &self.newton,
             &mut self.iterations,
+            &mut self.structured,
             h,
             z0,
             dt,

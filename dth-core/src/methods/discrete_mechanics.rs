@@ -2,7 +2,7 @@
 
 use nalgebra::SVector;
 
-use super::newton::{self, NewtonOptions};
+use super::newton::{self, NewtonOptions, Structured};
 use super::OneStepMethod;
 use crate::systems::CentralForce;
 use crate::Error;
@@ -28,11 +28,12 @@ use crate::Error;
 /// # References
 /// D. Greenspan, *Conservative numerical methods for x'' = f(x)*, J. Comput. Phys. 56 (1984)
 /// 28-41 (the thesis's ref. \[5\]); thesis Chapter I and Table 4.1 ("Discrete Mechanics").
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct DiscreteMechanics {
     /// Newton settings.
     pub newton: NewtonOptions,
     iterations: usize,
+    structured: Structured,
 }
 
 impl DiscreteMechanics {
@@ -46,6 +47,7 @@ impl DiscreteMechanics {
         DiscreteMechanics {
             newton,
             iterations: 0,
+            structured: Structured::default(),
         }
     }
 }
@@ -64,6 +66,7 @@ impl<const D: usize, H: CentralForce<D>> OneStepMethod<D, H> for DiscreteMechani
             name,
             &self.newton,
             &mut self.iterations,
+            &mut self.structured,
             h,
             z0,
             dt,

@@ -1,8 +1,10 @@
 //! The 2-stage Gauss-Legendre collocation method.
 
+use std::cell::RefCell;
+
 use nalgebra::{SMatrix, SVector};
 
-use super::newton::{self, Evaluation, NewtonOptions};
+use super::newton::{self, Evaluation, NewtonOptions, Structured};
 use super::{j_times_matrix, OneStepMethod};
 use crate::linalg as linear;
 use crate::{j_times, Error, Hamiltonian};
@@ -17,19 +19,21 @@ const C: [f64; 2] = [0.5 - S3, 0.5 + S3];
 /// quadratic invariants exactly.
 ///
 /// Unknowns are the stage increments `Z_i = Y_i - z0` (a `D x 2` matrix), solved by full Newton
-/// with the `2D x 2D` Jacobian `[delta_ij I - dt a_ij J Hess H(Y_j)]` by block elimination (three
-/// `D x D` LU solves, no heap). Predictor `Z_i = c_i dt J grad H(z0)`. The update is
+/// with the `2D x 2D` Jacobian `[delta_ij I - dt a_ij J Hess H(Y_j)]`: by block elimination (three
+/// `D x D` LU solves, no heap), or for large sparse systems by the structured solver of
+/// `crate::structured` on the whole `2D x 2D` matrix (see `methods::newton`). Predictor `Z_i = c_i dt J grad H(z0)`. The update is
 /// `z1 = z0 + (dt/2) (f(Y1) + f(Y2))` with `f = J grad H` at the converged stages.
 ///
 /// # References
 /// E. Hairer, C. Lubich, G. Wanner, *Geometric Numerical Integration*, Table II.1.1 (Gauss
 /// methods), Theorem VI.4.3 (symplectic), Theorem IV.2.2 (quadratic invariants), Section VIII.6
 /// (implementation by stage increments).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct GaussLegendre2 {
     /// Newton settings.
     pub newton: NewtonOptions,
     iterations: usize,
+    structured: Structured,
 }
 
 impl GaussLegendre2 {
@@ -43,6 +47,7 @@ impl GaussLegendre2 {
         GaussLegendre2 {
             newton,
             iterations: 0,
+            structured: Structured::default(),
         }
     }
 }
@@ -54,7 +59,7 @@ impl<const D: usize, H: Hamiltonian<D>> OneStepMethod<D, H> for GaussLegendre2 {
     fn step(&mut self, h: &H, z0: &SVector<f64, D>, dt: f64) -> Result<SVector<f64, D>, Error> {
         let f0 = j_times(&h.gradient(z0));
         let predictor = SMatrix::<f64, D, 2>::from_columns(&[f0 * (C[0] * dt), f0 * (C[1] * dt)]);
-        let identity = SMatrix::<f64, D, D>::identity();
+        let matrix = self.structured.matrix::<H, D>(2).map(RefCell::new);
         let (stages, iterations) = newton::solve(
             <Self as OneStepMethod<D, H>>::NAME,
             &self.newton,
@@ -68,20 +73,21 @@ impl<const D: usize, H: Hamiltonian<D>> OneStepMethod<D, H> for GaussLegendre2 {
                 let r1 = z.column(0) - (f1 * A[0][0] + f2 * A[0][1]) * dt;
                 let r2 = z.column(1) - (f1 * A[1][0] + f2 * A[1][1]) * dt;
                 let residual = SMatrix::<f64, D, 2>::from_columns(&[r1, r2]);
-                // Blocks B_ij = delta_ij I - dt a_ij K_j, K_j = J Hess H(Y_j).
-                let k1 = j_times_matrix(&h.hessian(&y1)) * dt;
-                let k2 = j_times_matrix(&h.hessian(&y2)) * dt;
-                let b11 = identity - k1 * A[0][0];
-                let b12 = -k2 * A[0][1];
-                let b21 = -k1 * A[1][0];
-                let b22 = identity - k2 * A[1][1];
-                let delta = (|| {
-                    let x = linear::solve(b11, b12)?;
-                    let y = linear::solve(b11, r1)?;
-                    let d2 = linear::solve(b22 - b21 * x, r2 - b21 * y)?;
-                    let d1 = y - x * d2;
-                    Some(SMatrix::<f64, D, 2>::from_columns(&[d1, d2]))
-                })();
+                let delta = match &matrix {
+                    Some(m) => {
+                        let mut m = m.borrow_mut();
+                        h.hessian_nonzeros(&y1, m.hessian_mut(0));
+                        h.hessian_nonzeros(&y2, m.hessian_mut(1));
+                        let a = [A[0][0] * dt, A[0][1] * dt, A[1][0] * dt, A[1][1] * dt];
+                        m.factor(&a).ok().map(|()| {
+                            // Column-major: stage 1's increments, then stage 2's.
+                            let mut delta = residual;
+                            m.solve(delta.as_mut_slice());
+                            delta
+                        })
+                    }
+                    None => dense_update(h, &y1, &y2, dt, &r1, &r2),
+                };
                 Evaluation { residual, delta }
             },
         )?;
@@ -94,6 +100,31 @@ impl<const D: usize, H: Hamiltonian<D>> OneStepMethod<D, H> for GaussLegendre2 {
     fn newton_iterations(&self) -> usize {
         self.iterations
     }
+}
+
+/// The Newton update with the dense `2D x 2D` Jacobian by block elimination (three `D x D`
+/// LU solves), in a frame of its own (see `methods::newton`).
+#[inline(never)]
+fn dense_update<H: Hamiltonian<D>, const D: usize>(
+    h: &H,
+    y1: &SVector<f64, D>,
+    y2: &SVector<f64, D>,
+    dt: f64,
+    r1: &SVector<f64, D>,
+    r2: &SVector<f64, D>,
+) -> Option<SMatrix<f64, D, 2>> {
+    let identity = SMatrix::<f64, D, D>::identity();
+    let k1 = j_times_matrix(&h.hessian(y1)) * dt;
+    let k2 = j_times_matrix(&h.hessian(y2)) * dt;
+    let b11 = identity - k1 * A[0][0];
+    let b12 = -k2 * A[0][1];
+    let b21 = -k1 * A[1][0];
+    let b22 = identity - k2 * A[1][1];
+    let x = linear::solve(b11, b12)?;
+    let y = linear::solve(b11, *r1)?;
+    let d2 = linear::solve(b22 - b21 * x, r2 - b21 * y)?;
+    let d1 = y - x * d2;
+    Some(SMatrix::<f64, D, 2>::from_columns(&[d1, d2]))
 }
 
 #[cfg(test)]

@@ -4,13 +4,69 @@
 //!
 //! Newton stops by the crate's one stopping rule (`crate::newton`, where it is documented) with
 //! the peers' parameters, summarised for users on [`NewtonOptions`].
+//!
+//! # Two linear solvers
+//! Each Newton iteration solves with `I - (dt/2) J Hess` (one stage) or the `2D x 2D`
+//! Gauss-Legendre matrix. For a Hamiltonian that declares its Hessian pattern and sets
+//! [`Hamiltonian::STRUCTURED_NEWTON`] (generated types beyond the measured crossover), the
+//! matrix is assembled from the Hessian's nonzeros and factored by the banded LU of
+//! [`crate::structured`], held in the method's [`Structured`] storage (analysed on the first
+//! step, reused without allocation after); no `D x D` matrix is formed. Otherwise it is the
+//! dense fixed-size LU, in a function of its own so that its `D x D` stack frame exists only
+//! when it runs. Both paths take the same iterations to the same stopping rule and agree to
+//! roundoff (`tests/structured_newton.rs`).
+
+use std::cell::RefCell;
 
 use nalgebra::{SMatrix, SVector};
 
 use super::newton_matrix;
 use crate::linalg as linear;
 use crate::newton::{self, Convergence, PEERS};
+use crate::structured::NewtonMatrix;
 use crate::{j_times, Error, Hamiltonian};
+
+/// The structured Newton storage of a peer method: the analysed Newton matrix, built on the
+/// first structured step (the only allocation) and reused while the pattern (the same
+/// `&'static` constant), the dimension and the number of stages stay the same. A cache, not
+/// part of the method's value: two methods compare equal whatever their storage holds.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Structured {
+    matrix: Option<(&'static [(usize, usize)], NewtonMatrix)>,
+}
+
+impl PartialEq for Structured {
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
+}
+
+impl Structured {
+    /// The Newton matrix for `stages` stages of `H`, analysed if this storage holds none for
+    /// it; `None` when `H` takes the dense path (no pattern, or not
+    /// [`Hamiltonian::STRUCTURED_NEWTON`]).
+    pub(crate) fn matrix<H: Hamiltonian<D>, const D: usize>(
+        &mut self,
+        stages: usize,
+    ) -> Option<&mut NewtonMatrix> {
+        if !H::STRUCTURED_NEWTON {
+            return None;
+        }
+        let pattern = H::HESSIAN_PATTERN?;
+        let fits = self
+            .matrix
+            .as_ref()
+            .is_some_and(|(p, m)| std::ptr::eq(*p, pattern) && m.fits(D, stages, pattern.len()));
+        if !fits {
+            // A generated pattern is valid by construction; a hand-written one that is not
+            // falls back to the dense path.
+            self.matrix = NewtonMatrix::analyse(D, stages, pattern)
+                .ok()
+                .map(|m| (pattern, m));
+        }
+        self.matrix.as_mut().map(|(_, m)| m)
+    }
+}
 
 /// Settings of the Newton iteration of the implicit peer methods.
 ///
@@ -138,13 +194,16 @@ pub(crate) fn solve<const R: usize, const C: usize>(
 }
 
 /// One step of a one-stage implicit method from `z0`: Newton on `F(z1) = 0` from the explicit
-/// Euler predictor `z0 + dt J grad H(z0)`, with the matrix `I - (dt/2) J Hess H(y)`.
-/// `equation(z1, grad H(z0))` returns `F(z1)` and the point `y` (the midpoint `(z0 + z1)/2`,
-/// or `z1` for the trapezoidal rule). The Newton iterations are added to `iterations`.
+/// Euler predictor `z0 + dt J grad H(z0)`, with the matrix `I - (dt/2) J Hess H(y)` (structured
+/// or dense, see the [module docs](self)). `equation(z1, grad H(z0))` returns `F(z1)` and the
+/// point `y` (the midpoint `(z0 + z1)/2`, or `z1` for the trapezoidal rule). The Newton
+/// iterations are added to `iterations`.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn one_stage<H: Hamiltonian<D>, const D: usize>(
     method: &'static str,
     options: &NewtonOptions,
     iterations: &mut usize,
+    structured: &mut Structured,
     h: &H,
     z0: &SVector<f64, D>,
     dt: f64,
@@ -152,13 +211,45 @@ pub(crate) fn one_stage<H: Hamiltonian<D>, const D: usize>(
 ) -> Result<SVector<f64, D>, Error> {
     let g0 = h.gradient(z0);
     let predictor = z0 + j_times(&g0) * dt;
-    let (z1, n) = solve(method, options, predictor, z0.amax(), |z1| {
-        let (residual, y) = equation(z1, &g0);
-        let delta = linear::solve(newton_matrix(0.5 * dt, &h.hessian(&y)), residual);
-        Evaluation { residual, delta }
-    })?;
+    let (z1, n) = match structured.matrix::<H, D>(1) {
+        Some(matrix) => {
+            let matrix = RefCell::new(matrix);
+            solve(method, options, predictor, z0.amax(), |z1| {
+                let (residual, y) = equation(z1, &g0);
+                let mut m = matrix.borrow_mut();
+                h.hessian_nonzeros(&y, m.hessian_mut(0));
+                let delta = m.factor(&[0.5 * dt]).ok().map(|()| {
+                    let mut delta = residual;
+                    m.solve(delta.as_mut_slice());
+                    delta
+                });
+                Evaluation { residual, delta }
+            })?
+        }
+        None => one_stage_dense(method, options, h, z0, dt, predictor, &g0, &equation)?,
+    };
     *iterations += n;
     Ok(z1)
+}
+
+/// [`one_stage`]'s Newton with the dense `D x D` matrix, in a frame of its own.
+#[inline(never)]
+#[allow(clippy::too_many_arguments)]
+fn one_stage_dense<H: Hamiltonian<D>, const D: usize>(
+    method: &'static str,
+    options: &NewtonOptions,
+    h: &H,
+    z0: &SVector<f64, D>,
+    dt: f64,
+    predictor: SVector<f64, D>,
+    g0: &SVector<f64, D>,
+    equation: &impl Fn(&SVector<f64, D>, &SVector<f64, D>) -> (SVector<f64, D>, SVector<f64, D>),
+) -> Result<(SVector<f64, D>, usize), Error> {
+    solve(method, options, predictor, z0.amax(), |z1| {
+        let (residual, y) = equation(z1, g0);
+        let delta = linear::solve(newton_matrix(0.5 * dt, &h.hessian(&y)), residual);
+        Evaluation { residual, delta }
+    })
 }
 
 #[cfg(test)]

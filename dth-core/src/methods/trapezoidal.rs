@@ -2,7 +2,7 @@
 
 use nalgebra::SVector;
 
-use super::newton::{self, NewtonOptions};
+use super::newton::{self, NewtonOptions, Structured};
 use super::OneStepMethod;
 use crate::{j_times, Error, Hamiltonian};
 
@@ -15,11 +15,12 @@ use crate::{j_times, Error, Hamiltonian};
 ///
 /// # References
 /// Thesis Section 3.5 (eq. 2.3.5 with `lambda_k = 1` is the trapezoidal rule) and Table 4.1.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct Trapezoidal {
     /// Newton settings.
     pub newton: NewtonOptions,
     iterations: usize,
+    structured: Structured,
 }
 
 impl Trapezoidal {
@@ -33,6 +34,7 @@ impl Trapezoidal {
         Trapezoidal {
             newton,
             iterations: 0,
+            structured: Structured::default(),
         }
     }
 }
@@ -47,6 +49,7 @@ impl<const D: usize, H: Hamiltonian<D>> OneStepMethod<D, H> for Trapezoidal {
             name,
             &self.newton,
             &mut self.iterations,
+            &mut self.structured,
             h,
             z0,
             dt,

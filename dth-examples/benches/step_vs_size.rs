@@ -1,0 +1,190 @@
+//! Cost of one implicit-midpoint step against the size of the system, structured Newton
+//! against dense: the FPUT-alpha and Toda chains with fixed ends, written out through
+//! `hamiltonian!` (`tests/chains/`), `N = 2, 4, 8, 12, 16, 32, 128, 512` particles (`D = 2N`),
+//! and planar Kepler (`D = 4`, a full q-block: the smallest system, for the crossover).
+//!
+//! Groups `midpoint/<chain>_<N>`, each with up to two functions on the same 16 seeded states
+//! and `dt = 0.1`:
+//! - `structured`: the banded Newton of `dth_core::structured` (the generated type's
+//!   pattern and fused nonzeros, forced on even below the generated crossover);
+//! - `dense`: the fixed-size `D x D` LU (the same Hamiltonian with its structure hidden), up to
+//!   `N = 128` (at `N = 512` the dense Newton matrix alone is 8 MB of stack).
+//!
+//! The crossover of `hamiltonian!` (`STRUCTURED_NEWTON` from `D = 8`) and the table of
+//! `docs/benchmarks.md` come from this bench. Run with
+//! `cargo bench -p dth-examples --bench step_vs_size -- --noplot` (add `--quick` for a smoke run).
+
+use std::hint::black_box;
+use std::time::Duration;
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use dth::methods::{ImplicitMidpoint, OneStepMethod};
+use dth::nalgebra::{SMatrix, SVector};
+use dth::Hamiltonian;
+
+include!("../../tests/chains/fput_alpha_2.rs");
+include!("../../tests/chains/fput_alpha_4.rs");
+include!("../../tests/chains/fput_alpha_8.rs");
+include!("../../tests/chains/fput_alpha_12.rs");
+include!("../../tests/chains/fput_alpha_16.rs");
+include!("../../tests/chains/fput_alpha_32.rs");
+include!("../../tests/chains/fput_alpha_128.rs");
+include!("../../tests/chains/fput_alpha_512.rs");
+include!("../../tests/chains/toda_2.rs");
+include!("../../tests/chains/toda_4.rs");
+include!("../../tests/chains/toda_8.rs");
+include!("../../tests/chains/toda_12.rs");
+include!("../../tests/chains/toda_16.rs");
+include!("../../tests/chains/toda_32.rs");
+include!("../../tests/chains/toda_128.rs");
+include!("../../tests/chains/toda_512.rs");
+
+/// The Hamiltonian with its structure hidden: Newton takes the dense path.
+#[derive(Clone, Copy)]
+struct Dense<H>(H);
+
+impl<const D: usize, H: Hamiltonian<D>> Hamiltonian<D> for Dense<H> {
+    fn value(&self, z: &SVector<f64, D>) -> f64 {
+        self.0.value(z)
+    }
+    fn gradient(&self, z: &SVector<f64, D>) -> SVector<f64, D> {
+        self.0.gradient(z)
+    }
+    fn hessian(&self, z: &SVector<f64, D>) -> SMatrix<f64, D, D> {
+        self.0.hessian(z)
+    }
+}
+
+/// The Hamiltonian with the structured path forced on, whatever its size.
+#[derive(Clone, Copy)]
+struct Structured<H>(H);
+
+impl<const D: usize, H: Hamiltonian<D>> Hamiltonian<D> for Structured<H> {
+    const HESSIAN_PATTERN: Option<&'static [(usize, usize)]> = H::HESSIAN_PATTERN;
+    const STRUCTURED_NEWTON: bool = true;
+    fn value(&self, z: &SVector<f64, D>) -> f64 {
+        self.0.value(z)
+    }
+    fn gradient(&self, z: &SVector<f64, D>) -> SVector<f64, D> {
+        self.0.gradient(z)
+    }
+    fn hessian(&self, z: &SVector<f64, D>) -> SMatrix<f64, D, D> {
+        self.0.hessian(z)
+    }
+    fn hessian_nonzeros(&self, z: &SVector<f64, D>, values: &mut [f64]) {
+        self.0.hessian_nonzeros(z, values);
+    }
+}
+
+/// 16 seeded chain states: displacements in `[-0.3, 0.3]`, momenta in `[-0.5, 0.5]`.
+fn states<const D: usize>() -> Vec<SVector<f64, D>> {
+    let mut s = 0x5EED_0010u64;
+    (0..16)
+        .map(|_| {
+            SVector::from_fn(|i, _| {
+                s = s.wrapping_add(0x9E37_79B9_7F4A_7C15);
+                let mut x = s;
+                x = (x ^ (x >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+                x = (x ^ (x >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+                let u = ((x ^ (x >> 31)) >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
+                if i < D / 2 {
+                    0.6 * u
+                } else {
+                    u
+                }
+            })
+        })
+        .collect()
+}
+
+const DT: f64 = 0.1;
+
+fn bench_one<const D: usize, H: Hamiltonian<D>>(
+    g: &mut criterion::BenchmarkGroup<'_, criterion::measurement::WallTime>,
+    name: &str,
+    h: &H,
+    zs: &[SVector<f64, D>],
+) {
+    let mut m = ImplicitMidpoint::new();
+    // The first step analyses the pattern (structured path); not part of a step's cost.
+    let _ = m.step(h, &zs[0], DT);
+    let mut i = 0;
+    g.bench_function(name, |b| {
+        b.iter(|| {
+            i = (i + 1) % zs.len();
+            black_box(m.step(h, black_box(&zs[i]), DT).map(|z| z[0]))
+        })
+    });
+}
+
+fn chain<const D: usize, H: Hamiltonian<D> + Copy>(
+    c: &mut Criterion,
+    name: &str,
+    h: H,
+    dense: bool,
+) {
+    let zs = states::<D>();
+    let mut g = c.benchmark_group(format!("midpoint/{name}"));
+    if D >= 256 {
+        g.sample_size(10).measurement_time(Duration::from_secs(2));
+    }
+    bench_one(&mut g, "structured", &Structured(h), &zs);
+    if dense {
+        bench_one(&mut g, "dense", &Dense(h), &zs);
+    }
+    g.finish();
+}
+
+fn fput(c: &mut Criterion) {
+    chain::<4, _>(c, "fput_2", FputAlpha2, true);
+    chain::<8, _>(c, "fput_4", FputAlpha4, true);
+    chain::<16, _>(c, "fput_8", FputAlpha8, true);
+    chain::<24, _>(c, "fput_12", FputAlpha12, true);
+    chain::<32, _>(c, "fput_16", FputAlpha16, true);
+    chain::<64, _>(c, "fput_32", FputAlpha32, true);
+    chain::<256, _>(c, "fput_128", FputAlpha128, true);
+    chain::<1024, _>(c, "fput_512", FputAlpha512, false);
+}
+
+dth::hamiltonian! {
+    #[derive(Clone, Copy)]
+    struct Kepler = (p1^2 + p2^2)/2 - 1/sqrt(q1^2 + q2^2)
+}
+
+fn kepler(c: &mut Criterion) {
+    // Eccentric orbits about the origin: the chain states shifted to q1 ~ 1.
+    let zs: Vec<SVector<f64, 4>> = states::<4>()
+        .into_iter()
+        .map(|z| SVector::<f64, 4>::new(1.0 + z[0], z[1], z[2], 1.0 + z[3]))
+        .collect();
+    let mut g = c.benchmark_group("midpoint/kepler");
+    bench_one(&mut g, "structured", &Structured(Kepler), &zs);
+    bench_one(&mut g, "dense", &Dense(Kepler), &zs);
+    g.finish();
+}
+
+fn toda(c: &mut Criterion) {
+    chain::<4, _>(c, "toda_2", Toda2, true);
+    chain::<8, _>(c, "toda_4", Toda4, true);
+    chain::<16, _>(c, "toda_8", Toda8, true);
+    chain::<24, _>(c, "toda_12", Toda12, true);
+    chain::<32, _>(c, "toda_16", Toda16, true);
+    chain::<64, _>(c, "toda_32", Toda32, true);
+    chain::<256, _>(c, "toda_128", Toda128, true);
+    chain::<1024, _>(c, "toda_512", Toda512, false);
+}
+
+/// Short windows (2 shared cores).
+fn config() -> Criterion {
+    Criterion::default()
+        .warm_up_time(Duration::from_millis(500))
+        .measurement_time(Duration::from_secs(2))
+        .sample_size(20)
+}
+
+criterion_group! {
+    name = benches;
+    config = config();
+    targets = kepler, fput, toda
+}
+criterion_main!(benches);
