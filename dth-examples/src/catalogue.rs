@@ -20,6 +20,7 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 use crate::budget::{self, MemoryEstimate};
+use crate::ensemble;
 use crate::error::Error;
 use crate::pipeline::{run_system, RunError};
 use crate::report::RunReport;
@@ -217,6 +218,14 @@ impl SystemEntry {
             dth,
             psi_identically_zero: S::PSI_IDENTICALLY_ZERO,
             run: Box::new(move |scene, out, options| {
+                if scene.members.is_some() {
+                    let build = |params: &Params| make(&entry_name, params);
+                    return ensemble::run::<D, S>(&build, scene, out, options);
+                }
+                if ensemble::schedule::is_worker_rank() {
+                    // Under `mpirun`, a single run is rank 0's alone.
+                    return Ok(ensemble::idle_report(scene));
+                }
                 let system = make(&entry_name, &scene.params)?;
                 run_system::<D, S>(&system, scene, out, options)
             }),

@@ -41,6 +41,9 @@ pub struct RunReport {
     /// The thesis's figures (scenes with `thesis_figures = true`), in its order.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub thesis_figures: Vec<thesis::ThesisFigure>,
+    /// What an ensemble scene ran (`crate::ensemble`), counted; `None` for a single run.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub ensemble: Option<crate::ensemble::Counts>,
 }
 
 impl RunReport {
