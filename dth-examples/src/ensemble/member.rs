@@ -174,7 +174,9 @@ pub fn run_member<const D: usize, S: SceneSystem<D>>(
             return Err(Error::NotAvailable {
                 what: "energy shell for system",
                 name: scene.system.clone(),
-                reason: "its H depends on time, so H = E is no invariant set: drop `energy` and `solve`".into(),
+                reason:
+                    "its H depends on time, so H = E is no invariant set: drop `energy` and `solve`"
+                        .into(),
             });
         }
         match on_shell(&system, &mut z0, shell) {

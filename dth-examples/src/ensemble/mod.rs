@@ -57,9 +57,9 @@ fn progress(count: usize, options: &RunOptions) -> ProgressBar {
         return ProgressBar::hidden();
     }
     let bar = ProgressBar::new(count as u64);
-    if let Ok(style) =
-        ProgressStyle::with_template("{prefix:>20} [{bar:40}] {pos}/{len} members {elapsed} (eta {eta})")
-    {
+    if let Ok(style) = ProgressStyle::with_template(
+        "{prefix:>20} [{bar:40}] {pos}/{len} members {elapsed} (eta {eta})",
+    ) {
         bar.set_style(style.progress_chars("=> "));
     }
     bar.set_prefix("ensemble");
@@ -105,7 +105,11 @@ pub fn run<const D: usize, S: SceneSystem<D>>(
         reason: "the scene has no `[ensemble]` with a `kind`".into(),
     })?;
     let worker = schedule::is_worker_rank();
-    let staging = if worker { None } else { Some(Staging::new(out)?) };
+    let staging = if worker {
+        None
+    } else {
+        Some(Staging::new(out)?)
+    };
     let candidates = sample::draw(members, scene);
     let bar = progress(candidates.len(), options);
     let results = schedule::run_members(candidates.len(), options.threads, &bar, |i| {
@@ -121,7 +125,10 @@ pub fn run<const D: usize, S: SceneSystem<D>>(
     let (mut files, counts) = report::write(&dir, scene, members, D, &results)?;
     files.push("summary.json".into());
     files.push("index.html".into());
-    write_file(&dir.join("index.html"), report::index(scene, &counts, &files))?;
+    write_file(
+        &dir.join("index.html"),
+        report::index(scene, &counts, &files),
+    )?;
     let summary = Summary {
         title: &scene.title,
         system: &scene.system,

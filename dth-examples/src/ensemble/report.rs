@@ -44,7 +44,7 @@ pub struct Row {
 }
 
 /// What the ensemble ran, counted (in `summary.json` and `ensemble.json`).
-#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 pub struct Counts {
     /// Members the sampler drew.
     pub drawn: usize,
@@ -173,7 +173,9 @@ pub fn csv(scene: &Scene, d: usize, t: &Table) -> String {
             s,
             ",{:e},{},{},{},{}",
             r.energy_error,
-            r.failure.as_ref().map_or(String::new(), |f| f.step.to_string()),
+            r.failure
+                .as_ref()
+                .map_or(String::new(), |f| f.step.to_string()),
             field(r.failure.as_ref().map_or("", |f| f.reason.as_str())),
             opt(r.megno),
             opt(r.lyapunov)
@@ -231,12 +233,7 @@ fn section_figures(scene: &Scene, results: &[MemberResult]) -> Vec<(String, Figu
         for (mi, m) in scene.methods.iter().enumerate() {
             let mut members = 0;
             let mut points = 0;
-            let mut f = Figure::new(
-                "",
-                &x.name(),
-                &y.name(),
-            )
-            .with_legend(None);
+            let mut f = Figure::new("", &x.name(), &y.name()).with_legend(None);
             for r in results {
                 let Some(c) = r.runs.get(mi).and_then(|run| run.crossings.get(i)) else {
                     continue;
@@ -256,9 +253,8 @@ fn section_figures(scene: &Scene, results: &[MemberResult]) -> Vec<(String, Figu
                 );
             }
             f.title = format!(
-                "{}: {} section {} = {value}, {members} members, {points} crossings ({})",
+                "{}: section {} = {value} by {}, {members} members, {points} crossings",
                 scene.title,
-                m.label,
                 coordinate.name(),
                 m.label
             );
@@ -299,12 +295,20 @@ const CLASSES: [(f64, &str); 4] = [
 
 /// The chaos maps: per method, every member at its varied values, coloured by its MEGNO
 /// class (one axis: `<Y>` against it).
-fn chaos_figures(scene: &Scene, members: &Members, d: usize, results: &[MemberResult]) -> Vec<(String, Figure)> {
+fn chaos_figures(
+    scene: &Scene,
+    members: &Members,
+    d: usize,
+    results: &[MemberResult],
+) -> Vec<(String, Figure)> {
     let axes = map_axes(members);
     let mut figs = Vec::new();
     for (mi, m) in scene.methods.iter().enumerate() {
         let value = |r: &MemberResult| r.runs.get(mi).and_then(|run| run.megno);
-        let title = format!("{}: {}, MEGNO chaos indicator over the ensemble", scene.title, m.label);
+        let title = format!(
+            "{}: {}, MEGNO chaos indicator over the ensemble",
+            scene.title, m.label
+        );
         let f = match axes.as_slice() {
             [x, y, ..] => {
                 let mut f = Figure::new(&title, &x.name(), &y.name());
@@ -326,7 +330,10 @@ fn chaos_figures(scene: &Scene, members: &Members, d: usize, results: &[MemberRe
                     .filter_map(at)
                     .collect();
                 if !none.is_empty() {
-                    f = f.with_series(Series::new("failed or too short: no <Y>", Mark::Points, none).with_color(8));
+                    f = f.with_series(
+                        Series::new("failed or too short: no <Y>", Mark::Points, none)
+                            .with_color(8),
+                    );
                 }
                 f
             }
@@ -407,7 +414,10 @@ pub fn index(scene: &Scene, counts: &Counts, files: &[String]) -> String {
         let _ = writeln!(h, "<p><img src=\"{0}\" alt=\"{0}\"></p>", escape(f));
     }
     h.push_str("<ul>\n");
-    for f in files.iter().filter(|f| !f.ends_with(".png") && !f.ends_with(".svg")) {
+    for f in files
+        .iter()
+        .filter(|f| !f.ends_with(".png") && !f.ends_with(".svg"))
+    {
         let _ = writeln!(h, "<li><a href=\"{0}\">{0}</a></li>", escape(f));
     }
     h.push_str("</ul>\n</body></html>\n");

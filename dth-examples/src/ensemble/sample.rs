@@ -117,7 +117,12 @@ pub fn draw(m: &Members, scene: &Scene) -> Vec<Candidate> {
                 }
             }
         }
-        Sampler::Random { x, y, samples, seed } => {
+        Sampler::Random {
+            x,
+            y,
+            samples,
+            seed,
+        } => {
             let mut rng = SplitMix64::new(*seed);
             for _ in 0..*samples {
                 let mut c = base.clone();
@@ -178,7 +183,10 @@ pub fn on_shell<const D: usize, S: Hamiltonian<D>>(
     // f(2) = 4a + 2b + c for a quadratic; the four values carry roundoff of eps times their
     // size, so allow a few hundred eps of it.
     let scale = fm.abs() + c.abs() + fp.abs() + f2.abs() + shell.energy.abs();
-    if !(f2 - (4.0 * a + 2.0 * b + c)).abs().le(&(256.0 * f64::EPSILON * scale)) {
+    if !(f2 - (4.0 * a + 2.0 * b + c))
+        .abs()
+        .le(&(256.0 * f64::EPSILON * scale))
+    {
         return Shell::NotQuadratic;
     }
     let root = if a == 0.0 {

@@ -184,7 +184,10 @@ mod mpi_ranks {
         };
         let fail = |e: Error| {
             next.store(chunks, Ordering::SeqCst);
-            error.lock().unwrap_or_else(|p| p.into_inner()).get_or_insert(e);
+            error
+                .lock()
+                .unwrap_or_else(|p| p.into_inner())
+                .get_or_insert(e);
         };
         std::thread::scope(|s| {
             // Rank 0's own share, on its worker threads.

@@ -220,7 +220,31 @@ mod tests {
         encode(&results, &mut bytes);
         let back = decode(&bytes).unwrap();
         // Compare bits (NaN != NaN as a float).
-        let bits = |r: &[MemberResult]| format!("{:?}", r.iter().map(|m| (m.index, m.params.values().map(|v| v.to_bits()).collect::<Vec<_>>(), m.start.as_ref().map(|s| s.iter().map(|v| v.to_bits()).collect::<Vec<_>>()), m.runs.iter().map(|r| (r.end.iter().map(|v| v.to_bits()).collect::<Vec<_>>(), r.megno.map(f64::to_bits), r.failure.clone(), r.crossings.clone())).collect::<Vec<_>>(), m.skipped, m.not_run.clone())).collect::<Vec<_>>());
+        let bits = |r: &[MemberResult]| {
+            format!(
+                "{:?}",
+                r.iter()
+                    .map(|m| (
+                        m.index,
+                        m.params.values().map(|v| v.to_bits()).collect::<Vec<_>>(),
+                        m.start
+                            .as_ref()
+                            .map(|s| s.iter().map(|v| v.to_bits()).collect::<Vec<_>>()),
+                        m.runs
+                            .iter()
+                            .map(|r| (
+                                r.end.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+                                r.megno.map(f64::to_bits),
+                                r.failure.clone(),
+                                r.crossings.clone()
+                            ))
+                            .collect::<Vec<_>>(),
+                        m.skipped,
+                        m.not_run.clone()
+                    ))
+                    .collect::<Vec<_>>()
+            )
+        };
         assert_eq!(bits(&back), bits(&results));
         assert!(decode(&bytes[..bytes.len() - 1]).is_none());
     }

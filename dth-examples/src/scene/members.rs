@@ -87,9 +87,9 @@ pub(super) const KINDS: &str = "\"square\" (the default), \"grid\", \"random\" o
 /// The axis named `s`: a coordinate `q1..qn`, `p1..pn`, or a parameter in `params`.
 fn axis(s: &str, n: Option<usize>, params: &[&str]) -> Result<Axis, String> {
     match Coord::from_name(s, n) {
-        Some(Coord::T) => Err(
-            "an ensemble varies q or p coordinates or parameters, not the time `t`".to_string(),
-        ),
+        Some(Coord::T) => {
+            Err("an ensemble varies q or p coordinates or parameters, not the time `t`".to_string())
+        }
         Some(c) => Ok(Axis::Coord(c)),
         None if params.contains(&s) => Ok(Axis::Param(s.to_string())),
         None => Err(format!(
@@ -144,9 +144,9 @@ pub(super) fn check(
         ));
     };
     let range = |axis_key: &str,
-                     a: &Option<Spanned<String>>,
-                     r: &Option<Spanned<Vec<f64>>>,
-                     errors: &mut Errors|
+                 a: &Option<Spanned<String>>,
+                 r: &Option<Spanned<Vec<f64>>>,
+                 errors: &mut Errors|
      -> Option<AxisRange> {
         let a = a.as_ref()?;
         let axis = axis(a.get_ref(), n, params)
@@ -250,7 +250,11 @@ pub(super) fn check(
         }
         _ => {
             let Some(text) = &e.members else {
-                missing("members", "CSV text: a header naming the columns, one row a member", errors);
+                missing(
+                    "members",
+                    "CSV text: a header naming the columns, one row a member",
+                    errors,
+                );
                 return None;
             };
             let (columns, rows) = csv(text.get_ref(), n, params)
@@ -271,7 +275,11 @@ pub(super) fn check(
     let shell = match (&e.energy, &e.solve) {
         (None, None) => Some(None),
         (Some(_), None) => {
-            missing("solve", "the momentum solved for the energy shell, e.g. p1", errors);
+            missing(
+                "solve",
+                "the momentum solved for the energy shell, e.g. p1",
+                errors,
+            );
             None
         }
         (None, Some(_)) => {
@@ -318,7 +326,10 @@ pub(super) fn check(
         Some(c) => {
             errors.push((
                 c.span(),
-                format!("unknown chaos indicator `{}`: expected \"megno\"", c.get_ref()),
+                format!(
+                    "unknown chaos indicator `{}`: expected \"megno\"",
+                    c.get_ref()
+                ),
             ));
             None
         }
@@ -331,7 +342,11 @@ pub(super) fn check(
 }
 
 /// Parses a list ensemble's CSV: a header of axes, then rows of as many finite numbers.
-fn csv(text: &str, n: Option<usize>, params: &[&str]) -> Result<(Vec<Axis>, Vec<Vec<f64>>), String> {
+fn csv(
+    text: &str,
+    n: Option<usize>,
+    params: &[&str],
+) -> Result<(Vec<Axis>, Vec<Vec<f64>>), String> {
     let mut lines = text
         .lines()
         .enumerate()
@@ -355,7 +370,12 @@ fn csv(text: &str, n: Option<usize>, params: &[&str]) -> Result<(Vec<Axis>, Vec<
             .split(',')
             .map(|v| v.trim().parse::<f64>().ok().filter(|x| x.is_finite()))
             .collect::<Option<Vec<f64>>>()
-            .ok_or_else(|| format!("`members` line {line}: `{l}`: expected {} finite numbers separated by commas", columns.len()))?;
+            .ok_or_else(|| {
+                format!(
+                    "`members` line {line}: `{l}`: expected {} finite numbers separated by commas",
+                    columns.len()
+                )
+            })?;
         if row.len() != columns.len() {
             return Err(format!(
                 "`members` line {line} has {} values: expected {} (one per header column)",

@@ -41,7 +41,7 @@ mod validate;
 
 pub(crate) use schema::thousands;
 pub use schema::{
-    component_names, Axis, AxisRange, ChaosIndicator, Coord, Direction, EnergyShell, Duration, EffectKind, EffectSpec, Ensemble, MethodKind,
-    Members, MethodSpec, Sampler, Scene, StepSpec,
+    component_names, Axis, AxisRange, ChaosIndicator, Coord, Direction, Duration, EffectKind,
+    EffectSpec, EnergyShell, Ensemble, Members, MethodKind, MethodSpec, Sampler, Scene, StepSpec,
 };
 pub use validate::{line_col, parse, ParamRule, ParamSpec, SystemInfo, SystemLookup};

@@ -244,7 +244,11 @@ impl Coord {
         if i == 0 || n.is_some_and(|n| i > n) {
             return None;
         }
-        Some(if is_q { Coord::Q(i - 1) } else { Coord::P(i - 1) })
+        Some(if is_q {
+            Coord::Q(i - 1)
+        } else {
+            Coord::P(i - 1)
+        })
     }
 
     /// The scene name (`q1`, `p2`, `t`).

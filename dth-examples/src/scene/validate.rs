@@ -462,7 +462,8 @@ fn validate(raw: RawScene, systems: &dyn SystemLookup, cx: &mut Ctxt<'_>) -> Opt
     }
 
     // `[ensemble]`: the thesis's square (no `kind`), or an ensemble scene (`members`).
-    let param_names: Vec<&str> = info.map_or(Vec::new(), |i| i.params.iter().map(|p| p.name).collect());
+    let param_names: Vec<&str> =
+        info.map_or(Vec::new(), |i| i.params.iter().map(|p| p.name).collect());
     let (ensemble, members) = match raw.ensemble {
         None => (None, None),
         Some(e) => {
@@ -567,12 +568,19 @@ fn square(
     let mut required = |key: &str| {
         cx.error(
             at.clone(),
-            format!("missing field `{key}` of the square ensemble (keys {})", members::SQUARE_KEYS.join(", ")),
+            format!(
+                "missing field `{key}` of the square ensemble (keys {})",
+                members::SQUARE_KEYS.join(", ")
+            ),
         )
     };
-    let (Some(ex), Some(ey), Some(hw), Some(ps), Some(st)) =
-        (e.x.as_ref(), e.y.as_ref(), e.half_width.as_ref(), e.per_side.as_ref(), e.steps.as_ref())
-    else {
+    let (Some(ex), Some(ey), Some(hw), Some(ps), Some(st)) = (
+        e.x.as_ref(),
+        e.y.as_ref(),
+        e.half_width.as_ref(),
+        e.per_side.as_ref(),
+        e.steps.as_ref(),
+    ) else {
         for (key, given) in [
             ("x", e.x.is_some()),
             ("y", e.y.is_some()),
