@@ -16,6 +16,9 @@ use crate::scene::{ChaosIndicator, Members, MethodSpec, Scene};
 use crate::simulate::{initial_state, stop_for, Failure, RunOptions};
 use crate::system::SceneSystem;
 
+/// Builds a scene's system from a member's parameters.
+pub type Build<'a, S> = dyn Fn(&BTreeMap<String, f64>) -> Result<S, Error> + Sync + 'a;
+
 /// One method's run of one member.
 #[derive(Debug, Clone, PartialEq)]
 pub struct MemberRun {
@@ -74,9 +77,8 @@ impl<const D: usize, S: SceneSystem<D>> Observer<D> for Watch<'_, D, S> {
             Some(h0) => {
                 let d = (h - h0).abs();
                 // NaN (a state that left the domain) counts as the worst error.
-                if !(d <= self.energy_error) {
-                    self.energy_error = if d.is_nan() { f64::INFINITY } else { d };
-                }
+                let d = if d.is_nan() { f64::INFINITY } else { d };
+                self.energy_error = self.energy_error.max(d);
             }
         }
         self.last = Some((record.k, record.t, record.z));
@@ -141,7 +143,7 @@ fn run_one<const D: usize, S: SceneSystem<D>>(
 /// What fails for every member alike: a method not available for the system, an energy
 /// shell of a system that is not quadratic in the solved momentum.
 pub fn run_member<const D: usize, S: SceneSystem<D>>(
-    build: &(dyn Fn(&BTreeMap<String, f64>) -> Result<S, Error> + Sync),
+    build: &Build<'_, S>,
     scene: &Scene,
     members: &Members,
     c: &Candidate,

@@ -35,10 +35,8 @@ use crate::scene::Scene;
 use crate::simulate::RunOptions;
 use crate::system::SceneSystem;
 
+pub use member::Build;
 pub use report::Counts;
-
-/// Builds a scene's system from a member's parameters.
-pub type Build<'a, S> = dyn Fn(&BTreeMap<String, f64>) -> Result<S, Error> + Sync + 'a;
 
 /// `summary.json` of an ensemble run.
 #[derive(Debug, Clone, PartialEq, Serialize)]

@@ -94,6 +94,7 @@ mod mpi_ranks {
 
     use indicatif::ProgressBar;
     use mpi::environment::{Threading, Universe};
+    use mpi::point_to_point::MatchedReceiveVec;
     use mpi::topology::SimpleCommunicator;
     use mpi::traits::*;
 
@@ -204,11 +205,11 @@ mod mpi_ranks {
             // The dispatcher: answers every request until each worker has been stopped.
             let mut active = size - 1;
             while active > 0 {
-                let Some((msg, status)) = world.any_process().immediate_matched_probe() else {
+                let Some(probed) = world.any_process().immediate_matched_probe() else {
                     std::thread::sleep(std::time::Duration::from_micros(200));
                     continue;
                 };
-                let (bytes, _) = msg.matched_receive_vec::<u8>();
+                let (bytes, status) = probed.matched_receive_vec::<u8>();
                 let src = status.source_rank();
                 if status.tag() == FAILED {
                     fail(failed(src, String::from_utf8_lossy(&bytes).into_owned()));
