@@ -30,13 +30,12 @@ use serde::Serialize;
 use crate::error::Error;
 use crate::output::Staging;
 use crate::pipeline::RunError;
-use crate::report::{write_file, write_json, RunReport};
+use crate::report::{write_file, write_json, EnsembleCounts as Counts, RunReport};
 use crate::scene::Scene;
 use crate::simulate::RunOptions;
 use crate::system::SceneSystem;
 
 pub use member::Build;
-pub use report::Counts;
 
 /// `summary.json` of an ensemble run.
 #[derive(Debug, Clone, PartialEq, Serialize)]

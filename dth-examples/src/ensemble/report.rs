@@ -12,7 +12,7 @@ use super::member::MemberResult;
 use crate::error::Error;
 use crate::plot::{Figure, Mark, Series};
 use crate::report::html::escape;
-use crate::report::{write_file, write_json};
+use crate::report::{write_file, write_json, EnsembleCounts as Counts};
 use crate::scene::{component_names, Axis, EffectSpec, Members, Sampler, Scene};
 use crate::simulate::Failure;
 
@@ -41,19 +41,6 @@ pub struct Row {
     pub megno: Option<f64>,
     /// Benettin's maximal Lyapunov exponent estimate.
     pub lyapunov: Option<f64>,
-}
-
-/// What the ensemble ran, counted (in `summary.json` and `ensemble.json`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-pub struct Counts {
-    /// Members the sampler drew.
-    pub drawn: usize,
-    /// Members the energy shell skipped (no real solution).
-    pub skipped: usize,
-    /// Members whose parameters or state made no run (recorded with a failure).
-    pub not_run: usize,
-    /// Member runs (member and method) that failed mid-run.
-    pub failed_runs: usize,
 }
 
 /// `ensemble.json`: the counts, the skipped members' numbers, and the rows.
