@@ -54,20 +54,21 @@ fn the_files_are_the_same_bytes_on_one_and_on_two_threads() {
         &format!("[[method]]\nkind = \"dth\"\ndtau = 0.1\n[[method]]\nkind = \"rk4\"\ndt = 0.1\n{SECTION}"),
         60.0,
     );
+    // Both runs write the same folder (its path is in summary.json), one after the other.
     let dir = tempfile::tempdir().unwrap();
-    let one = dir.path().join("one");
-    let two = dir.path().join("two");
-    let r1 = run(&scene, &one, 1);
-    let r2 = run(&scene, &two, 2);
+    let out = dir.path().join("out");
+    let r1 = run(&scene, &out, 1);
+    let a = files(&out);
+    let rows = json(&out)["rows"].as_array().unwrap().len();
+    let r2 = run(&scene, &out, 2);
+    let b = files(&out);
     assert_eq!(r1.ensemble, r2.ensemble);
-    let (a, b) = (files(&one), files(&two));
     assert_eq!(a.keys().collect::<Vec<_>>(), b.keys().collect::<Vec<_>>());
     for (name, bytes) in &a {
         assert!(bytes == &b[name], "{name} differs between 1 and 2 threads");
     }
     // The run did something: members with crossings and indicators.
     assert!(a.contains_key("section1_dth.png") && a.contains_key("chaos_map_rk4.png"));
-    let rows = json(&one)["rows"].as_array().unwrap().len();
     assert!(rows >= 2 * 12, "{rows} rows");
 }
 

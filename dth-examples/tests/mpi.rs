@@ -59,11 +59,11 @@ fn two_ranks_write_the_same_bytes_as_one() {
     for (name, bytes) in &a {
         assert!(bytes == &b[name], "{name} differs between 1 and 2 ranks");
     }
-    // Rank 1 wrote nothing of its own: the only folders are the two outputs.
+    // Rank 1 wrote nothing of its own: no other folder, no staging left behind.
     let mut entries: Vec<String> = std::fs::read_dir(dir.path())
         .unwrap()
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
         .collect();
     entries.sort();
-    assert_eq!(entries, ["one", "scene.toml", "two"]);
+    assert_eq!(entries, ["out", "scene.toml"]);
 }

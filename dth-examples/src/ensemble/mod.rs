@@ -21,32 +21,19 @@ pub mod sample;
 pub mod schedule;
 pub mod wire;
 
-use std::collections::BTreeMap;
 use std::path::Path;
 
 use indicatif::{ProgressBar, ProgressStyle};
-use serde::Serialize;
 
 use crate::error::Error;
 use crate::output::Staging;
 use crate::pipeline::RunError;
-use crate::report::{write_file, write_json, EnsembleCounts as Counts, RunReport};
+use crate::report::{write_file, write_json, RunReport};
 use crate::scene::Scene;
 use crate::simulate::RunOptions;
 use crate::system::SceneSystem;
 
 pub use member::Build;
-
-/// `summary.json` of an ensemble run.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-struct Summary<'a> {
-    title: &'a str,
-    system: &'a str,
-    params: &'a BTreeMap<String, f64>,
-    methods: Vec<&'a str>,
-    counts: &'a Counts,
-    files: &'a [String],
-}
 
 /// The one progress bar of an ensemble: members done of all.
 fn progress(count: usize, options: &RunOptions) -> ProgressBar {
@@ -118,6 +105,7 @@ pub fn run<const D: usize, S: SceneSystem<D>>(
         return Ok(idle_report(scene));
     };
     let mut report = idle_report(scene);
+    report.out = out.to_path_buf();
     let dir = staging.path().to_path_buf();
     let (mut files, counts) = report::write(&dir, scene, members, D, &results)?;
     files.push("summary.json".into());
@@ -126,17 +114,11 @@ pub fn run<const D: usize, S: SceneSystem<D>>(
         &dir.join("index.html"),
         report::index(scene, &counts, &files),
     )?;
-    let summary = Summary {
-        title: &scene.title,
-        system: &scene.system,
-        params: &scene.params,
-        methods: scene.methods.iter().map(|m| m.label.as_str()).collect(),
-        counts: &counts,
-        files: &files,
-    };
-    write_json(&dir.join("summary.json"), &summary)?;
-    report.out = staging.commit()?;
     report.files = files;
     report.ensemble = Some(counts);
+    // `summary.json` has the same form as a single run's: no methods of its own (they are
+    // the table's), the counts under `ensemble`.
+    write_json(&dir.join("summary.json"), &report)?;
+    report.out = staging.commit()?;
     Ok(report)
 }
