@@ -291,7 +291,14 @@ fn chaos_figures(
     let axes = map_axes(members);
     let mut figs = Vec::new();
     for (mi, m) in scene.methods.iter().enumerate() {
-        let value = |r: &MemberResult| r.runs.get(mi).and_then(|run| run.megno);
+        // A run that stopped early has a <Y> over a shorter time: shown as failed, not classed
+        // (the table keeps its value).
+        let value = |r: &MemberResult| {
+            r.runs
+                .get(mi)
+                .filter(|run| run.failure.is_none())
+                .and_then(|run| run.megno)
+        };
         let title = format!(
             "{}: {}, MEGNO chaos indicator over the ensemble",
             scene.title, m.label
@@ -318,7 +325,7 @@ fn chaos_figures(
                     .collect();
                 if !none.is_empty() {
                     f = f.with_series(
-                        Series::new("failed or too short: no <Y>", Mark::Points, none)
+                        Series::new("failed (stopped early) or no <Y>", Mark::Points, none)
                             .with_color(8),
                     );
                 }
