@@ -86,6 +86,10 @@ pub fn estimate<const D: usize, S: SceneSystem<D>>(
             if let Some(e) = &scene.ensemble {
                 values = values.saturating_add((e.per_side * e.per_side) as u64 * (d + 1));
             }
+            if let Some(members) = &scene.members {
+                // An ensemble scene keeps every member's section crossings until it writes.
+                values = values.saturating_mul(members.candidates() as u64);
+            }
             if scene.thesis_figures && MethodKind::THESIS_FIGURES.contains(&m.kind) {
                 // Every state of the long run: time and (q1, q2, p1, p2).
                 values = values.saturating_add(n.saturating_add(1).saturating_mul(5));

@@ -20,6 +20,7 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 use crate::budget::{self, MemoryEstimate};
+use crate::ensemble;
 use crate::error::Error;
 use crate::pipeline::{run_system, RunError};
 use crate::report::RunReport;
@@ -201,9 +202,18 @@ impl SystemEntry {
             }
             build(params).map_err(unavailable)
         };
-        let make_too = make.clone();
         let entry_name = name.to_string();
-        let estimate_name = name.to_string();
+        // The memory estimate (`dth check`), also checked before an ensemble scene runs (a
+        // single run checks it in `simulate::compute`).
+        let make_check = make.clone();
+        let check_name = name.to_string();
+        let check = move |scene: &Scene, options: &RunOptions| {
+            let system = make_check(&check_name, &scene.params)?;
+            let z0 = initial_state(&system, scene)?;
+            let stop = stop_for(&system, scene, &z0, options)?;
+            budget::check(&system, scene, stop, options.memory_limit())
+        };
+        let check_too = check.clone();
         SystemEntry {
             name: name.to_string(),
             doc: doc.to_string(),
@@ -217,15 +227,19 @@ impl SystemEntry {
             dth,
             psi_identically_zero: S::PSI_IDENTICALLY_ZERO,
             run: Box::new(move |scene, out, options| {
+                if scene.members.is_some() {
+                    check(scene, options)?;
+                    let build = |params: &Params| make(&entry_name, params);
+                    return ensemble::run::<D, S>(&build, scene, out, options);
+                }
+                if ensemble::schedule::is_worker_rank() {
+                    // Under `mpirun`, a single run is rank 0's alone.
+                    return Ok(ensemble::idle_report(scene));
+                }
                 let system = make(&entry_name, &scene.params)?;
                 run_system::<D, S>(&system, scene, out, options)
             }),
-            estimate: Box::new(move |scene, options| {
-                let system = make_too(&estimate_name, &scene.params)?;
-                let z0 = initial_state(&system, scene)?;
-                let stop = stop_for(&system, scene, &z0, options)?;
-                budget::check(&system, scene, stop, options.memory_limit())
-            }),
+            estimate: Box::new(check_too),
         }
     }
 

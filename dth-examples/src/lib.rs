@@ -21,7 +21,8 @@
 //! 6. [`budget`] (the memory a run's effects will keep, checked before it runs), then
 //!    [`simulate`]: every method of a scene on a system, results in memory;
 //! 7. [`report`]: CSV, figures, Table 4.1, the thesis's figures, `index.html`;
-//! 8. [`pipeline`]: simulate, report, stage;
+//! 8. [`ensemble`] (ensemble scenes: members on every core and MPI rank, their table and
+//!    figures) and [`pipeline`]: simulate, report, stage;
 //! 9. [`catalogue`]: the systems scenes can name, each bound to the pipeline; then this file
 //!    and `main.rs`.
 //!
@@ -58,6 +59,7 @@ pub mod simulate;
 
 pub mod report;
 
+pub mod ensemble;
 pub mod pipeline;
 
 pub mod catalogue;

@@ -48,6 +48,10 @@ struct Cli {
     /// memory). A scene estimated above it is refused, by `check` and `run`, before it runs.
     #[arg(long, global = true, value_parser = parse_size)]
     max_memory: Option<u64>,
+    /// Threads an ensemble scene runs its members on (default: one per core). The files are
+    /// the same for any number. Under `mpirun` (the `mpi` feature) this is per rank.
+    #[arg(long, global = true, value_parser = clap::value_parser!(u16).range(1..))]
+    threads: Option<u16>,
 }
 
 /// A size in bytes: a number with an optional `k`, `M`, `G` or `T` (powers of 1000).
@@ -150,6 +154,16 @@ fn run(
         Ok(report) => report,
         Err(e) => e.partial_report()?,
     };
+    if dth_examples::ensemble::schedule::is_worker_rank() {
+        // An MPI rank other than 0 computed its share; rank 0 reports.
+        return Ok(ExitCode::SUCCESS);
+    }
+    if let Some(c) = &report.ensemble {
+        println!(
+            "{} members: {} skipped (no real solution on the energy shell), {} not run, {} method runs failed (see ensemble.csv)",
+            c.drawn, c.skipped, c.not_run, c.failed_runs
+        );
+    }
     let deviations = report.deviation_markdown();
     if !deviations.is_empty() {
         println!("{deviations}");
@@ -250,6 +264,9 @@ fn main_inner(cli: Cli) -> Result<ExitCode, CliError> {
     if let Some(bytes) = cli.max_memory {
         options = options.with_memory_limit(bytes);
     }
+    if let Some(threads) = cli.threads {
+        options = options.with_threads(usize::from(threads));
+    }
     match cli.command {
         None => {
             let out = cli
@@ -334,6 +351,9 @@ fn main() -> ExitCode {
         eprintln!("warning: cannot install the SIGINT/SIGTERM handler ({e}): an interrupted run may leave a temporary folder behind");
     }
     let cli = Cli::parse();
+    // Under `mpirun` the ranks split an ensemble scene's members; MPI lives until `main` ends.
+    #[cfg(feature = "mpi")]
+    let _mpi = dth_examples::ensemble::schedule::init_mpi();
     match main_inner(cli) {
         Ok(code) => code,
         Err(e) => {

@@ -120,6 +120,7 @@ pub fn run_system<const D: usize, S: SceneSystem<D>>(
         files,
         table41,
         thesis_figures,
+        ensemble: None,
     };
     write_file(&dir.join("index.html"), html::index(scene, &report))?;
     write_json(&dir.join("summary.json"), &report)?;

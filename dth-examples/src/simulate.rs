@@ -31,6 +31,9 @@ pub struct RunOptions {
     /// estimated above it is refused before it starts. Default `None`: half the memory the
     /// system reports available ([`budget::default_limit`]).
     pub memory_limit: Option<u64>,
+    /// Threads an ensemble scene runs its members on (`crate::ensemble`); `None`, the
+    /// default: one per core. The results do not depend on it.
+    pub threads: Option<usize>,
 }
 
 impl Default for RunOptions {
@@ -39,6 +42,7 @@ impl Default for RunOptions {
             progress: true,
             max_steps: 100_000_000,
             memory_limit: None,
+            threads: None,
         }
     }
 }
@@ -53,6 +57,12 @@ impl RunOptions {
     /// Sets [`RunOptions::memory_limit`] (bytes).
     pub fn with_memory_limit(mut self, bytes: u64) -> Self {
         self.memory_limit = Some(bytes);
+        self
+    }
+
+    /// Sets [`RunOptions::threads`].
+    pub fn with_threads(mut self, threads: usize) -> Self {
+        self.threads = Some(threads);
         self
     }
 

@@ -41,6 +41,23 @@ pub struct RunReport {
     /// The thesis's figures (scenes with `thesis_figures = true`), in its order.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub thesis_figures: Vec<thesis::ThesisFigure>,
+    /// What an ensemble scene ran (`crate::ensemble`), counted; `None` for a single run.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub ensemble: Option<EnsembleCounts>,
+}
+
+/// What an ensemble scene ran (`crate::ensemble`), counted (in `summary.json` and
+/// `ensemble.json`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub struct EnsembleCounts {
+    /// Members the sampler drew.
+    pub drawn: usize,
+    /// Members the energy shell skipped (no real solution).
+    pub skipped: usize,
+    /// Members whose parameters or state made no run (recorded with a failure).
+    pub not_run: usize,
+    /// Member runs (member and method) that failed mid-run.
+    pub failed_runs: usize,
 }
 
 impl RunReport {

@@ -34,13 +34,14 @@
 //! kind = "energy_deviation"
 //! ```
 
+mod members;
 mod raw;
 mod schema;
 mod validate;
 
 pub(crate) use schema::thousands;
 pub use schema::{
-    component_names, Coord, Direction, Duration, EffectKind, EffectSpec, Ensemble, MethodKind,
-    MethodSpec, Scene, StepSpec,
+    component_names, Axis, AxisRange, ChaosIndicator, Coord, Direction, Duration, EffectKind,
+    EffectSpec, EnergyShell, Ensemble, Members, MethodKind, MethodSpec, Sampler, Scene, StepSpec,
 };
 pub use validate::{line_col, parse, ParamRule, ParamSpec, SystemInfo, SystemLookup};

@@ -22,14 +22,27 @@ pub(super) struct RawScene {
     pub(super) thesis_figures: Option<Spanned<bool>>,
 }
 
+/// `[ensemble]`: the thesis's square (no `kind`), or an ensemble scene (`kind = "grid" |
+/// "random" | "list"`, see `super::members`). Which keys each kind takes is checked there.
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(super) struct RawEnsemble {
-    pub(super) x: Spanned<String>,
-    pub(super) y: Spanned<String>,
-    pub(super) half_width: Spanned<f64>,
-    pub(super) per_side: Spanned<i64>,
-    pub(super) steps: Spanned<i64>,
+    pub(super) kind: Option<Spanned<String>>,
+    pub(super) x: Option<Spanned<String>>,
+    pub(super) y: Option<Spanned<String>>,
+    pub(super) half_width: Option<Spanned<f64>>,
+    pub(super) per_side: Option<Spanned<i64>>,
+    pub(super) steps: Option<Spanned<i64>>,
+    pub(super) x_range: Option<Spanned<Vec<f64>>>,
+    pub(super) y_range: Option<Spanned<Vec<f64>>>,
+    pub(super) x_count: Option<Spanned<i64>>,
+    pub(super) y_count: Option<Spanned<i64>>,
+    pub(super) samples: Option<Spanned<i64>>,
+    pub(super) seed: Option<Spanned<i64>>,
+    pub(super) members: Option<Spanned<String>>,
+    pub(super) energy: Option<Spanned<f64>>,
+    pub(super) solve: Option<Spanned<String>>,
+    pub(super) chaos: Option<Spanned<String>>,
 }
 
 #[derive(Deserialize)]

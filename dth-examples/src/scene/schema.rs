@@ -30,6 +30,10 @@ pub struct Scene {
     pub effects: Vec<EffectSpec>,
     /// A square of initial conditions run for a few steps (thesis Figures 4.10-4.13).
     pub ensemble: Option<Ensemble>,
+    /// An ensemble scene (`[ensemble]` with `kind = "grid" | "random" | "list"`): every member
+    /// runs every method for the scene's duration ([`crate::ensemble`]), in place of the
+    /// single run from `q`, `p`.
+    pub members: Option<Members>,
     /// Draw the thesis's Figures 4.1-4.15 and Table 4.1 (`report::thesis`): a planar system
     /// with a period and an exact solution (Kepler), and the methods of
     /// [`MethodKind::THESIS_FIGURES`].
@@ -227,6 +231,26 @@ pub enum Coord {
 }
 
 impl Coord {
+    /// The coordinate named `s` (`q1..qn`, `p1..pn`, `t`; `n` unknown: any index from 1).
+    pub fn from_name(s: &str, n: Option<usize>) -> Option<Coord> {
+        if s == "t" {
+            return Some(Coord::T);
+        }
+        let (is_q, index) = s
+            .strip_prefix('q')
+            .map(|r| (true, r))
+            .or_else(|| s.strip_prefix('p').map(|r| (false, r)))?;
+        let i: usize = index.parse().ok()?;
+        if i == 0 || n.is_some_and(|n| i > n) {
+            return None;
+        }
+        Some(if is_q {
+            Coord::Q(i - 1)
+        } else {
+            Coord::P(i - 1)
+        })
+    }
+
     /// The scene name (`q1`, `p2`, `t`).
     pub fn name(self) -> String {
         match self {
@@ -435,6 +459,108 @@ impl EffectKind {
             EffectKind::TimeLaw => "t and lambda against the step (CSV, figure); key every",
             EffectKind::PhasePlot => "figure of y against x for all methods (x = \"t\": a time series); keys x, y, every, until (time span from t0)",
             EffectKind::ComparisonTable => "table of mean/max energy and invariant deviations of all methods",
+        }
+    }
+}
+
+// Ensemble scenes (`[ensemble]` with a `kind`; validated in `super::members`).
+
+/// What an ensemble member varies: a phase-space coordinate or a system parameter.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Axis {
+    /// A coordinate `q_i` or `p_i` (never `t`).
+    Coord(Coord),
+    /// A parameter of the system, by name.
+    Param(String),
+}
+
+impl Axis {
+    /// The name a scene gives it (`q2`, `k`).
+    pub fn name(&self) -> String {
+        match self {
+            Axis::Coord(c) => c.name(),
+            Axis::Param(p) => p.clone(),
+        }
+    }
+}
+
+/// An axis and the interval `[from, to]` its values are taken from.
+#[derive(Debug, Clone, PartialEq)]
+pub struct AxisRange {
+    /// What varies.
+    pub axis: Axis,
+    /// Lower end.
+    pub from: f64,
+    /// Upper end.
+    pub to: f64,
+}
+
+/// How the members' varied values are chosen.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Sampler {
+    /// `x_count` (times `y_count`) evenly spaced values, ends included, `x` varying slowest.
+    Grid {
+        /// First axis and its number of points (at least 2).
+        x: (AxisRange, usize),
+        /// Optional second axis and its number of points.
+        y: Option<(AxisRange, usize)>,
+    },
+    /// `samples` points drawn uniformly from the box, reproducibly from `seed`.
+    Random {
+        /// First axis.
+        x: AxisRange,
+        /// Optional second axis.
+        y: Option<AxisRange>,
+        /// Number of members.
+        samples: usize,
+        /// The generator's seed (SplitMix64): the same seed draws the same members.
+        seed: u64,
+    },
+    /// Explicit members: a CSV header naming the columns, one row each.
+    List {
+        /// The columns.
+        columns: Vec<Axis>,
+        /// The rows (each as long as `columns`).
+        rows: Vec<Vec<f64>>,
+    },
+}
+
+/// Put every member on the energy shell `H = energy` by solving the momentum `solve` from
+/// the rest of its state; members with no real solution are skipped and counted.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EnergyShell {
+    /// The energy `E`.
+    pub energy: f64,
+    /// The momentum solved for (`Coord::P`).
+    pub solve: Coord,
+}
+
+/// Chaos indicators an ensemble can compute per member.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ChaosIndicator {
+    /// The mean exponential growth factor of nearby orbits (Cincotta and Simo 2000), with
+    /// Benettin's maximal Lyapunov exponent estimate beside it (`crate::ensemble::chaos`).
+    Megno,
+}
+
+/// An ensemble scene: many initial states (and parameters), each run with every method.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Members {
+    /// How members are chosen.
+    pub sampler: Sampler,
+    /// Put on an energy shell, if asked.
+    pub shell: Option<EnergyShell>,
+    /// A chaos indicator per member, if asked.
+    pub chaos: Option<ChaosIndicator>,
+}
+
+impl Members {
+    /// The number of members drawn before the energy shell skips any.
+    pub fn candidates(&self) -> usize {
+        match &self.sampler {
+            Sampler::Grid { x, y } => x.1 * y.as_ref().map_or(1, |y| y.1),
+            Sampler::Random { samples, .. } => *samples,
+            Sampler::List { rows, .. } => rows.len(),
         }
     }
 }

@@ -7,6 +7,7 @@ use std::ops::Range;
 
 use toml::Spanned;
 
+use super::members;
 use super::raw::{RawEffect, RawMethod, RawScene};
 use dth::dth::Solver;
 
@@ -451,52 +452,57 @@ fn validate(raw: RawScene, systems: &dyn SystemLookup, cx: &mut Ctxt<'_>) -> Opt
 
     // Effects.
     let mut effects = Vec::new();
+    let mut effect_spans = Vec::new();
     for e in raw.effects {
+        let span = e.get_ref().kind.span();
         if let Some(spec) = validate_effect(e, n, cx) {
             effects.push(spec);
+            effect_spans.push(span);
         }
     }
 
-    let ensemble = raw.ensemble.and_then(|e| {
-        let e = e.into_inner();
-        let x = coord(&e.x, n, "x", cx);
-        let y = coord(&e.y, n, "y", cx);
-        for c in [(&e.x, x), (&e.y, y)] {
-            if c.1 == Some(Coord::T) {
+    // `[ensemble]`: the thesis's square (no `kind`), or an ensemble scene (`members`).
+    let param_names: Vec<&str> =
+        info.map_or(Vec::new(), |i| i.params.iter().map(|p| p.name).collect());
+    let (ensemble, members) = match raw.ensemble {
+        None => (None, None),
+        Some(e) => {
+            let at = e.span();
+            let e = e.into_inner();
+            match e.kind.clone() {
+                Some(kind) if kind.get_ref() != "square" => {
+                    let mut errors = Vec::new();
+                    let m = members::check(e, &kind, at, n, &param_names, &mut errors);
+                    for (span, message) in errors {
+                        cx.error(span, message);
+                    }
+                    (None, m)
+                }
+                _ => (square(e, at, n, cx), None),
+            }
+        }
+    };
+    if members.is_some() {
+        // An ensemble scene collects the section crossings of every member; its table holds
+        // each member's final state and energy error.
+        for (spec, span) in effects.iter().zip(&effect_spans) {
+            if !matches!(spec, EffectSpec::Poincare { .. }) {
                 cx.error(
-                    c.0.span(),
-                    "the ensemble varies q or p coordinates: expected q1..qn or p1..pn, not t",
+                    span.clone(),
+                    format!("effect `{}` is not collected over an ensemble: expected `poincare` (the ensemble's table has every member's final state and energy error)", spec.kind().name()),
                 );
             }
         }
-        if x.is_some() && x == y {
-            cx.error(e.y.span(), "the ensemble's `x` and `y` must differ");
-        }
-        let half_width = positive(&e.half_width, "half_width", cx);
-        let count = |v: &Spanned<i64>, what: &str, min: i64, cx: &mut Ctxt<'_>| {
-            if *v.get_ref() >= min {
-                Some(*v.get_ref() as usize)
-            } else {
-                cx.error(
-                    v.span(),
-                    format!("`{what}` = {}: expected an integer >= {min}", v.get_ref()),
-                );
-                None
-            }
-        };
-        let per_side = count(&e.per_side, "per_side", 2, cx);
-        let steps = count(&e.steps, "steps", 1, cx);
-        Some(Ensemble {
-            x: x?,
-            y: y?,
-            half_width: half_width?,
-            per_side: per_side?,
-            steps: steps?,
-        })
-    });
+    }
 
     let thesis_figures = match raw.thesis_figures {
         Some(t) if *t.get_ref() => {
+            if members.is_some() {
+                cx.error(
+                    t.span(),
+                    "`thesis_figures` draws one run's figures, not an ensemble scene's: remove it or the ensemble's `kind`",
+                );
+            }
             if info.is_some_and(|i| i.n != 2 || i.time_dependent || !i.has_period || !i.has_exact) {
                 cx.error(
                     t.span(),
@@ -535,7 +541,92 @@ fn validate(raw: RawScene, systems: &dyn SystemLookup, cx: &mut Ctxt<'_>) -> Opt
         duration: duration?,
         effects,
         ensemble,
+        members,
         thesis_figures,
+    })
+}
+
+/// The thesis's square of initial conditions (`[ensemble]` without `kind`).
+fn square(
+    e: super::raw::RawEnsemble,
+    at: Range<usize>,
+    n: Option<usize>,
+    cx: &mut Ctxt<'_>,
+) -> Option<Ensemble> {
+    for (key, span) in members::present(&e) {
+        if !members::SQUARE_KEYS.contains(&key) {
+            cx.error(
+                span,
+                format!(
+                    "`{key}` is not a key of the square ensemble: expected {} (or give `kind` = {})",
+                    members::SQUARE_KEYS.join(", "),
+                    members::KINDS
+                ),
+            );
+        }
+    }
+    let mut required = |key: &str| {
+        cx.error(
+            at.clone(),
+            format!(
+                "missing field `{key}` of the square ensemble (keys {})",
+                members::SQUARE_KEYS.join(", ")
+            ),
+        )
+    };
+    let (Some(ex), Some(ey), Some(hw), Some(ps), Some(st)) = (
+        e.x.as_ref(),
+        e.y.as_ref(),
+        e.half_width.as_ref(),
+        e.per_side.as_ref(),
+        e.steps.as_ref(),
+    ) else {
+        for (key, given) in [
+            ("x", e.x.is_some()),
+            ("y", e.y.is_some()),
+            ("half_width", e.half_width.is_some()),
+            ("per_side", e.per_side.is_some()),
+            ("steps", e.steps.is_some()),
+        ] {
+            if !given {
+                required(key);
+            }
+        }
+        return None;
+    };
+    let x = coord(ex, n, "x", cx);
+    let y = coord(ey, n, "y", cx);
+    for c in [(ex, x), (ey, y)] {
+        if c.1 == Some(Coord::T) {
+            cx.error(
+                c.0.span(),
+                "the ensemble varies q or p coordinates: expected q1..qn or p1..pn, not t",
+            );
+        }
+    }
+    if x.is_some() && x == y {
+        cx.error(ey.span(), "the ensemble's `x` and `y` must differ");
+    }
+    let half_width = positive(hw, "half_width", cx);
+    let count = |v: &Spanned<i64>, what: &str, min: i64, cx: &mut Ctxt<'_>| {
+        if *v.get_ref() >= min {
+            Some(*v.get_ref() as usize)
+        } else {
+            cx.error(
+                v.span(),
+                format!("`{what}` = {}: expected an integer >= {min}", v.get_ref()),
+            );
+            None
+        }
+    };
+    let per_side = count(ps, "per_side", 2, cx);
+    let steps = count(st, "steps", 1, cx);
+    Some(Ensemble {
+        x: x?,
+        y: y?,
+        half_width: half_width?,
+        per_side: per_side?,
+        steps: steps?,
     })
 }
 
@@ -664,20 +755,8 @@ fn coord(v: &Spanned<String>, n: Option<usize>, what: &str, cx: &mut Ctxt<'_>) -
             format!("q1..q{n}, p1..p{n} or t")
         })
     };
-    if s == "t" {
-        return Some(Coord::T);
-    }
-    let parsed = s
-        .strip_prefix('q')
-        .map(|r| (true, r))
-        .or_else(|| s.strip_prefix('p').map(|r| (false, r)))
-        .and_then(|(is_q, r)| r.parse::<usize>().ok().map(|i| (is_q, i)));
-    match parsed {
-        Some((is_q, i)) if i >= 1 && n.is_none_or(|n| i <= n) => Some(if is_q {
-            Coord::Q(i - 1)
-        } else {
-            Coord::P(i - 1)
-        }),
+    match Coord::from_name(s, n) {
+        Some(c) => Some(c),
         _ => {
             cx.error(
                 v.span(),
