@@ -48,6 +48,13 @@ pub struct RuntimeHamiltonian {
     functions: Vec<Compiled>,
 }
 
+// One Hamiltonian serves every thread of an ensemble: compiled code is immutable and
+// reentrant (checked here, at compile time).
+const _: fn() = || {
+    fn shareable<T: Send + Sync>() {}
+    shareable::<RuntimeHamiltonian>();
+};
+
 /// The value, gradient, Hessian and Psi of one [`RuntimeHamiltonian::derivatives`] call, in
 /// one buffer reused from call to call.
 #[derive(Clone, Debug, PartialEq)]

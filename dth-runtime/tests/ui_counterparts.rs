@@ -82,7 +82,11 @@ struct Expected {
 
 /// The byte offset of 1-based `line` and character `column` in `text`.
 fn offset(text: &str, line: usize, column: usize) -> usize {
-    let start: usize = text.split_inclusive('\n').take(line - 1).map(str::len).sum();
+    let start: usize = text
+        .split_inclusive('\n')
+        .take(line - 1)
+        .map(str::len)
+        .sum();
     let line_text = &text[start..];
     start
         + line_text
@@ -214,7 +218,12 @@ fn every_ui_case_has_a_runtime_counterpart() {
         .filter(|p| p.extension().is_some_and(|e| e == "rs"))
         .collect();
     cases.sort();
-    assert!(cases.len() >= 40, "{} cases in {}", cases.len(), dir.display());
+    assert!(
+        cases.len() >= 40,
+        "{} cases in {}",
+        cases.len(),
+        dir.display()
+    );
     let mut used = [false; MACRO_ONLY.len()];
     let mut failures = Vec::new();
     for path in &cases {
@@ -236,12 +245,18 @@ fn every_ui_case_has_a_runtime_counterpart() {
             // The file does not tokenize, so its call has no extent: the text the user meant
             // is the line's, up to the `)` that closes the macro instead.
             let errors = dth_symbolic::compile("(p1^2 + q1", &[]).unwrap_err();
-            assert_eq!(errors.0[0].to_string(), "unclosed `(`: expected a matching `)`");
+            assert_eq!(
+                errors.0[0].to_string(),
+                "unclosed `(`: expected a matching `)`"
+            );
             assert_eq!(errors.0[0].span.start, 0, "{case}: at the `(`");
             continue;
         }
         let Some(call) = call(&source) else {
-            assert!(expected.is_empty(), "{case}: the item does not parse, yet {expected:?}");
+            assert!(
+                expected.is_empty(),
+                "{case}: the item does not parse, yet {expected:?}"
+            );
             continue;
         };
         let names: Vec<&str> = call.params.iter().map(|(n, _)| n.as_str()).collect();
@@ -261,8 +276,14 @@ fn every_ui_case_has_a_runtime_counterpart() {
         }
         for (error, want) in errors.iter().zip(&expected) {
             if let dth_symbolic::ErrorKind::BadParameter { name, .. } = &error.kind {
-                let at = call.params.iter().find(|(n, at)| n == name && *at == want.start);
-                assert!(at.is_some(), "{case}: the macro points at parameter `{name}`");
+                let at = call
+                    .params
+                    .iter()
+                    .find(|(n, at)| n == name && *at == want.start);
+                assert!(
+                    at.is_some(),
+                    "{case}: the macro points at parameter `{name}`"
+                );
                 continue;
             }
             if call.expression.trim().is_empty() {

@@ -186,7 +186,10 @@ mod tests {
         );
         // The groups read as parentheses.
         let parens = t.iter().filter(|t| t.kind == TokenKind::LParen).count();
-        assert_eq!(parens, t.iter().filter(|t| t.kind == TokenKind::RParen).count());
+        assert_eq!(
+            parens,
+            t.iter().filter(|t| t.kind == TokenKind::RParen).count()
+        );
         assert_eq!(parens, 2);
     }
 
