@@ -44,8 +44,9 @@ type Entry = unsafe extern "C" fn(*const f64, *const f64, *const f64, *mut f64);
 /// The owner of a module's machine code and of the kernels its code points to.
 pub struct Code {
     module: Option<JITModule>,
-    /// Each kernel a program calls, boxed so its address (baked into the code) is stable.
-    _kernels: Vec<Box<Kernel>>,
+    /// Each distinct kernel the programs call, allocated before the code is written and
+    /// never resized, so the addresses baked into the code stay valid.
+    _kernels: Box<[Kernel]>,
 }
 
 // SAFETY: after `finalize_definitions` the module is never used again except to free its
@@ -252,7 +253,17 @@ fn build(
 
     let mut ctx = module.make_context();
     let mut fctx = FunctionBuilderContext::new();
-    let mut kernels: Vec<Box<Kernel>> = Vec::new();
+    let mut distinct: Vec<Kernel> = Vec::new();
+    for (_, p) in programs {
+        for op in &p.ops {
+            if let Op::Kernel(k, ..) = *op {
+                if !distinct.contains(&k) {
+                    distinct.push(k);
+                }
+            }
+        }
+    }
+    let kernels: Box<[Kernel]> = distinct.into_boxed_slice();
     let mut entries = Vec::with_capacity(programs.len());
     let mut count = 0u32;
     for &(f, p) in programs {
@@ -262,11 +273,12 @@ fn build(
             ctx: &mut ctx,
             fctx: &mut fctx,
             imports: &imports,
-            kernels: &mut kernels,
+            kernels: &kernels,
             ptr,
             count: &mut count,
+            what: f.name(),
         };
-        let id = emitter.program(f, p).map_err(fail(f.name()))?;
+        let id = emitter.program(f, p)?;
         entries.push(id);
     }
     *what = "module";
@@ -296,13 +308,15 @@ struct Emitter<'a> {
     ctx: &'a mut Context,
     fctx: &'a mut FunctionBuilderContext,
     imports: &'a Imports,
-    kernels: &'a mut Vec<Box<Kernel>>,
+    kernels: &'a [Kernel],
     ptr: types::Type,
     /// Functions defined so far in the module (their names).
     count: &'a mut u32,
+    /// The program's name, for errors.
+    what: &'static str,
 }
 
-type ModuleResult<T> = Result<T, cranelift_module::ModuleError>;
+type ModuleResult<T> = Result<T, JitError>;
 
 impl Emitter<'_> {
     fn signature(&self, pointers: usize) -> Signature {
@@ -317,7 +331,9 @@ impl Emitter<'_> {
         *self.count += 1;
         let name = format!("dth_program_{}", self.count);
         let sig = self.signature(pointers);
-        self.module.declare_function(&name, linkage, &sig)
+        self.module
+            .declare_function(&name, linkage, &sig)
+            .map_err(|e| self.error(e))
     }
 
     /// The entry function of `p`: the program itself when it fits one chunk, else a function
@@ -385,7 +401,16 @@ impl Emitter<'_> {
         }
         *self.fctx = fctx;
         self.ctx.func = func;
-        self.module.define_function(id, self.ctx)
+        self.module
+            .define_function(id, self.ctx)
+            .map_err(|e| self.error(e))
+    }
+
+    fn error(&self, e: cranelift_module::ModuleError) -> JitError {
+        JitError::Codegen {
+            what: self.what,
+            reason: e.to_string(),
+        }
     }
 
     /// The operations of chunk `c`: inputs `args = [z, z1, params, out]`, `scratch` the
@@ -462,9 +487,13 @@ impl Emitter<'_> {
                 }
                 Op::Kernel(k, x, y) => {
                     let (x, y) = (get(b, x), get(b, y));
-                    let boxed = Box::new(k);
-                    let address = &*boxed as *const Kernel as i64;
-                    self.kernels.push(boxed);
+                    // Every kernel of the programs was collected before any code was written.
+                    let held = self
+                        .kernels
+                        .iter()
+                        .find(|&&held| held == k)
+                        .unwrap_or(&self.kernels[0]);
+                    let address = held as *const Kernel as i64;
                     let k = b.ins().iconst(self.ptr, address);
                     call(self, b, shims::kernels().0, &[k, x, y])
                 }

@@ -12,7 +12,6 @@
 
 mod catalogue;
 #[path = "../../dth-symbolic/tests/common/mod.rs"]
-#[allow(dead_code)]
 mod common;
 
 use catalogue::{Rng, CATALOGUE};
