@@ -105,9 +105,16 @@ pub fn compile(programs: &[(Function, &Program)]) -> Result<Vec<JitFunction>, Ru
     for &(f, p) in programs {
         check(f, p)?;
     }
-    let mut what = "";
-    let result = catch_unwind(AssertUnwindSafe(|| build(programs, &mut what)));
-    match result {
+    guarded(|what| build(programs, what))
+}
+
+/// `work(what)`, with a panic inside it caught and returned as [`JitError::Panicked`] naming
+/// the program `work` last said (through `what`) it was compiling.
+fn guarded<T>(
+    work: impl FnOnce(&mut &'static str) -> Result<T, JitError>,
+) -> Result<T, RuntimeError> {
+    let mut what = "module";
+    match catch_unwind(AssertUnwindSafe(|| work(&mut what))) {
         Ok(r) => r.map_err(RuntimeError::Jit),
         Err(panic) => {
             let reason = panic
@@ -564,4 +571,44 @@ fn operands(op: &Op) -> impl Iterator<Item = Slot> {
         }
     };
     a.into_iter().chain(b)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A panic inside Cranelift becomes a typed error naming the program, not a crash.
+    #[test]
+    fn a_panic_while_compiling_is_a_typed_error() {
+        let r: Result<(), _> = guarded(|what| {
+            *what = "hessian";
+            panic!("can't resolve symbol dth_nothing");
+        });
+        let Err(RuntimeError::Jit(JitError::Panicked { what, reason })) = r else {
+            panic!("{r:?}");
+        };
+        assert_eq!(
+            (what, reason.as_str()),
+            ("hessian", "can't resolve symbol dth_nothing")
+        );
+    }
+
+    /// A program reading past its inputs is refused before any code exists.
+    #[test]
+    fn malformed_programs_are_refused() {
+        let system = dth_symbolic::compile("p1^2/2 + q1^2/2", &[]).unwrap();
+        let mut p = Function::Gradient.program(&system).unwrap();
+        p.ops[0] = Op::Input(7);
+        let r = compile(&[(Function::Gradient, &p)]);
+        assert!(
+            matches!(
+                r,
+                Err(RuntimeError::MalformedProgram {
+                    what: "gradient",
+                    ..
+                })
+            ),
+            "{r:?}"
+        );
+    }
 }
