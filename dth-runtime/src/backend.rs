@@ -1,5 +1,5 @@
 //! How a function is run: compiled code ([`Backend::Jit`]) or the engine's interpreter
-//! ([`Backend::Interpreter`]), behind one [`Compiled::run`] that checks lengths and the
+//! ([`Backend::Interpreter`]), behind one call that checks lengths and the
 //! finiteness of what it returns.
 
 use dth_symbolic::{Evaluation, Output, PairEvaluation, Program};
