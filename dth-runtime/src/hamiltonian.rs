@@ -196,6 +196,12 @@ impl RuntimeHamiltonian {
         self.fallback.as_ref()
     }
 
+    /// What looks like a mistake in the text without being an error (a position without its
+    /// momentum, a misnumbered index): the warnings `hamiltonian!` gives, with their spans.
+    pub fn warnings(&self) -> &[dth_symbolic::Warning] {
+        self.system.warnings()
+    }
+
     /// The compiled symbolic system: expressions of the derivatives, programs.
     pub fn system(&self) -> &System {
         &self.system
