@@ -111,6 +111,8 @@ pub enum ErrorKind {
     },
     /// A `,` outside a function call's parentheses.
     StrayComma,
+    /// `[ ]` or `{ }` used for grouping (the span covers the group).
+    Brackets,
     /// The value and its derivatives exceed [`crate::MAX_SIZE`].
     TooLarge {
         /// The bound.
@@ -247,6 +249,9 @@ impl fmt::Display for Error {
                 "unknown variable `e`: Euler's number is not a name of the grammar, the exponential is `exp({})`",
                 exponent.as_deref().unwrap_or("1")
             ),
+            Brackets => f.write_str(
+                "use parentheses `( )` for grouping: brackets and braces are not part of the grammar",
+            ),
             StrayComma => f.write_str(
                 "unexpected `,`: a Hamiltonian is one expression and every function takes one argument",
             ),
@@ -255,6 +260,10 @@ impl fmt::Display for Error {
                 "the derivatives of this Hamiltonian are too large: more than {limit} expression nodes and operands (value, gradient, Hessian and Psi); the bound keeps compile time and generated code in check"
             ),
             Fault(fault) => write!(f, "{fault}"),
+            // A repeated name is not a bad name: nothing to add.
+            BadParameter { name, reason } if *reason == "is declared twice" => {
+                write!(f, "parameter `{name}` {reason}")
+            }
             BadParameter { name, reason } => write!(
                 f,
                 "parameter `{name}` {reason}: parameters need their own names"

@@ -43,6 +43,8 @@ pub fn lex(src: &str) -> (Vec<Token>, Vec<Error>) {
     let bytes = src.as_bytes();
     let mut tokens = Vec::new();
     let mut errors = Vec::new();
+    // The closing brackets of the groups reported so far.
+    let mut closers = Vec::new();
     let mut i = 0;
     while i < bytes.len() {
         let c = bytes[i];
@@ -95,6 +97,32 @@ pub fn lex(src: &str) -> (Vec<Token>, Vec<Error>) {
                 kind: TokenKind::Ident,
                 span: Span::new(start, i),
             });
+        } else if c == b'[' || c == b'{' {
+            // A group in brackets or braces: one error over the whole group (what
+            // `hamiltonian!`, which sees one Rust group, reports), read on as parenthesized.
+            let close = group_end(bytes, i);
+            let end = close.map_or(i + 1, |j| j + 1);
+            errors.push(Error::new(ErrorKind::Brackets, Span::new(start, end)));
+            closers.extend(close);
+            i += 1;
+            tokens.push(Token {
+                kind: TokenKind::LParen,
+                span: Span::new(start, i),
+            });
+        } else if closers.contains(&i) {
+            i += 1;
+            tokens.push(Token {
+                kind: TokenKind::RParen,
+                span: Span::new(start, i),
+            });
+        } else if c == b'"' {
+            // A string literal: one error over all of it, as on the one Rust token the macro
+            // sees, not one per quote.
+            i = src[i + 1..].find('"').map_or(bytes.len(), |k| i + k + 2);
+            errors.push(Error::new(
+                ErrorKind::UnexpectedChar { ch: '"' },
+                Span::new(start, i),
+            ));
         } else {
             let ch = src[i..].chars().next().unwrap_or('?');
             i += ch.len_utf8();
@@ -105,6 +133,24 @@ pub fn lex(src: &str) -> (Vec<Token>, Vec<Error>) {
         }
     }
     (tokens, errors)
+}
+
+/// The index of the bracket closing the one at `open`, counting every kind of bracket.
+fn group_end(bytes: &[u8], open: usize) -> Option<usize> {
+    let mut depth = 0usize;
+    for (j, &b) in bytes.iter().enumerate().skip(open) {
+        match b {
+            b'(' | b'[' | b'{' => depth += 1,
+            b')' | b']' | b'}' => {
+                depth -= 1;
+                if depth == 0 {
+                    return Some(j);
+                }
+            }
+            _ => {}
+        }
+    }
+    None
 }
 
 #[cfg(test)]
@@ -123,6 +169,28 @@ mod tests {
             }
         );
         assert_eq!(t.len(), 6);
+    }
+
+    #[test]
+    fn a_bracket_group_and_a_string_are_one_error_each() {
+        let (t, e) = lex("p1^2 + [q1 + {q2}]^2 + \"q1\" + q2]");
+        let spans: Vec<(ErrorKind, Span)> = e.into_iter().map(|e| (e.kind, e.span)).collect();
+        assert_eq!(
+            spans,
+            vec![
+                (ErrorKind::Brackets, Span::new(7, 18)),
+                (ErrorKind::Brackets, Span::new(13, 17)),
+                (ErrorKind::UnexpectedChar { ch: '"' }, Span::new(23, 27)),
+                (ErrorKind::UnexpectedChar { ch: ']' }, Span::new(32, 33)),
+            ]
+        );
+        // The groups read as parentheses.
+        let parens = t.iter().filter(|t| t.kind == TokenKind::LParen).count();
+        assert_eq!(
+            parens,
+            t.iter().filter(|t| t.kind == TokenKind::RParen).count()
+        );
+        assert_eq!(parens, 2);
     }
 
     #[test]

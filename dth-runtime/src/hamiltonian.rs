@@ -1,0 +1,298 @@
+//! [`RuntimeHamiltonian`]: a Hamiltonian read from text, its derivatives compiled when it is
+//! built, evaluated into buffers the caller owns.
+
+use dth_symbolic::lexer::{lex, TokenKind};
+use dth_symbolic::System;
+
+use crate::backend::{Backend, Compiled};
+use crate::error::{JitError, RuntimeError};
+use crate::layout::Function;
+
+/// A Hamiltonian given as text in the grammar of `hamiltonian!`, with parameter values: the
+/// engine derives its gradient, Hessian, Psi and discrete gradients, and every method runs
+/// as machine code compiled when it is built ([`Backend::Jit`]).
+///
+/// Evaluations take `&[f64]` points and write into `&mut [f64]` buffers the caller owns: with
+/// the JIT, nothing is allocated per call, and each call is one call of compiled code. The
+/// layout of `z` is the macro's: `(q1..qn, p1..pn)`, or `(q1..qn, t, p1..pn, p_t)` with
+/// `value = p_t + H` when `H` uses `t`.
+///
+/// ```
+/// use dth_runtime::RuntimeHamiltonian;
+///
+/// let kepler = RuntimeHamiltonian::new(
+///     "(p1^2 + p2^2)/(2*m) - k*(q1^2 + q2^2)^(-1/2)",
+///     &[("m", 0.5), ("k", 1.0)],
+/// )?;
+/// assert_eq!((kepler.dim(), kepler.separable()), (4, true));
+/// let z = [0.5, 0.0, 0.0, 1.2];
+/// assert!((kepler.value(&z)? - (1.44 - 2.0)).abs() < 1e-15);
+/// let mut g = [0.0; 4];
+/// kepler.gradient(&z, &mut g)?;
+/// assert_eq!(g, [4.0, 0.0, 0.0, 2.4]); // (q/|q|^3, p/m)
+///
+/// // A parameter the expression does not use, a mistake in the text: typed errors.
+/// assert!(RuntimeHamiltonian::new("p1^2/2 + q1^2/2", &[("m", 1.0)]).is_err());
+/// let err = RuntimeHamiltonian::new("p1^2 + x1", &[]).unwrap_err();
+/// assert_eq!(err.to_string(),
+///     "unknown variable `x1`: expected q1..qN, p1..pN, t, or a declared parameter (bytes 7..9)");
+/// # Ok::<(), dth_runtime::RuntimeError>(())
+/// ```
+#[derive(Debug)]
+pub struct RuntimeHamiltonian {
+    system: System,
+    names: Vec<String>,
+    values: Vec<f64>,
+    fallback: Option<JitError>,
+    /// One per [`Function`], in the order of [`Function::ALL`].
+    functions: Vec<Compiled>,
+}
+
+// One Hamiltonian serves every thread of an ensemble: compiled code is immutable and
+// reentrant (checked here, at compile time).
+const _: fn() = || {
+    fn shareable<T: Send + Sync>() {}
+    shareable::<RuntimeHamiltonian>();
+};
+
+/// The value, gradient, Hessian and Psi of one [`RuntimeHamiltonian::derivatives`] call, in
+/// one buffer reused from call to call.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Derivatives {
+    dim: usize,
+    /// `value, gradient (D), Hessian (D x D, row-major), psi`.
+    buffer: Vec<f64>,
+}
+
+impl Derivatives {
+    /// A zeroed buffer for dimension `dim`.
+    pub fn new(dim: usize) -> Self {
+        Derivatives {
+            dim,
+            buffer: vec![0.0; Function::Derivatives.len(dim)],
+        }
+    }
+
+    /// `H(z)`.
+    pub fn value(&self) -> f64 {
+        self.buffer[0]
+    }
+
+    /// `grad H(z)`, length `D`.
+    pub fn gradient(&self) -> &[f64] {
+        &self.buffer[1..1 + self.dim]
+    }
+
+    /// `Hess H(z)`, `D x D` row-major, both triangles.
+    pub fn hessian(&self) -> &[f64] {
+        &self.buffer[1 + self.dim..1 + self.dim + self.dim * self.dim]
+    }
+
+    /// `Psi(z)`.
+    pub fn psi(&self) -> f64 {
+        self.buffer[1 + self.dim + self.dim * self.dim]
+    }
+}
+
+impl RuntimeHamiltonian {
+    /// Compiles `src` with the parameters `params` (name and value) to machine code. Errors:
+    /// the expression's ([`RuntimeError::Expression`], the messages and token positions of
+    /// `hamiltonian!`; a parameter the text uses but `params` lacks is an unknown variable
+    /// there), a parameter given but not used ([`RuntimeError::UnknownParameter`]) or not
+    /// finite. If the JIT cannot run here, the interpreter is used
+    /// ([`RuntimeHamiltonian::fallback_reason`] says why).
+    pub fn new(src: &str, params: &[(&str, f64)]) -> Result<Self, RuntimeError> {
+        Self::with_backend(src, params, Backend::Jit)
+    }
+
+    /// [`RuntimeHamiltonian::new`] with the choice of [`Backend`].
+    pub fn with_backend(
+        src: &str,
+        params: &[(&str, f64)],
+        backend: Backend,
+    ) -> Result<Self, RuntimeError> {
+        let names: Vec<&str> = params.iter().map(|&(n, _)| n).collect();
+        let system = dth_symbolic::compile(src, &names).map_err(RuntimeError::Expression)?;
+        let (tokens, _) = lex(src);
+        for &(name, value) in params {
+            let named = tokens
+                .iter()
+                .any(|t| t.kind == TokenKind::Ident && &src[t.span.range()] == name);
+            if !named {
+                return Err(RuntimeError::UnknownParameter {
+                    name: name.to_string(),
+                });
+            }
+            if !value.is_finite() {
+                return Err(RuntimeError::NonFiniteParameter {
+                    name: name.to_string(),
+                    value,
+                });
+            }
+        }
+        let programs = Function::ALL
+            .iter()
+            .map(|&f| Ok((f, f.program(&system)?)))
+            .collect::<Result<Vec<_>, RuntimeError>>()?;
+        let (functions, fallback) = Compiled::all(programs, backend)?;
+        Ok(RuntimeHamiltonian {
+            system,
+            names: names.iter().map(|n| n.to_string()).collect(),
+            values: params.iter().map(|&(_, v)| v).collect(),
+            fallback,
+            functions,
+        })
+    }
+
+    fn run(
+        &self,
+        f: Function,
+        z0: &[f64],
+        z1: &[f64],
+        out: &mut [f64],
+    ) -> Result<(), RuntimeError> {
+        // `functions` follows `Function::ALL`, whose order is the enum's.
+        self.functions[f as usize].run(z0, z1, &self.values, out)
+    }
+
+    /// The phase-space dimension `D`: `2n`, or `2n + 2` when time-dependent.
+    pub fn dim(&self) -> usize {
+        self.system.dim()
+    }
+
+    /// The degrees of freedom `n` (the largest index in the text).
+    pub fn degrees_of_freedom(&self) -> usize {
+        self.system.n()
+    }
+
+    /// `true` when `H = T(p) + V(q)`.
+    pub fn separable(&self) -> bool {
+        self.system.separable()
+    }
+
+    /// `true` when `H` uses `t`: `z` is extended with `t` and `p_t`.
+    pub fn time_dependent(&self) -> bool {
+        self.system.time_dependent()
+    }
+
+    /// `true` when Psi simplifies to 0 (DTH's energy condition then does not determine the
+    /// step).
+    pub fn psi_identically_zero(&self) -> bool {
+        self.system.psi_identically_zero()
+    }
+
+    /// The backend running the programs: [`Backend::Jit`] unless the interpreter was asked
+    /// for or the JIT failed.
+    pub fn backend(&self) -> Backend {
+        if self.functions.iter().all(Compiled::is_jit) {
+            Backend::Jit
+        } else {
+            Backend::Interpreter
+        }
+    }
+
+    /// Why the JIT was asked for but the interpreter runs.
+    pub fn fallback_reason(&self) -> Option<&JitError> {
+        self.fallback.as_ref()
+    }
+
+    /// What looks like a mistake in the text without being an error (a position without its
+    /// momentum, a misnumbered index): the warnings `hamiltonian!` gives, with their spans.
+    pub fn warnings(&self) -> &[dth_symbolic::Warning] {
+        self.system.warnings()
+    }
+
+    /// The compiled symbolic system: expressions of the derivatives, programs.
+    pub fn system(&self) -> &System {
+        &self.system
+    }
+
+    /// The parameters, by name, in the order given.
+    pub fn parameters(&self) -> impl Iterator<Item = (&str, f64)> {
+        self.names
+            .iter()
+            .map(String::as_str)
+            .zip(self.values.iter().copied())
+    }
+
+    /// Sets the value of parameter `name` (no recompilation: values are read at each call).
+    pub fn set_parameter(&mut self, name: &str, value: f64) -> Result<(), RuntimeError> {
+        let k = self.names.iter().position(|n| n == name).ok_or_else(|| {
+            RuntimeError::UnknownParameter {
+                name: name.to_string(),
+            }
+        })?;
+        if !value.is_finite() {
+            return Err(RuntimeError::NonFiniteParameter {
+                name: name.to_string(),
+                value,
+            });
+        }
+        self.values[k] = value;
+        Ok(())
+    }
+
+    /// `H(z)` (`p_t + H` when time-dependent).
+    pub fn value(&self, z: &[f64]) -> Result<f64, RuntimeError> {
+        let mut out = [0.0];
+        self.run(Function::Value, z, z, &mut out)?;
+        Ok(out[0])
+    }
+
+    /// `grad H(z)` into `out` (length `D`).
+    pub fn gradient(&self, z: &[f64], out: &mut [f64]) -> Result<(), RuntimeError> {
+        self.run(Function::Gradient, z, z, out)
+    }
+
+    /// `Hess H(z)` into `out` (`D x D`, row-major, both triangles).
+    pub fn hessian(&self, z: &[f64], out: &mut [f64]) -> Result<(), RuntimeError> {
+        self.run(Function::Hessian, z, z, out)
+    }
+
+    /// `Psi(z) = (J grad H)^T Hess H (J grad H)`.
+    pub fn psi(&self, z: &[f64]) -> Result<f64, RuntimeError> {
+        let mut out = [0.0];
+        self.run(Function::Psi, z, z, &mut out)?;
+        Ok(out[0])
+    }
+
+    /// A buffer for [`RuntimeHamiltonian::derivatives`].
+    pub fn derivatives_buffer(&self) -> Derivatives {
+        Derivatives::new(self.dim())
+    }
+
+    /// Value, gradient, Hessian and Psi from one fused program (every common subexpression
+    /// computed once) into `out`, a buffer of this dimension.
+    pub fn derivatives(&self, z: &[f64], out: &mut Derivatives) -> Result<(), RuntimeError> {
+        self.run(Function::Derivatives, z, z, &mut out.buffer)
+    }
+
+    /// The exact discrete gradient `gbar(z0, z1)` into `out` (length `D`): divided
+    /// differences without cancellation, `gbar . (z1 - z0) = H(z1) - H(z0)`.
+    pub fn discrete_gradient(
+        &self,
+        z0: &[f64],
+        z1: &[f64],
+        out: &mut [f64],
+    ) -> Result<(), RuntimeError> {
+        self.run(Function::DiscreteGradient, z0, z1, out)
+    }
+
+    /// `H(z1) - H(z0)`, computed without cancellation.
+    pub fn energy_difference(&self, z0: &[f64], z1: &[f64]) -> Result<f64, RuntimeError> {
+        let mut out = [0.0];
+        self.run(Function::EnergyDifference, z0, z1, &mut out)?;
+        Ok(out[0])
+    }
+
+    /// The defect `grad H(z0) + grad H(z1) - 2 gbar(z0, z1)` into `out` (length `D`),
+    /// computed without cancellation.
+    pub fn discrete_gradient_defect(
+        &self,
+        z0: &[f64],
+        z1: &[f64],
+        out: &mut [f64],
+    ) -> Result<(), RuntimeError> {
+        self.run(Function::DiscreteGradientDefect, z0, z1, out)
+    }
+}

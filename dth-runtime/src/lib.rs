@@ -1,0 +1,93 @@
+//! Hamiltonians built from text at run time, at compiled speed.
+//!
+//! `dth::hamiltonian!` derives a Hamiltonian's gradient, Hessian, Psi and exact discrete
+//! gradients when the program is compiled. This crate does the same for a Hamiltonian that
+//! arrives as data (a scene file, a command line): the same engine
+//! ([`dth_symbolic::compile`], one grammar, the same error messages) lowers each derivative
+//! to a straight-line program, and [Cranelift](https://cranelift.dev) compiles the programs
+//! to machine code when the Hamiltonian is built, in milliseconds.
+//!
+//! ```
+//! use dth_runtime::{Backend, RuntimeHamiltonian};
+//!
+//! let pendulum = RuntimeHamiltonian::new(
+//!     "p1^2/(2*m*l^2) - m*g*l*cos(q1)",
+//!     &[("m", 1.0), ("l", 2.0), ("g", 9.81)],
+//! )?;
+//! let z = [0.3, 0.1];
+//! let mut d = pendulum.derivatives_buffer();
+//! pendulum.derivatives(&z, &mut d)?;
+//! assert!((d.gradient()[0] - 9.81 * 2.0 * 0.3f64.sin()).abs() < 1e-14);
+//!
+//! // The interpreter is the reference: compiled code returns its bits.
+//! let reference = RuntimeHamiltonian::with_backend(
+//!     "p1^2/(2*m*l^2) - m*g*l*cos(q1)",
+//!     &[("m", 1.0), ("l", 2.0), ("g", 9.81)],
+//!     Backend::Interpreter,
+//! )?;
+//! let mut e = reference.derivatives_buffer();
+//! reference.derivatives(&z, &mut e)?;
+//! assert_eq!(d, e);
+//! # Ok::<(), dth_runtime::RuntimeError>(())
+//! ```
+//!
+//! # Layers
+//!
+//! Each module imports only from those listed before it:
+//!
+//! 1. [`error`]: the expression's, the parameters', the JIT's and the evaluations' errors.
+//! 2. [`layout`]: the trait methods ([`Function`]), the engine program each is cut from, and
+//!    where each output lands in the caller's buffer.
+//! 3. [`shims`]: the `extern "C"` wrappers compiled code calls for transcendentals.
+//! 4. [`jit`]: programs to machine code.
+//! 5. [`backend`]: the JIT or the interpreter behind one call that checks lengths and
+//!    finiteness.
+//! 6. [`hamiltonian`]: [`RuntimeHamiltonian`], the public face.
+//!
+//! # Compiled code equals the interpreter
+//!
+//! Each operation of a program becomes one instruction or one call, in the program's order.
+//! Cranelift does not reassociate floating-point arithmetic or fuse multiplies and adds; its
+//! only float rewrites are exact (folding constants whose result is not NaN, `-(-x) = x`,
+//! `(-x)(-y) = xy`). Arithmetic and square roots are correctly rounded in both; every other
+//! function is a call to the Rust function the interpreter calls ([`shims`]). So compiled
+//! code returns the interpreter's bits (`tests/jit_matches_interpreter.rs` checks it with
+//! `to_bits` on every catalogue system and on generated expressions), and, since the macro
+//! emits the same programs, the bits of `hamiltonian!`'s code.
+//!
+//! # Costs
+//!
+//! Building compiles eight programs (value, gradient, Hessian, Psi, the fused derivatives,
+//! the discrete gradient, the energy difference and the defect) into one module; the
+//! measured compile times against expression size are in `docs/benchmarks.md`. The code is
+//! freed when the Hamiltonian is dropped. An evaluation checks the slice lengths, makes one
+//! call into compiled code, and checks its outputs are finite; a non-finite output is
+//! [`RuntimeError::NonFinite`], not a NaN passed on. The interpreter backend allocates its
+//! result on every call.
+//!
+//! # Towards the `Hamiltonian` trait
+//!
+//! `dth_core::Hamiltonian<D>` fixes `D` at compile time; a runtime Hamiltonian knows `D`
+//! only when its text is read. Once the core is generic over nalgebra's dimension (`Const<D>`
+//! and `Dyn`), the trait's methods map one to one onto [`RuntimeHamiltonian`]'s
+//! ([`Function`] is named after them): `value`, `gradient`, `hessian` and `psi` call the
+//! methods of the same name with `z.as_slice()` and a `DVector`/`DMatrix` the caller (or the
+//! stepper's workspace) owns, `derivatives` fills a [`Derivatives`] kept in that workspace,
+//! `discrete_gradient`, `energy_difference` and `discrete_gradient_defect` likewise; the
+//! constants `SEPARABLE`, `TIME_DEPENDENT` and `PSI_IDENTICALLY_ZERO` become the methods
+//! [`RuntimeHamiltonian::separable`] and so on, and `EXACT_DIVIDED_DIFFERENCES` is `true`.
+//! Errors (a non-finite value) surface through the stepper's own non-finite checks. The
+//! Hessian is dense row-major, which is column-major of the same symmetric matrix.
+#![warn(missing_docs)]
+
+pub mod backend;
+pub mod error;
+pub mod hamiltonian;
+pub mod jit;
+pub mod layout;
+pub mod shims;
+
+pub use backend::Backend;
+pub use error::{JitError, RuntimeError};
+pub use hamiltonian::{Derivatives, RuntimeHamiltonian};
+pub use layout::Function;

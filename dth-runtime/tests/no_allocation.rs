@@ -1,0 +1,63 @@
+//! Evaluating compiled code allocates nothing: a counting allocator sees no allocation over
+//! many calls of every method (the buffers are the caller's, built before).
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use dth_runtime::{Backend, RuntimeHamiltonian};
+
+struct Counting;
+
+static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
+
+// SAFETY: forwards to the system allocator, counting.
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        ALLOCATIONS.fetch_add(1, Ordering::SeqCst);
+        // SAFETY: the caller's contract, passed on.
+        unsafe { System.alloc(layout) }
+    }
+
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        // SAFETY: the caller's contract, passed on.
+        unsafe { System.dealloc(ptr, layout) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: Counting = Counting;
+
+#[test]
+fn compiled_evaluations_allocate_nothing() {
+    // Time-dependent, with kernels in its two-point programs and a parameter.
+    let h = RuntimeHamiltonian::new(
+        "p1^2/(2*m) + p2^2/2 + exp(q1 - q2) + sin(q1)*cos(t) + (1 + q2^2)^(1/3)",
+        &[("m", 1.5)],
+    )
+    .unwrap();
+    assert_eq!(h.backend(), Backend::Jit);
+    let d = h.dim();
+    let (mut v, mut m, mut all) = (vec![0.0; d], vec![0.0; d * d], h.derivatives_buffer());
+    let z0: Vec<f64> = (0..d).map(|i| 0.1 * i as f64 - 0.2).collect();
+    let z1: Vec<f64> = z0.iter().map(|x| x + 0.01).collect();
+    let before = ALLOCATIONS.load(Ordering::SeqCst);
+    let mut acc = 0.0;
+    for _ in 0..100 {
+        acc += h.value(&z0).unwrap() + h.psi(&z0).unwrap();
+        h.gradient(&z0, &mut v).unwrap();
+        h.hessian(&z0, &mut m).unwrap();
+        h.derivatives(&z0, &mut all).unwrap();
+        h.discrete_gradient(&z0, &z1, &mut v).unwrap();
+        acc += h.energy_difference(&z0, &z1).unwrap();
+        h.discrete_gradient_defect(&z0, &z1, &mut v).unwrap();
+    }
+    let after = ALLOCATIONS.load(Ordering::SeqCst);
+    assert!(acc.is_finite());
+    assert_eq!(after - before, 0, "allocations during evaluation");
+    // The counter does count: the interpreter allocates its results on every call.
+    let reference =
+        RuntimeHamiltonian::with_backend("p1^2/2 + q1^4", &[], Backend::Interpreter).unwrap();
+    let before = ALLOCATIONS.load(Ordering::SeqCst);
+    reference.value(&[0.5, 1.0]).unwrap();
+    assert!(ALLOCATIONS.load(Ordering::SeqCst) > before);
+}
