@@ -50,6 +50,7 @@
 //! (Chapter II, Section 4.1); *A Discrete-Time Formulation of Hamiltonian Dynamics*, 1998
 //! (Theorem 1, Corollary 1).
 
+mod composition;
 mod extended;
 mod newton;
 mod options;
@@ -58,6 +59,7 @@ mod stepper;
 mod trajectory;
 
 pub use crate::error::RunError;
+pub use composition::Composition;
 pub use extended::{lift, set_momentum_of_time, Extended};
 pub use newton::{segment_from_vertex, Segment};
 pub use options::{DthOptions, EnergyResidual, Solver};
