@@ -39,11 +39,18 @@
 //!   equations*, Math. Comp. 66 (1997) 1089-1099; the 26-digit values as printed in Hairer,
 //!   Lubich, Wanner, Section V.3.2).
 //!
+//! The theory, and what it means for negative sub-steps, is in `docs/theory.md#composition`.
+//!
 //! The tests below check the order conditions: `sum gamma_i = 1` and
 //! `sum gamma_i^(2j+1) = 0` to roundoff, and the local error of the composition of a generic
 //! symmetric second-order map (`exp(h A + h^3 B + h^5 C + h^7 E)` with random matrices, whose
 //! commutators stand for the free Lie algebra) against `exp(h A)`, which falls like
 //! `h^(p+1)` exactly when every order condition up to `p` holds.
+
+// The coefficients are written with the digits their sources print (26 for Kahan and Li, 40
+// for Suzuki's closed form), so that they can be checked against them; the compiler rounds
+// each to the nearest f64.
+#![allow(clippy::excessive_precision)]
 
 /// A symmetric composition of DTH steps: the order of the method and its coefficients
 /// `gamma_1 .. gamma_s` (each composed step of size `dtau` is the DTH steps

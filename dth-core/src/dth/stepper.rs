@@ -392,8 +392,10 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
     /// relative noise of about `eps / (h lambda)^2`, see
     /// [`EnergyResidual`](super::EnergyResidual)); the closest iterate is taken. A run that ends at a given time
     /// therefore reports its state at that time, with the order of the method, instead of
-    /// overshooting by up to a step (a shortened last step is still an exact DTH step: energy
-    /// at its midpoint is exact). Costs about three extra steps per run.
+    /// overshooting by up to a step. The last step is an exact DTH step of its own `dtau`
+    /// (energy at its midpoint is exact), but its segment's left vertex is not the previous
+    /// segment's right vertex: the vertex invariants of order 2 (paper Theorem 7) jump once
+    /// there, by `O(h^2)`. Costs about three extra steps per run.
     ///
     /// ```
     /// use dth_core::dth::{Dth, DthOptions};
