@@ -3,7 +3,7 @@
 //! solution, time reversibility of a composed step, energy at every sub-step midpoint, the
 //! other problems, breakdown and the robust mode.
 
-use dth_core::dth::{Dth, DthOptions};
+use dth_core::dth::{Dth, DthOptions, Solver};
 use dth_core::kepler::KeplerOrbit;
 use dth_core::nalgebra::{SVector, Vector2, Vector4};
 use dth_core::observer::StepKind;
@@ -102,13 +102,16 @@ fn ulps<const D: usize>(a: &SVector<f64, D>, b: &SVector<f64, D>) -> f64 {
 }
 
 /// One composed step, then its sub-steps with `-gamma_i dtau` in reverse order: back at the
-/// start (midpoint, lambda and time) to roundoff, at every order, with the negative sub-steps
-/// of the forward step run forwards in time on the way back.
+/// start (midpoint, lambda and time) to roundoff, at every order and with both Newton solvers,
+/// with the negative sub-steps of the forward step run forwards in time on the way back.
 #[test]
 fn one_composed_step_is_time_reversible() {
     let kepler = Kepler::thesis();
-    for order in [2, 4, 6, 8] {
-        let o = options(0.1, order);
+    for (order, solver) in [2, 4, 6, 8]
+        .into_iter()
+        .flat_map(|o| [(o, Solver::Joint), (o, Solver::Nested)])
+    {
+        let o = options(0.1, order).with_solver(solver);
         let mut dth = Dth::new(kepler, thesis_z0(), o).expect("valid start");
         // Start away from the pericentre, where lambda changes along the step.
         for _ in 0..3 {

@@ -259,7 +259,9 @@ impl DthOptions {
     /// marked [`StepKind::Fallback`](crate::observer::StepKind::Fallback). A fallback step that fails
     /// (its Newton at the smallest size, a non-finite `H`, its energy check) stops the run
     /// with that error. Where no step breaks down the run is bit-identical to one without
-    /// robust mode.
+    /// robust mode. At order 4-8 ([`with_order`](Self::with_order)) each fallback sub-step
+    /// takes `gamma_i` times that size (the negative ones run backwards in time), so a stretch
+    /// of fallback steps is composed like the DTH steps it replaces.
     pub fn with_robust(mut self, robust: bool) -> Self {
         self.robust = robust;
         self

@@ -154,7 +154,8 @@ pub(crate) fn diagrams(
                     &y_label,
                 )
                 .with_log(true, true);
-                figure.size = (1100, 750);
+                // Tall enough for the legend of every method (up to 14 entries, below the chart).
+                figure.size = (1100, 950);
                 for c in curves(records, info.name, kind, selection) {
                     figure = figure.with_series(Series::new(&c.label, Mark::Line, c.points));
                 }
