@@ -128,7 +128,7 @@ fn one_composed_step_is_time_reversible() {
         let dl = (dth.lambda() - lambda).abs() / (lambda * EPS);
         let dt = (dth.tbar() - t).abs() / (t * EPS);
         println!(
-            "order {order}: back to start within {dz:.1} eps (z), {dl:.1} (lambda), {dt:.1} (t)"
+            "order {order}, {solver:?}: back to start within {dz:.1} eps (z), {dl:.1} (lambda), {dt:.1} (t)"
         );
         assert!(
             dz <= 32.0 && dl <= 32.0 && dt <= 32.0,

@@ -1,51 +1,4 @@
 //! [`Composition`]: DTH of order 4, 6 and 8 by symmetric composition of DTH steps in `tau`.
-//!
-//! A DTH step is a one-step map `Phi_h: (zbar_k, lambda_k) -> (zbar_{k+1}, lambda_{k+1})` (with
-//! the midpoint time carried along by `tbar_{k+1} = tbar_k + h (lambda_k + lambda_{k+1}) / 2`).
-//! It is **symmetric**, `Phi_{-h}(Phi_h(x)) = x` (exchanging `(k, h)` with `(k + 1, -h)` leaves
-//! the step equations unchanged), of order 2 as an approximation of the `tau`-flow of
-//! `z' = lambda J grad H(z)`, `lambda^3 Psi(z) = const` (the law of time, in the limit
-//! `h -> 0`), and it keeps `H(zbar) = H(zbar_0)` exactly for every `h`, negative included. A
-//! symmetric composition
-//!
-//! ```text
-//! Psi_h = Phi_{gamma_s h} o ... o Phi_{gamma_2 h} o Phi_{gamma_1 h},     gamma_i = gamma_{s+1-i}
-//! ```
-//!
-//! of such a map is again symmetric, and with the coefficients below it has order 4, 6 or 8
-//! (Hairer, Lubich, Wanner, *Geometric Numerical Integration*, 2nd ed., Sections II.4 and V.3).
-//! Every sub-step is a DTH step, so energy stays exact at every midpoint, the intermediate
-//! ones included. Some `gamma_i` are negative: those sub-steps run backwards in `tau` and in
-//! time (`dt = lambda gamma_i h < 0` with `lambda > 0`).
-//!
-//! What is lost above order 2: the midpoints of one composed step lie on segments of unequal
-//! halves (the half-lengths `gamma_i h / 2` change between sub-steps), so the quadratic
-//! invariants that DTH keeps at its vertices for order 2 (paper Theorem 7) are no longer exact
-//! across a composed step; each composed step's end midpoint still has a symmetric segment
-//! (`gamma_1 = gamma_s`), whose two ends are the vertices a trajectory reports.
-//!
-//! The coefficients, chosen for DTH among the published symmetric compositions: the largest
-//! sub-step is at most `0.8 h` in every one (the triple jump's middle step is `-1.70 h`, and a
-//! DTH step of that size needs far more Newton iterations and breaks down sooner), and among
-//! compositions of their order they have the smallest error constants known (Hairer, Lubich,
-//! Wanner, Section V.3.2).
-//!
-//! - order 4: Suzuki's five-stage fractal, `gamma_1 = gamma_2 = gamma_4 = gamma_5 =
-//!   1/(4 - 4^(1/3))`, `gamma_3 = 1 - 4 gamma_1` (M. Suzuki, *Fractal decomposition of
-//!   exponential operators*, Phys. Lett. A 146 (1990) 319-323; Hairer, Lubich, Wanner eq. II.4.5);
-//! - order 6: Kahan and Li's `s9odr6a`, nine stages;
-//! - order 8: Kahan and Li's `s17odr8a`, seventeen stages (W. Kahan, R.-C. Li, *Composition
-//!   constants for raising the orders of unconventional schemes for ordinary differential
-//!   equations*, Math. Comp. 66 (1997) 1089-1099; the 26-digit values as printed in Hairer,
-//!   Lubich, Wanner, Section V.3.2).
-//!
-//! The theory, and what it means for negative sub-steps, is in `docs/theory.md#composition`.
-//!
-//! The tests below check the order conditions: `sum gamma_i = 1` and
-//! `sum gamma_i^(2j+1) = 0` to roundoff, and the local error of the composition of a generic
-//! symmetric second-order map (`exp(h A + h^3 B + h^5 C + h^7 E)` with random matrices, whose
-//! commutators stand for the free Lie algebra) against `exp(h A)`, which falls like
-//! `h^(p+1)` exactly when every order condition up to `p` holds.
 
 // The coefficients are written with the digits their sources print (26 for Kahan and Li, 40
 // for Suzuki's closed form), so that they can be checked against them; the compiler rounds
@@ -54,7 +7,54 @@
 
 /// A symmetric composition of DTH steps: the order of the method and its coefficients
 /// `gamma_1 .. gamma_s` (each composed step of size `dtau` is the DTH steps
-/// `gamma_1 dtau, ..., gamma_s dtau` in turn). See the [module docs](self).
+/// `gamma_1 dtau, ..., gamma_s dtau` in turn).
+///
+/// A DTH step is a one-step map `Phi_h: (zbar_k, lambda_k) -> (zbar_{k+1}, lambda_{k+1})` (with
+/// the midpoint time carried along by `tbar_{k+1} = tbar_k + h (lambda_k + lambda_{k+1}) / 2`).
+/// It is **symmetric**, `Phi_{-h}(Phi_h(x)) = x` (exchanging `(k, h)` with `(k + 1, -h)` leaves
+/// the step equations unchanged), of order 2 as an approximation of the `tau`-flow of
+/// `z' = lambda J grad H(z)`, `lambda^3 Psi(z) = const` (the law of time, in the limit
+/// `h -> 0`), and it keeps `H(zbar) = H(zbar_0)` exactly for every `h`, negative included. A
+/// symmetric composition
+///
+/// ```text
+/// Psi_h = Phi_{gamma_s h} o ... o Phi_{gamma_2 h} o Phi_{gamma_1 h},     gamma_i = gamma_{s+1-i}
+/// ```
+///
+/// of such a map is again symmetric, and with the coefficients below it has order 4, 6 or 8
+/// (Hairer, Lubich, Wanner, *Geometric Numerical Integration*, 2nd ed., Sections II.4 and V.3).
+/// Every sub-step is a DTH step, so energy stays exact at every midpoint, the intermediate
+/// ones included. Some `gamma_i` are negative: those sub-steps run backwards in `tau` and in
+/// time (`dt = lambda gamma_i h < 0` with `lambda > 0`).
+///
+/// What is lost above order 2: the midpoints of one composed step lie on segments of unequal
+/// halves (the half-lengths `gamma_i h / 2` change between sub-steps), so the quadratic
+/// invariants that DTH keeps at its vertices for order 2 (paper Theorem 7) are no longer exact
+/// across a composed step; each composed step's end midpoint still has a symmetric segment
+/// (`gamma_1 = gamma_s`), whose two ends are the vertices a trajectory reports.
+///
+/// The coefficients, chosen for DTH among the published symmetric compositions: the largest
+/// sub-step is at most `0.8 h` in every one (the triple jump's middle step is `-1.70 h`, and a
+/// DTH step of that size needs far more Newton iterations and breaks down sooner), and among
+/// compositions of their order they have the smallest error constants known (Hairer, Lubich,
+/// Wanner, Section V.3.2).
+///
+/// - order 4: Suzuki's five-stage fractal, `gamma_1 = gamma_2 = gamma_4 = gamma_5 =
+///   1/(4 - 4^(1/3))`, `gamma_3 = 1 - 4 gamma_1` (M. Suzuki, *Fractal decomposition of
+///   exponential operators*, Phys. Lett. A 146 (1990) 319-323; Hairer, Lubich, Wanner eq. II.4.5);
+/// - order 6: Kahan and Li's `s9odr6a`, nine stages;
+/// - order 8: Kahan and Li's `s17odr8a`, seventeen stages (W. Kahan, R.-C. Li, *Composition
+///   constants for raising the orders of unconventional schemes for ordinary differential
+///   equations*, Math. Comp. 66 (1997) 1089-1099; the 26-digit values as printed in Hairer,
+///   Lubich, Wanner, Section V.3.2).
+///
+/// The theory, and what it means for negative sub-steps, is in `docs/theory.md#composition`.
+///
+/// The unit tests of `dth-core/src/dth/composition.rs` check the order conditions: `sum gamma_i = 1` and
+/// `sum gamma_i^(2j+1) = 0` to roundoff, and the local error of the composition of a generic
+/// symmetric second-order map (`exp(h A + h^3 B + h^5 C + h^7 E)` with random matrices, whose
+/// commutators stand for the free Lie algebra) against `exp(h A)`, which falls like
+/// `h^(p+1)` exactly when every order condition up to `p` holds.
 ///
 /// ```
 /// use dth_core::dth::Composition;
