@@ -321,8 +321,11 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
     }
 
     /// Advance one step: solve for `zbar_{k+1}`, `lambda_{k+1}` (in robust mode, possibly a
-    /// fallback step instead; see [`DthOptions::with_robust`]). On error the state is unchanged
-    /// (still at step `k`). A failed step is not retried with a smaller `dtau`: the step
+    /// fallback step instead; see [`DthOptions::with_robust`]). Above order 2
+    /// ([`DthOptions::with_order`]) one step is the composition of `s` DTH steps
+    /// `gamma_i dtau` ([`Dth::step_with`]); its record is the last sub-step's midpoint, with
+    /// the Newton iterations of all of them. On error the state is unchanged (still at step
+    /// `k`, also when a later sub-step fails). A failed step is not retried with a smaller `dtau`: the step
     /// equations depend on `h` only through `h lambda_k` and `h lambda_{k+1}`, so a smaller `h`
     /// that keeps the shared vertex `z^(k+1)` gives the same step, and one that does not breaks
     /// the continuity the vertex invariants (Theorems 3, 7) rest on. Where DTH has no positive
