@@ -182,6 +182,18 @@ fn runs_end_exactly_at_the_requested_time() {
     for order in [2, 4, 6, 8] {
         let (_, t, _) = run_to(&kepler, thesis_z0(), options(0.06277, order), t_end);
         assert!((t - t_end).abs() <= 4.0 * EPS * t_end, "order {order}: {t}");
+        // Only the last step is shortened, and says so.
+        let mut dth = Dth::new(kepler, thesis_z0(), options(0.06277, order)).expect("start");
+        let mut kinds = Vec::new();
+        loop {
+            let (r, done) = dth.step_toward(t_end).expect("step");
+            kinds.push(r.kind);
+            if done {
+                break;
+            }
+        }
+        assert_eq!(kinds.pop(), Some(StepKind::Shortened));
+        assert!(kinds.iter().all(|k| *k == StepKind::Dth));
     }
     // Not after the current time: a typed error.
     let mut dth = Dth::new(kepler, thesis_z0(), options(0.1, 4)).expect("valid start");

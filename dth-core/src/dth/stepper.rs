@@ -384,7 +384,8 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
     /// Advance toward the time `t_end`, ending on it exactly: a full step ([`Dth::step`]) when
     /// it ends at least half a step before `t_end`; otherwise the last step, with its `dtau`
     /// scaled (by about 0.5 to 1.5) so that its final midpoint lands on `t = t_end` to
-    /// roundoff. Returns the step's record and `true` once `t_end` is reached.
+    /// roundoff, recorded as [`StepKind::Shortened`]. Returns the step's record and `true`
+    /// once `t_end` is reached.
     ///
     /// The scale is the root of `tbar(s) - t_end`, where `tbar(s)` is the midpoint time after a
     /// step of `s dtau` from the current state (a smooth function, close to
@@ -463,7 +464,13 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
             (s_b, f_b) = (scale, f);
         }
         self.s = best.1;
-        Ok((best.2, true))
+        // Report it as shortened (a fallback inside it says more, and stays).
+        let mut r = best.2;
+        if r.kind == StepKind::Dth {
+            r.kind = StepKind::Shortened;
+            self.s.step_kind = StepKind::Shortened;
+        }
+        Ok((r, true))
     }
 
     /// One composed step of size `dtau` (a single DTH step at order 2): the sub-steps
