@@ -46,6 +46,12 @@ pub enum StepKind {
     /// DTH segment (its vertex-based invariants, such as quadratic invariants exact at
     /// vertices, do not hold across such steps).
     Fallback,
+    /// The last DTH step of a run that ends at a given time (`Dth::step_toward`), its `dtau`
+    /// scaled so that its midpoint `z` lands on that time: an exact DTH midpoint
+    /// (`H(zbar) = H(zbar_0)`), but its segment has its own `dtau`, so its
+    /// [`DthRecord::vertex`] is not a vertex of the run's polygon of equal steps and the
+    /// quadratic invariants exact at those vertices jump there once, by `O(dtau^2)`.
+    Shortened,
 }
 
 /// DTH's own quantities at a step (the DTH stepper fills them; fixed-step methods have none).

@@ -94,12 +94,23 @@ pub struct DthRunner {
 }
 
 impl DthRunner {
-    /// The runner for a scene's DTH step (`dtau`, `lambda0`, `solver`, robust mode).
-    pub fn new(dtau: f64, lambda0: f64, solver: Solver, robust: bool) -> Result<Self, dth::Error> {
+    /// The runner for a scene's DTH step (`dtau`, `lambda0`, `solver`, robust mode, order).
+    ///
+    /// # Errors
+    /// `dth::Error::InvalidOption` for a `dtau` or `lambda0` that is not positive and finite,
+    /// or an order other than 2, 4, 6, 8.
+    pub fn new(
+        dtau: f64,
+        lambda0: f64,
+        solver: Solver,
+        robust: bool,
+        order: u32,
+    ) -> Result<Self, dth::Error> {
         Ok(DthRunner {
             options: DthOptions::default()
                 .with_dtau(dtau)?
                 .with_lambda0(lambda0)?
+                .with_order(order)?
                 .with_solver(solver)
                 .with_robust(robust),
         })
@@ -107,7 +118,11 @@ impl DthRunner {
 
     /// Runs from the first midpoint `zbar_0 = z0` at time `t0` (for a time-dependent `H` the
     /// `t` coordinate of `z0` is the clock) until `stop`; on failure the observer has seen
-    /// every midpoint computed before the failing step.
+    /// every midpoint computed before the failing step. A run until a time ends exactly on it:
+    /// its last step is shortened (or stretched, by at most half a step) in `tau` so that the
+    /// last midpoint lands on `t_end` to roundoff (`dth::dth::Dth::step_toward`), and that
+    /// midpoint and its time are the run's end (its segment has its own `dtau`, so the vertex
+    /// invariants of plain DTH jump once at its vertex).
     pub fn run<const D: usize, H: Hamiltonian<D> + Clone, O: Observer<D>>(
         &self,
         system: &H,
@@ -131,9 +146,22 @@ impl DthRunner {
                     steps: record.k,
                 });
             }
-            record = dth
-                .step()
-                .map_err(|e| MethodFailure::integrator(record.k + 1, e))?;
+            let failed = |e| MethodFailure::integrator(record.k + 1, e);
+            record = match stop {
+                Stop::Time { t_end, .. } => {
+                    let (r, reached) = dth.step_toward(t_end).map_err(failed)?;
+                    if reached {
+                        observer.on_step(&r);
+                        return Ok(RunEnd {
+                            z: r.z,
+                            t: r.t,
+                            steps: r.k,
+                        });
+                    }
+                    r
+                }
+                Stop::Steps(_) => dth.step().map_err(failed)?,
+            };
         }
     }
 }

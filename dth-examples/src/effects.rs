@@ -348,7 +348,13 @@ impl<const D: usize, S: SceneSystem<D>> Observer<D> for Effects<'_, D, S> {
         self.calls += 1;
         let (step, t, z) = (r.k, r.t, &r.z);
         let lambda = r.dth.map(|d| d.lambda);
-        let vertex = r.dth.as_ref().map(|d| (d.vertex_time, &d.vertex));
+        // The vertex of a shortened last step belongs to a segment of its own dtau, not to the
+        // polygon of equal steps whose vertex invariants the statistics are about.
+        let vertex = r
+            .dth
+            .as_ref()
+            .filter(|_| r.kind != dth::observer::StepKind::Shortened)
+            .map(|d| (d.vertex_time, &d.vertex));
         let at = |c: Coord, t: f64, z: &SVector<f64, D>| c.value(t, z.as_slice());
         if let Some(f) = &mut self.final_state {
             *f = Some(FinalState {

@@ -78,9 +78,10 @@ pub fn run_method<const D: usize, H: SceneSystem<D>, O: Observer<D>>(
                 lambda0,
                 solver,
                 robust,
+                order,
             },
         ) => {
-            let runner = DthRunner::new(dtau, lambda0, solver, robust)
+            let runner = DthRunner::new(dtau, lambda0, solver, robust, order)
                 .map_err(|e| not_available(&e.to_string()))?;
             return system
                 .run_dth(&runner, z0, t0, stop, observer)

@@ -127,8 +127,8 @@ pub enum Legend {
 
 /// Colour-blind-friendly palette (Okabe-Ito, then Tableau), cycled over series: 0 blue,
 /// 1 vermillion, 2 green, 3 reddish purple, 4 orange, 5 sky blue, 6 black, 7 brown, 8 grey,
-/// 9 olive.
-pub const PALETTE: [RGBColor; 10] = [
+/// 9 olive, 10 firebrick, 11 midnight blue, 12 purple, 13 teal.
+pub const PALETTE: [RGBColor; 14] = [
     RGBColor(0, 114, 178),
     RGBColor(213, 94, 0),
     RGBColor(0, 158, 115),
@@ -139,6 +139,10 @@ pub const PALETTE: [RGBColor; 10] = [
     RGBColor(140, 86, 75),
     RGBColor(127, 127, 127),
     RGBColor(188, 189, 34),
+    RGBColor(178, 34, 34),
+    RGBColor(25, 25, 112),
+    RGBColor(106, 61, 154),
+    RGBColor(0, 128, 128),
 ];
 
 /// Registers the embedded DejaVu Sans as "sans-serif" (once per process).

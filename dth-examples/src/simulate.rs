@@ -329,6 +329,7 @@ fn step_summary(step: StepSpec) -> BTreeMap<String, serde_json::Value> {
             lambda0,
             solver,
             robust,
+            order,
         } => {
             m.insert("dtau".into(), dtau.into());
             m.insert("lambda0".into(), lambda0.into());
@@ -336,6 +337,9 @@ fn step_summary(step: StepSpec) -> BTreeMap<String, serde_json::Value> {
             // Shown when on (a run without it reads as before).
             if robust {
                 m.insert("robust".into(), robust.into());
+            }
+            if order != 2 {
+                m.insert("order".into(), order.into());
             }
         }
     }

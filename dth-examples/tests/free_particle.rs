@@ -109,6 +109,7 @@ fn the_runner_refuses_dth_even_when_validation_is_bypassed() {
         lambda0: 1.0,
         solver: Solver::Joint,
         robust: false,
+        order: 2,
     };
     let err = compute(
         &WithoutDth(FreeParticle { m: 2.0 }),

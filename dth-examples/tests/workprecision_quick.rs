@@ -27,6 +27,9 @@ fn quick_sweep_runs_and_writes_its_files() {
         "rk4",
         "gauss_legendre2",
         "dop853",
+        "dth4",
+        "dth6",
+        "dth8",
     ];
     for system in systems {
         for method in methods {
@@ -59,8 +62,9 @@ fn quick_sweep_runs_and_writes_its_files() {
             assert!(r.vertex_error.is_some() && r.newton_per_step.is_some());
             // Its vertices conserve the angular momentum (a quadratic invariant; thesis
             // Table 4.1: 2.2e-15 over 10^4 steps), measured against the first vertex: a few
-            // eps per step at most, over at most ~130 steps here.
-            if system.starts_with("kepler") {
+            // eps per step at most, over at most ~130 steps here. Plain DTH only: a composed
+            // step (order 4-8) does not keep it at its vertices.
+            if system.starts_with("kepler") && r.method.starts_with("dth_") {
                 let l = r.vertex_invariant_error.expect("Kepler has an invariant");
                 assert!(l < 1e-13, "{r:?}");
             }

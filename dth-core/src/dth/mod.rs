@@ -22,6 +22,11 @@
 //!   carried through with energy-conserving discrete-gradient steps of the last DTH step's
 //!   physical size, marked [`StepKind::Fallback`](crate::observer::StepKind::Fallback); DTH resumes where `Psi` allows.
 //! - **No retry**: a failed DTH step is not retried with a smaller `dtau` (see [`Dth::step`]).
+//! - **Order 4, 6, 8** ([`DthOptions::with_order`], [`Composition`]): each step is a symmetric
+//!   composition of DTH steps in `tau` (5, 9 or 17 sub-steps, some negative), energy exact at
+//!   every midpoint; the vertex invariants hold for order 2 only.
+//! - **Ending at a time** ([`Dth::step_toward`]): the last step is shortened in `tau` so that
+//!   the last midpoint lands on the requested time to roundoff.
 //!
 //! ```
 //! use dth_core::dth::{integrate, DthOptions};
@@ -50,6 +55,7 @@
 //! (Chapter II, Section 4.1); *A Discrete-Time Formulation of Hamiltonian Dynamics*, 1998
 //! (Theorem 1, Corollary 1).
 
+mod composition;
 mod extended;
 mod newton;
 mod options;
@@ -58,6 +64,7 @@ mod stepper;
 mod trajectory;
 
 pub use crate::error::RunError;
+pub use composition::Composition;
 pub use extended::{lift, set_momentum_of_time, Extended};
 pub use newton::{segment_from_vertex, Segment};
 pub use options::{DthOptions, EnergyResidual, Solver};

@@ -419,21 +419,22 @@ fn relative_update<const D: usize>(
         .max(dl.abs() / lambda.abs().max(f64::MIN_POSITIVE))
 }
 
-/// Solve one segment from `anchor` (left vertex, energy, previous midpoint for the
-/// cancellation-free form), starting Newton from the predictor `(z0, lambda0)`. `step` labels
-/// errors. For the cancellation-free form the caller finishes with [`project`] (after
+/// Solve one segment of signed step `h` in `tau` from `anchor` (left vertex, energy, previous
+/// midpoint for the cancellation-free form), starting Newton from the predictor
+/// `(z0, lambda0)`. `step` labels errors. For the cancellation-free form the caller finishes with [`project`] (after
 /// rejecting roots with the wrong `lambda`, whose energy check would misreport them).
 pub(crate) fn solve_segment<H: Hamiltonian<D>, const D: usize>(
     ham: &H,
     anchor: &Anchor<D>,
     z0: SVector<f64, D>,
     lambda0: f64,
+    h: f64,
     options: &DthOptions,
     step: usize,
 ) -> Result<Segment<D>, Error> {
     match options.solver() {
-        Solver::Joint => joint(ham, anchor, z0, lambda0, options, step),
-        Solver::Nested => nested(ham, anchor, z0, lambda0, options, step),
+        Solver::Joint => joint(ham, anchor, z0, lambda0, h, options, step),
+        Solver::Nested => nested(ham, anchor, z0, lambda0, h, options, step),
     }
 }
 
@@ -545,10 +546,10 @@ fn joint<H: Hamiltonian<D>, const D: usize>(
     anchor: &Anchor<D>,
     mut z: SVector<f64, D>,
     mut lambda: f64,
+    h: f64,
     options: &DthOptions,
     step: usize,
 ) -> Result<Segment<D>, Error> {
-    let h = options.dtau();
     let mut convergence = convergence(options);
     // Workspace, overwritten in place each iteration.
     let mut e = Eval::empty();
@@ -619,10 +620,10 @@ fn nested<H: Hamiltonian<D>, const D: usize>(
     anchor: &Anchor<D>,
     mut z: SVector<f64, D>,
     mut lambda: f64,
+    h: f64,
     options: &DthOptions,
     step: usize,
 ) -> Result<Segment<D>, Error> {
-    let h = options.dtau();
     let mut outer = convergence(options);
     let mut factorizations = 0u32;
     // Workspace, overwritten in place.
@@ -755,7 +756,15 @@ pub fn segment_from_vertex<H: Hamiltonian<D>, const D: usize>(
         energy,
         previous: None,
     };
-    let s = solve_segment(hamiltonian, &anchor, z0, lambda_guess, options, 0)?;
+    let s = solve_segment(
+        hamiltonian,
+        &anchor,
+        z0,
+        lambda_guess,
+        options.dtau(),
+        options,
+        0,
+    )?;
     if s.lambda <= 0.0 {
         return Err(Error::SpuriousRoot {
             step: 0,

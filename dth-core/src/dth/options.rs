@@ -1,5 +1,6 @@
 //! [`DthOptions`]: step size, initial multiplier and Newton settings, validated on construction.
 
+use super::composition::Composition;
 use crate::Error;
 
 /// Which Newton iteration solves the step equations.
@@ -110,12 +111,14 @@ pub struct DthOptions {
     energy_residual: EnergyResidual,
     max_lambda_ratio: f64,
     robust: bool,
+    composition: Composition,
 }
 
 impl Default for DthOptions {
     /// The thesis's Kepler settings (`dtau = 0.06277`, `lambda0 = 1`), joint Newton,
     /// at most 50 iterations, residual tolerance `64 eps`, stall tolerance `2^-40`,
-    /// [`EnergyResidual::Auto`], breakdown at a predicted `lambda` ratio of 8, robust mode off.
+    /// [`EnergyResidual::Auto`], breakdown at a predicted `lambda` ratio of 8, robust mode off,
+    /// order 2 ([`Composition::Order2`]).
     fn default() -> Self {
         DthOptions {
             dtau: 0.06277,
@@ -127,6 +130,7 @@ impl Default for DthOptions {
             energy_residual: EnergyResidual::Auto,
             max_lambda_ratio: 8.0,
             robust: false,
+            composition: Composition::Order2,
         }
     }
 }
@@ -255,10 +259,57 @@ impl DthOptions {
     /// marked [`StepKind::Fallback`](crate::observer::StepKind::Fallback). A fallback step that fails
     /// (its Newton at the smallest size, a non-finite `H`, its energy check) stops the run
     /// with that error. Where no step breaks down the run is bit-identical to one without
-    /// robust mode.
+    /// robust mode. At order 4-8 ([`with_order`](Self::with_order)) each fallback sub-step
+    /// takes `gamma_i` times that size (the negative ones run backwards in time), so a stretch
+    /// of fallback steps is composed like the DTH steps it replaces.
     pub fn with_robust(mut self, robust: bool) -> Self {
         self.robust = robust;
         self
+    }
+
+    /// The order of the method: 2 (plain DTH, the default), 4, 6 or 8, by symmetric
+    /// composition of DTH steps in `tau` ([`Composition`]: Suzuki's five-stage composition
+    /// for 4, Kahan and Li's nine- and seventeen-stage ones for 6 and 8). Each step of size
+    /// `dtau` is then `s` DTH steps of sizes `gamma_i dtau`, some of them negative (they run
+    /// backwards in time, with `lambda > 0`); energy stays exact at every midpoint, and a
+    /// step costs about `s` plain DTH steps. See [`Composition`] for what is lost above order
+    /// 2 (the exact vertex invariants).
+    ///
+    /// ```
+    /// use dth_core::dth::{Composition, DthOptions};
+    /// let options = DthOptions::default().with_order(8)?;
+    /// assert_eq!(options.composition(), Composition::KahanLi8);
+    /// assert!(DthOptions::default().with_order(3).is_err());
+    /// # Ok::<(), dth_core::Error>(())
+    /// ```
+    ///
+    /// # Errors
+    /// [`Error::InvalidOption`] (`order`) for anything but 2, 4, 6, 8.
+    pub fn with_order(self, order: u32) -> Result<Self, Error> {
+        match Composition::from_order(order) {
+            Some(c) => Ok(self.with_composition(c)),
+            None => Err(Error::InvalidOption {
+                name: "order",
+                value: f64::from(order),
+                reason: "must be 2, 4, 6 or 8",
+            }),
+        }
+    }
+
+    /// The composition directly (the same as [`with_order`](Self::with_order) with its order).
+    pub fn with_composition(mut self, composition: Composition) -> Self {
+        self.composition = composition;
+        self
+    }
+
+    /// The composition (order 2: [`Composition::Order2`]).
+    pub fn composition(&self) -> Composition {
+        self.composition
+    }
+
+    /// The order: 2, 4, 6 or 8.
+    pub fn order(&self) -> u32 {
+        self.composition.order()
     }
 
     /// The breakdown ratio for predicted `lambda_{k+1} / lambda_k`.

@@ -60,11 +60,19 @@ use crate::{j_times, Derivatives, Error, Hamiltonian};
 pub struct Dth<H, const D: usize> {
     hamiltonian: H,
     options: DthOptions,
+    /// The level every midpoint is solved against.
+    energy: f64,
+    /// Everything a step changes (restored as a whole when a composed step fails part-way).
+    s: State<D>,
+}
+
+/// The state of a [`Dth`] stepper that steps change.
+#[derive(Clone, Copy, Debug)]
+struct State<const D: usize> {
     k: usize,
     zbar: SVector<f64, D>,
     lambda: f64,
     tbar: f64,
-    energy: f64,
     gradient: SVector<f64, D>,
     psi: f64,
     iterations: u32,
@@ -72,7 +80,10 @@ pub struct Dth<H, const D: usize> {
     reported: bool,
     /// `Some` while the robust mode is taking fallback steps.
     fallback: Option<Fallback>,
+    /// What produced the current midpoint: the last sub-step (drives the robust mode).
     kind: StepKind,
+    /// What the last step reports: [`StepKind::Fallback`] if any of its sub-steps was one.
+    step_kind: StepKind,
     /// The law-of-time constant `lambda^3 Psi` of the run (paper Theorem 5), set at the first
     /// midpoint with `Psi != 0`; the robust mode resumes DTH with `lambda = (law / Psi)^(1/3)`
     /// so that the resolution the user chose with `lambda_0` is kept across excursions.
@@ -80,6 +91,10 @@ pub struct Dth<H, const D: usize> {
     /// Largest `lambda` of an accepted DTH step (at least `lambda_0`): caps the size of
     /// robust-mode fallback steps where the law of time would let them blow up (`Psi -> 0`).
     lambda_max: f64,
+    /// Signed step in `tau` of the segment of the current midpoint: both its halves
+    /// (`gamma_1 dtau` for a composed step, `gamma_1 = gamma_s`; `dtau` at order 2). The
+    /// vertices of the current segment are `zbar -+ (h_edge/2) zbar'`.
+    h_edge: f64,
 }
 
 /// Predicted growth of `lambda` in one step beyond which breakdown detection looks a second time,
@@ -97,6 +112,10 @@ const DIAGNOSE_STEPS: usize = 3;
 /// A robust-mode fallback step halves its `dt` down to `2^-MAX_FALLBACK_HALVINGS` of the last
 /// DTH step's before giving up.
 const MAX_FALLBACK_HALVINGS: u32 = 20;
+
+/// Secant iterations of [`Dth::step_toward`] at most (it converges in three or four: the
+/// midpoint time is nearly linear in the step).
+const MAX_END_ITERATIONS: usize = 16;
 
 /// State of a robust-mode excursion.
 #[derive(Clone, Copy, Debug)]
@@ -170,20 +189,24 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
         Ok(Dth {
             hamiltonian,
             options,
-            k: 0,
-            zbar: zbar0,
-            lambda: options.lambda0(),
-            tbar,
             energy,
-            gradient: d.gradient,
-            psi: d.psi,
-            iterations: 0,
-            factorizations: 0,
-            reported: false,
-            fallback: None,
-            kind: StepKind::Dth,
-            law: options.lambda0().powi(3) * d.psi,
-            lambda_max: options.lambda0(),
+            s: State {
+                k: 0,
+                zbar: zbar0,
+                lambda: options.lambda0(),
+                tbar,
+                gradient: d.gradient,
+                psi: d.psi,
+                iterations: 0,
+                factorizations: 0,
+                reported: false,
+                fallback: None,
+                kind: StepKind::Dth,
+                step_kind: StepKind::Dth,
+                law: options.lambda0().powi(3) * d.psi,
+                lambda_max: options.lambda0(),
+                h_edge: options.dtau() * options.composition().coefficients()[0],
+            },
         })
     }
 
@@ -199,7 +222,7 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
                 reason: "must be finite",
             });
         }
-        self.tbar = tbar0;
+        self.s.tbar = tbar0;
         Ok(self)
     }
 
@@ -224,19 +247,19 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
     }
     /// Index `k` of the current midpoint.
     pub fn k(&self) -> usize {
-        self.k
+        self.s.k
     }
     /// Current midpoint `zbar_k`.
     pub fn zbar(&self) -> &SVector<f64, D> {
-        &self.zbar
+        &self.s.zbar
     }
     /// Current multiplier `lambda_k`.
     pub fn lambda(&self) -> f64 {
-        self.lambda
+        self.s.lambda
     }
     /// Current midpoint time `tbar_k`.
     pub fn tbar(&self) -> f64 {
-        self.tbar
+        self.s.tbar
     }
     /// The level every midpoint is solved against: `H(zbar_0)` (autonomous), or 0 for the
     /// extended-phase-space `calH`.
@@ -245,57 +268,64 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
     }
     /// Slope `zbar'_k = lambda_k J gradH(zbar_k)` of the current segment.
     pub fn slope(&self) -> SVector<f64, D> {
-        j_times(&self.gradient) * self.lambda
+        j_times(&self.s.gradient) * self.s.lambda
     }
     /// Left vertex `z^(k) = zbar_k - (h/2) zbar'_k` of the current segment (the node itself
-    /// after a robust-mode fallback step).
+    /// after a robust-mode fallback step). `h` is `dtau` at order 2; above, the segment of a
+    /// composed step's end midpoint has the half-length of its last (and first) sub-step,
+    /// `h = gamma_1 dtau` ([`Composition`](super::Composition)).
     pub fn left_vertex(&self) -> SVector<f64, D> {
-        match self.kind {
-            StepKind::Fallback => self.zbar,
-            _ => self.zbar - self.slope() * (0.5 * self.options.dtau()),
-        }
+        self.vertex(self.s.kind, -self.s.h_edge)
     }
     /// Right vertex `z^(k+1) = zbar_k + (h/2) zbar'_k` of the current segment (the node itself
-    /// after a robust-mode fallback step).
+    /// after a robust-mode fallback step); `h` as for [`Dth::left_vertex`].
     pub fn right_vertex(&self) -> SVector<f64, D> {
-        match self.kind {
-            StepKind::Fallback => self.zbar,
-            _ => self.zbar + self.slope() * (0.5 * self.options.dtau()),
+        self.vertex(self.s.kind, self.s.h_edge)
+    }
+    /// `zbar + (h/2) zbar'`, or the node itself after a fallback step.
+    fn vertex(&self, kind: StepKind, h: f64) -> SVector<f64, D> {
+        match kind {
+            StepKind::Fallback => self.s.zbar,
+            _ => self.s.zbar + self.slope() * (0.5 * h),
         }
     }
     /// What produced the current midpoint.
     pub fn kind(&self) -> StepKind {
-        self.kind
+        self.s.kind
     }
     /// `true` while the robust mode is taking fallback steps.
     pub fn in_fallback(&self) -> bool {
-        self.fallback.is_some()
+        self.s.fallback.is_some()
     }
     /// The record of the current midpoint.
     pub fn record(&self) -> StepRecord<D> {
-        let h = self.options.dtau();
+        let h = self.s.h_edge;
+        let kind = self.s.step_kind;
         StepRecord {
-            k: self.k,
-            t: self.tbar,
-            z: self.zbar,
-            kind: self.kind,
-            iterations: self.iterations,
-            factorizations: self.factorizations,
+            k: self.s.k,
+            t: self.s.tbar,
+            z: self.s.zbar,
+            kind,
+            iterations: self.s.iterations,
+            factorizations: self.s.factorizations,
             dth: Some(DthRecord {
-                lambda: self.lambda,
-                vertex: self.left_vertex(),
-                vertex_time: match self.kind {
-                    StepKind::Fallback => self.tbar,
-                    _ => self.tbar - 0.5 * h * self.lambda,
+                lambda: self.s.lambda,
+                vertex: self.vertex(kind, -h),
+                vertex_time: match kind {
+                    StepKind::Fallback => self.s.tbar,
+                    _ => self.s.tbar - 0.5 * h * self.s.lambda,
                 },
-                psi: self.psi,
+                psi: self.s.psi,
             }),
         }
     }
 
     /// Advance one step: solve for `zbar_{k+1}`, `lambda_{k+1}` (in robust mode, possibly a
-    /// fallback step instead; see [`DthOptions::with_robust`]). On error the state is unchanged
-    /// (still at step `k`). A failed step is not retried with a smaller `dtau`: the step
+    /// fallback step instead; see [`DthOptions::with_robust`]). Above order 2
+    /// ([`DthOptions::with_order`]) one step is the composition of `s` DTH steps
+    /// `gamma_i dtau` ([`Dth::step_with`]); its record is the last sub-step's midpoint, with
+    /// the Newton iterations of all of them. On error the state is unchanged (still at step
+    /// `k`, also when a later sub-step fails). A failed step is not retried with a smaller `dtau`: the step
     /// equations depend on `h` only through `h lambda_k` and `h lambda_{k+1}`, so a smaller `h`
     /// that keeps the shared vertex `z^(k+1)` gives the same step, and one that does not breaks
     /// the continuity the vertex invariants (Theorems 3, 7) rest on. Where DTH has no positive
@@ -309,10 +339,190 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
     /// [`Error::EnergyCheckFailed`] (cancellation-free residual, robust fallback).
     /// In robust mode only the last three stop a run.
     pub fn step(&mut self) -> Result<StepRecord<D>, Error> {
-        if let Some(fb) = self.fallback {
-            return self.fallback_step(fb);
+        self.composed_step(self.options.dtau())
+    }
+
+    /// One plain DTH step (no composition, whatever [`DthOptions::order`]) with the signed
+    /// step `dtau` in `tau`, from the current midpoint; `k` advances by one. A negative
+    /// `dtau` runs backwards in time (`dt = lambda dtau < 0`; `lambda` stays positive). The
+    /// map `(zbar_k, lambda_k) -> (zbar_{k+1}, lambda_{k+1})` is symmetric: `step_with(h)`
+    /// followed by `step_with(-h)` returns to the start, to roundoff. A composed step of size
+    /// `dtau` ([`Dth::step`] above order 2) is `step_with(gamma_i dtau)` for the coefficients
+    /// `gamma_i` of [`DthOptions::composition`], bit for bit.
+    ///
+    /// ```
+    /// use dth_core::dth::{Dth, DthOptions};
+    /// use dth_core::{nalgebra::Vector4, systems::Kepler};
+    /// let mut dth = Dth::new(Kepler::thesis(), Vector4::new(0.5, 0.0, 0.0, 1.2), DthOptions::default())?;
+    /// dth.step_with(0.05)?;
+    /// dth.step_with(-0.05)?;
+    /// assert!((dth.zbar() - Vector4::new(0.5, 0.0, 0.0, 1.2)).amax() < 1e-14);
+    /// assert!((dth.lambda() - 1.0).abs() < 1e-13 && dth.tbar().abs() < 1e-15);
+    /// # Ok::<(), dth_core::Error>(())
+    /// ```
+    ///
+    /// # Errors
+    /// [`Error::InvalidOption`] (`dtau`) for zero or a non-finite `dtau`; otherwise as
+    /// [`Dth::step`]. On error the state is unchanged.
+    pub fn step_with(&mut self, dtau: f64) -> Result<StepRecord<D>, Error> {
+        if !(dtau.is_finite() && dtau != 0.0) {
+            return Err(Error::InvalidOption {
+                name: "dtau",
+                value: dtau,
+                reason: "must be finite and nonzero",
+            });
         }
-        match self.dth_step() {
+        let saved = self.s;
+        let step = saved.k + 1;
+        let r = self
+            .sub_step(dtau, dtau.abs(), step)
+            .inspect_err(|_| self.s = saved)?;
+        self.s.k = step;
+        Ok(r)
+    }
+
+    /// Advance toward the time `t_end`, ending on it exactly: a full step ([`Dth::step`]) when
+    /// it ends at least half a step before `t_end`; otherwise the last step, with its `dtau`
+    /// scaled (by about 0.5 to 1.5) so that its final midpoint lands on `t = t_end` to
+    /// roundoff, recorded as [`StepKind::Shortened`]. Returns the step's record and `true`
+    /// once `t_end` is reached.
+    ///
+    /// The scale is the root of `tbar(s) - t_end`, where `tbar(s)` is the midpoint time after a
+    /// step of `s dtau` from the current state (a smooth function, close to
+    /// `tbar_k + s lambda dtau`), found by a secant iteration from `s = 0` and `s = 1`, each
+    /// iterate a full (composed) step; it stops when the time is within `4 eps |t_end|`, the
+    /// roundoff of the time sum, or when an iterate does not halve the distance to `t_end`
+    /// (the noise of `tbar(s)` itself: with the plain energy residual each `lambda` carries a
+    /// relative noise of about `eps / (h lambda)^2`, see
+    /// [`EnergyResidual`](super::EnergyResidual)); the closest iterate is taken. A run that ends at a given time
+    /// therefore reports its state at that time, with the order of the method, instead of
+    /// overshooting by up to a step. The last step is an exact DTH step of its own `dtau`
+    /// (energy at its midpoint is exact), but its segment's left vertex is not the previous
+    /// segment's right vertex: the vertex invariants of order 2 (paper Theorem 7) jump once
+    /// there, by `O(h^2)`. Costs about three extra steps per run.
+    ///
+    /// ```
+    /// use dth_core::dth::{Dth, DthOptions};
+    /// use dth_core::{nalgebra::Vector4, systems::Kepler};
+    /// let options = DthOptions::default().with_order(4)?;
+    /// let mut dth = Dth::new(Kepler::thesis(), Vector4::new(0.5, 0.0, 0.0, 1.2), options)?;
+    /// let t_end = 11.245;
+    /// while !dth.step_toward(t_end)?.1 {}
+    /// assert!((dth.tbar() - t_end).abs() <= 4.0 * f64::EPSILON * t_end);
+    /// # Ok::<(), dth_core::Error>(())
+    /// ```
+    ///
+    /// # Errors
+    /// [`Error::InvalidOption`] (`t_end`) when `t_end` is not finite or not after the current
+    /// midpoint time; otherwise as [`Dth::step`] (the state is then that of the last accepted
+    /// step).
+    pub fn step_toward(&mut self, t_end: f64) -> Result<(StepRecord<D>, bool), Error> {
+        let t0 = self.s.tbar;
+        if !(t_end.is_finite() && t_end > t0) {
+            return Err(Error::InvalidOption {
+                name: "t_end",
+                value: t_end,
+                reason: "must be finite and after the current midpoint time",
+            });
+        }
+        let saved = self.s;
+        let dtau = self.options.dtau();
+        let full = self.composed_step(dtau)?;
+        let advance = full.t - t0;
+        if full.t < t_end - 0.5 * advance {
+            return Ok((full, false));
+        }
+        // The last step: secant iteration on the scale s of dtau, F(s) = tbar(s) - t_end, from
+        // F(0) = t0 - t_end < 0 and F(1) (just computed).
+        let tolerance = 4.0 * f64::EPSILON * t_end.abs().max(t0.abs());
+        let (mut s_a, mut f_a) = (0.0, t0 - t_end);
+        let (mut s_b, mut f_b) = (1.0, full.t - t_end);
+        let mut best = (f_b.abs(), self.s, full);
+        for _ in 0..MAX_END_ITERATIONS {
+            if best.0 <= tolerance || f_b == f_a {
+                break;
+            }
+            let scale = (s_b - f_b * (s_b - s_a) / (f_b - f_a)).clamp(1e-3, 4.0);
+            self.s = saved;
+            let r = match self.composed_step(scale * dtau) {
+                Ok(r) => r,
+                Err(e) => {
+                    self.s = saved;
+                    return Err(e);
+                }
+            };
+            let f = r.t - t_end;
+            let improved = f.abs() <= 0.5 * best.0;
+            if f.abs() < best.0 {
+                best = (f.abs(), self.s, r);
+            }
+            if !improved {
+                // At the noise of tbar(s): converged as far as it can.
+                break;
+            }
+            (s_a, f_a) = (s_b, f_b);
+            (s_b, f_b) = (scale, f);
+        }
+        self.s = best.1;
+        // Report it as shortened (a fallback inside it says more, and stays).
+        let mut r = best.2;
+        if r.kind == StepKind::Dth {
+            r.kind = StepKind::Shortened;
+            self.s.step_kind = StepKind::Shortened;
+        }
+        Ok((r, true))
+    }
+
+    /// One composed step of size `dtau` (a single DTH step at order 2): the sub-steps
+    /// `gamma_i dtau` in turn. Its record is the last sub-step's, with the iterations summed
+    /// and [`StepKind::Fallback`] if any sub-step was a fallback step. On error the state is
+    /// restored to the start of the step.
+    fn composed_step(&mut self, dtau: f64) -> Result<StepRecord<D>, Error> {
+        let saved = self.s;
+        let step = saved.k + 1;
+        let (mut iterations, mut factorizations, mut fallback) = (0u32, 0u32, false);
+        let mut last = None;
+        for &gamma in self.options.composition().coefficients() {
+            match self.sub_step(gamma * dtau, dtau, step) {
+                Ok(r) => {
+                    iterations = iterations.saturating_add(r.iterations);
+                    factorizations = factorizations.saturating_add(r.factorizations);
+                    fallback |= r.kind == StepKind::Fallback;
+                    last = Some(r);
+                }
+                Err(e) => {
+                    self.s = saved;
+                    return Err(e);
+                }
+            }
+        }
+        let kind = if fallback {
+            StepKind::Fallback
+        } else {
+            StepKind::Dth
+        };
+        self.s.k = step;
+        self.s.iterations = iterations;
+        self.s.factorizations = factorizations;
+        self.s.step_kind = kind;
+        let mut r = last.unwrap_or_else(|| self.record());
+        r.k = step;
+        r.iterations = iterations;
+        r.factorizations = factorizations;
+        r.kind = kind;
+        Ok(r)
+    }
+
+    /// One DTH step of signed size `h` (or, in robust mode, a fallback step instead), labelled
+    /// `step` in errors. `h_base` (positive) is the size of the composed step it belongs to:
+    /// fallback steps are sized from it and scaled by `h / h_base`, so that a run of fallback
+    /// steps is composed like the DTH steps it replaces. On error the state may have changed
+    /// (the callers restore it).
+    fn sub_step(&mut self, h: f64, h_base: f64, step: usize) -> Result<StepRecord<D>, Error> {
+        if let Some(fb) = self.s.fallback {
+            return self.fallback_step(fb, h, h_base, step);
+        }
+        match self.dth_step(h, step) {
             Ok(r) => Ok(r),
             // A non-finite value inside Newton means it wandered (into a singularity of H, say);
             // the fallback step re-evaluates from the accepted midpoint and stops the run if H
@@ -325,10 +535,10 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
                 | Error::NonFinite { .. },
             ) if self.options.robust() => {
                 let fb = Fallback {
-                    dt: self.lambda * self.options.dtau(),
-                    psi_last: self.psi,
+                    dt: self.s.lambda * h_base,
+                    psi_last: self.s.psi,
                 };
-                self.fallback_step(fb)
+                self.fallback_step(fb, h, h_base, step)
             }
             Err(e) => Err(e),
         }
@@ -336,31 +546,38 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
 
     /// One fallback step of the robust mode from the current midpoint; resume DTH at the node
     /// reached when `Psi` allows.
-    fn fallback_step(&mut self, mut fb: Fallback) -> Result<StepRecord<D>, Error> {
-        let step = self.k + 1;
+    fn fallback_step(
+        &mut self,
+        mut fb: Fallback,
+        h: f64,
+        h_base: f64,
+        step: usize,
+    ) -> Result<StepRecord<D>, Error> {
         // Size: what DTH's law of time would give here, lambda = (law / |Psi|)^(1/3), capped
         // by the largest DTH lambda of the run (the law blows up as Psi -> 0) and growing at
         // most 2x per step; the first fallback step has the last DTH step's size. The fallback
         // is not bound to a tau grid: where its Newton fails (a step too large near a close
         // approach), halve dt, down to 2^-20 of that size; below that the run stops with the
         // fallback's error (the orbit cannot be followed, e.g. into a region where H is not
-        // finite).
-        let h = self.options.dtau();
-        let law = (self.law / self.psi).abs().cbrt();
-        let target = h * if law.is_finite() && law > 0.0 {
-            law.min(self.lambda_max)
-        } else {
-            self.lambda_max
-        };
-        if self.kind == StepKind::Fallback {
+        // finite). `fb.dt` is the size for the whole composed step (`h_base`); this sub-step
+        // takes `gamma = h / h_base` of it (exactly `fb.dt` at order 2).
+        let gamma = h / h_base;
+        let law = (self.s.law / self.s.psi).abs().cbrt();
+        let target = h_base
+            * if law.is_finite() && law > 0.0 {
+                law.min(self.s.lambda_max)
+            } else {
+                self.s.lambda_max
+            };
+        if self.s.kind == StepKind::Fallback {
             fb.dt = target.min(2.0 * fb.dt);
         }
         let dt_min = target * 0.5f64.powi(MAX_FALLBACK_HALVINGS as i32);
         let s = loop {
             match fallback_step(
                 &self.hamiltonian,
-                &self.zbar,
-                fb.dt,
+                &self.s.zbar,
+                fb.dt * gamma,
                 self.energy,
                 &self.options,
                 step,
@@ -378,37 +595,39 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
             }
         };
         let psi = s.derivatives.psi;
-        self.zbar = s.z;
-        self.gradient = s.derivatives.gradient;
-        self.psi = psi;
+        self.s.zbar = s.z;
+        self.s.gradient = s.derivatives.gradient;
+        self.s.psi = psi;
         // Extended phase space: time is the t coordinate (Gonzalez's discrete gradient moves it
         // by dt (1 + O(dt^2)), not exactly dt).
-        self.tbar = if H::TIME_DEPENDENT {
-            self.zbar[D / 2 - 1]
+        self.s.tbar = if H::TIME_DEPENDENT {
+            self.s.zbar[D / 2 - 1]
         } else {
-            self.tbar + fb.dt
+            self.s.tbar + fb.dt * gamma
         };
-        self.lambda = fb.dt / self.options.dtau();
-        self.iterations = s.iterations;
-        self.factorizations = s.iterations;
-        self.k = step;
-        self.kind = StepKind::Fallback;
-        self.reported = false;
+        self.s.lambda = fb.dt / h_base;
+        self.s.iterations = s.iterations;
+        self.s.factorizations = s.iterations;
+        self.s.k = step;
+        self.s.kind = StepKind::Fallback;
+        self.s.step_kind = StepKind::Fallback;
+        self.s.h_edge = h;
+        self.s.reported = false;
         let record = self.record();
         // Resume DTH when Psi has the sign of the run's law of time again, moves away from zero,
         // and the law gives a lambda within the breakdown ratio of the fallback's.
-        let ratio = self.law / psi;
+        let ratio = self.s.law / psi;
         let lambda = ratio.cbrt();
         let resume = ratio > 0.0
             && psi.abs() > fb.psi_last.abs()
             && lambda.is_finite()
-            && lambda <= self.options.max_lambda_ratio() * self.lambda;
+            && lambda <= self.options.max_lambda_ratio() * self.s.lambda;
         if resume {
-            self.fallback = None;
-            self.lambda = lambda;
-            self.kind = StepKind::Dth;
+            self.s.fallback = None;
+            self.s.lambda = lambda;
+            self.s.kind = StepKind::Dth;
         } else {
-            self.fallback = Some(Fallback {
+            self.s.fallback = Some(Fallback {
                 psi_last: psi,
                 ..fb
             });
@@ -419,32 +638,32 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
     /// A Newton failure (or a root with `lambda <= 0`) where `Psi` changes sign just ahead on
     /// the orbit is the method's breakdown, not the solver's: walk up to
     /// [`DIAGNOSE_STEPS`] energy-conserving discrete-gradient steps of the current physical
-    /// size `lambda_k dtau` from `zbar_k` (points on the orbit, unlike an explicit predictor
+    /// size `lambda_k h` (signed, this sub-step's) from `zbar_k` (points on the orbit, unlike an explicit predictor
     /// with a large step) and report [`Error::Breakdown`] at the first sign change of `Psi`;
     /// otherwise keep the solver's error. Runs only after a failure.
-    fn diagnose(&self, error: Error, time: f64) -> Error {
+    fn diagnose(&self, error: Error, time: f64, h: f64) -> Error {
         let step = match error {
             Error::NewtonDiverged { step, .. }
             | Error::SingularMatrix { step }
             | Error::SpuriousRoot { step, .. } => step,
             _ => return error,
         };
-        let dt = self.lambda * self.options.dtau();
-        let mut z = self.zbar;
+        let dt = self.s.lambda * h;
+        let mut z = self.s.zbar;
         for _ in 0..DIAGNOSE_STEPS {
             let Ok(s) = fallback_step(&self.hamiltonian, &z, dt, self.energy, &self.options, step)
             else {
                 break;
             };
             let psi = s.derivatives.psi;
-            if self.psi * psi < 0.0 {
+            if self.s.psi * psi < 0.0 {
                 return Error::Breakdown {
                     step,
                     time,
                     psi,
-                    psi_previous: self.psi,
-                    lambda: self.lambda,
-                    lambda_predicted: self.lambda * (self.psi / psi).cbrt(),
+                    psi_previous: self.s.psi,
+                    lambda: self.s.lambda,
+                    lambda_predicted: self.s.lambda * (self.s.psi / psi).cbrt(),
                 };
             }
             z = s.z;
@@ -474,17 +693,17 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
         (d.value.is_finite() && all_finite(&d.gradient)).then_some(d)
     }
 
-    /// One DTH step with breakdown detection.
-    fn dth_step(&mut self) -> Result<StepRecord<D>, Error> {
-        let h = self.options.dtau();
-        let step = self.k + 1;
-        let v = self.right_vertex();
+    /// One DTH step of signed size `h` with breakdown detection (every part of it holds for
+    /// `h < 0`: the predictor, the law of time and the checks read `h` only through
+    /// `h lambda`, and Newton's matrix and `g_lambda ~ -lambda h^2 Psi / 4` keep their form).
+    fn dth_step(&mut self, h: f64, step: usize) -> Result<StepRecord<D>, Error> {
+        let v = self.vertex(self.s.kind, h);
         // Predict lambda from the asymptotic law of time (paper Theorem 5):
         // lambda psi^(1/3) ~ const, with psi at an explicit predictor of zbar_{k+1}; fall back
         // to lambda_k where psi vanishes. A sign change of psi, or a predicted lambda that blows
         // up, means the step has no positive root near lambda_k: stop before Newton wanders.
-        let z1 = predict(&self.hamiltonian, &v, self.lambda, h);
-        let (time, psi_previous, lambda) = (self.tbar, self.psi, self.lambda);
+        let z1 = predict(&self.hamiltonian, &v, self.s.lambda, h);
+        let (time, psi_previous, lambda) = (self.s.tbar, self.s.psi, self.s.lambda);
         let max_ratio = self.options.max_lambda_ratio();
         // Psi exactly zero at either point (ratio 0, infinite or NaN), or a predictor too far
         // off the energy surface to say where the orbit goes, is no verdict: Newton decides
@@ -507,7 +726,7 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
         };
         let d1 = self.predicted(&z1);
         let psi1 = d1.as_ref().and_then(|d| self.trusted_psi(&z1, d));
-        let lambda_guess = verdict(psi1)?.unwrap_or(self.lambda);
+        let lambda_guess = verdict(psi1)?.unwrap_or(self.s.lambda);
         // Newton's start. With c = (h/2) lambda_k, c' = (h/2) lambda_guess and the fixed point
         // z* = v + c' J gradH(z*), a third fixed-point sweep at c' with the gradient the check
         // above evaluated at z1 (no further evaluation) errs by about
@@ -516,7 +735,7 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
         // (both sides are O(h^2) on a smooth orbit, where lambda_{k+1} - lambda_k = O(h lambda_k):
         // the test compares their constants) and z1 is trusted to lie near the orbit; else two
         // sweeps at c' (a step far too large, or lambda changing fast).
-        let c = 0.5 * h * self.lambda;
+        let c = 0.5 * h * self.s.lambda;
         let c_guess = 0.5 * h * lambda_guess;
         let z0 = match &d1 {
             Some(d)
@@ -527,16 +746,16 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
             }
             _ => predict(&self.hamiltonian, &v, lambda_guess, h),
         };
-        if lambda_guess > LOOK_AGAIN * self.lambda {
+        if lambda_guess > LOOK_AGAIN * self.s.lambda {
             // Look again where the law of time says the midpoint will be: further out when
             // lambda grows fast, as it does towards Psi = 0 (one more evaluation of H's
             // derivatives, so only then).
             verdict(self.predicted(&z0).and_then(|d| self.trusted_psi(&z0, &d)))?;
         }
         let previous = self.cancellation_free().then_some(Previous {
-            zbar: self.zbar,
-            gradient: self.gradient,
-            lambda: self.lambda,
+            zbar: self.s.zbar,
+            gradient: self.s.gradient,
+            lambda: self.s.lambda,
         });
         let anchor = Anchor {
             v,
@@ -548,10 +767,11 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
             &anchor,
             z0,
             lambda_guess,
+            h,
             &self.options,
             step,
         )
-        .map_err(|e| self.diagnose(e, time))?;
+        .map_err(|e| self.diagnose(e, time, h))?;
         if s.lambda <= 0.0 {
             return Err(self.diagnose(
                 Error::SpuriousRoot {
@@ -559,9 +779,10 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
                     lambda: s.lambda,
                 },
                 time,
+                h,
             ));
         }
-        if s.lambda > self.options.max_lambda_ratio() * self.lambda {
+        if s.lambda > self.options.max_lambda_ratio() * self.s.lambda {
             return Err(Error::Breakdown {
                 step,
                 time,
@@ -572,7 +793,7 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
             });
         }
         let s = if anchor.previous.is_some() {
-            let from_scale = roundoff_scale(&self.zbar, &self.gradient);
+            let from_scale = roundoff_scale(&self.s.zbar, &self.s.gradient);
             project(
                 &self.hamiltonian,
                 self.energy,
@@ -584,19 +805,21 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
         } else {
             s
         };
-        self.tbar += 0.5 * h * (self.lambda + s.lambda);
-        self.lambda = s.lambda;
-        self.zbar = s.zbar;
-        self.gradient = s.derivatives.gradient;
-        self.psi = s.derivatives.psi;
-        self.iterations = s.iterations;
-        self.factorizations = s.factorizations;
-        self.k = step;
-        self.kind = StepKind::Dth;
-        self.reported = false;
-        self.lambda_max = self.lambda_max.max(self.lambda);
-        if self.law == 0.0 {
-            self.law = self.lambda.powi(3) * self.psi;
+        self.s.tbar += 0.5 * h * (self.s.lambda + s.lambda);
+        self.s.lambda = s.lambda;
+        self.s.zbar = s.zbar;
+        self.s.gradient = s.derivatives.gradient;
+        self.s.psi = s.derivatives.psi;
+        self.s.iterations = s.iterations;
+        self.s.factorizations = s.factorizations;
+        self.s.k = step;
+        self.s.kind = StepKind::Dth;
+        self.s.step_kind = StepKind::Dth;
+        self.s.h_edge = h;
+        self.s.reported = false;
+        self.s.lambda_max = self.s.lambda_max.max(self.s.lambda);
+        if self.s.law == 0.0 {
+            self.s.law = self.s.lambda.powi(3) * self.s.psi;
         }
         Ok(self.record())
     }
@@ -609,16 +832,16 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
     /// # Errors
     /// The first failing step's error (see [`Dth::step`]).
     pub fn run<O: Observer<D>>(&mut self, steps: usize, observer: &mut O) -> Result<(), Error> {
-        if !self.reported {
+        if !self.s.reported {
             observer.on_step(&self.record());
-            self.reported = true;
+            self.s.reported = true;
         }
         let mut result = Ok(());
         for _ in 0..steps {
             match self.step() {
                 Ok(r) => {
                     observer.on_step(&r);
-                    self.reported = true;
+                    self.s.reported = true;
                 }
                 Err(e) => {
                     result = Err(e);
@@ -626,7 +849,7 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
                 }
             }
         }
-        let t_end = self.tbar + 0.5 * self.options.dtau() * self.lambda;
+        let t_end = self.s.tbar + 0.5 * self.s.h_edge * self.s.lambda;
         observer.on_finish(&self.right_vertex(), t_end);
         result
     }
@@ -641,7 +864,7 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
     // costs nothing per step; boxing it would only make callers unwrap a box.
     #[allow(clippy::result_large_err)]
     pub fn trajectory(&mut self, steps: usize) -> Result<Trajectory<D>, RunError<Trajectory<D>>> {
-        self.reported = false;
+        self.s.reported = false;
         let mut t = Trajectory::new();
         match self.run(steps, &mut t) {
             Ok(()) => Ok(t),

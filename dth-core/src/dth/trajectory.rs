@@ -130,8 +130,8 @@ impl<const D: usize> Trajectory<D> {
     }
 
     /// Write the midpoints as CSV: `k,tbar,lambda,zbar_1..zbar_D,t_vertex,vertex_1..vertex_D,
-    /// psi,iterations,kind`, one line per midpoint, with a header (`kind` is `dth` or
-    /// `fallback`).
+    /// psi,iterations,kind`, one line per midpoint, with a header (`kind` is `dth`, `fallback`
+    /// or `shortened`).
     pub fn write_csv<W: Write>(&self, mut out: W) -> io::Result<()> {
         write!(out, "k,tbar,lambda")?;
         for i in 1..=D {
@@ -157,6 +157,7 @@ impl<const D: usize> Trajectory<D> {
             }
             let kind = match self.kinds[i] {
                 StepKind::Fallback => "fallback",
+                StepKind::Shortened => "shortened",
                 _ => "dth",
             };
             writeln!(out, ",{:e},{},{kind}", self.psis[i], self.iterations[i])?;

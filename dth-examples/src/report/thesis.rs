@@ -178,20 +178,11 @@ fn swept_degrees(states: &[State], t_end: f64) -> f64 {
 
 /// A copy of `spec` with its step divided by `factor` (more points per orbit).
 fn refined(spec: &MethodSpec, factor: f64) -> MethodSpec {
-    let step = match spec.step {
-        StepSpec::Fixed { dt } => StepSpec::Fixed { dt: dt / factor },
-        StepSpec::Dth {
-            dtau,
-            lambda0,
-            solver,
-            robust,
-        } => StepSpec::Dth {
-            dtau: dtau / factor,
-            lambda0,
-            solver,
-            robust,
-        },
-    };
+    let mut step = spec.step;
+    match &mut step {
+        StepSpec::Fixed { dt } => *dt /= factor,
+        StepSpec::Dth { dtau, .. } => *dtau /= factor,
+    }
     MethodSpec {
         step,
         ..spec.clone()

@@ -71,6 +71,7 @@ pub(super) struct RawMethod {
     pub(super) lambda0: Option<Spanned<f64>>,
     pub(super) solver: Option<Spanned<String>>,
     pub(super) robust: Option<Spanned<bool>>,
+    pub(super) order: Option<Spanned<i64>>,
 }
 
 #[derive(Deserialize)]

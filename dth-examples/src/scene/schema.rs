@@ -88,6 +88,10 @@ pub enum StepSpec {
         /// (a breakdown, `Psi` changing sign), carry on with energy-conserving fallback steps
         /// instead of stopping. Default `false`.
         robust: bool,
+        /// The order: 2 (plain DTH, the default), 4, 6 or 8 by symmetric composition of DTH
+        /// steps (`dth::dth::DthOptions::with_order`); each step of `dtau` is then 5, 9 or 17
+        /// DTH sub-steps, energy exact at every midpoint.
+        order: u32,
     },
 }
 
@@ -156,7 +160,7 @@ impl MethodKind {
     /// One line for `dth list`.
     pub fn doc(self) -> &'static str {
         match self {
-            MethodKind::Dth => "Discrete-Time Hamiltonian dynamics; keys dtau, lambda0 (default 1), solver = \"joint\" | \"nested\", robust = true | false (default false: stop at a breakdown)",
+            MethodKind::Dth => "Discrete-Time Hamiltonian dynamics; keys dtau, lambda0 (default 1), solver = \"joint\" | \"nested\", robust = true | false (default false: stop at a breakdown), order = 2 | 4 | 6 | 8 (default 2; 4-8 by symmetric composition)",
             MethodKind::Trapezoidal => "trapezoidal rule; key dt",
             MethodKind::Midpoint => "implicit midpoint rule; key dt",
             MethodKind::DiscreteMechanics => "Greenspan's discrete mechanics (central-force H); key dt",

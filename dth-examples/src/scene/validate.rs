@@ -9,7 +9,7 @@ use toml::Spanned;
 
 use super::members;
 use super::raw::{RawEffect, RawMethod, RawScene};
-use dth::dth::Solver;
+use dth::dth::{Composition, Solver};
 
 use super::schema::{
     Coord, Direction, Duration, EffectKind, EffectSpec, Ensemble, MethodKind, MethodSpec, Scene,
@@ -673,7 +673,7 @@ fn validate_method(m: Spanned<RawMethod>, cx: &mut Ctxt<'_>) -> Option<MethodSpe
     }
     let step = if kind == MethodKind::Dth {
         if let Some(dt) = &m.dt {
-            cx.error(dt.span(), "`dt` is not a key of method `dth`: expected `dtau` (the step in tau) and optionally `lambda0`, `solver`, `robust`");
+            cx.error(dt.span(), "`dt` is not a key of method `dth`: expected `dtau` (the step in tau) and optionally `lambda0`, `solver`, `robust`, `order`");
         }
         let dtau = match &m.dtau {
             None => {
@@ -704,11 +704,28 @@ fn validate_method(m: Spanned<RawMethod>, cx: &mut Ctxt<'_>) -> Option<MethodSpe
                 None
             }),
         };
+        let order = match &m.order {
+            None => Some(2),
+            Some(o) => u32::try_from(*o.get_ref())
+                .ok()
+                .filter(|&n| Composition::from_order(n).is_some())
+                .or_else(|| {
+                    cx.error(
+                        o.span(),
+                        format!(
+                            "`order` = {}: expected 2, 4, 6 or 8 (DTH's order: 2 plain, 4-8 by symmetric composition)",
+                            o.get_ref()
+                        ),
+                    );
+                    None
+                }),
+        };
         StepSpec::Dth {
             dtau: dtau?,
             lambda0: lambda0?,
             solver: solver?,
             robust: m.robust.as_ref().is_some_and(|r| *r.get_ref()),
+            order: order?,
         }
     } else {
         for (key, v) in [("dtau", &m.dtau), ("lambda0", &m.lambda0)] {
@@ -724,7 +741,8 @@ fn validate_method(m: Spanned<RawMethod>, cx: &mut Ctxt<'_>) -> Option<MethodSpe
         }
         let solver = m.solver.as_ref().map(|s| ("solver", s.span()));
         let robust = m.robust.as_ref().map(|r| ("robust", r.span()));
-        for (key, span) in solver.into_iter().chain(robust) {
+        let order = m.order.as_ref().map(|o| ("order", o.span()));
+        for (key, span) in solver.into_iter().chain(robust).chain(order) {
             cx.error(
                 span,
                 format!(

@@ -9,12 +9,11 @@
 //! - **global error**: Euclidean norm of the phase-space error at the fixed physical time `T`
 //!   against the exact solution (Kepler, forced oscillator) or a converged reference (2-stage
 //!   Gauss-Legendre at a tiny step, checked against itself at half that step, evaluated between
-//!   its steps by cubic Hermite interpolation). DTH's times do not land on `T`: its solution is
-//!   the piecewise-linear curve through its vertices, and on segment `k` that curve is
-//!   `z(t) = zbar_k + (t - tbar_k) J gradH(zbar_k)`. The harness evaluates exactly that curve at
-//!   `T` (no foreign interpolant: this is the trajectory DTH defines, and its own second order
-//!   bounds the interpolation). For comparison it also records the error at DTH's last vertex
-//!   before `T`, at that vertex's own time ([`Record::vertex_error`]);
+//!   its steps by cubic Hermite interpolation). DTH (every order) ends exactly at `T`: its last
+//!   step is shortened or stretched in `tau` so that its last midpoint lands on `T` to roundoff
+//!   (`Dth::step_toward`), and that midpoint is compared with the reference at its own time.
+//!   For comparison the harness also records the error at DTH's last vertex, at that vertex's
+//!   own time ([`Record::vertex_error`]);
 //! - **maximum energy deviation** `max_k |H(z_k) - H(z_0)|` over every state the method produces
 //!   (DTH: at its midpoints, where it conserves energy, and separately at its vertices against
 //!   the first vertex `z^(0)`, the thesis's Table 4.1 convention);
@@ -172,7 +171,7 @@ impl From<crate::error::Error> for Error {
 pub struct Record {
     /// Problem name (file-name safe, e.g. `kepler_e044`).
     pub system: &'static str,
-    /// Method name (e.g. `dth_joint`, `midpoint`, `dop853`).
+    /// Method name (e.g. `dth_joint`, `dth8` (order 8), `midpoint`, `dop853`).
     pub method: &'static str,
     /// What `parameter` is: `"dt"`, `"dtau"` (DTH) or `"tol"` (DOP853, `rtol = atol`).
     pub parameter_kind: &'static str,
@@ -265,7 +264,7 @@ pub fn run(options: &WorkPrecisionOptions, out: &Path) -> Result<Summary, Error>
     for problem in problems::all(options)? {
         problem.sweep(options, &mut records, &mut references, &mut infos)?;
     }
-    let tables = report::tables(&records, &infos);
+    let tables = report::tables(&records, &infos, &references);
     let mut summary = Summary {
         machine,
         quick: options.quick,

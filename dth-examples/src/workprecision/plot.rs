@@ -83,7 +83,13 @@ fn curves(records: &[Record], system: &str, kind: &str, selection: Selection) ->
             ""
         };
         series(format!("{m}{suffix}"), &|r| error_of(r, kind));
-        if dth && selection == Selection::Main {
+        // Vertex series for plain DTH only (above order 2 the vertices keep no invariant).
+        if dth
+            && selection == Selection::Main
+            && !m.starts_with("dth4")
+            && !m.starts_with("dth6")
+            && !m.starts_with("dth8")
+        {
             match kind {
                 "energy" => series(format!("{m} (vertices)"), &|r| {
                     r.vertex_energy_error.unwrap_or(f64::NAN)
@@ -148,7 +154,8 @@ pub(crate) fn diagrams(
                     &y_label,
                 )
                 .with_log(true, true);
-                figure.size = (1100, 750);
+                // Tall enough for the legend of every method (up to 14 entries, below the chart).
+                figure.size = (1100, 950);
                 for c in curves(records, info.name, kind, selection) {
                     figure = figure.with_series(Series::new(&c.label, Mark::Line, c.points));
                 }
@@ -164,7 +171,7 @@ mod tests {
     use super::*;
 
     /// Every method of the Kepler sweep (the largest), `_generated` variants included.
-    const KEPLER: [&str; 15] = [
+    const KEPLER: [&str; 18] = [
         "dth_joint",
         "dth_nested",
         "dth_joint_scaled_stall",
@@ -180,6 +187,9 @@ mod tests {
         "midpoint_generated",
         "gauss_legendre2_generated",
         "dth_nested_generated",
+        "dth4",
+        "dth6",
+        "dth8",
     ];
 
     #[test]
@@ -191,7 +201,7 @@ mod tests {
                 .iter()
                 .filter(|m| shown(m, kind, Selection::Main))
                 .map(|m| {
-                    if m.starts_with("dth") && kind != "global" {
+                    if m.starts_with("dth_") && kind != "global" {
                         2
                     } else {
                         1

@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use serde::Serialize;
 
 use super::problem::ProblemInfo;
-use super::{Error, Record, Summary};
+use super::{Error, Record, ReferenceCheck, Summary};
 
 /// Where and when the results were measured.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -180,11 +180,16 @@ fn is_dth(method: &str) -> bool {
     method.starts_with("dth")
 }
 
-/// Classical order of a method by its recorded name.
+/// Classical order of a method by its recorded name (DTH of order 4-8 is `dth4` .. `dth8`).
 fn order(method: &str) -> u32 {
-    if method.starts_with("dop853") {
+    if method.starts_with("dop853") || method.starts_with("dth8") {
         8
-    } else if method.starts_with("rk4") || method.starts_with("gauss_legendre2") {
+    } else if method.starts_with("dth6") {
+        6
+    } else if method.starts_with("dth4")
+        || method.starts_with("rk4")
+        || method.starts_with("gauss_legendre2")
+    {
         4
     } else {
         2
@@ -202,20 +207,91 @@ fn seconds(t: f64) -> String {
 }
 
 /// The targets of the headline table: `(kind, target)`.
-pub(crate) const TARGETS: [(&str, f64); 4] = [
+pub(crate) const TARGETS: [(&str, f64); 5] = [
     ("global", 1e-3),
     ("global", 1e-6),
     ("global", 1e-9),
+    ("global", 1e-12),
     ("energy", 1e-13),
 ];
 
+/// The global-error targets of the high-order table.
+const HIGH_ORDER_TARGETS: [f64; 3] = [1e-6, 1e-9, 1e-12];
+
+/// The methods of the high-order table: DTH of every order, then the fourth- and eighth-order
+/// references.
+const HIGH_ORDER_METHODS: [&str; 6] = [
+    "dth_joint",
+    "dth4",
+    "dth6",
+    "dth8",
+    "gauss_legendre2",
+    "dop853",
+];
+
+/// Markdown: per problem, the cost of each DTH order, Gauss-Legendre 2 and DOP853 at global
+/// errors 1e-6, 1e-9, 1e-12 (with the energy error of that run), and DTH-8's time relative to
+/// the other two. A target below 100 times the reference solution's own estimated error is
+/// not measurable there and is left out.
+fn high_order_table(s: &mut String, records: &[Record], info: &ProblemInfo, reference: f64) {
+    let system = info.name;
+    let _ = writeln!(
+        s,
+        "\nDTH of order 2-8 against Gauss-Legendre 2 and DOP853: cheapest time to each global \
+         error, with the max energy error of that run:\n"
+    );
+    let mut header = "| target |".to_string();
+    let mut rule = "|---|".to_string();
+    for m in HIGH_ORDER_METHODS {
+        let _ = write!(header, " {m} |");
+        rule.push_str("---|");
+    }
+    let _ = writeln!(
+        s,
+        "{header} dth8 / dop853 | dth8 / gauss_legendre2 |\n{rule}---|---|"
+    );
+    for target in HIGH_ORDER_TARGETS {
+        if target < 100.0 * reference {
+            let _ = writeln!(
+                s,
+                "| global <= {target:.0e} | (not measurable: reference error {reference:.0e}) |"
+            );
+            continue;
+        }
+        let best = |m: &str| cheapest(records, system, m, "global", target);
+        let mut row = format!("| global <= {target:.0e} |");
+        for m in HIGH_ORDER_METHODS {
+            let cell = best(m).map_or("-".to_string(), |r| {
+                format!("{} (E {:.0e})", seconds(r.time), r.energy_error)
+            });
+            let _ = write!(row, " {cell} |");
+        }
+        let ratio = |other: &str| match (best("dth8"), best(other)) {
+            (Some(a), Some(b)) => format!("{:.2}", a.time / b.time),
+            _ => "-".to_string(),
+        };
+        let _ = writeln!(row, " {} | {} |", ratio("dop853"), ratio("gauss_legendre2"));
+        s.push_str(&row);
+    }
+}
+
 /// Markdown: per problem, the headline table (cheapest method per target, DTH relative to it)
 /// and the matrix of every method's cheapest time per target with its Newton iterations.
-pub(crate) fn tables(records: &[Record], infos: &[ProblemInfo]) -> String {
+pub(crate) fn tables(
+    records: &[Record],
+    infos: &[ProblemInfo],
+    references: &[ReferenceCheck],
+) -> String {
     let mut s = String::new();
     for info in infos {
         let system = info.name;
         let methods = methods_of(records, system);
+        // Global errors below 100 times the reference's own error are not measurable.
+        let reference = references
+            .iter()
+            .find(|r| r.system == system)
+            .map_or(0.0, |r| r.estimated_error);
+        let measurable = |kind: &str, target: f64| kind != "global" || target >= 100.0 * reference;
         let _ = writeln!(
             s,
             "#### {} (`{system}`, T = {:.4}, {} periods)\n",
@@ -248,6 +324,9 @@ pub(crate) fn tables(records: &[Record], infos: &[ProblemInfo]) -> String {
             _ => "-".to_string(),
         };
         for (kind, target) in TARGETS {
+            if !measurable(kind, target) {
+                continue;
+            }
             let best = fastest(&|_| true, kind, target);
             let second = fastest(&|m| !is_dth(m) && order(m) == 2, kind, target);
             let dth = fastest(&is_dth, kind, target);
@@ -278,19 +357,24 @@ pub(crate) fn tables(records: &[Record], infos: &[ProblemInfo]) -> String {
         }
         let _ = writeln!(
             s,
-            "\nCheapest time per method to reach each target (`-`: not reached in the sweep); \
-             Newton iterations per step over the sweep (nested DTH: LU factorizations):\n"
+            "\nCheapest time per method to reach each target (`-`: not reached in the sweep; \
+             `n/m`: below 100 times the reference solution's error); Newton iterations per \
+             step over the sweep (nested DTH: LU factorizations; DTH 4-8: all sub-steps):\n"
         );
         let _ = writeln!(
             s,
-            "| method | err <= 1e-3 | err <= 1e-6 | err <= 1e-9 | energy <= 1e-13 | Newton/step | failures |\n\
-             |---|---|---|---|---|---|---|"
+            "| method | err <= 1e-3 | err <= 1e-6 | err <= 1e-9 | err <= 1e-12 | energy <= 1e-13 | Newton/step | failures |\n\
+             |---|---|---|---|---|---|---|---|"
         );
         for m in &methods {
             let mut row = format!("| {m} |");
             for (kind, target) in TARGETS {
-                let cell = cheapest(records, system, m, kind, target)
-                    .map_or("-".to_string(), |r| seconds(r.time));
+                let cell = if measurable(kind, target) {
+                    cheapest(records, system, m, kind, target)
+                        .map_or("-".to_string(), |r| seconds(r.time))
+                } else {
+                    "n/m".to_string()
+                };
                 let _ = write!(row, " {cell} |");
             }
             let newton: Vec<f64> = records
@@ -312,6 +396,7 @@ pub(crate) fn tables(records: &[Record], infos: &[ProblemInfo]) -> String {
             let _ = writeln!(row, " {newton} | {failures} |");
             s.push_str(&row);
         }
+        high_order_table(&mut s, records, info, reference);
         s.push('\n');
     }
     s
