@@ -183,21 +183,18 @@ impl Body {
                 TokenTree::Punct(p) => self.push(&p.as_char().to_string(), p.span()),
                 TokenTree::Literal(l) => self.push(&l.to_string(), l.span()),
                 TokenTree::Group(g) => {
-                    let (open, close) = match g.delimiter() {
-                        Delimiter::Parenthesis => (g.span_open(), g.span_close()),
+                    // Brackets and braces go to the engine as written: it owns the grammar and
+                    // its errors (the same ones for text given at run time).
+                    let ((open, close), (l, r)) = match g.delimiter() {
+                        Delimiter::Parenthesis => ((g.span_open(), g.span_close()), ("(", ")")),
                         // An invisible group comes from a `macro_rules!` fragment: it is one operand.
-                        Delimiter::None => (g.span(), g.span()),
-                        Delimiter::Bracket | Delimiter::Brace => {
-                            self.errors.push(syn::Error::new(
-                                g.span(),
-                                "use parentheses `( )` for grouping: brackets and braces are not part of the grammar",
-                            ));
-                            (g.span_open(), g.span_close())
-                        }
+                        Delimiter::None => ((g.span(), g.span()), ("(", ")")),
+                        Delimiter::Bracket => ((g.span_open(), g.span_close()), ("[", "]")),
+                        Delimiter::Brace => ((g.span_open(), g.span_close()), ("{", "}")),
                     };
-                    self.push("(", open);
+                    self.push(l, open);
                     self.flatten(g.stream());
-                    self.push(")", close);
+                    self.push(r, close);
                 }
             }
         }
