@@ -1,7 +1,9 @@
 //! Ensemble scenes: the same bytes for any thread count, the energy shell, MEGNO on known
 //! Henon-Heiles orbits, and a failing member recorded while the others complete.
 
-use std::collections::BTreeMap;
+mod common;
+
+use common::files;
 use std::path::Path;
 
 use dth_examples::catalogue::Catalogue;
@@ -13,20 +15,6 @@ fn run(scene: &str, out: &Path, threads: usize) -> dth_examples::report::RunRepo
         .with_progress(false)
         .with_threads(threads);
     dth_examples::run_scene(scene, "ensemble.toml", &Catalogue::builtin(), out, &options).unwrap()
-}
-
-/// Every file of `dir`, by name.
-fn files(dir: &Path) -> BTreeMap<String, Vec<u8>> {
-    std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| {
-            let e = e.unwrap();
-            (
-                e.file_name().to_string_lossy().into_owned(),
-                std::fs::read(e.path()).unwrap(),
-            )
-        })
-        .collect()
 }
 
 fn json(dir: &Path) -> serde_json::Value {

@@ -3,7 +3,9 @@
 //! `OMPI_ALLOW_RUN_AS_ROOT=1` and `OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1`, which this test sets.
 #![cfg(feature = "mpi")]
 
-use std::collections::BTreeMap;
+mod common;
+
+use common::files;
 use std::path::Path;
 use std::process::Command;
 
@@ -13,19 +15,6 @@ const SCENE: &str = "title = \"HH ranks\"\n[system]\nname = \"henon_heiles\"\n\
     y = \"p2\"\ny_range = [-0.45, 0.45]\ny_count = 6\nenergy = 0.125\nsolve = \"p1\"\nchaos = \"megno\"\n\
     [[method]]\nkind = \"dth\"\ndtau = 0.1\n[duration]\ntime = 50.0\n\
     [[effect]]\nkind = \"poincare\"\ncoordinate = \"q1\"\nx = \"q2\"\ny = \"p2\"\n";
-
-fn files(dir: &Path) -> BTreeMap<String, Vec<u8>> {
-    std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| {
-            let e = e.unwrap();
-            (
-                e.file_name().to_string_lossy().into_owned(),
-                std::fs::read(e.path()).unwrap(),
-            )
-        })
-        .collect()
-}
 
 fn mpirun(ranks: &str, dir: &Path, out: &str) {
     let o = Command::new("mpirun")
