@@ -24,23 +24,7 @@ use dth::methods::{ImplicitMidpoint, OneStepMethod};
 use dth::nalgebra::{SVector, Vector4};
 use dth::systems::{Kepler, TodaBoundary, TodaChain};
 use dth::Hamiltonian;
-
-/// splitmix64: seeded, reproducible inputs.
-struct SplitMix(u64);
-
-impl SplitMix {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut x = self.0;
-        x = (x ^ (x >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        x = (x ^ (x >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        x ^ (x >> 31)
-    }
-    /// Uniform in `[lo, hi)`.
-    fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * (self.next() >> 11) as f64 / (1u64 << 53) as f64
-    }
-}
+use dth_examples::ensemble::sample::SplitMix64;
 
 const STATES: usize = 64;
 
@@ -53,9 +37,9 @@ fn states<H: Hamiltonian<D> + Clone, const D: usize>(
     span: usize,
     seed: u64,
 ) -> (Vec<Dth<H, D>>, f64) {
-    let mut rng = SplitMix(seed);
+    let mut rng = SplitMix64::new(seed);
     let mut at: Vec<usize> = (0..STATES)
-        .map(|_| (rng.next() % span as u64) as usize)
+        .map(|_| (rng.next_u64() % span as u64) as usize)
         .collect();
     at.sort_unstable();
     let mut dth = Dth::new(h.clone(), z0, options).expect("valid initial state");
@@ -201,12 +185,12 @@ fn kepler(c: &mut Criterion) {
 fn toda(c: &mut Criterion) {
     // 10 particles between fixed walls (10 DOF, D = 20), seeded displacements and momenta.
     let toda = TodaChain::<10>::new(TodaBoundary::FixedEnds);
-    let mut rng = SplitMix(0x5EED_0002);
+    let mut rng = SplitMix64::new(0x5EED_0002);
     let z0 = SVector::<f64, 20>::from_fn(|i, _| {
         if i < 10 {
-            rng.uniform(-0.5, 0.5)
+            rng.unit() - 0.5
         } else {
-            rng.uniform(-1.0, 1.0)
+            2.0 * rng.unit() - 1.0
         }
     });
     let options = DthOptions::default()

@@ -21,6 +21,7 @@ use criterion::{criterion_group, criterion_main, Criterion};
 use dth::methods::{ImplicitMidpoint, OneStepMethod};
 use dth::nalgebra::{SMatrix, SVector};
 use dth::Hamiltonian;
+use dth_examples::ensemble::sample::SplitMix64;
 
 include!("../../tests/chains/fput_alpha_2.rs");
 include!("../../tests/chains/fput_alpha_4.rs");
@@ -78,15 +79,11 @@ impl<const D: usize, H: Hamiltonian<D>> Hamiltonian<D> for Structured<H> {
 
 /// 16 seeded chain states: displacements in `[-0.3, 0.3]`, momenta in `[-0.5, 0.5]`.
 fn states<const D: usize>() -> Vec<SVector<f64, D>> {
-    let mut s = 0x5EED_0010u64;
+    let mut rng = SplitMix64::new(0x5EED_0010);
     (0..16)
         .map(|_| {
             SVector::from_fn(|i, _| {
-                s = s.wrapping_add(0x9E37_79B9_7F4A_7C15);
-                let mut x = s;
-                x = (x ^ (x >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-                x = (x ^ (x >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-                let u = ((x ^ (x >> 31)) >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
+                let u = rng.unit() - 0.5;
                 if i < D / 2 {
                     0.6 * u
                 } else {
