@@ -64,7 +64,9 @@ fn imp(name: &Ident, params: &[Ident], system: &System) -> TokenStream {
         quote!(#v)
     });
     let gradient = body(&system.program(Method::Gradient), &cx, |v| v.gradient(d));
-    let hessian = body(&system.program(Method::Hessian), &cx, |v| v.hessian(d));
+    // One Hessian program: the dense `hessian` and the fused nonzeros below both emit it.
+    let hessian_program = system.program(Method::Hessian);
+    let hessian = body(&hessian_program, &cx, |v| v.hessian(d));
     let psi = body(&system.program(Method::Psi), &cx, |v| {
         let v = &v.psi;
         quote!(#v)
@@ -92,9 +94,7 @@ fn imp(name: &Ident, params: &[Ident], system: &System) -> TokenStream {
         .iter()
         .map(|&(i, j, _)| (i, j))
         .collect();
-    let nonzeros = body(&system.program(Method::Hessian), &cx, |v| {
-        v.hessian_nonzeros(&pattern)
-    });
+    let nonzeros = body(&hessian_program, &cx, |v| v.hessian_nonzeros(&pattern));
     let nnz = pattern.len();
     let pattern_rows = pattern.iter().map(|(i, j)| quote!((#i, #j)));
     let diagonal = pattern.iter().filter(|(i, j)| i == j).count();
