@@ -117,10 +117,8 @@ pub fn indices(written: &[(Var, Span)]) -> (Vec<Error>, Vec<Warning>) {
             (None, None) => errors.push(Error::new(
                 ErrorKind::SkippedIndex {
                     missing: i,
-                    largest: match top {
-                        Var::Q(_) => format!("q{n}"),
-                        _ => format!("p{n}"),
-                    },
+                    largest: if matches!(top, Var::Q(_)) { 'q' } else { 'p' },
+                    n,
                 },
                 top_span,
             )),

@@ -136,8 +136,10 @@ pub enum ErrorKind {
     SkippedIndex {
         /// The index that appears nowhere.
         missing: u32,
-        /// The variable with the largest index, which sets `n`.
-        largest: String,
+        /// The variable with the largest index, which sets `n`: `'q'` or `'p'` ...
+        largest: char,
+        /// ... and that index, `n`.
+        n: u32,
     },
 }
 
@@ -274,10 +276,9 @@ impl fmt::Display for Error {
             ConstantHamiltonian => f.write_str(
                 "the Hamiltonian is constant (after simplification): it must depend on q1..qN, p1..pN",
             ),
-            SkippedIndex { missing, largest } => write!(
+            SkippedIndex { missing, largest, n } => write!(
                 f,
-                "neither `q{missing}` nor `p{missing}` appears, yet `{largest}` makes the system's degrees of freedom 1..{n}: number the coordinates without gaps",
-                n = &largest[1..]
+                "neither `q{missing}` nor `p{missing}` appears, yet `{largest}{n}` makes the system's degrees of freedom 1..{n}: number the coordinates without gaps"
             ),
         }
     }

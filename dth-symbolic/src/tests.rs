@@ -667,7 +667,8 @@ fn a_skipped_index_is_an_error_at_the_largest() {
             .collect();
     let skipped = |missing| ErrorKind::SkippedIndex {
         missing,
-        largest: "q4".into(),
+        largest: 'q',
+        n: 4,
     };
     assert_eq!(got, [(skipped(2), 19..21)]);
     assert_eq!(
