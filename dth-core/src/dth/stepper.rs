@@ -339,7 +339,10 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
     /// [`Error::EnergyCheckFailed`] (cancellation-free residual, robust fallback).
     /// In robust mode only the last three stop a run.
     pub fn step(&mut self) -> Result<StepRecord<D>, Error> {
-        self.composed_step(self.options.dtau())
+        self.composed_step(
+            self.options.composition().coefficients(),
+            self.options.dtau(),
+        )
     }
 
     /// One plain DTH step (no composition, whatever [`DthOptions::order`]) with the signed
@@ -372,13 +375,7 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
                 reason: "must be finite and nonzero",
             });
         }
-        let saved = self.s;
-        let step = saved.k + 1;
-        let r = self
-            .sub_step(dtau, dtau.abs(), step)
-            .inspect_err(|_| self.s = saved)?;
-        self.s.k = step;
-        Ok(r)
+        self.composed_step(&[1.0], dtau)
     }
 
     /// Advance toward the time `t_end`, ending on it exactly: a full step ([`Dth::step`]) when
@@ -427,7 +424,7 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
         }
         let saved = self.s;
         let dtau = self.options.dtau();
-        let full = self.composed_step(dtau)?;
+        let full = self.composed_step(self.options.composition().coefficients(), dtau)?;
         let advance = full.t - t0;
         if full.t < t_end - 0.5 * advance {
             return Ok((full, false));
@@ -444,13 +441,7 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
             }
             let scale = (s_b - f_b * (s_b - s_a) / (f_b - f_a)).clamp(1e-3, 4.0);
             self.s = saved;
-            let r = match self.composed_step(scale * dtau) {
-                Ok(r) => r,
-                Err(e) => {
-                    self.s = saved;
-                    return Err(e);
-                }
-            };
+            let r = self.composed_step(self.options.composition().coefficients(), scale * dtau)?;
             let f = r.t - t_end;
             let improved = f.abs() <= 0.5 * best.0;
             if f.abs() < best.0 {
@@ -473,17 +464,17 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
         Ok((r, true))
     }
 
-    /// One composed step of size `dtau` (a single DTH step at order 2): the sub-steps
-    /// `gamma_i dtau` in turn. Its record is the last sub-step's, with the iterations summed
-    /// and [`StepKind::Fallback`] if any sub-step was a fallback step. On error the state is
-    /// restored to the start of the step.
-    fn composed_step(&mut self, dtau: f64) -> Result<StepRecord<D>, Error> {
+    /// One composed step of size `dtau`: the sub-steps `gamma_i dtau` in turn (`gammas` is
+    /// the composition's coefficients, `[1.0]` for a single DTH step). Its record is the last
+    /// sub-step's, with the iterations summed and [`StepKind::Fallback`] if any sub-step was a
+    /// fallback step. On error the state is restored to the start of the step.
+    fn composed_step(&mut self, gammas: &[f64], dtau: f64) -> Result<StepRecord<D>, Error> {
         let saved = self.s;
         let step = saved.k + 1;
         let (mut iterations, mut factorizations, mut fallback) = (0u32, 0u32, false);
         let mut last = None;
-        for &gamma in self.options.composition().coefficients() {
-            match self.sub_step(gamma * dtau, dtau, step) {
+        for (i, &gamma) in gammas.iter().enumerate() {
+            match self.sub_step(gamma * dtau, dtau.abs(), step, i == 0) {
                 Ok(r) => {
                     iterations = iterations.saturating_add(r.iterations);
                     factorizations = factorizations.saturating_add(r.factorizations);
@@ -516,11 +507,18 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
     /// One DTH step of signed size `h` (or, in robust mode, a fallback step instead), labelled
     /// `step` in errors. `h_base` (positive) is the size of the composed step it belongs to:
     /// fallback steps are sized from it and scaled by `h / h_base`, so that a run of fallback
-    /// steps is composed like the DTH steps it replaces. On error the state may have changed
-    /// (the callers restore it).
-    fn sub_step(&mut self, h: f64, h_base: f64, step: usize) -> Result<StepRecord<D>, Error> {
+    /// steps is composed like the DTH steps it replaces; `first` marks the first sub-step of
+    /// the composed step, the only one where that size may grow. On error the state may have
+    /// changed (the callers restore it).
+    fn sub_step(
+        &mut self,
+        h: f64,
+        h_base: f64,
+        step: usize,
+        first: bool,
+    ) -> Result<StepRecord<D>, Error> {
         if let Some(fb) = self.s.fallback {
-            return self.fallback_step(fb, h, h_base, step);
+            return self.fallback_step(fb, h, h_base, step, first);
         }
         match self.dth_step(h, step) {
             Ok(r) => Ok(r),
@@ -538,7 +536,7 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
                     dt: self.s.lambda * h_base,
                     psi_last: self.s.psi,
                 };
-                self.fallback_step(fb, h, h_base, step)
+                self.fallback_step(fb, h, h_base, step, first)
             }
             Err(e) => Err(e),
         }
@@ -552,10 +550,12 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
         h: f64,
         h_base: f64,
         step: usize,
+        first: bool,
     ) -> Result<StepRecord<D>, Error> {
         // Size: what DTH's law of time would give here, lambda = (law / |Psi|)^(1/3), capped
         // by the largest DTH lambda of the run (the law blows up as Psi -> 0) and growing at
-        // most 2x per step; the first fallback step has the last DTH step's size. The fallback
+        // most 2x per (composed) step, at its first sub-step, so that the sub-steps of one
+        // composed step share one size; the first fallback step has the last DTH step's size. The fallback
         // is not bound to a tau grid: where its Newton fails (a step too large near a close
         // approach), halve dt, down to 2^-20 of that size; below that the run stops with the
         // fallback's error (the orbit cannot be followed, e.g. into a region where H is not
@@ -569,7 +569,7 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
             } else {
                 self.s.lambda_max
             };
-        if self.s.kind == StepKind::Fallback {
+        if first && self.s.kind == StepKind::Fallback {
             fb.dt = target.min(2.0 * fb.dt);
         }
         let dt_min = target * 0.5f64.powi(MAX_FALLBACK_HALVINGS as i32);
