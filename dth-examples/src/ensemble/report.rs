@@ -181,7 +181,7 @@ fn sections(scene: &Scene) -> Vec<&EffectSpec> {
 }
 
 /// `ensemble_crossings.csv`: every crossing of every member, method and section.
-pub fn crossings_csv(scene: &Scene, results: &[MemberResult]) -> String {
+pub fn crossings_csv(results: &[MemberResult]) -> String {
     let mut s = String::from("member,method,section,t,x,y\n");
     for r in results {
         for run in &r.runs {
@@ -198,7 +198,6 @@ pub fn crossings_csv(scene: &Scene, results: &[MemberResult]) -> String {
             }
         }
     }
-    let _ = scene;
     s
 }
 
@@ -236,7 +235,7 @@ fn section_figures(scene: &Scene, results: &[MemberResult]) -> Vec<(String, Figu
                         Mark::SmallPoints,
                         c.iter().map(|p| (p.1, p.2)),
                     )
-                    .with_color(r.index % 10),
+                    .with_color(r.index),
                 );
             }
             f.title = format!(
@@ -361,10 +360,7 @@ pub fn write(
     files.push("ensemble.json".to_string());
     let mut figs = Vec::new();
     if !sections(scene).is_empty() {
-        write_file(
-            &dir.join("ensemble_crossings.csv"),
-            crossings_csv(scene, results),
-        )?;
+        write_file(&dir.join("ensemble_crossings.csv"), crossings_csv(results))?;
         files.push("ensemble_crossings.csv".to_string());
         figs.extend(section_figures(scene, results));
     }
