@@ -5,8 +5,8 @@
 //! alongside the stepper (e.g. variational equations) and must not allocate per step.
 //!
 //! ```
-//! use dth::linalg::Lu;
-//! use dth::nalgebra::{Matrix2, Vector2};
+//! use dth_core::linalg::Lu;
+//! use dth_core::nalgebra::{Matrix2, Vector2};
 //!
 //! let a = Matrix2::new(0.0, 2.0, 1.0, 1.0); // needs a row exchange
 //! let lu = Lu::factor(&a).expect("nonsingular");
