@@ -20,6 +20,8 @@
 //! 8. [`eval`]: an interpreter for programs.
 //! 9. [`system`]: [`compile`], the whole pipeline (gradient, Hessian upper triangle, Psi, and
 //!    the programs).
+//! 10. `emit` (feature `emit`): a compiled system as the Rust code `hamiltonian!` emits, so
+//!     the macro and other tools (`dth derive --rust`) produce the same tokens.
 //!
 //! [`sources`] (Hamiltonians as text, for tests and benchmarks) stands apart and imports
 //! nothing.
@@ -52,6 +54,8 @@ pub mod defect;
 pub mod diff;
 pub mod display;
 pub mod divided;
+#[cfg(feature = "emit")]
+pub mod emit;
 pub mod error;
 pub mod eval;
 pub mod kernel;
