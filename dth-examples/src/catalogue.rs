@@ -541,7 +541,10 @@ mod tests {
         assert!(info("forced_oscillator").time_dependent);
         assert_eq!(info("toda_chain").n, 4);
         assert_eq!(info("toda_chain_10").n, 10);
-        assert_eq!((info("fput_alpha").n, info("nbody_2d").n, info("nbody_3d").n), (32, 6, 9));
+        assert_eq!(
+            (info("fput_alpha").n, info("nbody_2d").n, info("nbody_3d").n),
+            (32, 6, 9)
+        );
         // The normal modes are offered on the chains with fixed ends only.
         for e in c.entries() {
             let chain = ["fput_alpha", "fput_beta", "toda_fixed_ends"].contains(&e.name());

@@ -148,7 +148,11 @@ mod tests {
         let w = modes.frequencies().to_vec();
         for t in [0.0, 0.7, 13.0, 250.0] {
             let q: Vec<f64> = (1..=n)
-                .map(|i| (1..=n).map(|k| s(i, k) * a[k - 1] * (w[k - 1] * t).cos()).sum())
+                .map(|i| {
+                    (1..=n)
+                        .map(|k| s(i, k) * a[k - 1] * (w[k - 1] * t).cos())
+                        .sum()
+                })
                 .collect();
             let p: Vec<f64> = (1..=n)
                 .map(|i| {
@@ -161,7 +165,12 @@ mod tests {
             modes.energies(&q, &p, &mut e);
             for k in 0..n {
                 let want = 0.5 * w[k] * w[k] * a[k] * a[k];
-                assert!((e[k] - want).abs() < 1e-14, "t = {t}, mode {}: {}", k + 1, e[k]);
+                assert!(
+                    (e[k] - want).abs() < 1e-14,
+                    "t = {t}, mode {}: {}",
+                    k + 1,
+                    e[k]
+                );
             }
         }
     }

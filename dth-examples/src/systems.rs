@@ -522,7 +522,12 @@ mod tests {
         let dv = |d: f64| d + 0.3 * d * d;
         for i in 1..=32 {
             let f = dv(x[i + 1] - x[i]) - dv(x[i] - x[i - 1]);
-            assert!((g[i - 1] + f).abs() <= 1e-14, "q{i}: {} vs {}", g[i - 1], -f);
+            assert!(
+                (g[i - 1] + f).abs() <= 1e-14,
+                "q{i}: {} vs {}",
+                g[i - 1],
+                -f
+            );
         }
     }
 
@@ -551,13 +556,25 @@ mod tests {
                 assert!(rate.abs() < 1e-13, "{name}: dI/dt = {rate:e}");
             }
         }
-        let spread = |i: usize| 0.4 * ((i * 7 + 3) as f64).sin() + if i % 3 == 0 { i as f64 * 0.3 } else { 0.0 };
+        let spread = |i: usize| {
+            0.4 * ((i * 7 + 3) as f64).sin() + if i % 3 == 0 { i as f64 * 0.3 } else { 0.0 }
+        };
         check(
-            &NBody2d3 { m1: 1.0, m2: 2.0, m3: 0.5, g: 1.3 },
+            &NBody2d3 {
+                m1: 1.0,
+                m2: 2.0,
+                m3: 0.5,
+                g: 1.3,
+            },
             SVector::<f64, 12>::from_fn(|i, _| spread(i)),
         );
         check(
-            &NBody3d3 { m1: 1.0, m2: 2.0, m3: 0.5, g: 1.3 },
+            &NBody3d3 {
+                m1: 1.0,
+                m2: 2.0,
+                m3: 0.5,
+                g: 1.3,
+            },
             SVector::<f64, 18>::from_fn(|i, _| spread(i)),
         );
     }

@@ -51,7 +51,9 @@ fn nbody(dim: usize, bodies: usize) -> String {
     let coord = |letter: char, body: usize, c: usize| format!("{letter}{}", dim * body + c + 1);
     let mut src = String::new();
     for b in 0..bodies {
-        let squares: Vec<String> = (0..dim).map(|c| format!("{}^2", coord('p', b, c))).collect();
+        let squares: Vec<String> = (0..dim)
+            .map(|c| format!("{}^2", coord('p', b, c)))
+            .collect();
         if b > 0 {
             src.push_str(" + ");
         }

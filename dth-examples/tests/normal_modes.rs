@@ -17,9 +17,18 @@ fn scene(system: &str, params: &str, initial: &str, effect: &str) -> String {
 /// `q` of a chain of 32 in mode `k` with amplitude `a`, at rest.
 fn chain_in_mode(k: usize, a: f64) -> String {
     let q: Vec<String> = (1..=32)
-        .map(|i| format!("{:e}", a * ((i * k) as f64 * std::f64::consts::PI / 33.0).sin()))
+        .map(|i| {
+            format!(
+                "{:e}",
+                a * ((i * k) as f64 * std::f64::consts::PI / 33.0).sin()
+            )
+        })
         .collect();
-    format!("q = [{}]\np = [{}]", q.join(", "), vec!["0.0"; 32].join(", "))
+    format!(
+        "q = [{}]\np = [{}]",
+        q.join(", "),
+        vec!["0.0"; 32].join(", ")
+    )
 }
 
 #[test]
@@ -107,7 +116,11 @@ fn harmonic_chain_keeps_each_mode_energy_and_writes_csv_and_figure() {
         "normal_modes_midpoint.png",
         "normal_modes_midpoint.svg",
     ] {
-        assert!(report.files.contains(&f.to_string()), "{f}: {:?}", report.files);
+        assert!(
+            report.files.contains(&f.to_string()),
+            "{f}: {:?}",
+            report.files
+        );
     }
     let csv = std::fs::read_to_string(out.join("midpoint_normal_modes.csv")).unwrap();
     let mut lines = csv.lines();
@@ -121,7 +134,12 @@ fn harmonic_chain_keeps_each_mode_energy_and_writes_csv_and_figure() {
         .collect();
     assert_eq!(rows.len(), 21, "steps 0, 10, ..., 200");
     for r in &rows {
-        assert!((r[4] - e3).abs() < 1e-13 * e3, "step {}: E3 = {} vs {e3}", r[0], r[4]);
+        assert!(
+            (r[4] - e3).abs() < 1e-13 * e3,
+            "step {}: E3 = {} vs {e3}",
+            r[0],
+            r[4]
+        );
         for k in [2, 3, 5] {
             assert!(r[k].abs() < 1e-15, "step {}: E{} = {}", r[0], k - 1, r[k]);
         }

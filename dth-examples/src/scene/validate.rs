@@ -887,7 +887,9 @@ fn validate_effect(
         EffectKind::NormalModes => {
             let modes = match &e.modes {
                 None => Some(n.map_or(5, |n| n.min(5))),
-                Some(v) if *v.get_ref() >= 1 && n.is_none_or(|n| *v.get_ref() as u64 <= n as u64) => {
+                Some(v)
+                    if *v.get_ref() >= 1 && n.is_none_or(|n| *v.get_ref() as u64 <= n as u64) =>
+                {
                     Some(*v.get_ref() as usize)
                 }
                 Some(v) => {
