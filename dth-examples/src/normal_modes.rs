@@ -6,7 +6,7 @@
 //! `q_0 = q_{N+1} = 0`, whose potential is to second order the harmonic chain
 //! `sum_{i=0}^{N} (q_{i+1} - q_i)^2 / 2` (unit springs: FPUT-alpha, FPUT-beta, the Toda
 //! chain between walls). Its normal modes `k = 1..N` are, as in Fermi, Pasta and Ulam (1955),
-//! Berman and Izrailev (2005, eqs. 2-4) and Dauxois (2008):
+//! the review of Berman and Izrailev (2005) and Dauxois (2008):
 //!
 //! - amplitudes `Q_k = sqrt(2/(N+1)) sum_{i=1}^{N} q_i sin(i k pi/(N+1))` and
 //!   `P_k = sqrt(2/(N+1)) sum_i p_i sin(i k pi/(N+1))` (the sine transform is orthonormal and
