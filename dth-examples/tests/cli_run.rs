@@ -249,8 +249,8 @@ fn every_shipped_scene_runs() {
         let Some(stem) = f.strip_suffix(".toml") else {
             continue;
         };
-        // FPUT's recurrence takes 70,000 DTH steps at D = 64 (dense Newton: about 45 s in the
-        // dev profile); `tests/fput.rs` runs that scene at reduced length instead.
+        // The FPUT scene takes 134,000 DTH steps at D = 64 (dense Newton: over a minute in the
+        // dev profile); `tests/fput.rs` runs it at reduced length instead.
         if f == "fput.toml" {
             continue;
         }
