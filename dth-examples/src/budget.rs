@@ -81,6 +81,9 @@ pub fn estimate<const D: usize, S: SceneSystem<D>>(
                         crossings.saturating_mul(3)
                     }
                     EffectSpec::ComparisonTable => 0,
+                    EffectSpec::NormalModes { modes, every } => {
+                        samples(every).saturating_mul(modes as u64 + 2)
+                    }
                 })
                 .fold(0u64, u64::saturating_add);
             if let Some(e) = &scene.ensemble {

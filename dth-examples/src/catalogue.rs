@@ -28,8 +28,8 @@ use crate::scene::{ParamSpec, Scene, SystemInfo, SystemLookup};
 use crate::simulate::{initial_state, stop_for, RunOptions};
 use crate::system::{SceneSystem, WithoutDth};
 use crate::systems::{
-    DoublePendulum, ForcedOscillator, FreeParticle, HarmonicOscillator, HenonHeiles, Kepler,
-    Pendulum, TodaChain10, TodaChain4,
+    DoublePendulum, ForcedOscillator, FputAlpha32, FputBeta32, FreeParticle, HarmonicOscillator,
+    HenonHeiles, Kepler, NBody2d3, NBody3d3, Pendulum, TodaChain10, TodaChain4, TodaFixedEnds32,
 };
 
 type RunFn =
@@ -48,6 +48,7 @@ pub struct SystemEntry {
     has_exact: bool,
     separable: bool,
     central_force: bool,
+    fixed_end_chain: bool,
     dth: bool,
     psi_identically_zero: bool,
     run: Box<RunFn>,
@@ -224,6 +225,7 @@ impl SystemEntry {
             has_exact: S::HAS_EXACT,
             separable: S::SEPARABLE,
             central_force: S::CENTRAL_FORCE,
+            fixed_end_chain: S::FIXED_END_CHAIN,
             dth,
             psi_identically_zero: S::PSI_IDENTICALLY_ZERO,
             run: Box::new(move |scene, out, options| {
@@ -263,6 +265,7 @@ impl SystemEntry {
             has_exact: self.has_exact,
             separable: self.separable,
             central_force: self.central_force,
+            fixed_end_chain: self.fixed_end_chain,
             dth: self.dth,
             psi_identically_zero: self.psi_identically_zero,
         }
@@ -352,6 +355,54 @@ impl Catalogue {
                 "periodic Toda chain of 10 particles, H = sum p_i^2/2 + sum exp(q_i - q_{i+1}), q11 = q1, n = 10",
                 &[],
                 |_| Ok(TodaChain10),
+            ),
+            SystemEntry::runnable::<64, FputAlpha32, _>(
+                "fput_alpha",
+                "FPUT-alpha chain of 32 unit masses, fixed ends q0 = q33 = 0: H = sum p_i^2/2 + sum_{i=0}^{32} [d_i^2/2 + alpha d_i^3/3], d_i = q_{i+1} - q_i, n = 32",
+                // Any coupling: the sign only mirrors the chain (q -> -q).
+                &[ParamSpec::new("alpha", Some(0.25), "cubic coupling (FPUT 1955: 1/4)")],
+                |p| Ok(FputAlpha32 { alpha: param("fput_alpha", p, "alpha")? }),
+            ),
+            SystemEntry::runnable::<64, FputBeta32, _>(
+                "fput_beta",
+                "FPUT-beta chain of 32 unit masses, fixed ends q0 = q33 = 0: H = sum p_i^2/2 + sum_{i=0}^{32} [d_i^2/2 + beta d_i^4/4], d_i = q_{i+1} - q_i, n = 32",
+                // beta < 0 is studied too (its potential is bounded below only locally).
+                &[ParamSpec::new("beta", Some(1.0), "quartic coupling")],
+                |p| Ok(FputBeta32 { beta: param("fput_beta", p, "beta")? }),
+            ),
+            SystemEntry::runnable::<64, TodaFixedEnds32, _>(
+                "toda_fixed_ends",
+                "Toda chain of 32 unit masses between walls q0 = q33 = 0: H = sum p_i^2/2 + sum_{i=0}^{32} exp(q_i - q_{i+1}), n = 32",
+                &[],
+                |_| Ok(TodaFixedEnds32),
+            ),
+            SystemEntry::runnable::<12, NBody2d3, _>(
+                "nbody_2d",
+                "three gravitating bodies in the plane, all pairs: H = sum |p_i|^2/(2 m_i) - g sum_{i<j} m_i m_j/|q_i - q_j|, body i at (q_{2i-1}, q_{2i}), n = 6",
+                &[
+                    ParamSpec::new("m1", Some(1.0), "mass of body 1").positive(),
+                    ParamSpec::new("m2", Some(1.0), "mass of body 2").positive(),
+                    ParamSpec::new("m3", Some(1.0), "mass of body 3").positive(),
+                    ParamSpec::new("g", Some(1.0), "gravitational constant").positive(),
+                ],
+                |p| {
+                    let [m1, m2, m3, g] = params("nbody_2d", p, ["m1", "m2", "m3", "g"])?;
+                    Ok(NBody2d3 { m1, m2, m3, g })
+                },
+            ),
+            SystemEntry::runnable::<18, NBody3d3, _>(
+                "nbody_3d",
+                "three gravitating bodies in space, all pairs: H = sum |p_i|^2/(2 m_i) - g sum_{i<j} m_i m_j/|q_i - q_j|, body i at (q_{3i-2}, q_{3i-1}, q_{3i}), n = 9",
+                &[
+                    ParamSpec::new("m1", Some(1.0), "mass of body 1").positive(),
+                    ParamSpec::new("m2", Some(1.0), "mass of body 2").positive(),
+                    ParamSpec::new("m3", Some(1.0), "mass of body 3").positive(),
+                    ParamSpec::new("g", Some(1.0), "gravitational constant").positive(),
+                ],
+                |p| {
+                    let [m1, m2, m3, g] = params("nbody_3d", p, ["m1", "m2", "m3", "g"])?;
+                    Ok(NBody3d3 { m1, m2, m3, g })
+                },
             ),
             SystemEntry::runnable::<4, ForcedOscillator, _>(
                 "forced_oscillator",
@@ -473,6 +524,11 @@ mod tests {
                 "double_pendulum",
                 "toda_chain",
                 "toda_chain_10",
+                "fput_alpha",
+                "fput_beta",
+                "toda_fixed_ends",
+                "nbody_2d",
+                "nbody_3d",
                 "forced_oscillator",
                 "free_particle"
             ]
@@ -485,6 +541,15 @@ mod tests {
         assert!(info("forced_oscillator").time_dependent);
         assert_eq!(info("toda_chain").n, 4);
         assert_eq!(info("toda_chain_10").n, 10);
+        assert_eq!(
+            (info("fput_alpha").n, info("nbody_2d").n, info("nbody_3d").n),
+            (32, 6, 9)
+        );
+        // The normal modes are offered on the chains with fixed ends only.
+        for e in c.entries() {
+            let chain = ["fput_alpha", "fput_beta", "toda_fixed_ends"].contains(&e.name());
+            assert_eq!(e.info().fixed_end_chain, chain, "{}", e.name());
+        }
         // DTH everywhere but on the free particle, whose Psi is identically zero.
         for e in c.entries() {
             let i = e.info();

@@ -9,6 +9,7 @@ use dth::nalgebra::SVector;
 use dth::observer::{Observer, StepRecord};
 use serde::Serialize;
 
+use crate::normal_modes::ChainModes;
 use crate::scene::{Coord, Direction, EffectSpec};
 use crate::system::SceneSystem;
 
@@ -168,6 +169,24 @@ pub struct TrajectoryRow {
 /// One row of the `time_law` effect (`lambda` NaN for fixed-step methods).
 pub type TimeLawRow = (usize, f64, f64);
 
+/// One row of the `normal_modes` effect: the energies `E_1..E_k` of the first `k` linear
+/// normal modes ([`crate::normal_modes`]) at a step.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ModeEnergies {
+    /// Step index.
+    pub step: usize,
+    /// Physical time.
+    pub t: f64,
+    /// `E_1..E_k`.
+    pub energies: Vec<f64>,
+}
+
+struct ModeSamples {
+    every: usize,
+    modes: ChainModes,
+    rows: Vec<ModeEnergies>,
+}
+
 struct PhaseSamples {
     x: Coord,
     y: Coord,
@@ -196,6 +215,8 @@ pub struct EffectOutputs {
     pub poincare: Vec<Crossings>,
     /// `phase_plot`: one list of `(x, y)` per requested plot, in scene order.
     pub phase: Vec<Vec<(f64, f64)>>,
+    /// `normal_modes`: the mode energies every `every` steps.
+    pub normal_modes: Option<Vec<ModeEnergies>>,
 }
 
 /// The observers of one method's run, one per requested effect.
@@ -210,6 +231,7 @@ pub struct Effects<'s, const D: usize, S: SceneSystem<D>> {
     time_law: Option<(usize, Vec<TimeLawRow>)>,
     sections: Vec<Section<D>>,
     phase: Vec<PhaseSamples>,
+    normal_modes: Option<ModeSamples>,
     calls: usize,
 }
 
@@ -231,6 +253,7 @@ impl<'s, const D: usize, S: SceneSystem<D>> Effects<'s, D, S> {
             time_law: None,
             sections: Vec::new(),
             phase: Vec::new(),
+            normal_modes: None,
             calls: 0,
         };
         let names = system.invariant_names();
@@ -288,6 +311,15 @@ impl<'s, const D: usize, S: SceneSystem<D>> Effects<'s, D, S> {
                     until: until.unwrap_or(f64::INFINITY),
                     points: Vec::new(),
                 }),
+                // The chain's n = D/2 (validation admits chains with fixed ends only, which
+                // are not time-dependent).
+                EffectSpec::NormalModes { modes, every } => {
+                    e.normal_modes = Some(ModeSamples {
+                        every,
+                        modes: ChainModes::new(D / 2, modes),
+                        rows: Vec::new(),
+                    })
+                }
             }
         }
         Some(e)
@@ -321,6 +353,10 @@ impl<'s, const D: usize, S: SceneSystem<D>> Effects<'s, D, S> {
                 .map(|s| 3 * s.crossings.len())
                 .sum::<usize>()
             + self.phase.iter().map(|p| 2 * p.points.len()).sum::<usize>()
+            + self
+                .normal_modes
+                .as_ref()
+                .map_or(0, |m| m.rows.len() * (m.modes.modes() + 2))
     }
 
     /// Ends observation and hands over the results.
@@ -339,6 +375,7 @@ impl<'s, const D: usize, S: SceneSystem<D>> Effects<'s, D, S> {
             time_law: self.time_law.map(|(_, r)| r),
             poincare: self.sections.into_iter().map(|s| s.crossings).collect(),
             phase: self.phase.into_iter().map(|p| p.points).collect(),
+            normal_modes: self.normal_modes.map(|m| m.rows),
         }
     }
 }
@@ -418,6 +455,14 @@ impl<const D: usize, S: SceneSystem<D>> Observer<D> for Effects<'_, D, S> {
                 }
             }
             s.previous = Some((t, *z));
+        }
+        if let Some(m) = &mut self.normal_modes {
+            if step.is_multiple_of(m.every) {
+                let (q, p) = z.as_slice().split_at(D / 2);
+                let mut energies = vec![0.0; m.modes.modes()];
+                m.modes.energies(q, p, &mut energies);
+                m.rows.push(ModeEnergies { step, t, energies });
+            }
         }
         for p in &mut self.phase {
             if p.t0.is_none() {

@@ -16,8 +16,8 @@
 //! 3. [`driver`]: when runs stop, the fixed-step and DTH drivers, one observer protocol
 //!    (`dth::observer`);
 //! 4. [`system`] (what a scene needs of a system) and [`systems`] (the built-in ones);
-//! 5. [`method`] (a scene's method name to an integrator) and [`effects`] (observers for the
-//!    requested effects);
+//! 5. [`method`] (a scene's method name to an integrator), [`normal_modes`] (a chain's linear
+//!    normal modes and their energies) and [`effects`] (observers for the requested effects);
 //! 6. [`budget`] (the memory a run's effects will keep, checked before it runs), then
 //!    [`simulate`]: every method of a scene on a system, results in memory;
 //! 7. [`report`]: CSV, figures, Table 4.1, the thesis's figures, `index.html`;
@@ -53,6 +53,7 @@ pub mod systems;
 
 pub mod effects;
 pub mod method;
+pub mod normal_modes;
 
 pub mod budget;
 pub mod simulate;

@@ -256,6 +256,16 @@ fn list() {
     println!("\nEffects:");
     for k in EffectKind::ALL {
         println!("  {:<20} {}", k.name(), k.doc());
+        if k == EffectKind::NormalModes {
+            // The chains with fixed ends, from the catalogue.
+            let chains: Vec<&str> = c
+                .entries()
+                .iter()
+                .filter(|e| e.info().fixed_end_chain)
+                .map(|e| e.name())
+                .collect();
+            println!("  {:<20} systems: {}", "", chains.join(", "));
+        }
     }
 }
 

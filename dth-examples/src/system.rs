@@ -46,6 +46,12 @@ pub trait SceneSystem<const D: usize>: Hamiltonian<D> + Clone {
         None
     }
 
+    /// `true` for a chain of `n` unit masses with fixed ends `q_0 = q_{n+1} = 0` whose
+    /// potential is, to second order, the unit-spring chain `sum_{i=0}^{n} (q_{i+1} - q_i)^2/2`
+    /// (FPUT, the Toda chain between walls): the `normal_modes` effect decomposes its state
+    /// into that chain's linear normal modes ([`crate::normal_modes`]).
+    const FIXED_END_CHAIN: bool = false;
+
     /// `true` when [`SceneSystem::run_discrete_mechanics`] runs (central-force systems that
     /// implement `dth::systems::CentralForce`).
     const CENTRAL_FORCE: bool = false;
@@ -160,6 +166,7 @@ impl<const D: usize, S: SceneSystem<D>> SceneSystem<D> for WithoutDth<S> {
     const HAS_PERIOD: bool = S::HAS_PERIOD;
     const HAS_EXACT: bool = S::HAS_EXACT;
     const CENTRAL_FORCE: bool = S::CENTRAL_FORCE;
+    const FIXED_END_CHAIN: bool = S::FIXED_END_CHAIN;
 
     fn invariant_names(&self) -> &'static [&'static str] {
         self.0.invariant_names()

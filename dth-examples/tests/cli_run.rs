@@ -249,6 +249,11 @@ fn every_shipped_scene_runs() {
         let Some(stem) = f.strip_suffix(".toml") else {
             continue;
         };
+        // The FPUT scene takes 134,000 DTH steps at D = 64 (dense Newton: over a minute in the
+        // dev profile); `tests/fput.rs` runs it at reduced length instead.
+        if f == "fput.toml" {
+            continue;
+        }
         n += 1;
         let o = dth(
             &["run", scenes.join(&f).to_str().unwrap(), "--out", stem],

@@ -89,6 +89,19 @@ pub fn write(dir: &Path, scene: &Scene, results: &[MethodResult]) -> Result<Vec<
             }
             put(format!("{l}_poincare{}.csv", i + 1), s, &mut files)?;
         }
+        if let Some(rows) = &o.normal_modes {
+            let k = rows.first().map_or(0, |r| r.energies.len());
+            let columns: Vec<String> = (1..=k).map(|k| format!("E{k}")).collect();
+            let mut s = format!("step,t,{}\n", columns.join(","));
+            for r in rows {
+                let _ = write!(s, "{},{:e}", r.step, r.t);
+                for e in &r.energies {
+                    let _ = write!(s, ",{e:e}");
+                }
+                s.push('\n');
+            }
+            put(format!("{l}_normal_modes.csv"), s, &mut files)?;
+        }
         if let Some(members) = &r.ensemble {
             let d = members
                 .iter()

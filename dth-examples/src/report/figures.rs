@@ -1,9 +1,9 @@
 //! The figures of a scene's effects: energy and invariant deviations, the time law, Poincare
-//! sections, phase plots and ensembles, one PNG and one SVG each.
+//! sections, phase plots, normal-mode energies and ensembles, one PNG and one SVG each.
 
 use std::path::Path;
 
-use crate::effects::{DeviationStats, Series};
+use crate::effects::{DeviationStats, ModeEnergies, Series};
 use crate::error::Error;
 use crate::plot::{Figure, Mark, Series as PlotSeries};
 use crate::scene::{Coord, EffectSpec, Scene};
@@ -22,6 +22,7 @@ pub fn write(
     let mut seen_energy = false;
     let mut seen_invariants = false;
     let mut seen_time_law = false;
+    let mut seen_modes = false;
     for spec in &scene.effects {
         match spec {
             EffectSpec::EnergyDeviation { .. } if !seen_energy => {
@@ -126,6 +127,17 @@ pub fn write(
                 phase_i += 1;
                 figs.push((format!("phase{phase_i}"), f));
             }
+            EffectSpec::NormalModes { .. } if !seen_modes => {
+                seen_modes = true;
+                for r in results {
+                    if let Some(rows) = &r.outputs.normal_modes {
+                        figs.push((
+                            format!("normal_modes_{}", r.summary.label),
+                            mode_energy_figure(&scene.title, r, rows),
+                        ));
+                    }
+                }
+            }
             _ => {}
         }
     }
@@ -197,6 +209,25 @@ fn deviation_figure<'r>(
                 vertices.iter().map(|p| (p.1, p.2)),
             ));
         }
+    }
+    f
+}
+
+/// The energies `E_1..E_k` of the normal modes against `t`, one line per mode (FPUT's
+/// Figure 1), for one method.
+fn mode_energy_figure(title: &str, r: &MethodResult, rows: &[ModeEnergies]) -> Figure {
+    let k = rows.first().map_or(0, |r| r.energies.len());
+    let mut f = Figure::new(
+        &format!("{title}: normal-mode energies, {}", series_name(r)),
+        "t",
+        "E_k",
+    );
+    for mode in 0..k {
+        f = f.with_series(PlotSeries::new(
+            &format!("mode {}", mode + 1),
+            Mark::Line,
+            rows.iter().map(|row| (row.t, row.energies[mode])),
+        ));
     }
     f
 }

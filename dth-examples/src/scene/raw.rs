@@ -94,4 +94,5 @@ pub(super) struct RawEffect {
     pub(super) direction: Option<Spanned<String>>,
     pub(super) until: Option<Spanned<f64>>,
     pub(super) crossing: Option<Spanned<String>>,
+    pub(super) modes: Option<Spanned<i64>>,
 }

@@ -367,6 +367,14 @@ pub enum EffectSpec {
     },
     /// A table of mean/max energy and invariant deviations of all methods.
     ComparisonTable,
+    /// The energy in each of the first `modes` linear normal modes of a chain with fixed ends
+    /// (`crate::normal_modes`), every `every` steps: CSV and a figure per method.
+    NormalModes {
+        /// How many modes, `1..=n` (default 5, as in FPUT's figures, at most `n`).
+        modes: usize,
+        /// Sampling stride.
+        every: usize,
+    },
 }
 
 impl EffectSpec {
@@ -381,6 +389,7 @@ impl EffectSpec {
             EffectSpec::TimeLaw { .. } => EffectKind::TimeLaw,
             EffectSpec::PhasePlot { .. } => EffectKind::PhasePlot,
             EffectSpec::ComparisonTable => EffectKind::ComparisonTable,
+            EffectSpec::NormalModes { .. } => EffectKind::NormalModes,
         }
     }
 }
@@ -405,11 +414,13 @@ pub enum EffectKind {
     PhasePlot,
     /// [`EffectSpec::ComparisonTable`].
     ComparisonTable,
+    /// [`EffectSpec::NormalModes`].
+    NormalModes,
 }
 
 impl EffectKind {
     /// Every effect, in the order `dth list` shows them.
-    pub const ALL: [EffectKind; 8] = [
+    pub const ALL: [EffectKind; 9] = [
         EffectKind::FinalState,
         EffectKind::Trajectory,
         EffectKind::EnergyDeviation,
@@ -418,6 +429,7 @@ impl EffectKind {
         EffectKind::TimeLaw,
         EffectKind::PhasePlot,
         EffectKind::ComparisonTable,
+        EffectKind::NormalModes,
     ];
 
     /// The name used in scene files.
@@ -431,6 +443,7 @@ impl EffectKind {
             EffectKind::TimeLaw => "time_law",
             EffectKind::PhasePlot => "phase_plot",
             EffectKind::ComparisonTable => "comparison_table",
+            EffectKind::NormalModes => "normal_modes",
         }
     }
 
@@ -449,6 +462,7 @@ impl EffectKind {
             | EffectKind::TimeLaw => &["every"],
             EffectKind::PhasePlot => &["x", "y", "every", "until"],
             EffectKind::Poincare => &["coordinate", "value", "direction", "crossing", "x", "y"],
+            EffectKind::NormalModes => &["modes", "every"],
         }
     }
 
@@ -463,6 +477,7 @@ impl EffectKind {
             EffectKind::TimeLaw => "t and lambda against the step (CSV, figure); key every",
             EffectKind::PhasePlot => "figure of y against x for all methods (x = \"t\": a time series); keys x, y, every, until (time span from t0)",
             EffectKind::ComparisonTable => "table of mean/max energy and invariant deviations of all methods",
+            EffectKind::NormalModes => "energy in each of the first `modes` linear normal modes of a chain with fixed ends against t (CSV, figure per method); keys modes (default 5), every",
         }
     }
 }

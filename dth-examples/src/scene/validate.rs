@@ -130,6 +130,9 @@ pub struct SystemInfo<'a> {
     pub separable: bool,
     /// `true` for a central force `|p|^2/(2m) + phi(|q|)` (method `discrete_mechanics`).
     pub central_force: bool,
+    /// `true` for a chain with fixed ends of unit masses and springs (to second order): the
+    /// effect `normal_modes` applies (`SceneSystem::FIXED_END_CHAIN`).
+    pub fixed_end_chain: bool,
     /// `true` when method `dth` can run.
     pub dth: bool,
     /// `true` when `Psi` is identically zero (`Hamiltonian::PSI_IDENTICALLY_ZERO`): the reason
@@ -458,6 +461,20 @@ fn validate(raw: RawScene, systems: &dyn SystemLookup, cx: &mut Ctxt<'_>) -> Opt
         if let Some(spec) = validate_effect(e, n, cx) {
             effects.push(spec);
             effect_spans.push(span);
+        }
+    }
+
+    // Normal modes are those of a chain with fixed ends.
+    if info.is_some_and(|i| !i.fixed_end_chain) {
+        for (spec, span) in effects.iter().zip(&effect_spans) {
+            if spec.kind() == EffectKind::NormalModes {
+                cx.error(
+                    span.clone(),
+                    format!(
+                        "effect `normal_modes` needs a chain with fixed ends (unit masses and springs to second order, e.g. fput_alpha, fput_beta, toda_fixed_ends): system `{name}` is not one"
+                    ),
+                );
+            }
         }
     }
 
@@ -807,7 +824,8 @@ fn validate_effect(
         return None;
     };
     let allowed = kind.keys();
-    let present: [(&str, Option<Range<usize>>); 8] = [
+    let present: [(&str, Option<Range<usize>>); 9] = [
+        ("modes", e.modes.as_ref().map(|v| v.span())),
         ("crossing", e.crossing.as_ref().map(|v| v.span())),
         ("until", e.until.as_ref().map(|v| v.span())),
         ("every", e.every.as_ref().map(|v| v.span())),
@@ -866,6 +884,31 @@ fn validate_effect(
         EffectKind::EnergyDeviation => EffectSpec::EnergyDeviation { every: every? },
         EffectKind::Invariants => EffectSpec::Invariants { every: every? },
         EffectKind::TimeLaw => EffectSpec::TimeLaw { every: every? },
+        EffectKind::NormalModes => {
+            let modes = match &e.modes {
+                None => Some(n.map_or(5, |n| n.min(5))),
+                Some(v)
+                    if *v.get_ref() >= 1 && n.is_none_or(|n| *v.get_ref() as u64 <= n as u64) =>
+                {
+                    Some(*v.get_ref() as usize)
+                }
+                Some(v) => {
+                    cx.error(
+                        v.span(),
+                        format!(
+                            "`modes` = {}: expected an integer from 1 to {} (the chain's number of modes)",
+                            v.get_ref(),
+                            n.map_or("n".to_string(), |n| n.to_string())
+                        ),
+                    );
+                    None
+                }
+            };
+            EffectSpec::NormalModes {
+                modes: modes?,
+                every: every?,
+            }
+        }
         EffectKind::PhasePlot => {
             let x = need(&e.x, "x", cx);
             let y = need(&e.y, "y", cx);
