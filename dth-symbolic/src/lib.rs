@@ -55,6 +55,7 @@ pub mod divided;
 pub mod error;
 pub mod eval;
 pub mod kernel;
+mod lattice;
 pub mod lexer;
 pub mod lower;
 pub mod number;

@@ -138,9 +138,20 @@ pub fn expression(src: &str, params: &[&str]) -> Result<(Arena, Id, Span), Error
         src,
         arena: Arena::new(params),
         errors,
+        lattice: Default::default(),
     };
     let h = b.build(&ast);
+    let lattice_errors = b.lattice.finish(src);
     let (arena, mut errors) = (b.arena, b.errors);
+    errors.extend(lattice_errors);
+    // A sum's summand is built once per site: the same mistake at the same place is one error.
+    let mut unique: Vec<Error> = Vec::with_capacity(errors.len());
+    for e in errors {
+        if !unique.contains(&e) {
+            unique.push(e);
+        }
+    }
+    let mut errors = unique;
     match h {
         Some(h) if errors.is_empty() => Ok((arena, h, ast.span())),
         _ => {
