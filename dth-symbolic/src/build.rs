@@ -8,7 +8,7 @@
 use crate::arena::{Arena, Id, Var};
 use crate::check::{resolve, Name};
 use crate::error::{Error, ErrorKind};
-use crate::lattice::{Boundary, Lattice};
+use crate::lattice::{compact, Boundary, Lattice};
 use crate::number::{parse_literal, Fault, LiteralError, Num};
 use crate::parser::{operand_text, Ast, BinOp, Decl, Range};
 use crate::span::Span;
@@ -267,7 +267,7 @@ impl Builder<'_> {
             if self.lattice.in_boundary {
                 self.errors.push(Error::new(
                     ErrorKind::BadBoundary {
-                        name: self.src[span.range()].to_string(),
+                        name: compact(&self.src[span.range()]),
                         reason:
                             "is defined by a boundary: a boundary's value uses sites of the lattice"
                                 .to_string(),
@@ -287,7 +287,7 @@ impl Builder<'_> {
         if site < 1 || (self.lattice.in_boundary && self.lattice.last.is_some_and(|n| site > n)) {
             self.errors.push(Error::new(
                 ErrorKind::IndexOutOfRange {
-                    access: self.src[span.range()].to_string(),
+                    access: compact(&self.src[span.range()]),
                     letter,
                     site,
                     at: self.lattice.at(),
@@ -396,7 +396,30 @@ impl Builder<'_> {
                 .map(|s| self.src[s.range()].to_string())
                 .collect(),
         };
-        let text = self.src[range_span.range()].to_string();
+        let text = match range {
+            Range::Single { index, lo, hi } => format!(
+                "{} = {}..{}",
+                &self.src[index.range()],
+                compact(&self.src[lo.span().range()]),
+                compact(&self.src[hi.span().range()])
+            ),
+            Range::Pairs {
+                lo,
+                lo_strict,
+                i,
+                j,
+                hi_strict,
+                hi,
+            } => format!(
+                "{} {} {} < {} {} {}",
+                compact(&self.src[lo.span().range()]),
+                if *lo_strict { "<" } else { "<=" },
+                &self.src[i.range()],
+                &self.src[j.range()],
+                if *hi_strict { "<" } else { "<=" },
+                compact(&self.src[hi.span().range()])
+            ),
+        };
         let seen = self.lattice.sums.entry(range_span).or_insert((false, text));
         seen.0 |= !sites.is_empty();
         if sites.is_empty() {
@@ -480,7 +503,7 @@ impl Builder<'_> {
         if self.lattice.boundary(letter, site).is_some() {
             self.errors.push(Error::new(
                 ErrorKind::BadBoundary {
-                    name: self.src[span.range()].to_string(),
+                    name: compact(&self.src[span.range()]),
                     reason: "is declared twice".to_string(),
                 },
                 span,

@@ -158,10 +158,24 @@ pub fn name_errors(src: &str, tokens: &[Token], params: &[&str]) -> Vec<Error> {
             Some(TokenKind::Eq | TokenKind::Lt | TokenKind::Le)
         ) || k > 0 && matches!(kind_at(k - 1), Some(TokenKind::Lt | TokenKind::Le))
     };
-    let bound: Vec<&str> = (0..tokens.len())
-        .filter(|&k| tokens[k].kind == TokenKind::Ident && binds(k))
-        .map(|k| &src[tokens[k].span.range()])
-        .collect();
+    // ... and so are the first argument of `sum(` and the names inside an index `[...]`.
+    let sum_argument = |k: usize| {
+        k >= 2
+            && kind_at(k - 1) == Some(TokenKind::LParen)
+            && &src[tokens[k - 2].span.range()] == "sum"
+    };
+    let mut depth = 0usize;
+    let mut bound: Vec<&str> = Vec::new();
+    for (k, t) in tokens.iter().enumerate() {
+        match t.kind {
+            TokenKind::LBracket => depth += 1,
+            TokenKind::RBracket => depth = depth.saturating_sub(1),
+            TokenKind::Ident if binds(k) || sum_argument(k) || depth > 0 => {
+                bound.push(&src[t.span.range()])
+            }
+            _ => {}
+        }
+    }
     let mut errors = Vec::new();
     for (k, t) in tokens.iter().enumerate() {
         if t.kind != TokenKind::Ident {

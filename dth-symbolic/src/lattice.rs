@@ -15,6 +15,12 @@ use crate::error::{Error, ErrorKind};
 use crate::parser::{Ast, BinOp};
 use crate::span::Span;
 
+/// `text` without whitespace: an access or a range as the message shows it, the same for the
+/// text given at run time and for the macro's tokens (which it reads spaced, `q [ i + 1 ]`).
+pub(crate) fn compact(text: &str) -> String {
+    text.split_whitespace().collect()
+}
+
 /// A boundary `q[site] = value` declared after `where`.
 #[derive(Clone, Debug)]
 pub(crate) struct Boundary {
@@ -92,7 +98,7 @@ impl Lattice {
         let not_an_index = |a: &Ast| {
             Error::new(
                 ErrorKind::NotAnIndex {
-                    text: src[a.span().range()].to_string(),
+                    text: compact(&src[a.span().range()]),
                 },
                 a.span(),
             )
@@ -176,7 +182,7 @@ impl Lattice {
             if *site > last {
                 errors.push(Error::new(
                     ErrorKind::IndexOutOfRange {
-                        access: src[span.range()].to_string(),
+                        access: compact(&src[span.range()]),
                         letter: *letter,
                         site: *site,
                         at: at.clone(),
@@ -191,7 +197,7 @@ impl Lattice {
                 if i64::from(k) > last {
                     errors.push(Error::new(
                         ErrorKind::MixedIndexing {
-                            name: src[span.range()].to_string(),
+                            name: compact(&src[span.range()]),
                             last,
                         },
                         span,
@@ -203,7 +209,7 @@ impl Lattice {
             if (1..=last).contains(&b.site) {
                 errors.push(Error::new(
                     ErrorKind::BadBoundary {
-                        name: src[b.span.range()].to_string(),
+                        name: compact(&src[b.span.range()]),
                         reason: format!(
                             "is inside the lattice 1..{last}: boundaries define sites below 1 or above {last}"
                         ),

@@ -1,0 +1,96 @@
+//! `hamiltonian!` on lattices written once: the FPUT-alpha chain of 8 particles from a
+//! one-line sum against the same chain written out term by term (`tests/chains/`), every
+//! method of the trait to roundoff, and the Hessian pattern the structured Newton reads.
+
+use dth::nalgebra::SVector;
+use dth::Hamiltonian;
+
+include!("chains/fput_alpha_8.rs");
+
+dth::hamiltonian! {
+    /// FPUT-alpha, `alpha = 1/4`, fixed ends, written once.
+    pub struct FputSum8 = sum(i = 1..N, p[i]^2/2 + (q[i+1] - q[i])^2/2 + (q[i+1] - q[i])^3/12)
+        + (q[1] - q[0])^2/2 + (q[1] - q[0])^3/12
+        where N = 8, q[0] = q[N+1] = 0
+}
+
+/// A deterministic point in `[-0.5, 0.5)^16`.
+fn point(seed: u64) -> SVector<f64, 16> {
+    let mut s = seed;
+    SVector::from_fn(|_, _| {
+        s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+    })
+}
+
+/// Roundoff: the two texts add the same 25 terms (each below 1 on these points) in different
+/// orders, so results differ by a few `eps` times their magnitude sum.
+fn close(a: f64, b: f64) -> bool {
+    (a - b).abs() <= 64.0 * f64::EPSILON * (1.0 + a.abs().max(b.abs()))
+}
+
+#[test]
+fn looped_fput_equals_the_written_out_chain() {
+    let (looped, written) = (FputSum8, FputAlpha8);
+    let mut pattern = FputSum8::HESSIAN_PATTERN.unwrap().to_vec();
+    let mut expected = FputAlpha8::HESSIAN_PATTERN.unwrap().to_vec();
+    pattern.sort_unstable();
+    expected.sort_unstable();
+    assert_eq!(pattern, expected);
+    assert_eq!(
+        FputSum8::STRUCTURED_NEWTON,
+        <FputAlpha8 as Hamiltonian<16>>::STRUCTURED_NEWTON
+    );
+    for seed in 1..6 {
+        let (z0, z1) = (point(seed), point(seed + 50));
+        assert!(close(looped.value(&z0), written.value(&z0)));
+        assert!(close(looped.psi(&z0), written.psi(&z0)));
+        let (a, b) = (looped.derivatives(&z0), written.derivatives(&z0));
+        assert!(close(a.value, b.value) && close(a.psi, b.psi));
+        assert!(a.gradient.iter().zip(b.gradient.iter()).all(|(x, y)| close(*x, *y)));
+        assert!(a.hessian.iter().zip(b.hessian.iter()).all(|(x, y)| close(*x, *y)));
+        assert!(close(
+            looped.energy_difference(&z0, &z1),
+            written.energy_difference(&z0, &z1)
+        ));
+        let (ga, gb) = (
+            looped.discrete_gradient(&z0, &z1),
+            written.discrete_gradient(&z0, &z1),
+        );
+        assert!(ga.iter().zip(gb.iter()).all(|(x, y)| close(*x, *y)));
+        let (da, db) = (
+            looped.discrete_gradient_defect(&z0, &z1, &ga),
+            written.discrete_gradient_defect(&z0, &z1, &gb),
+        );
+        assert!(da.iter().zip(db.iter()).all(|(x, y)| close(*x, *y)));
+        // The fused nonzeros, entry by entry of each type's own pattern.
+        let mut values = vec![0.0; FputSum8::HESSIAN_PATTERN.unwrap().len()];
+        looped.hessian_nonzeros(&z0, &mut values);
+        let dense = written.hessian(&z0);
+        for (v, &(i, j)) in values.iter().zip(FputSum8::HESSIAN_PATTERN.unwrap()) {
+            assert!(close(*v, dense[(i, j)]));
+        }
+    }
+}
+
+#[test]
+fn all_pairs_and_periodic_sums_in_the_expression_form() {
+    // Calogero-Moser: all pairs, inverse-square repulsion, in a harmonic trap.
+    let calogero = dth::hamiltonian!(
+        sum(i = 1..N, p[i]^2/2 + q[i]^2/2) + sum(1 <= i < j <= N, 1/(q[i] - q[j])^2) where N = 3
+    );
+    let written = dth::hamiltonian!(
+        p1^2/2 + q1^2/2 + p2^2/2 + q2^2/2 + p3^2/2 + q3^2/2
+            + 1/(q1 - q2)^2 + 1/(q1 - q3)^2 + 1/(q2 - q3)^2
+    );
+    let z = SVector::<f64, 6>::new(-1.0, 0.1, 1.3, 0.2, -0.3, 0.4);
+    assert!(close(calogero.value(&z), written.value(&z)));
+    assert!(close(calogero.psi(&z), written.psi(&z)));
+    // Periodic Toda ring of 4.
+    let ring = dth::hamiltonian!(sum(i = 1..4, p[i]^2/2 + exp(q[i] - q[i+1])) where q[5] = q[1]);
+    let z = SVector::<f64, 8>::from_fn(|i, _| 0.1 * i as f64 - 0.3);
+    let e: f64 = (0..4)
+        .map(|i| z[4 + i] * z[4 + i] / 2.0 + (z[i] - z[(i + 1) % 4]).exp())
+        .sum();
+    assert!(close(ring.value(&z), e));
+}
