@@ -1,0 +1,85 @@
+//! What the engine does for `hamiltonian!` on an FPUT-alpha chain written once as a sum
+//! (`sum(i = 0..N, ...) where N = .., q[0] = q[N+1] = 0`), against `N`: compile (parse, build
+//! the sum site by site, differentiate, simplify, Psi) and lower the programs the macro emits,
+//! and the number of straight-line operations emitted. Sums are built site by site today, so
+//! both grow with `N`; this is the baseline a looped compilation of the summand is measured
+//! against. Criterion groups `indexed_expand/fput_<N>`; the table printed first is what
+//! `docs/benchmarks.md` records.
+
+use std::hint::black_box;
+use std::time::{Duration, Instant};
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use dth_symbolic::{compile, Method, Output};
+
+/// The chain sizes measured (512 is the largest index the engine accepts).
+const SIZES: [usize; 4] = [64, 128, 256, 512];
+
+/// The one-line FPUT-alpha source of `n` particles.
+fn fput(n: usize) -> String {
+    format!(
+        "sum(i = 1..N, p[i]^2/2) + sum(i = 0..N, (q[i+1] - q[i])^2/2 + alpha*(q[i+1] - q[i])^3/3) \
+         where N = {n}, q[0] = q[N+1] = 0"
+    )
+}
+
+/// Compile and lower what the macro emits; the operations emitted in all.
+fn expand(src: &str) -> usize {
+    let system = match compile(src, &["alpha"]) {
+        Ok(s) => s,
+        Err(e) => panic!("the chain must compile: {e}"),
+    };
+    let one_point: usize = [
+        Method::Value,
+        Method::Gradient,
+        Method::Hessian,
+        Method::Psi,
+        Method::All,
+        Method::DiscreteGradientDefect,
+    ]
+    .iter()
+    .map(|&m| system.program(m).ops.len())
+    .sum();
+    let pair = system.program(Method::DiscreteGradient);
+    one_point
+        + pair
+            .prune(|o| matches!(o, Output::DiscreteGradient(_)))
+            .ops
+            .len()
+        + pair.prune(|o| o == Output::EnergyDifference).ops.len()
+}
+
+fn bench(c: &mut Criterion) {
+    println!("| N | D | ops emitted in all | ops / N | engine time (median of 9) | time / N |");
+    println!("|---|---|---|---|---|---|");
+    for n in SIZES {
+        let src = fput(n);
+        let ops = expand(&src);
+        let mut times: Vec<Duration> = (0..9)
+            .map(|_| {
+                let t = Instant::now();
+                black_box(expand(black_box(&src)));
+                t.elapsed()
+            })
+            .collect();
+        times.sort();
+        let median = times[times.len() / 2];
+        println!(
+            "| {n} | {} | {ops} | {:.1} | {:.1} ms | {:.1} us |",
+            2 * n,
+            ops as f64 / n as f64,
+            median.as_secs_f64() * 1e3,
+            median.as_secs_f64() * 1e6 / n as f64
+        );
+    }
+    let mut group = c.benchmark_group("indexed_expand");
+    group.sample_size(10);
+    for n in [64, 512] {
+        let src = fput(n);
+        group.bench_function(format!("fput_{n}"), |b| b.iter(|| expand(black_box(&src))));
+    }
+    group.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
