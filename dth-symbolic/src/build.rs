@@ -41,6 +41,18 @@ impl Builder<'_> {
                     }
                 }
             }
+            Ast::Name(s)
+                if self
+                    .lattice
+                    .local
+                    .as_ref()
+                    .is_some_and(|l| l.index == self.src[s.range()]) =>
+            {
+                if let Some(local) = self.lattice.local.as_mut() {
+                    local.not_loopable = Some("the sum's index is used as a number");
+                }
+                return None;
+            }
             Ast::Name(s) if self.lattice.lookup(&self.src[s.range()]).is_some() => {
                 // An index or a size as a number (`sum(i = 1..N, i*q[i]^2)`).
                 let v = self.lattice.lookup(&self.src[s.range()]).unwrap_or(0);
@@ -48,12 +60,25 @@ impl Builder<'_> {
                 Ok(self.arena.num(Num::int(i128::from(v))))
             }
             Ast::Index { name, index, span } => return self.indexed(*name, index, *span),
+            Ast::Sum { .. } if self.lattice.local.is_some() => {
+                if let Some(local) = self.lattice.local.as_mut() {
+                    local.not_loopable = Some("sums are nested");
+                }
+                return None;
+            }
             Ast::Sum { range, body, .. } => return self.sum(range, body),
             Ast::Where { body, decls } => return self.declared(body, decls),
             Ast::Name(s) => {
                 let params = self.arena.params().to_vec();
                 match resolve(&self.src[s.range()], &params) {
                     Ok(Name::Var(v)) => {
+                        if let (Some(local), Var::Q(_) | Var::P(_) | Var::T) =
+                            (self.lattice.local.as_mut(), v)
+                        {
+                            local.not_loopable =
+                                Some("a summand uses a written-out coordinate or `t`");
+                            return None;
+                        }
                         if matches!(v, Var::Q(_) | Var::P(_)) {
                             self.lattice.written.push((v, *s));
                         }
@@ -256,6 +281,9 @@ impl Builder<'_> {
                 return None;
             }
         };
+        if self.lattice.local.is_some() {
+            return self.slot(letter, index, span);
+        }
         let site = match self.lattice.int(self.src, index, self.arena.params()) {
             Ok(site) => site,
             Err(e) => {
@@ -325,8 +353,55 @@ impl Builder<'_> {
         )
     }
 
+    /// `letter[index]` in a summand built once ([`crate::looped`]): the index must be the
+    /// sum's index plus a constant, `i + c`; the variable is the slot of that offset.
+    fn slot(&mut self, letter: char, index: &Ast, span: Span) -> Option<Id> {
+        let params = self.arena.params().to_vec();
+        let at = |b: &mut Self, i: i64| {
+            if let Some(last) = b.lattice.bound.last_mut() {
+                last.1 = i;
+            }
+            b.lattice.int(b.src, index, &params)
+        };
+        let (c, c1) = match (at(self, 0), at(self, 1)) {
+            (Ok(c), Ok(c1)) => (c, c1),
+            (Err(e), _) | (_, Err(e)) => {
+                self.errors.push(e);
+                return None;
+            }
+        };
+        at(self, 0).ok();
+        let local = self.lattice.local.as_mut()?;
+        if c1 != c + 1 {
+            local.not_loopable = Some("an index is not the sum's index plus a constant");
+            return None;
+        }
+        let v = local.slot(letter, c);
+        self.arena.span = span;
+        Some(self.arena.var(v))
+    }
+
+    /// Declares the sizes and boundaries of `decls`.
+    pub fn declare(&mut self, decls: &[Decl]) {
+        for decl in decls {
+            match decl {
+                Decl::Constant { name, value } => {
+                    let (name, value) = (self.bindable(*name), self.int(value));
+                    if let (Some(name), Some(value)) = (name, value) {
+                        self.lattice.constants.push((name, value));
+                    }
+                }
+                Decl::Boundary { targets, value } => {
+                    for target in targets {
+                        self.boundary(target, value);
+                    }
+                }
+            }
+        }
+    }
+
     /// An integer of the lattice (an index's bound), or `None` with its error recorded.
-    fn int(&mut self, ast: &Ast) -> Option<i64> {
+    pub fn int(&mut self, ast: &Ast) -> Option<i64> {
         match self.lattice.int(self.src, ast, self.arena.params()) {
             Ok(v) => Some(v),
             Err(e) => {
@@ -337,7 +412,7 @@ impl Builder<'_> {
     }
 
     /// Binds `name` (an index), or records why it cannot be one.
-    fn bindable(&mut self, name: Span) -> Option<String> {
+    pub fn bindable(&mut self, name: Span) -> Option<String> {
         let text = self.src[name.range()].to_string();
         match self.lattice.bad_name(&text, self.arena.params()) {
             None => Some(text),
@@ -461,21 +536,7 @@ impl Builder<'_> {
 
     /// `body where decls`: the sizes and boundaries, then the body.
     fn declared(&mut self, body: &Ast, decls: &[Decl]) -> Option<Id> {
-        for decl in decls {
-            match decl {
-                Decl::Constant { name, value } => {
-                    let (name, value) = (self.bindable(*name), self.int(value));
-                    if let (Some(name), Some(value)) = (name, value) {
-                        self.lattice.constants.push((name, value));
-                    }
-                }
-                Decl::Boundary { targets, value } => {
-                    for target in targets {
-                        self.boundary(target, value);
-                    }
-                }
-            }
-        }
+        self.declare(decls);
         self.build(body)
     }
 

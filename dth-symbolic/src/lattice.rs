@@ -55,6 +55,40 @@ pub(crate) struct Lattice {
     pub written: Vec<(Var, Span)>,
     /// `true` while a boundary's value is built (a boundary may not lead to another).
     pub in_boundary: bool,
+    /// Set while one summand is built once for all its sites ([`crate::looped`]).
+    pub local: Option<Local>,
+}
+
+/// A summand built once, in local coordinates: each indexed variable `q[i + c]` is a slot,
+/// the local coordinate `q<k>` (or `p<k>`) for the `k`-th distinct `q` (or `p`) offset.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Local {
+    /// The sum's index.
+    pub index: String,
+    /// The slots: letter and offset `c` of `q[i + c]`, in the order first met.
+    pub slots: Vec<(char, i64)>,
+    /// Why the summand cannot be built once for all sites, if it cannot.
+    pub not_loopable: Option<&'static str>,
+}
+
+impl Local {
+    /// The local coordinate of `letter[i + offset]`, a new slot if not met yet.
+    pub fn slot(&mut self, letter: char, offset: i64) -> Var {
+        if !self.slots.contains(&(letter, offset)) {
+            self.slots.push((letter, offset));
+        }
+        let k = self
+            .slots
+            .iter()
+            .filter(|&&(l, _)| l == letter)
+            .position(|&(_, c)| c == offset)
+            .map_or(1, |k| k as u32 + 1);
+        if letter == 'q' {
+            Var::Q(k)
+        } else {
+            Var::P(k)
+        }
+    }
 }
 
 impl Lattice {

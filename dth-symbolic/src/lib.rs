@@ -20,6 +20,8 @@
 //! 8. [`eval`]: an interpreter for programs.
 //! 9. [`system`]: [`compile`], the whole pipeline (gradient, Hessian upper triangle, Psi, and
 //!    the programs).
+//! 10. [`looped`]: lattices (`sum(i = 1..N, ...)`) compiled once per summand and evaluated in
+//!     loops over the sites, so the work does not grow with `N`.
 //!
 //! [`sources`] (Hamiltonians as text, for tests and benchmarks) stands apart and imports
 //! nothing.
@@ -57,6 +59,7 @@ pub mod eval;
 pub mod kernel;
 mod lattice;
 pub mod lexer;
+pub mod looped;
 pub mod lower;
 pub mod number;
 pub mod parser;

@@ -162,7 +162,7 @@ pub fn expression(src: &str, params: &[&str]) -> Result<(Arena, Id, Span), Error
 }
 
 /// Builds `calH`, the gradient, the Hessian's upper triangle and Psi from `H`.
-fn derive(mut arena: Arena, h: Id, whole: Span) -> Result<System, Error> {
+pub(crate) fn derive(mut arena: Arena, h: Id, whole: Span) -> Result<System, Error> {
     let fault = |f: Fault, span: Span| Error::new(ErrorKind::Fault(f), span);
     // The bound on the arena, checked after each derivative: one derivative is at most
     // quadratic in its operand, so the work stops soon after the bound is crossed.

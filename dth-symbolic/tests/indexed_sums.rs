@@ -4,7 +4,7 @@
 //! its derivatives agree with num-dual on chains up to 64 particles, and every misuse is a
 //! spanned error, all reported at once.
 
-use dth_symbolic::{compile, sources, Method, System};
+use dth_symbolic::{compile, looped, sources, Method, System};
 use nalgebra::DVector;
 use num_dual::{hessian, Dual2Vec64};
 use proptest::prelude::*;
@@ -272,7 +272,8 @@ proptest! {
     #![proptest_config(ProptestConfig { cases: 12, ..ProptestConfig::default() })]
 
     /// The sum's value, gradient, Hessian and Psi against num-dual for chains of up to 64
-    /// particles (`D = 128`), at random points.
+    /// particles (`D = 128`), at random points: built site by site (`compile`) and compiled
+    /// once per summand and run in loops (`looped::compile`).
     #[test]
     fn fput_sum_matches_num_dual(n in 1usize..=64, seed in any::<u64>()) {
         let h = compile(&fput_alpha(n), &[]).unwrap();
@@ -296,5 +297,21 @@ proptest! {
         let w: Vec<f64> = (0..d).map(|i| if i < n { g[i + n] } else { -g[i - n] }).collect();
         let psi: f64 = (0..d).map(|i| (0..d).map(|j| w[i] * hess[(i, j)] * w[j]).sum::<f64>()).sum();
         prop_assert!((e.psi - psi).abs() <= tol * (1.0 + psi.abs()));
+        let l = looped::compile(&fput_alpha(n), &[]).unwrap().eval(&z, &[]).unwrap();
+        prop_assert!((l.value - v).abs() <= tol * (1.0 + v.abs()));
+        prop_assert!((l.psi - psi).abs() <= tol * (1.0 + psi.abs()));
+        for i in 0..d {
+            prop_assert!((l.gradient[i] - g[i]).abs() <= tol);
+        }
+        let mut dense = vec![0.0; d * d];
+        for &(i, j, h) in &l.hessian {
+            dense[i * d + j] = h;
+            dense[j * d + i] = h;
+        }
+        for i in 0..d {
+            for j in 0..d {
+                prop_assert!((dense[i * d + j] - hess[(i, j)]).abs() <= tol);
+            }
+        }
     }
 }
