@@ -22,7 +22,7 @@ pub mod dth;
 pub mod error;
 pub mod hamiltonian;
 pub mod kepler;
-mod linalg;
+pub mod linalg;
 pub mod methods;
 mod newton;
 pub mod observer;

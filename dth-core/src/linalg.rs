@@ -1,7 +1,18 @@
 //! Small dense LU with partial pivoting on `SMatrix<f64, D, D>`, generic over `const D` without
 //! the `DimMin` bounds nalgebra's `lu()` would push onto every caller. No heap allocation.
 //! Shared by the DTH Newton solvers and the implicit peer methods; the fastest path for small
-//! `D` (see [`crate::structured`] for large sparse systems).
+//! `D` (see [`crate::structured`] for large sparse systems). Public for code that integrates
+//! alongside the stepper (e.g. variational equations) and must not allocate per step.
+//!
+//! ```
+//! use dth_core::linalg::Lu;
+//! use dth_core::nalgebra::{Matrix2, Vector2};
+//!
+//! let a = Matrix2::new(0.0, 2.0, 1.0, 1.0); // needs a row exchange
+//! let lu = Lu::factor(&a).expect("nonsingular");
+//! let x = lu.solve(&Vector2::new(4.0, 3.0));
+//! assert!((a * x - Vector2::new(4.0, 3.0)).amax() <= 4.0 * f64::EPSILON);
+//! ```
 
 use nalgebra::SMatrix;
 
@@ -18,7 +29,7 @@ pub enum Pivot {
 }
 
 /// `P A = L U`, stored in place (unit lower `L` below the diagonal, `U` on and above).
-pub(crate) struct Lu<const D: usize> {
+pub struct Lu<const D: usize> {
     lu: SMatrix<f64, D, D>,
     perm: [usize; D],
 }
@@ -27,7 +38,7 @@ impl<const D: usize> Lu<D> {
     /// Factor `a`; `Err(Pivot::Singular)` when a pivot is at or below `D eps max|A_ij|`
     /// (singular as a value, like nalgebra's `lu().solve()`), `Err(Pivot::NonFinite)` when
     /// elimination overflowed.
-    pub(crate) fn factor(a: &SMatrix<f64, D, D>) -> Result<Self, Pivot> {
+    pub fn factor(a: &SMatrix<f64, D, D>) -> Result<Self, Pivot> {
         let mut lu = Lu {
             lu: *a,
             perm: [0usize; D],
@@ -97,7 +108,7 @@ impl<const D: usize> Lu<D> {
     }
 
     /// Solve `A X = B` for `C` right-hand sides (`C = 1`: a vector).
-    pub(crate) fn solve<const C: usize>(&self, b: &SMatrix<f64, D, C>) -> SMatrix<f64, D, C> {
+    pub fn solve<const C: usize>(&self, b: &SMatrix<f64, D, C>) -> SMatrix<f64, D, C> {
         let mut x = SMatrix::<f64, D, C>::from_fn(|i, j| b[(self.perm[i], j)]);
         for c in 0..C {
             for i in 0..D {

@@ -6,16 +6,15 @@
 //!    source string for the engine; a broken item header is kept as far as it was read.
 //! 2. `check`: runs the engine (`dth_symbolic`) and the item form's rules, collecting every
 //!    error.
-//! 3. `code`: `f64` values as code, the divided-difference kernels among them (the engine's
-//!    formulas, written through `dth_symbolic::kernel::Scalar`).
-//! 4. `fallback`: the declared type and a stub implementation, emitted beside the errors.
-//! 5. `warning`: the engine's warnings (legal but suspicious input) as compiler warnings.
-//! 6. `expand`: the trait implementation, one straight-line function per method.
+//! 3. `fallback`: the declared type and a stub implementation, emitted beside the errors.
+//! 4. `warning`: the engine's warnings (legal but suspicious input) as compiler warnings.
+//! 5. `expand`: the declaration, the trait implementation and the warnings. The
+//!    implementation's code is written by the engine's emitter (`dth_symbolic::emit`, a plain
+//!    library so other tools print the same code).
 
 use proc_macro::TokenStream;
 
 mod check;
-mod code;
 mod expand;
 mod fallback;
 mod parse;

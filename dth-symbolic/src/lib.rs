@@ -22,6 +22,8 @@
 //!    the programs).
 //! 10. [`looped`]: lattices (`sum(i = 1..N, ...)`) compiled once per summand and evaluated in
 //!     loops over the sites, so the work does not grow with `N`.
+//! 11. `emit` (feature `emit`): a compiled system as the Rust code `hamiltonian!` emits, so
+//!     the macro and other tools (`dth derive --rust`) produce the same tokens.
 //!
 //! [`sources`] (Hamiltonians as text, for tests and benchmarks) stands apart and imports
 //! nothing.
@@ -54,6 +56,8 @@ pub mod defect;
 pub mod diff;
 pub mod display;
 pub mod divided;
+#[cfg(feature = "emit")]
+pub mod emit;
 pub mod error;
 pub mod eval;
 pub mod kernel;

@@ -18,7 +18,8 @@
 //!
 //! Why not the DTH step's own tangent map: `docs/theory.md#chaos-indicators`.
 
-use dth::nalgebra::{DMatrix, DVector, SMatrix, SVector};
+use dth::linalg::Lu;
+use dth::nalgebra::{SMatrix, SVector};
 use dth::observer::{Observer, StepRecord};
 use dth::Hamiltonian;
 
@@ -102,13 +103,9 @@ impl<const D: usize, S: Hamiltonian<D>> Observer<D> for Megno<'_, D, S> {
         let h = record.t - t0;
         let id = SMatrix::<f64, D, D>::identity();
         let rhs = (id + a0 * (h / 2.0)) * self.delta;
-        // nalgebra's LU of a dynamic matrix: its const-size LU needs `DimMin` bounds that a
-        // generic `D` cannot give (dth-core's own LU is private to it).
+        // The core's allocation-free fixed-size LU: one factorization per step, no heap.
         let lhs = id - a1 * (h / 2.0);
-        let next = DMatrix::from_column_slice(D, D, lhs.as_slice())
-            .lu()
-            .solve(&DVector::from_column_slice(rhs.as_slice()))
-            .map(|v| SVector::<f64, D>::from_column_slice(v.as_slice()));
+        let next = Lu::factor(&lhs).ok().map(|lu| lu.solve(&rhs));
         let Some(next) = next else {
             self.broken = true;
             return;

@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 use crate::plot::{Figure, Mark, Series};
 
 use super::problem::ProblemInfo;
+use super::problems::dth_order;
 use super::report::error_of;
 use super::{Error, Record};
 
@@ -84,12 +85,7 @@ fn curves(records: &[Record], system: &str, kind: &str, selection: Selection) ->
         };
         series(format!("{m}{suffix}"), &|r| error_of(r, kind));
         // Vertex series for plain DTH only (above order 2 the vertices keep no invariant).
-        if dth
-            && selection == Selection::Main
-            && !m.starts_with("dth4")
-            && !m.starts_with("dth6")
-            && !m.starts_with("dth8")
-        {
+        if dth_order(m) == Some(2) && selection == Selection::Main {
             match kind {
                 "energy" => series(format!("{m} (vertices)"), &|r| {
                     r.vertex_energy_error.unwrap_or(f64::NAN)

@@ -109,6 +109,18 @@ fn ladder(options: &WorkPrecisionOptions, info: &ProblemInfo) -> Ladder {
 pub(crate) const ORDERS: [(u32, &str, f64); 3] =
     [(4, "dth4", 2048.0), (6, "dth6", 1024.0), (8, "dth8", 256.0)];
 
+/// The order of DTH a recorded method name stands for: 4, 6 or 8 for the composed methods of
+/// [`ORDERS`], 2 for every other `dth*` name (joint, nested, generated, scaled), `None` for the
+/// peers. The one place that reads an order from a name.
+pub(crate) fn dth_order(method: &str) -> Option<u32> {
+    method.starts_with("dth").then(|| {
+        ORDERS
+            .iter()
+            .find(|(_, name, _)| method.starts_with(name))
+            .map_or(2, |(order, ..)| *order)
+    })
+}
+
 /// Steps for DTH of higher order: `8 * 2^(i/2)` composed steps per period up to `finest`
 /// (quick: 16, 32, 64).
 fn order_ladder(options: &WorkPrecisionOptions, info: &ProblemInfo, finest: f64) -> Ladder {
@@ -404,6 +416,28 @@ pub(crate) fn all(options: &WorkPrecisionOptions) -> Result<Vec<Box<dyn Sweep>>,
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn dth_order_reads_every_recorded_name() {
+        for (order, name, _) in ORDERS {
+            assert_eq!(dth_order(name), Some(order), "{name}");
+        }
+        for name in [
+            "dth_joint",
+            "dth_nested_generated",
+            "dth_joint_scaled_stall_generated",
+        ] {
+            assert_eq!(dth_order(name), Some(2), "{name}");
+        }
+        for name in [
+            "midpoint",
+            "dop853",
+            "gauss_legendre2",
+            "discrete_mechanics",
+        ] {
+            assert_eq!(dth_order(name), None, "{name}");
+        }
+    }
 
     #[test]
     fn pericenter_state_has_the_requested_eccentricity() {

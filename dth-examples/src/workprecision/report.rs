@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 use serde::Serialize;
 
 use super::problem::ProblemInfo;
+use super::problems::dth_order;
 use super::{Error, Record, ReferenceCheck, Summary};
 
 /// Where and when the results were measured.
@@ -176,24 +177,25 @@ fn methods_of<'a>(records: &'a [Record], system: &str) -> Vec<&'a str> {
     v
 }
 
-fn is_dth(method: &str) -> bool {
-    method.starts_with("dth")
+/// A global-error target is measurable when it is at least 100 times the reference solution's
+/// own estimated error; energy and invariant errors need no reference.
+fn measurable(kind: &str, target: f64, reference: f64) -> bool {
+    kind != "global" || target >= 100.0 * reference
 }
 
-/// Classical order of a method by its recorded name (DTH of order 4-8 is `dth4` .. `dth8`).
+fn is_dth(method: &str) -> bool {
+    dth_order(method).is_some()
+}
+
+/// Classical order of a method by its recorded name.
 fn order(method: &str) -> u32 {
-    if method.starts_with("dop853") || method.starts_with("dth8") {
+    dth_order(method).unwrap_or(if method.starts_with("dop853") {
         8
-    } else if method.starts_with("dth6") {
-        6
-    } else if method.starts_with("dth4")
-        || method.starts_with("rk4")
-        || method.starts_with("gauss_legendre2")
-    {
+    } else if method.starts_with("rk4") || method.starts_with("gauss_legendre2") {
         4
     } else {
         2
-    }
+    })
 }
 
 fn seconds(t: f64) -> String {
@@ -251,7 +253,7 @@ fn high_order_table(s: &mut String, records: &[Record], info: &ProblemInfo, refe
         "{header} dth8 / dop853 | dth8 / gauss_legendre2 |\n{rule}---|---|"
     );
     for target in HIGH_ORDER_TARGETS {
-        if target < 100.0 * reference {
+        if !measurable("global", target, reference) {
             let _ = writeln!(
                 s,
                 "| global <= {target:.0e} | (not measurable: reference error {reference:.0e}) |"
@@ -286,12 +288,10 @@ pub(crate) fn tables(
     for info in infos {
         let system = info.name;
         let methods = methods_of(records, system);
-        // Global errors below 100 times the reference's own error are not measurable.
         let reference = references
             .iter()
             .find(|r| r.system == system)
             .map_or(0.0, |r| r.estimated_error);
-        let measurable = |kind: &str, target: f64| kind != "global" || target >= 100.0 * reference;
         let _ = writeln!(
             s,
             "#### {} (`{system}`, T = {:.4}, {} periods)\n",
@@ -324,7 +324,7 @@ pub(crate) fn tables(
             _ => "-".to_string(),
         };
         for (kind, target) in TARGETS {
-            if !measurable(kind, target) {
+            if !measurable(kind, target, reference) {
                 continue;
             }
             let best = fastest(&|_| true, kind, target);
@@ -369,7 +369,7 @@ pub(crate) fn tables(
         for m in &methods {
             let mut row = format!("| {m} |");
             for (kind, target) in TARGETS {
-                let cell = if measurable(kind, target) {
+                let cell = if measurable(kind, target, reference) {
                     cheapest(records, system, m, kind, target)
                         .map_or("-".to_string(), |r| seconds(r.time))
                 } else {

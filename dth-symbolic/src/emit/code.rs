@@ -1,15 +1,15 @@
-//! `f64` values as code: constants, and the divided-difference kernels. `dth_symbolic::kernel`
-//! writes each kernel's formula once over a `Scalar`; [`Code`] is the `Scalar` whose
+//! `f64` values as code: constants, and the divided-difference kernels. [`crate::kernel`]
+//! writes each kernel's formula once over a `Scalar`; `Code` is the `Scalar` whose
 //! operations are Rust expressions, so the generated code performs the interpreter's `f64`
 //! operations in the same order.
 
 use std::ops::{Add, Div, Mul, Neg, Sub};
 
-use dth_symbolic::kernel::{Compare, Math, Scalar};
-use dth_symbolic::Kernel;
-use proc_macro2::{Literal, TokenStream};
+use proc_macro2::{Ident, Literal, TokenStream};
 use quote::{format_ident, quote};
-use syn::Ident;
+
+use crate::kernel::{Compare, Math, Scalar};
+use crate::Kernel;
 
 /// `k(x, y)` inline, for the locals `x` and `y`.
 pub fn kernel(k: Kernel, x: &Ident, y: &Ident) -> TokenStream {

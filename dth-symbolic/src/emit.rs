@@ -1,0 +1,497 @@
+//! The Rust code `hamiltonian!` emits for a compiled [`System`]: `impl Hamiltonian<D> for
+//! Name`, one straight-line function per trait method, plain `f64` arithmetic on locals,
+//! fixed-size nalgebra types through `::dth::__private`.
+//!
+//! Behind the `emit` feature (it brings `proc-macro2` and `quote`). It lives here, not in the
+//! proc-macro crate, so code other than the macro can produce the same tokens: `dth derive
+//! --rust` prints them. The macro stays thin: it parses its input, runs [`crate::compile`],
+//! declares the type and calls [`hamiltonian_impl`].
+//!
+//! [`code`] writes `f64` values as code (constants, and the divided-difference kernels through
+//! [`crate::kernel::Scalar`]); this module assembles the methods from the engine's programs.
+//!
+//! ```
+//! use dth_symbolic::emit::hamiltonian_impl;
+//! use proc_macro2::{Ident, Span};
+//!
+//! let system = dth_symbolic::compile("p1^2/(2*m) + q1^2/2", &["m"]).unwrap();
+//! let name = Ident::new("Oscillator", Span::call_site());
+//! let params = [Ident::new("m", Span::call_site())];
+//! let code = hamiltonian_impl(&system, &name, &params).to_string();
+//! assert!(code.contains("Hamiltonian < 2usize > for Oscillator"));
+//! assert!(code.contains("self . m"));
+//! ```
+
+pub mod code;
+
+use proc_macro2::{Ident, TokenStream};
+use quote::{format_ident, quote};
+
+use crate::{Method, Op, Output, Program, System};
+use code::{constant, kernel};
+
+/// `impl ::dth::__private::dth_core::Hamiltonian<D> for #name`, `D` the system's dimension,
+/// every method computed by the engine's programs for `system`. `params` are the names of the
+/// type's `f64` fields, in the order of the system's parameters (`Op::Param(k)` reads
+/// `self.params[k]`); the type itself is declared by the caller.
+pub fn hamiltonian_impl(system: &System, name: &Ident, params: &[Ident]) -> TokenStream {
+    let d = system.dim();
+    let cx = Context { name, params };
+    let nalgebra = quote!(::dth::__private::nalgebra);
+    let core = quote!(::dth::__private::dth_core);
+    let (td, sep, psi0) = (
+        system.time_dependent(),
+        system.separable(),
+        system.psi_identically_zero(),
+    );
+    let value = body(&system.program(Method::Value), &cx, |v| {
+        let v = &v.value;
+        quote!(#v)
+    });
+    let gradient = body(&system.program(Method::Gradient), &cx, |v| v.gradient(d));
+    // One Hessian program: the dense `hessian` and the fused nonzeros below both emit it.
+    let hessian_program = system.program(Method::Hessian);
+    let hessian = body(&hessian_program, &cx, |v| v.hessian(d));
+    let psi = body(&system.program(Method::Psi), &cx, |v| {
+        let v = &v.psi;
+        quote!(#v)
+    });
+    let all = body(&system.program(Method::All), &cx, |v| {
+        let (g, h, value, psi) = (v.gradient(d), v.hessian(d), &v.value, &v.psi);
+        quote!(#core::Derivatives { value: #value, gradient: #g, hessian: #h, psi: #psi })
+    });
+    // One two-point program, each method keeping only the operations its outputs reach.
+    let pair = system.program(Method::DiscreteGradient);
+    let gbar = pair.prune(|o| matches!(o, Output::DiscreteGradient(_)));
+    let discrete_gradient = body(&gbar, &cx, |v| v.discrete_gradient(d));
+    let delta = pair.prune(|o| o == Output::EnergyDifference);
+    let energy_difference = body(&delta, &cx, |v| {
+        let v = &v.energy_difference;
+        quote!(#v)
+    });
+    let defect = body(&system.program(Method::DiscreteGradientDefect), &cx, |v| {
+        v.discrete_gradient_defect(d)
+    });
+    // The Hessian's nonzeros, upper triangle, in the engine's order: the pattern, and the
+    // fused evaluation writing only them.
+    let pattern: Vec<(usize, usize)> = system
+        .hessian_nonzeros()
+        .iter()
+        .map(|&(i, j, _)| (i, j))
+        .collect();
+    let nonzeros = body(&hessian_program, &cx, |v| v.hessian_nonzeros(&pattern));
+    let nnz = pattern.len();
+    let pattern_rows = pattern.iter().map(|(i, j)| quote!((#i, #j)));
+    let diagonal = pattern.iter().filter(|(i, j)| i == j).count();
+    let structured = structured_newton(d, nnz, diagonal);
+    let source = system_source(system);
+    quote! {
+        #[doc = #source]
+        #[automatically_derived]
+        #[allow(unused_variables, clippy::all, clippy::pedantic, clippy::nursery)]
+        impl #core::Hamiltonian<#d> for #name {
+            const TIME_DEPENDENT: bool = #td;
+            const SEPARABLE: bool = #sep;
+            const PSI_IDENTICALLY_ZERO: bool = #psi0;
+            const EXACT_DIVIDED_DIFFERENCES: bool = true;
+            const HESSIAN_PATTERN: ::core::option::Option<&'static [(usize, usize)]> =
+                ::core::option::Option::Some(&[#(#pattern_rows),*]);
+            const STRUCTURED_NEWTON: bool = #structured;
+
+            #[inline]
+            fn value(&self, z: &#nalgebra::SVector<f64, #d>) -> f64 { #value }
+            #[inline]
+            fn gradient(&self, z: &#nalgebra::SVector<f64, #d>) -> #nalgebra::SVector<f64, #d> { #gradient }
+            #[inline]
+            fn hessian(&self, z: &#nalgebra::SVector<f64, #d>) -> #nalgebra::SMatrix<f64, #d, #d> { #hessian }
+            /// Only the Hessian's nonzero entries, fused, in the order of `HESSIAN_PATTERN`.
+            #[inline]
+            fn hessian_nonzeros(&self, z: &#nalgebra::SVector<f64, #d>, values: &mut [f64]) {
+                let values = &mut values[..#nnz];
+                #nonzeros
+            }
+            #[inline]
+            fn psi(&self, z: &#nalgebra::SVector<f64, #d>) -> f64 { #psi }
+            #[inline]
+            fn derivatives(&self, z: &#nalgebra::SVector<f64, #d>) -> #core::Derivatives<#d> { #all }
+            /// Exact divided differences of `H`, without cancellation (`dth_symbolic::divided`).
+            #[inline]
+            fn discrete_gradient(
+                &self,
+                z0: &#nalgebra::SVector<f64, #d>,
+                z1: &#nalgebra::SVector<f64, #d>,
+            ) -> #nalgebra::SVector<f64, #d> {
+                let z = z0;
+                #discrete_gradient
+            }
+            /// `H(z1) - H(z0)` by exact divided differences, without cancellation.
+            #[inline]
+            fn energy_difference(
+                &self,
+                z0: &#nalgebra::SVector<f64, #d>,
+                z1: &#nalgebra::SVector<f64, #d>,
+            ) -> f64 {
+                let z = z0;
+                #energy_difference
+            }
+            /// `grad H(z0) + grad H(z1) - 2 gbar(z0, z1)` without cancellation
+            /// (`dth_symbolic::defect`); `gbar` is recomputed inside, not read.
+            #[inline]
+            fn discrete_gradient_defect(
+                &self,
+                z0: &#nalgebra::SVector<f64, #d>,
+                z1: &#nalgebra::SVector<f64, #d>,
+                gbar: &#nalgebra::SVector<f64, #d>,
+            ) -> #nalgebra::SVector<f64, #d> {
+                let _ = gbar;
+                let z = z0;
+                #defect
+            }
+        }
+    }
+}
+
+fn system_source(system: &System) -> String {
+    format!(
+        " `H = {}` (D = {})",
+        system.expr(system.value()),
+        system.dim()
+    )
+}
+
+/// What the emitted code refers to: the type (for the chunk functions' receiver) and the
+/// declared parameters.
+struct Context<'a> {
+    name: &'a Ident,
+    params: &'a [Ident],
+}
+
+/// The outputs of a program as expressions: a local, a load from the spill array, or `0.0`
+/// when not computed.
+struct Values {
+    value: TokenStream,
+    psi: TokenStream,
+    energy_difference: TokenStream,
+    gradient: Vec<(usize, TokenStream)>,
+    hessian: Vec<(usize, usize, TokenStream)>,
+    discrete_gradient: Vec<(usize, TokenStream)>,
+    discrete_gradient_defect: Vec<(usize, TokenStream)>,
+}
+
+/// Matrices up to this dimension are built as one column-major array literal (every entry,
+/// zeros included); larger ones as `zeros()` plus a store per nonzero entry, so the emitted
+/// code stays linear in the nonzeros.
+const LITERAL_MAX_DIM: usize = 8;
+
+/// The most operations emitted into one function. Every `let` opens a lexical scope nested in
+/// the previous one, and the compiler walks that nesting recursively: a function of some
+/// 2,500 `let`s overflowed rustc's stack while emitting debug information (the dev profile,
+/// an FPUT chain of 38 particles), and LLVM's optimisations grow faster than linearly in a
+/// function's size. Longer programs are cut into chunks of this many operations, each a
+/// function of its own (see [`body`]).
+const CHUNK_OPS: usize = 1000;
+
+/// The smallest dimension from which generated types take the structured Newton path
+/// (`Hamiltonian::STRUCTURED_NEWTON`): below it the dense fixed-size LU is faster. Measured
+/// side by side (`dth-examples/benches/step_vs_size.rs`, `docs/benchmarks.md`): one
+/// implicit-midpoint step on `D = 4` (Kepler, FPUT and Toda with 2 particles) is 1.4-1.6x
+/// faster dense, on `D = 8` the two are within 10% (structured ahead), from `D = 16` the
+/// structured step is 2.7x faster and the gap grows like `D^2`.
+const STRUCTURED_MIN_DIM: usize = 8;
+
+/// Whether a generated type of dimension `d` whose Hessian's upper triangle has `nnz` nonzero
+/// entries, `diagonal` of them on the diagonal, takes the structured Newton path: from
+/// [`STRUCTURED_MIN_DIM`] on, unless more than a quarter of the full Hessian is nonzero (all
+/// pairs coupled, as in N-body gravity: after any ordering the band is then nearly the whole
+/// matrix, and the banded LU does the dense LU's work with more indexing).
+fn structured_newton(d: usize, nnz: usize, diagonal: usize) -> bool {
+    d >= STRUCTURED_MIN_DIM && 4 * (2 * nnz - diagonal) <= d * d
+}
+
+impl Values {
+    fn discrete_gradient(&self, d: usize) -> TokenStream {
+        vector(d, &self.discrete_gradient)
+    }
+
+    fn discrete_gradient_defect(&self, d: usize) -> TokenStream {
+        vector(d, &self.discrete_gradient_defect)
+    }
+
+    fn gradient(&self, d: usize) -> TokenStream {
+        vector(d, &self.gradient)
+    }
+
+    /// Stores into `values[k]` for the `k`-th entry of `pattern` (`0.0` for an entry the
+    /// program does not compute).
+    fn hessian_nonzeros(&self, pattern: &[(usize, usize)]) -> TokenStream {
+        let stores = pattern.iter().enumerate().map(|(k, &(i, j))| {
+            let v = self
+                .hessian
+                .iter()
+                .find(|(a, b, _)| (*a, *b) == (i, j))
+                .map_or(quote!(0.0f64), |(_, _, v)| v.clone());
+            quote!(values[#k] = #v;)
+        });
+        quote!(#(#stores)*)
+    }
+
+    fn hessian(&self, d: usize) -> TokenStream {
+        let nalgebra = quote!(::dth::__private::nalgebra);
+        if self.hessian.is_empty() {
+            return quote!(#nalgebra::SMatrix::<f64, #d, #d>::zeros());
+        }
+        if d <= LITERAL_MAX_DIM {
+            let mut entries = vec![vec![quote!(0.0f64); d]; d];
+            for (i, j, v) in &self.hessian {
+                entries[*j][*i] = v.clone();
+                entries[*i][*j] = v.clone();
+            }
+            let columns = entries.iter().map(|c| quote!([#(#c),*]));
+            return quote! {
+                #nalgebra::SMatrix::<f64, #d, #d>::from_array_storage(
+                    #nalgebra::ArrayStorage([#(#columns),*])
+                )
+            };
+        }
+        let set = self.hessian.iter().map(|(i, j, v)| {
+            if i == j {
+                quote!(h[(#i, #i)] = #v;)
+            } else {
+                quote!(h[(#i, #j)] = #v; h[(#j, #i)] = #v;)
+            }
+        });
+        quote! {{
+            let mut h = #nalgebra::SMatrix::<f64, #d, #d>::zeros();
+            #(#set)*
+            h
+        }}
+    }
+}
+
+/// A vector of dimension `d` with the entries `set` (the others zero): an array literal up to
+/// [`LITERAL_MAX_DIM`], `zeros()` plus stores beyond.
+fn vector(d: usize, set: &[(usize, TokenStream)]) -> TokenStream {
+    let nalgebra = quote!(::dth::__private::nalgebra);
+    if d <= LITERAL_MAX_DIM {
+        let mut entries = vec![quote!(0.0f64); d];
+        for (i, v) in set {
+            entries[*i] = v.clone();
+        }
+        return quote! {
+            #nalgebra::SVector::<f64, #d>::from_array_storage(#nalgebra::ArrayStorage([[#(#entries),*]]))
+        };
+    }
+    let set = set.iter().map(|(i, v)| quote!(g[#i] = #v;));
+    quote! {{
+        let mut g = #nalgebra::SVector::<f64, #d>::zeros();
+        #(#set)*
+        g
+    }}
+}
+
+/// The local holding slot `s`.
+fn local(s: u32) -> Ident {
+    format_ident!("v{}", s)
+}
+
+/// `let vi: f64 = ...;` for operation `i`; parameters are fields of `receiver`.
+fn define(i: usize, op: &Op, params: &[Ident], receiver: &TokenStream) -> TokenStream {
+    let v = local;
+    let lhs = v(i as u32);
+    let rhs = match *op {
+        Op::Input(k) => {
+            let k = k as usize;
+            quote!(z[#k])
+        }
+        Op::Input1(k) => {
+            let k = k as usize;
+            quote!(z1[#k])
+        }
+        Op::Param(k) => {
+            let p = &params[k as usize];
+            quote!(#receiver.#p)
+        }
+        Op::Const(c) => constant(c),
+        Op::Add(a, b) => {
+            let (a, b) = (v(a), v(b));
+            quote!(#a + #b)
+        }
+        Op::Sub(a, b) => {
+            let (a, b) = (v(a), v(b));
+            quote!(#a - #b)
+        }
+        Op::Mul(a, b) => {
+            let (a, b) = (v(a), v(b));
+            quote!(#a * #b)
+        }
+        Op::Div(a, b) => {
+            let (a, b) = (v(a), v(b));
+            quote!(#a / #b)
+        }
+        Op::Neg(a) => {
+            let a = v(a);
+            quote!(-#a)
+        }
+        Op::Sqrt(a) => {
+            let a = v(a);
+            quote!(::core::primitive::f64::sqrt(#a))
+        }
+        Op::Powf(a, e) => {
+            let (a, e) = (v(a), constant(e));
+            quote!(::core::primitive::f64::powf(#a, #e))
+        }
+        Op::Call(f, a) => {
+            let (a, f) = (v(a), format_ident!("{}", f.name()));
+            quote!(::core::primitive::f64::#f(#a))
+        }
+        Op::Kernel(k, a, b) => kernel(k, &v(a), &v(b)),
+    };
+    quote!(let #lhs: f64 = #rhs;)
+}
+
+/// The operands an operation reads.
+fn operands(op: &Op) -> impl Iterator<Item = u32> {
+    let (a, b) = match *op {
+        Op::Input(_) | Op::Input1(_) | Op::Param(_) | Op::Const(_) => (None, None),
+        Op::Add(a, b) | Op::Sub(a, b) | Op::Mul(a, b) | Op::Div(a, b) | Op::Kernel(_, a, b) => {
+            (Some(a), Some(b))
+        }
+        Op::Neg(a) | Op::Sqrt(a) | Op::Powf(a, _) | Op::Call(_, a) => (Some(a), None),
+    };
+    a.into_iter().chain(b)
+}
+
+/// The program's operations, and `finish` of its outputs (each output an expression).
+///
+/// Up to [`CHUNK_OPS`] operations, one `let` per operation in the method's body. Beyond, the
+/// operations are cut into chunks of [`CHUNK_OPS`], each emitted as a nested `#[inline(never)]`
+/// function: a slot read by a later chunk or by an output is stored into a spill array (on the
+/// stack, one `f64` per such slot) where it is defined and loaded once into a local by each
+/// later chunk that reads it; the outputs are read from the spill array. The arithmetic is the
+/// same operations in the same order, so the results are bit-identical to the unchunked form.
+fn body(program: &Program, cx: &Context, finish: impl Fn(&Values) -> TokenStream) -> TokenStream {
+    let chunked = program.ops.len() > CHUNK_OPS;
+    let chunk_of = |s: u32| s as usize / CHUNK_OPS;
+    // The spill index of each slot read outside its chunk (chunked form only).
+    let mut spill: Vec<Option<usize>> = vec![None; program.ops.len()];
+    let mut spilled = 0;
+    if chunked {
+        let mut mark = |s: u32| {
+            if spill[s as usize].is_none() {
+                spill[s as usize] = Some(spilled);
+                spilled += 1;
+            }
+        };
+        for (i, op) in program.ops.iter().enumerate() {
+            for a in operands(op) {
+                if chunk_of(a) != i / CHUNK_OPS {
+                    mark(a);
+                }
+            }
+        }
+        for &(_, s) in &program.outputs {
+            mark(s);
+        }
+    }
+    let output = |s: u32| match spill[s as usize] {
+        Some(k) if chunked => quote!(spill[#k]),
+        _ => {
+            let v = local(s);
+            quote!(#v)
+        }
+    };
+    let zero = quote!(0.0f64);
+    let mut values = Values {
+        value: zero.clone(),
+        psi: zero.clone(),
+        energy_difference: zero,
+        gradient: Vec::new(),
+        hessian: Vec::new(),
+        discrete_gradient: Vec::new(),
+        discrete_gradient_defect: Vec::new(),
+    };
+    for &(out, s) in &program.outputs {
+        let e = output(s);
+        match out {
+            Output::Value => values.value = e,
+            Output::Psi => values.psi = e,
+            Output::Gradient(i) => values.gradient.push((i, e)),
+            Output::Hessian(i, j) => values.hessian.push((i, j, e)),
+            Output::DiscreteGradient(i) => values.discrete_gradient.push((i, e)),
+            Output::DiscreteGradientDefect(i) => values.discrete_gradient_defect.push((i, e)),
+            Output::EnergyDifference => values.energy_difference = e,
+        }
+    }
+    let out = finish(&values);
+    if !chunked {
+        let receiver = quote!(self);
+        let lets = program
+            .ops
+            .iter()
+            .enumerate()
+            .map(|(i, op)| define(i, op, cx.params, &receiver));
+        return quote! {
+            let _ = z;
+            #(#lets)*
+            #out
+        };
+    }
+    let name = cx.name;
+    let d = program.dim;
+    let nalgebra = quote!(::dth::__private::nalgebra);
+    let two_point = program.ops.iter().any(|op| matches!(op, Op::Input1(_)));
+    let (z1_param, z1_arg) = if two_point {
+        (quote!(z1: &#nalgebra::SVector<f64, #d>,), quote!(z1,))
+    } else {
+        (quote!(), quote!())
+    };
+    let receiver = quote!(this);
+    let mut chunks = Vec::new();
+    let mut calls = Vec::new();
+    for (c, ops) in program.ops.chunks(CHUNK_OPS).enumerate() {
+        let first = c * CHUNK_OPS;
+        let mut loaded: Vec<u32> = ops
+            .iter()
+            .flat_map(operands)
+            .filter(|&a| chunk_of(a) != c)
+            .collect();
+        loaded.sort_unstable();
+        loaded.dedup();
+        let loads = loaded.iter().map(|&a| {
+            let (v, k) = (local(a), spill[a as usize]);
+            quote!(let #v: f64 = spill[#k];)
+        });
+        let lets = ops.iter().enumerate().map(|(i, op)| {
+            let i = first + i;
+            let def = define(i, op, cx.params, &receiver);
+            match spill[i] {
+                Some(k) => {
+                    let v = local(i as u32);
+                    quote!(#def spill[#k] = #v;)
+                }
+                None => def,
+            }
+        });
+        let f = format_ident!("chunk{}", c);
+        chunks.push(quote! {
+            #[inline(never)]
+            fn #f(
+                this: &#name,
+                z: &#nalgebra::SVector<f64, #d>,
+                #z1_param
+                spill: &mut [f64; #spilled],
+            ) {
+                let _ = (this, z);
+                #(#loads)*
+                #(#lets)*
+            }
+        });
+        calls.push(quote!(#f(self, z, #z1_arg &mut spill);));
+    }
+    quote! {
+        #(#chunks)*
+        let mut spill = [0.0f64; #spilled];
+        #(#calls)*
+        #out
+    }
+}
