@@ -2,15 +2,17 @@
 //! (`sum(i = 0..N, ...) where N = .., q[0] = q[N+1] = 0`), against `N`: compile (parse, build
 //! the sum site by site, differentiate, simplify, Psi) and lower the programs the macro emits,
 //! and the number of straight-line operations emitted. Sums are built site by site today, so
-//! both grow with `N`; this is the baseline a looped compilation of the summand is measured
-//! against. Criterion groups `indexed_expand/fput_<N>`; the table printed first is what
-//! `docs/benchmarks.md` records.
+//! both grow with `N`. Beside it, the same source compiled once per summand
+//! (`dth_symbolic::looped::compile`: parse, differentiate the summands, lower their programs),
+//! whose work and loop body do not grow with `N`. Criterion groups `indexed_expand/fput_<N>`
+//! and `indexed_expand/looped_<N>`; the tables printed first are what `docs/benchmarks.md`
+//! records.
 
 use std::hint::black_box;
 use std::time::{Duration, Instant};
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use dth_symbolic::{compile, Method, Output};
+use dth_symbolic::{compile, looped, Method, Output};
 
 /// The chain sizes measured (512 is the largest index the engine accepts).
 const SIZES: [usize; 4] = [64, 128, 256, 512];
@@ -49,21 +51,51 @@ fn expand(src: &str) -> usize {
         + pair.prune(|o| o == Output::EnergyDifference).ops.len()
 }
 
+/// The median of 9 runs of `f`.
+fn median(mut f: impl FnMut()) -> Duration {
+    let mut times: Vec<Duration> = (0..9)
+        .map(|_| {
+            let t = Instant::now();
+            f();
+            t.elapsed()
+        })
+        .collect();
+    times.sort();
+    times[times.len() / 2]
+}
+
+/// Compile once per summand; the operations of the loop bodies.
+fn expand_looped(src: &str) -> usize {
+    match looped::compile(src, &["alpha"]) {
+        Ok(l) => l.ops(),
+        Err(e) => panic!("the chain must loop: {e}"),
+    }
+}
+
 fn bench(c: &mut Criterion) {
+    println!("| N | D | loop-body ops, looped | engine time, looped (median of 9) |");
+    println!("|---|---|---|---|");
+    for n in [64, 512, 4096] {
+        let src = fput(n);
+        let ops = expand_looped(&src);
+        let t = median(|| {
+            black_box(expand_looped(black_box(&src)));
+        });
+        println!(
+            "| {n} | {} | {ops} | {:.2} ms |",
+            2 * n,
+            t.as_secs_f64() * 1e3
+        );
+    }
+    println!();
     println!("| N | D | ops emitted in all | ops / N | engine time (median of 9) | time / N |");
     println!("|---|---|---|---|---|---|");
     for n in SIZES {
         let src = fput(n);
         let ops = expand(&src);
-        let mut times: Vec<Duration> = (0..9)
-            .map(|_| {
-                let t = Instant::now();
-                black_box(expand(black_box(&src)));
-                t.elapsed()
-            })
-            .collect();
-        times.sort();
-        let median = times[times.len() / 2];
+        let median = median(|| {
+            black_box(expand(black_box(&src)));
+        });
         println!(
             "| {n} | {} | {ops} | {:.1} | {:.1} ms | {:.1} us |",
             2 * n,
@@ -77,6 +109,12 @@ fn bench(c: &mut Criterion) {
     for n in [64, 512] {
         let src = fput(n);
         group.bench_function(format!("fput_{n}"), |b| b.iter(|| expand(black_box(&src))));
+    }
+    for n in [64, 4096] {
+        let src = fput(n);
+        group.bench_function(format!("looped_{n}"), |b| {
+            b.iter(|| expand_looped(black_box(&src)))
+        });
     }
     group.finish();
 }
