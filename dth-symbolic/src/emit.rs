@@ -23,6 +23,7 @@
 //! ```
 
 pub mod code;
+pub mod lattice;
 
 use proc_macro2::{Ident, TokenStream};
 use quote::{format_ident, quote};

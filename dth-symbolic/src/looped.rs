@@ -59,7 +59,7 @@ impl std::error::Error for LoopError {}
 
 /// Where a slot reads its value at one site.
 #[derive(Clone, Copy, Debug, PartialEq)]
-enum Site {
+pub(crate) enum Site {
     /// `z[k]`.
     Var(usize),
     /// A fixed boundary's value.
@@ -69,25 +69,35 @@ enum Site {
 /// One sum, compiled once.
 #[derive(Clone, Debug)]
 pub struct LoopSum {
-    lo: i64,
-    hi: i64,
+    pub(crate) lo: i64,
+    pub(crate) hi: i64,
     /// Per slot: letter, offset, and its index in the local coordinates.
-    slots: Vec<(char, i64, usize)>,
-    local_dim: usize,
+    pub(crate) slots: Vec<(char, i64, usize)>,
+    pub(crate) local_dim: usize,
     /// The summand's Hessian nonzeros, upper triangle, as pairs of slots.
-    pattern: Vec<(usize, usize)>,
+    pub(crate) pattern: Vec<(usize, usize)>,
+    /// The summand in local coordinates.
+    system: crate::System,
     all: Program,
     pair: Program,
     defect: Program,
 }
 
+impl LoopSum {
+    /// The summand as a system in local coordinates: `q<k>` (`p<k>`) is the `k`-th distinct
+    /// `q[i + c]` (`p[i + c]`) of the summand, in the order written.
+    pub fn summand(&self) -> &crate::System {
+        &self.system
+    }
+}
+
 /// A lattice Hamiltonian compiled once per summand (see the module docs).
 #[derive(Clone, Debug)]
 pub struct Looped {
-    n: usize,
-    sums: Vec<LoopSum>,
+    pub(crate) n: usize,
+    pub(crate) sums: Vec<LoopSum>,
     /// Boundaries: letter, index, and what the variable there is.
-    boundaries: Vec<(char, i64, Site)>,
+    pub(crate) boundaries: Vec<(char, i64, Site)>,
     params: usize,
 }
 
@@ -256,6 +266,7 @@ pub fn compile(src: &str, params: &[&str]) -> Result<Looped, LoopError> {
             slots,
             pattern,
             local_dim: system.dim(),
+            system: system.clone(),
             all: system.program(Method::All),
             pair: system.program(Method::DiscreteGradient),
             defect: system.program(Method::DiscreteGradientDefect),
@@ -312,8 +323,47 @@ impl Looped {
             .sum()
     }
 
+    /// The Hessian's nonzero entries `(i, j)`, `i <= j`, in the order the loops first reach
+    /// them (sum by sum, site by site, the summand's entries in order), each once: the order
+    /// generated code writes them in.
+    pub fn hessian_pattern(&self) -> Vec<(usize, usize)> {
+        let mut seen = std::collections::HashSet::new();
+        let mut out = Vec::new();
+        for s in &self.sums {
+            for i in s.lo..=s.hi {
+                for &(r, t) in &s.pattern {
+                    let (lr, cr, _) = s.slots[r];
+                    let (lt, ct, _) = s.slots[t];
+                    if let (Site::Var(a), Site::Var(b)) =
+                        (self.site(lr, i + cr), self.site(lt, i + ct))
+                    {
+                        let e = (a.min(b), a.max(b));
+                        if seen.insert(e) {
+                            out.push(e);
+                        }
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    /// `true` when some summand reads a momentum.
+    pub fn has_momentum(&self) -> bool {
+        self.sums
+            .iter()
+            .any(|s| s.slots.iter().any(|&(letter, _, _)| letter == 'p'))
+    }
+
+    /// `true` when no summand couples a position with a momentum.
+    pub fn separable(&self) -> bool {
+        self.sums
+            .iter()
+            .all(|s| s.pattern.iter().all(|&(r, t)| s.slots[r].0 == s.slots[t].0))
+    }
+
     /// Where `letter[k]` is read from.
-    fn site(&self, letter: char, k: i64) -> Site {
+    pub(crate) fn site(&self, letter: char, k: i64) -> Site {
         if (1..=self.n as i64).contains(&k) {
             return Site::Var(index_of(letter, k, self.n));
         }
