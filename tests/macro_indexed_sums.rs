@@ -116,7 +116,7 @@ fn the_chain_of_4096_compiles_and_agrees_with_the_engine() {
     let h = Fput4096 { alpha: 0.25 };
     let pattern = <Fput4096 as Hamiltonian<D>>::HESSIAN_PATTERN.unwrap();
     assert_eq!(pattern.len(), 3 * 4096 - 1);
-    assert!(<Fput4096 as Hamiltonian<D>>::STRUCTURED_NEWTON);
+    const { assert!(<Fput4096 as Hamiltonian<D>>::STRUCTURED_NEWTON) };
     // The engine's looped interpreter on the same text.
     let engine = dth_symbolic::looped::compile(
         "sum(i = 1..N, p[i]^2/2) + sum(i = 0..N, (q[i+1] - q[i])^2/2 + alpha*(q[i+1] - q[i])^3/3) \
