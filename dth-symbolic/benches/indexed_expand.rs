@@ -2,9 +2,11 @@
 //! (`sum(i = 0..N, ...) where N = .., q[0] = q[N+1] = 0`), against `N`: compile (parse, build
 //! the sum site by site, differentiate, simplify, Psi) and lower the programs the macro emits,
 //! and the number of straight-line operations emitted. Sums are built site by site today, so
-//! both grow with `N`. Beside it, the same source compiled once per summand
-//! (`dth_symbolic::looped::compile`: parse, differentiate the summands, lower their programs),
-//! whose work and loop body do not grow with `N`. Criterion groups `indexed_expand/fput_<N>`
+//! both grow with `N`. Beside it, what the macro does for the same source today: compile once
+//! per summand (`dth_symbolic::looped::compile`: parse, differentiate the summands, lower their
+//! programs) and emit the loops (`dth_symbolic::emit::lattice::looped_impl`), neither of which
+//! grows with `N`. Needs the `emit` feature: `cargo bench -p dth-symbolic --features emit
+//! --bench indexed_expand`. Criterion groups `indexed_expand/fput_<N>`
 //! and `indexed_expand/looped_<N>`; the tables printed first are what `docs/benchmarks.md`
 //! records.
 
@@ -12,7 +14,9 @@ use std::hint::black_box;
 use std::time::{Duration, Instant};
 
 use criterion::{criterion_group, criterion_main, Criterion};
+use dth_symbolic::emit::lattice::looped_impl;
 use dth_symbolic::{compile, looped, Method, Output};
+use proc_macro2::{Ident, Span};
 
 /// The chain sizes measured (512 is the largest index the engine accepts).
 const SIZES: [usize; 4] = [64, 128, 256, 512];
@@ -64,25 +68,33 @@ fn median(mut f: impl FnMut()) -> Duration {
     times[times.len() / 2]
 }
 
-/// Compile once per summand; the operations of the loop bodies.
-fn expand_looped(src: &str) -> usize {
-    match looped::compile(src, &["alpha"]) {
-        Ok(l) => l.ops(),
+/// What `hamiltonian!` does for a lattice that loops: compile once per summand and emit the
+/// implementation; the operations of the loop bodies and the bytes of the emitted code.
+fn expand_looped(src: &str) -> (usize, usize) {
+    let l = match looped::compile(src, &["alpha"]) {
+        Ok(l) => l,
         Err(e) => panic!("the chain must loop: {e}"),
-    }
+    };
+    let name = Ident::new("Fput", Span::call_site());
+    let params = [Ident::new("alpha", Span::call_site())];
+    let code = match looped_impl(&l, &name, &params) {
+        Some(code) => code.to_string(),
+        None => panic!("the summands fit one loop body"),
+    };
+    (l.ops(), code.len())
 }
 
 fn bench(c: &mut Criterion) {
-    println!("| N | D | loop-body ops, looped | engine time, looped (median of 9) |");
-    println!("|---|---|---|---|");
+    println!("| N | D | loop-body ops | emitted code (bytes) | expansion time (median of 9) |");
+    println!("|---|---|---|---|---|");
     for n in [64, 512, 4096] {
         let src = fput(n);
-        let ops = expand_looped(&src);
+        let (ops, bytes) = expand_looped(&src);
         let t = median(|| {
             black_box(expand_looped(black_box(&src)));
         });
         println!(
-            "| {n} | {} | {ops} | {:.2} ms |",
+            "| {n} | {} | {ops} | {bytes} | {:.2} ms |",
             2 * n,
             t.as_secs_f64() * 1e3
         );

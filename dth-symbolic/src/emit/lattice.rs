@@ -9,7 +9,7 @@
 use proc_macro2::{Ident, TokenStream};
 use quote::quote;
 
-use super::{body, structured_newton, Context, Values, CHUNK_OPS};
+use super::{body, Context, Values, CHUNK_OPS};
 use crate::looped::{Looped, Site};
 use crate::{Method, Output, Program};
 
@@ -38,17 +38,14 @@ pub fn looped_impl(looped: &Looped, name: &Ident, params: &[Ident]) -> Option<To
     let n_i64 = n as i64;
     let nalgebra = quote!(::dth::__private::nalgebra);
     let core = quote!(::dth::__private::dth_core);
-    let pattern = looped.hessian_pattern();
-    let nnz = pattern.len();
-    let diagonal = pattern.iter().filter(|(i, j)| i == j).count();
-    let mut per_row = vec![0usize; d];
-    for &(a, _) in &pattern {
-        per_row[a] += 1;
-    }
-    let width = per_row.iter().copied().max().unwrap_or(0).max(1);
-    let structured = structured_newton(d, nnz, diagonal);
+    // The pattern is counted by the compiler's constant evaluator, not here (that would take
+    // time growing with N). A row receives an entry from a summand entry at most at the two
+    // sites where one of its slots lands on the row, once more per boundary mapped there.
+    let entries: usize = looped.sums.iter().map(|s| s.pattern.len()).sum();
+    let width = (2 * entries * (1 + looped.boundaries.len())).max(1);
     let separable = looped.separable();
-    let psi0 = nnz == 0;
+    let psi0 = entries == 0;
+    let min_dim = super::STRUCTURED_MIN_DIM;
 
     // Where letter[k] lives: the lattice, or a boundary (periodic: a site; fixed: a value).
     let arms = looped.boundaries.iter().map(|&(letter, k, site)| {
@@ -138,18 +135,31 @@ pub fn looped_impl(looped: &Looped, name: &Ident, params: &[Ident]) -> Option<To
         }
     });
     let tables = quote! {
-        /// The Hessian's pattern and, per (sum, site, summand entry), its position there.
+        /// The Hessian's pattern (in its first `.2` entries) and, per (sum, site, summand
+        /// entry), its position there.
         #[allow(clippy::all)]
-        const TABLES: ([(usize, usize); #nnz], [usize; #pos_len]) = {
-            let mut pattern = [(0usize, 0usize); #nnz];
+        const TABLES: ([(usize, usize); #pos_len], [usize; #pos_len], usize) = {
+            let mut pattern = [(0usize, 0usize); #pos_len];
             let mut rows = [[0usize; #width]; #d];
             let mut counts = [0usize; #d];
             let mut pos = [usize::MAX; #pos_len];
             let mut nnz = 0usize;
             let mut p = 0usize;
             #(#table_loops)*
-            let _ = (nnz, p);
-            (pattern, pos)
+            let _ = p;
+            (pattern, pos, nnz)
+        };
+        /// The number of nonzero entries in the upper triangle.
+        const NNZ: usize = TABLES.2;
+        /// The pattern, `NNZ` entries.
+        const PATTERN: [(usize, usize); NNZ] = {
+            let mut out = [(0usize, 0usize); NNZ];
+            let mut k = 0;
+            while k < NNZ {
+                out[k] = TABLES.0[k];
+                k += 1;
+            }
+            out
         };
     };
 
@@ -296,9 +306,23 @@ pub fn looped_impl(looped: &Looped, name: &Ident, params: &[Ident]) -> Option<To
             const HESSIAN_PATTERN: ::core::option::Option<&'static [(usize, usize)]> = {
                 #helpers
                 #tables
-                ::core::option::Option::Some(&TABLES.0)
+                ::core::option::Option::Some(&PATTERN)
             };
-            const STRUCTURED_NEWTON: bool = #structured;
+            // `structured_newton` of the emitter, on the pattern the constant evaluator built.
+            const STRUCTURED_NEWTON: bool = {
+                let pattern = match <Self as #core::Hamiltonian<#d>>::HESSIAN_PATTERN {
+                    ::core::option::Option::Some(p) => p,
+                    ::core::option::Option::None => &[],
+                };
+                let (mut k, mut diagonal) = (0, 0);
+                while k < pattern.len() {
+                    if pattern[k].0 == pattern[k].1 {
+                        diagonal += 1;
+                    }
+                    k += 1;
+                }
+                #d >= #min_dim && 4 * (2 * pattern.len() - diagonal) <= #d * #d
+            };
 
             #[inline]
             fn value(&self, z: &#nalgebra::SVector<f64, #d>) -> f64 {
@@ -319,7 +343,11 @@ pub fn looped_impl(looped: &Looped, name: &Ident, params: &[Ident]) -> Option<To
             #[inline]
             fn hessian(&self, z: &#nalgebra::SVector<f64, #d>) -> #nalgebra::SMatrix<f64, #d, #d> {
                 let pattern = <Self as #core::Hamiltonian<#d>>::HESSIAN_PATTERN.unwrap_or(&[]);
-                let mut values = [0.0f64; #nnz];
+                const NNZ: usize = match <#name as #core::Hamiltonian<#d>>::HESSIAN_PATTERN {
+                    ::core::option::Option::Some(p) => p.len(),
+                    ::core::option::Option::None => 0,
+                };
+                let mut values = [0.0f64; NNZ];
                 self.hessian_nonzeros(z, &mut values);
                 let mut h = #nalgebra::SMatrix::<f64, #d, #d>::zeros();
                 for (&(a, b), &v) in pattern.iter().zip(values.iter()) {
@@ -334,7 +362,7 @@ pub fn looped_impl(looped: &Looped, name: &Ident, params: &[Ident]) -> Option<To
                 #helpers
                 #tables
                 let zg = z;
-                let values = &mut values[..#nnz];
+                let values = &mut values[..NNZ];
                 for v in values.iter_mut() {
                     *v = 0.0;
                 }
@@ -343,8 +371,12 @@ pub fn looped_impl(looped: &Looped, name: &Ident, params: &[Ident]) -> Option<To
             #[inline]
             fn psi(&self, z: &#nalgebra::SVector<f64, #d>) -> f64 {
                 let pattern = <Self as #core::Hamiltonian<#d>>::HESSIAN_PATTERN.unwrap_or(&[]);
+                const NNZ: usize = match <#name as #core::Hamiltonian<#d>>::HESSIAN_PATTERN {
+                    ::core::option::Option::Some(p) => p.len(),
+                    ::core::option::Option::None => 0,
+                };
                 let g = self.gradient(z);
-                let mut values = [0.0f64; #nnz];
+                let mut values = [0.0f64; NNZ];
                 self.hessian_nonzeros(z, &mut values);
                 let w = |i: usize| if i < #n { g[i + #n] } else { -g[i - #n] };
                 let mut psi = 0.0f64;
