@@ -12,6 +12,9 @@
 #
 # Prints a markdown table for docs/benchmarks.md ("Lattices written once").
 set -euo pipefail
+# Incremental compilation would reuse the macro's and the constant evaluator's results across
+# the timed rebuilds (a touched file with the same tokens): every build starts cold.
+export CARGO_INCREMENTAL=0
 
 root=$(pwd)
 sizes=("$@")

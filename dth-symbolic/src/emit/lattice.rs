@@ -153,14 +153,19 @@ pub fn looped_impl(looped: &Looped, name: &Ident, params: &[Ident]) -> Option<To
         const NNZ: usize = TABLES.2;
         /// The pattern, `NNZ` entries.
         const PATTERN: [(usize, usize); NNZ] = {
+            // Read `TABLES` once: each mention of a constant is a copy of all of it.
+            let all = TABLES.0;
             let mut out = [(0usize, 0usize); NNZ];
             let mut k = 0;
             while k < NNZ {
-                out[k] = TABLES.0[k];
+                out[k] = all[k];
                 k += 1;
             }
             out
         };
+        /// The positions, in memory once (indexing the constant would copy it).
+        #[allow(dead_code)]
+        static POSITIONS: [usize; #pos_len] = TABLES.1;
     };
 
     // One loop per sum: the local coordinates read from `zg` (and `zg1`), the program, and
@@ -261,7 +266,7 @@ pub fn looped_impl(looped: &Looped, name: &Ident, params: &[Ident]) -> Option<To
             );
             let distinct = r != t;
             quote! {
-                let at = TABLES.1[#offset + (i - #lo) as usize * #npairs + #idx];
+                let at = POSITIONS[#offset + (i - #lo) as usize * #npairs + #idx];
                 if at != usize::MAX {
                     // Two slots on one particle (a ring of two): the mixed entry counts twice.
                     let twice = #distinct && #site_r == #site_t;
