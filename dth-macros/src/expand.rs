@@ -2,6 +2,7 @@
 //! emitter, `dth_symbolic::emit`) and the warnings; or the errors beside a stub.
 
 use dth_symbolic::emit::hamiltonian_impl;
+use dth_symbolic::emit::lattice::looped_impl;
 use dth_symbolic::System;
 use proc_macro2::TokenStream;
 use quote::quote;
@@ -22,6 +23,15 @@ pub fn expand(input: Input) -> TokenStream {
     }
     let mut errors = input.body.errors.clone();
     let params = check::params(&input, &mut errors);
+    // A lattice of sums is emitted as loops, its code independent of the number of sites.
+    if errors.is_empty() {
+        if let Some(looped) = check::looped(&input, &params) {
+            let (decl, name) = fallback::declaration(&input, &params);
+            if let Some(imp) = looped_impl(&looped, &name, &params) {
+                return wrap(&input, decl, name, imp, TokenStream::new());
+            }
+        }
+    }
     let system = check::system(&input, &params, &mut errors);
     match (check::combine(errors), system) {
         (None, Some(system)) => implementation(&input, &params, &system),
@@ -34,6 +44,17 @@ fn implementation(input: &Input, params: &[Ident], system: &System) -> TokenStre
     let (decl, name) = fallback::declaration(input, params);
     let imp = hamiltonian_impl(system, &name, params);
     let warnings = warnings(input, system);
+    wrap(input, decl, name, imp, warnings)
+}
+
+/// The declaration, the implementation and the warnings, as an item or an expression.
+fn wrap(
+    input: &Input,
+    decl: TokenStream,
+    name: Ident,
+    imp: TokenStream,
+    warnings: TokenStream,
+) -> TokenStream {
     match &input.item {
         Some(_) => quote! {
             #decl

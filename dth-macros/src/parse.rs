@@ -50,6 +50,9 @@ pub struct Body {
     pub tokens: Vec<(Range<usize>, Span)>,
     /// Problems found while flattening (`[]` or `{}` used for grouping).
     pub errors: Vec<syn::Error>,
+    /// The last token pushed was a punctuation joined to the next one (`.` of `..`, `<` of
+    /// `<=`): the next token follows without a space, so the engine reads one operator.
+    joint: bool,
 }
 
 impl Parse for Input {
@@ -69,6 +72,7 @@ impl Parse for Input {
             source: String::new(),
             tokens: Vec::new(),
             errors: Vec::new(),
+            joint: false,
         };
         body.flatten(rest);
         Ok(Input { item, body })
@@ -168,9 +172,10 @@ fn params(content: ParseStream, header: &mut Header) {
 
 impl Body {
     fn push(&mut self, text: &str, span: Span) {
-        if !self.source.is_empty() {
+        if !self.source.is_empty() && !self.joint {
             self.source.push(' ');
         }
+        self.joint = false;
         let start = self.source.len();
         self.source.push_str(text);
         self.tokens.push((start..self.source.len(), span));
@@ -180,7 +185,10 @@ impl Body {
         for tt in tokens {
             match tt {
                 TokenTree::Ident(i) => self.push(&i.to_string(), i.span()),
-                TokenTree::Punct(p) => self.push(&p.as_char().to_string(), p.span()),
+                TokenTree::Punct(p) => {
+                    self.push(&p.as_char().to_string(), p.span());
+                    self.joint = p.spacing() == proc_macro2::Spacing::Joint;
+                }
                 TokenTree::Literal(l) => self.push(&l.to_string(), l.span()),
                 TokenTree::Group(g) => {
                     // Brackets and braces go to the engine as written: it owns the grammar and

@@ -1,17 +1,23 @@
 //! Builds the arena from the syntax tree, resolving names and folding constants. Every
 //! independent error is collected; a subtree with an error is skipped, so its parents add none.
+//!
+//! Sums are built site by site: `sum(i = 1..N, f(i))` becomes the sum of `f(1)..f(N)`, each
+//! indexed variable `q[i + 1]` the written-out `q<i+1>` (or its boundary's value), so the
+//! arena, the derivatives and the programs are those of the written-out Hamiltonian.
 
 use crate::arena::{Arena, Id, Var};
 use crate::check::{resolve, Name};
 use crate::error::{Error, ErrorKind};
+use crate::lattice::{compact, Boundary, Lattice};
 use crate::number::{parse_literal, Fault, LiteralError, Num};
-use crate::parser::{operand_text, Ast, BinOp};
+use crate::parser::{operand_text, Ast, BinOp, Decl, Range};
 use crate::span::Span;
 
 pub(crate) struct Builder<'a> {
     pub src: &'a str,
     pub arena: Arena,
     pub errors: Vec<Error>,
+    pub lattice: Lattice,
 }
 
 impl Builder<'_> {
@@ -35,10 +41,47 @@ impl Builder<'_> {
                     }
                 }
             }
+            Ast::Name(s)
+                if self
+                    .lattice
+                    .local
+                    .as_ref()
+                    .is_some_and(|l| l.index == self.src[s.range()]) =>
+            {
+                if let Some(local) = self.lattice.local.as_mut() {
+                    local.not_loopable = Some("the sum's index is used as a number");
+                }
+                return None;
+            }
+            Ast::Name(s) if self.lattice.lookup(&self.src[s.range()]).is_some() => {
+                // An index or a size as a number (`sum(i = 1..N, i*q[i]^2)`).
+                let v = self.lattice.lookup(&self.src[s.range()]).unwrap_or(0);
+                self.arena.span = *s;
+                Ok(self.arena.num(Num::int(i128::from(v))))
+            }
+            Ast::Index { name, index, span } => return self.indexed(*name, index, *span),
+            Ast::Sum { .. } if self.lattice.local.is_some() => {
+                if let Some(local) = self.lattice.local.as_mut() {
+                    local.not_loopable = Some("sums are nested");
+                }
+                return None;
+            }
+            Ast::Sum { range, body, .. } => return self.sum(range, body),
+            Ast::Where { body, decls } => return self.declared(body, decls),
             Ast::Name(s) => {
                 let params = self.arena.params().to_vec();
                 match resolve(&self.src[s.range()], &params) {
                     Ok(Name::Var(v)) => {
+                        if let (Some(local), Var::Q(_) | Var::P(_) | Var::T) =
+                            (self.lattice.local.as_mut(), v)
+                        {
+                            local.not_loopable =
+                                Some("a summand uses a written-out coordinate or `t`");
+                            return None;
+                        }
+                        if matches!(v, Var::Q(_) | Var::P(_)) {
+                            self.lattice.written.push((v, *s));
+                        }
                         self.arena.span = *s;
                         Ok(self.arena.var(v))
                     }
@@ -219,6 +262,321 @@ impl Builder<'_> {
                 None
             }
         }
+    }
+}
+
+impl Builder<'_> {
+    /// `q[index]` or `p[index]`: the variable at that site, or its boundary's value.
+    fn indexed(&mut self, name: Span, index: &Ast, span: Span) -> Option<Id> {
+        let letter = match &self.src[name.range()] {
+            "q" => 'q',
+            "p" => 'p',
+            other => {
+                self.errors.push(Error::new(
+                    ErrorKind::IndexedName {
+                        name: other.to_string(),
+                    },
+                    name,
+                ));
+                return None;
+            }
+        };
+        if self.lattice.local.is_some() {
+            return self.slot(letter, index, span);
+        }
+        let site = match self.lattice.int(self.src, index, self.arena.params()) {
+            Ok(site) => site,
+            Err(e) => {
+                self.errors.push(e);
+                return None;
+            }
+        };
+        if let Some(b) = self.lattice.boundary(letter, site).cloned() {
+            if self.lattice.in_boundary {
+                self.errors.push(Error::new(
+                    ErrorKind::BadBoundary {
+                        name: compact(&self.src[span.range()]),
+                        reason:
+                            "is defined by a boundary: a boundary's value uses sites of the lattice"
+                                .to_string(),
+                    },
+                    span,
+                ));
+                return None;
+            }
+            // The value is built where it was declared, with no summation index in scope.
+            let bound = std::mem::take(&mut self.lattice.bound);
+            self.lattice.in_boundary = true;
+            let id = self.build(&b.value);
+            self.lattice.in_boundary = false;
+            self.lattice.bound = bound;
+            return id;
+        }
+        if site < 1 || (self.lattice.in_boundary && self.lattice.last.is_some_and(|n| site > n)) {
+            self.errors.push(Error::new(
+                ErrorKind::IndexOutOfRange {
+                    access: compact(&self.src[span.range()]),
+                    letter,
+                    site,
+                    at: self.lattice.at(),
+                    last: self.lattice.last,
+                },
+                span,
+            ));
+            return None;
+        }
+        let k = match u32::try_from(site) {
+            Ok(k) if k as usize <= crate::MAX_INDEX => k,
+            _ => {
+                self.errors.push(Error::new(
+                    ErrorKind::IndexTooLarge {
+                        name: format!("{letter}[{site}]"),
+                    },
+                    span,
+                ));
+                return None;
+            }
+        };
+        let higher = self
+            .lattice
+            .reached
+            .get(&span)
+            .is_none_or(|&(highest, ..)| site > highest);
+        if higher {
+            let at = self.lattice.at();
+            self.lattice.reached.insert(span, (site, letter, at));
+        }
+        self.arena.span = span;
+        Some(
+            self.arena
+                .var(if letter == 'q' { Var::Q(k) } else { Var::P(k) }),
+        )
+    }
+
+    /// `letter[index]` in a summand built once ([`crate::looped`]): the index must be the
+    /// sum's index plus a constant, `i + c`; the variable is the slot of that offset.
+    fn slot(&mut self, letter: char, index: &Ast, span: Span) -> Option<Id> {
+        let params = self.arena.params().to_vec();
+        let at = |b: &mut Self, i: i64| {
+            if let Some(last) = b.lattice.bound.last_mut() {
+                last.1 = i;
+            }
+            b.lattice.int(b.src, index, &params)
+        };
+        let (c, c1) = match (at(self, 0), at(self, 1)) {
+            (Ok(c), Ok(c1)) => (c, c1),
+            (Err(e), _) | (_, Err(e)) => {
+                self.errors.push(e);
+                return None;
+            }
+        };
+        at(self, 0).ok();
+        let local = self.lattice.local.as_mut()?;
+        if c1 != c + 1 {
+            local.not_loopable = Some("an index is not the sum's index plus a constant");
+            return None;
+        }
+        let v = local.slot(letter, c);
+        self.arena.span = span;
+        Some(self.arena.var(v))
+    }
+
+    /// Declares the sizes and boundaries of `decls`.
+    pub fn declare(&mut self, decls: &[Decl]) {
+        for decl in decls {
+            match decl {
+                Decl::Constant { name, value } => {
+                    let (name, value) = (self.bindable(*name), self.int(value));
+                    if let (Some(name), Some(value)) = (name, value) {
+                        self.lattice.constants.push((name, value));
+                    }
+                }
+                Decl::Boundary { targets, value } => {
+                    for target in targets {
+                        self.boundary(target, value);
+                    }
+                }
+            }
+        }
+    }
+
+    /// An integer of the lattice (an index's bound), or `None` with its error recorded.
+    pub fn int(&mut self, ast: &Ast) -> Option<i64> {
+        match self.lattice.int(self.src, ast, self.arena.params()) {
+            Ok(v) => Some(v),
+            Err(e) => {
+                self.errors.push(e);
+                None
+            }
+        }
+    }
+
+    /// Binds `name` (an index), or records why it cannot be one.
+    pub fn bindable(&mut self, name: Span) -> Option<String> {
+        let text = self.src[name.range()].to_string();
+        match self.lattice.bad_name(&text, self.arena.params()) {
+            None => Some(text),
+            Some(reason) => {
+                self.errors.push(Error::new(
+                    ErrorKind::BadIndexName { name: text, reason },
+                    name,
+                ));
+                None
+            }
+        }
+    }
+
+    /// `sum(range, body)`: the sum of the body at every site (pair of sites) of the range.
+    fn sum(&mut self, range: &Range, body: &Ast) -> Option<Id> {
+        let range_span = range.span();
+        let sites: Vec<Vec<i64>> = match range {
+            Range::Single { index, lo, hi } => {
+                let (name, lo, hi) = (self.bindable(*index), self.int(lo), self.int(hi));
+                let (_, lo, hi) = (name?, lo?, hi?);
+                self.extend_lattice(hi);
+                (lo..=hi).map(|i| vec![i]).collect()
+            }
+            Range::Pairs {
+                lo,
+                lo_strict,
+                i,
+                j,
+                hi_strict,
+                hi,
+            } => {
+                let (a, b) = (self.bindable(*i), self.bindable(*j));
+                let (lo, hi) = (self.int(lo), self.int(hi));
+                let (a, b, lo, hi) = (a?, b?, lo?, hi?);
+                if a == b {
+                    self.errors.push(Error::new(
+                        ErrorKind::BadIndexName {
+                            name: b,
+                            reason: "is declared twice",
+                        },
+                        *j,
+                    ));
+                    return None;
+                }
+                let (lo, hi) = (lo + i64::from(*lo_strict), hi - i64::from(*hi_strict));
+                self.extend_lattice(hi);
+                (lo..=hi)
+                    .flat_map(|i| (i + 1..=hi).map(move |j| vec![i, j]))
+                    .collect()
+            }
+        };
+        let names: Vec<String> = match range {
+            Range::Single { index, .. } => vec![self.src[index.range()].to_string()],
+            Range::Pairs { i, j, .. } => [i, j]
+                .iter()
+                .map(|s| self.src[s.range()].to_string())
+                .collect(),
+        };
+        let text = match range {
+            Range::Single { index, lo, hi } => format!(
+                "{} = {}..{}",
+                &self.src[index.range()],
+                compact(&self.src[lo.span().range()]),
+                compact(&self.src[hi.span().range()])
+            ),
+            Range::Pairs {
+                lo,
+                lo_strict,
+                i,
+                j,
+                hi_strict,
+                hi,
+            } => format!(
+                "{} {} {} < {} {} {}",
+                compact(&self.src[lo.span().range()]),
+                if *lo_strict { "<" } else { "<=" },
+                &self.src[i.range()],
+                &self.src[j.range()],
+                if *hi_strict { "<" } else { "<=" },
+                compact(&self.src[hi.span().range()])
+            ),
+        };
+        let seen = self.lattice.sums.entry(range_span).or_insert((false, text));
+        seen.0 |= !sites.is_empty();
+        if sites.is_empty() {
+            // An empty sum is zero; one whose every range is empty is an error (`finish`).
+            return Some(self.arena.num(Num::ZERO));
+        }
+        let mut terms = Vec::with_capacity(sites.len());
+        let mut failed = false;
+        for values in sites {
+            for (n, v) in names.iter().zip(values) {
+                self.lattice.bound.push((n.clone(), v));
+            }
+            let term = self.build(body);
+            for _ in &names {
+                self.lattice.bound.pop();
+            }
+            match term {
+                Some(t) => terms.push(t),
+                None => failed = true,
+            }
+        }
+        if failed {
+            return None;
+        }
+        self.arena.span = range_span;
+        match self.arena.add(&terms) {
+            Ok(id) => Some(id),
+            Err(fault) => {
+                self.errors
+                    .push(Error::new(ErrorKind::Fault(fault), range_span));
+                None
+            }
+        }
+    }
+
+    fn extend_lattice(&mut self, hi: i64) {
+        self.lattice.last = Some(self.lattice.last.map_or(hi, |n| n.max(hi)));
+    }
+
+    /// `body where decls`: the sizes and boundaries, then the body.
+    fn declared(&mut self, body: &Ast, decls: &[Decl]) -> Option<Id> {
+        self.declare(decls);
+        self.build(body)
+    }
+
+    /// Declares `target = value`, a boundary.
+    fn boundary(&mut self, target: &Ast, value: &Ast) {
+        let span = target.span();
+        let Ast::Index { name, index, .. } = target else {
+            self.errors.push(Error::new(ErrorKind::Declaration, span));
+            return;
+        };
+        let letter = match &self.src[name.range()] {
+            "q" => 'q',
+            "p" => 'p',
+            other => {
+                self.errors.push(Error::new(
+                    ErrorKind::IndexedName {
+                        name: other.to_string(),
+                    },
+                    *name,
+                ));
+                return;
+            }
+        };
+        let Some(site) = self.int(index) else { return };
+        if self.lattice.boundary(letter, site).is_some() {
+            self.errors.push(Error::new(
+                ErrorKind::BadBoundary {
+                    name: compact(&self.src[span.range()]),
+                    reason: "is declared twice".to_string(),
+                },
+                span,
+            ));
+            return;
+        }
+        self.lattice.boundaries.push(Boundary {
+            letter,
+            site,
+            value: value.clone(),
+            span,
+        });
     }
 }
 

@@ -31,7 +31,7 @@ pub fn resolve(name: &str, params: &[String]) -> Result<Name, ErrorKind> {
     if let Some(f) = Func::ALL.iter().find(|f| f.name() == name) {
         return Ok(Name::Func(*f));
     }
-    if name == "sqrt" {
+    if name == "sqrt" || name == "sum" {
         // `sqrt` is the power 1/2: the builder handles it; as a bare name it is a function.
         return Err(ErrorKind::FunctionWithoutCall {
             name: name.to_string(),
@@ -72,6 +72,7 @@ pub fn reserved_name(name: &str) -> Option<&'static str> {
         Ok(Name::Func(_)) | Err(ErrorKind::FunctionWithoutCall { .. }) => {
             Some("is a function of the grammar")
         }
+        _ if name == "where" => Some("is a word of the grammar"),
         _ => None,
     }
 }
@@ -150,12 +151,41 @@ pub fn indices(written: &[(Var, Span)]) -> (Vec<Error>, Vec<Warning>) {
 pub fn name_errors(src: &str, tokens: &[Token], params: &[&str]) -> Vec<Error> {
     let params: Vec<String> = params.iter().map(|p| p.to_string()).collect();
     let kind_at = |k: usize| tokens.get(k).map(|t| t.kind);
+    // Indices and sizes are names the grammar binds: `i = ..`, `N = ..`, `i < j`.
+    let binds = |k: usize| {
+        matches!(
+            kind_at(k + 1),
+            Some(TokenKind::Eq | TokenKind::Lt | TokenKind::Le)
+        ) || k > 0 && matches!(kind_at(k - 1), Some(TokenKind::Lt | TokenKind::Le))
+    };
+    // ... and so are the first argument of `sum(` and the names inside an index `[...]`.
+    let sum_argument = |k: usize| {
+        k >= 2
+            && kind_at(k - 1) == Some(TokenKind::LParen)
+            && &src[tokens[k - 2].span.range()] == "sum"
+    };
+    let mut depth = 0usize;
+    let mut bound: Vec<&str> = Vec::new();
+    for (k, t) in tokens.iter().enumerate() {
+        match t.kind {
+            TokenKind::LBracket => depth += 1,
+            TokenKind::RBracket => depth = depth.saturating_sub(1),
+            TokenKind::Ident if binds(k) || sum_argument(k) || depth > 0 => {
+                bound.push(&src[t.span.range()])
+            }
+            _ => {}
+        }
+    }
     let mut errors = Vec::new();
     for (k, t) in tokens.iter().enumerate() {
         if t.kind != TokenKind::Ident {
             continue;
         }
         let name = &src[t.span.range()];
+        // `where`, an indexed variable's letter, and names bound somewhere are no variables.
+        if name == "where" || kind_at(k + 1) == Some(TokenKind::LBracket) || bound.contains(&name) {
+            continue;
+        }
         let called = kind_at(k + 1) == Some(TokenKind::LParen);
         let kind = match (resolve(name, &params), called) {
             (Ok(Name::Func(_)), _) | (Err(ErrorKind::FunctionWithoutCall { .. }), _) => continue,

@@ -8,7 +8,8 @@
 //! declares the type and calls [`hamiltonian_impl`].
 //!
 //! [`code`] writes `f64` values as code (constants, and the divided-difference kernels through
-//! [`crate::kernel::Scalar`]); this module assembles the methods from the engine's programs.
+//! [`crate::kernel::Scalar`]); this module assembles the methods from the engine's programs;
+//! [`lattice`] emits a lattice compiled once per summand ([`crate::looped`]) as loops.
 //!
 //! ```
 //! use dth_symbolic::emit::hamiltonian_impl;
@@ -23,6 +24,7 @@
 //! ```
 
 pub mod code;
+pub mod lattice;
 
 use proc_macro2::{Ident, TokenStream};
 use quote::{format_ident, quote};

@@ -113,6 +113,70 @@ pub enum ErrorKind {
     StrayComma,
     /// `[ ]` or `{ }` used for grouping (the span covers the group).
     Brackets,
+    /// After `where`, something that is neither `name = value` nor a boundary `q[k] = ...`.
+    Declaration,
+    /// A sum whose range is not `i = lo..hi` or `lo <= i < j <= hi` (at the offending token).
+    SumRange,
+    /// An index whose sites include none (`i = 5..4`, or pairs in `1 <= i < j <= 1`).
+    EmptySum {
+        /// The range as written.
+        range: String,
+    },
+    /// An indexed variable whose index falls outside the lattice `1..n` with no boundary
+    /// declared there.
+    IndexOutOfRange {
+        /// The access as written, `q[i+1]`.
+        access: String,
+        /// The letter, `'q'` or `'p'`.
+        letter: char,
+        /// The index it reaches.
+        site: i64,
+        /// The summation indices' values there, `i = 64` (empty outside sums).
+        at: String,
+        /// The lattice's last site (the largest upper bound of the sums), if there are sums.
+        last: Option<i64>,
+    },
+    /// A name in an index that no enclosing sum binds and no declaration after `where` names.
+    UnboundIndex {
+        /// The name.
+        name: String,
+        /// The indices bound where it is used (empty outside sums).
+        bound: String,
+    },
+    /// An index, a bound or a declared size that is not an integer expression (a parameter, a
+    /// decimal, a function, a division).
+    NotAnIndex {
+        /// The offending piece as written.
+        text: String,
+    },
+    /// `x[i]` for a name other than `q` and `p`.
+    IndexedName {
+        /// The name.
+        name: String,
+    },
+    /// A written-out `q<k>` or `p<k>` beyond the lattice the sums index: it would add
+    /// coordinates the sums never touch.
+    MixedIndexing {
+        /// The name as written.
+        name: String,
+        /// The lattice's last site.
+        last: i64,
+    },
+    /// A boundary `q[k] = ...` that cannot be one (inside the lattice, declared twice, or
+    /// defined by another boundary).
+    BadBoundary {
+        /// The variable, `q[0]`.
+        name: String,
+        /// Why.
+        reason: String,
+    },
+    /// A summation index or declared size whose name cannot be used.
+    BadIndexName {
+        /// The name.
+        name: String,
+        /// Why (`"is declared twice"`, `"is a name of the grammar"`, ...).
+        reason: &'static str,
+    },
     /// The value and its derivatives exceed [`crate::MAX_SIZE`].
     TooLarge {
         /// The bound.
@@ -254,6 +318,66 @@ impl fmt::Display for Error {
             Brackets => f.write_str(
                 "use parentheses `( )` for grouping: brackets and braces are not part of the grammar",
             ),
+            Declaration => f.write_str(
+                "expected a declaration after `where`: a size `N = 64` or a boundary `q[0] = 0`, `q[N+1] = q[1]`",
+            ),
+            SumRange => f.write_str(
+                "expected a sum's range and then `,` and the summand: `sum(i = 1..N, ...)` or, over pairs, `sum(1 <= i < j <= N, ...)`",
+            ),
+            EmptySum { range } => write!(
+                f,
+                "sum over an empty range: `{range}` has no terms (ranges include both ends)"
+            ),
+            IndexOutOfRange {
+                access,
+                letter,
+                site,
+                at,
+                last,
+            } => {
+                let at = if at.is_empty() {
+                    String::new()
+                } else {
+                    format!(" at `{at}`")
+                };
+                let lattice = match last {
+                    Some(n) => format!("the lattice's sites are 1..{n} (the sums' largest bound)"),
+                    None => "indices start at 1".to_string(),
+                };
+                let (fixed, periodic) = match last {
+                    Some(n) if *site > *n => (format!("{letter}[{site}] = 0"), format!("{letter}[{site}] = {letter}[{}]", site - n)),
+                    Some(n) => (format!("{letter}[{site}] = 0"), format!("{letter}[{site}] = {letter}[{}]", site + n)),
+                    None => (format!("{letter}[{site}] = 0"), String::new()),
+                };
+                write!(f, "index out of range: `{access}` is `{letter}[{site}]`{at}, but {lattice}; declare a boundary after `where`: `{fixed}` (fixed end)")?;
+                if periodic.is_empty() {
+                    Ok(())
+                } else {
+                    write!(f, " or `{periodic}` (periodic)")
+                }
+            }
+            UnboundIndex { name, bound } if bound.is_empty() => write!(
+                f,
+                "unbound index `{name}`: no `sum` binds it and no `where {name} = ...` declares it"
+            ),
+            UnboundIndex { name, bound } => write!(
+                f,
+                "unbound index `{name}`: the indices bound here are {bound}, and no `where {name} = ...` declares it"
+            ),
+            NotAnIndex { text } => write!(
+                f,
+                "`{text}` is not an integer: indices, ranges and sizes are integers built from literals, summation indices, declared sizes and `+ - *`"
+            ),
+            IndexedName { name } => write!(
+                f,
+                "`{name}` cannot be indexed: the indexed variables are `q[i]` and `p[i]`"
+            ),
+            MixedIndexing { name, last } => write!(
+                f,
+                "`{name}` is beyond the lattice 1..{last} of the sums: a written-out coordinate must be one of the sums' sites (write `q[k]` inside the sums' range)"
+            ),
+            BadBoundary { name, reason } => write!(f, "boundary `{name}` {reason}"),
+            BadIndexName { name, reason } => write!(f, "index or size `{name}` {reason}"),
             StrayComma => f.write_str(
                 "unexpected `,`: a Hamiltonian is one expression and every function takes one argument",
             ),

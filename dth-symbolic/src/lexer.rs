@@ -24,9 +24,22 @@ pub enum TokenKind {
     LParen,
     /// `)`
     RParen,
-    /// `,`: no function takes two arguments, but `cos(q1, q2)` and `pow(q1, 2)` are read so
-    /// their errors can say what to write instead.
+    /// `,`: separates a sum's range from its summand and the declarations after `where`; no
+    /// function takes two arguments, but `cos(q1, q2)` and `pow(q1, 2)` are read so their
+    /// errors can say what to write instead.
     Comma,
+    /// `[`: an index, `q[i + 1]` (the parser reports one used for grouping).
+    LBracket,
+    /// `]`
+    RBracket,
+    /// `=`: a sum's index takes its range, a constant or a boundary its value.
+    Eq,
+    /// `<`: the pairs `i < j` of a sum over pairs.
+    Lt,
+    /// `<=`: the bounds of a sum over pairs, `1 <= i < j <= N`.
+    Le,
+    /// `..`: an index range, `1..N` (both ends included).
+    DotDot,
 }
 
 /// A token and its byte range.
@@ -58,10 +71,20 @@ pub fn lex(src: &str) -> (Vec<Token>, Vec<Error>) {
             b'(' => Some(TokenKind::LParen),
             b')' => Some(TokenKind::RParen),
             b',' => Some(TokenKind::Comma),
+            b'[' => Some(TokenKind::LBracket),
+            b']' => Some(TokenKind::RBracket),
+            b'=' => Some(TokenKind::Eq),
+            b'<' if bytes.get(i + 1) == Some(&b'=') => Some(TokenKind::Le),
+            b'<' => Some(TokenKind::Lt),
+            b'.' if bytes.get(i + 1) == Some(&b'.') => Some(TokenKind::DotDot),
             _ => None,
         };
         if let Some(kind) = single {
-            i += 1;
+            i += if matches!(kind, TokenKind::Le | TokenKind::DotDot) {
+                2
+            } else {
+                1
+            };
             tokens.push(Token {
                 kind,
                 span: Span::new(start, i),
@@ -74,6 +97,10 @@ pub fn lex(src: &str) -> (Vec<Token>, Vec<Error>) {
             i += 1;
             while i < bytes.len() {
                 let b = bytes[i];
+                if b == b'.' && bytes.get(i + 1) == Some(&b'.') {
+                    // `1..N`: the number ends before the range.
+                    break;
+                }
                 let exp_sign = (b == b'+' || b == b'-')
                     && matches!(bytes[i - 1], b'e' | b'E')
                     && bytes[start..i - 1]
@@ -97,9 +124,9 @@ pub fn lex(src: &str) -> (Vec<Token>, Vec<Error>) {
                 kind: TokenKind::Ident,
                 span: Span::new(start, i),
             });
-        } else if c == b'[' || c == b'{' {
-            // A group in brackets or braces: one error over the whole group (what
-            // `hamiltonian!`, which sees one Rust group, reports), read on as parenthesized.
+        } else if c == b'{' {
+            // A group in braces: one error over the whole group (what `hamiltonian!`, which
+            // sees one Rust group, reports), read on as parenthesized.
             let close = group_end(bytes, i);
             let end = close.map_or(i + 1, |j| j + 1);
             errors.push(Error::new(ErrorKind::Brackets, Span::new(start, end)));
@@ -172,8 +199,8 @@ mod tests {
     }
 
     #[test]
-    fn a_bracket_group_and_a_string_are_one_error_each() {
-        let (t, e) = lex("p1^2 + [q1 + {q2}]^2 + \"q1\" + q2]");
+    fn a_brace_group_and_a_string_are_one_error_each() {
+        let (t, e) = lex("p1^2 + {q1 + {q2}}^2 + \"q1\" + q2}");
         let spans: Vec<(ErrorKind, Span)> = e.into_iter().map(|e| (e.kind, e.span)).collect();
         assert_eq!(
             spans,
@@ -181,7 +208,7 @@ mod tests {
                 (ErrorKind::Brackets, Span::new(7, 18)),
                 (ErrorKind::Brackets, Span::new(13, 17)),
                 (ErrorKind::UnexpectedChar { ch: '"' }, Span::new(23, 27)),
-                (ErrorKind::UnexpectedChar { ch: ']' }, Span::new(32, 33)),
+                (ErrorKind::UnexpectedChar { ch: '}' }, Span::new(32, 33)),
             ]
         );
         // The groups read as parentheses.
@@ -191,6 +218,23 @@ mod tests {
             t.iter().filter(|t| t.kind == TokenKind::RParen).count()
         );
         assert_eq!(parens, 2);
+    }
+
+    #[test]
+    fn ranges_comparisons_and_indices_are_tokens() {
+        let (t, e) = lex("sum(1 <= i < j <= 10, q[i]) where N = 2..3");
+        assert!(e.is_empty());
+        let kinds: Vec<TokenKind> = t.iter().map(|t| t.kind).collect();
+        use TokenKind::*;
+        assert_eq!(
+            kinds,
+            [
+                Ident, LParen, Number, Le, Ident, Lt, Ident, Le, Number, Comma, Ident, LBracket,
+                Ident, RBracket, RParen, Ident, Ident, Eq, Number, DotDot, Number
+            ]
+        );
+        // `1..N` is the literal `1`, not `1.` followed by `.N`.
+        assert_eq!(t[18].span, Span::new(38, 39));
     }
 
     #[test]

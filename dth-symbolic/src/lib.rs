@@ -20,7 +20,9 @@
 //! 8. [`eval`]: an interpreter for programs.
 //! 9. [`system`]: [`compile`], the whole pipeline (gradient, Hessian upper triangle, Psi, and
 //!    the programs).
-//! 10. `emit` (feature `emit`): a compiled system as the Rust code `hamiltonian!` emits, so
+//! 10. [`looped`]: lattices (`sum(i = 1..N, ...)`) compiled once per summand and evaluated in
+//!     loops over the sites, so the work does not grow with `N`.
+//! 11. `emit` (feature `emit`): a compiled system as the Rust code `hamiltonian!` emits, so
 //!     the macro and other tools (`dth derive --rust`) produce the same tokens.
 //!
 //! [`sources`] (Hamiltonians as text, for tests and benchmarks) stands apart and imports
@@ -59,7 +61,9 @@ pub mod emit;
 pub mod error;
 pub mod eval;
 pub mod kernel;
+mod lattice;
 pub mod lexer;
+pub mod looped;
 pub mod lower;
 pub mod number;
 pub mod parser;

@@ -1,11 +1,18 @@
 //! Parser: tokens to a syntax tree with spans (precedence climbing).
 //!
 //! ```text
+//! source  := expr ('where' decl (',' decl)*)?
+//! decl    := name '=' expr                     a named size, `N = 64`
+//!          | index ('=' index)* '=' expr       a boundary, `q[0] = q[N+1] = 0`, `q[N+1] = q[1]`
 //! expr    := term (('+' | '-') term)*
 //! term    := unary (('*' | '/') unary)*
 //! unary   := ('-' | '+') unary | power
 //! power   := atom ('^' unary)?          right-associative; binds tighter than unary minus
-//! atom    := number | name | name '(' expr ')' | '(' expr ')'
+//! atom    := number | name | name '(' expr ')' | '(' expr ')' | index | sum
+//! index   := ('q' | 'p') '[' expr ']'
+//! sum     := 'sum' '(' range ',' expr ')'
+//! range   := name '=' expr '..' expr                     both ends included
+//!          | expr ('<=' | '<') name '<' name ('<=' | '<') expr    all pairs
 //! ```
 //!
 //! Three mistakes are read as what they most likely mean, reported, and parsing goes on (so
@@ -84,6 +91,90 @@ pub enum Ast {
         /// From `(` to `)`.
         span: Span,
     },
+    /// `name[index]`, an indexed variable (`q[i + 1]`).
+    Index {
+        /// The variable's letter.
+        name: Span,
+        /// The index, an integer expression.
+        index: Box<Ast>,
+        /// From the name to the `]`.
+        span: Span,
+    },
+    /// `sum(range, body)`.
+    Sum {
+        /// The indices and their ranges.
+        range: Box<Range>,
+        /// The summand.
+        body: Box<Ast>,
+        /// From `sum` to the `)`.
+        span: Span,
+    },
+    /// `body where decls`: only at the root.
+    Where {
+        /// The Hamiltonian.
+        body: Box<Ast>,
+        /// The declarations, in order.
+        decls: Vec<Decl>,
+    },
+}
+
+/// The range of a [`Ast::Sum`].
+#[derive(Clone, Debug, PartialEq)]
+pub enum Range {
+    /// `i = lo..hi`, both ends included.
+    Single {
+        /// The index's name.
+        index: Span,
+        /// The first value.
+        lo: Ast,
+        /// The last value.
+        hi: Ast,
+    },
+    /// `lo <= i < j <= hi`: every pair (`<` for a strict bound).
+    Pairs {
+        /// The lower bound.
+        lo: Ast,
+        /// `true` for `lo < i`.
+        lo_strict: bool,
+        /// The first index's name.
+        i: Span,
+        /// The second index's name.
+        j: Span,
+        /// `true` for `j < hi`.
+        hi_strict: bool,
+        /// The upper bound.
+        hi: Ast,
+    },
+}
+
+impl Range {
+    /// From the first to the last token of the range.
+    pub fn span(&self) -> Span {
+        match self {
+            Range::Single { index, hi, .. } => index.to(hi.span()),
+            Range::Pairs { lo, hi, .. } => lo.span().to(hi.span()),
+        }
+    }
+}
+
+/// A declaration after `where`.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Decl {
+    /// `name = value`: a named integer (a size).
+    Constant {
+        /// The name.
+        name: Span,
+        /// Its value, an integer expression.
+        value: Ast,
+    },
+    /// `q[a] = q[b] = value`: the variables at the indices outside the lattice, as a value
+    /// (`0`: a fixed end) or a variable of the lattice (`q[1]`: periodic).
+    Boundary {
+        /// The indexed variables defined (each an [`Ast::Index`] when well formed).
+        targets: Vec<Ast>,
+        /// What they stand for.
+        value: Ast,
+    },
 }
 
 impl Ast {
@@ -91,7 +182,17 @@ impl Ast {
     pub fn span(&self) -> Span {
         match self {
             Ast::Number(s) | Ast::Name(s) => *s,
-            Ast::Call { span, .. } | Ast::Unary { span, .. } | Ast::Paren { span, .. } => *span,
+            Ast::Call { span, .. }
+            | Ast::Unary { span, .. }
+            | Ast::Paren { span, .. }
+            | Ast::Index { span, .. }
+            | Ast::Sum { span, .. } => *span,
+            Ast::Where { body, decls } => match decls.last() {
+                Some(Decl::Constant { value, .. } | Decl::Boundary { value, .. }) => {
+                    body.span().to(value.span())
+                }
+                None => body.span(),
+            },
             Ast::Binary { lhs, rhs, .. } => lhs.span().to(rhs.span()),
             Ast::Chain { first, rest } => match rest.last() {
                 Some((_, _, last)) => first.span().to(last.span()),
@@ -129,13 +230,16 @@ pub fn parse(src: &str, tokens: &[Token]) -> (Option<Ast>, Vec<Error>) {
         depth: 0,
         errors: Vec::new(),
     };
-    let result = p.expr().and_then(|ast| match p.peek() {
-        None => Ok(ast),
-        Some(t) if t.kind == TokenKind::RParen => {
-            Err(Error::new(ErrorKind::UnmatchedParen, t.span))
-        }
-        Some(t) => Err(p.unexpected(t)),
-    });
+    let result = p
+        .expr()
+        .and_then(|ast| p.source(ast))
+        .and_then(|ast| match p.peek() {
+            None => Ok(ast),
+            Some(t) if t.kind == TokenKind::RParen => {
+                Err(Error::new(ErrorKind::UnmatchedParen, t.span))
+            }
+            Some(t) => Err(p.unexpected(t)),
+        });
     let mut errors = p.errors;
     let ast = match result {
         Ok(ast) => Some(ast),
@@ -157,7 +261,12 @@ fn is_function(name: &str) -> bool {
 pub(crate) fn operand_text(src: &str, ast: &Ast) -> String {
     let text = &src[ast.span().range()];
     match ast {
-        Ast::Number(_) | Ast::Name(_) | Ast::Call { .. } | Ast::Paren { .. } => text.to_string(),
+        Ast::Number(_)
+        | Ast::Name(_)
+        | Ast::Call { .. }
+        | Ast::Paren { .. }
+        | Ast::Index { .. }
+        | Ast::Sum { .. } => text.to_string(),
         _ => format!("({text})"),
     }
 }
@@ -192,6 +301,40 @@ impl<'a> Parser<'a> {
             }
             _ => None,
         }
+    }
+
+    /// `expr where decl, ..`: the declarations after the Hamiltonian `body`, if any.
+    fn source(&mut self, body: Ast) -> Result<Ast, Error> {
+        match self.peek() {
+            Some(t) if t.kind == TokenKind::Ident && self.text(t.span) == "where" => self.pos += 1,
+            _ => return Ok(body),
+        }
+        let mut decls = Vec::new();
+        loop {
+            let mut parts = vec![self.expr()?];
+            if self.peek().map(|t| t.kind) != Some(TokenKind::Eq) {
+                let at = self.peek().map_or(parts[0].span(), |t| t.span);
+                return Err(Error::new(ErrorKind::Declaration, at));
+            }
+            while self.eat(TokenKind::Eq).is_some() {
+                parts.push(self.expr()?);
+            }
+            let value = parts.pop().unwrap_or(Ast::Number(Span::default()));
+            decls.push(match (&parts[..], parts.first()) {
+                ([_], Some(Ast::Name(name))) => Decl::Constant { name: *name, value },
+                _ => Decl::Boundary {
+                    targets: parts,
+                    value,
+                },
+            });
+            if self.eat(TokenKind::Comma).is_none() {
+                break;
+            }
+        }
+        Ok(Ast::Where {
+            body: Box::new(body),
+            decls,
+        })
     }
 
     fn expr(&mut self) -> Result<Ast, Error> {
@@ -303,6 +446,46 @@ impl<'a> Parser<'a> {
         self.pos += 1;
         match t.kind {
             TokenKind::Number => Ok(Ast::Number(t.span)),
+            TokenKind::Ident if self.peek().map(|n| n.kind) == Some(TokenKind::LBracket) => {
+                self.pos += 1;
+                let index = self.expr()?;
+                let close = self.close_bracket()?;
+                Ok(Ast::Index {
+                    name: t.span,
+                    index: Box::new(index),
+                    span: t.span.to(close),
+                })
+            }
+            TokenKind::Ident
+                if self.text(t.span) == "sum"
+                    && self.peek().map(|n| n.kind) == Some(TokenKind::LParen) =>
+            {
+                let open = self.eat(TokenKind::LParen).map_or(t.span, |o| o.span);
+                let range = self.range()?;
+                match self.peek() {
+                    Some(c) if c.kind == TokenKind::Comma => self.pos += 1,
+                    Some(c) => return Err(Error::new(ErrorKind::SumRange, c.span)),
+                    None => return Err(Error::new(ErrorKind::UnclosedParen, open)),
+                }
+                let body = self.expr()?;
+                let close = self.close(open)?;
+                Ok(Ast::Sum {
+                    range: Box::new(range),
+                    body: Box::new(body),
+                    span: t.span.to(close),
+                })
+            }
+            TokenKind::LBracket => {
+                // Brackets used for grouping: reported over the group, read as parentheses.
+                let inner = self.expr()?;
+                let close = self.close_bracket()?;
+                let span = t.span.to(close);
+                self.errors.push(Error::new(ErrorKind::Brackets, span));
+                Ok(Ast::Paren {
+                    inner: Box::new(inner),
+                    span,
+                })
+            }
             TokenKind::Ident => {
                 if let Some(open) = self.eat(TokenKind::LParen) {
                     let arg = self.expr()?;
@@ -357,6 +540,69 @@ impl<'a> Parser<'a> {
                 },
                 t.span,
             )),
+        }
+    }
+
+    /// A sum's range: `i = lo..hi` or `lo <= i < j <= hi`.
+    fn range(&mut self) -> Result<Range, Error> {
+        let ident = |p: &mut Self| match p.peek() {
+            Some(t) if t.kind == TokenKind::Ident => {
+                p.pos += 1;
+                Ok(t.span)
+            }
+            Some(t) => Err(Error::new(ErrorKind::SumRange, t.span)),
+            None => Err(Error::new(ErrorKind::SumRange, p.end())),
+        };
+        let expect = |p: &mut Self, kinds: &[TokenKind]| match p.peek() {
+            Some(t) if kinds.contains(&t.kind) => {
+                p.pos += 1;
+                Ok(t.kind)
+            }
+            Some(t) => Err(Error::new(ErrorKind::SumRange, t.span)),
+            None => Err(Error::new(ErrorKind::SumRange, p.end())),
+        };
+        let single = matches!(
+            (self.peek(), self.tokens.get(self.pos + 1)),
+            (Some(a), Some(b)) if a.kind == TokenKind::Ident && b.kind == TokenKind::Eq
+        );
+        if single {
+            let index = ident(self)?;
+            expect(self, &[TokenKind::Eq])?;
+            let lo = self.expr()?;
+            expect(self, &[TokenKind::DotDot])?;
+            let hi = self.expr()?;
+            return Ok(Range::Single { index, lo, hi });
+        }
+        let lo = self.expr()?;
+        let lo_strict = expect(self, &[TokenKind::Le, TokenKind::Lt])? == TokenKind::Lt;
+        let i = ident(self)?;
+        expect(self, &[TokenKind::Lt])?;
+        let j = ident(self)?;
+        let hi_strict = expect(self, &[TokenKind::Le, TokenKind::Lt])? == TokenKind::Lt;
+        let hi = self.expr()?;
+        Ok(Range::Pairs {
+            lo,
+            lo_strict,
+            i,
+            j,
+            hi_strict,
+            hi,
+        })
+    }
+
+    /// An empty span at the end of the source.
+    fn end(&self) -> Span {
+        self.tokens.last().map_or(Span::default(), |t| t.span)
+    }
+
+    fn close_bracket(&mut self) -> Result<Span, Error> {
+        match self.peek() {
+            Some(t) if t.kind == TokenKind::RBracket => {
+                self.pos += 1;
+                Ok(t.span)
+            }
+            None => Err(Error::new(ErrorKind::UnclosedParen, self.end())),
+            Some(t) => Err(self.unexpected(t)),
         }
     }
 

@@ -138,9 +138,20 @@ pub fn expression(src: &str, params: &[&str]) -> Result<(Arena, Id, Span), Error
         src,
         arena: Arena::new(params),
         errors,
+        lattice: Default::default(),
     };
     let h = b.build(&ast);
+    let lattice_errors = b.lattice.finish(src);
     let (arena, mut errors) = (b.arena, b.errors);
+    errors.extend(lattice_errors);
+    // A sum's summand is built once per site: the same mistake at the same place is one error.
+    let mut unique: Vec<Error> = Vec::with_capacity(errors.len());
+    for e in errors {
+        if !unique.contains(&e) {
+            unique.push(e);
+        }
+    }
+    let mut errors = unique;
     match h {
         Some(h) if errors.is_empty() => Ok((arena, h, ast.span())),
         _ => {
@@ -151,7 +162,7 @@ pub fn expression(src: &str, params: &[&str]) -> Result<(Arena, Id, Span), Error
 }
 
 /// Builds `calH`, the gradient, the Hessian's upper triangle and Psi from `H`.
-fn derive(mut arena: Arena, h: Id, whole: Span) -> Result<System, Error> {
+pub(crate) fn derive(mut arena: Arena, h: Id, whole: Span) -> Result<System, Error> {
     let fault = |f: Fault, span: Span| Error::new(ErrorKind::Fault(f), span);
     // The bound on the arena, checked after each derivative: one derivative is at most
     // quadratic in its operand, so the work stops soon after the bound is crossed.

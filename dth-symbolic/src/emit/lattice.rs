@@ -1,0 +1,446 @@
+//! The code of a lattice compiled once per summand ([`crate::looped`]): every method loops
+//! over the sites, runs the summand's straight-line program on the local coordinates it reads
+//! and scatters the results, so the emitted code does not grow with the number of sites.
+//!
+//! The Hessian's pattern and the position each (sum, site, summand entry) writes to are
+//! computed by a `const` block in the generated code (loops run by the compiler's constant
+//! evaluator), not written out: `HESSIAN_PATTERN` holds them without code growing with `N`.
+
+use proc_macro2::{Ident, TokenStream};
+use quote::quote;
+
+use super::{body, Context, Values, CHUNK_OPS};
+use crate::looped::{Looped, Site};
+use crate::{Method, Output, Program};
+
+/// `impl Hamiltonian<D>` for a looped lattice, or `None` when a summand's program is too long
+/// for one loop body (the caller emits the site-by-site code instead).
+pub fn looped_impl(looped: &Looped, name: &Ident, params: &[Ident]) -> Option<TokenStream> {
+    let cx = Context { name, params };
+    let programs = |m: Method| -> Vec<Program> {
+        looped.sums.iter().map(|s| s.summand().program(m)).collect()
+    };
+    let (value_p, gradient_p, hessian_p, pair_p, defect_p) = (
+        programs(Method::Value),
+        programs(Method::Gradient),
+        programs(Method::Hessian),
+        programs(Method::DiscreteGradient),
+        programs(Method::DiscreteGradientDefect),
+    );
+    let too_long = [&value_p, &gradient_p, &hessian_p, &pair_p, &defect_p]
+        .iter()
+        .any(|ps| ps.iter().any(|p| p.ops.len() > CHUNK_OPS));
+    if too_long {
+        return None;
+    }
+    let n = looped.n;
+    let d = 2 * n;
+    let n_i64 = n as i64;
+    let nalgebra = quote!(::dth::__private::nalgebra);
+    let core = quote!(::dth::__private::dth_core);
+    // The pattern is counted by the compiler's constant evaluator, not here (that would take
+    // time growing with N). A row receives an entry from a summand entry at most at the two
+    // sites where one of its slots lands on the row, once more per boundary mapped there.
+    let entries: usize = looped.sums.iter().map(|s| s.pattern.len()).sum();
+    let width = (2 * entries * (1 + looped.boundaries.len())).max(1);
+    let separable = looped.separable();
+    let psi0 = entries == 0;
+    let min_dim = super::STRUCTURED_MIN_DIM;
+
+    // Where letter[k] lives: the lattice, or a boundary (periodic: a site; fixed: a value).
+    let arms = looped.boundaries.iter().map(|&(letter, k, site)| {
+        let q = letter == 'q';
+        match site {
+            Site::Var(a) => {
+                quote!(if q == #q && k == #k { return ::core::option::Option::Some(#a); })
+            }
+            Site::Const(_) => {
+                quote!(if q == #q && k == #k { return ::core::option::Option::None; })
+            }
+        }
+    });
+    let fixed = looped.boundaries.iter().filter_map(|&(letter, k, site)| {
+        let q = letter == 'q';
+        match site {
+            Site::Const(v) => {
+                let v = super::code::constant(v);
+                Some(quote!(if q == #q && k == #k { return #v; }))
+            }
+            Site::Var(_) => None,
+        }
+    });
+    let helpers = quote! {
+        /// The position in `z` of `q[k]` (`q`) or `p[k]`; `None` at a fixed boundary.
+        #[allow(dead_code)]
+        const fn site(q: bool, k: i64) -> ::core::option::Option<usize> {
+            if k >= 1 && k <= #n_i64 {
+                return ::core::option::Option::Some(if q { (k - 1) as usize } else { #n + (k - 1) as usize });
+            }
+            #(#arms)*
+            ::core::option::Option::None
+        }
+        /// The value of a fixed boundary.
+        #[allow(dead_code)]
+        const fn fixed(q: bool, k: i64) -> f64 {
+            #(#fixed)*
+            0.0
+        }
+    };
+
+    // The positions table: for each sum, site and summand entry, where it lands.
+    let mut pos_len = 0usize;
+    let mut offsets = Vec::new();
+    for s in &looped.sums {
+        offsets.push(pos_len);
+        pos_len += (s.hi - s.lo + 1) as usize * s.pattern.len();
+    }
+    let pos_len = pos_len.max(1);
+    let table_loops = looped.sums.iter().map(|s| {
+        let (lo, hi) = (s.lo, s.hi);
+        let pairs = s.pattern.iter().map(|&(r, t)| {
+            let (lr, cr, _) = s.slots[r];
+            let (lt, ct, _) = s.slots[t];
+            let (qr, qt) = (lr == 'q', lt == 'q');
+            quote! {
+                if let (::core::option::Option::Some(a), ::core::option::Option::Some(b)) =
+                    (site(#qr, i + #cr), site(#qt, i + #ct))
+                {
+                    let (a, b) = if a <= b { (a, b) } else { (b, a) };
+                    let mut k = 0;
+                    let mut found = usize::MAX;
+                    while k < counts[a] {
+                        if pattern[rows[a][k]].1 == b {
+                            found = rows[a][k];
+                        }
+                        k += 1;
+                    }
+                    if found == usize::MAX {
+                        pattern[nnz] = (a, b);
+                        rows[a][counts[a]] = nnz;
+                        counts[a] += 1;
+                        found = nnz;
+                        nnz += 1;
+                    }
+                    pos[p] = found;
+                }
+                p += 1;
+            }
+        });
+        quote! {
+            let mut i: i64 = #lo;
+            while i <= #hi {
+                #(#pairs)*
+                i += 1;
+            }
+        }
+    });
+    let tables = quote! {
+        /// The Hessian's pattern (in its first `.2` entries) and, per (sum, site, summand
+        /// entry), its position there.
+        #[allow(clippy::all)]
+        const TABLES: ([(usize, usize); #pos_len], [usize; #pos_len], usize) = {
+            let mut pattern = [(0usize, 0usize); #pos_len];
+            let mut rows = [[0usize; #width]; #d];
+            let mut counts = [0usize; #d];
+            let mut pos = [usize::MAX; #pos_len];
+            let mut nnz = 0usize;
+            let mut p = 0usize;
+            #(#table_loops)*
+            let _ = p;
+            (pattern, pos, nnz)
+        };
+        /// The number of nonzero entries in the upper triangle.
+        const NNZ: usize = TABLES.2;
+        /// The pattern, `NNZ` entries.
+        const PATTERN: [(usize, usize); NNZ] = {
+            // Read `TABLES` once: each mention of a constant is a copy of all of it.
+            let all = TABLES.0;
+            let mut out = [(0usize, 0usize); NNZ];
+            let mut k = 0;
+            while k < NNZ {
+                out[k] = all[k];
+                k += 1;
+            }
+            out
+        };
+        /// The positions, in memory once (indexing the constant would copy it).
+        #[allow(dead_code)]
+        static POSITIONS: [usize; #pos_len] = TABLES.1;
+    };
+
+    // One loop per sum: the local coordinates read from `zg` (and `zg1`), the program, and
+    // `scatter` of its outputs.
+    let loops = |programs: &[Program],
+                 two_point: bool,
+                 scatter: &dyn Fn(usize, &Values) -> TokenStream|
+     -> TokenStream {
+        let sums = looped
+            .sums
+            .iter()
+            .zip(programs)
+            .enumerate()
+            .map(|(k, (s, program))| {
+                let (lo, hi) = (s.lo, s.hi);
+                let load = |zg: TokenStream| {
+                    let entries = (0..s.local_dim).map(|l| {
+                        match s.slots.iter().find(|&&(_, _, local)| local == l) {
+                            Some(&(letter, c, _)) => {
+                                let q = letter == 'q';
+                                quote! {
+                                    match site(#q, i + #c) {
+                                        ::core::option::Option::Some(a) => #zg[a],
+                                        ::core::option::Option::None => fixed(#q, i + #c),
+                                    }
+                                }
+                            }
+                            None => quote!(0.0f64),
+                        }
+                    });
+                    quote!([#(#entries),*])
+                };
+                let z0 = load(quote!(zg));
+                let local_dim = s.local_dim;
+                let z1 = if two_point {
+                    let z1 = load(quote!(zg1));
+                    quote!(let z1: [f64; #local_dim] = #z1;)
+                } else {
+                    quote!()
+                };
+                let code = body(program, &cx, |v| scatter(k, v));
+                quote! {
+                    let mut i: i64 = #lo;
+                    while i <= #hi {
+                        let z: [f64; #local_dim] = #z0;
+                        #z1
+                        { #code }
+                        i += 1;
+                    }
+                }
+            });
+        quote!(#(#sums)*)
+    };
+    // The global position of the slot holding local coordinate `l`, as `Option<usize>`.
+    let slot_site = |k: usize, l: usize| -> Option<TokenStream> {
+        let s = &looped.sums[k];
+        s.slots
+            .iter()
+            .find(|&&(_, _, local)| local == l)
+            .map(|&(letter, c, _)| {
+                let q = letter == 'q';
+                quote!(site(#q, i + #c))
+            })
+    };
+    let scatter_vector = |k: usize, entries: &[(usize, TokenStream)], target: TokenStream| {
+        let adds = entries.iter().filter_map(|(l, e)| {
+            let at = slot_site(k, *l)?;
+            Some(quote! {
+                if let ::core::option::Option::Some(a) = #at { #target[a] += #e; }
+            })
+        });
+        quote!({ #(#adds)* })
+    };
+
+    let value = loops(&value_p, false, &|_, v| {
+        let e = &v.value;
+        quote!({ acc += #e; })
+    });
+    let gradient = loops(&gradient_p, false, &|k, v| {
+        scatter_vector(k, &v.gradient, quote!(g))
+    });
+    let nonzeros = loops(&hessian_p, false, &|k, v| {
+        let s = &looped.sums[k];
+        let offset = offsets[k];
+        let npairs = s.pattern.len();
+        let lo = s.lo;
+        let writes = s.pattern.iter().enumerate().map(|(idx, &(r, t))| {
+            let (lr, lt) = (s.slots[r].2, s.slots[t].2);
+            let (a, b) = (lr.min(lt), lr.max(lt));
+            let e = v
+                .hessian
+                .iter()
+                .find(|(i, j, _)| (*i, *j) == (a, b))
+                .map_or(quote!(0.0f64), |(_, _, e)| e.clone());
+            let (site_r, site_t) = (
+                slot_site(k, lr).unwrap_or(quote!(::core::option::Option::None)),
+                slot_site(k, lt).unwrap_or(quote!(::core::option::Option::None)),
+            );
+            let distinct = r != t;
+            quote! {
+                let at = POSITIONS[#offset + (i - #lo) as usize * #npairs + #idx];
+                if at != usize::MAX {
+                    // Two slots on one particle (a ring of two): the mixed entry counts twice.
+                    let twice = #distinct && #site_r == #site_t;
+                    values[at] += if twice { 2.0 * #e } else { #e };
+                }
+            }
+        });
+        quote!({ #(#writes)* })
+    });
+    let discrete_gradient = loops(
+        &pair_p
+            .iter()
+            .map(|p| p.prune(|o| matches!(o, Output::DiscreteGradient(_))))
+            .collect::<Vec<_>>(),
+        true,
+        &|k, v| scatter_vector(k, &v.discrete_gradient, quote!(g)),
+    );
+    let energy_difference = loops(
+        &pair_p
+            .iter()
+            .map(|p| p.prune(|o| o == Output::EnergyDifference))
+            .collect::<Vec<_>>(),
+        true,
+        &|_, v| {
+            let e = &v.energy_difference;
+            quote!({ acc += #e; })
+        },
+    );
+    let defect = loops(&defect_p, true, &|k, v| {
+        scatter_vector(k, &v.discrete_gradient_defect, quote!(g))
+    });
+    let source = format!(" A lattice of {n} sites compiled in loops (D = {d})");
+    Some(quote! {
+        #[doc = #source]
+        #[automatically_derived]
+        #[allow(unused_variables, unused_mut, unused_assignments, unused_parens, clippy::all, clippy::pedantic, clippy::nursery)]
+        impl #core::Hamiltonian<#d> for #name {
+            const TIME_DEPENDENT: bool = false;
+            const SEPARABLE: bool = #separable;
+            const PSI_IDENTICALLY_ZERO: bool = #psi0;
+            const EXACT_DIVIDED_DIFFERENCES: bool = true;
+            const HESSIAN_PATTERN: ::core::option::Option<&'static [(usize, usize)]> = {
+                #helpers
+                #tables
+                ::core::option::Option::Some(&PATTERN)
+            };
+            // `structured_newton` of the emitter, on the pattern the constant evaluator built.
+            const STRUCTURED_NEWTON: bool = {
+                let pattern = match <Self as #core::Hamiltonian<#d>>::HESSIAN_PATTERN {
+                    ::core::option::Option::Some(p) => p,
+                    ::core::option::Option::None => &[],
+                };
+                let (mut k, mut diagonal) = (0, 0);
+                while k < pattern.len() {
+                    if pattern[k].0 == pattern[k].1 {
+                        diagonal += 1;
+                    }
+                    k += 1;
+                }
+                #d >= #min_dim && 4 * (2 * pattern.len() - diagonal) <= #d * #d
+            };
+
+            #[inline]
+            fn value(&self, z: &#nalgebra::SVector<f64, #d>) -> f64 {
+                #helpers
+                let zg = z;
+                let mut acc = 0.0f64;
+                #value
+                acc
+            }
+            #[inline]
+            fn gradient(&self, z: &#nalgebra::SVector<f64, #d>) -> #nalgebra::SVector<f64, #d> {
+                #helpers
+                let zg = z;
+                let mut g = #nalgebra::SVector::<f64, #d>::zeros();
+                #gradient
+                g
+            }
+            #[inline]
+            fn hessian(&self, z: &#nalgebra::SVector<f64, #d>) -> #nalgebra::SMatrix<f64, #d, #d> {
+                let pattern = <Self as #core::Hamiltonian<#d>>::HESSIAN_PATTERN.unwrap_or(&[]);
+                const NNZ: usize = match <#name as #core::Hamiltonian<#d>>::HESSIAN_PATTERN {
+                    ::core::option::Option::Some(p) => p.len(),
+                    ::core::option::Option::None => 0,
+                };
+                let mut values = [0.0f64; NNZ];
+                self.hessian_nonzeros(z, &mut values);
+                let mut h = #nalgebra::SMatrix::<f64, #d, #d>::zeros();
+                for (&(a, b), &v) in pattern.iter().zip(values.iter()) {
+                    h[(a, b)] = v;
+                    h[(b, a)] = v;
+                }
+                h
+            }
+            /// Only the Hessian's nonzero entries, in the order of `HESSIAN_PATTERN`.
+            #[inline]
+            fn hessian_nonzeros(&self, z: &#nalgebra::SVector<f64, #d>, values: &mut [f64]) {
+                #helpers
+                #tables
+                let zg = z;
+                let values = &mut values[..NNZ];
+                for v in values.iter_mut() {
+                    *v = 0.0;
+                }
+                #nonzeros
+            }
+            #[inline]
+            fn psi(&self, z: &#nalgebra::SVector<f64, #d>) -> f64 {
+                let pattern = <Self as #core::Hamiltonian<#d>>::HESSIAN_PATTERN.unwrap_or(&[]);
+                const NNZ: usize = match <#name as #core::Hamiltonian<#d>>::HESSIAN_PATTERN {
+                    ::core::option::Option::Some(p) => p.len(),
+                    ::core::option::Option::None => 0,
+                };
+                let g = self.gradient(z);
+                let mut values = [0.0f64; NNZ];
+                self.hessian_nonzeros(z, &mut values);
+                let w = |i: usize| if i < #n { g[i + #n] } else { -g[i - #n] };
+                let mut psi = 0.0f64;
+                for (&(a, b), &v) in pattern.iter().zip(values.iter()) {
+                    psi += if a == b { v * w(a) * w(a) } else { 2.0 * v * w(a) * w(b) };
+                }
+                psi
+            }
+            #[inline]
+            fn derivatives(&self, z: &#nalgebra::SVector<f64, #d>) -> #core::Derivatives<#d> {
+                #core::Derivatives {
+                    value: self.value(z),
+                    gradient: self.gradient(z),
+                    hessian: self.hessian(z),
+                    psi: self.psi(z),
+                }
+            }
+            /// Exact divided differences of `H`, without cancellation, summand by summand.
+            #[inline]
+            fn discrete_gradient(
+                &self,
+                z0: &#nalgebra::SVector<f64, #d>,
+                z1: &#nalgebra::SVector<f64, #d>,
+            ) -> #nalgebra::SVector<f64, #d> {
+                #helpers
+                let (zg, zg1) = (z0, z1);
+                let mut g = #nalgebra::SVector::<f64, #d>::zeros();
+                #discrete_gradient
+                g
+            }
+            /// `H(z1) - H(z0)` by exact divided differences, without cancellation.
+            #[inline]
+            fn energy_difference(
+                &self,
+                z0: &#nalgebra::SVector<f64, #d>,
+                z1: &#nalgebra::SVector<f64, #d>,
+            ) -> f64 {
+                #helpers
+                let (zg, zg1) = (z0, z1);
+                let mut acc = 0.0f64;
+                #energy_difference
+                acc
+            }
+            /// `grad H(z0) + grad H(z1) - 2 gbar(z0, z1)` without cancellation; `gbar` is
+            /// recomputed inside, not read.
+            #[inline]
+            fn discrete_gradient_defect(
+                &self,
+                z0: &#nalgebra::SVector<f64, #d>,
+                z1: &#nalgebra::SVector<f64, #d>,
+                gbar: &#nalgebra::SVector<f64, #d>,
+            ) -> #nalgebra::SVector<f64, #d> {
+                #helpers
+                let _ = gbar;
+                let (zg, zg1) = (z0, z1);
+                let mut g = #nalgebra::SVector::<f64, #d>::zeros();
+                #defect
+                g
+            }
+        }
+    })
+}
