@@ -49,10 +49,10 @@ pub const TYPE_NAME: &str = "GeneratedHamiltonian";
 /// The code `hamiltonian! { pub struct GeneratedHamiltonian { pub a: f64, .. } = SOURCE }`
 /// emits for `source` with the parameters `params` (each a `pub f64` field, in this order),
 /// formatted as a Rust file: the struct, and `const _: () = { impl Hamiltonian<D> .. };`.
-/// The macro's warnings (spanned on the user's tokens) are left out; [`derive`] shows them.
+/// The macro's warnings (spanned on the user's tokens) are left out; [`derive()`] shows them.
 ///
 /// # Errors
-/// [`Error::Hamiltonian`] for a malformed expression (as [`derive`]) or a parameter that is
+/// [`Error::Hamiltonian`] for a malformed expression (as [`derive()`]) or a parameter that is
 /// not a Rust identifier (a keyword, say), which cannot name a field.
 pub fn rust(source: &str, params: &[&str]) -> Result<String, Error> {
     let tokens = rust_tokens(source, params)?;
