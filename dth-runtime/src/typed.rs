@@ -156,7 +156,9 @@ impl<const D: usize, const TIME_DEPENDENT: bool, const SEPARABLE: bool> Hamilton
     /// One call of the fused program. Its buffer (`1 + D + D^2 + 1` values) lives on the
     /// stack as two `D x D` arrays, the smallest fixed-size array stable Rust can name that
     /// holds it for every even `D >= 2` (`2 D^2 >= D^2 + D + 2`); its pieces are then copied
-    /// into [`Derivatives`].
+    /// into [`Derivatives`]. That is twice the stack `Derivatives<D>` itself takes: fine for
+    /// the dense solver's sizes, megabytes for `D` in the hundreds (the core's `Dim`
+    /// generalisation writes into the caller's storage instead).
     fn derivatives(&self, z: &SVector<f64, D>) -> Derivatives<D> {
         let mut buffer = [[[0.0f64; D]; D]; 2];
         let flat = buffer.as_flattened_mut().as_flattened_mut();
