@@ -8,10 +8,25 @@
 //! assert!(text.contains("separable: yes"));
 //! # Ok::<(), dth_examples::Error>(())
 //! ```
+//!
+//! With `--rust`, [`rust`] prints the code `hamiltonian!` emits for the same expression: the
+//! type and its `impl Hamiltonian<D>`, written by the engine's emitter
+//! ([`dth_symbolic::emit::hamiltonian_impl`], the function the macro calls) and formatted
+//! by prettyplease.
+//!
+//! ```
+//! let code = dth_examples::derive::rust("p1^2/(2*m) + k*q1^2/2", &["m", "k"])?;
+//! assert!(code.starts_with("pub struct GeneratedHamiltonian {\n    pub m: f64,"));
+//! assert!(code.contains("impl ::dth::__private::dth_core::Hamiltonian<2usize> for GeneratedHamiltonian"));
+//! # Ok::<(), dth_examples::Error>(())
+//! ```
 
 use std::fmt::Write as _;
 
+use dth_symbolic::emit::hamiltonian_impl;
 use dth_symbolic::{compile, Errors, System, Var};
+use proc_macro2::{Ident, Span, TokenStream};
+use quote::quote;
 
 use crate::error::Error;
 
@@ -26,6 +41,57 @@ pub fn derive(source: &str, params: &[&str]) -> Result<String, Error> {
         diagnostics: render_errors(source, &errors),
     })?;
     Ok(report(source, &system))
+}
+
+/// The name of the type [`rust`] declares: the one the macro's expression form declares.
+pub const TYPE_NAME: &str = "GeneratedHamiltonian";
+
+/// The code `hamiltonian! { pub struct GeneratedHamiltonian { pub a: f64, .. } = SOURCE }`
+/// emits for `source` with the parameters `params` (each a `pub f64` field, in this order),
+/// formatted as a Rust file: the struct, and `const _: () = { impl Hamiltonian<D> .. };`.
+/// The macro's warnings (spanned on the user's tokens) are left out; [`derive()`] shows them.
+///
+/// # Errors
+/// [`Error::Hamiltonian`] for a malformed expression (as [`derive()`]) or a parameter that is
+/// not a Rust identifier (a keyword, say), which cannot name a field.
+pub fn rust(source: &str, params: &[&str]) -> Result<String, Error> {
+    let tokens = rust_tokens(source, params)?;
+    let file: syn::File = syn::parse2(tokens).map_err(|e| Error::Hamiltonian {
+        diagnostics: format!("the emitted code does not parse (an emitter bug): {e}\n"),
+    })?;
+    Ok(prettyplease::unparse(&file))
+}
+
+/// The tokens [`rust`] formats: the declaration, and the emitter's implementation in
+/// `const _: () = { .. };` as the macro's item form seals it.
+///
+/// # Errors
+/// As [`rust`].
+pub fn rust_tokens(source: &str, params: &[&str]) -> Result<TokenStream, Error> {
+    let system = compile(source, params).map_err(|errors| Error::Hamiltonian {
+        diagnostics: render_errors(source, &errors),
+    })?;
+    let fields = params
+        .iter()
+        .map(|p| {
+            syn::parse_str::<Ident>(p).map_err(|_| Error::Hamiltonian {
+                diagnostics: format!(
+                    "error: parameter `{p}` is not a Rust identifier, so it cannot name a field of the emitted type\n"
+                ),
+            })
+        })
+        .collect::<Result<Vec<Ident>, Error>>()?;
+    let name = Ident::new(TYPE_NAME, Span::call_site());
+    let imp = hamiltonian_impl(&system, &name, &fields);
+    let decl = if fields.is_empty() {
+        quote!(pub struct #name;)
+    } else {
+        quote!(pub struct #name { #(pub #fields: f64),* })
+    };
+    Ok(quote! {
+        #decl
+        const _: () = { #imp };
+    })
 }
 
 /// The name of a phase-space coordinate.

@@ -123,14 +123,19 @@ enum Command {
     },
     /// Show what the symbolic engine derives from a Hamiltonian (the `hamiltonian!` grammar):
     /// the simplified gradient, the Hessian's nonzero entries, Psi = (J gradH)^T HessH (J gradH),
-    /// and the flags (separable, time-dependent, Psi identically zero). Exit 2 with the
-    /// position of each error for a malformed expression.
+    /// and the flags (separable, time-dependent, Psi identically zero); with `--rust`, the
+    /// Rust code `hamiltonian!` emits for it instead. Exit 2 with the position of each error
+    /// for a malformed expression.
     Derive {
         /// The Hamiltonian, e.g. "p1^2/(2*m) + k*q1^2/2" (quote it for the shell).
         expr: String,
         /// A parameter name the expression uses (repeat, or separate with commas).
         #[arg(long = "param", short = 'p', value_delimiter = ',')]
         params: Vec<String>,
+        /// Print the code `hamiltonian!` emits (the struct `GeneratedHamiltonian` with one
+        /// `f64` field per parameter, and its `impl Hamiltonian<D>`), formatted.
+        #[arg(long)]
+        rust: bool,
     },
 }
 
@@ -319,9 +324,14 @@ fn main_inner(cli: Cli) -> Result<ExitCode, CliError> {
             }
             Ok(ExitCode::SUCCESS)
         }
-        Some(Command::Derive { expr, params }) => {
+        Some(Command::Derive { expr, params, rust }) => {
             let params: Vec<&str> = params.iter().map(String::as_str).collect();
-            print!("{}", dth_examples::derive::derive(&expr, &params)?);
+            let text = if rust {
+                dth_examples::derive::rust(&expr, &params)?
+            } else {
+                dth_examples::derive::derive(&expr, &params)?
+            };
+            print!("{text}");
             Ok(ExitCode::SUCCESS)
         }
         Some(Command::Workprecision { out, quick }) => {

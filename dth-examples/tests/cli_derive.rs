@@ -52,3 +52,72 @@ fn a_malformed_expression_is_exit_2_with_every_error_located() {
     assert!(err.contains("`y`"), "{err}");
     assert!(stdout(&o).is_empty());
 }
+
+/// `dth derive --rust` prints the expansion of `hamiltonian! { pub struct GeneratedHamiltonian
+/// { pub m: f64, .. } = EXPR }`: the struct, then the implementation the macro seals in
+/// `const _: () = { .. };`, which is `dth_symbolic::emit::hamiltonian_impl` (the function the
+/// macro's `expand` calls). The expected text is those tokens, built here from the emitter,
+/// through the same printer (prettyplease: besides whitespace it adds trailing commas and
+/// writes `#[doc]` attributes as `///` comments, so the printed file's tokens are not the
+/// emitter's token for token, but its syntax tree is).
+#[test]
+fn derive_rust_prints_the_tokens_the_macro_emits() {
+    use proc_macro2::{Ident, Span};
+    use quote::quote;
+
+    let dir = tempfile::tempdir().unwrap();
+    for (expr, params) in [
+        (
+            "(p1^2 + p2^2)/(2*m) - k*(q1^2 + q2^2)^(-1/2)",
+            &["m", "k"][..],
+        ),
+        // Time-dependent (extended phase space, D = 4) with a divided-difference kernel.
+        ("p1^2/2 + q1^2/2 + q1^4/4 - f*q1*cos(w*t)", &["f", "w"][..]),
+        // No parameters: a unit struct.
+        ("p1^2/2 + exp(q1)", &[][..]),
+    ] {
+        let mut args = vec!["derive", "--rust", expr];
+        if !params.is_empty() {
+            args.push("--param");
+        }
+        let joined = params.join(",");
+        if !params.is_empty() {
+            args.push(&joined);
+        }
+        let o = dth(&args, dir.path());
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        let printed = stdout(&o);
+
+        let system = dth_symbolic::compile(expr, params).unwrap();
+        let name = Ident::new("GeneratedHamiltonian", Span::call_site());
+        let fields: Vec<Ident> = params
+            .iter()
+            .map(|p| Ident::new(p, Span::call_site()))
+            .collect();
+        let imp = dth_symbolic::emit::hamiltonian_impl(&system, &name, &fields);
+        let decl = if fields.is_empty() {
+            quote!(pub struct #name;)
+        } else {
+            quote!(pub struct #name { #(pub #fields: f64),* })
+        };
+        let expected = quote!(#decl const _: () = { #imp };);
+        let expected = prettyplease::unparse(&syn::parse2(expected).unwrap());
+        assert_eq!(printed, expected, "{expr}");
+        // Printing is stable: the printed file parses back to itself.
+        let reparsed: syn::File = syn::parse_str(&printed).unwrap();
+        assert_eq!(prettyplease::unparse(&reparsed), printed);
+    }
+    assert!(entries(dir.path()).is_empty());
+}
+
+#[test]
+fn derive_rust_refuses_a_parameter_that_cannot_name_a_field() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = dth(
+        &["derive", "--rust", "p1^2/(2*fn) + q1^2", "-p", "fn"],
+        dir.path(),
+    );
+    assert_eq!(o.status.code(), Some(2), "{}", stdout(&o));
+    assert!(stderr(&o).contains("parameter `fn` is not a Rust identifier"));
+    assert!(stdout(&o).is_empty());
+}

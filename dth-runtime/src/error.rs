@@ -99,6 +99,26 @@ pub enum RuntimeError {
         /// The length given.
         found: usize,
     },
+    /// The text's dimension is not the `D` a [`crate::Typed`] view names.
+    #[error("the Hamiltonian has dimension D = {found}, the type names D = {expected}")]
+    DimensionMismatch {
+        /// The type's `D`.
+        expected: usize,
+        /// The text's: `2n`, or `2n + 2` when it uses `t`.
+        found: usize,
+    },
+    /// A flag a [`crate::Typed`] view declares at compile time contradicts what the engine
+    /// derived from the text.
+    #[error("the type declares {flag} = {declared}, but the Hamiltonian's is {derived}")]
+    FlagMismatch {
+        /// The constant of `dth_core::Hamiltonian`: `TIME_DEPENDENT`, `SEPARABLE` or
+        /// `PSI_IDENTICALLY_ZERO`.
+        flag: &'static str,
+        /// The view's value.
+        declared: bool,
+        /// The text's.
+        derived: bool,
+    },
     /// An evaluation produced NaN or an infinity (outside the domain of `ln`, `sqrt`, a
     /// negative power at 0, an overflow).
     #[error("the {what} is not finite at this point: {output:?} = {value}")]

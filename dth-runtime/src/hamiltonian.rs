@@ -144,7 +144,8 @@ impl RuntimeHamiltonian {
         })
     }
 
-    fn run(
+    /// Runs `f` at `z0`, `z1` (the same point for a one-point function) into `out`.
+    pub(crate) fn run(
         &self,
         f: Function,
         z0: &[f64],

@@ -43,6 +43,8 @@
 //! 5. [`backend`]: the JIT or the interpreter behind one call that checks lengths and
 //!    finiteness.
 //! 6. [`hamiltonian`]: [`RuntimeHamiltonian`], the public face.
+//! 7. [`typed`]: [`Typed`], a [`RuntimeHamiltonian`] as a `dth_core::Hamiltonian<D>` for a
+//!    `D` named at compile time, so the stepper and the peers run it.
 //!
 //! # Compiled code equals the interpreter
 //!
@@ -65,19 +67,15 @@
 //! [`RuntimeError::NonFinite`], not a NaN passed on. The interpreter backend allocates its
 //! result on every call.
 //!
-//! # Towards the `Hamiltonian` trait
+//! # The `Hamiltonian` trait
 //!
-//! `dth_core::Hamiltonian<D>` fixes `D` at compile time; a runtime Hamiltonian knows `D`
-//! only when its text is read. Once the core is generic over nalgebra's dimension (`Const<D>`
-//! and `Dyn`), the trait's methods map one to one onto [`RuntimeHamiltonian`]'s
-//! ([`Function`] is named after them): `value`, `gradient`, `hessian` and `psi` call the
-//! methods of the same name with `z.as_slice()` and a `DVector`/`DMatrix` the caller (or the
-//! stepper's workspace) owns, `derivatives` fills a [`Derivatives`] kept in that workspace,
-//! `discrete_gradient`, `energy_difference` and `discrete_gradient_defect` likewise; the
-//! constants `SEPARABLE`, `TIME_DEPENDENT` and `PSI_IDENTICALLY_ZERO` become the methods
-//! [`RuntimeHamiltonian::separable`] and so on, and `EXACT_DIVIDED_DIFFERENCES` is `true`.
-//! Errors (a non-finite value) surface through the stepper's own non-finite checks. The
-//! Hessian is dense row-major, which is column-major of the same symmetric matrix.
+//! `dth_core::Hamiltonian<D>` fixes `D` and the flags at compile time; a runtime Hamiltonian
+//! knows them when its text is read. [`Typed`] names them in its type and checks them when
+//! built: every trait method is then one call of the compiled function of the same name
+//! ([`Function`] is named after them), so DTH and every peer run it, with the macro's bits
+//! (`tests/typed_matches_macro.rs` in the `dth` crate steps both). A `D` known only at run
+//! time needs the core generic over nalgebra's dimensions (`Const<D>` and `Dyn`); the plan
+//! is `docs/runtime_dimension.md`.
 #![warn(missing_docs)]
 
 pub mod backend;
@@ -86,8 +84,10 @@ pub mod hamiltonian;
 pub mod jit;
 pub mod layout;
 pub mod shims;
+pub mod typed;
 
 pub use backend::Backend;
 pub use error::{JitError, RuntimeError};
 pub use hamiltonian::{Derivatives, RuntimeHamiltonian};
 pub use layout::Function;
+pub use typed::Typed;

@@ -4,7 +4,9 @@
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use dth_runtime::{Backend, RuntimeHamiltonian};
+use dth_core::nalgebra::SVector;
+use dth_core::Hamiltonian;
+use dth_runtime::{Backend, RuntimeHamiltonian, Typed};
 
 struct Counting;
 
@@ -60,4 +62,31 @@ fn compiled_evaluations_allocate_nothing() {
     let before = ALLOCATIONS.load(Ordering::SeqCst);
     reference.value(&[0.5, 1.0]).unwrap();
     assert!(ALLOCATIONS.load(Ordering::SeqCst) > before);
+}
+
+/// The trait's methods through [`Typed`] allocate nothing either: each is one call of compiled
+/// code into nalgebra's fixed-size (stack) storage.
+#[test]
+fn trait_evaluations_allocate_nothing() {
+    let h = RuntimeHamiltonian::new(
+        "p1^2/(2*m) + p2^2/2 + exp(q1 - q2) + sin(q1)*cos(t) + (1 + q2^2)^(1/3)",
+        &[("m", 1.5)],
+    )
+    .unwrap();
+    let h = Typed::<6, true>::new(h).unwrap();
+    let z0 = SVector::<f64, 6>::from_fn(|i, _| 0.1 * i as f64 - 0.2);
+    let z1 = z0.add_scalar(0.01);
+    let before = ALLOCATIONS.load(Ordering::SeqCst);
+    let mut acc = 0.0;
+    for _ in 0..100 {
+        acc += h.value(&z0) + h.psi(&z0) + h.energy_difference(&z0, &z1);
+        acc += h.gradient(&z0).sum() + h.hessian(&z0).sum();
+        let d = h.derivatives(&z0);
+        acc += d.value + d.gradient.sum() + d.hessian.sum() + d.psi;
+        let gbar = h.discrete_gradient(&z0, &z1);
+        acc += h.discrete_gradient_defect(&z0, &z1, &gbar).sum();
+    }
+    let after = ALLOCATIONS.load(Ordering::SeqCst);
+    assert!(acc.is_finite());
+    assert_eq!(after - before, 0, "allocations during evaluation");
 }
