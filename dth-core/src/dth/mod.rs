@@ -57,6 +57,7 @@
 
 mod composition;
 mod extended;
+mod linear;
 mod newton;
 mod options;
 mod robust;
