@@ -16,8 +16,7 @@
 //! (structured from `D = 8`). With `DTH_LONG_RUN=1` in the environment, `dth_long_run` first
 //! runs `10^4` DTH steps of the FPUT chain of 512 particles (`t ~ 10^3`) once and prints their
 //! time and the largest energy error at the midpoints, which it checks to be at roundoff (the
-//! release-profile run of the test `dth_keeps_the_energy_of_the_512_particle_chain_on_a_2mb_stack`,
-//! which takes fewer steps).
+//! release-profile run of the test `dth_keeps_the_energy_of_the_512_particle_chain_on_a_2mb_stack`).
 //!
 //! The crossover of `hamiltonian!` (`STRUCTURED_NEWTON` from `D = 8`) and the table of
 //! `docs/benchmarks.md` come from this bench. Run with
