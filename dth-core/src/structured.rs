@@ -230,11 +230,24 @@ impl BandedLu {
     /// # Panics
     /// When `b` is not of length `m`.
     pub fn solve(&mut self, b: &mut [f64]) {
+        // Taking the workspace out and back moves a pointer: no allocation.
+        let mut work = std::mem::take(&mut self.work);
+        self.solve_with(b, &mut work);
+        self.work = work;
+    }
+
+    /// [`solve`](Self::solve) with caller-provided workspace (`work` of length `m`), for
+    /// callers that hold the factorization by shared reference.
+    ///
+    /// # Panics
+    /// When `b` or `work` is not of length `m`.
+    pub fn solve_with(&self, b: &mut [f64], work: &mut [f64]) {
         assert_eq!(b.len(), self.m, "right-hand side of length m");
+        assert_eq!(work.len(), self.m, "workspace of length m");
         let (m, kl, ld) = (self.m, self.kl, self.ldab);
         let kv = kl + self.ku;
         let at = |i: usize, j: usize| kv + i - j + j * ld;
-        let x = &mut self.work;
+        let x = work;
         for (k, &i) in self.order.iter().enumerate() {
             x[k] = b[i];
         }
@@ -424,6 +437,12 @@ impl NewtonMatrix {
     /// stage).
     pub fn solve(&mut self, b: &mut [f64]) {
         self.lu.solve(b);
+    }
+
+    /// [`solve`](Self::solve) with caller-provided workspace (`work` as long as `b`), by
+    /// shared reference.
+    pub fn solve_with(&self, b: &mut [f64], work: &mut [f64]) {
+        self.lu.solve_with(b, work);
     }
 
     /// `out = Hess x` for stage `t`'s stored Hessian (symmetric, from its upper triangle):

@@ -1,5 +1,5 @@
-//! Cost of one implicit-midpoint step against the size of the system, structured Newton
-//! against dense: the FPUT-alpha and Toda chains with fixed ends, written out through
+//! Cost of one implicit-midpoint step and of one DTH step against the size of the system,
+//! structured Newton against dense: the FPUT-alpha and Toda chains with fixed ends, written out through
 //! `hamiltonian!` (`tests/chains/`), `N = 2, 4, 8, 12, 16, 32, 128, 512` particles (`D = 2N`),
 //! and planar Kepler (`D = 4`, a full q-block: the smallest system, for the crossover).
 //!
@@ -10,6 +10,14 @@
 //! - `dense`: the fixed-size `D x D` LU (the same Hamiltonian with its structure hidden), up to
 //!   `N = 128` (at `N = 512` the dense Newton matrix alone is 8 MB of stack).
 //!
+//! Groups `dth/<chain>_<N>`, `N = 8, 32, 128, 512`: one DTH step (joint Newton,
+//! cancellation-free, `dtau = 0.1`, `lambda_0 = 1`, so `dt ~ 0.1` as for the midpoint) of a
+//! stepper running along its trajectory from the first seeded state, on the generated type
+//! (structured from `D = 8`). With `DTH_LONG_RUN=1` in the environment, `dth_long_run` first
+//! runs `10^4` DTH steps of the FPUT chain of 512 particles (`t ~ 10^3`) once and prints their
+//! time and the largest energy error at the midpoints, which it checks to be at roundoff (the
+//! release-profile run of the test `dth_keeps_the_energy_of_the_512_particle_chain_on_a_2mb_stack`).
+//!
 //! The crossover of `hamiltonian!` (`STRUCTURED_NEWTON` from `D = 8`) and the table of
 //! `docs/benchmarks.md` come from this bench. Run with
 //! `cargo bench -p dth-examples --bench step_vs_size -- --noplot` (add `--quick` for a smoke run).
@@ -18,6 +26,7 @@ use std::hint::black_box;
 use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, Criterion};
+use dth::dth::{Dth, DthOptions};
 use dth::methods::{ImplicitMidpoint, OneStepMethod};
 use dth::nalgebra::{SMatrix, SVector};
 use dth::Hamiltonian;
@@ -132,6 +141,72 @@ fn chain<const D: usize, H: Hamiltonian<D> + Copy>(
     g.finish();
 }
 
+/// One DTH step, `dtau = 0.1`, of a stepper running from `z0`.
+fn dth_step<const D: usize, H: Hamiltonian<D> + Copy>(c: &mut Criterion, name: &str, h: H) {
+    let z0 = states::<D>()[0];
+    let options = DthOptions::default().with_dtau(DT).expect("dtau");
+    let mut dth = Dth::new(h, z0, options).expect("start");
+    let mut g = c.benchmark_group(format!("dth/{name}"));
+    if D >= 256 {
+        g.sample_size(10).measurement_time(Duration::from_secs(2));
+    }
+    g.bench_function("structured", |b| {
+        b.iter(|| black_box(dth.step().expect("DTH step").iterations))
+    });
+    g.finish();
+}
+
+/// `10^4` DTH steps of the FPUT chain of 512 particles, timed once: the energy at every
+/// midpoint stays at roundoff (a few `eps` of the size of the terms of `H`).
+fn dth_long_run() {
+    const STEPS: u32 = 10_000;
+    let h = FputAlpha512;
+    let z0 = states::<1024>()[0];
+    let options = DthOptions::default().with_dtau(DT).expect("dtau");
+    let mut dth = Dth::new(h, z0, options).expect("start");
+    let e0 = h.value(&z0);
+    let scale = e0.abs().max(z0.component_mul(&h.gradient(&z0)).abs().sum());
+    let mut worst = 0.0f64;
+    let (mut iterations, mut factorizations) = (0u64, 0u64);
+    let start = std::time::Instant::now();
+    for _ in 0..STEPS {
+        let r = dth.step().expect("DTH step");
+        iterations += u64::from(r.iterations);
+        factorizations += u64::from(r.factorizations);
+        worst = worst.max((h.value(dth.zbar()) - e0).abs());
+    }
+    let elapsed = start.elapsed();
+    println!(
+        "dth_long_run/fput_alpha_512: {STEPS} steps to t = {:.1} in {:.2} s ({:.0} us/step, \
+         {:.2} iterations and {:.2} factorizations per step); largest energy error at the \
+         midpoints {worst:.2e} = {:.1} eps of the terms of H ({scale:.2})",
+        dth.tbar(),
+        elapsed.as_secs_f64(),
+        elapsed.as_secs_f64() * 1e6 / f64::from(STEPS),
+        iterations as f64 / f64::from(STEPS),
+        factorizations as f64 / f64::from(STEPS),
+        worst / (f64::EPSILON * scale),
+    );
+    assert!(
+        worst <= 16.0 * f64::EPSILON * scale,
+        "energy error {worst:e} at the midpoints"
+    );
+}
+
+fn dth(c: &mut Criterion) {
+    dth_step::<16, _>(c, "fput_8", FputAlpha8);
+    dth_step::<64, _>(c, "fput_32", FputAlpha32);
+    dth_step::<256, _>(c, "fput_128", FputAlpha128);
+    if std::env::var_os("DTH_LONG_RUN").is_some() {
+        dth_long_run();
+    }
+    dth_step::<1024, _>(c, "fput_512", FputAlpha512);
+    dth_step::<16, _>(c, "toda_8", Toda8);
+    dth_step::<64, _>(c, "toda_32", Toda32);
+    dth_step::<256, _>(c, "toda_128", Toda128);
+    dth_step::<1024, _>(c, "toda_512", Toda512);
+}
+
 fn fput(c: &mut Criterion) {
     chain::<4, _>(c, "fput_2", FputAlpha2, true);
     chain::<8, _>(c, "fput_4", FputAlpha4, true);
@@ -182,6 +257,6 @@ fn config() -> Criterion {
 criterion_group! {
     name = benches;
     config = config();
-    targets = kepler, fput, toda
+    targets = kepler, fput, toda, dth
 }
 criterion_main!(benches);

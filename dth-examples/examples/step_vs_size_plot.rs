@@ -1,6 +1,7 @@
 //! The log-log figure of `docs/benchmarks.md` ("Step cost against size"): one implicit-midpoint
-//! step against the number of particles, structured and dense Newton, FPUT-alpha and Toda,
-//! read from the medians criterion stored for the `step_vs_size` bench.
+//! step against the number of particles, structured and dense Newton, and one DTH step
+//! (structured), FPUT-alpha and Toda, read from the medians criterion stored for the
+//! `step_vs_size` bench.
 //!
 //! ```sh
 //! cargo bench -p dth-examples --bench step_vs_size -- --noplot
@@ -32,7 +33,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/criterion");
     let sizes = [2usize, 4, 8, 12, 16, 32, 128, 512];
     let mut figure = Figure::new(
-        "Implicit midpoint step against chain length",
+        "Implicit midpoint and DTH step against chain length",
         "particles N (D = 2N)",
         "time per step [us]",
     )
@@ -59,6 +60,22 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             figure = figure.with_series(
                 Series::new(&format!("{label}, {path}"), Mark::LinePoints, points)
                     .with_color(2 * color + usize::from(function == "dense")),
+            );
+        }
+        let points: Vec<(f64, f64)> = sizes
+            .iter()
+            .filter_map(|&n| {
+                median_us(&root, &format!("dth_{chain}_{n}"), "structured").map(|t| (n as f64, t))
+            })
+            .collect();
+        if !points.is_empty() {
+            figure = figure.with_series(
+                Series::new(
+                    &format!("{label}, DTH (structured)"),
+                    Mark::LinePoints,
+                    points,
+                )
+                .with_color(7 + color),
             );
         }
     }

@@ -25,6 +25,15 @@
 //! - **Order 4, 6, 8** ([`DthOptions::with_order`], [`Composition`]): each step is a symmetric
 //!   composition of DTH steps in `tau` (5, 9 or 17 sub-steps, some negative), energy exact at
 //!   every midpoint; the vertex invariants hold for order 2 only.
+//! - **Cost against size.** Each Newton iteration factors `A = I - (h lambda/2) J Hess H`
+//!   and borders it with two solves. For small `D` (and for Hamiltonians that do not declare
+//!   their Hessian pattern) that is the dense fixed-size LU, `O(D^3)`; generated types beyond
+//!   the crossover (`Hamiltonian::STRUCTURED_NEWTON`: from `D = 8` unless more than a quarter
+//!   of the Hessian is nonzero) take the banded LU of [`crate::structured`] on the Hessian's
+//!   nonzeros, analysed once in [`Dth::new`], and never form a `D x D` matrix: a step of a
+//!   chain (FPUT, Toda) costs time linear in the number of particles and a few vectors of
+//!   stack (the chain of 512 particles steps on a 2 MB thread). `docs/benchmarks.md`
+//!   ("Step cost against size") has the measurements.
 //! - **Ending at a time** ([`Dth::step_toward`]): the last step is shortened in `tau` so that
 //!   the last midpoint lands on the requested time to roundoff.
 //!
@@ -57,6 +66,7 @@
 
 mod composition;
 mod extended;
+mod linear;
 mod newton;
 mod options;
 mod robust;

@@ -17,6 +17,15 @@
 //! `(h lambda/2) gradH^T J HessH z_lambda` (the dropped term `(h/2) gradH^T J gradH` is exactly
 //! zero), which keeps full relative accuracy.
 //!
+//! The linear algebra (factor `A`, solve, `Hess z_lambda`) and the evaluations of `H` go through
+//! `dth::linear`: the dense fixed-size LU for small `D`, the structured `NewtonMatrix` (no
+//! `D x D` matrix anywhere) for generated types beyond the crossover. Both solvers factor `A`
+//! alone and border it with two solves, so the structured solver sees only `A`'s band.
+//!
+//! Joint Newton factors `A` afresh while the relative update is above `1e-6` and keeps the last
+//! factorization below (simplified Newton: as fast there, one factorization fewer per step on
+//! the thesis Kepler orbit); `Segment::factorizations` counts the factorizations.
+//!
 //! Newton stops by the crate's one stopping rule ([`crate::newton`]) with the DTH parameters:
 //! relative updates `u = max(|dz|/|z|, |dlambda|/|lambda|)`, every stop gated on the scaled
 //! residual at the final iterate (nothing is accepted on the update size alone), and a stall
@@ -24,16 +33,27 @@
 //! `Eval::stall`). A gated stop that fails after an update of at most `4 eps`, or the iteration
 //! limit, is [`Error::NewtonDiverged`].
 
-use nalgebra::{SMatrix, SVector};
+use nalgebra::SVector;
 
+use super::linear::{self, Dense, Linear, Point, Sparse};
 use super::options::{DthOptions, Solver};
-use crate::linalg::{Lu, Pivot};
+use crate::linalg::Pivot;
+use crate::methods::Structured;
 use crate::newton::{self, Convergence, Status, DTH};
-use crate::{j_times, Derivatives, Error, Hamiltonian};
+use crate::structured::NewtonMatrix;
+use crate::{j_times, Error, Hamiltonian};
 
 /// Relative update below which joint Newton evaluates the cancellation-free residual at every
 /// iterate: from there, quadratic convergence can reach a stop at the next iterate.
 const CF_FROM: f64 = 1e-5;
+
+/// Relative update at or below which joint Newton keeps the last factorization of `A` (and its
+/// `z_lambda`, `g_lambda`) instead of factoring again: a simplified-Newton iteration. The
+/// frozen matrix differs from the current one by `O(|Hess'| |dz|)`, so the iteration contracts
+/// by about the last relative update: from `1e-6` the error after one such iteration is below
+/// `1e-12` of what was left, as fast as Newton's to roundoff, and the stopping rule (gated on
+/// the residual at the final iterate) is unchanged.
+const REFACTOR_ABOVE: f64 = 1e-6;
 
 /// One solved DTH segment: its midpoint, multiplier and both vertices.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -42,8 +62,12 @@ pub struct Segment<const D: usize> {
     pub zbar: SVector<f64, D>,
     /// Multiplier `lambda = dt/dtau` on the segment.
     pub lambda: f64,
-    /// Value, gradient, Hessian and Psi at `zbar`.
-    pub derivatives: Derivatives<D>,
+    /// `H(zbar)`.
+    pub value: f64,
+    /// `grad H(zbar)`.
+    pub gradient: SVector<f64, D>,
+    /// `Psi(zbar) = (J grad H)^T Hess H (J grad H)`.
+    pub psi: f64,
     /// Newton iterations (outer iterations for the nested solver).
     pub iterations: u32,
     /// LU factorizations of `A` (the cost measure common to both solvers).
@@ -88,7 +112,7 @@ struct CancellationFree<const D: usize> {
 
 /// Everything the Newton loops need at one iterate.
 struct Eval<const D: usize> {
-    d: Derivatives<D>,
+    d: Point<D>,
     jg: SVector<f64, D>,
     f: SVector<f64, D>,
     /// Energy residual for the Newton update: `H(z) - E` (plain) or `H(z) - H(zbar_k)` as
@@ -113,11 +137,11 @@ impl<const D: usize> Eval<D> {
     /// Storage for [`evaluate`], overwritten by each evaluation.
     fn empty() -> Self {
         Eval {
-            d: Derivatives {
+            d: Point {
                 value: 0.0,
                 gradient: SVector::zeros(),
-                hessian: SMatrix::zeros(),
                 psi: 0.0,
+                hessian_max: 0.0,
             },
             jg: SVector::zeros(),
             f: SVector::zeros(),
@@ -140,11 +164,11 @@ impl<const D: usize> Eval<D> {
     /// makes): where the gradient barely turns (Kepler's apocentre) the terms are much smaller
     /// than the sensitivity, and the residual is a forward estimate of the relative error of
     /// `lambda`.
-    fn residual(&self, last: Option<&Linearization<D>>, lambda: f64) -> f64 {
+    fn residual<L: Linear<D>>(&self, last: Last<'_, L, D>, lambda: f64) -> f64 {
         let energy = match (&self.cf, last) {
-            (Some(c), Some(lin)) => {
-                let (lu, g_lambda) = (&lin.lu, lin.g_lambda);
-                let u = lu.solve(&(-self.f));
+            (Some(c), Some((lin, solver))) => {
+                let g_lambda = lin.g_lambda;
+                let u = solver.solve(&(-self.f));
                 let scale = c.scale.max((g_lambda * lambda).abs()).max(c.inexact_scale);
                 (c.r_cf + (c.gbar.dot(&self.f) + self.d.gradient.dot(&u))).abs() / scale
             }
@@ -159,10 +183,10 @@ impl<const D: usize> Eval<D> {
     /// (`~eps / h^2`): below that, updates are noise and can never settle.
     /// The same holds for the cancellation-free form forced on a Hamiltonian without exact
     /// divided differences; with them the option stands.
-    fn stall(&self, options: &DthOptions, last: Option<&Linearization<D>>, lambda: f64) -> f64 {
+    fn stall<L: Linear<D>>(&self, options: &DthOptions, last: Last<'_, L, D>, lambda: f64) -> f64 {
         let noise = self.noise;
         match last {
-            Some(lin) if noise > 0.0 => options
+            Some((lin, _)) if noise > 0.0 => options
                 .stall_tolerance()
                 .max(8.0 * f64::EPSILON * noise / (lin.g_lambda * lambda).abs())
                 .min(0.5),
@@ -171,15 +195,20 @@ impl<const D: usize> Eval<D> {
     }
 
     /// The residual gate of the stopping rule at the iterate `(z, lambda)` evaluated here.
-    fn passes(&self, options: &DthOptions, last: Option<&Linearization<D>>, lambda: f64) -> bool {
+    fn passes<L: Linear<D>>(
+        &self,
+        options: &DthOptions,
+        last: Last<'_, L, D>,
+        lambda: f64,
+    ) -> bool {
         self.residual(last, lambda) <= options.residual_tolerance()
     }
 
     /// The failure of a segment solve after `iterations` Newton iterations (LU factorizations),
     /// at the iterate `(z, lambda)` evaluated here.
-    fn diverged(
+    fn diverged<L: Linear<D>>(
         &self,
-        last: Option<&Linearization<D>>,
+        last: Last<'_, L, D>,
         lambda: f64,
         iterations: u32,
         step: usize,
@@ -192,23 +221,26 @@ impl<const D: usize> Eval<D> {
     }
 
     /// The end of a segment solve at the iterate `(z, lambda)` evaluated here, after
-    /// `iterations` Newton iterations (LU factorizations): the segment when Newton has
-    /// converged, the failure when it has diverged, `None` to go on.
-    fn finish(
+    /// `iterations` Newton iterations and `factorizations` LU factorizations: the segment when
+    /// Newton has converged, the failure when it has diverged (labelled with the iterations),
+    /// `None` to go on.
+    fn finish<L: Linear<D>>(
         &self,
         status: Status,
         (z, lambda): (SVector<f64, D>, f64),
-        last: Option<&Linearization<D>>,
-        iterations: u32,
+        last: Last<'_, L, D>,
+        (iterations, factorizations): (u32, u32),
         step: usize,
     ) -> Option<Result<Segment<D>, Error>> {
         match status {
             Status::Converged => Some(Ok(Segment {
                 zbar: z,
                 lambda,
-                derivatives: self.d,
+                value: self.d.value,
+                gradient: self.d.gradient,
+                psi: self.d.psi,
                 iterations,
-                factorizations: iterations,
+                factorizations,
             })),
             Status::Diverged => Some(Err(self.diverged(last, lambda, iterations, step))),
             Status::Continue => None,
@@ -226,38 +258,15 @@ fn pivot_error(p: Pivot, step: usize) -> Error {
     }
 }
 
-/// Factor `A = I - c J HessH` (`c = h lambda / 2`) into `lu`, in place: entry by entry
-/// `delta_ij - c (J HessH)_ij`, the same floating-point operations as forming the matrix.
-fn factor_newton_matrix<const D: usize>(
-    lu: &mut Lu<D>,
-    hessian: &SMatrix<f64, D, D>,
-    c: f64,
-    step: usize,
-) -> Result<(), Error> {
-    let n = D / 2;
-    lu.factor_from(|i, j| {
-        let jh = if i < n {
-            hessian[(i + n, j)]
-        } else {
-            -hessian[(i - n, j)]
-        };
-        if i == j {
-            1.0 - jh * c
-        } else {
-            -(jh * c)
-        }
-    })
-    .map_err(|p| pivot_error(p, step))
-}
-
 pub(crate) fn all_finite<const D: usize>(v: &SVector<f64, D>) -> bool {
     v.iter().all(|x| x.is_finite())
 }
 
-/// Evaluate everything at the iterate `(z, lambda)` into `e` (in place: the Hessian is not
-/// copied around the Newton loop).
-fn evaluate<H: Hamiltonian<D>, const D: usize>(
+/// Evaluate everything at the iterate `(z, lambda)` into `e`, the Hessian into `solver`.
+#[allow(clippy::too_many_arguments)]
+fn evaluate<H: Hamiltonian<D>, L: Linear<D>, const D: usize>(
     ham: &H,
+    solver: &mut L,
     anchor: &Anchor<D>,
     h: f64,
     z: &SVector<f64, D>,
@@ -265,15 +274,15 @@ fn evaluate<H: Hamiltonian<D>, const D: usize>(
     step: usize,
     e: &mut Eval<D>,
 ) -> Result<(), Error> {
-    e.d = ham.derivatives(z);
+    e.d = solver.evaluate(ham, z);
     let d = &e.d;
-    if !d.value.is_finite() || !all_finite(&d.gradient) {
+    if !d.finite() {
         return Err(Error::NonFinite {
             step,
             what: "H or grad H at a Newton iterate",
         });
     }
-    if !d.hessian.iter().all(|x| x.is_finite()) {
+    if !d.hessian_finite() {
         return Err(Error::NonFinite {
             step,
             what: "Hess H at a Newton iterate",
@@ -363,9 +372,9 @@ fn add_cancellation_free<H: Hamiltonian<D>, const D: usize>(
     Ok(())
 }
 
-/// `A = I - (h lambda / 2) J HessH` factored, and `z_lambda`, `g_lambda` from it.
+/// `z_lambda` and `g_lambda` from the factored `A = I - (h lambda / 2) J HessH` (held by the
+/// solver).
 struct Linearization<const D: usize> {
-    lu: Lu<D>,
     z_lambda: SVector<f64, D>,
     g_lambda: f64,
 }
@@ -373,27 +382,34 @@ struct Linearization<const D: usize> {
 impl<const D: usize> Linearization<D> {
     fn empty() -> Self {
         Linearization {
-            lu: Lu::empty(),
             z_lambda: SVector::zeros(),
             g_lambda: 0.0,
         }
     }
 }
 
-/// Linearize at the evaluated iterate `e` into `lin` (in place).
-fn linearize<const D: usize>(
+/// The last linearization and the solver holding its factorization; `None` before the first.
+type Last<'a, L, const D: usize> = Option<(&'a Linearization<D>, &'a L)>;
+
+/// Factor `A = I - c J HessH` (`c = h lambda / 2`) at the Hessian last evaluated.
+fn factor<L: Linear<D>, const D: usize>(solver: &mut L, c: f64, step: usize) -> Result<(), Error> {
+    solver.factor(c).map_err(|p| pivot_error(p, step))
+}
+
+/// Linearize at the evaluated iterate `e` into `lin` (in place), factoring `A` in `solver`.
+fn linearize<L: Linear<D>, const D: usize>(
     e: &Eval<D>,
+    solver: &mut L,
     h: f64,
     lambda: f64,
     step: usize,
     lin: &mut Linearization<D>,
 ) -> Result<(), Error> {
-    factor_newton_matrix(&mut lin.lu, &e.d.hessian, 0.5 * h * lambda, step)?;
-    let lu = &lin.lu;
-    let z_lambda = lu.solve(&(e.jg * (0.5 * h)));
+    factor(solver, 0.5 * h * lambda, step)?;
+    let z_lambda = solver.solve(&(e.jg * (0.5 * h)));
     // Cancellation-free g_lambda = (h lambda/2) gradH^T J HessH z_lambda
     //                          = -(h lambda/2) (J gradH)^T HessH z_lambda.
-    let g_lambda = -(0.5 * h * lambda) * e.jg.dot(&(e.d.hessian * z_lambda));
+    let g_lambda = -(0.5 * h * lambda) * e.jg.dot(&solver.hessian_times(&z_lambda));
     if !g_lambda.is_finite() || !all_finite(&z_lambda) {
         return Err(Error::NonFinite {
             step,
@@ -421,8 +437,10 @@ fn relative_update<const D: usize>(
 
 /// Solve one segment of signed step `h` in `tau` from `anchor` (left vertex, energy, previous
 /// midpoint for the cancellation-free form), starting Newton from the predictor
-/// `(z0, lambda0)`. `step` labels errors. For the cancellation-free form the caller finishes with [`project`] (after
+/// `(z0, lambda0)`. `step` labels errors; `storage` holds the structured Newton matrix when `H`
+/// takes that path. For the cancellation-free form the caller finishes with [`project`] (after
 /// rejecting roots with the wrong `lambda`, whose energy check would misreport them).
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn solve_segment<H: Hamiltonian<D>, const D: usize>(
     ham: &H,
     anchor: &Anchor<D>,
@@ -431,16 +449,60 @@ pub(crate) fn solve_segment<H: Hamiltonian<D>, const D: usize>(
     h: f64,
     options: &DthOptions,
     step: usize,
+    storage: &mut Structured,
+) -> Result<Segment<D>, Error> {
+    match linear::matrix::<H, D>(storage) {
+        Some(matrix) => solve_with(
+            ham,
+            &mut Sparse { matrix },
+            anchor,
+            z0,
+            lambda0,
+            h,
+            options,
+            step,
+        ),
+        None => solve_dense(ham, anchor, z0, lambda0, h, options, step),
+    }
+}
+
+/// [`solve_segment`] on the dense path, in a frame of its own (its `D x D` storage).
+#[inline(never)]
+#[allow(clippy::too_many_arguments)]
+fn solve_dense<H: Hamiltonian<D>, const D: usize>(
+    ham: &H,
+    anchor: &Anchor<D>,
+    z0: SVector<f64, D>,
+    lambda0: f64,
+    h: f64,
+    options: &DthOptions,
+    step: usize,
+) -> Result<Segment<D>, Error> {
+    let mut solver = Dense::new();
+    solve_with(ham, &mut solver, anchor, z0, lambda0, h, options, step)
+}
+
+/// [`solve_segment`] with the given linear solver.
+#[allow(clippy::too_many_arguments)]
+fn solve_with<H: Hamiltonian<D>, L: Linear<D>, const D: usize>(
+    ham: &H,
+    solver: &mut L,
+    anchor: &Anchor<D>,
+    z0: SVector<f64, D>,
+    lambda0: f64,
+    h: f64,
+    options: &DthOptions,
+    step: usize,
 ) -> Result<Segment<D>, Error> {
     match options.solver() {
-        Solver::Joint => joint(ham, anchor, z0, lambda0, h, options, step),
-        Solver::Nested => nested(ham, anchor, z0, lambda0, h, options, step),
+        Solver::Joint => joint(ham, solver, anchor, z0, lambda0, h, options, step),
+        Solver::Nested => nested(ham, solver, anchor, z0, lambda0, h, options, step),
     }
 }
 
 /// Check a cancellation-free solution against the energy level `E` and project it onto it
 /// (see [`EnergyResidual`](super::EnergyResidual)). `from_scale` is the roundoff scale of the
-/// previous midpoint (see [`roundoff_scale`]).
+/// previous midpoint (see [`roundoff_scale`]); `matrix` as for [`project_onto_energy`].
 pub(crate) fn project<H: Hamiltonian<D>, const D: usize>(
     ham: &H,
     energy: f64,
@@ -448,23 +510,25 @@ pub(crate) fn project<H: Hamiltonian<D>, const D: usize>(
     from_scale: f64,
     options: &DthOptions,
     step: usize,
+    matrix: Option<&mut NewtonMatrix>,
 ) -> Result<Segment<D>, Error> {
+    let d = Point {
+        value: s.value,
+        gradient: s.gradient,
+        psi: s.psi,
+        hessian_max: 0.0,
+    };
     let (z, d) = project_onto_energy(
-        ham,
-        energy,
-        s.zbar,
-        s.derivatives,
-        from_scale,
-        0.0,
-        options,
-        step,
+        ham, energy, s.zbar, d, from_scale, 0.0, options, step, matrix,
     )?;
     s.zbar = z;
-    s.derivatives = d;
+    s.value = d.value;
+    s.gradient = d.gradient;
+    s.psi = d.psi;
     Ok(s)
 }
 
-/// Check `z` (with its derivatives `d`) against the energy level `E` with the plain residual
+/// Check `z` (with its point `d`) against the energy level `E` with the plain residual
 /// ([`Error::EnergyCheckFailed`] beyond the residual tolerance) and move it onto `H = E` along
 /// `grad H` (one Newton step of `H(z) = E` in that direction). The move is a few ulps of `z`,
 /// inside the roundoff of the equation that produced `z`; it keeps the roundoff of successive
@@ -477,18 +541,21 @@ pub(crate) fn project<H: Hamiltonian<D>, const D: usize>(
 /// `H(z) - E` carries both. They differ a lot where a term of `H` changes fast: for a
 /// time-dependent `H` the `t` coordinate grows, and `t dH/dt` may be large at one end of a
 /// step and near zero at the other. `explained` is a part of the deviation that the caller knows
-/// the size of (the fallback step's `gbar . f`), allowed on top of the tolerance.
+/// the size of (the fallback step's `gbar . f`), allowed on top of the tolerance. The projected
+/// point is evaluated through `matrix` when `H` takes the structured path (its Hessian
+/// nonzeros land there; nothing reads them before the next evaluation).
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn project_onto_energy<H: Hamiltonian<D>, const D: usize>(
     ham: &H,
     energy: f64,
     z: SVector<f64, D>,
-    d: Derivatives<D>,
+    d: Point<D>,
     from_scale: f64,
     explained: f64,
     options: &DthOptions,
     step: usize,
-) -> Result<(SVector<f64, D>, Derivatives<D>), Error> {
+    matrix: Option<&mut NewtonMatrix>,
+) -> Result<(SVector<f64, D>, Point<D>), Error> {
     let deviation = d.value - energy;
     let scale = energy
         .abs()
@@ -507,14 +574,10 @@ pub(crate) fn project_onto_energy<H: Hamiltonian<D>, const D: usize>(
     let gg = d.gradient.norm_squared();
     if deviation != 0.0 && gg > 0.0 {
         let zp = z - d.gradient * (deviation / gg);
-        let dp = ham.derivatives(&zp);
+        let dp = linear::point(ham, &zp, matrix);
         // Keep the projection only if it does not make things worse (it cannot, beyond
         // evaluation roundoff).
-        if dp.value.is_finite()
-            && all_finite(&dp.gradient)
-            && dp.hessian.iter().all(|x| x.is_finite())
-            && (dp.value - energy).abs() <= deviation.abs()
-        {
+        if dp.finite() && dp.hessian_finite() && (dp.value - energy).abs() <= deviation.abs() {
             return Ok((zp, dp));
         }
     }
@@ -541,8 +604,10 @@ fn count(iterations: usize) -> u32 {
     u32::try_from(iterations).unwrap_or(u32::MAX)
 }
 
-fn joint<H: Hamiltonian<D>, const D: usize>(
+#[allow(clippy::too_many_arguments)]
+fn joint<H: Hamiltonian<D>, L: Linear<D>, const D: usize>(
     ham: &H,
+    solver: &mut L,
     anchor: &Anchor<D>,
     mut z: SVector<f64, D>,
     mut lambda: f64,
@@ -556,9 +621,10 @@ fn joint<H: Hamiltonian<D>, const D: usize>(
     let mut lin = Linearization::empty();
     // Whether the last update came from the cancellation-free residual.
     let mut cf_update = false;
+    let mut factorizations = 0u32;
     loop {
-        evaluate(ham, anchor, h, &z, lambda, step, &mut e)?;
-        let last = (convergence.iterations() > 0).then_some(&lin);
+        evaluate(ham, solver, anchor, h, &z, lambda, step, &mut e)?;
+        let last = (convergence.iterations() > 0).then_some((&lin, &*solver));
         let mut stop = convergence.stop(e.stall(options, last, lambda));
         if let Some(p) = &anchor.previous {
             // The cancellation-free residual (a discrete gradient and its defect) only where it
@@ -570,7 +636,7 @@ fn joint<H: Hamiltonian<D>, const D: usize>(
             // by a cancellation-free update (below `CF_FROM` a stop after a plain update
             // cannot happen with quadratic convergence; if it does, one more iteration).
             let near = match (convergence.last(), last) {
-                (Some(u), Some(lin)) => {
+                (Some(u), Some((lin, _))) => {
                     u <= CF_FROM
                         || u * u <= 64.0 * f64::EPSILON * e.scale_r / (lin.g_lambda * lambda).abs()
                 }
@@ -585,14 +651,23 @@ fn joint<H: Hamiltonian<D>, const D: usize>(
         }
         let status = convergence.status(stop, || e.passes(options, last, lambda));
         let iterations = count(convergence.iterations());
-        if let Some(end) = e.finish(status, (z, lambda), last, iterations, step) {
+        if let Some(end) = e.finish(
+            status,
+            (z, lambda),
+            last,
+            (iterations, factorizations),
+            step,
+        ) {
             return end;
         }
-        linearize(&e, h, lambda, step, &mut lin)?;
+        if convergence.last().is_none_or(|u| u > REFACTOR_ABOVE) {
+            linearize(&e, solver, h, lambda, step, &mut lin)?;
+            factorizations += 1;
+        }
         cf_update = e.cf.is_some();
         // Bordered system [[A, -(h/2) J g], [g^T, 0]] (dz, dl) = -(f, r):
         // dz = u + z_lambda dl with A u = -f, and g^T dz = -r.
-        let u = lin.lu.solve(&(-e.f));
+        let u = solver.solve(&(-e.f));
         let dl = -(e.r + e.d.gradient.dot(&u)) / lin.g_lambda;
         let dz = u + lin.z_lambda * dl;
         z += dz;
@@ -608,15 +683,21 @@ fn joint<H: Hamiltonian<D>, const D: usize>(
 }
 
 /// The inner Newton's iterate and workspace in [`nested`].
-struct Inner<'a, const D: usize> {
+struct Inner<'a, L, const D: usize> {
     z: SVector<f64, D>,
     e: &'a mut Eval<D>,
-    lu: &'a mut Lu<D>,
+    solver: &'a mut L,
     factorizations: u32,
 }
 
-fn nested<H: Hamiltonian<D>, const D: usize>(
+/// The nested solver (thesis 4.1): an inner Newton for `z(h, lambda)` at fixed `lambda`, an
+/// outer Newton on `H(z(h, lambda)) = E`. One solver holds both loops' factorizations: the
+/// outer residual gate eliminates `f` with the latest factorization of `A` (the inner loop's,
+/// at the current `lambda`), and `g_lambda` of the last outer linearization.
+#[allow(clippy::too_many_arguments)]
+fn nested<H: Hamiltonian<D>, L: Linear<D>, const D: usize>(
     ham: &H,
+    solver: &mut L,
     anchor: &Anchor<D>,
     mut z: SVector<f64, D>,
     mut lambda: f64,
@@ -629,23 +710,22 @@ fn nested<H: Hamiltonian<D>, const D: usize>(
     // Workspace, overwritten in place.
     let mut e = Eval::empty();
     let mut lin = Linearization::empty();
-    let mut inner_lu = Lu::empty();
     // Everything at an iterate, with the cancellation-free residual whenever the anchor has it.
-    let evaluate_at = |z: &SVector<f64, D>, lambda: f64, e: &mut Eval<D>| {
-        evaluate(ham, anchor, h, z, lambda, step, e)?;
+    let evaluate_at = |solver: &mut L, z: &SVector<f64, D>, lambda: f64, e: &mut Eval<D>| {
+        evaluate(ham, solver, anchor, h, z, lambda, step, e)?;
         match &anchor.previous {
             Some(p) => add_cancellation_free(ham, p, h, z, lambda, step, e),
             None => Ok(()),
         }
     };
     loop {
-        let last = (outer.iterations() > 0).then_some(&lin);
+        let started = outer.iterations() > 0;
         // Inner Newton (thesis 4.1.2): z(h, lambda) at fixed lambda, on the residual f alone.
-        evaluate_at(&z, lambda, &mut e)?;
+        evaluate_at(solver, &z, lambda, &mut e)?;
         let mut inner = Inner {
             z,
             e: &mut e,
-            lu: &mut inner_lu,
+            solver: &mut *solver,
             factorizations,
         };
         newton::solve(
@@ -653,9 +733,9 @@ fn nested<H: Hamiltonian<D>, const D: usize>(
             options.stall_tolerance(),
             &mut inner,
             |s, _| {
-                factor_newton_matrix(s.lu, &s.e.d.hessian, 0.5 * h * lambda, step)?;
+                factor(s.solver, 0.5 * h * lambda, step)?;
                 s.factorizations += 1;
-                let dz = s.lu.solve(&(-s.e.f));
+                let dz = s.solver.solve(&(-s.e.f));
                 s.z += dz;
                 if !all_finite(&s.z) {
                     return Err(Error::NonFinite {
@@ -663,26 +743,36 @@ fn nested<H: Hamiltonian<D>, const D: usize>(
                         what: "inner Newton iterate",
                     });
                 }
-                evaluate_at(&s.z, lambda, s.e)?;
+                evaluate_at(s.solver, &s.z, lambda, s.e)?;
                 Ok(dz.amax() / s.z.amax().max(f64::MIN_POSITIVE))
             },
             |s| s.e.f_residual <= options.residual_tolerance(),
-            |s, _| s.e.diverged(last, lambda, s.factorizations, step),
+            |s, _| {
+                let last = started.then_some((&lin, &*s.solver));
+                s.e.diverged(last, lambda, s.factorizations, step)
+            },
         )?;
         (z, factorizations) = (inner.z, inner.factorizations);
         // Outer Newton (thesis 4.1.1) on g(lambda) = H(z(h, lambda)) - E.
+        let last = started.then_some((&lin, &*solver));
         let status = outer.check(e.stall(options, last, lambda), || {
             e.passes(options, last, lambda)
         });
-        if let Some(end) = e.finish(status, (z, lambda), last, factorizations, step) {
+        if let Some(end) = e.finish(
+            status,
+            (z, lambda),
+            last,
+            (factorizations, factorizations),
+            step,
+        ) {
             return end;
         }
-        linearize(&e, h, lambda, step, &mut lin)?;
+        linearize(&e, solver, h, lambda, step, &mut lin)?;
         factorizations += 1;
         let dl = if e.cf.is_some() {
             // Eliminate the inner solve's remaining f to first order, as the joint update does:
             // its roundoff (eps h) must not reach lambda through gbar . f.
-            let u = lin.lu.solve(&(-e.f));
+            let u = solver.solve(&(-e.f));
             let dl = -(e.r + e.d.gradient.dot(&u)) / lin.g_lambda;
             lambda += dl;
             z += u + lin.z_lambda * dl;
@@ -764,6 +854,7 @@ pub fn segment_from_vertex<H: Hamiltonian<D>, const D: usize>(
         options.dtau(),
         options,
         0,
+        &mut Structured::default(),
     )?;
     if s.lambda <= 0.0 {
         return Err(Error::SpuriousRoot {

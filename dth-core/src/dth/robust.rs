@@ -18,20 +18,24 @@
 
 use nalgebra::SVector;
 
+use super::linear::{self, Point};
 use super::newton::{all_finite, project_onto_energy, roundoff_scale};
 use super::options::DthOptions;
-use crate::methods::{DiscreteGradient, NewtonOptions, OneStepMethod};
-use crate::{j_times, Derivatives, Error, Hamiltonian};
+use crate::methods::{DiscreteGradient, NewtonOptions, OneStepMethod, Structured};
+use crate::{j_times, Error, Hamiltonian};
 
 /// A solved fallback step.
 pub(crate) struct FallbackStep<const D: usize> {
     pub(crate) z: SVector<f64, D>,
-    pub(crate) derivatives: Derivatives<D>,
+    /// `H`'s value, gradient and `Psi` at `z`.
+    pub(crate) point: Point<D>,
     pub(crate) iterations: u32,
 }
 
 /// One discrete-gradient step of size `dt` from `z0` (which lies on `H = energy`), checked and
 /// projected onto `H = energy`. The peer's Newton failures come back as its `Method*` errors.
+/// `storage` is the stepper's structured Newton storage (see `dth::linear`): the new point is
+/// evaluated without a `D x D` Hessian where `H` takes that path.
 pub(crate) fn fallback_step<H: Hamiltonian<D>, const D: usize>(
     ham: &H,
     z0: &SVector<f64, D>,
@@ -39,6 +43,7 @@ pub(crate) fn fallback_step<H: Hamiltonian<D>, const D: usize>(
     energy: f64,
     options: &DthOptions,
     step: usize,
+    storage: &mut Structured,
 ) -> Result<FallbackStep<D>, Error> {
     // Roundoff floor of the solve near an equilibrium. Without exact divided differences the
     // discrete gradient's correction `d (H(z1) - H(z0) - g . d) / |d|^2` (`d = z1 - z0`) divides
@@ -74,12 +79,14 @@ pub(crate) fn fallback_step<H: Hamiltonian<D>, const D: usize>(
     let mut method = DiscreteGradient::with_newton(newton);
     let z = OneStepMethod::<D, H>::step(&mut method, ham, z0, dt).map_err(|e| at_step(e, step))?;
     let iterations = OneStepMethod::<D, H>::newton_iterations(&method);
-    let d = ham.derivatives(&z);
-    if !all_finite(&z)
-        || !d.value.is_finite()
-        || !all_finite(&d.gradient)
-        || !d.hessian.iter().all(|x| x.is_finite())
-    {
+    if !all_finite(&z) {
+        return Err(Error::NonFinite {
+            step,
+            what: "H or its derivatives after a fallback step",
+        });
+    }
+    let d = linear::point(ham, &z, linear::matrix::<H, D>(storage));
+    if !d.finite() || !d.hessian_finite() {
         return Err(Error::NonFinite {
             step,
             what: "H or its derivatives after a fallback step",
@@ -114,7 +121,7 @@ pub(crate) fn fallback_step<H: Hamiltonian<D>, const D: usize>(
             residual,
         });
     }
-    let (z, derivatives) = project_onto_energy(
+    let (z, point) = project_onto_energy(
         ham,
         energy,
         z,
@@ -123,10 +130,11 @@ pub(crate) fn fallback_step<H: Hamiltonian<D>, const D: usize>(
         gbar.dot(&f),
         options,
         step,
+        linear::matrix::<H, D>(storage),
     )?;
     Ok(FallbackStep {
         z,
-        derivatives,
+        point,
         iterations: u32::try_from(iterations).unwrap_or(u32::MAX),
     })
 }

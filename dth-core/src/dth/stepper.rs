@@ -2,6 +2,7 @@
 
 use nalgebra::SVector;
 
+use super::linear::{self, Point};
 use super::newton::all_finite;
 use super::newton::{predict, project, roundoff_scale, solve_segment, Anchor, Previous};
 use super::options::DthOptions;
@@ -9,8 +10,9 @@ use super::options::EnergyResidual;
 use super::robust::fallback_step;
 use super::trajectory::Trajectory;
 use crate::error::RunError;
+use crate::methods::Structured;
 use crate::observer::{DthRecord, Observer, StepKind, StepRecord};
-use crate::{j_times, Derivatives, Error, Hamiltonian};
+use crate::{j_times, Error, Hamiltonian};
 
 /// The autonomous DTH stepper (paper Corollary 1, eqs. 28-30), monomorphized over the
 /// Hamiltonian: no `dyn`, no heap allocation per step.
@@ -64,6 +66,9 @@ pub struct Dth<H, const D: usize> {
     energy: f64,
     /// Everything a step changes (restored as a whole when a composed step fails part-way).
     s: State<D>,
+    /// The structured Newton matrix when `H` takes that path (see `dth::linear`): analysed
+    /// once, in [`Dth::new`], and reused by every step without allocation. A cache, not state.
+    newton: Structured,
 }
 
 /// The state of a [`Dth`] stepper that steps change.
@@ -162,11 +167,9 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
         if let Some((index, &value)) = zbar0.iter().enumerate().find(|(_, x)| !x.is_finite()) {
             return Err(Error::NonFiniteInitialState { index, value });
         }
-        let d = hamiltonian.derivatives(&zbar0);
-        if !d.value.is_finite()
-            || !d.gradient.iter().all(|x| x.is_finite())
-            || !d.hessian.iter().all(|x| x.is_finite())
-        {
+        let mut newton = Structured::default();
+        let d = linear::point(&hamiltonian, &zbar0, linear::matrix::<H, D>(&mut newton));
+        if !d.finite() || !d.hessian_finite() {
             return Err(Error::NonFinite {
                 step: 0,
                 what: "H, grad H or Hess H at zbar_0",
@@ -207,6 +210,7 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
                 lambda_max: options.lambda0(),
                 h_edge: options.dtau() * options.composition().coefficients()[0],
             },
+            newton,
         })
     }
 
@@ -581,6 +585,7 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
                 self.energy,
                 &self.options,
                 step,
+                &mut self.newton,
             ) {
                 Ok(s) => break s,
                 Err(
@@ -594,9 +599,9 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
                 Err(e) => return Err(e),
             }
         };
-        let psi = s.derivatives.psi;
+        let psi = s.point.psi;
         self.s.zbar = s.z;
-        self.s.gradient = s.derivatives.gradient;
+        self.s.gradient = s.point.gradient;
         self.s.psi = psi;
         // Extended phase space: time is the t coordinate (Gonzalez's discrete gradient moves it
         // by dt (1 + O(dt^2)), not exactly dt).
@@ -641,7 +646,7 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
     /// size `lambda_k h` (signed, this sub-step's) from `zbar_k` (points on the orbit, unlike an explicit predictor
     /// with a large step) and report [`Error::Breakdown`] at the first sign change of `Psi`;
     /// otherwise keep the solver's error. Runs only after a failure.
-    fn diagnose(&self, error: Error, time: f64, h: f64) -> Error {
+    fn diagnose(&mut self, error: Error, time: f64, h: f64) -> Error {
         let step = match error {
             Error::NewtonDiverged { step, .. }
             | Error::SingularMatrix { step }
@@ -651,11 +656,18 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
         let dt = self.s.lambda * h;
         let mut z = self.s.zbar;
         for _ in 0..DIAGNOSE_STEPS {
-            let Ok(s) = fallback_step(&self.hamiltonian, &z, dt, self.energy, &self.options, step)
-            else {
+            let Ok(s) = fallback_step(
+                &self.hamiltonian,
+                &z,
+                dt,
+                self.energy,
+                &self.options,
+                step,
+                &mut self.newton,
+            ) else {
                 break;
             };
-            let psi = s.derivatives.psi;
+            let psi = s.point.psi;
             if self.s.psi * psi < 0.0 {
                 return Error::Breakdown {
                     step,
@@ -675,7 +687,7 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
     /// surface to within [`PREDICTOR_TRUST`] of the size of the terms of `H` (a predictor for a
     /// step far too large for the orbit lands elsewhere in phase space, where `Psi` says
     /// nothing about this orbit).
-    fn trusted_psi(&self, z: &SVector<f64, D>, d: &Derivatives<D>) -> Option<f64> {
+    fn trusted_psi(&self, z: &SVector<f64, D>, d: &Point<D>) -> Option<f64> {
         let scale = self
             .energy
             .abs()
@@ -684,13 +696,17 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
             .then_some(d.psi)
     }
 
-    /// `H`'s derivatives at a predicted midpoint, if it and its value and gradient are finite.
-    fn predicted(&self, z: &SVector<f64, D>) -> Option<Derivatives<D>> {
+    /// `H` at a predicted midpoint, if it and its value and gradient are finite.
+    fn predicted(&mut self, z: &SVector<f64, D>) -> Option<Point<D>> {
         if !all_finite(z) {
             return None;
         }
-        let d = self.hamiltonian.derivatives(z);
-        (d.value.is_finite() && all_finite(&d.gradient)).then_some(d)
+        let d = linear::point(
+            &self.hamiltonian,
+            z,
+            linear::matrix::<H, D>(&mut self.newton),
+        );
+        d.finite().then_some(d)
     }
 
     /// One DTH step of signed size `h` with breakdown detection (every part of it holds for
@@ -739,8 +755,7 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
         let c_guess = 0.5 * h * lambda_guess;
         let z0 = match &d1 {
             Some(d)
-                if psi1.is_some()
-                    && (c - c_guess).abs() <= c_guess * c_guess * d.hessian.amax() =>
+                if psi1.is_some() && (c - c_guess).abs() <= c_guess * c_guess * d.hessian_max =>
             {
                 v + j_times(&d.gradient) * c_guess
             }
@@ -750,7 +765,8 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
             // Look again where the law of time says the midpoint will be: further out when
             // lambda grows fast, as it does towards Psi = 0 (one more evaluation of H's
             // derivatives, so only then).
-            verdict(self.predicted(&z0).and_then(|d| self.trusted_psi(&z0, &d)))?;
+            let d0 = self.predicted(&z0);
+            verdict(d0.and_then(|d| self.trusted_psi(&z0, &d)))?;
         }
         let previous = self.cancellation_free().then_some(Previous {
             zbar: self.s.zbar,
@@ -770,8 +786,12 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
             h,
             &self.options,
             step,
-        )
-        .map_err(|e| self.diagnose(e, time, h))?;
+            &mut self.newton,
+        );
+        let s = match s {
+            Ok(s) => s,
+            Err(e) => return Err(self.diagnose(e, time, h)),
+        };
         if s.lambda <= 0.0 {
             return Err(self.diagnose(
                 Error::SpuriousRoot {
@@ -786,7 +806,7 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
             return Err(Error::Breakdown {
                 step,
                 time,
-                psi: s.derivatives.psi,
+                psi: s.psi,
                 psi_previous,
                 lambda,
                 lambda_predicted: s.lambda,
@@ -801,6 +821,7 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
                 from_scale,
                 &self.options,
                 step,
+                linear::matrix::<H, D>(&mut self.newton),
             )?
         } else {
             s
@@ -808,8 +829,8 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
         self.s.tbar += 0.5 * h * (self.s.lambda + s.lambda);
         self.s.lambda = s.lambda;
         self.s.zbar = s.zbar;
-        self.s.gradient = s.derivatives.gradient;
-        self.s.psi = s.derivatives.psi;
+        self.s.gradient = s.gradient;
+        self.s.psi = s.psi;
         self.s.iterations = s.iterations;
         self.s.factorizations = s.factorizations;
         self.s.k = step;

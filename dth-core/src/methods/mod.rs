@@ -57,6 +57,7 @@ pub use discrete_mechanics::DiscreteMechanics;
 pub use gauss_legendre::GaussLegendre2;
 pub use midpoint::ImplicitMidpoint;
 pub use newton::NewtonOptions;
+pub(crate) use newton::Structured;
 pub use rk4::Rk4;
 pub use trapezoidal::Trapezoidal;
 pub use verlet::StormerVerlet;
