@@ -228,3 +228,55 @@ fn the_chain_of_4096_takes_discrete_gradient_steps_at_constant_energy() {
     // evaluation; 1e-12 leaves room for the Newton remainder.
     assert!(drift <= 1e-12 * (1.0 + e0), "drift {drift} at H = {e0}");
 }
+
+dth::hamiltonian! {
+    /// FPUT-alpha of 1024 particles (`D = 2048`), written once: the size at which the DTH
+    /// energy guarantee is checked on a looped lattice.
+    #[derive(Clone, Copy)]
+    pub struct Fput1024 { alpha: f64 } =
+        sum(i = 1..N, p[i]^2/2) + sum(i = 0..N, (q[i+1] - q[i])^2/2 + alpha*(q[i+1] - q[i])^3/3)
+        where N = 1024, q[0] = q[N+1] = 0
+}
+
+/// DTH on the looped chain of 1024 particles: 10^4 steps on the structured Newton (the
+/// emitted loops give it value, gradient, Psi and the Hessian's nonzeros; no `D x D` matrix),
+/// with `H` at every midpoint equal to `H(zbar_0)` to roundoff. The scale of that roundoff is
+/// the size of the terms `H` sums, `max(|H|, sum |z_i dH/dz_i|)`; the energy equation is solved
+/// to a few `eps` of it per step and the midpoint values do not accumulate error (each is
+/// measured against `H(zbar_0)` directly), so the bound is a small multiple of `eps` times it,
+/// as for the written-out 512-particle chain.
+#[test]
+fn dth_keeps_the_energy_of_the_looped_1024_particle_chain() {
+    const N: usize = 1024;
+    const D: usize = 2 * N;
+    const STEPS: usize = 10_000;
+    const { assert!(<Fput1024 as Hamiltonian<D>>::STRUCTURED_NEWTON) };
+    let h = Fput1024 { alpha: 0.25 };
+    // Mode 1 of the chain, a shorter wave on top and a momentum pattern: every bond stretched.
+    let z0 = SVector::<f64, D>::from_fn(|k, _| {
+        let i = (k % N + 1) as f64;
+        if k < N {
+            0.5 * (std::f64::consts::PI * i / (N + 1) as f64).sin() + 0.05 * (7.0 * i).sin()
+        } else {
+            0.1 * (3.0 * i).cos()
+        }
+    });
+    let options = dth::dth::DthOptions::default()
+        .with_dtau(0.1)
+        .expect("dtau");
+    let mut dth = dth::dth::Dth::new(h, z0, options).expect("start");
+    let e0 = h.value(&z0);
+    let scale = e0.abs().max(z0.component_mul(&h.gradient(&z0)).abs().sum());
+    let mut drift = 0.0f64;
+    for _ in 0..STEPS {
+        dth.step().expect("DTH step");
+        drift = drift.max((h.value(dth.zbar()) - e0).abs());
+    }
+    let t = dth.tbar();
+    eprintln!("looped 1024-particle chain, DTH to t = {t}: energy error {drift:e}, terms {scale}");
+    assert!(t > 0.05 * STEPS as f64, "t = {t}");
+    assert!(
+        drift <= 16.0 * f64::EPSILON * scale,
+        "energy error {drift:e}, terms of H {scale}"
+    );
+}

@@ -1,33 +1,14 @@
 //! Evaluating compiled code allocates nothing: a counting allocator sees no allocation over
 //! many calls of every method (the buffers are the caller's, built before).
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::sync::atomic::{AtomicUsize, Ordering};
+// The core's counting allocator counts only the calling thread's allocations inside `count`:
+// a global counter would also see the other test's JIT compilation, which runs in parallel.
+#[path = "../../dth-core/tests/alloc_counter/mod.rs"]
+mod alloc_counter;
 
 use dth_core::nalgebra::SVector;
 use dth_core::Hamiltonian;
 use dth_runtime::{Backend, RuntimeHamiltonian, Typed};
-
-struct Counting;
-
-static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
-
-// SAFETY: forwards to the system allocator, counting.
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        ALLOCATIONS.fetch_add(1, Ordering::SeqCst);
-        // SAFETY: the caller's contract, passed on.
-        unsafe { System.alloc(layout) }
-    }
-
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        // SAFETY: the caller's contract, passed on.
-        unsafe { System.dealloc(ptr, layout) }
-    }
-}
-
-#[global_allocator]
-static GLOBAL: Counting = Counting;
 
 #[test]
 fn compiled_evaluations_allocate_nothing() {
@@ -42,26 +23,26 @@ fn compiled_evaluations_allocate_nothing() {
     let (mut v, mut m, mut all) = (vec![0.0; d], vec![0.0; d * d], h.derivatives_buffer());
     let z0: Vec<f64> = (0..d).map(|i| 0.1 * i as f64 - 0.2).collect();
     let z1: Vec<f64> = z0.iter().map(|x| x + 0.01).collect();
-    let before = ALLOCATIONS.load(Ordering::SeqCst);
-    let mut acc = 0.0;
-    for _ in 0..100 {
-        acc += h.value(&z0).unwrap() + h.psi(&z0).unwrap();
-        h.gradient(&z0, &mut v).unwrap();
-        h.hessian(&z0, &mut m).unwrap();
-        h.derivatives(&z0, &mut all).unwrap();
-        h.discrete_gradient(&z0, &z1, &mut v).unwrap();
-        acc += h.energy_difference(&z0, &z1).unwrap();
-        h.discrete_gradient_defect(&z0, &z1, &mut v).unwrap();
-    }
-    let after = ALLOCATIONS.load(Ordering::SeqCst);
+    let (acc, allocations) = alloc_counter::count(|| {
+        let mut acc = 0.0;
+        for _ in 0..100 {
+            acc += h.value(&z0).unwrap() + h.psi(&z0).unwrap();
+            h.gradient(&z0, &mut v).unwrap();
+            h.hessian(&z0, &mut m).unwrap();
+            h.derivatives(&z0, &mut all).unwrap();
+            h.discrete_gradient(&z0, &z1, &mut v).unwrap();
+            acc += h.energy_difference(&z0, &z1).unwrap();
+            h.discrete_gradient_defect(&z0, &z1, &mut v).unwrap();
+        }
+        acc
+    });
     assert!(acc.is_finite());
-    assert_eq!(after - before, 0, "allocations during evaluation");
+    assert_eq!(allocations, 0, "allocations during evaluation");
     // The counter does count: the interpreter allocates its results on every call.
     let reference =
         RuntimeHamiltonian::with_backend("p1^2/2 + q1^4", &[], Backend::Interpreter).unwrap();
-    let before = ALLOCATIONS.load(Ordering::SeqCst);
-    reference.value(&[0.5, 1.0]).unwrap();
-    assert!(ALLOCATIONS.load(Ordering::SeqCst) > before);
+    let (value, allocations) = alloc_counter::count(|| reference.value(&[0.5, 1.0]));
+    assert!(value.is_ok() && allocations > 0);
 }
 
 /// The trait's methods through [`Typed`] allocate nothing either: each is one call of compiled
@@ -76,17 +57,18 @@ fn trait_evaluations_allocate_nothing() {
     let h = Typed::<6, true>::new(h).unwrap();
     let z0 = SVector::<f64, 6>::from_fn(|i, _| 0.1 * i as f64 - 0.2);
     let z1 = z0.add_scalar(0.01);
-    let before = ALLOCATIONS.load(Ordering::SeqCst);
-    let mut acc = 0.0;
-    for _ in 0..100 {
-        acc += h.value(&z0) + h.psi(&z0) + h.energy_difference(&z0, &z1);
-        acc += h.gradient(&z0).sum() + h.hessian(&z0).sum();
-        let d = h.derivatives(&z0);
-        acc += d.value + d.gradient.sum() + d.hessian.sum() + d.psi;
-        let gbar = h.discrete_gradient(&z0, &z1);
-        acc += h.discrete_gradient_defect(&z0, &z1, &gbar).sum();
-    }
-    let after = ALLOCATIONS.load(Ordering::SeqCst);
+    let (acc, allocations) = alloc_counter::count(|| {
+        let mut acc = 0.0;
+        for _ in 0..100 {
+            acc += h.value(&z0) + h.psi(&z0) + h.energy_difference(&z0, &z1);
+            acc += h.gradient(&z0).sum() + h.hessian(&z0).sum();
+            let d = h.derivatives(&z0);
+            acc += d.value + d.gradient.sum() + d.hessian.sum() + d.psi;
+            let gbar = h.discrete_gradient(&z0, &z1);
+            acc += h.discrete_gradient_defect(&z0, &z1, &gbar).sum();
+        }
+        acc
+    });
     assert!(acc.is_finite());
-    assert_eq!(after - before, 0, "allocations during evaluation");
+    assert_eq!(allocations, 0, "allocations during evaluation");
 }
