@@ -244,15 +244,17 @@ pub fn compile(src: &str, params: &[&str]) -> Result<Looped, LoopError> {
             })
             .collect::<Vec<_>>();
         // Every site the summand reaches is in the lattice or a boundary.
+        // The sites reached outside `1..=n` are those below 1 and above n of the range
+        // `lo + c ..= hi + c`: at most a few per slot (a shift of `c` reaches `|c|` of them),
+        // and each must be a declared boundary (`q[i+2]` on `1..N` reaches `N+1` and `N+2`).
         for &(letter, c, _) in &slots {
-            for k in [lo + c, hi + c] {
-                let inside = (1..=n).contains(&k);
-                if !inside && !boundaries.iter().any(|&(l, s, _)| l == letter && s == k) {
+            let below = (lo + c)..=(hi + c).min(0);
+            let above = (lo + c).max(n + 1)..=(hi + c);
+            for k in below.chain(above) {
+                if !boundaries.iter().any(|&(l, s, _)| l == letter && s == k) {
                     return Err(LoopError::NotLoopable("an index outside the lattice"));
                 }
             }
-            // A boundary between the ends would be inside the lattice, rejected above, so
-            // the extreme sites decide.
         }
         let slot_of = |local: usize| slots.iter().position(|&(_, _, l)| l == local);
         let pattern = system

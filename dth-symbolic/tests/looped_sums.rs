@@ -160,3 +160,28 @@ fn what_does_not_loop_says_why() {
         "the sum's index is used as a number"
     );
 }
+
+/// A shift of two reaches two sites past the end: with only the outer one declared, the
+/// summand reaches an undeclared `q[9]`, which must be an error at it (from the site-by-site
+/// check), never read as a zero by the loops.
+#[test]
+fn every_site_a_shift_reaches_outside_the_lattice_must_be_declared() {
+    let src = "sum(i = 1..N, p[i]^2/2 + (q[i+2] - q[i])^2/2) where N = 8, q[10] = 0";
+    assert!(
+        looped::compile(src, &[]).is_err(),
+        "the loops took an undeclared site"
+    );
+    let errors = compile(src, &[])
+        .expect_err("q[9] is neither a site nor a boundary")
+        .0;
+    assert!(
+        errors
+            .iter()
+            .any(|e| e.to_string().contains("q[9]") || e.to_string().contains("q9")),
+        "{errors:?}"
+    );
+    // Both sites declared: the loops run it, and agree with the site-by-site build.
+    let src = "sum(i = 1..N, p[i]^2/2 + (q[i+2] - q[i])^2/2) where N = 8, q[9] = q[10] = 0";
+    assert!(looped::compile(src, &[]).is_ok());
+    assert!(compile(src, &[]).is_ok());
+}
