@@ -3,9 +3,9 @@
 //! type. Each type's fields are its parameters, under the names scenes use in `params`.
 //!
 //! The lattices (FPUT-alpha and -beta, the Toda chain between walls) and the three-body
-//! systems are written out term by term, as `hamiltonian!` has no indexed sums yet: their
-//! invocations are generated text in `src/generated/`, which `tests/generated_systems.rs`
-//! holds to its generators.
+//! systems are written out term by term (they predate the grammar's indexed sums, which compile
+//! a chain as loops; moving them to sums is still to do): their invocations are generated text
+//! in `src/generated/`, which `tests/generated_systems.rs` holds to its generators.
 //!
 //! What a formula does not say is written here by hand, from the parameters: the quadratic
 //! (and linear) invariants, orbit periods, Kepler's exact solution
@@ -244,8 +244,8 @@ impl SceneSystem<20> for TodaChain10 {
     }
 }
 
-// Lattices and N-body systems, written out term by term (`hamiltonian!` has no indexed sums
-// yet): generated text, held to its generator by `tests/generated_systems.rs`.
+// Lattices and N-body systems, written out term by term (see the module docs): generated
+// text, held to its generator by `tests/generated_systems.rs`.
 include!("generated/fput_alpha_32.rs");
 include!("generated/fput_beta_32.rs");
 include!("generated/toda_fixed_ends_32.rs");

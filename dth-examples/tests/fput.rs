@@ -21,13 +21,11 @@
 //! constant and would fail the first assertion; a method whose dynamics were wrong in the
 //! cubic term would move or lose the recurrence.
 //!
-//! **Methods.** The recurrence is asserted with the scene's Stormer-Verlet at FPUT's step
-//! (31,000 steps, a fraction of a second in the dev profile). DTH, the project's method,
-//! reproduces it in the scene (`cargo run --release -- run dth-examples/scenes/fput.toml`: its
-//! mode 1 returns to 0.99 of `E1(0)` near `t = 9,800`); here it runs the first 1,000 time
-//! units only, because its Newton iteration is still dense (a `65 x 65` LU per iteration at
-//! `D = 64`, about 0.6 ms a step in the dev profile) and the recurrence takes it 57,000 steps:
-//! its `lambda = dt/dtau` falls from 0.86 to about 0.5 as the energy moves into higher modes.
+//! **Methods.** The recurrence is asserted for both of the scene's methods: Stormer-Verlet at
+//! FPUT's step (31,000 steps) and DTH, the project's method, at `dtau = 0.35` (about 50,000
+//! steps: its `lambda = dt/dtau` falls from 0.86 to about 0.5 as the energy moves into higher
+//! modes). At `D = 64` the chain's generated type takes the structured Newton (banded, linear
+//! in the chain's length), so DTH's run costs a few seconds in the dev profile.
 
 use dth_examples::catalogue::Catalogue;
 use dth_examples::effects::ModeEnergies;
@@ -102,11 +100,16 @@ fn modes(r: &dth_examples::simulate::MethodResult) -> &[ModeEnergies] {
 }
 
 /// The recurrence, with FPUT's own method and step (the scene's `stormer_verlet`, `dt =
-/// 1/sqrt(8)`): see the module documentation for the reference and the windows.
+/// 1/sqrt(8)`) and with the scene's DTH: see the module documentation for the reference and
+/// the windows.
 #[test]
 fn fput_mode_one_energy_returns_near_the_recurrence_time() {
-    let results = run(&["stormer_verlet"], 11_000.0);
-    let rows = modes(&results[0]);
+    for result in run(&["dth", "stormer_verlet"], 11_000.0) {
+        recurs(&result.summary.label, modes(&result));
+    }
+}
+
+fn recurs(label: &str, rows: &[ModeEnergies]) {
     // E1(0) = omega1^2 Q1^2 / 2 with omega1 = 2 sin(pi/66), Q1 = sqrt(33/2).
     let w1 = 2.0 * (std::f64::consts::PI / 66.0).sin();
     let e0 = rows[0].energies[0];
@@ -114,27 +117,31 @@ fn fput_mode_one_energy_returns_near_the_recurrence_time() {
     assert_eq!(rows[0].energies.len(), 5);
 
     let (_, (low, t_low)) = extremes(rows, e0, 3_000.0, 7_000.0);
-    assert!(low < 0.2, "E1/E1(0) stays above {low} (at t = {t_low})");
+    assert!(
+        low < 0.2,
+        "{label}: E1/E1(0) stays above {low} (at t = {t_low})"
+    );
     // Where mode 1 is lowest, modes 2-5 hold most of the energy.
     let at_low = rows.iter().find(|r| r.t == t_low).expect("a sampled row");
     let others: f64 = at_low.energies[1..].iter().sum();
     assert!(others > 0.7 * e0, "modes 2-5 hold {} of E1(0)", others / e0);
 
     let ((high, t_high), _) = extremes(rows, e0, 9_000.0, 11_000.0);
-    eprintln!("E1/E1(0): down to {low:.3} at t = {t_low:.0}, back to {high:.3} at t = {t_high:.0}");
+    eprintln!(
+        "{label}: E1/E1(0) down to {low:.3} at t = {t_low:.0}, back to {high:.3} at t = {t_high:.0}"
+    );
     assert!(
         high > 0.9,
-        "E1/E1(0) returns only to {high} (at t = {t_high})"
+        "{label}: E1/E1(0) returns only to {high} (at t = {t_high})"
     );
     assert!(
         (t_high - 10_200.0).abs() <= 1_020.0,
-        "the recurrence peaks at t = {t_high}, not near 1.02e4"
+        "{label}: the recurrence peaks at t = {t_high}, not near 1.02e4"
     );
 }
 
 /// DTH (the scene's `dth`, `dtau = 0.35`) over the first stretch of the exchange, `t <= 1,000`
-/// (3,300 steps: DTH's dense Newton at `D = 64` costs too much in the dev profile for
-/// the whole recurrence, which `cargo run --release -- run scenes/fput.toml` draws). Over
+/// (3,300 steps). Over
 /// `750 <= t <= 1,000` mode 1 falls to 0.72 of `E1(0)` (the leapfrog reference at `dt = 0.1`
 /// gives 0.723); DTH and Stormer-Verlet at their steps agree with it to 0.02, the size of the
 /// second-order methods' phase error `(omega dt)^2` over this time for the modes that carry the
