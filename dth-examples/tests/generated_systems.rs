@@ -1,5 +1,5 @@
 //! The lattice and N-body systems of the catalogue (`dth_examples::systems`) are written out
-//! term by term for `hamiltonian!`, which has no indexed sums yet. Their formulas are
+//! term by term for `hamiltonian!` (they predate its indexed sums). Their formulas are
 //! generated text in `src/generated/`, included by `src/systems.rs`; this test holds each
 //! file to the generator below (the Toda chain's to `dth_symbolic::sources::toda_fixed_ends`),
 //! so nobody edits thousands of terms by hand. Regenerate with
