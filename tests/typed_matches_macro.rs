@@ -7,6 +7,8 @@
 //! ...: `dth-runtime`'s crate docs), and the stepper's own arithmetic is the same code for
 //! both types. The view only copies values (the Hessian's two triangles are one output).
 
+#![cfg(feature = "runtime")]
+
 use dth::dth::{integrate, set_momentum_of_time, DthOptions};
 use dth::methods::{run, ImplicitMidpoint, OneStepMethod, StormerVerlet};
 use dth::nalgebra::SVector;

@@ -80,9 +80,14 @@ impl ChainModes {
     /// Writes `E_k = (P_k^2 + omega_k^2 Q_k^2)/2` of the state `(q, p)` for `k = 1..modes`
     /// into `out` (`q`, `p` of length `n`, `out` of length [`ChainModes::modes`]).
     pub fn energies(&self, q: &[f64], p: &[f64], out: &mut [f64]) {
+        debug_assert!(
+            q.len() == self.n && p.len() == self.n,
+            "a state of the chain's size"
+        );
+        // `max(1)`: a chain of no particles has no modes (and `chunks_exact(0)` would panic).
         for ((e, row), w) in out
             .iter_mut()
-            .zip(self.sines.chunks_exact(self.n))
+            .zip(self.sines.chunks_exact(self.n.max(1)))
             .zip(&self.omega)
         {
             let dot = |x: &[f64]| row.iter().zip(x).map(|(s, x)| s * x).sum::<f64>();

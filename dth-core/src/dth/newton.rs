@@ -68,7 +68,8 @@ pub struct Segment<const D: usize> {
     pub gradient: SVector<f64, D>,
     /// `Psi(zbar) = (J grad H)^T Hess H (J grad H)`.
     pub psi: f64,
-    /// Newton iterations (outer iterations for the nested solver).
+    /// Newton iterations: for the joint solver its iterations; for the nested one the inner
+    /// iterations of all its outer ones (each factors `A`, so this equals `factorizations`).
     pub iterations: u32,
     /// LU factorizations of `A` (the cost measure common to both solvers).
     pub factorizations: u32,
