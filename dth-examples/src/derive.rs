@@ -11,7 +11,7 @@
 //!
 //! With `--rust`, [`rust`] prints the code `hamiltonian!` emits for the same expression: the
 //! type and its `impl Hamiltonian<D>`, written by the engine's emitter
-//! ([`dth_symbolic::emit::hamiltonian_impl`], the function the macro calls) and formatted
+//! ([`dth_symbolic::emit::hamiltonian_impl`], or [`dth_symbolic::emit::looped_source_impl`] for a lattice of sums: the functions the macro calls) and formatted
 //! by prettyplease.
 //!
 //! ```
@@ -23,7 +23,7 @@
 
 use std::fmt::Write as _;
 
-use dth_symbolic::emit::hamiltonian_impl;
+use dth_symbolic::emit::{hamiltonian_impl, looped_source_impl};
 use dth_symbolic::{compile, Errors, System, Var};
 use proc_macro2::{Ident, Span, TokenStream};
 use quote::quote;
@@ -68,9 +68,6 @@ pub fn rust(source: &str, params: &[&str]) -> Result<String, Error> {
 /// # Errors
 /// As [`rust`].
 pub fn rust_tokens(source: &str, params: &[&str]) -> Result<TokenStream, Error> {
-    let system = compile(source, params).map_err(|errors| Error::Hamiltonian {
-        diagnostics: render_errors(source, &errors),
-    })?;
     let fields = params
         .iter()
         .map(|p| {
@@ -82,7 +79,16 @@ pub fn rust_tokens(source: &str, params: &[&str]) -> Result<TokenStream, Error> 
         })
         .collect::<Result<Vec<Ident>, Error>>()?;
     let name = Ident::new(TYPE_NAME, Span::call_site());
-    let imp = hamiltonian_impl(&system, &name, &fields);
+    // As the macro decides: loops for a lattice of sums, else the site-by-site programs.
+    let imp = match looped_source_impl(source, &name, &fields) {
+        Some(imp) => imp,
+        None => {
+            let system = compile(source, params).map_err(|errors| Error::Hamiltonian {
+                diagnostics: render_errors(source, &errors),
+            })?;
+            hamiltonian_impl(&system, &name, &fields)
+        }
+    };
     let decl = if fields.is_empty() {
         quote!(pub struct #name;)
     } else {

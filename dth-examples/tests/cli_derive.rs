@@ -121,3 +121,31 @@ fn derive_rust_refuses_a_parameter_that_cannot_name_a_field() {
     assert!(stderr(&o).contains("parameter `fn` is not a Rust identifier"));
     assert!(stdout(&o).is_empty());
 }
+
+/// A lattice of sums prints as the loops the macro emits: the chain of 4096 particles (beyond
+/// what the site-by-site engine builds) prints, and its code is the same size as the chain of
+/// 64's (loops over the sites, not one line per site).
+#[test]
+fn derive_rust_prints_a_lattice_of_sums_as_loops() {
+    let dir = tempfile::tempdir().unwrap();
+    let chain = |n: usize| {
+        format!(
+            "sum(i = 1..N, p[i]^2/2) + sum(i = 0..N, (q[i+1] - q[i])^2/2 + alpha*(q[i+1] - q[i])^3/3) \
+             where N = {n}, q[0] = q[N+1] = 0"
+        )
+    };
+    let printed = |n: usize| {
+        let src = chain(n);
+        let o = dth(&["derive", "--rust", &src, "-p", "alpha"], dir.path());
+        assert_eq!(o.status.code(), Some(0), "N = {n}: {}", stderr(&o));
+        stdout(&o)
+    };
+    let (small, large) = (printed(64), printed(4096));
+    assert!(large.contains("Hamiltonian<8192usize>"), "{large}");
+    // The two differ only in the numbers that carry N (the dimension, the loop bounds).
+    let (a, b) = (small.len() as f64, large.len() as f64);
+    assert!(
+        (b - a).abs() <= 0.01 * a,
+        "{a} bytes at N = 64, {b} at N = 4096"
+    );
+}

@@ -56,21 +56,6 @@ pub fn system(input: &Input, params: &[Ident], errors: &mut Vec<syn::Error>) -> 
     }
 }
 
-/// The expression compiled once per summand ([`dth_symbolic::looped`]), when it is a lattice
-/// of sums that loops; `None` otherwise (the site-by-site compilation then runs and reports any
-/// error).
-pub fn looped(input: &Input, params: &[Ident]) -> Option<dth_symbolic::looped::Looped> {
-    let source = &input.body.source;
-    if !source.contains("sum") {
-        return None;
-    }
-    let names: Vec<String> = params.iter().map(|p| p.to_string()).collect();
-    let names: Vec<&str> = names.iter().map(String::as_str).collect();
-    let looped = dth_symbolic::looped::compile(source, &names).ok()?;
-    // Without a momentum the flow does not move: the site-by-site path says so.
-    looped.has_momentum().then_some(looped)
-}
-
 /// All errors as one.
 pub fn combine(errors: Vec<syn::Error>) -> Option<syn::Error> {
     errors.into_iter().reduce(|mut a, b| {

@@ -1,8 +1,7 @@
 //! The whole expansion: the declared type, its `impl Hamiltonian<D>` (written by the engine's
 //! emitter, `dth_symbolic::emit`) and the warnings; or the errors beside a stub.
 
-use dth_symbolic::emit::hamiltonian_impl;
-use dth_symbolic::emit::lattice::looped_impl;
+use dth_symbolic::emit::{hamiltonian_impl, looped_source_impl};
 use dth_symbolic::System;
 use proc_macro2::TokenStream;
 use quote::quote;
@@ -25,11 +24,9 @@ pub fn expand(input: Input) -> TokenStream {
     let params = check::params(&input, &mut errors);
     // A lattice of sums is emitted as loops, its code independent of the number of sites.
     if errors.is_empty() {
-        if let Some(looped) = check::looped(&input, &params) {
-            let (decl, name) = fallback::declaration(&input, &params);
-            if let Some(imp) = looped_impl(&looped, &name, &params) {
-                return wrap(&input, decl, name, imp, TokenStream::new());
-            }
+        let (decl, name) = fallback::declaration(&input, &params);
+        if let Some(imp) = looped_source_impl(&input.body.source, &name, &params) {
+            return wrap(&input, decl, name, imp, TokenStream::new());
         }
     }
     let system = check::system(&input, &params, &mut errors);

@@ -32,6 +32,26 @@ use quote::{format_ident, quote};
 use crate::{Method, Op, Output, Program, System};
 use code::{constant, kernel};
 
+/// The implementation `hamiltonian!` emits for `source` when it is a lattice of sums that loop
+/// ([`crate::looped`]): `impl Hamiltonian<D>` as loops over the sites, its code independent of
+/// the number of sites. `None` for every other source (and for a lattice without a momentum,
+/// or with a summand too long for one loop body): the caller then compiles the source site by
+/// site and emits [`hamiltonian_impl`]. The macro and `dth derive --rust` both decide here,
+/// so they print the same code.
+pub fn looped_source_impl(source: &str, name: &Ident, params: &[Ident]) -> Option<TokenStream> {
+    if !source.contains("sum") {
+        return None;
+    }
+    let names: Vec<String> = params.iter().map(Ident::to_string).collect();
+    let names: Vec<&str> = names.iter().map(String::as_str).collect();
+    let looped = crate::looped::compile(source, &names).ok()?;
+    // Without a momentum the flow does not move: the site-by-site path says so.
+    if !looped.has_momentum() {
+        return None;
+    }
+    lattice::looped_impl(&looped, name, params)
+}
+
 /// `impl ::dth::__private::dth_core::Hamiltonian<D> for #name`, `D` the system's dimension,
 /// every method computed by the engine's programs for `system`. `params` are the names of the
 /// type's `f64` fields, in the order of the system's parameters (`Op::Param(k)` reads
