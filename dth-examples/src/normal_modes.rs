@@ -100,20 +100,12 @@ impl ChainModes {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::ensemble::sample::SplitMix64;
 
-    /// A seeded state of `n` particles in `[-0.5, 0.5]` (splitmix64).
+    /// A seeded state of `n` particles in `[-0.5, 0.5)`.
     fn state(n: usize, seed: u64) -> Vec<f64> {
-        let mut s = seed;
-        (0..n)
-            .map(|_| {
-                s = s.wrapping_add(0x9E37_79B9_7F4A_7C15);
-                let mut z = s;
-                z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-                z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-                z ^= z >> 31;
-                (z >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-            })
-            .collect()
+        let mut rng = SplitMix64::new(seed);
+        (0..n).map(|_| rng.unit() - 0.5).collect()
     }
 
     /// All `N` mode energies sum to the harmonic chain's energy

@@ -191,19 +191,10 @@ fn value(src: &str, params: &[&str], z: &[f64], values: &[f64]) -> (f64, Vec<f64
     (e.value, e.gradient)
 }
 
-/// A seeded state of dimension `d` in `[-0.3, 0.3]` (splitmix64).
+/// A seeded state of dimension `d` in `[-0.3, 0.3)`.
 fn state(d: usize, seed: u64) -> Vec<f64> {
-    let mut s = seed;
-    (0..d)
-        .map(|_| {
-            s = s.wrapping_add(0x9E37_79B9_7F4A_7C15);
-            let mut z = s;
-            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-            z ^= z >> 31;
-            0.6 * ((z >> 11) as f64 / (1u64 << 53) as f64 - 0.5)
-        })
-        .collect()
+    let mut rng = dth_examples::ensemble::sample::SplitMix64::new(seed);
+    (0..d).map(|_| 0.6 * (rng.unit() - 0.5)).collect()
 }
 
 /// At `alpha = 1/4` the generator's chain is the engine's `fput_alpha_fixed_ends` (value and

@@ -3,29 +3,10 @@
 //! Hessian's nonzeros and pattern, Psi, the discrete gradient, the energy difference and the
 //! defect agree to roundoff; the loop body does not grow with the number of sites.
 
+mod lattice_support;
+
 use dth_symbolic::{compile, looped, Method};
-
-/// A deterministic point in `[-0.5, 0.5)^d` (SplitMix64).
-fn point(d: usize, seed: u64) -> Vec<f64> {
-    let mut s = seed;
-    (0..d)
-        .map(|_| {
-            s = s.wrapping_add(0x9E37_79B9_7F4A_7C15);
-            let mut z = s;
-            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-            z ^= z >> 31;
-            (z >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-        })
-        .collect()
-}
-
-/// Roundoff: the two evaluations add the same terms (each below 1 in size on these points,
-/// a few dozen of them) in different orders, a few `eps` times their magnitudes apart.
-fn close(a: f64, b: f64, what: &str) {
-    let tol = 64.0 * f64::EPSILON * (1.0 + a.abs().max(b.abs()));
-    assert!((a - b).abs() <= tol, "{what}: {a} vs {b}");
-}
+use lattice_support::{close, point};
 
 /// The looped and the site-by-site compilations of `src` agree everywhere.
 fn agree(src: &str, params: &[&str], values: &[f64]) {
