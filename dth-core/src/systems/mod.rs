@@ -36,13 +36,15 @@ mod derivative_tests {
     use nalgebra::SVector;
     use num_dual::{hessian, Dual2SVec64, DualNum};
 
-    type X<const D: usize> = SVector<Dual2SVec64<D>, D>;
+    type X<D: Dim> = SVector<Dual2SVec64<D>, D>;
 
-    fn check<const D: usize, H: Hamiltonian<D>>(
+    fn check<D: Dim, H: Hamiltonian<D>>(
         h: &H,
         f: impl Fn(X<D>) -> Dual2SVec64<D>,
-        points: &[SVector<f64, D>],
-    ) {
+        points: &[OVector<f64, D>],
+    ) where
+        DefaultAllocator: Alloc<D>,
+    {
         for z in points {
             let (v, g, m) = hessian(&f, z);
             let close = |a: f64, b: f64| (a - b).abs() <= 64.0 * f64::EPSILON * (1.0 + b.abs());
@@ -68,7 +70,10 @@ mod derivative_tests {
         }
     }
 
-    fn points<const D: usize>(seed: u64) -> Vec<SVector<f64, D>> {
+    fn points<D: Dim>(seed: u64) -> Vec<OVector<f64, D>>
+    where
+        DefaultAllocator: Alloc<D>,
+    {
         // A small deterministic generator (splitmix64) for points in [-1.5, 1.5]^D.
         let mut s = seed;
         let mut next = move || {
@@ -234,7 +239,10 @@ mod derivative_tests {
     #[test]
     fn separability_flags_match_the_hessians() {
         // SEPARABLE must mean a zero q-p block of the Hessian, at every point.
-        fn agrees<const D: usize, H: Hamiltonian<D>>(h: &H, seed: u64) -> bool {
+        fn agrees<D: Dim, H: Hamiltonian<D>>(h: &H, seed: u64) -> bool
+        where
+            DefaultAllocator: Alloc<D>,
+        {
             let n = D / 2;
             points::<D>(seed).iter().all(|z| {
                 let m = h.hessian(z);
