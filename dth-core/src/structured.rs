@@ -574,7 +574,7 @@ mod tests {
         );
         let a = [0.3, -0.1, 0.2, 0.25];
         m.factor(&a).unwrap();
-        let jm = |h: &OMatrix<f64, D, D>| crate::methods::j_times_matrix(h);
+        let jm = |h: &SMatrix<f64, D, D>| crate::methods::j_times_matrix(h);
         let mut dense = SMatrix::<f64, { 2 * D }, { 2 * D }>::identity();
         for s in 0..2 {
             for t in 0..2 {

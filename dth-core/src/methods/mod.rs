@@ -40,7 +40,7 @@
 //! assert_eq!(recorder.z.len(), 101); // the initial state and one per step
 //! let l = Kepler::angular_momentum(&end.z);
 //! assert!((l - 0.6).abs() < 1e-14); // midpoint keeps quadratic invariants
-//! # Ok::<(), dth_core::methods::RunError<dth_core::methods::RunEnd<4>>>(())
+//! # Ok::<(), dth_core::methods::RunError<dth_core::methods::RunEnd<Const<4>>>>(())
 //! ```
 
 use crate::hamiltonian::Alloc;
@@ -265,6 +265,7 @@ where
 mod tests {
     use super::*;
     use crate::systems::HarmonicOscillator;
+    use nalgebra::Const;
     use nalgebra::{Matrix2, Vector2};
 
     #[test]
@@ -295,15 +296,19 @@ mod tests {
     /// `H = p^2/2 + 2 q^(3/2)`: defined for `q >= 0` only, NaN beyond. A particle released at
     /// `q = 1` falls to `q < 0` in finite time.
     struct HalfLine;
-    impl Hamiltonian<2> for HalfLine {
+    impl Hamiltonian<Const<2>> for HalfLine {
+        fn dim(&self) -> Const<2> {
+            Const
+        }
+
         fn value(&self, z: &Vector2<f64>) -> f64 {
             0.5 * z[1] * z[1] + 2.0 * z[0].powf(1.5)
         }
-        fn gradient(&self, z: &Vector2<f64>) -> Vector2<f64> {
-            Vector2::new(3.0 * z[0].sqrt(), z[1])
+        fn gradient_into(&self, z: &Vector2<f64>, out: &mut Vector2<f64>) {
+            *out = Vector2::new(3.0 * z[0].sqrt(), z[1]);
         }
-        fn hessian(&self, z: &Vector2<f64>) -> Matrix2<f64> {
-            Matrix2::new(1.5 / z[0].sqrt(), 0.0, 0.0, 1.0)
+        fn hessian_into(&self, z: &Vector2<f64>, out: &mut Matrix2<f64>) {
+            *out = Matrix2::new(1.5 / z[0].sqrt(), 0.0, 0.0, 1.0);
         }
     }
 
@@ -318,7 +323,7 @@ mod tests {
             0.0,
             0.01,
             100_000,
-            &mut |_: &StepRecord<2>| count += 1,
+            &mut |_: &StepRecord<Const<2>>| count += 1,
         )
         .unwrap_err();
         assert!(matches!(

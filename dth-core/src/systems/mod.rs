@@ -33,18 +33,16 @@ mod derivative_tests {
 
     use super::*;
     use crate::Hamiltonian;
-    use nalgebra::SVector;
+    use nalgebra::{Const, SVector};
     use num_dual::{hessian, Dual2SVec64, DualNum};
 
-    type X<D: Dim> = SVector<Dual2SVec64<D>, D>;
+    type X<const D: usize> = SVector<Dual2SVec64<D>, D>;
 
-    fn check<D: Dim, H: Hamiltonian<D>>(
+    fn check<const D: usize, H: Hamiltonian<Const<D>>>(
         h: &H,
         f: impl Fn(X<D>) -> Dual2SVec64<D>,
-        points: &[OVector<f64, D>],
-    ) where
-        DefaultAllocator: Alloc<D>,
-    {
+        points: &[SVector<f64, D>],
+    ) {
         for z in points {
             let (v, g, m) = hessian(&f, z);
             let close = |a: f64, b: f64| (a - b).abs() <= 64.0 * f64::EPSILON * (1.0 + b.abs());
@@ -70,10 +68,7 @@ mod derivative_tests {
         }
     }
 
-    fn points<D: Dim>(seed: u64) -> Vec<OVector<f64, D>>
-    where
-        DefaultAllocator: Alloc<D>,
-    {
+    fn points<const D: usize>(seed: u64) -> Vec<SVector<f64, D>> {
         // A small deterministic generator (splitmix64) for points in [-1.5, 1.5]^D.
         let mut s = seed;
         let mut next = move || {
@@ -239,15 +234,12 @@ mod derivative_tests {
     #[test]
     fn separability_flags_match_the_hessians() {
         // SEPARABLE must mean a zero q-p block of the Hessian, at every point.
-        fn agrees<D: Dim, H: Hamiltonian<D>>(h: &H, seed: u64) -> bool
-        where
-            DefaultAllocator: Alloc<D>,
-        {
+        fn agrees<const D: usize, H: Hamiltonian<Const<D>>>(h: &H, seed: u64) -> bool {
             let n = D / 2;
             points::<D>(seed).iter().all(|z| {
                 let m = h.hessian(z);
                 let zero = (0..n).all(|i| (n..D).all(|j| m[(i, j)] == 0.0));
-                zero == H::SEPARABLE
+                zero == h.flags().separable
             })
         }
         assert!(agrees(&HenonHeiles, 11));
