@@ -19,7 +19,7 @@
 //! let mut l = AverageAbsoluteDeviation::with_reference(planar_angular_momentum, 0.6);
 //! l.push(&z0);
 //! assert_eq!(l.mean(), Some(0.0));
-//! # Ok::<(), dth_core::methods::RunError<dth_core::methods::RunEnd<Const<4>>>>(())
+//! # Ok::<(), dth_core::methods::RunError<dth_core::methods::RunEnd<dth_core::nalgebra::U4>>>(())
 //! ```
 
 use crate::hamiltonian::Alloc;

@@ -53,7 +53,7 @@ include!("../../tests/chains/toda_512.rs");
 #[derive(Clone, Copy)]
 struct Dense<H>(H);
 
-impl<const D: usize, H: Hamiltonian<D>> Hamiltonian<D> for Dense<H> {
+impl<const D: usize, H: Hamiltonian<Const<D>>> Hamiltonian<Const<D>> for Dense<H> {
     fn value(&self, z: &SVector<f64, D>) -> f64 {
         self.0.value(z)
     }
@@ -69,7 +69,7 @@ impl<const D: usize, H: Hamiltonian<D>> Hamiltonian<D> for Dense<H> {
 #[derive(Clone, Copy)]
 struct Structured<H>(H);
 
-impl<const D: usize, H: Hamiltonian<D>> Hamiltonian<D> for Structured<H> {
+impl<const D: usize, H: Hamiltonian<Const<D>>> Hamiltonian<Const<D>> for Structured<H> {
     const HESSIAN_PATTERN: Option<&'static [(usize, usize)]> = H::HESSIAN_PATTERN;
     const STRUCTURED_NEWTON: bool = true;
     fn value(&self, z: &SVector<f64, D>) -> f64 {
@@ -105,7 +105,7 @@ fn states<const D: usize>() -> Vec<SVector<f64, D>> {
 
 const DT: f64 = 0.1;
 
-fn bench_one<const D: usize, H: Hamiltonian<D>>(
+fn bench_one<const D: usize, H: Hamiltonian<Const<D>>>(
     g: &mut criterion::BenchmarkGroup<'_, criterion::measurement::WallTime>,
     name: &str,
     h: &H,
@@ -123,7 +123,7 @@ fn bench_one<const D: usize, H: Hamiltonian<D>>(
     });
 }
 
-fn chain<const D: usize, H: Hamiltonian<D> + Copy>(
+fn chain<const D: usize, H: Hamiltonian<Const<D>> + Copy>(
     c: &mut Criterion,
     name: &str,
     h: H,
@@ -142,7 +142,7 @@ fn chain<const D: usize, H: Hamiltonian<D> + Copy>(
 }
 
 /// One DTH step, `dtau = 0.1`, of a stepper running from `z0`.
-fn dth_step<const D: usize, H: Hamiltonian<D> + Copy>(c: &mut Criterion, name: &str, h: H) {
+fn dth_step<const D: usize, H: Hamiltonian<Const<D>> + Copy>(c: &mut Criterion, name: &str, h: H) {
     let z0 = states::<D>()[0];
     let options = DthOptions::default().with_dtau(DT).expect("dtau");
     let mut dth = Dth::new(h, z0, options).expect("start");

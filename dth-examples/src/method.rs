@@ -20,14 +20,14 @@ use crate::system::SceneSystem;
 
 /// The system's exact solution ([`SceneSystem::exact_solution`]) sampled at `t0 + k dt` from
 /// `z0` until `stop`, shown to `observer` like a fixed-step method's states.
-pub fn run_exact<const D: usize, S: SceneSystem<D>, O: Observer<D>>(
+pub fn run_exact<const D: usize, S: SceneSystem<D>, O: Observer<Const<D>>>(
     system: &S,
     dt: f64,
     z0: SVector<f64, D>,
     t0: f64,
     stop: Stop,
     observer: &mut O,
-) -> Result<RunEnd<D>, MethodFailure> {
+) -> Result<RunEnd<Const<D>>, MethodFailure> {
     let mut record = StepRecord {
         k: 0,
         t: t0,
@@ -57,14 +57,14 @@ pub fn run_exact<const D: usize, S: SceneSystem<D>, O: Observer<D>>(
 }
 
 /// Runs the method a scene names. The single dispatch point (see the module docs).
-pub fn run_method<const D: usize, H: SceneSystem<D>, O: Observer<D>>(
+pub fn run_method<const D: usize, H: SceneSystem<D>, O: Observer<Const<D>>>(
     spec: &MethodSpec,
     system: &H,
     z0: SVector<f64, D>,
     t0: f64,
     stop: Stop,
     observer: &mut O,
-) -> Result<Result<RunEnd<D>, MethodFailure>, Error> {
+) -> Result<Result<RunEnd<Const<D>>, MethodFailure>, Error> {
     let not_available = |reason: &str| Error::NotAvailable {
         what: "method",
         name: spec.kind.name().to_string(),

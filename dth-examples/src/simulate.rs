@@ -266,9 +266,9 @@ pub fn stop_for<const D: usize, S: SceneSystem<D>>(
 /// Progress as an observer: moves the bar every 1024 steps (nothing else per step).
 pub struct Progress(pub ProgressBar);
 
-impl<const D: usize> Observer<D> for Progress {
+impl<const D: usize> Observer<Const<D>> for Progress {
     #[inline(always)]
-    fn on_step(&mut self, record: &StepRecord<D>) {
+    fn on_step(&mut self, record: &StepRecord<Const<D>>) {
         if record.k.is_multiple_of(1024) {
             self.0.set_position(record.k as u64);
         }
@@ -279,9 +279,9 @@ impl<const D: usize> Observer<D> for Progress {
 /// failed stopped.
 struct LastTime(f64);
 
-impl<const D: usize> Observer<D> for LastTime {
+impl<const D: usize> Observer<Const<D>> for LastTime {
     #[inline(always)]
-    fn on_step(&mut self, record: &StepRecord<D>) {
+    fn on_step(&mut self, record: &StepRecord<Const<D>>) {
         self.0 = record.t;
     }
 }

@@ -16,7 +16,7 @@ use crate::driver::{DthRunner, MethodFailure, Stop};
 /// `Hamiltonian::TIME_DEPENDENT` (the extended phase space `(q, t, p, p_t)`).
 ///
 /// `Clone` because the DTH stepper owns its Hamiltonian (systems are small parameter structs).
-pub trait SceneSystem<const D: usize>: Hamiltonian<D> + Clone {
+pub trait SceneSystem<const D: usize>: Hamiltonian<Const<D>> + Clone {
     /// `true` when [`SceneSystem::period`] returns `Some` for bound initial states.
     const HAS_PERIOD: bool = false;
 
@@ -60,14 +60,14 @@ pub trait SceneSystem<const D: usize>: Hamiltonian<D> + Clone {
     /// `dth::systems::CentralForce`); `None` for systems that are not central forces. A
     /// central-force system implements it as
     /// `Some(run_peer(&mut DiscreteMechanics::new(), self, dt, z0, t0, stop, observer))`.
-    fn run_discrete_mechanics<O: Observer<D>>(
+    fn run_discrete_mechanics<O: Observer<Const<D>>>(
         &self,
         dt: f64,
         z0: SVector<f64, D>,
         t0: f64,
         stop: Stop,
         observer: &mut O,
-    ) -> Option<Result<RunEnd<D>, MethodFailure>> {
+    ) -> Option<Result<RunEnd<Const<D>>, MethodFailure>> {
         let _ = (dt, z0, t0, stop, observer);
         None
     }
@@ -77,14 +77,14 @@ pub trait SceneSystem<const D: usize>: Hamiltonian<D> + Clone {
     /// identically zero (rejected by the stepper at compile time) runs through [`WithoutDth`]
     /// instead, which returns `None` here ([`SystemEntry::runnable_without_dth`](crate::catalogue::SystemEntry::runnable_without_dth)
     /// does that).
-    fn run_dth<O: Observer<D>>(
+    fn run_dth<O: Observer<Const<D>>>(
         &self,
         runner: &DthRunner,
         z0: SVector<f64, D>,
         t0: f64,
         stop: Stop,
         observer: &mut O,
-    ) -> Option<Result<RunEnd<D>, MethodFailure>> {
+    ) -> Option<Result<RunEnd<Const<D>>, MethodFailure>> {
         Some(runner.run(self, z0, t0, stop, observer))
     }
 }
@@ -117,7 +117,7 @@ pub trait SceneSystem<const D: usize>: Hamiltonian<D> + Clone {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct WithoutDth<S>(pub S);
 
-impl<const D: usize, S: Hamiltonian<D>> Hamiltonian<D> for WithoutDth<S> {
+impl<const D: usize, S: Hamiltonian<Const<D>>> Hamiltonian<Const<D>> for WithoutDth<S> {
     const TIME_DEPENDENT: bool = S::TIME_DEPENDENT;
     const SEPARABLE: bool = S::SEPARABLE;
     const PSI_IDENTICALLY_ZERO: bool = S::PSI_IDENTICALLY_ZERO;
@@ -140,7 +140,7 @@ impl<const D: usize, S: Hamiltonian<D>> Hamiltonian<D> for WithoutDth<S> {
         self.0.psi(z)
     }
     #[inline]
-    fn derivatives(&self, z: &SVector<f64, D>) -> dth::Derivatives<D> {
+    fn derivatives(&self, z: &SVector<f64, D>) -> dth::Derivatives<Const<D>> {
         self.0.derivatives(z)
     }
     #[inline]
@@ -184,26 +184,26 @@ impl<const D: usize, S: SceneSystem<D>> SceneSystem<D> for WithoutDth<S> {
         self.0.period(z0)
     }
 
-    fn run_discrete_mechanics<O: Observer<D>>(
+    fn run_discrete_mechanics<O: Observer<Const<D>>>(
         &self,
         dt: f64,
         z0: SVector<f64, D>,
         t0: f64,
         stop: Stop,
         observer: &mut O,
-    ) -> Option<Result<RunEnd<D>, MethodFailure>> {
+    ) -> Option<Result<RunEnd<Const<D>>, MethodFailure>> {
         self.0.run_discrete_mechanics(dt, z0, t0, stop, observer)
     }
 
     /// `None`: DTH is not offered (see [`WithoutDth`]).
-    fn run_dth<O: Observer<D>>(
+    fn run_dth<O: Observer<Const<D>>>(
         &self,
         runner: &DthRunner,
         z0: SVector<f64, D>,
         t0: f64,
         stop: Stop,
         observer: &mut O,
-    ) -> Option<Result<RunEnd<D>, MethodFailure>> {
+    ) -> Option<Result<RunEnd<Const<D>>, MethodFailure>> {
         let _ = (runner, z0, t0, stop, observer);
         None
     }

@@ -94,14 +94,14 @@ impl SceneSystem<4> for Kepler {
         })
     }
 
-    fn run_discrete_mechanics<O: Observer<4>>(
+    fn run_discrete_mechanics<O: Observer<Const<4>>>(
         &self,
         dt: f64,
         z0: SVector<f64, 4>,
         t0: f64,
         stop: Stop,
         observer: &mut O,
-    ) -> Option<Result<RunEnd<4>, MethodFailure>> {
+    ) -> Option<Result<RunEnd<Const<4>>, MethodFailure>> {
         Some(run_peer(
             &mut DiscreteMechanics::new(),
             self,
@@ -115,7 +115,7 @@ impl SceneSystem<4> for Kepler {
 }
 
 /// `phi(r) = -k / r`.
-impl CentralForce<4> for Kepler {
+impl CentralForce<Const<4>> for Kepler {
     fn mass(&self) -> f64 {
         self.m
     }
@@ -377,14 +377,14 @@ impl SceneSystem<4> for FreeParticle {
         ))
     }
 
-    fn run_discrete_mechanics<O: Observer<4>>(
+    fn run_discrete_mechanics<O: Observer<Const<4>>>(
         &self,
         dt: f64,
         z0: SVector<f64, 4>,
         t0: f64,
         stop: Stop,
         observer: &mut O,
-    ) -> Option<Result<RunEnd<4>, MethodFailure>> {
+    ) -> Option<Result<RunEnd<Const<4>>, MethodFailure>> {
         Some(run_peer(
             &mut DiscreteMechanics::new(),
             self,
@@ -398,7 +398,7 @@ impl SceneSystem<4> for FreeParticle {
 }
 
 /// `phi = 0`: a central force without force.
-impl CentralForce<4> for FreeParticle {
+impl CentralForce<Const<4>> for FreeParticle {
     fn mass(&self) -> f64 {
         self.m
     }
@@ -426,8 +426,8 @@ mod tests {
     #[test]
     fn generated_systems_match_the_hand_written_references() {
         fn close<const D: usize>(
-            a: &impl Hamiltonian<D>,
-            b: &impl Hamiltonian<D>,
+            a: &impl Hamiltonian<Const<D>>,
+            b: &impl Hamiltonian<Const<D>>,
             z: &SVector<f64, D>,
         ) {
             let tol = |x: f64| 1e-14 * x.abs().max(1.0);

@@ -21,16 +21,20 @@ struct CountingKepler {
     invariants: Cell<usize>,
 }
 
-impl Hamiltonian<4> for CountingKepler {
+impl Hamiltonian<Const<4>> for CountingKepler {
+    fn dim(&self) -> Const<4> {
+        Const
+    }
+
     fn value(&self, z: &SVector<f64, 4>) -> f64 {
         self.values.set(self.values.get() + 1);
         self.inner.value(z)
     }
-    fn gradient(&self, z: &SVector<f64, 4>) -> SVector<f64, 4> {
-        self.inner.gradient(z)
+    fn gradient_into(&self, z: &SVector<f64, 4>, out: &mut SVector<f64, 4>) {
+        *out = self.inner.gradient(z);
     }
-    fn hessian(&self, z: &SVector<f64, 4>) -> SMatrix<f64, 4, 4> {
-        self.inner.hessian(z)
+    fn hessian_into(&self, z: &SVector<f64, 4>, out: &mut SMatrix<f64, 4, 4>) {
+        *out = self.inner.hessian(z);
     }
 }
 

@@ -21,12 +21,12 @@ fn bits(v: &[f64]) -> Vec<u64> {
 /// Every method of `typed` and of the runtime Hamiltonian built from catalogue entry `name`
 /// agree bit for bit at seeded points (two-point methods with a far, a near and an equal
 /// second point).
-fn same<const D: usize>(name: &str, typed: &impl Hamiltonian<D>) {
+fn same<const D: usize>(name: &str, typed: &impl Hamiltonian<Const<D>>) {
     let e = CATALOGUE.iter().find(|e| e.name == name).unwrap();
     let h = RuntimeHamiltonian::new(e.src, e.params).unwrap();
     assert_eq!(h.backend(), Backend::Jit, "{:?}", h.fallback_reason());
     assert_eq!(h.dim(), D, "{name}");
-    fn flags<const D: usize, H: Hamiltonian<D>>(_: &H) -> (bool, bool, bool) {
+    fn flags<const D: usize, H: Hamiltonian<Const<D>>>(_: &H) -> (bool, bool, bool) {
         (H::SEPARABLE, H::TIME_DEPENDENT, H::PSI_IDENTICALLY_ZERO)
     }
     assert_eq!(

@@ -164,7 +164,7 @@ where
     ///     }
     ///     fn hessian_into(&self, _: &Vector2<f64>, out: &mut Matrix2<f64>) { out.fill(0.0) }
     /// }
-    /// let err = Dth::new(Linear, Vector2::new(0.0, 1.0), DthOptions::default()).unwrap_err();
+    /// let err = Dth::new(Linear, Vector2::new(0.0, 1.0), DthOptions::default()).err().unwrap();
     /// assert!(matches!(err, Error::PsiIdenticallyZero));
     /// ```
     ///

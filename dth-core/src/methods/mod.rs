@@ -40,7 +40,7 @@
 //! assert_eq!(recorder.z.len(), 101); // the initial state and one per step
 //! let l = Kepler::angular_momentum(&end.z);
 //! assert!((l - 0.6).abs() < 1e-14); // midpoint keeps quadratic invariants
-//! # Ok::<(), dth_core::methods::RunError<dth_core::methods::RunEnd<Const<4>>>>(())
+//! # Ok::<(), dth_core::methods::RunError<dth_core::methods::RunEnd<dth_core::nalgebra::U4>>>(())
 //! ```
 
 use crate::hamiltonian::Alloc;

@@ -69,8 +69,8 @@ struct Watch<'s, const D: usize, S> {
     megno: Option<Megno<'s, D, S>>,
 }
 
-impl<const D: usize, S: SceneSystem<D>> Observer<D> for Watch<'_, D, S> {
-    fn on_step(&mut self, record: &StepRecord<D>) {
+impl<const D: usize, S: SceneSystem<D>> Observer<Const<D>> for Watch<'_, D, S> {
+    fn on_step(&mut self, record: &StepRecord<Const<D>>) {
         let h = self.system.value(&record.z);
         match self.h0 {
             None => self.h0 = Some(h),

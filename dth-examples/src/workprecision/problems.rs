@@ -141,7 +141,7 @@ fn order_ladder(options: &WorkPrecisionOptions, info: &ProblemInfo, finest: f64)
 
 impl<H, const D: usize> Problem<H, D>
 where
-    H: Hamiltonian<D> + Clone,
+    H: Hamiltonian<Const<D>> + Clone,
 {
     /// Every method that applies to any Hamiltonian.
     fn sweep_common(&self, options: &WorkPrecisionOptions, records: &mut Vec<Record>) {
@@ -199,7 +199,7 @@ where
 /// (the forced oscillator's `calH = p_t + p^2/2 + V(q, t)` too).
 struct Generic<H, const D: usize>(Problem<H, D>);
 
-impl<H: Hamiltonian<D> + Clone, const D: usize> Sweep for Generic<H, D> {
+impl<H: Hamiltonian<Const<D>> + Clone, const D: usize> Sweep for Generic<H, D> {
     fn sweep(
         &self,
         options: &WorkPrecisionOptions,
