@@ -84,6 +84,17 @@ pub struct Flags {
 }
 
 impl Flags {
+    /// All `false` (as `Flags::default()`, usable in constants).
+    pub const fn new() -> Self {
+        Flags {
+            time_dependent: false,
+            separable: false,
+            psi_identically_zero: false,
+            exact_divided_differences: false,
+            structured_newton: false,
+        }
+    }
+
     /// With [`Flags::time_dependent`] set to `v`.
     pub const fn with_time_dependent(mut self, v: bool) -> Self {
         self.time_dependent = v;
@@ -109,6 +120,15 @@ impl Flags {
         self.structured_newton = v;
         self
     }
+}
+
+/// [`Flags`] known when the program is compiled, for code that needs them before it has a
+/// value (a catalogue registering a type, a compile-time assertion). `hamiltonian!` implements
+/// it for every type it generates, and their [`Hamiltonian::flags`] returns the same; a
+/// runtime Hamiltonian, whose flags come from its text, does not.
+pub trait ConstFlags {
+    /// The flags.
+    const FLAGS: Flags;
 }
 
 /// Value, gradient, Hessian and Psi of a Hamiltonian at one point, computed together.

@@ -31,6 +31,7 @@ pub mod systems;
 
 pub use error::Error;
 pub use hamiltonian::{
-    j_times, j_times_into, psi_from, zeros, zeros_matrix, Alloc, Derivatives, Flags, Hamiltonian,
+    j_times, j_times_into, psi_from, zeros, zeros_matrix, Alloc, ConstFlags, Derivatives, Flags,
+    Hamiltonian,
 };
 pub use nalgebra;

@@ -10,6 +10,7 @@
 //! the time per evaluation is the reported time / 16. Ratios go into `docs/benchmarks.md`
 //! from one run of `cargo bench -p dth-examples --bench derivatives -- --noplot`.
 
+use dth::nalgebra::Const;
 use std::hint::black_box;
 use std::time::Duration;
 

@@ -14,6 +14,7 @@
 //! Ratios go into `docs/benchmarks.md` from one run of
 //! `cargo bench -p dth-examples --bench runtime -- --noplot`.
 
+use dth::nalgebra::Const;
 use std::hint::black_box;
 use std::time::Duration;
 

@@ -16,6 +16,7 @@
 //! Run with `cargo bench -p dth-examples --bench step_cost -- --noplot` (one process, so the
 //! ratios come from one machine state; add `--quick` for a smoke run).
 
+use dth::nalgebra::Const;
 use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
@@ -97,7 +98,7 @@ fn group<H: Hamiltonian<Const<D>> + Clone, const D: usize>(
         let _ = midpoint.step(&h, z, dt);
     }
     let midpoint_iterations =
-        OneStepMethod::<D, H>::newton_iterations(&midpoint) as f64 / zs.len() as f64;
+        OneStepMethod::<Const<D>, H>::newton_iterations(&midpoint) as f64 / zs.len() as f64;
     eprintln!(
         "{system}: Newton iterations per step over {} states: dth_joint {:.2}{}, dth_nested {:.2} \
          (LU factorizations), midpoint {:.2}; mean dt {dt:.4}",

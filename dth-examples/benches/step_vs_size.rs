@@ -22,6 +22,8 @@
 //! `docs/benchmarks.md` come from this bench. Run with
 //! `cargo bench -p dth-examples --bench step_vs_size -- --noplot` (add `--quick` for a smoke run).
 
+use dth::nalgebra::Const;
+use dth::Flags;
 use std::hint::black_box;
 use std::time::Duration;
 
@@ -54,14 +56,17 @@ include!("../../tests/chains/toda_512.rs");
 struct Dense<H>(H);
 
 impl<const D: usize, H: Hamiltonian<Const<D>>> Hamiltonian<Const<D>> for Dense<H> {
+    fn dim(&self) -> Const<D> {
+        Const
+    }
     fn value(&self, z: &SVector<f64, D>) -> f64 {
         self.0.value(z)
     }
-    fn gradient(&self, z: &SVector<f64, D>) -> SVector<f64, D> {
-        self.0.gradient(z)
+    fn gradient_into(&self, z: &SVector<f64, D>, out: &mut SVector<f64, D>) {
+        self.0.gradient_into(z, out)
     }
-    fn hessian(&self, z: &SVector<f64, D>) -> SMatrix<f64, D, D> {
-        self.0.hessian(z)
+    fn hessian_into(&self, z: &SVector<f64, D>, out: &mut SMatrix<f64, D, D>) {
+        self.0.hessian_into(z, out)
     }
 }
 
@@ -70,16 +75,23 @@ impl<const D: usize, H: Hamiltonian<Const<D>>> Hamiltonian<Const<D>> for Dense<H
 struct Structured<H>(H);
 
 impl<const D: usize, H: Hamiltonian<Const<D>>> Hamiltonian<Const<D>> for Structured<H> {
-    const HESSIAN_PATTERN: Option<&'static [(usize, usize)]> = H::HESSIAN_PATTERN;
-    const STRUCTURED_NEWTON: bool = true;
+    fn dim(&self) -> Const<D> {
+        Const
+    }
+    fn flags(&self) -> Flags {
+        Flags::new().with_structured_newton(true)
+    }
+    fn hessian_pattern(&self) -> Option<&[(usize, usize)]> {
+        self.0.hessian_pattern()
+    }
     fn value(&self, z: &SVector<f64, D>) -> f64 {
         self.0.value(z)
     }
-    fn gradient(&self, z: &SVector<f64, D>) -> SVector<f64, D> {
-        self.0.gradient(z)
+    fn gradient_into(&self, z: &SVector<f64, D>, out: &mut SVector<f64, D>) {
+        self.0.gradient_into(z, out)
     }
-    fn hessian(&self, z: &SVector<f64, D>) -> SMatrix<f64, D, D> {
-        self.0.hessian(z)
+    fn hessian_into(&self, z: &SVector<f64, D>, out: &mut SMatrix<f64, D, D>) {
+        self.0.hessian_into(z, out)
     }
     fn hessian_nonzeros(&self, z: &SVector<f64, D>, values: &mut [f64]) {
         self.0.hessian_nonzeros(z, values);

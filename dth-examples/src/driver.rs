@@ -8,6 +8,7 @@
 
 use dth::dth::{Dth, DthOptions, Solver};
 use dth::methods::{self, OneStepMethod, RunEnd};
+use dth::nalgebra::Const;
 use dth::nalgebra::SVector;
 use dth::observer::Observer;
 use dth::Hamiltonian;
@@ -133,7 +134,7 @@ impl DthRunner {
     ) -> Result<RunEnd<Const<D>>, MethodFailure> {
         let start = |e| MethodFailure::integrator(0, e);
         let mut dth = Dth::new(system.clone(), z0, self.options).map_err(start)?;
-        if !H::TIME_DEPENDENT {
+        if !system.flags().time_dependent {
             dth = dth.with_tbar0(t0).map_err(start)?;
         }
         let mut record = dth.record();

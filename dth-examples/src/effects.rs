@@ -5,6 +5,7 @@
 //! erases). [`Effects::observer_calls`] and [`Effects::stored_values`] count what was done so
 //! tests can prove it.
 
+use dth::nalgebra::Const;
 use dth::nalgebra::SVector;
 use dth::observer::{Observer, StepRecord};
 use serde::Serialize;

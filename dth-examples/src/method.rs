@@ -10,6 +10,7 @@
 use dth::methods::{
     DiscreteGradient, GaussLegendre2, ImplicitMidpoint, Rk4, RunEnd, StormerVerlet, Trapezoidal,
 };
+use dth::nalgebra::Const;
 use dth::nalgebra::SVector;
 use dth::observer::{Observer, StepKind, StepRecord};
 
@@ -86,7 +87,7 @@ pub fn run_method<const D: usize, H: SceneSystem<D>, O: Observer<Const<D>>>(
             return system
                 .run_dth(&runner, z0, t0, stop, observer)
                 .ok_or_else(|| {
-                    not_available(if H::PSI_IDENTICALLY_ZERO {
+                    not_available(if system.flags().psi_identically_zero {
                         "this system's Psi = (J gradH)^T HessH (J gradH) is identically zero, so the energy condition does not determine lambda (thesis Section 3.4): use a peer method"
                     } else {
                         "this system was registered without DTH (SystemEntry::runnable_without_dth)"
@@ -119,7 +120,7 @@ pub fn run_method<const D: usize, H: SceneSystem<D>, O: Observer<Const<D>>>(
         MethodKind::Trapezoidal => peer!(Trapezoidal::new()),
         MethodKind::Midpoint => peer!(ImplicitMidpoint::new()),
         MethodKind::StormerVerlet => {
-            if !H::SEPARABLE {
+            if !system.flags().separable {
                 return Err(not_available(
                     "Stormer-Verlet needs a separable H = T(p) + V(q)",
                 ));

@@ -22,6 +22,7 @@
 
 use dth::kepler::KeplerOrbit;
 use dth::methods::{DiscreteMechanics, RunEnd};
+use dth::nalgebra::Const;
 use dth::nalgebra::SVector;
 use dth::observer::Observer;
 use dth::systems::CentralForce;
@@ -591,11 +592,12 @@ mod tests {
 
     // The flags validation relies on, as `hamiltonian!` derived them from the formulas
     // (checked when the tests compile).
+    use dth::ConstFlags;
     const _: () = {
-        assert!(FreeParticle::PSI_IDENTICALLY_ZERO && FreeParticle::SEPARABLE);
-        assert!(!Kepler::PSI_IDENTICALLY_ZERO && Kepler::SEPARABLE);
-        assert!(!DoublePendulum::SEPARABLE);
-        assert!(ForcedOscillator::TIME_DEPENDENT && !Kepler::TIME_DEPENDENT);
+        assert!(FreeParticle::FLAGS.psi_identically_zero && FreeParticle::FLAGS.separable);
+        assert!(!Kepler::FLAGS.psi_identically_zero && Kepler::FLAGS.separable);
+        assert!(!DoublePendulum::FLAGS.separable);
+        assert!(ForcedOscillator::FLAGS.time_dependent && !Kepler::FLAGS.time_dependent);
     };
 
     #[test]

@@ -4,10 +4,11 @@
 //! the gradient only) and of the invariants; the runner reports how many states
 //! its effect observers saw and how many numbers they stored.
 
+use dth::nalgebra::Const;
 use std::cell::Cell;
 
 use dth::nalgebra::{SMatrix, SVector};
-use dth::Hamiltonian;
+use dth::{ConstFlags, Flags, Hamiltonian};
 use dth_examples::catalogue::Catalogue;
 use dth_examples::effects::EffectOutputs;
 use dth_examples::simulate::{compute, RunOptions};
@@ -36,6 +37,11 @@ impl Hamiltonian<Const<4>> for CountingKepler {
     fn hessian_into(&self, z: &SVector<f64, 4>, out: &mut SMatrix<f64, 4, 4>) {
         *out = self.inner.hessian(z);
     }
+}
+
+/// No flags (the defaults), as `flags()` says.
+impl ConstFlags for CountingKepler {
+    const FLAGS: Flags = Flags::new();
 }
 
 impl SceneSystem<4> for CountingKepler {

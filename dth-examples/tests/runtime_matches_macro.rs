@@ -4,6 +4,7 @@
 //! operations in the same order (and the same Rust functions for transcendentals). This also
 //! checks that the texts in `dth-runtime/tests/catalogue` are the catalogue's formulas.
 
+use dth::nalgebra::Const;
 use dth::nalgebra::SVector;
 use dth::Hamiltonian;
 use dth_examples::systems;
@@ -26,8 +27,9 @@ fn same<const D: usize>(name: &str, typed: &impl Hamiltonian<Const<D>>) {
     let h = RuntimeHamiltonian::new(e.src, e.params).unwrap();
     assert_eq!(h.backend(), Backend::Jit, "{:?}", h.fallback_reason());
     assert_eq!(h.dim(), D, "{name}");
-    fn flags<const D: usize, H: Hamiltonian<Const<D>>>(_: &H) -> (bool, bool, bool) {
-        (H::SEPARABLE, H::TIME_DEPENDENT, H::PSI_IDENTICALLY_ZERO)
+    fn flags<const D: usize, H: Hamiltonian<Const<D>>>(h: &H) -> (bool, bool, bool) {
+        let f = h.flags();
+        (f.separable, f.time_dependent, f.psi_identically_zero)
     }
     assert_eq!(
         (h.separable(), h.time_dependent(), h.psi_identically_zero()),

@@ -111,17 +111,23 @@ pub fn hamiltonian_impl(system: &System, name: &Ident, params: &[Ident]) -> Toke
         #[doc = #source]
         #[automatically_derived]
         #[allow(unused_variables, clippy::all, clippy::pedantic, clippy::nursery)]
+        impl #core::ConstFlags for #name {
+            const FLAGS: #core::Flags = #core::Flags::new()
+                .with_time_dependent(#td)
+                .with_separable(#sep)
+                .with_psi_identically_zero(#psi0)
+                .with_exact_divided_differences(true)
+                .with_structured_newton(#structured);
+        }
+
+        #[automatically_derived]
+        #[allow(unused_variables, clippy::all, clippy::pedantic, clippy::nursery)]
         impl #core::Hamiltonian<#nalgebra::Const<#d>> for #name {
             #[inline]
             fn dim(&self) -> #nalgebra::Const<#d> { #nalgebra::Const }
             #[inline]
             fn flags(&self) -> #core::Flags {
-                #core::Flags::default()
-                    .with_time_dependent(#td)
-                    .with_separable(#sep)
-                    .with_psi_identically_zero(#psi0)
-                    .with_exact_divided_differences(true)
-                    .with_structured_newton(#structured)
+                <Self as #core::ConstFlags>::FLAGS
             }
             #[inline]
             fn hessian_pattern(&self) -> ::core::option::Option<&[(usize, usize)]> {

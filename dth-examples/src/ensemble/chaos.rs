@@ -19,6 +19,7 @@
 //! Why not the DTH step's own tangent map: `docs/theory.md#chaos-indicators`.
 
 use dth::linalg::Lu;
+use dth::nalgebra::Const;
 use dth::nalgebra::{SMatrix, SVector};
 use dth::observer::{Observer, StepRecord};
 use dth::Hamiltonian;

@@ -1,6 +1,7 @@
 //! One member of an ensemble scene run with every method ([`run_member`]), and what it
 //! yields ([`MemberResult`]).
 
+use dth::nalgebra::Const;
 use std::collections::BTreeMap;
 
 use dth::nalgebra::SVector;
@@ -172,7 +173,7 @@ pub fn run_member<const D: usize, S: SceneSystem<D>>(
     };
     let mut z0 = initial_state(&system, &own)?;
     if let Some(shell) = members.shell {
-        if S::TIME_DEPENDENT {
+        if system.flags().time_dependent {
             return Err(Error::NotAvailable {
                 what: "energy shell for system",
                 name: scene.system.clone(),

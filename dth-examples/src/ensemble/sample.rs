@@ -1,6 +1,7 @@
 //! The members of an ensemble scene: the states and parameters its sampler draws ([`draw`])
 //! and the energy shell ([`on_shell`]).
 
+use dth::nalgebra::Const;
 use std::collections::BTreeMap;
 
 use dth::nalgebra::SVector;

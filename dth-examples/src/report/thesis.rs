@@ -15,6 +15,7 @@
 //! `(q1, p1)` is plotted. DTH is shown at its midpoints `zbar_k` (the thesis: "midpoint values
 //! were used for the DTH trajectories").
 
+use dth::nalgebra::Const;
 use std::path::Path;
 
 use dth::nalgebra::SVector;

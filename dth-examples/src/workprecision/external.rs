@@ -7,6 +7,7 @@
 //! run asks for the state at `T` only (`t_eval`); the diagnostic run stores every accepted step
 //! and takes the energy and invariant deviations over them.
 
+use dth::nalgebra::Const;
 use std::hint::black_box;
 
 use differential_equations::prelude::{ExplicitRungeKutta, IVP, ODE};

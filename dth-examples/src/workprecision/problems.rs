@@ -11,6 +11,7 @@
 //!
 //! The quick sweep integrates one period instead of ten.
 
+use dth::nalgebra::Const;
 use dth::nalgebra::{SVector, Vector2, Vector4};
 
 use dth::dth::DthOptions;
@@ -183,7 +184,13 @@ where
         sweep_peer(self, options, &ladder, ImplicitMidpoint::new, records);
         sweep_peer(self, options, &ladder, Trapezoidal::new, records);
         sweep_peer(self, options, &ladder, DiscreteGradient::new, records);
-        sweep_peer(self, options, &ladder, StormerVerlet::<D>::new, records);
+        sweep_peer(
+            self,
+            options,
+            &ladder,
+            StormerVerlet::<Const<D>>::new,
+            records,
+        );
         sweep_peer(self, options, &ladder, || Rk4, records);
         sweep_peer(self, options, &ladder, GaussLegendre2::new, records);
         sweep_dop853(self, options, &ladder, records);

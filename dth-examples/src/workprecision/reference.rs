@@ -2,6 +2,7 @@
 //! cubic Hermite interpolation between its steps.
 
 use dth::methods::{run, GaussLegendre2};
+use dth::nalgebra::Const;
 use dth::nalgebra::SVector;
 use dth::observer::Recorder;
 use dth::{j_times, Hamiltonian};

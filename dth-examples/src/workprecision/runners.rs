@@ -4,6 +4,7 @@
 //! without them: the timed run only integrates to `T` and returns the final state, which is
 //! passed through [`black_box`] so the work cannot be optimized away.
 
+use dth::nalgebra::Const;
 use std::hint::black_box;
 use std::time::Instant;
 
@@ -152,7 +153,7 @@ pub(crate) fn sweep_peer<H, M, const D: usize>(
         let mut invariant = problem.invariant.map(|f| (f, MaxDeviation::new(f(z0))));
         let mut method = make();
         let result = run(&mut method, h, z0, 0.0, dt, steps, &mut |r: &StepRecord<
-            D,
+            Const<D>,
         >| {
             energy.push(h.value(&r.z));
             if let Some((f, dev)) = invariant.as_mut() {

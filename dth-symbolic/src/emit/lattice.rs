@@ -326,22 +326,27 @@ pub fn looped_impl(looped: &Looped, name: &Ident, params: &[Ident]) -> Option<To
                 };
             }
 
-            #[doc = #source]
-            #[automatically_derived]
-            #[allow(unused_variables, unused_mut, unused_assignments, unused_parens, clippy::all, clippy::pedantic, clippy::nursery)]
-            impl #core::Hamiltonian<#nalgebra::Const<#d>> for #name {
+        #[automatically_derived]
+        impl #core::ConstFlags for #name {
+            const FLAGS: #core::Flags = #core::Flags::new()
+                .with_separable(#separable)
+                .with_psi_identically_zero(#psi0)
+                .with_exact_divided_differences(true)
+                .with_structured_newton(Self::STRUCTURED_NEWTON);
+        }
+
+        #[doc = #source]
+        #[automatically_derived]
+        #[allow(unused_variables, unused_mut, unused_assignments, unused_parens, clippy::all, clippy::pedantic, clippy::nursery)]
+        impl #core::Hamiltonian<#nalgebra::Const<#d>> for #name {
                 #[inline]
                 fn dim(&self) -> #nalgebra::Const<#d> {
                     #nalgebra::Const
                 }
-                #[inline]
-                fn flags(&self) -> #core::Flags {
-                    #core::Flags::default()
-                        .with_separable(#separable)
-                        .with_psi_identically_zero(#psi0)
-                        .with_exact_divided_differences(true)
-                        .with_structured_newton(Self::STRUCTURED_NEWTON)
-                }
+            #[inline]
+            fn flags(&self) -> #core::Flags {
+                <Self as #core::ConstFlags>::FLAGS
+            }
                 #[inline]
                 fn hessian_pattern(&self) -> ::core::option::Option<&[(usize, usize)]> {
                     Self::HESSIAN_PATTERN
