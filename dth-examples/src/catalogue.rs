@@ -11,7 +11,7 @@
 //! and is registered the same way, with [`SystemEntry::runnable`] and [`Catalogue::register`];
 //! see `examples/custom_system.rs`.
 //!
-//! A system whose `Psi` is identically zero (`Hamiltonian::PSI_IDENTICALLY_ZERO`, e.g. a free
+//! A system whose `Psi` is identically zero (`Flags::psi_identically_zero`, e.g. a free
 //! particle) cannot run DTH: the stepper's constructor rejects it at compile time (thesis
 //! Section 3.4). Register it with [`SystemEntry::runnable_without_dth`]: every peer method
 //! runs, and a scene naming `dth` for it is rejected by validation.
@@ -129,7 +129,7 @@ impl SystemEntry {
     }
 
     /// A runnable entry that offers every peer method but not DTH: for systems whose `Psi` is
-    /// identically zero (`Hamiltonian::PSI_IDENTICALLY_ZERO`, e.g. a free particle), which the
+    /// identically zero (`Flags::psi_identically_zero`, e.g. a free particle), which the
     /// DTH stepper rejects at compile time. The system runs as [`WithoutDth`]`<S>`, so the
     /// stepper is never instantiated for it; validation rejects a scene naming method `dth`
     /// for it (file, line and column, and why).
