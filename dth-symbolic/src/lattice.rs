@@ -273,7 +273,12 @@ impl Lattice {
                 *span,
             ));
         }
-        for (span, (site, letter, at)) in &self.below {
+        // Accesses below site 1 (with no boundary there), and beyond the last site.
+        let beyond = self
+            .reached
+            .iter()
+            .filter(|(_, (site, ..))| self.last.is_some_and(|last| *site > last));
+        for (span, (site, letter, at)) in self.below.iter().chain(beyond) {
             errors.push(Error::new(
                 ErrorKind::IndexOutOfRange {
                     access: compact(&src[span.range()]),
@@ -288,20 +293,6 @@ impl Lattice {
         let Some(last) = self.last else {
             return errors;
         };
-        for (span, (site, letter, at)) in &self.reached {
-            if *site > last {
-                errors.push(Error::new(
-                    ErrorKind::IndexOutOfRange {
-                        access: compact(&src[span.range()]),
-                        letter: *letter,
-                        site: *site,
-                        at: at.clone(),
-                        last: Some(last),
-                    },
-                    *span,
-                ));
-            }
-        }
         for &(v, span) in &self.written {
             if let Var::Q(k) | Var::P(k) = v {
                 if i64::from(k) > last {

@@ -101,6 +101,18 @@ impl LoopSum {
     pub fn summand(&self) -> &crate::System {
         &self.system
     }
+
+    /// The sum's range `lo..=hi`.
+    pub fn range(&self) -> (i64, i64) {
+        (self.lo, self.hi)
+    }
+
+    /// The slots: per distinct `q[i + c]` or `p[i + c]` of the summand, its letter, its
+    /// offset `c`, and its position in the summand's local coordinates
+    /// ([`LoopSum::summand`]'s `z`).
+    pub fn slots(&self) -> &[(char, i64, usize)] {
+        &self.slots
+    }
 }
 
 /// A lattice Hamiltonian compiled once per summand (see the module docs).
@@ -367,6 +379,11 @@ impl Looped {
     /// `D = 2n`.
     pub fn dim(&self) -> usize {
         2 * self.n
+    }
+
+    /// The sums, each compiled once, in the order written.
+    pub fn sums(&self) -> &[LoopSum] {
+        &self.sums
     }
 
     /// The operations of all the summands' programs together: what a loop body holds, the
