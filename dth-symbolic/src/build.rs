@@ -590,6 +590,9 @@ impl Builder<'_> {
             });
         match error {
             Some(e) => {
+                // The lattice reaches `hi` still: the other sums' accesses are checked
+                // against it, not reported out of range because this sum was not built.
+                self.extend_lattice(hi_value);
                 self.errors.push(e);
                 None
             }

@@ -238,6 +238,11 @@ fn a_huge_lattice_is_one_error_at_its_size() {
     assert!(compile(not_looped, &[]).unwrap_err().0[0]
         .to_string()
         .starts_with("lattice too large: 600 sites, at most 512 when the sums are written out"));
+    // A sum before the large one reaches into its sites: no spurious out-of-range error.
+    let before =
+        "sum(i = 1..4, p[i]^2/2 + cos(q[i+1] - q[i])) + sum(i = 1..N, p[i]^2/2 + q[i]^2/2) \
+                  + q1^4 where N = 1000";
+    assert_eq!(compile(before, &[]).unwrap_err().0.len(), 1);
     // An offset past `i64`: one error, no overflow.
     let e = compile("sum(i = 1..4, p[i]^2 + q[i + 9223372036854775807])", &[]).unwrap_err();
     assert_eq!(e.0.len(), 1, "{e}");
