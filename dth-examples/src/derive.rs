@@ -40,7 +40,7 @@ use crate::error::Error;
 ///
 /// A lattice beyond the [`dth_symbolic::MAX_INDEX`] sites the engine writes out site by site
 /// whose sums compile to loops (as `hamiltonian!` compiles it) is reported once per summand,
-/// in the summand's local coordinates ([`report_looped`]), its flags and warnings those of
+/// in the summand's local coordinates, its flags and warnings those of
 /// the whole lattice.
 ///
 /// ```
