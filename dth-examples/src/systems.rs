@@ -700,7 +700,7 @@ mod tests {
             // Bodies apart: offsets of 1 along the first axis on top of a small state.
             let z = SVector::<f64, D>::from_fn(|i, _| {
                 0.3 * ((i * 5 + 1) as f64).sin()
-                    + if i < nq && i % dim == 0 {
+                    + if i < nq && i.is_multiple_of(dim) {
                         (i / dim) as f64
                     } else {
                         0.0
