@@ -2,10 +2,11 @@
 //! and the discrete gradient of each are derived at compile time from the formula on its
 //! type. Each type's fields are its parameters, under the names scenes use in `params`.
 //!
-//! The lattices (FPUT-alpha and -beta, the Toda chain between walls) and the three-body
-//! systems are written out term by term (they predate the grammar's indexed sums, which compile
-//! a chain as loops; moving them to sums is still to do): their invocations are generated text
-//! in `src/generated/`, which `tests/generated_systems.rs` holds to its generators.
+//! The lattices (FPUT-alpha and -beta, the Toda chain between walls) are written once, as
+//! indexed sums: `hamiltonian!` compiles them to loops over the sites, so their code (and
+//! rustc's time on it) does not grow with the number of particles. The three-body systems
+//! are written out: sums over all pairs are built site by site (the same code as written out),
+//! and three pairs read more plainly as three terms.
 //!
 //! What a formula does not say is written here by hand, from the parameters: the quadratic
 //! (and linear) invariants, orbit periods, Kepler's exact solution
@@ -245,13 +246,75 @@ impl SceneSystem<20> for TodaChain10 {
     }
 }
 
-// Lattices and N-body systems, written out term by term (see the module docs): generated
-// text, held to its generator by `tests/generated_systems.rs`.
-include!("generated/fput_alpha_32.rs");
-include!("generated/fput_beta_32.rs");
-include!("generated/toda_fixed_ends_32.rs");
-include!("generated/nbody_2d_3.rs");
-include!("generated/nbody_3d_3.rs");
+dth::hamiltonian! {
+    /// The FPUT-alpha chain of 32 unit masses with fixed ends (`q0 = q33 = 0`):
+    /// `H = sum p_i^2/2 + sum_{i=0}^{32} [d_i^2/2 + alpha d_i^3/3]`, `d_i = q_{i+1} - q_i`.
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    pub struct FputAlpha32 {
+        /// The cubic coupling `alpha`.
+        pub alpha: f64,
+    } = sum(i = 1..N, p[i]^2/2) + sum(i = 0..N, (q[i+1] - q[i])^2/2 + alpha*(q[i+1] - q[i])^3/3)
+        where N = 32, q[0] = q[N+1] = 0
+}
+
+dth::hamiltonian! {
+    /// The FPUT-beta chain of 32 unit masses with fixed ends (`q0 = q33 = 0`):
+    /// `H = sum p_i^2/2 + sum_{i=0}^{32} [d_i^2/2 + beta d_i^4/4]`, `d_i = q_{i+1} - q_i`.
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    pub struct FputBeta32 {
+        /// The quartic coupling `beta`.
+        pub beta: f64,
+    } = sum(i = 1..N, p[i]^2/2) + sum(i = 0..N, (q[i+1] - q[i])^2/2 + beta*(q[i+1] - q[i])^4/4)
+        where N = 32, q[0] = q[N+1] = 0
+}
+
+dth::hamiltonian! {
+    /// The Toda chain of 32 unit masses between walls (`q0 = q33 = 0`):
+    /// `H = sum p_i^2/2 + sum_{i=0}^{32} exp(q_i - q_{i+1})`.
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    pub struct TodaFixedEnds32 =
+        sum(i = 1..N, p[i]^2/2) + sum(i = 0..N, exp(q[i] - q[i+1])) where N = 32, q[0] = q[N+1] = 0
+}
+
+dth::hamiltonian! {
+    /// Three gravitating point masses in the plane, all pairs:
+    /// `H = sum |p_i|^2/(2 m_i) - g sum_{i<j} m_i m_j / |q_i - q_j|`, body `i` at
+    /// `(q_{2i-1}, q_{2i})`.
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    pub struct NBody2d3 {
+        /// Mass of body 1.
+        pub m1: f64,
+        /// Mass of body 2.
+        pub m2: f64,
+        /// Mass of body 3.
+        pub m3: f64,
+        /// Gravitational constant `G`.
+        pub g: f64,
+    } = (p1^2 + p2^2)/(2*m1) + (p3^2 + p4^2)/(2*m2) + (p5^2 + p6^2)/(2*m3)
+        - g*m1*m2*((q1 - q3)^2 + (q2 - q4)^2)^(-1/2)
+        - g*m1*m3*((q1 - q5)^2 + (q2 - q6)^2)^(-1/2)
+        - g*m2*m3*((q3 - q5)^2 + (q4 - q6)^2)^(-1/2)
+}
+
+dth::hamiltonian! {
+    /// Three gravitating point masses in space, all pairs:
+    /// `H = sum |p_i|^2/(2 m_i) - g sum_{i<j} m_i m_j / |q_i - q_j|`, body `i` at
+    /// `(q_{3i-2}, q_{3i-1}, q_{3i})`.
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    pub struct NBody3d3 {
+        /// Mass of body 1.
+        pub m1: f64,
+        /// Mass of body 2.
+        pub m2: f64,
+        /// Mass of body 3.
+        pub m3: f64,
+        /// Gravitational constant `G`.
+        pub g: f64,
+    } = (p1^2 + p2^2 + p3^2)/(2*m1) + (p4^2 + p5^2 + p6^2)/(2*m2) + (p7^2 + p8^2 + p9^2)/(2*m3)
+        - g*m1*m2*((q1 - q4)^2 + (q2 - q5)^2 + (q3 - q6)^2)^(-1/2)
+        - g*m1*m3*((q1 - q7)^2 + (q2 - q8)^2 + (q3 - q9)^2)^(-1/2)
+        - g*m2*m3*((q4 - q7)^2 + (q5 - q8)^2 + (q6 - q9)^2)^(-1/2)
+}
 
 /// The chains with fixed ends whose harmonic part is the unit-spring chain (the `normal_modes`
 /// effect's modes, [`crate::normal_modes`]).
@@ -421,11 +484,11 @@ impl CentralForce<Const<4>> for FreeParticle {
 mod tests {
     use super::*;
 
-    /// The generated types agree with the hand-written references of `dth::systems` (same
+    /// The catalogue's types agree with the hand-written references of `dth::systems` (same
     /// formula, different evaluation order): values, gradients and Hessians to a few eps of
     /// their size.
     #[test]
-    fn generated_systems_match_the_hand_written_references() {
+    fn catalogue_systems_match_the_hand_written_references() {
         fn close<const D: usize>(
             a: &impl Hamiltonian<Const<D>>,
             b: &impl Hamiltonian<Const<D>>,
@@ -500,10 +563,10 @@ mod tests {
         );
     }
 
-    /// The generated chains against the hand-written Toda reference and the FPUT definitions
-    /// written as loops: value and gradient to a few eps of their size.
+    /// The chains against the hand-written Toda reference and the FPUT definitions written as
+    /// loops here: value and gradient to a few eps of their size.
     #[test]
-    fn generated_chains_match_their_definitions() {
+    fn catalogue_chains_match_their_definitions() {
         let z = SVector::<f64, 64>::from_fn(|i, _| 0.3 * ((i * i) as f64 * 0.37).sin());
         let tol = |x: f64| 1e-13 * x.abs().max(1.0);
         let toda = dth::systems::TodaChain::<32>::new(dth::systems::TodaBoundary::FixedEnds);
@@ -537,8 +600,136 @@ mod tests {
         }
     }
 
-    /// The N-body invariants are conserved by the generated flow: `dI/dt = grad I . J grad H`
-    /// vanishes to roundoff at a random state (momentum: Newton's third law in the generated
+    /// The FPUT-beta chain of `n` particles with fixed ends written out term by term (the
+    /// last bond `0 - q_n` written `q_n`: even powers only).
+    fn fput_beta_written_out(n: usize) -> String {
+        let kinetic: Vec<String> = (1..=n).map(|i| format!("p{i}^2")).collect();
+        let mut src = format!("({})/2 + q1^2/2 + beta*q1^4/4", kinetic.join(" + "));
+        for i in 1..n {
+            let d = format!("(q{} - q{i})", i + 1);
+            src.push_str(&format!(" + {d}^2/2 + beta*{d}^4/4"));
+        }
+        src.push_str(&format!(" + q{n}^2/2 + beta*q{n}^4/4"));
+        src
+    }
+
+    /// Every method of a looped catalogue chain against the engine's interpreter on the chain
+    /// written out term by term (the text compiled at run time, no written-out type): the
+    /// value, gradient, Hessian, Psi, the discrete gradient, the energy difference and the
+    /// defect, at seeded points. Roundoff: the two add the same terms (each below about 1 at
+    /// these points, `|z| < 0.4`) in different orders, so they differ by a few eps times the
+    /// number of terms; `64 eps (1 + |x|)` bounds that with room.
+    fn equals_written_out(typed: &impl Hamiltonian<Const<64>>, text: &str, params: &[(&str, f64)]) {
+        let close =
+            |a: f64, b: f64| (a - b).abs() <= 64.0 * f64::EPSILON * (1.0 + a.abs().max(b.abs()));
+        let all_close = |a: &[f64], b: &[f64]| {
+            a.len() == b.len() && a.iter().zip(b).all(|(x, y)| close(*x, *y))
+        };
+        let names: Vec<&str> = params.iter().map(|p| p.0).collect();
+        let values: Vec<f64> = params.iter().map(|p| p.1).collect();
+        let h = dth_symbolic::compile(text, &names).expect("the written-out chain compiles");
+        let (all, pair, defect) = (
+            h.program(dth_symbolic::Method::All),
+            h.program(dth_symbolic::Method::DiscreteGradient),
+            h.program(dth_symbolic::Method::DiscreteGradientDefect),
+        );
+        let mut rng = crate::ensemble::sample::SplitMix64::new(text.len() as u64);
+        let mut point = || SVector::<f64, 64>::from_fn(|_, _| 0.8 * (rng.unit() - 0.5));
+        for _ in 0..3 {
+            let (z0, z1) = (point(), point());
+            let e = all.eval(z0.as_slice(), &values).expect("engine evaluation");
+            assert!(close(typed.value(&z0), e.value), "{text}: value");
+            assert!(
+                all_close(typed.gradient(&z0).as_slice(), &e.gradient),
+                "{text}: gradient"
+            );
+            // Row-major in the engine, column-major in nalgebra: the same symmetric matrix.
+            assert!(
+                all_close(typed.hessian(&z0).as_slice(), &e.hessian),
+                "{text}: Hessian"
+            );
+            assert!(close(typed.psi(&z0), e.psi), "{text}: Psi");
+            let near = z0 + (z1 - z0) * 1e-7;
+            for z1 in [z1, near, z0] {
+                let (a, b) = (z0.as_slice(), z1.as_slice());
+                let p = pair
+                    .eval_pair(a, b, &values)
+                    .expect("engine pair evaluation");
+                let gbar = typed.discrete_gradient(&z0, &z1);
+                assert!(
+                    all_close(gbar.as_slice(), &p.discrete_gradient),
+                    "{text}: gbar"
+                );
+                assert!(
+                    close(typed.energy_difference(&z0, &z1), p.energy_difference),
+                    "{text}: energy difference"
+                );
+                let d = defect
+                    .eval_pair(a, b, &values)
+                    .expect("engine defect evaluation");
+                let t = typed.discrete_gradient_defect(&z0, &z1, &gbar);
+                assert!(
+                    all_close(t.as_slice(), &d.discrete_gradient_defect),
+                    "{text}: defect"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn looped_chains_equal_the_chains_written_out() {
+        use dth_symbolic::sources::{fput_alpha_fixed_ends, toda_fixed_ends};
+        // `fput_alpha_fixed_ends` fixes alpha = 1/4 (FPUT's).
+        equals_written_out(
+            &FputAlpha32 { alpha: 0.25 },
+            &fput_alpha_fixed_ends(32),
+            &[],
+        );
+        equals_written_out(
+            &FputBeta32 { beta: 1.7 },
+            &fput_beta_written_out(32),
+            &[("beta", 1.7)],
+        );
+        equals_written_out(&TodaFixedEnds32, &toda_fixed_ends(32), &[]);
+    }
+
+    /// The N-body formulas against their definition written as loops here.
+    #[test]
+    fn nbody_values_match_their_definition() {
+        fn check<const D: usize>(h: &impl Hamiltonian<Const<D>>, dim: usize, m: [f64; 3], g: f64) {
+            let nq = D / 2;
+            // Bodies apart: offsets of 1 along the first axis on top of a small state.
+            let z = SVector::<f64, D>::from_fn(|i, _| {
+                0.3 * ((i * 5 + 1) as f64).sin()
+                    + if i < nq && i.is_multiple_of(dim) {
+                        (i / dim) as f64
+                    } else {
+                        0.0
+                    }
+            });
+            let (q, p) = z.as_slice().split_at(nq);
+            let mut want = 0.0;
+            for i in 0..3 {
+                let pi = &p[dim * i..dim * (i + 1)];
+                want += pi.iter().map(|x| x * x).sum::<f64>() / (2.0 * m[i]);
+                for j in i + 1..3 {
+                    let r2: f64 = (0..dim)
+                        .map(|c| (q[dim * i + c] - q[dim * j + c]).powi(2))
+                        .sum();
+                    want -= g * m[i] * m[j] / r2.sqrt();
+                }
+            }
+            let v = h.value(&z);
+            // A dozen terms of size below 10: roundoff is a few eps times 10.
+            assert!((v - want).abs() < 1e-14 * 10.0, "dim {dim}: {v} vs {want}");
+        }
+        let (m1, m2, m3, g) = (1.0, 2.0, 0.5, 1.3);
+        check(&NBody2d3 { m1, m2, m3, g }, 2, [m1, m2, m3], g);
+        check(&NBody3d3 { m1, m2, m3, g }, 3, [m1, m2, m3], g);
+    }
+
+    /// The N-body invariants are conserved by the flow: `dI/dt = grad I . J grad H` vanishes to
+    /// roundoff at a random state (momentum: Newton's third law in the derived
     /// gradient; angular momentum: its rotation invariance).
     #[test]
     fn nbody_invariants_are_conserved_by_the_flow() {

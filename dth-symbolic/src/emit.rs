@@ -24,6 +24,7 @@
 //! ```
 
 pub mod code;
+mod diagonals;
 pub mod lattice;
 
 use proc_macro2::{Ident, TokenStream};

@@ -2,13 +2,16 @@
 //! over the sites, runs the summand's straight-line program on the local coordinates it reads
 //! and scatters the results, so the emitted code does not grow with the number of sites.
 //!
-//! The Hessian's pattern and the position each (sum, site, summand entry) writes to are
-//! computed by a `const` block in the generated code (loops run by the compiler's constant
-//! evaluator), not written out: `HESSIAN_PATTERN` holds them without code growing with `N`.
+//! The Hessian's pattern is emitted as runs along its diagonals ([`super::diagonals`]), which
+//! one short `const` loop expands into `HESSIAN_PATTERN`; the position each (sum, site,
+//! summand entry) writes to is arithmetic on the site, listed only at the sites that reach a
+//! boundary. Neither the code nor the compiler's work on it grows with `N` beyond writing the
+//! pattern's entries.
 
 use proc_macro2::{Ident, TokenStream};
 use quote::quote;
 
+use super::diagonals::{layout, Place};
 use super::{body, Context, Values, CHUNK_OPS};
 use crate::looped::{Looped, Site};
 use crate::{Method, Output, Program};
@@ -38,14 +41,11 @@ pub fn looped_impl(looped: &Looped, name: &Ident, params: &[Ident]) -> Option<To
     let n_i64 = n as i64;
     let nalgebra = quote!(::dth::__private::nalgebra);
     let core = quote!(::dth::__private::dth_core);
-    // The pattern is counted by the compiler's constant evaluator, not here (that would take
-    // time growing with N). A row receives an entry from a summand entry at most at the two
-    // sites where one of its slots lands on the row, once more per boundary mapped there.
-    let entries: usize = looped.sums.iter().map(|s| s.pattern.len()).sum();
-    let width = (2 * entries * (1 + looped.boundaries.len())).max(1);
     let separable = looped.separable();
     let psi0 = looped.psi_identically_zero();
-    let min_dim = super::STRUCTURED_MIN_DIM;
+    let layout = layout(looped);
+    let nnz = layout.nnz;
+    let structured = super::structured_newton(d, nnz, layout.diagonal);
 
     // Where letter[k] lives: the lattice, or a boundary (periodic: a site; fixed: a value).
     let arms = looped.boundaries.iter().map(|&(letter, k, site)| {
@@ -87,85 +87,39 @@ pub fn looped_impl(looped: &Looped, name: &Ident, params: &[Ident]) -> Option<To
         }
     };
 
-    // The positions table: for each sum, site and summand entry, where it lands.
-    let mut pos_len = 0usize;
-    let mut offsets = Vec::new();
-    for s in &looped.sums {
-        offsets.push(pos_len);
-        pos_len += (s.hi - s.lo + 1) as usize * s.pattern.len();
-    }
-    let pos_len = pos_len.max(1);
-    let table_loops = looped.sums.iter().map(|s| {
-        let (lo, hi) = (s.lo, s.hi);
-        let pairs = s.pattern.iter().map(|&(r, t)| {
-            let (lr, cr, _) = s.slots[r];
-            let (lt, ct, _) = s.slots[t];
-            let (qr, qt) = (lr == 'q', lt == 'q');
-            quote! {
-                if let (::core::option::Option::Some(a), ::core::option::Option::Some(b)) =
-                    (site(#qr, i + #cr), site(#qt, i + #ct))
-                {
-                    let (a, b) = if a <= b { (a, b) } else { (b, a) };
-                    let mut k = 0;
-                    let mut found = usize::MAX;
-                    while k < counts[a] {
-                        if pattern[rows[a][k]].1 == b {
-                            found = rows[a][k];
-                        }
-                        k += 1;
-                    }
-                    if found == usize::MAX {
-                        pattern[nnz] = (a, b);
-                        rows[a][counts[a]] = nnz;
-                        counts[a] += 1;
-                        found = nnz;
-                        nnz += 1;
-                    }
-                    pos[p] = found;
+    // The pattern: its runs, expanded by one loop of the constant evaluator.
+    let runs = layout
+        .runs
+        .iter()
+        .map(|&(a, b, len)| quote!((#a, #b, #len)));
+    let nruns = layout.runs.len();
+    let pattern = quote! {
+        /// Runs along the Hessian's diagonals: `(a, b, len)` holds `(a + k, b + k)`, `k < len`.
+        const RUNS: [(usize, usize, usize); #nruns] = [#(#runs),*];
+        /// The pattern, the runs one after the other.
+        const PATTERN: [(usize, usize); #nnz] = {
+            let mut out = [(0usize, 0usize); #nnz];
+            let (mut r, mut at) = (0usize, 0usize);
+            while r < RUNS.len() {
+                let (a, b, len) = RUNS[r];
+                let mut k = 0;
+                while k < len {
+                    out[at] = (a + k, b + k);
+                    at += 1;
+                    k += 1;
                 }
-                p += 1;
-            }
-        });
-        quote! {
-            let mut i: i64 = #lo;
-            while i <= #hi {
-                #(#pairs)*
-                i += 1;
-            }
-        }
-    });
-    let tables = quote! {
-        /// The Hessian's pattern (in its first `.2` entries) and, per (sum, site, summand
-        /// entry), its position there.
-        #[allow(clippy::all)]
-        const TABLES: ([(usize, usize); #pos_len], [usize; #pos_len], usize) = {
-            let mut pattern = [(0usize, 0usize); #pos_len];
-            let mut rows = [[0usize; #width]; #d];
-            let mut counts = [0usize; #d];
-            let mut pos = [usize::MAX; #pos_len];
-            let mut nnz = 0usize;
-            let mut p = 0usize;
-            #(#table_loops)*
-            let _ = p;
-            (pattern, pos, nnz)
-        };
-        /// The number of nonzero entries in the upper triangle.
-        const NNZ: usize = TABLES.2;
-        /// The pattern, `NNZ` entries.
-        const PATTERN: [(usize, usize); NNZ] = {
-            // Read `TABLES` once: each mention of a constant is a copy of all of it.
-            let all = TABLES.0;
-            let mut out = [(0usize, 0usize); NNZ];
-            let mut k = 0;
-            while k < NNZ {
-                out[k] = all[k];
-                k += 1;
+                r += 1;
             }
             out
         };
-        /// The positions, in memory once (indexing the constant would copy it).
-        #[allow(dead_code)]
-        static POSITIONS: [usize; #pos_len] = TABLES.1;
+    };
+    // Where a summand entry lands at site `i`: `base + i` inside, listed sites at the edges.
+    let position = |place: &Place| {
+        let inside = place
+            .interior
+            .map(|(lo, hi, base)| quote!(#lo..=#hi => (#base + i) as usize,));
+        let edges = place.edges.iter().map(|&(i, at)| quote!(#i => #at,));
+        quote!(match i { #inside #(#edges)* _ => usize::MAX })
     };
 
     // One loop per sum: the local coordinates read from `zg` (and `zg1`), the program, and
@@ -249,9 +203,6 @@ pub fn looped_impl(looped: &Looped, name: &Ident, params: &[Ident]) -> Option<To
     });
     let nonzeros = loops(&hessian_p, false, &|k, v| {
         let s = &looped.sums[k];
-        let offset = offsets[k];
-        let npairs = s.pattern.len();
-        let lo = s.lo;
         let writes = s.pattern.iter().enumerate().map(|(idx, &(r, t))| {
             let (lr, lt) = (s.slots[r].2, s.slots[t].2);
             let (a, b) = (lr.min(lt), lr.max(lt));
@@ -265,8 +216,9 @@ pub fn looped_impl(looped: &Looped, name: &Ident, params: &[Ident]) -> Option<To
                 slot_site(k, lt).unwrap_or(quote!(::core::option::Option::None)),
             );
             let distinct = r != t;
+            let at = position(&layout.places[k][idx]);
             quote! {
-                let at = POSITIONS[#offset + (i - #lo) as usize * #npairs + #idx];
+                let at: usize = #at;
                 if at != usize::MAX {
                     // Two slots on one particle (a ring of two): the mixed entry counts twice.
                     let twice = #distinct && #site_r == #site_t;
@@ -305,25 +257,10 @@ pub fn looped_impl(looped: &Looped, name: &Ident, params: &[Ident]) -> Option<To
             #[allow(unused_variables, unused_mut, unused_assignments, unused_parens, clippy::all, clippy::pedantic, clippy::nursery)]
             impl #name {
                 const HESSIAN_PATTERN: ::core::option::Option<&'static [(usize, usize)]> = {
-                    #helpers
-                    #tables
+                    #pattern
                     ::core::option::Option::Some(&PATTERN)
                 };
-                // `structured_newton` of the emitter, on the pattern the constant evaluator built.
-                const STRUCTURED_NEWTON: bool = {
-                    let pattern = match Self::HESSIAN_PATTERN {
-                        ::core::option::Option::Some(p) => p,
-                        ::core::option::Option::None => &[],
-                    };
-                    let (mut k, mut diagonal) = (0, 0);
-                    while k < pattern.len() {
-                        if pattern[k].0 == pattern[k].1 {
-                            diagonal += 1;
-                        }
-                        k += 1;
-                    }
-                    #d >= #min_dim && 4 * (2 * pattern.len() - diagonal) <= #d * #d
-                };
+                const STRUCTURED_NEWTON: bool = #structured;
             }
 
         #[automatically_derived]
@@ -387,9 +324,8 @@ pub fn looped_impl(looped: &Looped, name: &Ident, params: &[Ident]) -> Option<To
                 #[inline]
                 fn hessian_nonzeros(&self, z: &#nalgebra::SVector<f64, #d>, values: &mut [f64]) {
                     #helpers
-                    #tables
                     let zg = z;
-                    let values = &mut values[..NNZ];
+                    let values = &mut values[..#nnz];
                     for v in values.iter_mut() {
                         *v = 0.0;
                     }
