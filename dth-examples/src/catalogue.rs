@@ -24,6 +24,7 @@ use crate::ensemble;
 use crate::error::Error;
 use crate::pipeline::{run_system, RunError};
 use crate::report::RunReport;
+use crate::runtime_system;
 use crate::scene::{ParamSpec, Scene, SystemInfo, SystemLookup};
 use crate::simulate::{initial_state, stop_for, RunOptions};
 use crate::system::{SceneSystem, WithoutDth};
@@ -468,7 +469,8 @@ impl Catalogue {
     }
 
     /// Runs a validated scene into `out` (see [`crate::pipeline::run_system`] for the output
-    /// folder's rules). A run that lost a method is [`RunError::MethodsFailed`], with the
+    /// folder's rules); a scene whose Hamiltonian is given as text runs through
+    /// [`crate::runtime_system::run`]. A run that lost a method is [`RunError::MethodsFailed`], with the
     /// report of what was written.
     pub fn run(
         &self,
@@ -476,6 +478,9 @@ impl Catalogue {
         out: &Path,
         options: &RunOptions,
     ) -> Result<RunReport, RunError> {
+        if scene.hamiltonian.is_some() {
+            return runtime_system::run(scene, out, options);
+        }
         (self.entry(scene)?.run)(scene, out, options)
     }
 
@@ -492,6 +497,9 @@ impl Catalogue {
     /// ([`Error::MemoryLimit`]) above `options`' limit, as a run would refuse it: so that
     /// `dth check` and `dth run` agree.
     pub fn estimate(&self, scene: &Scene, options: &RunOptions) -> Result<MemoryEstimate, Error> {
+        if scene.hamiltonian.is_some() {
+            return runtime_system::estimate(scene, options);
+        }
         (self.entry(scene)?.estimate)(scene, options)
     }
 }

@@ -23,8 +23,9 @@
 //! 7. [`report`]: CSV, figures, Table 4.1, the thesis's figures, `index.html`;
 //! 8. [`ensemble`] (ensemble scenes: members on every core and MPI rank, their table and
 //!    figures) and [`pipeline`]: simulate, report, stage;
-//! 9. [`catalogue`]: the systems scenes can name, each bound to the pipeline; then this file
-//!    and `main.rs`.
+//! 9. [`runtime_system`] (a scene's Hamiltonian given as text, built at run time and bound to
+//!    the pipeline), then [`catalogue`]: the systems scenes can name, each bound to the
+//!    pipeline; then this file and `main.rs`.
 //!
 //! [`workprecision`] (the benchmark behind `dth workprecision`) and [`derive`](mod@derive) (what the
 //! symbolic engine derives from a Hamiltonian as text, `dth derive`) sit beside the scene
@@ -62,6 +63,8 @@ pub mod report;
 
 pub mod ensemble;
 pub mod pipeline;
+
+pub mod runtime_system;
 
 pub mod catalogue;
 
