@@ -3,6 +3,7 @@
 //! default, which lose digits there), `gbar(z, z) = grad H(z)`, the time-dependent extended
 //! phase space, and bit-for-bit agreement with the engine's program for every kernel.
 
+use dth::nalgebra::Const;
 #[path = "../dth-core/tests/hard_support/dd.rs"]
 mod dd;
 
@@ -33,15 +34,19 @@ dth::hamiltonian! {
 /// (Gonzalez) discrete gradient. (`Kepler` itself overrides it with exact divided differences.)
 struct GonzalezKepler(Kepler);
 
-impl Hamiltonian<4> for GonzalezKepler {
+impl Hamiltonian<Const<4>> for GonzalezKepler {
+    fn dim(&self) -> Const<4> {
+        Const
+    }
+
     fn value(&self, z: &Vector4<f64>) -> f64 {
         self.0.value(z)
     }
-    fn gradient(&self, z: &Vector4<f64>) -> Vector4<f64> {
-        self.0.gradient(z)
+    fn gradient_into(&self, z: &Vector4<f64>, out: &mut Vector4<f64>) {
+        *out = self.0.gradient(z);
     }
-    fn hessian(&self, z: &Vector4<f64>) -> Matrix4<f64> {
-        self.0.hessian(z)
+    fn hessian_into(&self, z: &Vector4<f64>, out: &mut Matrix4<f64>) {
+        *out = self.0.hessian(z);
     }
 }
 

@@ -3,6 +3,7 @@
 //! fused multiply-add in either), for every function, power form, parameter and the
 //! time-dependent extended phase space.
 
+use dth::nalgebra::Const;
 use dth::nalgebra::SVector;
 use dth::Hamiltonian;
 use dth_symbolic::{compile, Method};
@@ -23,7 +24,7 @@ const EVERYTHING: &str =
         + pi*q1*p2";
 
 fn same<const D: usize>(
-    h: &impl Hamiltonian<D>,
+    h: &impl Hamiltonian<Const<D>>,
     src: &str,
     params: &[&str],
     values: &[f64],

@@ -9,6 +9,7 @@
 //! show as the deviation growing from the first tenth of the run to the last; roundoff does not.
 
 use dth::dth::{Dth, DthOptions};
+use dth::nalgebra::Const;
 use dth::nalgebra::Vector4;
 use dth::observer::StepKind;
 use dth::Hamiltonian;
@@ -29,7 +30,11 @@ dth::hamiltonian! {
 const STEPS: usize = 1_000_000;
 
 /// Per tenth of the run, the largest `|H - H0| / s(z)`; and the fallback steps taken.
-fn deviations<H: Hamiltonian<4> + Clone>(h: H, z0: Vector4<f64>, dtau: f64) -> (Vec<f64>, usize) {
+fn deviations<H: Hamiltonian<Const<4>> + Clone>(
+    h: H,
+    z0: Vector4<f64>,
+    dtau: f64,
+) -> (Vec<f64>, usize) {
     let e0 = h.value(&z0);
     let options = DthOptions::default()
         .with_dtau(dtau)

@@ -14,7 +14,9 @@ use dth::dth::{Dth, DthOptions, Solver};
 use dth::methods::{
     DiscreteGradient, GaussLegendre2, ImplicitMidpoint, OneStepMethod, Trapezoidal,
 };
+use dth::nalgebra::Const;
 use dth::nalgebra::{SMatrix, SVector};
+use dth::Flags;
 use dth::{Derivatives, Hamiltonian};
 
 include!("chains/fput_alpha_2.rs");
@@ -29,33 +31,44 @@ include!("chains/fput_alpha_512.rs");
 #[derive(Clone, Copy)]
 struct Dense<H>(H);
 
-impl<const D: usize, H: Hamiltonian<D>> Hamiltonian<D> for Dense<H> {
-    const EXACT_DIVIDED_DIFFERENCES: bool = H::EXACT_DIVIDED_DIFFERENCES;
+impl<const D: usize, H: Hamiltonian<Const<D>>> Hamiltonian<Const<D>> for Dense<H> {
+    fn dim(&self) -> Const<D> {
+        Const
+    }
+    fn flags(&self) -> Flags {
+        Flags::default().with_exact_divided_differences(self.0.flags().exact_divided_differences)
+    }
     fn value(&self, z: &SVector<f64, D>) -> f64 {
         self.0.value(z)
     }
-    fn gradient(&self, z: &SVector<f64, D>) -> SVector<f64, D> {
-        self.0.gradient(z)
+    fn gradient_into(&self, z: &SVector<f64, D>, out: &mut SVector<f64, D>) {
+        self.0.gradient_into(z, out)
     }
-    fn hessian(&self, z: &SVector<f64, D>) -> SMatrix<f64, D, D> {
-        self.0.hessian(z)
+    fn hessian_into(&self, z: &SVector<f64, D>, out: &mut SMatrix<f64, D, D>) {
+        self.0.hessian_into(z, out)
     }
     fn psi(&self, z: &SVector<f64, D>) -> f64 {
         self.0.psi(z)
     }
-    fn derivatives(&self, z: &SVector<f64, D>) -> Derivatives<D> {
-        self.0.derivatives(z)
+    fn derivatives_into(&self, z: &SVector<f64, D>, out: &mut Derivatives<Const<D>>) {
+        self.0.derivatives_into(z, out)
     }
-    fn discrete_gradient(&self, z0: &SVector<f64, D>, z1: &SVector<f64, D>) -> SVector<f64, D> {
-        self.0.discrete_gradient(z0, z1)
+    fn discrete_gradient_into(
+        &self,
+        z0: &SVector<f64, D>,
+        z1: &SVector<f64, D>,
+        out: &mut SVector<f64, D>,
+    ) {
+        self.0.discrete_gradient_into(z0, z1, out)
     }
-    fn discrete_gradient_defect(
+    fn discrete_gradient_defect_into(
         &self,
         z0: &SVector<f64, D>,
         z1: &SVector<f64, D>,
         gbar: &SVector<f64, D>,
-    ) -> SVector<f64, D> {
-        self.0.discrete_gradient_defect(z0, z1, gbar)
+        out: &mut SVector<f64, D>,
+    ) {
+        self.0.discrete_gradient_defect_into(z0, z1, gbar, out)
     }
     fn energy_difference(&self, z0: &SVector<f64, D>, z1: &SVector<f64, D>) -> f64 {
         self.0.energy_difference(z0, z1)
@@ -113,8 +126,13 @@ fn chain_sources_are_current() {
 /// The generated pattern is exactly the nonzero upper triangle of the symbolic Hessian, and
 /// the fused evaluation writes the dense Hessian's entries bit for bit (the same program
 /// outputs, pruned).
-fn pattern_matches_the_hessian<const D: usize, H: Hamiltonian<D>>(h: &H, z: &SVector<f64, D>) {
-    let pattern = H::HESSIAN_PATTERN.expect("generated types declare their pattern");
+fn pattern_matches_the_hessian<const D: usize, H: Hamiltonian<Const<D>>>(
+    h: &H,
+    z: &SVector<f64, D>,
+) {
+    let pattern = h
+        .hessian_pattern()
+        .expect("generated types declare their pattern");
     // A chain: tridiagonal q-block, identity on p.
     assert_eq!(pattern.len(), 3 * (D / 2) - 1);
     let dense = h.hessian(z);
@@ -142,11 +160,11 @@ fn generated_pattern_and_nonzeros_match_the_dense_hessian() {
     pattern_matches_the_hessian(&FputAlpha32, &state::<64>(2));
     pattern_matches_the_hessian(&Toda32, &state::<64>(3));
     // The crossover (D = 8): below it the dense path, from it the structured one.
-    const {
-        assert!(!<FputAlpha2 as Hamiltonian<4>>::STRUCTURED_NEWTON);
-        assert!(<FputAlpha8 as Hamiltonian<16>>::STRUCTURED_NEWTON);
-        assert!(<FputAlpha32 as Hamiltonian<64>>::STRUCTURED_NEWTON);
-        assert!(<FputAlpha512 as Hamiltonian<1024>>::STRUCTURED_NEWTON);
+    {
+        assert!(!Hamiltonian::<Const<4>>::flags(&FputAlpha2).structured_newton);
+        assert!(Hamiltonian::<Const<16>>::flags(&FputAlpha8).structured_newton);
+        assert!(Hamiltonian::<Const<64>>::flags(&FputAlpha32).structured_newton);
+        assert!(Hamiltonian::<Const<1024>>::flags(&FputAlpha512).structured_newton);
     };
 }
 
@@ -155,8 +173,8 @@ fn generated_pattern_and_nonzeros_match_the_dense_hessian() {
 /// whether both took the same Newton iterations.
 fn compare<const D: usize, H, M>(h: &H, method: &M, z0: SVector<f64, D>, dt: f64) -> (f64, bool)
 where
-    H: Hamiltonian<D> + Copy,
-    M: OneStepMethod<D, H> + OneStepMethod<D, Dense<H>> + Clone,
+    H: Hamiltonian<Const<D>> + Copy,
+    M: OneStepMethod<Const<D>, H> + OneStepMethod<Const<D>, Dense<H>> + Clone,
 {
     let (mut structured, mut dense) = (method.clone(), method.clone());
     let (mut a, mut b) = (z0, z0);
@@ -166,8 +184,8 @@ where
         b = dense.step(&Dense(*h), &b, dt).expect("dense step");
         worst = worst.max((a - b).amax() / a.amax());
     }
-    let same = OneStepMethod::<D, H>::newton_iterations(&structured)
-        == OneStepMethod::<D, Dense<H>>::newton_iterations(&dense);
+    let same = OneStepMethod::<Const<D>, H>::newton_iterations(&structured)
+        == OneStepMethod::<Const<D>, Dense<H>>::newton_iterations(&dense);
     (worst, same)
 }
 
@@ -271,7 +289,7 @@ fn compare_dth<const D: usize, H>(
     steps: usize,
 ) -> (f64, f64, bool, f64)
 where
-    H: Hamiltonian<D> + Copy,
+    H: Hamiltonian<Const<D>> + Copy,
 {
     let mut a = Dth::new(h, z0, options).expect("structured start");
     let mut b = Dth::new(Dense(h), z0, options).expect("dense start");
@@ -394,7 +412,7 @@ dth::hamiltonian! {
 /// passages) `1e-11` relative, a factor ~10 over the `8e-13` measured at order 2.
 #[test]
 fn robust_mode_and_composition_work_on_the_structured_path() {
-    const { assert!(<TwoKeplers as Hamiltonian<8>>::STRUCTURED_NEWTON) };
+    assert!(Hamiltonian::<Const<8>>::flags(&TwoKeplers).structured_newton);
     let v = 1.9f64.sqrt();
     let z0 = SVector::<f64, 8>::from_column_slice(&[0.5, 0.0, 0.0, 0.5, 0.0, v, -v, 0.0]);
     let e0 = TwoKeplers.value(&z0);

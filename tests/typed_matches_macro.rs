@@ -11,6 +11,7 @@
 
 use dth::dth::{integrate, set_momentum_of_time, DthOptions};
 use dth::methods::{run, ImplicitMidpoint, OneStepMethod, StormerVerlet};
+use dth::nalgebra::Const;
 use dth::nalgebra::SVector;
 use dth::observer::StepRecord;
 use dth::runtime::{RuntimeError, RuntimeHamiltonian, Typed};
@@ -55,8 +56,8 @@ fn bits<const D: usize>(zs: &[SVector<f64, D>]) -> Vec<[u64; D]> {
 
 /// DTH midpoints and vertices of `steps` steps from `zbar0`, compared bit for bit.
 fn same_dth<const D: usize>(
-    a: impl Hamiltonian<D>,
-    b: impl Hamiltonian<D>,
+    a: impl Hamiltonian<Const<D>>,
+    b: impl Hamiltonian<Const<D>>,
     zbar0: SVector<f64, D>,
     dtau: f64,
     steps: usize,
@@ -74,14 +75,14 @@ fn same_dth<const D: usize>(
 }
 
 /// The states of 200 steps of a peer method from `z0`.
-fn states<const D: usize, H: Hamiltonian<D>, M: OneStepMethod<D, H>>(
+fn states<const D: usize, H: Hamiltonian<Const<D>>, M: OneStepMethod<Const<D>, H>>(
     mut method: M,
     h: &H,
     z0: SVector<f64, D>,
     dt: f64,
 ) -> Vec<SVector<f64, D>> {
     let mut zs = Vec::new();
-    let mut record = |r: &StepRecord<D>| zs.push(r.z);
+    let mut record = |r: &StepRecord<Const<D>>| zs.push(r.z);
     run(&mut method, h, &z0, 0.0, dt, 200, &mut record).unwrap();
     assert_eq!(zs.len(), 201);
     zs
@@ -90,9 +91,9 @@ fn states<const D: usize, H: Hamiltonian<D>, M: OneStepMethod<D, H>>(
 /// A peer method's states, compared bit for bit.
 fn same_peer<const D: usize, A, B, M>(method: M, a: &A, b: &B, z0: SVector<f64, D>, dt: f64)
 where
-    A: Hamiltonian<D>,
-    B: Hamiltonian<D>,
-    M: OneStepMethod<D, A> + OneStepMethod<D, B> + Clone,
+    A: Hamiltonian<Const<D>>,
+    B: Hamiltonian<Const<D>>,
+    M: OneStepMethod<Const<D>, A> + OneStepMethod<Const<D>, B> + Clone,
 {
     let za = states(method.clone(), a, z0, dt);
     let zb = states(method, b, z0, dt);

@@ -19,10 +19,12 @@
 //! let mut l = AverageAbsoluteDeviation::with_reference(planar_angular_momentum, 0.6);
 //! l.push(&z0);
 //! assert_eq!(l.mean(), Some(0.0));
-//! # Ok::<(), dth_core::methods::RunError<dth_core::methods::RunEnd<4>>>(())
+//! # Ok::<(), dth_core::methods::RunError<dth_core::methods::RunEnd<dth_core::nalgebra::U4>>>(())
 //! ```
 
-use nalgebra::{SVector, Vector4};
+use crate::hamiltonian::Alloc;
+use nalgebra::Vector4;
+use nalgebra::{DefaultAllocator, Dim, OVector};
 
 use crate::observer::{Observer, StepRecord};
 
@@ -103,9 +105,10 @@ impl<Q> AverageAbsoluteDeviation<Q> {
     }
 
     /// Adds one state.
-    pub fn push<const D: usize>(&mut self, z: &SVector<f64, D>)
+    pub fn push<D: Dim>(&mut self, z: &OVector<f64, D>)
     where
-        Q: Fn(&SVector<f64, D>) -> f64,
+        DefaultAllocator: Alloc<D>,
+        Q: Fn(&OVector<f64, D>) -> f64,
     {
         let value = (self.quantity)(z);
         match self.reference {
@@ -118,7 +121,10 @@ impl<Q> AverageAbsoluteDeviation<Q> {
     }
 }
 
-impl<const D: usize, Q: Fn(&SVector<f64, D>) -> f64> Observer<D> for AverageAbsoluteDeviation<Q> {
+impl<D: Dim, Q: Fn(&OVector<f64, D>) -> f64> Observer<D> for AverageAbsoluteDeviation<Q>
+where
+    DefaultAllocator: Alloc<D>,
+{
     fn on_step(&mut self, record: &StepRecord<D>) {
         self.push(&record.z);
     }
@@ -162,9 +168,10 @@ impl<Q> DeviationSeries<Q> {
     }
 
     /// Adds one state at time `t`.
-    pub fn push<const D: usize>(&mut self, t: f64, z: &SVector<f64, D>)
+    pub fn push<D: Dim>(&mut self, t: f64, z: &OVector<f64, D>)
     where
-        Q: Fn(&SVector<f64, D>) -> f64,
+        DefaultAllocator: Alloc<D>,
+        Q: Fn(&OVector<f64, D>) -> f64,
     {
         let value = (self.quantity)(z);
         let reference = *self.reference.get_or_insert(value);
@@ -173,7 +180,10 @@ impl<Q> DeviationSeries<Q> {
     }
 }
 
-impl<const D: usize, Q: Fn(&SVector<f64, D>) -> f64> Observer<D> for DeviationSeries<Q> {
+impl<D: Dim, Q: Fn(&OVector<f64, D>) -> f64> Observer<D> for DeviationSeries<Q>
+where
+    DefaultAllocator: Alloc<D>,
+{
     fn on_step(&mut self, record: &StepRecord<D>) {
         self.push(record.t, &record.z);
     }

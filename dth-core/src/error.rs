@@ -17,6 +17,21 @@ pub enum Error {
         /// The rule it breaks.
         reason: &'static str,
     },
+    /// `Psi = (J grad H)^T Hess H (J grad H)` is identically zero for this Hamiltonian
+    /// ([`Flags::psi_identically_zero`](crate::Flags::psi_identically_zero)): the DTH energy
+    /// condition does not determine `lambda` (thesis Section 3.4, paper Theorem 2).
+    #[error(
+        "DTH needs Psi = (J gradH)^T HessH (J gradH) != 0: with Psi identically zero the energy \
+         condition does not determine lambda (thesis Section 3.4, paper Theorem 2); integrate \
+         this Hamiltonian with a peer method instead"
+    )]
+    PsiIdenticallyZero,
+    /// The phase space has an odd dimension: `z = (q, p)` needs `D = 2n`.
+    #[error("phase space dimension {dim} is odd: z = (q1..qn, p1..pn) needs an even dimension")]
+    OddDimension {
+        /// The dimension the Hamiltonian reported.
+        dim: usize,
+    },
     /// An initial state component (or parameter) is NaN or infinite.
     #[error("initial state component {index} is not finite ({value})")]
     NonFiniteInitialState {

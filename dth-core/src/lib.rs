@@ -30,5 +30,8 @@ pub mod structured;
 pub mod systems;
 
 pub use error::Error;
-pub use hamiltonian::{j_times, psi_from, Derivatives, Hamiltonian};
+pub use hamiltonian::{
+    j_times, j_times_into, psi_from, zeros, zeros_matrix, Alloc, ConstFlags, Derivatives, Flags,
+    Hamiltonian,
+};
 pub use nalgebra;

@@ -1,4 +1,4 @@
-//! Small dense LU with partial pivoting on `SMatrix<f64, D, D>`, generic over `const D` without
+//! Small dense LU with partial pivoting on `OMatrix<f64, D, D>`, generic over `const D` without
 //! the `DimMin` bounds nalgebra's `lu()` would push onto every caller. No heap allocation.
 //! Shared by the DTH Newton solvers and the implicit peer methods; the fastest path for small
 //! `D` (see [`crate::structured`] for large sparse systems). Public for code that integrates
@@ -14,7 +14,8 @@
 //! assert!((a * x - Vector2::new(4.0, 3.0)).amax() <= 4.0 * f64::EPSILON);
 //! ```
 
-use nalgebra::SMatrix;
+use crate::hamiltonian::Alloc;
+use nalgebra::{DefaultAllocator, Dim, OMatrix, OVector, U1};
 
 /// Why a factorization failed (dense here, banded in [`crate::structured`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
@@ -29,39 +30,53 @@ pub enum Pivot {
 }
 
 /// `P A = L U`, stored in place (unit lower `L` below the diagonal, `U` on and above).
-pub struct Lu<const D: usize> {
-    lu: SMatrix<f64, D, D>,
-    perm: [usize; D],
+#[derive(Clone, Debug)]
+pub struct Lu<D: Dim>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    lu: OMatrix<f64, D, D>,
+    perm: OVector<usize, D>,
 }
 
-impl<const D: usize> Lu<D> {
+impl<D: Dim> Lu<D>
+where
+    DefaultAllocator: Alloc<D>,
+{
     /// Factor `a`; `Err(Pivot::Singular)` when a pivot is at or below `D eps max|A_ij|`
     /// (singular as a value, like nalgebra's `lu().solve()`), `Err(Pivot::NonFinite)` when
     /// elimination overflowed.
-    pub fn factor(a: &SMatrix<f64, D, D>) -> Result<Self, Pivot> {
+    pub fn factor(a: &OMatrix<f64, D, D>) -> Result<Self, Pivot> {
+        let (d, _) = a.shape_generic();
         let mut lu = Lu {
-            lu: *a,
-            perm: [0usize; D],
+            lu: a.clone(),
+            perm: OVector::from_element_generic(d, U1, 0usize),
         };
         lu.eliminate()?;
         Ok(lu)
     }
 
-    /// An empty factorization (the zero matrix, not factored): storage for
+    /// An empty factorization of dimension `d` (the zero matrix, not factored): storage for
     /// [`factor_from`](Self::factor_from).
-    pub(crate) fn empty() -> Self {
+    pub(crate) fn empty(d: D) -> Self {
         Lu {
-            lu: SMatrix::zeros(),
-            perm: [0usize; D],
+            lu: OMatrix::zeros_generic(d, d),
+            perm: OVector::from_element_generic(d, U1, 0usize),
         }
+    }
+
+    /// The dimension.
+    fn n(&self) -> usize {
+        self.lu.nrows()
     }
 
     /// Factor the matrix with entries `a(i, j)` in place, reusing this storage (no copy of a
     /// `D x D` matrix in or out); errors as [`factor`](Self::factor), after which the contents
     /// are meaningless until the next successful factorization.
     pub(crate) fn factor_from(&mut self, a: impl Fn(usize, usize) -> f64) -> Result<(), Pivot> {
-        for j in 0..D {
-            for i in 0..D {
+        let n = self.n();
+        for j in 0..n {
+            for i in 0..n {
                 self.lu[(i, j)] = a(i, j);
             }
         }
@@ -70,15 +85,16 @@ impl<const D: usize> Lu<D> {
 
     /// Gaussian elimination with partial pivoting of `self.lu` in place.
     fn eliminate(&mut self) -> Result<(), Pivot> {
-        let tiny = D as f64 * f64::EPSILON * self.lu.amax();
+        let n = self.n();
+        let tiny = n as f64 * f64::EPSILON * self.lu.amax();
         let Lu { lu, perm } = self;
         for (i, p) in perm.iter_mut().enumerate() {
             *p = i;
         }
-        for k in 0..D {
+        for k in 0..n {
             let mut piv = k;
             let mut best = lu[(k, k)].abs();
-            for i in k + 1..D {
+            for i in k + 1..n {
                 let v = lu[(i, k)].abs();
                 if v > best {
                     best = v;
@@ -93,13 +109,13 @@ impl<const D: usize> Lu<D> {
             }
             if piv != k {
                 lu.swap_rows(piv, k);
-                perm.swap(piv, k);
+                perm.swap_rows(piv, k);
             }
             let inv = 1.0 / lu[(k, k)];
-            for i in k + 1..D {
+            for i in k + 1..n {
                 let l = lu[(i, k)] * inv;
                 lu[(i, k)] = l;
-                for j in k + 1..D {
+                for j in k + 1..n {
                     lu[(i, j)] -= l * lu[(k, j)];
                 }
             }
@@ -107,20 +123,62 @@ impl<const D: usize> Lu<D> {
         Ok(())
     }
 
-    /// Solve `A X = B` for `C` right-hand sides (`C = 1`: a vector).
-    pub fn solve<const C: usize>(&self, b: &SMatrix<f64, D, C>) -> SMatrix<f64, D, C> {
-        let mut x = SMatrix::<f64, D, C>::from_fn(|i, j| b[(self.perm[i], j)]);
-        for c in 0..C {
-            for i in 0..D {
+    /// Solve `A x = b`.
+    pub fn solve(&self, b: &OVector<f64, D>) -> OVector<f64, D> {
+        let mut x = b.clone();
+        self.solve_into(b, &mut x);
+        x
+    }
+
+    /// Solve `A x = b` into `x` (no allocation; `x` and `b` distinct).
+    pub fn solve_into(&self, b: &OVector<f64, D>, x: &mut OVector<f64, D>) {
+        let n = self.n();
+        for i in 0..n {
+            x[i] = b[self.perm[i]];
+        }
+        self.substitute(x);
+    }
+
+    /// Forward and back substitution of a permuted right-hand side in `x`.
+    fn substitute(&self, x: &mut OVector<f64, D>) {
+        let n = self.n();
+        for i in 0..n {
+            let mut s = x[i];
+            for j in 0..i {
+                s -= self.lu[(i, j)] * x[j];
+            }
+            x[i] = s;
+        }
+        for i in (0..n).rev() {
+            let mut s = x[i];
+            for j in i + 1..n {
+                s -= self.lu[(i, j)] * x[j];
+            }
+            x[i] = s / self.lu[(i, i)];
+        }
+    }
+
+    /// Solve `A X = B` for the columns of `b` (`b` with `C` columns).
+    pub fn solve_matrix<C: Dim>(&self, b: &OMatrix<f64, D, C>) -> OMatrix<f64, D, C>
+    where
+        DefaultAllocator: nalgebra::allocator::Allocator<D, C>,
+    {
+        let n = self.n();
+        let mut x = b.clone();
+        for c in 0..b.ncols() {
+            for i in 0..n {
+                x[(i, c)] = b[(self.perm[i], c)];
+            }
+            for i in 0..n {
                 let mut s = x[(i, c)];
                 for j in 0..i {
                     s -= self.lu[(i, j)] * x[(j, c)];
                 }
                 x[(i, c)] = s;
             }
-            for i in (0..D).rev() {
+            for i in (0..n).rev() {
                 let mut s = x[(i, c)];
-                for j in i + 1..D {
+                for j in i + 1..n {
                     s -= self.lu[(i, j)] * x[(j, c)];
                 }
                 x[(i, c)] = s / self.lu[(i, i)];
@@ -131,11 +189,14 @@ impl<const D: usize> Lu<D> {
 }
 
 /// Solve `A X = B` once; `None` when `A` is numerically singular or not finite.
-pub(crate) fn solve<const D: usize, const C: usize>(
-    a: SMatrix<f64, D, D>,
-    b: SMatrix<f64, D, C>,
-) -> Option<SMatrix<f64, D, C>> {
-    Lu::factor(&a).ok().map(|lu| lu.solve(&b))
+pub(crate) fn solve<D: Dim, C: Dim>(
+    a: OMatrix<f64, D, D>,
+    b: OMatrix<f64, D, C>,
+) -> Option<OMatrix<f64, D, C>>
+where
+    DefaultAllocator: Alloc<D> + nalgebra::allocator::Allocator<D, C>,
+{
+    Lu::factor(&a).ok().map(|lu| lu.solve_matrix(&b))
 }
 
 #[cfg(test)]

@@ -13,13 +13,13 @@
 //! use dth_core::dth::{Dth, DthOptions};
 //! use dth_core::observer::StepRecord;
 //! use dth_core::systems::Kepler;
-//! use dth_core::{nalgebra::Vector4, Hamiltonian};
+//! use dth_core::{nalgebra::{Const, Vector4}, Hamiltonian};
 //!
 //! let h = Kepler::thesis();
 //! let z0 = Vector4::new(0.5, 0.0, 0.0, 1.2);
 //! let e0 = h.value(&z0);
 //! let mut worst = 0.0_f64;
-//! let mut energy = |r: &StepRecord<4>| worst = worst.max((h.value(&r.z) - e0).abs());
+//! let mut energy = |r: &StepRecord<Const<4>>| worst = worst.max((h.value(&r.z) - e0).abs());
 //! run(&mut ImplicitMidpoint::new(), &h, &z0, 0.0, 0.15, 100, &mut energy)?; // a peer
 //! let options = DthOptions::default().with_dtau(0.06277)?;
 //! Dth::new(h, z0, options)?.run(100, &mut energy)?; // DTH: the same observer, at midpoints
@@ -27,7 +27,8 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
-use nalgebra::SVector;
+use crate::hamiltonian::Alloc;
+use nalgebra::{DefaultAllocator, Dim, OVector};
 
 /// What produced a step of a run.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -55,28 +56,37 @@ pub enum StepKind {
 }
 
 /// DTH's own quantities at a step (the DTH stepper fills them; fixed-step methods have none).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct DthRecord<const D: usize> {
+#[derive(Clone, Debug, PartialEq)]
+pub struct DthRecord<D: Dim>
+where
+    DefaultAllocator: Alloc<D>,
+{
     /// Multiplier `lambda_k = dt/dtau` of segment `k`.
     pub lambda: f64,
     /// Left vertex of segment `k`: `z^(k) = zbar_k - (h/2) lambda_k J gradH(zbar_k)` (a
     /// fallback step: the node reached).
-    pub vertex: SVector<f64, D>,
+    pub vertex: OVector<f64, D>,
     /// Vertex time `t^(k) = tbar_k - h lambda_k / 2` (a fallback step: the node's time).
     pub vertex_time: f64,
     /// `Psi(zbar_k)`.
     pub psi: f64,
 }
 
+/// `Copy` for fixed sizes, as before the dimension became a type.
+impl<const N: usize> Copy for DthRecord<nalgebra::Const<N>> {}
+
 /// One state of a run, as reported after each accepted step (and for the initial state).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct StepRecord<const D: usize> {
+#[derive(Clone, Debug, PartialEq)]
+pub struct StepRecord<D: Dim>
+where
+    DefaultAllocator: Alloc<D>,
+{
     /// Step index `k` (0 for the initial state).
     pub k: usize,
     /// Time of [`StepRecord::z`]: `t_k` (fixed step), the midpoint time `tbar_k` (DTH).
     pub t: f64,
     /// The state: `z_k` (fixed step), the midpoint `zbar_k` (DTH).
-    pub z: SVector<f64, D>,
+    pub z: OVector<f64, D>,
     /// What produced this step.
     pub kind: StepKind,
     /// Newton iterations spent on this step (0 for `k = 0` and for explicit methods; outer
@@ -89,12 +99,18 @@ pub struct StepRecord<const D: usize> {
     pub dth: Option<DthRecord<D>>,
 }
 
+/// `Copy` for fixed sizes, as before the dimension became a type.
+impl<const N: usize> Copy for StepRecord<nalgebra::Const<N>> {}
+
 /// Receives a run as it happens. Every method has a no-op default, so an observer implements
 /// only what it needs, and a run with `()` stores nothing and calls nothing per step.
 ///
 /// Closures `FnMut(&StepRecord<D>)` are observers, and so are pairs `(A, B)` of observers
 /// (both see every step, `A` first).
-pub trait Observer<const D: usize> {
+pub trait Observer<D: Dim>
+where
+    DefaultAllocator: Alloc<D>,
+{
     /// Called for each state: first the initial one (`k = 0`), then one per accepted step.
     /// (A DTH stepper resumed after an earlier run reports its current midpoint first if it
     /// has not been reported yet.)
@@ -106,28 +122,34 @@ pub trait Observer<const D: usize> {
     /// `z^(N) = zbar_{N-1} + (h/2) lambda_{N-1} J gradH(zbar_{N-1})` of the last accepted
     /// segment and its time `t^(N)`. Fixed-step methods have no vertices and do not call it.
     #[inline(always)]
-    fn on_finish(&mut self, last_vertex: &SVector<f64, D>, last_vertex_time: f64) {
+    fn on_finish(&mut self, last_vertex: &OVector<f64, D>, last_vertex_time: f64) {
         let _ = (last_vertex, last_vertex_time);
     }
 }
 
-impl<const D: usize> Observer<D> for () {}
+impl<D: Dim> Observer<D> for () where DefaultAllocator: Alloc<D> {}
 
-impl<const D: usize, F: FnMut(&StepRecord<D>)> Observer<D> for F {
+impl<D: Dim, F: FnMut(&StepRecord<D>)> Observer<D> for F
+where
+    DefaultAllocator: Alloc<D>,
+{
     #[inline(always)]
     fn on_step(&mut self, record: &StepRecord<D>) {
         self(record)
     }
 }
 
-impl<const D: usize, A: Observer<D>, B: Observer<D>> Observer<D> for (A, B) {
+impl<D: Dim, A: Observer<D>, B: Observer<D>> Observer<D> for (A, B)
+where
+    DefaultAllocator: Alloc<D>,
+{
     #[inline(always)]
     fn on_step(&mut self, record: &StepRecord<D>) {
         self.0.on_step(record);
         self.1.on_step(record);
     }
     #[inline(always)]
-    fn on_finish(&mut self, last_vertex: &SVector<f64, D>, last_vertex_time: f64) {
+    fn on_finish(&mut self, last_vertex: &OVector<f64, D>, last_vertex_time: f64) {
         self.0.on_finish(last_vertex, last_vertex_time);
         self.1.on_finish(last_vertex, last_vertex_time);
     }
@@ -135,15 +157,21 @@ impl<const D: usize, A: Observer<D>, B: Observer<D>> Observer<D> for (A, B) {
 
 /// An [`Observer`] that stores the time and state of every step (for DTH: the midpoints; a
 /// DTH run with its vertices, multipliers and Newton counts is `dth::Trajectory`).
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct Recorder<const D: usize> {
+#[derive(Clone, Debug, PartialEq)]
+pub struct Recorder<D: Dim>
+where
+    DefaultAllocator: Alloc<D>,
+{
     /// Times `t_0, t_1, ...`.
     pub t: Vec<f64>,
     /// States `z_0, z_1, ...`.
-    pub z: Vec<SVector<f64, D>>,
+    pub z: Vec<OVector<f64, D>>,
 }
 
-impl<const D: usize> Recorder<D> {
+impl<D: Dim> Recorder<D>
+where
+    DefaultAllocator: Alloc<D>,
+{
     /// An empty recorder.
     pub fn new() -> Self {
         Recorder {
@@ -153,9 +181,21 @@ impl<const D: usize> Recorder<D> {
     }
 }
 
-impl<const D: usize> Observer<D> for Recorder<D> {
+impl<D: Dim> Default for Recorder<D>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<D: Dim> Observer<D> for Recorder<D>
+where
+    DefaultAllocator: Alloc<D>,
+{
     fn on_step(&mut self, record: &StepRecord<D>) {
         self.t.push(record.t);
-        self.z.push(record.z);
+        self.z.push(record.z.clone());
     }
 }

@@ -5,6 +5,7 @@
 
 use dth_core::dth::{Dth, DthOptions, Solver};
 use dth_core::kepler::KeplerOrbit;
+use dth_core::nalgebra::Const;
 use dth_core::nalgebra::{SVector, Vector2, Vector4};
 use dth_core::observer::StepKind;
 use dth_core::systems::{HenonHeiles, Kepler, Pendulum};
@@ -25,7 +26,7 @@ fn options(dtau: f64, order: u32) -> DthOptions {
 
 /// Run to `t_end` exactly; the final state, its time and the largest `|H - H(zbar_0)|` seen at
 /// a step's midpoint.
-fn run_to<H: Hamiltonian<D> + Clone, const D: usize>(
+fn run_to<H: Hamiltonian<Const<D>> + Clone, const D: usize>(
     h: &H,
     z0: SVector<f64, D>,
     options: DthOptions,
@@ -209,7 +210,7 @@ fn runs_end_exactly_at_the_requested_time() {
 
 /// The error at `T` of runs at `dtau`, `dtau/2`, `dtau/4`: where there is no exact solution,
 /// the differences of successive runs fall by `2^p` (their ratio gives the order).
-fn self_convergence<H: Hamiltonian<D> + Clone, const D: usize>(
+fn self_convergence<H: Hamiltonian<Const<D>> + Clone, const D: usize>(
     h: &H,
     z0: SVector<f64, D>,
     dtau: f64,

@@ -2,8 +2,10 @@
 //! the same DTH trajectory as the reduced stepper (Corollary 1).
 
 use dth_core::dth::{integrate, lift, set_momentum_of_time, Dth, DthOptions, Extended};
+use dth_core::nalgebra::Const;
 use dth_core::nalgebra::{Vector4, Vector6};
 use dth_core::systems::Kepler;
+use dth_core::Flags;
 use dth_core::{Error, Hamiltonian};
 
 const EPS: f64 = f64::EPSILON;
@@ -12,7 +14,7 @@ const EPS: f64 = f64::EPSILON;
 fn extended_kepler_agrees_with_reduced_corollary_1() {
     let kepler = Kepler::thesis();
     let x0 = Vector4::new(0.5, 0.0, 0.0, 1.2);
-    let ext: Extended<Kepler, 4, 6> = Extended::new(kepler);
+    let ext: Extended<Kepler, Const<4>> = Extended::new(kepler);
     let t0 = 0.25;
     let z0: Vector6<f64> = set_momentum_of_time(&ext, lift(&x0, t0));
     assert!(ext.value(&z0).abs() <= EPS, "calH(zbar_0) = 0");
@@ -28,7 +30,7 @@ fn extended_kepler_agrees_with_reduced_corollary_1() {
             r.dth.map_or(f64::NAN, |d| d.lambda),
             e.dth.map_or(f64::NAN, |d| d.lambda),
         );
-        dz = dz.max((r.z - Extended::<Kepler, 4, 6>::reduce(&e.z)).amax());
+        dz = dz.max((r.z - Extended::<Kepler, Const<4>>::reduce(&e.z)).amax());
         dl = dl.max((lr - le).abs() / lr);
         // The stepper's tbar (started at t0) against the reduced one shifted by t0.
         dt = dt.max((e.t - (r.t + t0)).abs());
@@ -60,7 +62,7 @@ fn extended_kepler_agrees_with_reduced_corollary_1() {
 
 #[test]
 fn extended_start_must_have_zero_calh() {
-    let ext: Extended<Kepler, 4, 6> = Extended::new(Kepler::thesis());
+    let ext: Extended<Kepler, Const<4>> = Extended::new(Kepler::thesis());
     let z: Vector6<f64> = lift(&Vector4::new(0.5, 0.0, 0.0, 1.2), 0.0); // p_t = 0: calH = -0.56
     let r = Dth::new(ext, z, DthOptions::default());
     assert!(
@@ -88,26 +90,36 @@ impl Forced {
     }
 }
 
-impl Hamiltonian<4> for Forced {
-    const TIME_DEPENDENT: bool = true;
+impl Hamiltonian<Const<4>> for Forced {
+    fn dim(&self) -> Const<4> {
+        Const
+    }
+
+    fn flags(&self) -> Flags {
+        Flags::default().with_time_dependent(true)
+    }
 
     fn value(&self, z: &Vector4<f64>) -> f64 {
         let (q, t, p, p_t) = (z[0], z[1], z[2], z[3]);
         p_t + 0.5 * p * p + 0.5 * q * q - self.f * q * (self.w * t).sin()
     }
-    fn gradient(&self, z: &Vector4<f64>) -> Vector4<f64> {
-        let (q, t, p) = (z[0], z[1], z[2]);
-        let (s, c) = (self.w * t).sin_cos();
-        Vector4::new(q - self.f * s, -self.f * q * self.w * c, p, 1.0)
+    fn gradient_into(&self, z: &Vector4<f64>, out: &mut Vector4<f64>) {
+        *out = {
+            let (q, t, p) = (z[0], z[1], z[2]);
+            let (s, c) = (self.w * t).sin_cos();
+            Vector4::new(q - self.f * s, -self.f * q * self.w * c, p, 1.0)
+        };
     }
-    fn hessian(&self, z: &Vector4<f64>) -> dth_core::nalgebra::Matrix4<f64> {
-        let (q, t) = (z[0], z[1]);
-        let (s, c) = (self.w * t).sin_cos();
-        let qt = -self.f * self.w * c;
-        let tt = self.f * q * self.w * self.w * s;
-        dth_core::nalgebra::Matrix4::new(
-            1.0, qt, 0.0, 0.0, qt, tt, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-        )
+    fn hessian_into(&self, z: &Vector4<f64>, out: &mut dth_core::nalgebra::Matrix4<f64>) {
+        *out = {
+            let (q, t) = (z[0], z[1]);
+            let (s, c) = (self.w * t).sin_cos();
+            let qt = -self.f * self.w * c;
+            let tt = self.f * q * self.w * self.w * s;
+            dth_core::nalgebra::Matrix4::new(
+                1.0, qt, 0.0, 0.0, qt, tt, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+            )
+        };
     }
 }
 

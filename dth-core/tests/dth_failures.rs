@@ -2,6 +2,7 @@
 //! was computed.
 
 use dth_core::dth::{integrate, Dth, DthOptions, Solver, Trajectory};
+use dth_core::nalgebra::Const;
 use dth_core::nalgebra::{Vector2, Vector4};
 use dth_core::observer::StepRecord;
 use dth_core::systems::{Kepler, Pendulum};
@@ -101,7 +102,7 @@ fn non_finite_value_mid_run_stops_and_keeps_the_partial_trajectory() {
     // The stepper API keeps its state at the last accepted step.
     let mut dth = Dth::new(Walled, z0, options).expect("start");
     let mut seen = 0usize;
-    let mut count = |_: &StepRecord<2>| seen += 1;
+    let mut count = |_: &StepRecord<Const<2>>| seen += 1;
     let r = dth.run(1_000, &mut count);
     assert!(matches!(r, Err(Error::NonFinite { step: s, .. }) if s == step));
     assert_eq!(dth.k(), step - 1);

@@ -3,6 +3,7 @@
 
 use dth_core::dth::{integrate, DthOptions, Solver, Trajectory};
 use dth_core::kepler::THESIS_TABLE_4_1;
+use dth_core::nalgebra::Const;
 use dth_core::nalgebra::Vector4;
 use dth_core::systems::Kepler;
 use dth_core::Hamiltonian;
@@ -13,7 +14,7 @@ fn z0() -> Vector4<f64> {
     Vector4::new(0.5, 0.0, 0.0, 1.2)
 }
 
-fn run(solver: Solver, steps: usize) -> Trajectory<4> {
+fn run(solver: Solver, steps: usize) -> Trajectory<Const<4>> {
     let options = DthOptions::default()
         .with_dtau(0.06277)
         .and_then(|o| o.with_lambda0(1.0))
@@ -142,8 +143,8 @@ fn nested_and_joint_newton_agree() {
     let steps = 2_000;
     let joint = run(Solver::Joint, steps);
     let nested = run(Solver::Nested, steps);
-    let it = |t: &Trajectory<4>| mean(t.iterations()[1..].iter().map(|&i| f64::from(i)));
-    let lu = |t: &Trajectory<4>| mean(t.factorizations()[1..].iter().map(|&i| f64::from(i)));
+    let it = |t: &Trajectory<Const<4>>| mean(t.iterations()[1..].iter().map(|&i| f64::from(i)));
+    let lu = |t: &Trajectory<Const<4>>| mean(t.factorizations()[1..].iter().map(|&i| f64::from(i)));
     println!(
         "Newton per step over {steps} steps: joint {:.2} iterations ({:.2} LU, max {}); \
          nested {:.2} outer iterations ({:.2} LU, max {})",

@@ -1,6 +1,7 @@
 //! Numerical tests of the paper's Theorems 3, 5, 6 and 8 (Shibberu 1998) for the DTH stepper.
 
 use dth_core::dth::{integrate, lift, segment_from_vertex, DthOptions, Extended, Trajectory};
+use dth_core::nalgebra::Const;
 use dth_core::nalgebra::{Matrix2, Matrix4, Matrix6, SMatrix, SVector, Vector4, Vector6};
 use dth_core::systems::Kepler;
 use dth_core::Hamiltonian;
@@ -15,12 +16,12 @@ fn options(dtau: f64) -> DthOptions {
     DthOptions::default().with_dtau(dtau).expect("valid dtau")
 }
 
-fn run<H: Hamiltonian<D>, const D: usize>(
+fn run<H: Hamiltonian<Const<D>>, const D: usize>(
     h: H,
     z0: SVector<f64, D>,
     dtau: f64,
     steps: usize,
-) -> Trajectory<D> {
+) -> Trajectory<Const<D>> {
     integrate(h, z0, options(dtau), steps).unwrap_or_else(|e| panic!("run failed: {}", e.error))
 }
 
@@ -43,15 +44,19 @@ struct Quadratic {
     a: Matrix4<f64>,
 }
 
-impl Hamiltonian<4> for Quadratic {
+impl Hamiltonian<Const<4>> for Quadratic {
+    fn dim(&self) -> Const<4> {
+        Const
+    }
+
     fn value(&self, z: &Vector4<f64>) -> f64 {
         0.5 * z.dot(&(self.a * z))
     }
-    fn gradient(&self, z: &Vector4<f64>) -> Vector4<f64> {
-        self.a * z
+    fn gradient_into(&self, z: &Vector4<f64>, out: &mut Vector4<f64>) {
+        *out = self.a * z;
     }
-    fn hessian(&self, _z: &Vector4<f64>) -> Matrix4<f64> {
-        self.a
+    fn hessian_into(&self, _z: &Vector4<f64>, out: &mut Matrix4<f64>) {
+        *out = self.a;
     }
 }
 
@@ -127,15 +132,18 @@ struct Transformed<H> {
     t: Matrix4<f64>,
 }
 
-impl<H: Hamiltonian<4>> Hamiltonian<4> for Transformed<H> {
+impl<H: Hamiltonian<Const<4>>> Hamiltonian<Const<4>> for Transformed<H> {
+    fn dim(&self) -> Const<4> {
+        Const
+    }
     fn value(&self, y: &Vector4<f64>) -> f64 {
         self.inner.value(&(self.t * y))
     }
-    fn gradient(&self, y: &Vector4<f64>) -> Vector4<f64> {
-        self.t.transpose() * self.inner.gradient(&(self.t * y))
+    fn gradient_into(&self, y: &Vector4<f64>, out: &mut Vector4<f64>) {
+        *out = self.t.transpose() * self.inner.gradient(&(self.t * y));
     }
-    fn hessian(&self, y: &Vector4<f64>) -> Matrix4<f64> {
-        self.t.transpose() * self.inner.hessian(&(self.t * y)) * self.t
+    fn hessian_into(&self, y: &Vector4<f64>, out: &mut Matrix4<f64>) {
+        *out = self.t.transpose() * self.inner.hessian(&(self.t * y)) * self.t;
     }
 }
 
@@ -271,7 +279,7 @@ fn vertex_map_is_symplectic_theorem_3() {
     let h = 0.06277;
     let o = options(h);
     let delta = 1e-6;
-    let ext: Extended<Kepler, 4, 6> = Extended::new(Kepler::thesis());
+    let ext: Extended<Kepler, Const<4>> = Extended::new(Kepler::thesis());
     let kepler = Kepler::thesis();
     let e0 = kepler.value(&kepler_z0());
     // A few vertices along the orbit.

@@ -11,6 +11,7 @@
 //! count far below the limit (a stall that is never detected runs to the limit of 50).
 
 use dth_core::dth::{integrate, DthOptions, EnergyResidual, Solver};
+use dth_core::nalgebra::Const;
 use dth_core::nalgebra::{SVector, Vector4};
 use dth_core::systems::{ForcedOscillator, Kepler};
 use dth_core::Hamiltonian;
@@ -21,7 +22,7 @@ const SOLVERS: [Solver; 2] = [Solver::Joint, Solver::Nested];
 
 /// Run `steps` steps; return the largest midpoint energy deviation relative to the size of the
 /// terms of `H`, and the largest LU count of a step.
-fn run<H: Hamiltonian<4> + Copy>(
+fn run<H: Hamiltonian<Const<4>> + Copy>(
     h: H,
     z0: SVector<f64, 4>,
     options: DthOptions,

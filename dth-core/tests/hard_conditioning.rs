@@ -3,6 +3,7 @@
 //! step for every dtau from the thesis's 0.06277 down to 1e-6; the plain residual's error
 //! grows like eps / dtau^2 (the control that shows the comparison can fail).
 
+use dth_core::nalgebra::Const;
 mod hard_support;
 
 use dth_core::dth::{integrate, Dth, DthOptions, EnergyResidual, Solver};
@@ -21,7 +22,7 @@ fn worst_lambda_error(dtau: f64, residual: EnergyResidual, solver: Solver, steps
 
 /// As [`worst_lambda_error`] for any implementation of the thesis's Kepler `H` (the reference
 /// solve is Kepler's in double-double).
-fn worst_lambda_error_of<H: dth_core::Hamiltonian<4> + Copy>(
+fn worst_lambda_error_of<H: dth_core::Hamiltonian<Const<4>> + Copy>(
     system: H,
     dtau: f64,
     residual: EnergyResidual,
@@ -116,7 +117,7 @@ fn lambda_is_machine_precision_from_thesis_dtau_down_to_1e_minus_6() {
 }
 
 /// Max over k of |lambda_{k+1} - 2 lambda_k + lambda_{k-1}| / lambda_k.
-fn lambda_roughness<H: dth_core::Hamiltonian<D> + Copy, const D: usize>(
+fn lambda_roughness<H: dth_core::Hamiltonian<Const<D>> + Copy, const D: usize>(
     h: H,
     z0: dth_core::nalgebra::SVector<f64, D>,
     dtau: f64,
@@ -155,18 +156,22 @@ fn pendulum_lambda_is_smooth_with_exact_divided_differences() {
 #[derive(Clone, Copy)]
 struct GbarOnly(Kepler);
 
-impl dth_core::Hamiltonian<4> for GbarOnly {
+impl dth_core::Hamiltonian<Const<4>> for GbarOnly {
+    fn dim(&self) -> Const<4> {
+        Const
+    }
+
     fn value(&self, z: &Vector4<f64>) -> f64 {
         self.0.value(z)
     }
-    fn gradient(&self, z: &Vector4<f64>) -> Vector4<f64> {
-        self.0.gradient(z)
+    fn gradient_into(&self, z: &Vector4<f64>, out: &mut Vector4<f64>) {
+        *out = self.0.gradient(z);
     }
-    fn hessian(&self, z: &Vector4<f64>) -> dth_core::nalgebra::Matrix4<f64> {
-        self.0.hessian(z)
+    fn hessian_into(&self, z: &Vector4<f64>, out: &mut dth_core::nalgebra::Matrix4<f64>) {
+        *out = self.0.hessian(z);
     }
-    fn discrete_gradient(&self, z0: &Vector4<f64>, z1: &Vector4<f64>) -> Vector4<f64> {
-        self.0.discrete_gradient(z0, z1)
+    fn discrete_gradient_into(&self, z0: &Vector4<f64>, z1: &Vector4<f64>, out: &mut Vector4<f64>) {
+        *out = self.0.discrete_gradient(z0, z1);
     }
 }
 

@@ -5,9 +5,11 @@
 //! gradients, `Psi = 0` starts and the robust mode's own failure.)
 
 use dth_core::dth::{integrate, segment_from_vertex, Dth, DthOptions};
+use dth_core::nalgebra::Const;
 use dth_core::nalgebra::{Matrix2, Matrix4, Vector2, Vector4};
 use dth_core::observer::StepKind;
 use dth_core::systems::{Kepler, Pendulum};
+use dth_core::Flags;
 use dth_core::{Error, Hamiltonian};
 
 mod fixtures;
@@ -170,29 +172,39 @@ fn a_step_far_too_large_does_not_converge_and_is_not_retried() {
 /// `gbar`).
 struct WrongDiscreteGradient(Kepler);
 
-impl Hamiltonian<4> for WrongDiscreteGradient {
-    const EXACT_DIVIDED_DIFFERENCES: bool = true;
+impl Hamiltonian<Const<4>> for WrongDiscreteGradient {
+    fn dim(&self) -> Const<4> {
+        Const
+    }
+
+    fn flags(&self) -> Flags {
+        Flags::default().with_exact_divided_differences(true)
+    }
+
     fn value(&self, z: &Vector4<f64>) -> f64 {
         self.0.value(z)
     }
-    fn gradient(&self, z: &Vector4<f64>) -> Vector4<f64> {
-        self.0.gradient(z)
+    fn gradient_into(&self, z: &Vector4<f64>, out: &mut Vector4<f64>) {
+        *out = self.0.gradient(z);
     }
-    fn hessian(&self, z: &Vector4<f64>) -> Matrix4<f64> {
-        self.0.hessian(z)
+    fn hessian_into(&self, z: &Vector4<f64>, out: &mut Matrix4<f64>) {
+        *out = self.0.hessian(z);
     }
-    fn discrete_gradient(&self, z0: &Vector4<f64>, z1: &Vector4<f64>) -> Vector4<f64> {
-        let mut g = self.0.discrete_gradient(z0, z1);
-        g[2] *= 1.001;
-        g
+    fn discrete_gradient_into(&self, z0: &Vector4<f64>, z1: &Vector4<f64>, out: &mut Vector4<f64>) {
+        *out = {
+            let mut g = self.0.discrete_gradient(z0, z1);
+            g[2] *= 1.001;
+            g
+        };
     }
-    fn discrete_gradient_defect(
+    fn discrete_gradient_defect_into(
         &self,
         z0: &Vector4<f64>,
         z1: &Vector4<f64>,
         gbar: &Vector4<f64>,
-    ) -> Vector4<f64> {
-        self.0.discrete_gradient_defect(z0, z1, gbar)
+        out: &mut Vector4<f64>,
+    ) {
+        *out = self.0.discrete_gradient_defect(z0, z1, gbar);
     }
 }
 
@@ -231,15 +243,19 @@ fn start_where_psi_is_exactly_zero_on_the_whole_orbit_is_singular() {
 /// changing sign there.
 struct Cubic;
 
-impl Hamiltonian<2> for Cubic {
+impl Hamiltonian<Const<2>> for Cubic {
+    fn dim(&self) -> Const<2> {
+        Const
+    }
+
     fn value(&self, z: &Vector2<f64>) -> f64 {
         0.5 * z[1] * z[1] + z[0] * z[0] * z[0] / 3.0
     }
-    fn gradient(&self, z: &Vector2<f64>) -> Vector2<f64> {
-        Vector2::new(z[0] * z[0], z[1])
+    fn gradient_into(&self, z: &Vector2<f64>, out: &mut Vector2<f64>) {
+        *out = Vector2::new(z[0] * z[0], z[1]);
     }
-    fn hessian(&self, z: &Vector2<f64>) -> Matrix2<f64> {
-        Matrix2::new(2.0 * z[0], 0.0, 0.0, 1.0)
+    fn hessian_into(&self, z: &Vector2<f64>, out: &mut Matrix2<f64>) {
+        *out = Matrix2::new(2.0 * z[0], 0.0, 0.0, 1.0);
     }
 }
 

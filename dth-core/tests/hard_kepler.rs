@@ -7,6 +7,7 @@
 
 use dth_core::dth::{integrate, Dth, DthOptions, Trajectory};
 use dth_core::kepler::KeplerOrbit;
+use dth_core::nalgebra::Const;
 use dth_core::nalgebra::Vector4;
 use dth_core::observer::StepKind;
 use dth_core::systems::Kepler;
@@ -26,7 +27,7 @@ fn terms(z: &Vector4<f64>) -> f64 {
 }
 
 /// Max |H(zbar) - H0| / terms over midpoints and robust nodes.
-fn worst_energy(t: &Trajectory<4>, e0: f64) -> f64 {
+fn worst_energy(t: &Trajectory<Const<4>>, e0: f64) -> f64 {
     let k = Kepler::thesis();
     t.midpoints()
         .iter()
@@ -36,7 +37,7 @@ fn worst_energy(t: &Trajectory<4>, e0: f64) -> f64 {
 
 /// Max over vertices of the distance to the exact orbit through zbar_0 (at t = 0), up to
 /// time `t_max`.
-fn phase_error(t: &Trajectory<4>, orbit: &KeplerOrbit, t_max: f64) -> f64 {
+fn phase_error(t: &Trajectory<Const<4>>, orbit: &KeplerOrbit, t_max: f64) -> f64 {
     t.vertices()
         .iter()
         .zip(t.vertex_times())
@@ -146,7 +147,7 @@ fn kepler_dtau_from_0_2_down_to_1e_minus_6() {
 
 /// Run the robust mode for `steps` steps; check energy at every point, that the fallback steps
 /// are marked and that DTH is resumed.
-fn robust_run(e: f64, dtau: f64, steps: usize) -> Trajectory<4> {
+fn robust_run(e: f64, dtau: f64, steps: usize) -> Trajectory<Const<4>> {
     let kepler = Kepler::thesis();
     let options = DthOptions::default()
         .with_dtau(dtau)

@@ -3,6 +3,7 @@
 //! `cargo test` in the dev profile (measured ~4 s on the 2-core dev machine).
 
 use dth_core::dth::{Dth, DthOptions, EnergyResidual};
+use dth_core::nalgebra::Const;
 use dth_core::nalgebra::Vector4;
 use dth_core::observer::StepRecord;
 use dth_core::systems::Kepler;
@@ -37,7 +38,7 @@ fn long_run(residual: EnergyResidual, dtau: f64) -> Drift {
         lambda_min: f64::MAX,
         lambda_max: 0.0,
     };
-    let mut observe = |r: &StepRecord<4>| {
+    let mut observe = |r: &StepRecord<Const<4>>| {
         let de = (kepler.value(&r.z) - d.e0).abs();
         let s = r.dth.expect("a DTH record");
         d.worst_energy = d.worst_energy.max(de);
@@ -125,7 +126,7 @@ fn energy_drift_per_dtau_both_residuals() {
             let e0 = dth.energy();
             let (mut worst, mut mean) = (0.0f64, 0.0f64);
             let n = 100_000;
-            let mut observe = |r: &StepRecord<4>| {
+            let mut observe = |r: &StepRecord<Const<4>>| {
                 let de = (kepler.value(&r.z) - e0).abs() / e0.abs();
                 worst = worst.max(de);
                 mean += de / n as f64;

@@ -2,6 +2,7 @@
 //! heap (the counting global allocator of `alloc_counter`: this test binary only, the test's
 //! own thread only).
 
+use dth_core::nalgebra::Const;
 mod alloc_counter;
 
 use dth_core::dth::{Dth, DthOptions};
@@ -25,8 +26,9 @@ fn robust_mode_and_cancellation_free_steps_do_not_allocate() {
     .expect("start");
     assert!(dth.cancellation_free());
     let mut kinds = [0usize; 2];
-    let mut count =
-        |r: &StepRecord<4>| kinds[usize::from(r.kind != dth_core::observer::StepKind::Dth)] += 1;
+    let mut count = |r: &StepRecord<Const<4>>| {
+        kinds[usize::from(r.kind != dth_core::observer::StepKind::Dth)] += 1
+    };
     let (ok, allocations) = alloc_counter::count(|| dth.run(3_000, &mut count).is_ok());
     assert!(ok);
     assert!(

@@ -3,6 +3,7 @@
 //! increasing) or a typed error variant with a valid partial trajectory.
 
 use dth_core::dth::{integrate, DthOptions, Trajectory};
+use dth_core::nalgebra::Const;
 use dth_core::nalgebra::{SVector, Vector2, Vector4};
 use dth_core::systems::{HenonHeiles, Kepler, Pendulum};
 use dth_core::{Error, Hamiltonian};
@@ -11,9 +12,9 @@ use proptest::prelude::*;
 const EPS: f64 = f64::EPSILON;
 
 /// The invariants every stored point keeps, whatever the outcome.
-fn check<H: Hamiltonian<D>, const D: usize>(
+fn check<H: Hamiltonian<Const<D>>, const D: usize>(
     h: &H,
-    t: &Trajectory<D>,
+    t: &Trajectory<Const<D>>,
     e0: f64,
 ) -> Result<(), TestCaseError> {
     for (i, z) in t.midpoints().iter().enumerate() {
@@ -50,7 +51,7 @@ fn typed(e: &Error) -> bool {
     )
 }
 
-fn run_case<H: Hamiltonian<D> + Copy, const D: usize>(
+fn run_case<H: Hamiltonian<Const<D>> + Copy, const D: usize>(
     h: H,
     z0: SVector<f64, D>,
     dtau: f64,

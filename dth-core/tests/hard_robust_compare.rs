@@ -9,6 +9,7 @@
 use dth_core::dth::{Dth, DthOptions};
 use dth_core::kepler::KeplerOrbit;
 use dth_core::methods::{run, GaussLegendre2, ImplicitMidpoint, OneStepMethod};
+use dth_core::nalgebra::Const;
 use dth_core::nalgebra::{SVector, Vector2, Vector4};
 use dth_core::observer::{StepKind, StepRecord};
 use dth_core::systems::{Kepler, Pendulum};
@@ -26,7 +27,7 @@ struct RobustRun<const D: usize> {
     worst_energy: f64,
 }
 
-fn robust_until<H: Hamiltonian<D> + Copy, const D: usize>(
+fn robust_until<H: Hamiltonian<Const<D>> + Copy, const D: usize>(
     h: H,
     z0: SVector<f64, D>,
     dtau: f64,
@@ -63,7 +64,7 @@ fn robust_until<H: Hamiltonian<D> + Copy, const D: usize>(
 
 /// Implicit midpoint from z0 to exactly `t_end` with about `budget` Newton iterations; returns
 /// the end state, the iterations spent and the max energy error.
-fn midpoint_until<H: Hamiltonian<D>, const D: usize>(
+fn midpoint_until<H: Hamiltonian<Const<D>>, const D: usize>(
     h: &H,
     z0: &SVector<f64, D>,
     t_end: f64,
@@ -85,12 +86,12 @@ fn midpoint_until<H: Hamiltonian<D>, const D: usize>(
             0.0,
             t_end / steps as f64,
             steps,
-            &mut |r: &StepRecord<D>| {
+            &mut |r: &StepRecord<Const<D>>| {
                 w = w.max((h.value(&r.z) - e0).abs());
             },
         )
         .expect("midpoint run");
-        spent = OneStepMethod::<D, H>::newton_iterations(&m);
+        spent = OneStepMethod::<Const<D>, H>::newton_iterations(&m);
         end = r.z;
         worst = w;
         let per_step = spent as f64 / steps as f64;

@@ -2,6 +2,7 @@
 //! E = 1/8 and 1/6, the forced oscillator through resonance.
 
 use dth_core::dth::{integrate, DthOptions, Trajectory};
+use dth_core::nalgebra::Const;
 use dth_core::nalgebra::{SVector, Vector2, Vector4};
 use dth_core::observer::StepKind;
 use dth_core::systems::{ForcedOscillator, HenonHeiles, Pendulum};
@@ -13,9 +14,9 @@ const EPS: f64 = f64::EPSILON;
 /// stored point: the size of its terms, or `sum |z_i dH/dz_i|` (a float z is exact only to an
 /// ulp per component, which moves H by that much: e.g. q = 330 after 52 pendulum turns)
 /// whichever is larger.
-fn worst_energy<H: Hamiltonian<D>, const D: usize>(
+fn worst_energy<H: Hamiltonian<Const<D>>, const D: usize>(
     h: &H,
-    t: &Trajectory<D>,
+    t: &Trajectory<Const<D>>,
     e0: f64,
     terms: impl Fn(&SVector<f64, D>) -> f64,
 ) -> f64 {
@@ -219,7 +220,7 @@ fn resonant_exact(force: f64, q0: f64, p0: f64, t: f64) -> (f64, f64) {
 }
 
 /// Max |(q, p) - exact| over vertices up to `t_max` (the vertex's own t coordinate).
-fn forced_error(t: &Trajectory<4>, exact: impl Fn(f64) -> (f64, f64), t_max: f64) -> f64 {
+fn forced_error(t: &Trajectory<Const<4>>, exact: impl Fn(f64) -> (f64, f64), t_max: f64) -> f64 {
     t.vertices()
         .iter()
         .filter(|z| z[1] <= t_max)
@@ -316,7 +317,7 @@ fn forced_oscillator_breakdown_and_robust_mode_in_the_extended_phase_space() {
     }
     // Second order is kept through the fallback steps: the same span (t <= 150, past the
     // breakdown at t ~ 32) with dtau halved cuts the error ~4x.
-    let error_to = |t: &Trajectory<4>| {
+    let error_to = |t: &Trajectory<Const<4>>| {
         t.iter()
             .filter(|r| r.z[1] <= 150.0)
             .map(|r| {

@@ -6,29 +6,38 @@ use dth_core::methods::{
     run, DiscreteGradient, DiscreteMechanics, GaussLegendre2, ImplicitMidpoint, OneStepMethod, Rk4,
     StormerVerlet, Trapezoidal,
 };
+use dth_core::nalgebra::Const;
 use dth_core::nalgebra::{Matrix4, Vector4};
 use dth_core::observer::StepRecord;
 use dth_core::systems::{CentralForce, Kepler};
+use dth_core::Flags;
 use dth_core::{Error, Hamiltonian};
 
 /// Kepler through the trait's default (guarded) divided difference instead of the exact
 /// `k / (r0 r1)` override, to test the guard inside the method.
 struct GuardedKepler(Kepler);
 
-impl Hamiltonian<4> for GuardedKepler {
-    const SEPARABLE: bool = true;
+impl Hamiltonian<Const<4>> for GuardedKepler {
+    fn dim(&self) -> Const<4> {
+        Const
+    }
+
+    fn flags(&self) -> Flags {
+        Flags::default().with_separable(true)
+    }
+
     fn value(&self, z: &Vector4<f64>) -> f64 {
         self.0.value(z)
     }
-    fn gradient(&self, z: &Vector4<f64>) -> Vector4<f64> {
-        self.0.gradient(z)
+    fn gradient_into(&self, z: &Vector4<f64>, out: &mut Vector4<f64>) {
+        *out = self.0.gradient(z);
     }
-    fn hessian(&self, z: &Vector4<f64>) -> Matrix4<f64> {
-        self.0.hessian(z)
+    fn hessian_into(&self, z: &Vector4<f64>, out: &mut Matrix4<f64>) {
+        *out = self.0.hessian(z);
     }
 }
 
-impl CentralForce<4> for GuardedKepler {
+impl CentralForce<Const<4>> for GuardedKepler {
     fn mass(&self) -> f64 {
         self.0.mass
     }
@@ -43,7 +52,7 @@ impl CentralForce<4> for GuardedKepler {
 const THESIS_Z0: Vector4<f64> = Vector4::new(0.5, 0.0, 0.0, 1.2);
 
 /// Max |E - E0| and |L - L0| over `steps` steps.
-fn max_deviations<H: Hamiltonian<4>, M: OneStepMethod<4, H>>(
+fn max_deviations<H: Hamiltonian<Const<4>>, M: OneStepMethod<Const<4>, H>>(
     mut method: M,
     h: &H,
     z0: &Vector4<f64>,
@@ -147,7 +156,10 @@ fn rk4_and_trapezoidal_conserve_neither() {
 
 /// `n` steps forward with dt, then `n` with -dt: a symmetric method returns to the start up to
 /// roundoff (O(1) state, 2n steps of a few eps each, ~1e-13 with margin).
-fn round_trip<H: Hamiltonian<4>, M: OneStepMethod<4, H>>(mut method: M, h: &H) -> f64 {
+fn round_trip<H: Hamiltonian<Const<4>>, M: OneStepMethod<Const<4>, H>>(
+    mut method: M,
+    h: &H,
+) -> f64 {
     let forward = run(&mut method, h, &THESIS_Z0, 0.0, 0.05, 200, &mut ()).unwrap();
     let back = run(&mut method, h, &forward.z, forward.t, -0.05, 200, &mut ()).unwrap();
     (back.z - THESIS_Z0).amax()
@@ -176,19 +188,33 @@ fn symmetric_methods_are_reversible() {
 
 /// A non-separable H (the q-p block of the Hessian is not zero).
 struct Coupled;
-impl Hamiltonian<2> for Coupled {
+impl Hamiltonian<Const<2>> for Coupled {
+    fn dim(&self) -> Const<2> {
+        Const
+    }
+
     fn value(&self, z: &dth_core::nalgebra::Vector2<f64>) -> f64 {
         0.5 * (z[0] * z[0] + z[1] * z[1]) + 0.1 * z[0] * z[0] * z[1] * z[1]
     }
-    fn gradient(&self, z: &dth_core::nalgebra::Vector2<f64>) -> dth_core::nalgebra::Vector2<f64> {
-        dth_core::nalgebra::Vector2::new(
+    fn gradient_into(
+        &self,
+        z: &dth_core::nalgebra::Vector2<f64>,
+        out: &mut dth_core::nalgebra::Vector2<f64>,
+    ) {
+        *out = dth_core::nalgebra::Vector2::new(
             z[0] + 0.2 * z[0] * z[1] * z[1],
             z[1] + 0.2 * z[0] * z[0] * z[1],
-        )
+        );
     }
-    fn hessian(&self, z: &dth_core::nalgebra::Vector2<f64>) -> dth_core::nalgebra::Matrix2<f64> {
-        let c = 0.4 * z[0] * z[1];
-        dth_core::nalgebra::Matrix2::new(1.0 + 0.2 * z[1] * z[1], c, c, 1.0 + 0.2 * z[0] * z[0])
+    fn hessian_into(
+        &self,
+        z: &dth_core::nalgebra::Vector2<f64>,
+        out: &mut dth_core::nalgebra::Matrix2<f64>,
+    ) {
+        *out = {
+            let c = 0.4 * z[0] * z[1];
+            dth_core::nalgebra::Matrix2::new(1.0 + 0.2 * z[1] * z[1], c, c, 1.0 + 0.2 * z[0] * z[0])
+        };
     }
 }
 
@@ -240,7 +266,7 @@ fn newton_failure_names_the_step_and_keeps_the_states() {
         0.0,
         0.5,
         100,
-        &mut |_: &StepRecord<4>| seen += 1,
+        &mut |_: &StepRecord<Const<4>>| seen += 1,
     )
     .unwrap_err();
     eprintln!("{:?} after {} steps", err.error, err.partial.steps);

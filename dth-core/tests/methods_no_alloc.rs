@@ -1,6 +1,7 @@
 //! No heap allocation per step: every peer, run through the driver with a no-op observer,
 //! allocates nothing (counted on this thread by the global allocator of `alloc_counter`).
 
+use dth_core::nalgebra::Const;
 mod alloc_counter;
 
 use dth_core::methods::{
@@ -11,7 +12,7 @@ use dth_core::nalgebra::{SVector, Vector4};
 use dth_core::systems::{Kepler, TodaBoundary, TodaChain};
 use dth_core::Hamiltonian;
 
-fn allocations<const D: usize, H: Hamiltonian<D>, M: OneStepMethod<D, H>>(
+fn allocations<const D: usize, H: Hamiltonian<Const<D>>, M: OneStepMethod<Const<D>, H>>(
     mut method: M,
     h: &H,
     z0: &SVector<f64, D>,

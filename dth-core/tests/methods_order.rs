@@ -7,12 +7,13 @@ use dth_core::methods::{
     run, DiscreteGradient, DiscreteMechanics, GaussLegendre2, ImplicitMidpoint, OneStepMethod, Rk4,
     StormerVerlet, Trapezoidal,
 };
+use dth_core::nalgebra::Const;
 use dth_core::nalgebra::{SVector, Vector2, Vector4};
 use dth_core::systems::{HarmonicOscillator, Kepler};
 use dth_core::Hamiltonian;
 
 /// Global error at `t_end` of `steps` steps, in the max norm.
-fn error<const D: usize, H: Hamiltonian<D>, M: OneStepMethod<D, H>>(
+fn error<const D: usize, H: Hamiltonian<Const<D>>, M: OneStepMethod<Const<D>, H>>(
     mut method: M,
     h: &H,
     z0: &SVector<f64, D>,
@@ -34,7 +35,11 @@ fn error<const D: usize, H: Hamiltonian<D>, M: OneStepMethod<D, H>>(
 }
 
 /// Observed orders `log2(e(dt) / e(dt/2))` over three halvings from `steps`.
-fn observed_orders<const D: usize, H: Hamiltonian<D>, M: OneStepMethod<D, H> + Clone>(
+fn observed_orders<
+    const D: usize,
+    H: Hamiltonian<Const<D>>,
+    M: OneStepMethod<Const<D>, H> + Clone,
+>(
     method: M,
     h: &H,
     z0: &SVector<f64, D>,
@@ -168,7 +173,7 @@ mod forced_oscillator {
     /// `exact_clock`: the method advances the `t` coordinate by exactly `dt` (every method here
     /// except the Gonzalez discrete gradient, whose correction term is along `z1 - z0`, which
     /// has a `t` component: there `t` differs from the clock by `O(dt^2)`, still second order).
-    fn orders<M: OneStepMethod<4, ForcedOscillator> + Clone>(
+    fn orders<M: OneStepMethod<Const<4>, ForcedOscillator> + Clone>(
         method: M,
         steps: usize,
         exact_clock: bool,

@@ -8,6 +8,7 @@
 use dth_core::diagnostics::{planar_angular_momentum, AverageAbsoluteDeviation};
 use dth_core::kepler::{Table41Row, THESIS_TABLE_4_1};
 use dth_core::methods::{run, DiscreteMechanics, ImplicitMidpoint, OneStepMethod, Trapezoidal};
+use dth_core::nalgebra::Const;
 use dth_core::nalgebra::Vector4;
 use dth_core::systems::Kepler;
 use dth_core::Hamiltonian;
@@ -19,7 +20,7 @@ const STEPS: usize = 10_000;
 const ROUNDOFF: f64 = 3e-14;
 
 /// (energy, angular momentum) average absolute deviations.
-fn table_row<M: OneStepMethod<4, Kepler>>(mut method: M) -> (f64, f64) {
+fn table_row<M: OneStepMethod<Const<4>, Kepler>>(mut method: M) -> (f64, f64) {
     let h = Kepler::thesis();
     let z0 = Vector4::new(0.5, 0.0, 0.0, 1.2);
     let energy = AverageAbsoluteDeviation::new(|z: &Vector4<f64>| h.value(z));

@@ -10,6 +10,7 @@
 //! the time per evaluation is the reported time / 16. Ratios go into `docs/benchmarks.md`
 //! from one run of `cargo bench -p dth-examples --bench derivatives -- --noplot`.
 
+use dth::nalgebra::Const;
 use std::hint::black_box;
 use std::time::Duration;
 
@@ -52,9 +53,9 @@ fn group<const D: usize>(
     c: &mut Criterion,
     system: &str,
     zs: &[SVector<f64, D>],
-    generated: &impl Hamiltonian<D>,
-    hand_written: &impl Hamiltonian<D>,
-    fused: Option<impl Fn(&SVector<f64, D>) -> Derivatives<D>>,
+    generated: &impl Hamiltonian<Const<D>>,
+    hand_written: &impl Hamiltonian<Const<D>>,
+    fused: Option<impl Fn(&SVector<f64, D>) -> Derivatives<Const<D>>>,
     closure: impl Fn(X<D>) -> Dual2SVec64<D>,
 ) {
     let mut g = c.benchmark_group(format!("derivatives/{system}"));
@@ -206,7 +207,7 @@ fn double_pendulum(c: &mut Criterion) {
         &points(5, [3.0, 3.0, 2.0, 2.0]),
         &systems::double_pendulum::DoublePendulum { m1, m2, l1, l2, g },
         &hand::DoublePendulum { m1, m2, l1, l2, g },
-        None::<fn(&SVector<f64, 4>) -> Derivatives<4>>,
+        None::<fn(&SVector<f64, 4>) -> Derivatives<Const<4>>>,
         |z: X<4>| {
             let d = z[0] - z[1];
             let num = z[2] * z[2] * (m2 * l2 * l2) + z[3] * z[3] * ((m1 + m2) * l1 * l1)
@@ -266,7 +267,7 @@ fn forced_oscillator(c: &mut Criterion) {
 // exponentials) computed once, Psi in closed form from the structure of the Hessian. The
 // double pendulum has none: `dth::systems::DoublePendulum` is the careful version there.
 
-fn kepler_fused(z: &SVector<f64, 4>) -> Derivatives<4> {
+fn kepler_fused(z: &SVector<f64, 4>) -> Derivatives<Const<4>> {
     let (mass, k) = KEPLER;
     let (x, y, px, py) = (z[0], z[1], z[2], z[3]);
     let im = 1.0 / mass;
@@ -286,7 +287,7 @@ fn kepler_fused(z: &SVector<f64, 4>) -> Derivatives<4> {
     }
 }
 
-fn oscillator_fused(z: &SVector<f64, 2>) -> Derivatives<2> {
+fn oscillator_fused(z: &SVector<f64, 2>) -> Derivatives<Const<2>> {
     let (mass, k) = OSCILLATOR;
     let im = 1.0 / mass;
     let (v, f) = (z[1] * im, k * z[0]);
@@ -298,7 +299,7 @@ fn oscillator_fused(z: &SVector<f64, 2>) -> Derivatives<2> {
     }
 }
 
-fn pendulum_fused(z: &SVector<f64, 2>) -> Derivatives<2> {
+fn pendulum_fused(z: &SVector<f64, 2>) -> Derivatives<Const<2>> {
     let (mass, length, gravity) = PENDULUM;
     let (ii, mgl) = (1.0 / (mass * length * length), mass * gravity * length);
     let (s, c) = z[0].sin_cos();
@@ -311,7 +312,7 @@ fn pendulum_fused(z: &SVector<f64, 2>) -> Derivatives<2> {
     }
 }
 
-fn henon_heiles_fused(z: &SVector<f64, 4>) -> Derivatives<4> {
+fn henon_heiles_fused(z: &SVector<f64, 4>) -> Derivatives<Const<4>> {
     let (q1, q2, p1, p2) = (z[0], z[1], z[2], z[3]);
     let (g0, g1) = (q1 + 2.0 * q1 * q2, q2 + q1 * q1 - q2 * q2);
     let (h00, h01, h11) = (1.0 + 2.0 * q2, 2.0 * q1, 1.0 - 2.0 * q2);
@@ -325,7 +326,7 @@ fn henon_heiles_fused(z: &SVector<f64, 4>) -> Derivatives<4> {
     }
 }
 
-fn toda_fused(z: &SVector<f64, 20>) -> Derivatives<20> {
+fn toda_fused(z: &SVector<f64, 20>) -> Derivatives<Const<20>> {
     const N: usize = 10;
     // e[i] = exp(q_i - q_{i+1}), periodic.
     let e: [f64; N] = std::array::from_fn(|i| (z[i] - z[(i + 1) % N]).exp());
@@ -353,7 +354,7 @@ fn toda_fused(z: &SVector<f64, 20>) -> Derivatives<20> {
     }
 }
 
-fn forced_fused(z: &SVector<f64, 4>) -> Derivatives<4> {
+fn forced_fused(z: &SVector<f64, 4>) -> Derivatives<Const<4>> {
     let (omega0, force, omega) = FORCED;
     let (q, t, p, pt) = (z[0], z[1], z[2], z[3]);
     let (s, c) = (omega * t).sin_cos();

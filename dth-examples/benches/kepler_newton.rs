@@ -15,6 +15,7 @@
 //! Run with `cargo bench -p dth-examples --bench kepler_newton -- --noplot` (add `--quick` for
 //! a smoke run); the ratios are the figures of `docs/benchmarks.md` ("Small systems").
 
+use dth::nalgebra::Const;
 use std::hint::black_box;
 use std::time::Duration;
 
@@ -161,7 +162,7 @@ fn counts() {
         dth.tbar() / n,
         naive.iterations as f64 / n,
         naive.factorizations as f64 / n,
-        OneStepMethod::<4, Kepler>::newton_iterations(&midpoint) as f64 / n,
+        OneStepMethod::<Const<4>, Kepler>::newton_iterations(&midpoint) as f64 / n,
     );
 }
 

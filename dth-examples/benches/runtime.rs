@@ -14,6 +14,7 @@
 //! Ratios go into `docs/benchmarks.md` from one run of
 //! `cargo bench -p dth-examples --bench runtime -- --noplot`.
 
+use dth::nalgebra::Const;
 use std::hint::black_box;
 use std::time::Duration;
 
@@ -39,7 +40,7 @@ fn entry(name: &str) -> &'static Entry {
 }
 
 /// One group: the macro type, the JIT and the interpreter on the same points.
-fn group<const D: usize>(c: &mut Criterion, name: &str, typed: &impl Hamiltonian<D>) {
+fn group<const D: usize>(c: &mut Criterion, name: &str, typed: &impl Hamiltonian<Const<D>>) {
     let e = entry(name);
     let jit = RuntimeHamiltonian::new(e.src, e.params).expect("catalogue source compiles");
     assert_eq!(jit.backend(), Backend::Jit, "{:?}", jit.fallback_reason());

@@ -16,6 +16,7 @@
 //! Run with `cargo bench -p dth-examples --bench step_cost -- --noplot` (one process, so the
 //! ratios come from one machine state; add `--quick` for a smoke run).
 
+use dth::nalgebra::Const;
 use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
@@ -30,13 +31,13 @@ const STATES: usize = 64;
 
 /// 64 DTH steppers at seeded steps among the first `span` steps from `z0`, and the mean time
 /// step `dtau * mean lambda` over those `span` steps.
-fn states<H: Hamiltonian<D> + Clone, const D: usize>(
+fn states<H: Hamiltonian<Const<D>> + Clone, const D: usize>(
     h: &H,
     z0: SVector<f64, D>,
     options: DthOptions,
     span: usize,
     seed: u64,
-) -> (Vec<Dth<H, D>>, f64) {
+) -> (Vec<Dth<H, Const<D>>>, f64) {
     let mut rng = SplitMix64::new(seed);
     let mut at: Vec<usize> = (0..STATES)
         .map(|_| (rng.next_u64() % span as u64) as usize)
@@ -59,7 +60,9 @@ fn states<H: Hamiltonian<D> + Clone, const D: usize>(
 
 /// Mean Newton iterations per step from each state (joint: iterations; nested: LU
 /// factorizations, inner and outer).
-fn mean_iterations<H: Hamiltonian<D> + Clone, const D: usize>(states: &[Dth<H, D>]) -> f64 {
+fn mean_iterations<H: Hamiltonian<Const<D>> + Clone, const D: usize>(
+    states: &[Dth<H, Const<D>>],
+) -> f64 {
     let total: u32 = states
         .iter()
         .map(|d| d.clone().step().map_or(0, |r| r.factorizations))
@@ -67,19 +70,19 @@ fn mean_iterations<H: Hamiltonian<D> + Clone, const D: usize>(states: &[Dth<H, D
     f64::from(total) / states.len() as f64
 }
 
-fn group<H: Hamiltonian<D> + Clone, const D: usize>(
+fn group<H: Hamiltonian<Const<D>> + Clone, const D: usize>(
     c: &mut Criterion,
     system: &str,
-    states: &[Dth<H, D>],
+    states: &[Dth<H, Const<D>>],
     dt: f64,
 ) {
-    let nested: Vec<Dth<H, D>> = states
+    let nested: Vec<Dth<H, Const<D>>> = states
         .iter()
         .map(|d| with_solver(d, Solver::Nested))
         .collect();
     // Where the default residual is the cancellation-free one (exact divided differences), also
     // the plain residual: what the cancellation-free form costs.
-    let plain: Vec<Dth<H, D>> = if states[0].cancellation_free() {
+    let plain: Vec<Dth<H, Const<D>>> = if states[0].cancellation_free() {
         states
             .iter()
             .map(|d| with_options(d, d.options().with_energy_residual(EnergyResidual::Plain)))
@@ -95,7 +98,7 @@ fn group<H: Hamiltonian<D> + Clone, const D: usize>(
         let _ = midpoint.step(&h, z, dt);
     }
     let midpoint_iterations =
-        OneStepMethod::<D, H>::newton_iterations(&midpoint) as f64 / zs.len() as f64;
+        OneStepMethod::<Const<D>, H>::newton_iterations(&midpoint) as f64 / zs.len() as f64;
     eprintln!(
         "{system}: Newton iterations per step over {} states: dth_joint {:.2}{}, dth_nested {:.2} \
          (LU factorizations), midpoint {:.2}; mean dt {dt:.4}",
@@ -150,18 +153,18 @@ fn group<H: Hamiltonian<D> + Clone, const D: usize>(
 }
 
 /// The same stepper state with another solver.
-fn with_solver<H: Hamiltonian<D> + Clone, const D: usize>(
-    d: &Dth<H, D>,
+fn with_solver<H: Hamiltonian<Const<D>> + Clone, const D: usize>(
+    d: &Dth<H, Const<D>>,
     solver: Solver,
-) -> Dth<H, D> {
+) -> Dth<H, Const<D>> {
     with_options(d, d.options().with_solver(solver))
 }
 
 /// The same stepper state (midpoint, lambda, time) with other options.
-fn with_options<H: Hamiltonian<D> + Clone, const D: usize>(
-    d: &Dth<H, D>,
+fn with_options<H: Hamiltonian<Const<D>> + Clone, const D: usize>(
+    d: &Dth<H, Const<D>>,
     options: DthOptions,
-) -> Dth<H, D> {
+) -> Dth<H, Const<D>> {
     let options = options
         .with_lambda0(d.lambda())
         .expect("lambda of a DTH run is positive");

@@ -22,6 +22,8 @@
 //! `docs/benchmarks.md` come from this bench. Run with
 //! `cargo bench -p dth-examples --bench step_vs_size -- --noplot` (add `--quick` for a smoke run).
 
+use dth::nalgebra::Const;
+use dth::Flags;
 use std::hint::black_box;
 use std::time::Duration;
 
@@ -53,15 +55,18 @@ include!("../../tests/chains/toda_512.rs");
 #[derive(Clone, Copy)]
 struct Dense<H>(H);
 
-impl<const D: usize, H: Hamiltonian<D>> Hamiltonian<D> for Dense<H> {
+impl<const D: usize, H: Hamiltonian<Const<D>>> Hamiltonian<Const<D>> for Dense<H> {
+    fn dim(&self) -> Const<D> {
+        Const
+    }
     fn value(&self, z: &SVector<f64, D>) -> f64 {
         self.0.value(z)
     }
-    fn gradient(&self, z: &SVector<f64, D>) -> SVector<f64, D> {
-        self.0.gradient(z)
+    fn gradient_into(&self, z: &SVector<f64, D>, out: &mut SVector<f64, D>) {
+        self.0.gradient_into(z, out)
     }
-    fn hessian(&self, z: &SVector<f64, D>) -> SMatrix<f64, D, D> {
-        self.0.hessian(z)
+    fn hessian_into(&self, z: &SVector<f64, D>, out: &mut SMatrix<f64, D, D>) {
+        self.0.hessian_into(z, out)
     }
 }
 
@@ -69,17 +74,24 @@ impl<const D: usize, H: Hamiltonian<D>> Hamiltonian<D> for Dense<H> {
 #[derive(Clone, Copy)]
 struct Structured<H>(H);
 
-impl<const D: usize, H: Hamiltonian<D>> Hamiltonian<D> for Structured<H> {
-    const HESSIAN_PATTERN: Option<&'static [(usize, usize)]> = H::HESSIAN_PATTERN;
-    const STRUCTURED_NEWTON: bool = true;
+impl<const D: usize, H: Hamiltonian<Const<D>>> Hamiltonian<Const<D>> for Structured<H> {
+    fn dim(&self) -> Const<D> {
+        Const
+    }
+    fn flags(&self) -> Flags {
+        Flags::new().with_structured_newton(true)
+    }
+    fn hessian_pattern(&self) -> Option<&[(usize, usize)]> {
+        self.0.hessian_pattern()
+    }
     fn value(&self, z: &SVector<f64, D>) -> f64 {
         self.0.value(z)
     }
-    fn gradient(&self, z: &SVector<f64, D>) -> SVector<f64, D> {
-        self.0.gradient(z)
+    fn gradient_into(&self, z: &SVector<f64, D>, out: &mut SVector<f64, D>) {
+        self.0.gradient_into(z, out)
     }
-    fn hessian(&self, z: &SVector<f64, D>) -> SMatrix<f64, D, D> {
-        self.0.hessian(z)
+    fn hessian_into(&self, z: &SVector<f64, D>, out: &mut SMatrix<f64, D, D>) {
+        self.0.hessian_into(z, out)
     }
     fn hessian_nonzeros(&self, z: &SVector<f64, D>, values: &mut [f64]) {
         self.0.hessian_nonzeros(z, values);
@@ -105,7 +117,7 @@ fn states<const D: usize>() -> Vec<SVector<f64, D>> {
 
 const DT: f64 = 0.1;
 
-fn bench_one<const D: usize, H: Hamiltonian<D>>(
+fn bench_one<const D: usize, H: Hamiltonian<Const<D>>>(
     g: &mut criterion::BenchmarkGroup<'_, criterion::measurement::WallTime>,
     name: &str,
     h: &H,
@@ -123,7 +135,7 @@ fn bench_one<const D: usize, H: Hamiltonian<D>>(
     });
 }
 
-fn chain<const D: usize, H: Hamiltonian<D> + Copy>(
+fn chain<const D: usize, H: Hamiltonian<Const<D>> + Copy>(
     c: &mut Criterion,
     name: &str,
     h: H,
@@ -142,7 +154,7 @@ fn chain<const D: usize, H: Hamiltonian<D> + Copy>(
 }
 
 /// One DTH step, `dtau = 0.1`, of a stepper running from `z0`.
-fn dth_step<const D: usize, H: Hamiltonian<D> + Copy>(c: &mut Criterion, name: &str, h: H) {
+fn dth_step<const D: usize, H: Hamiltonian<Const<D>> + Copy>(c: &mut Criterion, name: &str, h: H) {
     let z0 = states::<D>()[0];
     let options = DthOptions::default().with_dtau(DT).expect("dtau");
     let mut dth = Dth::new(h, z0, options).expect("start");

@@ -121,7 +121,7 @@ impl SystemEntry {
     {
         const {
             assert!(
-                !S::PSI_IDENTICALLY_ZERO,
+                !S::FLAGS.psi_identically_zero,
                 "this system's Psi is identically zero, so DTH cannot run on it (thesis Section \
                  3.4): register it with SystemEntry::runnable_without_dth"
             )
@@ -166,7 +166,7 @@ impl SystemEntry {
             Self::with_runner::<D, WithoutDth<S>, _>(name, doc, params, false, move |p| {
                 build(p).map(WithoutDth)
             });
-        entry.psi_identically_zero = S::PSI_IDENTICALLY_ZERO;
+        entry.psi_identically_zero = S::FLAGS.psi_identically_zero;
         entry
     }
 
@@ -181,7 +181,7 @@ impl SystemEntry {
         S: SceneSystem<D> + 'static,
         F: Fn(&Params) -> Result<S, String> + Send + Sync + 'static,
     {
-        let n = if S::TIME_DEPENDENT {
+        let n = if S::FLAGS.time_dependent {
             (D - 2) / 2
         } else {
             D / 2
@@ -221,14 +221,14 @@ impl SystemEntry {
             doc: doc.to_string(),
             n,
             params: params.to_vec(),
-            time_dependent: S::TIME_DEPENDENT,
+            time_dependent: S::FLAGS.time_dependent,
             has_period: S::HAS_PERIOD,
             has_exact: S::HAS_EXACT,
-            separable: S::SEPARABLE,
+            separable: S::FLAGS.separable,
             central_force: S::CENTRAL_FORCE,
             fixed_end_chain: S::FIXED_END_CHAIN,
             dth,
-            psi_identically_zero: S::PSI_IDENTICALLY_ZERO,
+            psi_identically_zero: S::FLAGS.psi_identically_zero,
             run: Box::new(move |scene, out, options| {
                 if scene.members.is_some() {
                     check(scene, options)?;

@@ -8,6 +8,7 @@
 
 use dth::dth::{Dth, DthOptions, Solver};
 use dth::methods::{self, OneStepMethod, RunEnd};
+use dth::nalgebra::Const;
 use dth::nalgebra::SVector;
 use dth::observer::Observer;
 use dth::Hamiltonian;
@@ -74,11 +75,11 @@ pub fn run_peer<const D: usize, H, M, O>(
     t0: f64,
     stop: Stop,
     observer: &mut O,
-) -> Result<RunEnd<D>, MethodFailure>
+) -> Result<RunEnd<Const<D>>, MethodFailure>
 where
-    H: Hamiltonian<D>,
-    M: OneStepMethod<D, H>,
-    O: Observer<D>,
+    H: Hamiltonian<Const<D>>,
+    M: OneStepMethod<Const<D>, H>,
+    O: Observer<Const<D>>,
 {
     let steps = stop.fixed_steps(t0, dt);
     methods::run(method, system, &z0, t0, dt, steps, observer)
@@ -123,17 +124,17 @@ impl DthRunner {
     /// last midpoint lands on `t_end` to roundoff (`dth::dth::Dth::step_toward`), and that
     /// midpoint and its time are the run's end (its segment has its own `dtau`, so the vertex
     /// invariants of plain DTH jump once at its vertex).
-    pub fn run<const D: usize, H: Hamiltonian<D> + Clone, O: Observer<D>>(
+    pub fn run<const D: usize, H: Hamiltonian<Const<D>> + Clone, O: Observer<Const<D>>>(
         &self,
         system: &H,
         z0: SVector<f64, D>,
         t0: f64,
         stop: Stop,
         observer: &mut O,
-    ) -> Result<RunEnd<D>, MethodFailure> {
+    ) -> Result<RunEnd<Const<D>>, MethodFailure> {
         let start = |e| MethodFailure::integrator(0, e);
         let mut dth = Dth::new(system.clone(), z0, self.options).map_err(start)?;
-        if !H::TIME_DEPENDENT {
+        if !system.flags().time_dependent {
             dth = dth.with_tbar0(t0).map_err(start)?;
         }
         let mut record = dth.record();

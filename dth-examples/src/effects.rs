@@ -5,6 +5,7 @@
 //! erases). [`Effects::observer_calls`] and [`Effects::stored_values`] count what was done so
 //! tests can prove it.
 
+use dth::nalgebra::Const;
 use dth::nalgebra::SVector;
 use dth::observer::{Observer, StepRecord};
 use serde::Serialize;
@@ -380,8 +381,8 @@ impl<'s, const D: usize, S: SceneSystem<D>> Effects<'s, D, S> {
     }
 }
 
-impl<const D: usize, S: SceneSystem<D>> Observer<D> for Effects<'_, D, S> {
-    fn on_step(&mut self, r: &StepRecord<D>) {
+impl<const D: usize, S: SceneSystem<D>> Observer<Const<D>> for Effects<'_, D, S> {
+    fn on_step(&mut self, r: &StepRecord<Const<D>>) {
         self.calls += 1;
         let (step, t, z) = (r.k, r.t, &r.z);
         let lambda = r.dth.map(|d| d.lambda);

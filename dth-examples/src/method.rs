@@ -10,6 +10,7 @@
 use dth::methods::{
     DiscreteGradient, GaussLegendre2, ImplicitMidpoint, Rk4, RunEnd, StormerVerlet, Trapezoidal,
 };
+use dth::nalgebra::Const;
 use dth::nalgebra::SVector;
 use dth::observer::{Observer, StepKind, StepRecord};
 
@@ -20,14 +21,14 @@ use crate::system::SceneSystem;
 
 /// The system's exact solution ([`SceneSystem::exact_solution`]) sampled at `t0 + k dt` from
 /// `z0` until `stop`, shown to `observer` like a fixed-step method's states.
-pub fn run_exact<const D: usize, S: SceneSystem<D>, O: Observer<D>>(
+pub fn run_exact<const D: usize, S: SceneSystem<D>, O: Observer<Const<D>>>(
     system: &S,
     dt: f64,
     z0: SVector<f64, D>,
     t0: f64,
     stop: Stop,
     observer: &mut O,
-) -> Result<RunEnd<D>, MethodFailure> {
+) -> Result<RunEnd<Const<D>>, MethodFailure> {
     let mut record = StepRecord {
         k: 0,
         t: t0,
@@ -57,14 +58,14 @@ pub fn run_exact<const D: usize, S: SceneSystem<D>, O: Observer<D>>(
 }
 
 /// Runs the method a scene names. The single dispatch point (see the module docs).
-pub fn run_method<const D: usize, H: SceneSystem<D>, O: Observer<D>>(
+pub fn run_method<const D: usize, H: SceneSystem<D>, O: Observer<Const<D>>>(
     spec: &MethodSpec,
     system: &H,
     z0: SVector<f64, D>,
     t0: f64,
     stop: Stop,
     observer: &mut O,
-) -> Result<Result<RunEnd<D>, MethodFailure>, Error> {
+) -> Result<Result<RunEnd<Const<D>>, MethodFailure>, Error> {
     let not_available = |reason: &str| Error::NotAvailable {
         what: "method",
         name: spec.kind.name().to_string(),
@@ -86,7 +87,7 @@ pub fn run_method<const D: usize, H: SceneSystem<D>, O: Observer<D>>(
             return system
                 .run_dth(&runner, z0, t0, stop, observer)
                 .ok_or_else(|| {
-                    not_available(if H::PSI_IDENTICALLY_ZERO {
+                    not_available(if system.flags().psi_identically_zero {
                         "this system's Psi = (J gradH)^T HessH (J gradH) is identically zero, so the energy condition does not determine lambda (thesis Section 3.4): use a peer method"
                     } else {
                         "this system was registered without DTH (SystemEntry::runnable_without_dth)"
@@ -119,7 +120,7 @@ pub fn run_method<const D: usize, H: SceneSystem<D>, O: Observer<D>>(
         MethodKind::Trapezoidal => peer!(Trapezoidal::new()),
         MethodKind::Midpoint => peer!(ImplicitMidpoint::new()),
         MethodKind::StormerVerlet => {
-            if !H::SEPARABLE {
+            if !system.flags().separable {
                 return Err(not_available(
                     "Stormer-Verlet needs a separable H = T(p) + V(q)",
                 ));

@@ -2,6 +2,7 @@
 //! only for the requested effects ([`compute`]); results stay in memory ([`MethodResult`]).
 //! Writing them is the report's job (`crate::report`), staging the folder the pipeline's.
 
+use dth::nalgebra::Const;
 use std::collections::BTreeMap;
 
 use dth::nalgebra::SVector;
@@ -161,7 +162,7 @@ pub fn ensemble_starts<const D: usize, S: SceneSystem<D>>(
             let mut z = *z0;
             z[ix] += -e.half_width + i as f64 * h;
             z[iy] += -e.half_width + j as f64 * h;
-            if S::TIME_DEPENDENT {
+            if system.flags().time_dependent {
                 // Keep calH = 0 for the shifted state.
                 put_on_zero_level(system, &mut z);
             }
@@ -202,7 +203,11 @@ pub fn initial_state<const D: usize, S: SceneSystem<D>>(
     scene: &Scene,
 ) -> Result<SVector<f64, D>, Error> {
     let n = scene.q.len();
-    let expected = if S::TIME_DEPENDENT { 2 * n + 2 } else { 2 * n };
+    let expected = if system.flags().time_dependent {
+        2 * n + 2
+    } else {
+        2 * n
+    };
     if D != expected || scene.p.len() != n {
         return Err(Error::Registration {
             name: scene.system.clone(),
@@ -219,7 +224,7 @@ pub fn initial_state<const D: usize, S: SceneSystem<D>>(
         z[i] = scene.q[i];
         z[half + i] = scene.p[i];
     }
-    if S::TIME_DEPENDENT {
+    if system.flags().time_dependent {
         z[n] = scene.t0;
         put_on_zero_level(system, &mut z);
     }
@@ -266,9 +271,9 @@ pub fn stop_for<const D: usize, S: SceneSystem<D>>(
 /// Progress as an observer: moves the bar every 1024 steps (nothing else per step).
 pub struct Progress(pub ProgressBar);
 
-impl<const D: usize> Observer<D> for Progress {
+impl<const D: usize> Observer<Const<D>> for Progress {
     #[inline(always)]
-    fn on_step(&mut self, record: &StepRecord<D>) {
+    fn on_step(&mut self, record: &StepRecord<Const<D>>) {
         if record.k.is_multiple_of(1024) {
             self.0.set_position(record.k as u64);
         }
@@ -279,9 +284,9 @@ impl<const D: usize> Observer<D> for Progress {
 /// failed stopped.
 struct LastTime(f64);
 
-impl<const D: usize> Observer<D> for LastTime {
+impl<const D: usize> Observer<Const<D>> for LastTime {
     #[inline(always)]
-    fn on_step(&mut self, record: &StepRecord<D>) {
+    fn on_step(&mut self, record: &StepRecord<Const<D>>) {
         self.0 = record.t;
     }
 }

@@ -3,9 +3,9 @@
 //! method but DTH.
 
 use dth::methods::RunEnd;
-use dth::nalgebra::{SMatrix, SVector};
+use dth::nalgebra::{Const, SMatrix, SVector};
 use dth::observer::Observer;
-use dth::Hamiltonian;
+use dth::{ConstFlags, Flags, Hamiltonian};
 
 use crate::driver::{DthRunner, MethodFailure, Stop};
 
@@ -13,10 +13,10 @@ use crate::driver::{DthRunner, MethodFailure, Stop};
 /// `invariants` effect) and, optionally, an orbit period (for durations in `orbits`).
 ///
 /// `D` is the phase-space dimension of the implementation: `2n`, or `2n + 2` when
-/// `Hamiltonian::TIME_DEPENDENT` (the extended phase space `(q, t, p, p_t)`).
+/// `Flags::time_dependent` (the extended phase space `(q, t, p, p_t)`).
 ///
 /// `Clone` because the DTH stepper owns its Hamiltonian (systems are small parameter structs).
-pub trait SceneSystem<const D: usize>: Hamiltonian<D> + Clone {
+pub trait SceneSystem<const D: usize>: Hamiltonian<Const<D>> + ConstFlags + Clone {
     /// `true` when [`SceneSystem::period`] returns `Some` for bound initial states.
     const HAS_PERIOD: bool = false;
 
@@ -60,14 +60,14 @@ pub trait SceneSystem<const D: usize>: Hamiltonian<D> + Clone {
     /// `dth::systems::CentralForce`); `None` for systems that are not central forces. A
     /// central-force system implements it as
     /// `Some(run_peer(&mut DiscreteMechanics::new(), self, dt, z0, t0, stop, observer))`.
-    fn run_discrete_mechanics<O: Observer<D>>(
+    fn run_discrete_mechanics<O: Observer<Const<D>>>(
         &self,
         dt: f64,
         z0: SVector<f64, D>,
         t0: f64,
         stop: Stop,
         observer: &mut O,
-    ) -> Option<Result<RunEnd<D>, MethodFailure>> {
+    ) -> Option<Result<RunEnd<Const<D>>, MethodFailure>> {
         let _ = (dt, z0, t0, stop, observer);
         None
     }
@@ -77,14 +77,14 @@ pub trait SceneSystem<const D: usize>: Hamiltonian<D> + Clone {
     /// identically zero (rejected by the stepper at compile time) runs through [`WithoutDth`]
     /// instead, which returns `None` here ([`SystemEntry::runnable_without_dth`](crate::catalogue::SystemEntry::runnable_without_dth)
     /// does that).
-    fn run_dth<O: Observer<D>>(
+    fn run_dth<O: Observer<Const<D>>>(
         &self,
         runner: &DthRunner,
         z0: SVector<f64, D>,
         t0: f64,
         stop: Stop,
         observer: &mut O,
-    ) -> Option<Result<RunEnd<D>, MethodFailure>> {
+    ) -> Option<Result<RunEnd<Const<D>>, MethodFailure>> {
         Some(runner.run(self, z0, t0, stop, observer))
     }
 }
@@ -117,44 +117,65 @@ pub trait SceneSystem<const D: usize>: Hamiltonian<D> + Clone {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct WithoutDth<S>(pub S);
 
-impl<const D: usize, S: Hamiltonian<D>> Hamiltonian<D> for WithoutDth<S> {
-    const TIME_DEPENDENT: bool = S::TIME_DEPENDENT;
-    const SEPARABLE: bool = S::SEPARABLE;
-    const PSI_IDENTICALLY_ZERO: bool = S::PSI_IDENTICALLY_ZERO;
-    const EXACT_DIVIDED_DIFFERENCES: bool = S::EXACT_DIVIDED_DIFFERENCES;
+impl<S: ConstFlags> ConstFlags for WithoutDth<S> {
+    const FLAGS: Flags = S::FLAGS;
+}
 
+impl<const D: usize, S: Hamiltonian<Const<D>>> Hamiltonian<Const<D>> for WithoutDth<S> {
+    #[inline]
+    fn dim(&self) -> Const<D> {
+        Const
+    }
+    #[inline]
+    fn flags(&self) -> Flags {
+        self.0.flags()
+    }
+    #[inline]
+    fn hessian_pattern(&self) -> Option<&[(usize, usize)]> {
+        self.0.hessian_pattern()
+    }
     #[inline]
     fn value(&self, z: &SVector<f64, D>) -> f64 {
         self.0.value(z)
     }
     #[inline]
-    fn gradient(&self, z: &SVector<f64, D>) -> SVector<f64, D> {
-        self.0.gradient(z)
+    fn gradient_into(&self, z: &SVector<f64, D>, out: &mut SVector<f64, D>) {
+        self.0.gradient_into(z, out)
     }
     #[inline]
-    fn hessian(&self, z: &SVector<f64, D>) -> SMatrix<f64, D, D> {
-        self.0.hessian(z)
+    fn hessian_into(&self, z: &SVector<f64, D>, out: &mut SMatrix<f64, D, D>) {
+        self.0.hessian_into(z, out)
+    }
+    #[inline]
+    fn hessian_nonzeros(&self, z: &SVector<f64, D>, values: &mut [f64]) {
+        self.0.hessian_nonzeros(z, values)
     }
     #[inline]
     fn psi(&self, z: &SVector<f64, D>) -> f64 {
         self.0.psi(z)
     }
     #[inline]
-    fn derivatives(&self, z: &SVector<f64, D>) -> dth::Derivatives<D> {
-        self.0.derivatives(z)
+    fn derivatives_into(&self, z: &SVector<f64, D>, out: &mut dth::Derivatives<Const<D>>) {
+        self.0.derivatives_into(z, out)
     }
     #[inline]
-    fn discrete_gradient(&self, z0: &SVector<f64, D>, z1: &SVector<f64, D>) -> SVector<f64, D> {
-        self.0.discrete_gradient(z0, z1)
+    fn discrete_gradient_into(
+        &self,
+        z0: &SVector<f64, D>,
+        z1: &SVector<f64, D>,
+        out: &mut SVector<f64, D>,
+    ) {
+        self.0.discrete_gradient_into(z0, z1, out)
     }
     #[inline]
-    fn discrete_gradient_defect(
+    fn discrete_gradient_defect_into(
         &self,
         z0: &SVector<f64, D>,
         z1: &SVector<f64, D>,
         gbar: &SVector<f64, D>,
-    ) -> SVector<f64, D> {
-        self.0.discrete_gradient_defect(z0, z1, gbar)
+        out: &mut SVector<f64, D>,
+    ) {
+        self.0.discrete_gradient_defect_into(z0, z1, gbar, out)
     }
     #[inline]
     fn energy_difference(&self, z0: &SVector<f64, D>, z1: &SVector<f64, D>) -> f64 {
@@ -184,26 +205,26 @@ impl<const D: usize, S: SceneSystem<D>> SceneSystem<D> for WithoutDth<S> {
         self.0.period(z0)
     }
 
-    fn run_discrete_mechanics<O: Observer<D>>(
+    fn run_discrete_mechanics<O: Observer<Const<D>>>(
         &self,
         dt: f64,
         z0: SVector<f64, D>,
         t0: f64,
         stop: Stop,
         observer: &mut O,
-    ) -> Option<Result<RunEnd<D>, MethodFailure>> {
+    ) -> Option<Result<RunEnd<Const<D>>, MethodFailure>> {
         self.0.run_discrete_mechanics(dt, z0, t0, stop, observer)
     }
 
     /// `None`: DTH is not offered (see [`WithoutDth`]).
-    fn run_dth<O: Observer<D>>(
+    fn run_dth<O: Observer<Const<D>>>(
         &self,
         runner: &DthRunner,
         z0: SVector<f64, D>,
         t0: f64,
         stop: Stop,
         observer: &mut O,
-    ) -> Option<Result<RunEnd<D>, MethodFailure>> {
+    ) -> Option<Result<RunEnd<Const<D>>, MethodFailure>> {
         let _ = (runner, z0, t0, stop, observer);
         None
     }

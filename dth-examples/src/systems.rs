@@ -22,6 +22,7 @@
 
 use dth::kepler::KeplerOrbit;
 use dth::methods::{DiscreteMechanics, RunEnd};
+use dth::nalgebra::Const;
 use dth::nalgebra::SVector;
 use dth::observer::Observer;
 use dth::systems::CentralForce;
@@ -94,14 +95,14 @@ impl SceneSystem<4> for Kepler {
         })
     }
 
-    fn run_discrete_mechanics<O: Observer<4>>(
+    fn run_discrete_mechanics<O: Observer<Const<4>>>(
         &self,
         dt: f64,
         z0: SVector<f64, 4>,
         t0: f64,
         stop: Stop,
         observer: &mut O,
-    ) -> Option<Result<RunEnd<4>, MethodFailure>> {
+    ) -> Option<Result<RunEnd<Const<4>>, MethodFailure>> {
         Some(run_peer(
             &mut DiscreteMechanics::new(),
             self,
@@ -115,7 +116,7 @@ impl SceneSystem<4> for Kepler {
 }
 
 /// `phi(r) = -k / r`.
-impl CentralForce<4> for Kepler {
+impl CentralForce<Const<4>> for Kepler {
     fn mass(&self) -> f64 {
         self.m
     }
@@ -377,14 +378,14 @@ impl SceneSystem<4> for FreeParticle {
         ))
     }
 
-    fn run_discrete_mechanics<O: Observer<4>>(
+    fn run_discrete_mechanics<O: Observer<Const<4>>>(
         &self,
         dt: f64,
         z0: SVector<f64, 4>,
         t0: f64,
         stop: Stop,
         observer: &mut O,
-    ) -> Option<Result<RunEnd<4>, MethodFailure>> {
+    ) -> Option<Result<RunEnd<Const<4>>, MethodFailure>> {
         Some(run_peer(
             &mut DiscreteMechanics::new(),
             self,
@@ -398,7 +399,7 @@ impl SceneSystem<4> for FreeParticle {
 }
 
 /// `phi = 0`: a central force without force.
-impl CentralForce<4> for FreeParticle {
+impl CentralForce<Const<4>> for FreeParticle {
     fn mass(&self) -> f64 {
         self.m
     }
@@ -426,8 +427,8 @@ mod tests {
     #[test]
     fn generated_systems_match_the_hand_written_references() {
         fn close<const D: usize>(
-            a: &impl Hamiltonian<D>,
-            b: &impl Hamiltonian<D>,
+            a: &impl Hamiltonian<Const<D>>,
+            b: &impl Hamiltonian<Const<D>>,
             z: &SVector<f64, D>,
         ) {
             let tol = |x: f64| 1e-14 * x.abs().max(1.0);
@@ -591,11 +592,12 @@ mod tests {
 
     // The flags validation relies on, as `hamiltonian!` derived them from the formulas
     // (checked when the tests compile).
+    use dth::ConstFlags;
     const _: () = {
-        assert!(FreeParticle::PSI_IDENTICALLY_ZERO && FreeParticle::SEPARABLE);
-        assert!(!Kepler::PSI_IDENTICALLY_ZERO && Kepler::SEPARABLE);
-        assert!(!DoublePendulum::SEPARABLE);
-        assert!(ForcedOscillator::TIME_DEPENDENT && !Kepler::TIME_DEPENDENT);
+        assert!(FreeParticle::FLAGS.psi_identically_zero && FreeParticle::FLAGS.separable);
+        assert!(!Kepler::FLAGS.psi_identically_zero && Kepler::FLAGS.separable);
+        assert!(!DoublePendulum::FLAGS.separable);
+        assert!(ForcedOscillator::FLAGS.time_dependent && !Kepler::FLAGS.time_dependent);
     };
 
     #[test]

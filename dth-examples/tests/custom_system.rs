@@ -8,7 +8,7 @@ mod custom_system;
 
 use custom_system::Duffing;
 use dth::nalgebra::Vector2;
-use dth::Hamiltonian;
+use dth::{ConstFlags, Hamiltonian};
 use dth_examples::simulate::RunOptions;
 
 mod common;
@@ -62,7 +62,7 @@ fn the_example_system_has_the_derivatives_of_its_formula() {
     assert!(hess[(0, 1)] == 0.0 && hess[(1, 1)] == 1.0);
     // What the scene relies on (checked when this test compiles): Stormer-Verlet needs a
     // separable H, DTH a Psi not identically zero.
-    const { assert!(Duffing::SEPARABLE && !Duffing::PSI_IDENTICALLY_ZERO) };
+    const { assert!(Duffing::FLAGS.separable && !Duffing::FLAGS.psi_identically_zero) };
 }
 
 #[test]

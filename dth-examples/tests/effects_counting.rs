@@ -4,10 +4,11 @@
 //! the gradient only) and of the invariants; the runner reports how many states
 //! its effect observers saw and how many numbers they stored.
 
+use dth::nalgebra::Const;
 use std::cell::Cell;
 
 use dth::nalgebra::{SMatrix, SVector};
-use dth::Hamiltonian;
+use dth::{ConstFlags, Flags, Hamiltonian};
 use dth_examples::catalogue::Catalogue;
 use dth_examples::effects::EffectOutputs;
 use dth_examples::simulate::{compute, RunOptions};
@@ -21,17 +22,26 @@ struct CountingKepler {
     invariants: Cell<usize>,
 }
 
-impl Hamiltonian<4> for CountingKepler {
+impl Hamiltonian<Const<4>> for CountingKepler {
+    fn dim(&self) -> Const<4> {
+        Const
+    }
+
     fn value(&self, z: &SVector<f64, 4>) -> f64 {
         self.values.set(self.values.get() + 1);
         self.inner.value(z)
     }
-    fn gradient(&self, z: &SVector<f64, 4>) -> SVector<f64, 4> {
-        self.inner.gradient(z)
+    fn gradient_into(&self, z: &SVector<f64, 4>, out: &mut SVector<f64, 4>) {
+        *out = self.inner.gradient(z);
     }
-    fn hessian(&self, z: &SVector<f64, 4>) -> SMatrix<f64, 4, 4> {
-        self.inner.hessian(z)
+    fn hessian_into(&self, z: &SVector<f64, 4>, out: &mut SMatrix<f64, 4, 4>) {
+        *out = self.inner.hessian(z);
     }
+}
+
+/// No flags (the defaults), as `flags()` says.
+impl ConstFlags for CountingKepler {
+    const FLAGS: Flags = Flags::new();
 }
 
 impl SceneSystem<4> for CountingKepler {

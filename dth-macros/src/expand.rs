@@ -1,4 +1,4 @@
-//! The whole expansion: the declared type, its `impl Hamiltonian<D>` (written by the engine's
+//! The whole expansion: the declared type, its `impl Hamiltonian<Const<D>>` (written by the engine's
 //! emitter, `dth_symbolic::emit`) and the warnings; or the errors beside a stub.
 
 use dth_symbolic::emit::{hamiltonian_impl, looped_source_impl};

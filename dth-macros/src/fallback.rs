@@ -59,14 +59,20 @@ pub fn stub(input: &Input, errors: Option<TokenStream>) -> TokenStream {
     let nalgebra = quote!(::dth::__private::nalgebra);
     let imp = quote! {
         #[automatically_derived]
-        impl<const D: usize> ::dth::__private::dth_core::Hamiltonian<D> for #name {
-            fn value(&self, _: &#nalgebra::SVector<f64, D>) -> f64 {
+        impl<D: #nalgebra::Dim> ::dth::__private::dth_core::Hamiltonian<D> for #name
+        where
+            #nalgebra::DefaultAllocator: ::dth::__private::dth_core::Alloc<D>,
+        {
+            fn dim(&self) -> D {
                 ::core::unreachable!("hamiltonian! failed to compile")
             }
-            fn gradient(&self, _: &#nalgebra::SVector<f64, D>) -> #nalgebra::SVector<f64, D> {
+            fn value(&self, _: &#nalgebra::OVector<f64, D>) -> f64 {
                 ::core::unreachable!("hamiltonian! failed to compile")
             }
-            fn hessian(&self, _: &#nalgebra::SVector<f64, D>) -> #nalgebra::SMatrix<f64, D, D> {
+            fn gradient_into(&self, _: &#nalgebra::OVector<f64, D>, _: &mut #nalgebra::OVector<f64, D>) {
+                ::core::unreachable!("hamiltonian! failed to compile")
+            }
+            fn hessian_into(&self, _: &#nalgebra::OVector<f64, D>, _: &mut #nalgebra::OMatrix<f64, D, D>) {
                 ::core::unreachable!("hamiltonian! failed to compile")
             }
         }

@@ -1,23 +1,49 @@
-//! [`Typed`]: a [`RuntimeHamiltonian`] as a `dth_core::Hamiltonian<D>`, so the DTH stepper
-//! and every peer integrator run a Hamiltonian read from text.
+//! The runtime Hamiltonian as a `dth_core::Hamiltonian`: [`RuntimeHamiltonian`] implements
+//! `Hamiltonian<Dyn>` (the dimension and the flags are the text's, known when it is read), so
+//! the DTH stepper and every peer integrator run a Hamiltonian read from text without
+//! recompiling; [`Typed`] is the same Hamiltonian checked for a fixed `Const<D>`, for Rust code
+//! that wants fixed-size vectors (`SVector<f64, D>`) from a text.
 //!
-//! `dth_core::Hamiltonian<D>` fixes the dimension and the flags (`TIME_DEPENDENT`,
-//! `SEPARABLE`, ...) at compile time; a runtime Hamiltonian knows them when its text is read.
-//! Until the core is generic over nalgebra's dimensions (`docs/runtime_dimension.md`),
-//! [`Typed`] bridges the two: the type names `D` and the flags, and [`Typed::new`] checks them
-//! once against what the engine derived, with a typed error on a mismatch. It is a view: each
-//! trait method is one call of the compiled function of the same name, into a stack buffer
-//! (nalgebra's fixed-size storage), with no allocation and no evaluation code of its own.
+//! Each trait method is one call of the compiled function of the same name, written straight
+//! into the caller's storage (`out.as_mut_slice()`): no allocation and no evaluation code of
+//! its own. The fused `derivatives_into` needs one contiguous buffer (`1 + D + D^2 + 1`
+//! values) that the runtime's layout splits into the four outputs; it is a per-thread scratch
+//! grown to the largest `D` seen on that thread, so it allocates only on a thread's first call
+//! at a new largest size (a stepper makes that call when it is built).
 //!
 //! The trait's methods cannot fail. A non-finite output (outside the domain of `ln`, an
 //! overflow) is returned as it is, so the stepper's own checks report it as a typed error
 //! (`dth::Error::NonFinite { step, what }`, or the peers' `MethodNonFinite`), as for any other
-//! implementation.
+//! implementation. A point of the wrong length (a `Dyn` vector not of the text's dimension)
+//! gives NaN outputs, which the same checks report.
+//!
+//! Inherent methods of [`RuntimeHamiltonian`] (`value(&[f64])`, `gradient(&[f64], &mut
+//! [f64])`, ...) take precedence over the trait's of the same name in method-call syntax;
+//! call the trait's as `Hamiltonian::value(&h, &z)` (generic code, such as the stepper, sees
+//! only the trait).
+//!
+//! ```
+//! use dth_core::dth::{Dth, DthOptions};
+//! use dth_core::nalgebra::DVector;
+//! use dth_core::Hamiltonian;
+//! use dth_runtime::RuntimeHamiltonian;
+//!
+//! let text = "(p1^2 + p2^2)/(2*m) - k*(q1^2 + q2^2)^(-1/2)";
+//! let kepler = RuntimeHamiltonian::new(text, &[("m", 0.5), ("k", 1.0)])?;
+//! let zbar0 = DVector::from_column_slice(&[0.5, 0.0, 0.0, 1.2]); // D = 4, from the text
+//! let mut dth = Dth::new(kepler, zbar0.clone(), DthOptions::default())?;
+//! dth.advance(100)?;
+//! let e0 = Hamiltonian::value(dth.hamiltonian(), &zbar0);
+//! assert!((Hamiltonian::value(dth.hamiltonian(), dth.zbar()) - e0).abs() < 1e-15);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 
 use std::sync::Arc;
 
-use dth_core::{Derivatives, Hamiltonian};
-use nalgebra::{SMatrix, SVector};
+use std::cell::RefCell;
+
+use dth_core::{Alloc, Derivatives, Flags, Hamiltonian};
+use nalgebra::{Const, DefaultAllocator, Dim, Dyn, OMatrix, OVector};
 
 use crate::error::RuntimeError;
 use crate::hamiltonian::RuntimeHamiltonian;
@@ -25,14 +51,16 @@ use crate::layout::Function;
 
 /// A [`RuntimeHamiltonian`] checked to have dimension `D`, time dependence `TIME_DEPENDENT`
 /// and, when `SEPARABLE` is set, the form `H = T(p) + V(q)`: it implements
-/// `dth_core::Hamiltonian<D>` with these flags, `EXACT_DIVIDED_DIFFERENCES` (its discrete
-/// gradients are the engine's exact divided differences, as the macro's), and no Hessian
-/// pattern (the implicit methods use the dense Newton solver).
+/// `dth_core::Hamiltonian<Const<D>>` with these flags, `exact_divided_differences` (its
+/// discrete gradients are the engine's exact divided differences, as the macro's), and no
+/// Hessian pattern (the implicit methods use the dense Newton solver). Without a fixed `D`
+/// in mind, use the [`RuntimeHamiltonian`] itself: it is a `Hamiltonian<Dyn>`.
 ///
 /// `SEPARABLE = false` is allowed for a separable Hamiltonian (the methods that need
 /// separability then refuse it, as for any type that does not declare it); the other
-/// mismatches are errors. A Hamiltonian whose Psi is identically zero is refused: the trait
-/// declares it with a constant this view leaves `false`, and DTH cannot run on it.
+/// mismatches are errors. A Hamiltonian whose Psi is identically zero is refused (the DTH
+/// stepper refuses it too, with `dth_core::Error::PsiIdenticallyZero`, when given the
+/// [`RuntimeHamiltonian`] itself).
 ///
 /// Cloning shares the compiled code (an [`Arc`]): clones are cheap, and each thread of an
 /// ensemble can own one.
@@ -99,94 +127,185 @@ impl<const D: usize, const TIME_DEPENDENT: bool, const SEPARABLE: bool>
     pub fn runtime(&self) -> &RuntimeHamiltonian {
         &self.runtime
     }
+}
 
-    /// Runs `f` at `z0`, `z1` into `out`. The lengths were checked against `D` when the view
-    /// was built, so the only error left is a non-finite output, which is then in `out` for
-    /// the caller's checks to report. Any other error (none is expected) fills `out` with NaN,
-    /// which no caller takes for a value.
-    fn run(&self, f: Function, z0: &SVector<f64, D>, z1: &SVector<f64, D>, out: &mut [f64]) {
-        match self.runtime.run(f, z0.as_slice(), z1.as_slice(), out) {
-            Ok(()) | Err(RuntimeError::NonFinite { .. }) => {}
-            Err(_) => out.fill(f64::NAN),
-        }
-    }
-
-    /// A one-value function.
-    fn scalar(&self, f: Function, z0: &SVector<f64, D>, z1: &SVector<f64, D>) -> f64 {
-        let mut out = [0.0];
-        self.run(f, z0, z1, &mut out);
-        out[0]
-    }
-
-    /// A `D`-vector function.
-    fn vector(&self, f: Function, z0: &SVector<f64, D>, z1: &SVector<f64, D>) -> SVector<f64, D> {
-        let mut out = SVector::<f64, D>::zeros();
-        self.run(f, z0, z1, out.as_mut_slice());
-        out
+/// Runs `f` at `z0`, `z1` into `out`. The only error expected is a non-finite output, which is
+/// then in `out` for the caller's checks to report; any other (a point of the wrong length)
+/// fills `out` with NaN, which no caller takes for a value.
+fn run(runtime: &RuntimeHamiltonian, f: Function, z0: &[f64], z1: &[f64], out: &mut [f64]) {
+    match runtime.run(f, z0, z1, out) {
+        Ok(()) | Err(RuntimeError::NonFinite { .. }) => {}
+        Err(_) => out.fill(f64::NAN),
     }
 }
 
-impl<const D: usize, const TIME_DEPENDENT: bool, const SEPARABLE: bool> Hamiltonian<D>
+/// A one-value function.
+fn scalar(runtime: &RuntimeHamiltonian, f: Function, z0: &[f64], z1: &[f64]) -> f64 {
+    let mut out = [0.0];
+    run(runtime, f, z0, z1, &mut out);
+    out[0]
+}
+
+thread_local! {
+    /// The fused evaluation's contiguous buffer (see the module docs).
+    static FUSED: RefCell<Vec<f64>> = const { RefCell::new(Vec::new()) };
+}
+
+/// One call of the fused program, its pieces copied into `out`. The Hessian is written
+/// row-major with both triangles, which for a symmetric matrix is the same array as
+/// column-major (nalgebra's storage).
+fn fused<D: Dim>(runtime: &RuntimeHamiltonian, z: &[f64], out: &mut Derivatives<D>)
+where
+    DefaultAllocator: Alloc<D>,
+{
+    let d = z.len();
+    let len = Function::Derivatives.len(d);
+    FUSED.with_borrow_mut(|buffer| {
+        if buffer.len() < len {
+            buffer.resize(len, 0.0);
+        }
+        let buffer = &mut buffer[..len];
+        run(runtime, Function::Derivatives, z, z, buffer);
+        out.value = buffer[0];
+        out.gradient
+            .as_mut_slice()
+            .copy_from_slice(&buffer[1..1 + d]);
+        out.hessian
+            .as_mut_slice()
+            .copy_from_slice(&buffer[1 + d..1 + d + d * d]);
+        out.psi = buffer[1 + d + d * d];
+    });
+}
+
+/// The trait's evaluation methods, each one call of compiled code into `out`, for a type whose
+/// runtime Hamiltonian is `self.$runtime()`.
+macro_rules! evaluations {
+    ($d:ty) => {
+        fn value(&self, z: &OVector<f64, $d>) -> f64 {
+            scalar(self.runtime(), Function::Value, z.as_slice(), z.as_slice())
+        }
+
+        fn gradient_into(&self, z: &OVector<f64, $d>, out: &mut OVector<f64, $d>) {
+            run(
+                self.runtime(),
+                Function::Gradient,
+                z.as_slice(),
+                z.as_slice(),
+                out.as_mut_slice(),
+            );
+        }
+
+        /// Written row-major with both triangles, which for a symmetric matrix is the same
+        /// array as column-major (nalgebra's storage): each entry and its mirror are one
+        /// output.
+        fn hessian_into(&self, z: &OVector<f64, $d>, out: &mut OMatrix<f64, $d, $d>) {
+            run(
+                self.runtime(),
+                Function::Hessian,
+                z.as_slice(),
+                z.as_slice(),
+                out.as_mut_slice(),
+            );
+        }
+
+        fn psi(&self, z: &OVector<f64, $d>) -> f64 {
+            scalar(self.runtime(), Function::Psi, z.as_slice(), z.as_slice())
+        }
+
+        fn derivatives_into(&self, z: &OVector<f64, $d>, out: &mut Derivatives<$d>) {
+            fused(self.runtime(), z.as_slice(), out);
+        }
+
+        fn discrete_gradient_into(
+            &self,
+            z0: &OVector<f64, $d>,
+            z1: &OVector<f64, $d>,
+            out: &mut OVector<f64, $d>,
+        ) {
+            run(
+                self.runtime(),
+                Function::DiscreteGradient,
+                z0.as_slice(),
+                z1.as_slice(),
+                out.as_mut_slice(),
+            );
+        }
+
+        /// Recomputes `gbar` inside, as the macro's types do (`gbar` is not read).
+        fn discrete_gradient_defect_into(
+            &self,
+            z0: &OVector<f64, $d>,
+            z1: &OVector<f64, $d>,
+            _gbar: &OVector<f64, $d>,
+            out: &mut OVector<f64, $d>,
+        ) {
+            run(
+                self.runtime(),
+                Function::DiscreteGradientDefect,
+                z0.as_slice(),
+                z1.as_slice(),
+                out.as_mut_slice(),
+            );
+        }
+
+        fn energy_difference(&self, z0: &OVector<f64, $d>, z1: &OVector<f64, $d>) -> f64 {
+            scalar(
+                self.runtime(),
+                Function::EnergyDifference,
+                z0.as_slice(),
+                z1.as_slice(),
+            )
+        }
+    };
+}
+
+/// The flags the engine derived from the text.
+fn derived_flags(runtime: &RuntimeHamiltonian) -> Flags {
+    Flags::default()
+        .with_time_dependent(runtime.time_dependent())
+        .with_separable(runtime.separable())
+        .with_psi_identically_zero(runtime.psi_identically_zero())
+        .with_exact_divided_differences(true)
+}
+
+/// The dimension and the flags are the text's.
+impl Hamiltonian<Dyn> for RuntimeHamiltonian {
+    fn dim(&self) -> Dyn {
+        Dyn(RuntimeHamiltonian::dim(self))
+    }
+
+    fn flags(&self) -> Flags {
+        derived_flags(self)
+    }
+
+    evaluations!(Dyn);
+}
+
+/// Self-reference for [`evaluations!`] on the runtime types themselves.
+trait Runtime {
+    fn runtime(&self) -> &RuntimeHamiltonian;
+}
+
+impl Runtime for RuntimeHamiltonian {
+    fn runtime(&self) -> &RuntimeHamiltonian {
+        self
+    }
+}
+
+/// The flags the type declares (checked against the text's in [`Typed::new`]).
+impl<const D: usize, const TIME_DEPENDENT: bool, const SEPARABLE: bool> Hamiltonian<Const<D>>
     for Typed<D, TIME_DEPENDENT, SEPARABLE>
 {
-    const TIME_DEPENDENT: bool = TIME_DEPENDENT;
-    const SEPARABLE: bool = SEPARABLE;
-    const EXACT_DIVIDED_DIFFERENCES: bool = true;
-
-    fn value(&self, z: &SVector<f64, D>) -> f64 {
-        self.scalar(Function::Value, z, z)
+    fn dim(&self) -> Const<D> {
+        Const
     }
 
-    fn gradient(&self, z: &SVector<f64, D>) -> SVector<f64, D> {
-        self.vector(Function::Gradient, z, z)
+    fn flags(&self) -> Flags {
+        Flags::default()
+            .with_time_dependent(TIME_DEPENDENT)
+            .with_separable(SEPARABLE)
+            .with_exact_divided_differences(true)
     }
 
-    /// Written row-major with both triangles, which for a symmetric matrix is the same array
-    /// as column-major (nalgebra's storage): each entry and its mirror are one output.
-    fn hessian(&self, z: &SVector<f64, D>) -> SMatrix<f64, D, D> {
-        let mut out = SMatrix::<f64, D, D>::zeros();
-        self.run(Function::Hessian, z, z, out.as_mut_slice());
-        out
-    }
-
-    fn psi(&self, z: &SVector<f64, D>) -> f64 {
-        self.scalar(Function::Psi, z, z)
-    }
-
-    /// One call of the fused program. Its buffer (`1 + D + D^2 + 1` values) lives on the
-    /// stack as two `D x D` arrays, the smallest fixed-size array stable Rust can name that
-    /// holds it for every even `D >= 2` (`2 D^2 >= D^2 + D + 2`); its pieces are then copied
-    /// into [`Derivatives`]. That is twice the stack `Derivatives<D>` itself takes: fine for
-    /// the dense solver's sizes, megabytes for `D` in the hundreds (the core's `Dim`
-    /// generalisation writes into the caller's storage instead).
-    fn derivatives(&self, z: &SVector<f64, D>) -> Derivatives<D> {
-        let mut buffer = [[[0.0f64; D]; D]; 2];
-        let flat = buffer.as_flattened_mut().as_flattened_mut();
-        let out = &mut flat[..Function::Derivatives.len(D)];
-        self.run(Function::Derivatives, z, z, out);
-        Derivatives {
-            value: out[0],
-            gradient: SVector::from_column_slice(&out[1..1 + D]),
-            hessian: SMatrix::from_column_slice(&out[1 + D..1 + D + D * D]),
-            psi: out[1 + D + D * D],
-        }
-    }
-
-    fn discrete_gradient(&self, z0: &SVector<f64, D>, z1: &SVector<f64, D>) -> SVector<f64, D> {
-        self.vector(Function::DiscreteGradient, z0, z1)
-    }
-
-    /// Recomputes `gbar` inside, as the macro's types do (`gbar` is not read).
-    fn discrete_gradient_defect(
-        &self,
-        z0: &SVector<f64, D>,
-        z1: &SVector<f64, D>,
-        _gbar: &SVector<f64, D>,
-    ) -> SVector<f64, D> {
-        self.vector(Function::DiscreteGradientDefect, z0, z1)
-    }
-
-    fn energy_difference(&self, z0: &SVector<f64, D>, z1: &SVector<f64, D>) -> f64 {
-        self.scalar(Function::EnergyDifference, z0, z1)
-    }
+    evaluations!(Const<D>);
 }

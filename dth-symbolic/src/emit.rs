@@ -1,4 +1,4 @@
-//! The Rust code `hamiltonian!` emits for a compiled [`System`]: `impl Hamiltonian<D> for
+//! The Rust code `hamiltonian!` emits for a compiled [`System`]: `impl Hamiltonian<Const<D>> for
 //! Name`, one straight-line function per trait method, plain `f64` arithmetic on locals,
 //! fixed-size nalgebra types through `::dth::__private`.
 //!
@@ -19,7 +19,7 @@
 //! let name = Ident::new("Oscillator", Span::call_site());
 //! let params = [Ident::new("m", Span::call_site())];
 //! let code = hamiltonian_impl(&system, &name, &params).to_string();
-//! assert!(code.contains("Hamiltonian < 2usize > for Oscillator"));
+//! assert!(code.contains("Hamiltonian < :: dth :: __private :: nalgebra :: Const < 2usize > > for Oscillator"));
 //! assert!(code.contains("self . m"));
 //! ```
 
@@ -52,7 +52,7 @@ pub fn looped_source_impl(source: &str, name: &Ident, params: &[Ident]) -> Optio
     lattice::looped_impl(&looped, name, params)
 }
 
-/// `impl ::dth::__private::dth_core::Hamiltonian<D> for #name`, `D` the system's dimension,
+/// `impl ::dth::__private::dth_core::Hamiltonian<Const<D>> for #name`, `D` the system's dimension,
 /// every method computed by the engine's programs for `system`. `params` are the names of the
 /// type's `f64` fields, in the order of the system's parameters (`Op::Param(k)` reads
 /// `self.params[k]`); the type itself is declared by the caller.
@@ -111,22 +111,41 @@ pub fn hamiltonian_impl(system: &System, name: &Ident, params: &[Ident]) -> Toke
         #[doc = #source]
         #[automatically_derived]
         #[allow(unused_variables, clippy::all, clippy::pedantic, clippy::nursery)]
-        impl #core::Hamiltonian<#d> for #name {
-            const TIME_DEPENDENT: bool = #td;
-            const SEPARABLE: bool = #sep;
-            const PSI_IDENTICALLY_ZERO: bool = #psi0;
-            const EXACT_DIVIDED_DIFFERENCES: bool = true;
-            const HESSIAN_PATTERN: ::core::option::Option<&'static [(usize, usize)]> =
-                ::core::option::Option::Some(&[#(#pattern_rows),*]);
-            const STRUCTURED_NEWTON: bool = #structured;
+        impl #core::ConstFlags for #name {
+            const FLAGS: #core::Flags = #core::Flags::new()
+                .with_time_dependent(#td)
+                .with_separable(#sep)
+                .with_psi_identically_zero(#psi0)
+                .with_exact_divided_differences(true)
+                .with_structured_newton(#structured);
+        }
+
+        #[automatically_derived]
+        #[allow(unused_variables, clippy::all, clippy::pedantic, clippy::nursery)]
+        impl #core::Hamiltonian<#nalgebra::Const<#d>> for #name {
+            #[inline]
+            fn dim(&self) -> #nalgebra::Const<#d> { #nalgebra::Const }
+            #[inline]
+            fn flags(&self) -> #core::Flags {
+                <Self as #core::ConstFlags>::FLAGS
+            }
+            #[inline]
+            fn hessian_pattern(&self) -> ::core::option::Option<&[(usize, usize)]> {
+                const PATTERN: &[(usize, usize)] = &[#(#pattern_rows),*];
+                ::core::option::Option::Some(PATTERN)
+            }
 
             #[inline]
             fn value(&self, z: &#nalgebra::SVector<f64, #d>) -> f64 { #value }
             #[inline]
-            fn gradient(&self, z: &#nalgebra::SVector<f64, #d>) -> #nalgebra::SVector<f64, #d> { #gradient }
+            fn gradient_into(&self, z: &#nalgebra::SVector<f64, #d>, out: &mut #nalgebra::SVector<f64, #d>) {
+                *out = { #gradient };
+            }
             #[inline]
-            fn hessian(&self, z: &#nalgebra::SVector<f64, #d>) -> #nalgebra::SMatrix<f64, #d, #d> { #hessian }
-            /// Only the Hessian's nonzero entries, fused, in the order of `HESSIAN_PATTERN`.
+            fn hessian_into(&self, z: &#nalgebra::SVector<f64, #d>, out: &mut #nalgebra::SMatrix<f64, #d, #d>) {
+                *out = { #hessian };
+            }
+            /// Only the Hessian's nonzero entries, fused, in the order of `hessian_pattern`.
             #[inline]
             fn hessian_nonzeros(&self, z: &#nalgebra::SVector<f64, #d>, values: &mut [f64]) {
                 let values = &mut values[..#nnz];
@@ -135,16 +154,23 @@ pub fn hamiltonian_impl(system: &System, name: &Ident, params: &[Ident]) -> Toke
             #[inline]
             fn psi(&self, z: &#nalgebra::SVector<f64, #d>) -> f64 { #psi }
             #[inline]
-            fn derivatives(&self, z: &#nalgebra::SVector<f64, #d>) -> #core::Derivatives<#d> { #all }
+            fn derivatives_into(
+                &self,
+                z: &#nalgebra::SVector<f64, #d>,
+                out: &mut #core::Derivatives<#nalgebra::Const<#d>>,
+            ) {
+                *out = { #all };
+            }
             /// Exact divided differences of `H`, without cancellation (`dth_symbolic::divided`).
             #[inline]
-            fn discrete_gradient(
+            fn discrete_gradient_into(
                 &self,
                 z0: &#nalgebra::SVector<f64, #d>,
                 z1: &#nalgebra::SVector<f64, #d>,
-            ) -> #nalgebra::SVector<f64, #d> {
+                out: &mut #nalgebra::SVector<f64, #d>,
+            ) {
                 let z = z0;
-                #discrete_gradient
+                *out = { #discrete_gradient };
             }
             /// `H(z1) - H(z0)` by exact divided differences, without cancellation.
             #[inline]
@@ -159,15 +185,16 @@ pub fn hamiltonian_impl(system: &System, name: &Ident, params: &[Ident]) -> Toke
             /// `grad H(z0) + grad H(z1) - 2 gbar(z0, z1)` without cancellation
             /// (`dth_symbolic::defect`); `gbar` is recomputed inside, not read.
             #[inline]
-            fn discrete_gradient_defect(
+            fn discrete_gradient_defect_into(
                 &self,
                 z0: &#nalgebra::SVector<f64, #d>,
                 z1: &#nalgebra::SVector<f64, #d>,
                 gbar: &#nalgebra::SVector<f64, #d>,
-            ) -> #nalgebra::SVector<f64, #d> {
+                out: &mut #nalgebra::SVector<f64, #d>,
+            ) {
                 let _ = gbar;
                 let z = z0;
-                #defect
+                *out = { #defect };
             }
         }
     }
@@ -214,7 +241,7 @@ const LITERAL_MAX_DIM: usize = 8;
 const CHUNK_OPS: usize = 1000;
 
 /// The smallest dimension from which generated types take the structured Newton path
-/// (`Hamiltonian::STRUCTURED_NEWTON`): below it the dense fixed-size LU is faster. Measured
+/// (`Flags::structured_newton`): below it the dense fixed-size LU is faster. Measured
 /// side by side (`dth-examples/benches/step_vs_size.rs`, `docs/benchmarks.md`): one
 /// implicit-midpoint step on `D = 4` (Kepler, FPUT and Toda with 2 particles) is 1.4-1.6x
 /// faster dense, on `D = 8` the two are within 10% (structured ahead), from `D = 16` the

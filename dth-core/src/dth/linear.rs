@@ -13,27 +13,33 @@
 //! fused `Hamiltonian::derivatives` (one program, shared subexpressions) and keeps its `D x D`
 //! storage in frames of its own (`#[inline(never)]`), which exist only when it runs.
 
-use nalgebra::{SMatrix, SVector};
-
+use crate::hamiltonian::Alloc;
 use crate::linalg::{Lu, Pivot};
 use crate::methods::Structured;
 use crate::structured::NewtonMatrix;
 use crate::Hamiltonian;
+use nalgebra::{DefaultAllocator, Dim, OMatrix, OVector};
 
 /// `H`'s value, gradient and `Psi` at one point, and the size of its Hessian.
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct Point<const D: usize> {
+#[derive(Clone, Debug)]
+pub(crate) struct Point<D: Dim>
+where
+    DefaultAllocator: Alloc<D>,
+{
     /// `H(z)`.
     pub(crate) value: f64,
     /// `grad H(z)`.
-    pub(crate) gradient: SVector<f64, D>,
+    pub(crate) gradient: OVector<f64, D>,
     /// `Psi(z) = (J grad H)^T Hess H (J grad H)`.
     pub(crate) psi: f64,
     /// `max |Hess H(z)_ij|`; NaN when an entry is not finite.
     pub(crate) hessian_max: f64,
 }
 
-impl<const D: usize> Point<D> {
+impl<D: Dim> Point<D>
+where
+    DefaultAllocator: Alloc<D>,
+{
     /// Whether the value and the gradient are finite.
     pub(crate) fn finite(&self) -> bool {
         self.value.is_finite() && self.gradient.iter().all(|x| x.is_finite())
@@ -59,11 +65,14 @@ fn largest<'a>(entries: impl IntoIterator<Item = &'a f64>) -> f64 {
 
 /// The Hamiltonian's point at `z`; with a structured `matrix`, its Hessian nonzeros are written
 /// into the matrix's storage (stage 0) on the way.
-pub(crate) fn point<H: Hamiltonian<D>, const D: usize>(
+pub(crate) fn point<H: Hamiltonian<D>, D: Dim>(
     ham: &H,
-    z: &SVector<f64, D>,
+    z: &OVector<f64, D>,
     matrix: Option<&mut NewtonMatrix>,
-) -> Point<D> {
+) -> Point<D>
+where
+    DefaultAllocator: Alloc<D>,
+{
     match matrix {
         Some(m) => structured_point(ham, z, m),
         None => dense_point(ham, z),
@@ -71,11 +80,14 @@ pub(crate) fn point<H: Hamiltonian<D>, const D: usize>(
 }
 
 /// [`point`] on the structured path.
-fn structured_point<H: Hamiltonian<D>, const D: usize>(
+fn structured_point<H: Hamiltonian<D>, D: Dim>(
     ham: &H,
-    z: &SVector<f64, D>,
+    z: &OVector<f64, D>,
     matrix: &mut NewtonMatrix,
-) -> Point<D> {
+) -> Point<D>
+where
+    DefaultAllocator: Alloc<D>,
+{
     let nonzeros = matrix.hessian_mut(0);
     ham.hessian_nonzeros(z, nonzeros);
     Point {
@@ -88,58 +100,77 @@ fn structured_point<H: Hamiltonian<D>, const D: usize>(
 
 /// [`point`] on the dense path, in a frame of its own (the fused evaluation's `D x D` Hessian).
 #[inline(never)]
-fn dense_point<H: Hamiltonian<D>, const D: usize>(ham: &H, z: &SVector<f64, D>) -> Point<D> {
+fn dense_point<H: Hamiltonian<D>, D: Dim>(ham: &H, z: &OVector<f64, D>) -> Point<D>
+where
+    DefaultAllocator: Alloc<D>,
+{
     let d = ham.derivatives(z);
     Point {
         value: d.value,
+        hessian_max: largest(d.hessian.iter()),
         gradient: d.gradient,
         psi: d.psi,
-        hessian_max: largest(d.hessian.iter()),
     }
 }
 
 /// The structured Newton matrix of a DTH stepper (one stage), when `H` takes the structured
 /// path: analysed on first use and kept in `storage` (the peers' rule and cache).
-pub(crate) fn matrix<H: Hamiltonian<D>, const D: usize>(
-    storage: &mut Structured,
-) -> Option<&mut NewtonMatrix> {
-    storage.matrix::<H, D>(1)
+pub(crate) fn matrix<'a, H: Hamiltonian<D>, D: Dim>(
+    ham: &H,
+    storage: &'a mut Structured,
+) -> Option<&'a mut NewtonMatrix>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    storage.matrix(ham, 1)
 }
 
 /// What the DTH Newton solvers need of `A = I - c J Hess H(z)` at their iterate.
-pub(crate) trait Linear<const D: usize> {
+pub(crate) trait Linear<D: Dim>
+where
+    DefaultAllocator: Alloc<D>,
+{
     /// Evaluate `H` at `z` and keep its Hessian for [`factor`](Self::factor) and
     /// [`hessian_times`](Self::hessian_times) (the factorization is kept until the next
     /// `factor`).
-    fn evaluate<H: Hamiltonian<D>>(&mut self, ham: &H, z: &SVector<f64, D>) -> Point<D>;
+    fn evaluate<H: Hamiltonian<D>>(&mut self, ham: &H, z: &OVector<f64, D>) -> Point<D>;
     /// Factor `A = I - c J Hess` with the Hessian last evaluated.
     fn factor(&mut self, c: f64) -> Result<(), Pivot>;
     /// `A^{-1} b` with the last factorization.
-    fn solve(&self, b: &SVector<f64, D>) -> SVector<f64, D>;
+    fn solve(&self, b: &OVector<f64, D>) -> OVector<f64, D>;
     /// `Hess x` with the Hessian last evaluated.
-    fn hessian_times(&self, x: &SVector<f64, D>) -> SVector<f64, D>;
+    fn hessian_times(&self, x: &OVector<f64, D>) -> OVector<f64, D>;
 }
 
 /// The dense path: the fused evaluation's Hessian and the fixed-size LU.
-pub(crate) struct Dense<const D: usize> {
-    hessian: SMatrix<f64, D, D>,
+pub(crate) struct Dense<D: Dim>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    hessian: OMatrix<f64, D, D>,
     lu: Lu<D>,
 }
 
-impl<const D: usize> Dense<D> {
-    /// Empty storage.
-    pub(crate) fn new() -> Self {
+impl<D: Dim> Dense<D>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    /// Empty storage of dimension `d`.
+    pub(crate) fn new(d: D) -> Self {
         Dense {
-            hessian: SMatrix::zeros(),
-            lu: Lu::empty(),
+            hessian: OMatrix::zeros_generic(d, d),
+            lu: Lu::empty(d),
         }
     }
 }
 
-impl<const D: usize> Linear<D> for Dense<D> {
-    fn evaluate<H: Hamiltonian<D>>(&mut self, ham: &H, z: &SVector<f64, D>) -> Point<D> {
+impl<D: Dim> Linear<D> for Dense<D>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    fn evaluate<H: Hamiltonian<D>>(&mut self, ham: &H, z: &OVector<f64, D>) -> Point<D> {
         let d = ham.derivatives(z);
-        self.hessian = d.hessian;
+        self.hessian.copy_from(&d.hessian);
         Point {
             value: d.value,
             gradient: d.gradient,
@@ -150,7 +181,7 @@ impl<const D: usize> Linear<D> for Dense<D> {
 
     /// `A` entry by entry, `delta_ij - c (J Hess)_ij`, factored in place.
     fn factor(&mut self, c: f64) -> Result<(), Pivot> {
-        let n = D / 2;
+        let n = self.hessian.nrows() / 2;
         let hessian = &self.hessian;
         self.lu.factor_from(|i, j| {
             let jh = if i < n {
@@ -166,12 +197,12 @@ impl<const D: usize> Linear<D> for Dense<D> {
         })
     }
 
-    fn solve(&self, b: &SVector<f64, D>) -> SVector<f64, D> {
+    fn solve(&self, b: &OVector<f64, D>) -> OVector<f64, D> {
         self.lu.solve(b)
     }
 
-    fn hessian_times(&self, x: &SVector<f64, D>) -> SVector<f64, D> {
-        self.hessian * x
+    fn hessian_times(&self, x: &OVector<f64, D>) -> OVector<f64, D> {
+        &self.hessian * x
     }
 }
 
@@ -180,8 +211,11 @@ pub(crate) struct Sparse<'a> {
     pub(crate) matrix: &'a mut NewtonMatrix,
 }
 
-impl<const D: usize> Linear<D> for Sparse<'_> {
-    fn evaluate<H: Hamiltonian<D>>(&mut self, ham: &H, z: &SVector<f64, D>) -> Point<D> {
+impl<D: Dim> Linear<D> for Sparse<'_>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    fn evaluate<H: Hamiltonian<D>>(&mut self, ham: &H, z: &OVector<f64, D>) -> Point<D> {
         structured_point(ham, z, self.matrix)
     }
 
@@ -189,16 +223,16 @@ impl<const D: usize> Linear<D> for Sparse<'_> {
         self.matrix.factor(&[c])
     }
 
-    fn solve(&self, b: &SVector<f64, D>) -> SVector<f64, D> {
-        let mut x = *b;
-        let mut work = SVector::<f64, D>::zeros();
+    fn solve(&self, b: &OVector<f64, D>) -> OVector<f64, D> {
+        let mut x = b.clone();
+        let mut work = b.clone();
         self.matrix
             .solve_with(x.as_mut_slice(), work.as_mut_slice());
         x
     }
 
-    fn hessian_times(&self, x: &SVector<f64, D>) -> SVector<f64, D> {
-        let mut out = SVector::<f64, D>::zeros();
+    fn hessian_times(&self, x: &OVector<f64, D>) -> OVector<f64, D> {
+        let mut out = x.clone();
         self.matrix
             .hessian_times(0, x.as_slice(), out.as_mut_slice());
         out

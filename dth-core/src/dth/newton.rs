@@ -33,15 +33,15 @@
 //! `Eval::stall`). A gated stop that fails after an update of at most `4 eps`, or the iteration
 //! limit, is [`Error::NewtonDiverged`].
 
-use nalgebra::SVector;
-
 use super::linear::{self, Dense, Linear, Point, Sparse};
 use super::options::{DthOptions, Solver};
+use crate::hamiltonian::Alloc;
 use crate::linalg::Pivot;
 use crate::methods::Structured;
 use crate::newton::{self, Convergence, Status, DTH};
 use crate::structured::NewtonMatrix;
-use crate::{j_times, Error, Hamiltonian};
+use crate::{j_times, zeros, Error, Hamiltonian};
+use nalgebra::{DefaultAllocator, Dim, OVector};
 
 /// Relative update below which joint Newton evaluates the cancellation-free residual at every
 /// iterate: from there, quadratic convergence can reach a stop at the next iterate.
@@ -56,16 +56,19 @@ const CF_FROM: f64 = 1e-5;
 const REFACTOR_ABOVE: f64 = 1e-6;
 
 /// One solved DTH segment: its midpoint, multiplier and both vertices.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Segment<const D: usize> {
+#[derive(Clone, Debug, PartialEq)]
+pub struct Segment<D: Dim>
+where
+    DefaultAllocator: Alloc<D>,
+{
     /// Midpoint `zbar`.
-    pub zbar: SVector<f64, D>,
+    pub zbar: OVector<f64, D>,
     /// Multiplier `lambda = dt/dtau` on the segment.
     pub lambda: f64,
     /// `H(zbar)`.
     pub value: f64,
     /// `grad H(zbar)`.
-    pub gradient: SVector<f64, D>,
+    pub gradient: OVector<f64, D>,
     /// `Psi(zbar) = (J grad H)^T Hess H (J grad H)`.
     pub psi: f64,
     /// Newton iterations: for the joint solver its iterations; for the nested one the inner
@@ -75,31 +78,43 @@ pub struct Segment<const D: usize> {
     pub factorizations: u32,
 }
 
+/// `Copy` for fixed sizes, as before the dimension became a type.
+impl<const N: usize> Copy for Segment<nalgebra::Const<N>> {}
+
 /// The previous midpoint of a step, for the cancellation-free energy residual (see
 /// [`EnergyResidual`](super::EnergyResidual)): `H(z) - H(zbar_k)` is evaluated through exact
 /// divided differences between `zbar_k` and `z`.
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct Previous<const D: usize> {
+#[derive(Clone, Debug)]
+pub(crate) struct Previous<D: Dim>
+where
+    DefaultAllocator: Alloc<D>,
+{
     /// `zbar_k`.
-    pub(crate) zbar: SVector<f64, D>,
+    pub(crate) zbar: OVector<f64, D>,
     /// `grad H(zbar_k)`.
-    pub(crate) gradient: SVector<f64, D>,
+    pub(crate) gradient: OVector<f64, D>,
     /// `lambda_k`.
     pub(crate) lambda: f64,
 }
 
 /// What a segment is solved from: its left vertex `v`, the energy level `E`, and (for the
 /// cancellation-free residual) the previous midpoint.
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct Anchor<const D: usize> {
-    pub(crate) v: SVector<f64, D>,
+#[derive(Clone, Debug)]
+pub(crate) struct Anchor<D: Dim>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    pub(crate) v: OVector<f64, D>,
     pub(crate) energy: f64,
     pub(crate) previous: Option<Previous<D>>,
 }
 
 /// The parts of the cancellation-free energy residual at one iterate.
-struct CancellationFree<const D: usize> {
-    gbar: SVector<f64, D>,
+struct CancellationFree<D: Dim>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    gbar: OVector<f64, D>,
     /// `(h/2) gbar^T J w`: equals `H(z) - H(zbar_k) - gbar . f`.
     r_cf: f64,
     /// Size of the terms `r_cf` is a sum of: `(h/4)(lambda + lambda_k) sum |gbar_i (g - g_k)_i|`.
@@ -112,10 +127,13 @@ struct CancellationFree<const D: usize> {
 }
 
 /// Everything the Newton loops need at one iterate.
-struct Eval<const D: usize> {
+struct Eval<D: Dim>
+where
+    DefaultAllocator: Alloc<D>,
+{
     d: Point<D>,
-    jg: SVector<f64, D>,
-    f: SVector<f64, D>,
+    jg: OVector<f64, D>,
+    f: OVector<f64, D>,
     /// Energy residual for the Newton update: `H(z) - E` (plain) or `H(z) - H(zbar_k)` as
     /// `r_cf + gbar . f` (cancellation-free).
     r: f64,
@@ -134,18 +152,21 @@ struct Eval<const D: usize> {
     cf: Option<CancellationFree<D>>,
 }
 
-impl<const D: usize> Eval<D> {
+impl<D: Dim> Eval<D>
+where
+    DefaultAllocator: Alloc<D>,
+{
     /// Storage for [`evaluate`], overwritten by each evaluation.
-    fn empty() -> Self {
+    fn empty(d: D) -> Self {
         Eval {
             d: Point {
                 value: 0.0,
-                gradient: SVector::zeros(),
+                gradient: zeros(d),
                 psi: 0.0,
                 hessian_max: 0.0,
             },
-            jg: SVector::zeros(),
-            f: SVector::zeros(),
+            jg: zeros(d),
+            f: zeros(d),
             r: 0.0,
             f_residual: 0.0,
             scale_f: 0.0,
@@ -169,7 +190,7 @@ impl<const D: usize> Eval<D> {
         let energy = match (&self.cf, last) {
             (Some(c), Some((lin, solver))) => {
                 let g_lambda = lin.g_lambda;
-                let u = solver.solve(&(-self.f));
+                let u = solver.solve(&(-&self.f));
                 let scale = c.scale.max((g_lambda * lambda).abs()).max(c.inexact_scale);
                 (c.r_cf + (c.gbar.dot(&self.f) + self.d.gradient.dot(&u))).abs() / scale
             }
@@ -228,17 +249,17 @@ impl<const D: usize> Eval<D> {
     fn finish<L: Linear<D>>(
         &self,
         status: Status,
-        (z, lambda): (SVector<f64, D>, f64),
+        (z, lambda): (&OVector<f64, D>, f64),
         last: Last<'_, L, D>,
         (iterations, factorizations): (u32, u32),
         step: usize,
     ) -> Option<Result<Segment<D>, Error>> {
         match status {
             Status::Converged => Some(Ok(Segment {
-                zbar: z,
+                zbar: z.clone(),
                 lambda,
                 value: self.d.value,
-                gradient: self.d.gradient,
+                gradient: self.d.gradient.clone(),
                 psi: self.d.psi,
                 iterations,
                 factorizations,
@@ -259,22 +280,28 @@ fn pivot_error(p: Pivot, step: usize) -> Error {
     }
 }
 
-pub(crate) fn all_finite<const D: usize>(v: &SVector<f64, D>) -> bool {
+pub(crate) fn all_finite<D: Dim>(v: &OVector<f64, D>) -> bool
+where
+    DefaultAllocator: Alloc<D>,
+{
     v.iter().all(|x| x.is_finite())
 }
 
 /// Evaluate everything at the iterate `(z, lambda)` into `e`, the Hessian into `solver`.
 #[allow(clippy::too_many_arguments)]
-fn evaluate<H: Hamiltonian<D>, L: Linear<D>, const D: usize>(
+fn evaluate<H: Hamiltonian<D>, L: Linear<D>, D: Dim>(
     ham: &H,
     solver: &mut L,
     anchor: &Anchor<D>,
     h: f64,
-    z: &SVector<f64, D>,
+    z: &OVector<f64, D>,
     lambda: f64,
     step: usize,
     e: &mut Eval<D>,
-) -> Result<(), Error> {
+) -> Result<(), Error>
+where
+    DefaultAllocator: Alloc<D>,
+{
     e.d = solver.evaluate(ham, z);
     let d = &e.d;
     if !d.finite() {
@@ -292,7 +319,7 @@ fn evaluate<H: Hamiltonian<D>, L: Linear<D>, const D: usize>(
     let v = &anchor.v;
     let energy = anchor.energy;
     let jg = j_times(&d.gradient);
-    let move_ = jg * (0.5 * h * lambda);
+    let move_ = &jg * (0.5 * h * lambda);
     // Roundoff scales: the magnitudes of the terms each residual is a difference of.
     let scale_f = z
         .amax()
@@ -306,7 +333,7 @@ fn evaluate<H: Hamiltonian<D>, L: Linear<D>, const D: usize>(
         .max(z.component_mul(&d.gradient).abs().sum())
         .max(f64::MIN_POSITIVE);
     let plain_residual = r_plain.abs() / scale_r;
-    let f = z - v - move_;
+    let f = z - v - &move_;
     e.f_residual = f.amax() / scale_f;
     e.scale_f = scale_f;
     e.jg = jg;
@@ -318,7 +345,7 @@ fn evaluate<H: Hamiltonian<D>, L: Linear<D>, const D: usize>(
     // The roundoff scale of the energy equation that is being solved (see `Eval::stall`): the
     // plain residual's, or, for the cancellation-free form, zero when the Hamiltonian has
     // exact divided differences.
-    e.noise = if anchor.previous.is_some() && H::EXACT_DIVIDED_DIFFERENCES {
+    e.noise = if anchor.previous.is_some() && ham.flags().exact_divided_differences {
         0.0
     } else {
         scale_r
@@ -328,24 +355,27 @@ fn evaluate<H: Hamiltonian<D>, L: Linear<D>, const D: usize>(
 
 /// Replace the plain residuals of the evaluated iterate `e` at `(z, lambda)` by the
 /// cancellation-free ones (the anchor must carry the previous midpoint).
-fn add_cancellation_free<H: Hamiltonian<D>, const D: usize>(
+fn add_cancellation_free<H: Hamiltonian<D>, D: Dim>(
     ham: &H,
     p: &Previous<D>,
     h: f64,
-    z: &SVector<f64, D>,
+    z: &OVector<f64, D>,
     lambda: f64,
     step: usize,
     e: &mut Eval<D>,
-) -> Result<(), Error> {
+) -> Result<(), Error>
+where
+    DefaultAllocator: Alloc<D>,
+{
     let d = &e.d;
     // f = (z - zbar_k) - (h/2) J (lambda g + lambda_k g_k): the difference z - zbar_k
     // is exact (Sterbenz) for small steps, so f carries roundoff eps h, not eps |z|.
-    let dz = z - p.zbar;
-    let f = dz - j_times(&(d.gradient * lambda + p.gradient * p.lambda)) * (0.5 * h);
+    let dz = z - &p.zbar;
+    let f = dz - j_times(&(&d.gradient * lambda + &p.gradient * p.lambda)) * (0.5 * h);
     let gbar = ham.discrete_gradient(&p.zbar, z);
     let t = ham.discrete_gradient_defect(&p.zbar, z, &gbar);
-    let dg = d.gradient - p.gradient;
-    let w = dg * (0.5 * (lambda - p.lambda)) + t * (0.5 * (lambda + p.lambda));
+    let dg = &d.gradient - &p.gradient;
+    let w = &dg * (0.5 * (lambda - p.lambda)) + t * (0.5 * (lambda + p.lambda));
     let r_cf = 0.5 * h * gbar.dot(&j_times(&w));
     let scale = (0.25 * h * (lambda + p.lambda)).abs() * gbar.component_mul(&dg).abs().sum()
         + f64::MIN_POSITIVE;
@@ -356,7 +386,7 @@ fn add_cancellation_free<H: Hamiltonian<D>, const D: usize>(
         });
     }
     let r = r_cf + gbar.dot(&f);
-    let inexact_scale = if H::EXACT_DIVIDED_DIFFERENCES {
+    let inexact_scale = if ham.flags().exact_divided_differences {
         0.0
     } else {
         e.scale_r
@@ -375,39 +405,51 @@ fn add_cancellation_free<H: Hamiltonian<D>, const D: usize>(
 
 /// `z_lambda` and `g_lambda` from the factored `A = I - (h lambda / 2) J HessH` (held by the
 /// solver).
-struct Linearization<const D: usize> {
-    z_lambda: SVector<f64, D>,
+struct Linearization<D: Dim>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    z_lambda: OVector<f64, D>,
     g_lambda: f64,
 }
 
-impl<const D: usize> Linearization<D> {
-    fn empty() -> Self {
+impl<D: Dim> Linearization<D>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    fn empty(d: D) -> Self {
         Linearization {
-            z_lambda: SVector::zeros(),
+            z_lambda: zeros(d),
             g_lambda: 0.0,
         }
     }
 }
 
 /// The last linearization and the solver holding its factorization; `None` before the first.
-type Last<'a, L, const D: usize> = Option<(&'a Linearization<D>, &'a L)>;
+type Last<'a, L, D> = Option<(&'a Linearization<D>, &'a L)>;
 
 /// Factor `A = I - c J HessH` (`c = h lambda / 2`) at the Hessian last evaluated.
-fn factor<L: Linear<D>, const D: usize>(solver: &mut L, c: f64, step: usize) -> Result<(), Error> {
+fn factor<L: Linear<D>, D: Dim>(solver: &mut L, c: f64, step: usize) -> Result<(), Error>
+where
+    DefaultAllocator: Alloc<D>,
+{
     solver.factor(c).map_err(|p| pivot_error(p, step))
 }
 
 /// Linearize at the evaluated iterate `e` into `lin` (in place), factoring `A` in `solver`.
-fn linearize<L: Linear<D>, const D: usize>(
+fn linearize<L: Linear<D>, D: Dim>(
     e: &Eval<D>,
     solver: &mut L,
     h: f64,
     lambda: f64,
     step: usize,
     lin: &mut Linearization<D>,
-) -> Result<(), Error> {
+) -> Result<(), Error>
+where
+    DefaultAllocator: Alloc<D>,
+{
     factor(solver, 0.5 * h * lambda, step)?;
-    let z_lambda = solver.solve(&(e.jg * (0.5 * h)));
+    let z_lambda = solver.solve(&(&e.jg * (0.5 * h)));
     // Cancellation-free g_lambda = (h lambda/2) gradH^T J HessH z_lambda
     //                          = -(h lambda/2) (J gradH)^T HessH z_lambda.
     let g_lambda = -(0.5 * h * lambda) * e.jg.dot(&solver.hessian_times(&z_lambda));
@@ -426,12 +468,10 @@ fn linearize<L: Linear<D>, const D: usize>(
 }
 
 /// The DTH measure of an update: the larger of the relative changes of `z` and `lambda`.
-fn relative_update<const D: usize>(
-    dz: &SVector<f64, D>,
-    z: &SVector<f64, D>,
-    dl: f64,
-    lambda: f64,
-) -> f64 {
+fn relative_update<D: Dim>(dz: &OVector<f64, D>, z: &OVector<f64, D>, dl: f64, lambda: f64) -> f64
+where
+    DefaultAllocator: Alloc<D>,
+{
     (dz.amax() / z.amax().max(f64::MIN_POSITIVE))
         .max(dl.abs() / lambda.abs().max(f64::MIN_POSITIVE))
 }
@@ -442,17 +482,20 @@ fn relative_update<const D: usize>(
 /// takes that path. For the cancellation-free form the caller finishes with [`project`] (after
 /// rejecting roots with the wrong `lambda`, whose energy check would misreport them).
 #[allow(clippy::too_many_arguments)]
-pub(crate) fn solve_segment<H: Hamiltonian<D>, const D: usize>(
+pub(crate) fn solve_segment<H: Hamiltonian<D>, D: Dim>(
     ham: &H,
     anchor: &Anchor<D>,
-    z0: SVector<f64, D>,
+    z0: OVector<f64, D>,
     lambda0: f64,
     h: f64,
     options: &DthOptions,
     step: usize,
     storage: &mut Structured,
-) -> Result<Segment<D>, Error> {
-    match linear::matrix::<H, D>(storage) {
+) -> Result<Segment<D>, Error>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    match linear::matrix(ham, storage) {
         Some(matrix) => solve_with(
             ham,
             &mut Sparse { matrix },
@@ -470,31 +513,37 @@ pub(crate) fn solve_segment<H: Hamiltonian<D>, const D: usize>(
 /// [`solve_segment`] on the dense path, in a frame of its own (its `D x D` storage).
 #[inline(never)]
 #[allow(clippy::too_many_arguments)]
-fn solve_dense<H: Hamiltonian<D>, const D: usize>(
+fn solve_dense<H: Hamiltonian<D>, D: Dim>(
     ham: &H,
     anchor: &Anchor<D>,
-    z0: SVector<f64, D>,
+    z0: OVector<f64, D>,
     lambda0: f64,
     h: f64,
     options: &DthOptions,
     step: usize,
-) -> Result<Segment<D>, Error> {
-    let mut solver = Dense::new();
+) -> Result<Segment<D>, Error>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    let mut solver = Dense::new(z0.shape_generic().0);
     solve_with(ham, &mut solver, anchor, z0, lambda0, h, options, step)
 }
 
 /// [`solve_segment`] with the given linear solver.
 #[allow(clippy::too_many_arguments)]
-fn solve_with<H: Hamiltonian<D>, L: Linear<D>, const D: usize>(
+fn solve_with<H: Hamiltonian<D>, L: Linear<D>, D: Dim>(
     ham: &H,
     solver: &mut L,
     anchor: &Anchor<D>,
-    z0: SVector<f64, D>,
+    z0: OVector<f64, D>,
     lambda0: f64,
     h: f64,
     options: &DthOptions,
     step: usize,
-) -> Result<Segment<D>, Error> {
+) -> Result<Segment<D>, Error>
+where
+    DefaultAllocator: Alloc<D>,
+{
     match options.solver() {
         Solver::Joint => joint(ham, solver, anchor, z0, lambda0, h, options, step),
         Solver::Nested => nested(ham, solver, anchor, z0, lambda0, h, options, step),
@@ -504,7 +553,7 @@ fn solve_with<H: Hamiltonian<D>, L: Linear<D>, const D: usize>(
 /// Check a cancellation-free solution against the energy level `E` and project it onto it
 /// (see [`EnergyResidual`](super::EnergyResidual)). `from_scale` is the roundoff scale of the
 /// previous midpoint (see [`roundoff_scale`]); `matrix` as for [`project_onto_energy`].
-pub(crate) fn project<H: Hamiltonian<D>, const D: usize>(
+pub(crate) fn project<H: Hamiltonian<D>, D: Dim>(
     ham: &H,
     energy: f64,
     mut s: Segment<D>,
@@ -512,7 +561,10 @@ pub(crate) fn project<H: Hamiltonian<D>, const D: usize>(
     options: &DthOptions,
     step: usize,
     matrix: Option<&mut NewtonMatrix>,
-) -> Result<Segment<D>, Error> {
+) -> Result<Segment<D>, Error>
+where
+    DefaultAllocator: Alloc<D>,
+{
     let d = Point {
         value: s.value,
         gradient: s.gradient,
@@ -546,17 +598,20 @@ pub(crate) fn project<H: Hamiltonian<D>, const D: usize>(
 /// point is evaluated through `matrix` when `H` takes the structured path (its Hessian
 /// nonzeros land there; nothing reads them before the next evaluation).
 #[allow(clippy::too_many_arguments)]
-pub(crate) fn project_onto_energy<H: Hamiltonian<D>, const D: usize>(
+pub(crate) fn project_onto_energy<H: Hamiltonian<D>, D: Dim>(
     ham: &H,
     energy: f64,
-    z: SVector<f64, D>,
+    z: OVector<f64, D>,
     d: Point<D>,
     from_scale: f64,
     explained: f64,
     options: &DthOptions,
     step: usize,
     matrix: Option<&mut NewtonMatrix>,
-) -> Result<(SVector<f64, D>, Point<D>), Error> {
+) -> Result<(OVector<f64, D>, Point<D>), Error>
+where
+    DefaultAllocator: Alloc<D>,
+{
     let deviation = d.value - energy;
     let scale = energy
         .abs()
@@ -574,7 +629,7 @@ pub(crate) fn project_onto_energy<H: Hamiltonian<D>, const D: usize>(
     }
     let gg = d.gradient.norm_squared();
     if deviation != 0.0 && gg > 0.0 {
-        let zp = z - d.gradient * (deviation / gg);
+        let zp = &z - &d.gradient * (deviation / gg);
         let dp = linear::point(ham, &zp, matrix);
         // Keep the projection only if it does not make things worse (it cannot, beyond
         // evaluation roundoff).
@@ -588,10 +643,10 @@ pub(crate) fn project_onto_energy<H: Hamiltonian<D>, const D: usize>(
 /// The roundoff scale of evaluating `H` at `z`: `sum_i |z_i dH/dz_i|`, the size of the terms
 /// whose rounding (of `z_i` by an ulp, propagated through `dH/dz_i`) the computed `H(z)`
 /// carries.
-pub(crate) fn roundoff_scale<const D: usize>(
-    z: &SVector<f64, D>,
-    gradient: &SVector<f64, D>,
-) -> f64 {
+pub(crate) fn roundoff_scale<D: Dim>(z: &OVector<f64, D>, gradient: &OVector<f64, D>) -> f64
+where
+    DefaultAllocator: Alloc<D>,
+{
     z.component_mul(gradient).abs().sum()
 }
 
@@ -606,20 +661,23 @@ fn count(iterations: usize) -> u32 {
 }
 
 #[allow(clippy::too_many_arguments)]
-fn joint<H: Hamiltonian<D>, L: Linear<D>, const D: usize>(
+fn joint<H: Hamiltonian<D>, L: Linear<D>, D: Dim>(
     ham: &H,
     solver: &mut L,
     anchor: &Anchor<D>,
-    mut z: SVector<f64, D>,
+    mut z: OVector<f64, D>,
     mut lambda: f64,
     h: f64,
     options: &DthOptions,
     step: usize,
-) -> Result<Segment<D>, Error> {
+) -> Result<Segment<D>, Error>
+where
+    DefaultAllocator: Alloc<D>,
+{
     let mut convergence = convergence(options);
     // Workspace, overwritten in place each iteration.
-    let mut e = Eval::empty();
-    let mut lin = Linearization::empty();
+    let mut e = Eval::empty(z.shape_generic().0);
+    let mut lin = Linearization::empty(z.shape_generic().0);
     // Whether the last update came from the cancellation-free residual.
     let mut cf_update = false;
     let mut factorizations = 0u32;
@@ -654,7 +712,7 @@ fn joint<H: Hamiltonian<D>, L: Linear<D>, const D: usize>(
         let iterations = count(convergence.iterations());
         if let Some(end) = e.finish(
             status,
-            (z, lambda),
+            (&z, lambda),
             last,
             (iterations, factorizations),
             step,
@@ -668,10 +726,10 @@ fn joint<H: Hamiltonian<D>, L: Linear<D>, const D: usize>(
         cf_update = e.cf.is_some();
         // Bordered system [[A, -(h/2) J g], [g^T, 0]] (dz, dl) = -(f, r):
         // dz = u + z_lambda dl with A u = -f, and g^T dz = -r.
-        let u = solver.solve(&(-e.f));
+        let u = solver.solve(&(-&e.f));
         let dl = -(e.r + e.d.gradient.dot(&u)) / lin.g_lambda;
-        let dz = u + lin.z_lambda * dl;
-        z += dz;
+        let dz = u + &lin.z_lambda * dl;
+        z += &dz;
         lambda += dl;
         if !all_finite(&z) || !lambda.is_finite() {
             return Err(Error::NonFinite {
@@ -684,8 +742,11 @@ fn joint<H: Hamiltonian<D>, L: Linear<D>, const D: usize>(
 }
 
 /// The inner Newton's iterate and workspace in [`nested`].
-struct Inner<'a, L, const D: usize> {
-    z: SVector<f64, D>,
+struct Inner<'a, L, D: Dim>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    z: OVector<f64, D>,
     e: &'a mut Eval<D>,
     solver: &'a mut L,
     factorizations: u32,
@@ -696,23 +757,26 @@ struct Inner<'a, L, const D: usize> {
 /// outer residual gate eliminates `f` with the latest factorization of `A` (the inner loop's,
 /// at the current `lambda`), and `g_lambda` of the last outer linearization.
 #[allow(clippy::too_many_arguments)]
-fn nested<H: Hamiltonian<D>, L: Linear<D>, const D: usize>(
+fn nested<H: Hamiltonian<D>, L: Linear<D>, D: Dim>(
     ham: &H,
     solver: &mut L,
     anchor: &Anchor<D>,
-    mut z: SVector<f64, D>,
+    mut z: OVector<f64, D>,
     mut lambda: f64,
     h: f64,
     options: &DthOptions,
     step: usize,
-) -> Result<Segment<D>, Error> {
+) -> Result<Segment<D>, Error>
+where
+    DefaultAllocator: Alloc<D>,
+{
     let mut outer = convergence(options);
     let mut factorizations = 0u32;
     // Workspace, overwritten in place.
-    let mut e = Eval::empty();
-    let mut lin = Linearization::empty();
+    let mut e = Eval::empty(z.shape_generic().0);
+    let mut lin = Linearization::empty(z.shape_generic().0);
     // Everything at an iterate, with the cancellation-free residual whenever the anchor has it.
-    let evaluate_at = |solver: &mut L, z: &SVector<f64, D>, lambda: f64, e: &mut Eval<D>| {
+    let evaluate_at = |solver: &mut L, z: &OVector<f64, D>, lambda: f64, e: &mut Eval<D>| {
         evaluate(ham, solver, anchor, h, z, lambda, step, e)?;
         match &anchor.previous {
             Some(p) => add_cancellation_free(ham, p, h, z, lambda, step, e),
@@ -736,8 +800,8 @@ fn nested<H: Hamiltonian<D>, L: Linear<D>, const D: usize>(
             |s, _| {
                 factor(s.solver, 0.5 * h * lambda, step)?;
                 s.factorizations += 1;
-                let dz = s.solver.solve(&(-s.e.f));
-                s.z += dz;
+                let dz = s.solver.solve(&(-&s.e.f));
+                s.z += &dz;
                 if !all_finite(&s.z) {
                     return Err(Error::NonFinite {
                         step,
@@ -761,7 +825,7 @@ fn nested<H: Hamiltonian<D>, L: Linear<D>, const D: usize>(
         });
         if let Some(end) = e.finish(
             status,
-            (z, lambda),
+            (&z, lambda),
             last,
             (factorizations, factorizations),
             step,
@@ -773,16 +837,16 @@ fn nested<H: Hamiltonian<D>, L: Linear<D>, const D: usize>(
         let dl = if e.cf.is_some() {
             // Eliminate the inner solve's remaining f to first order, as the joint update does:
             // its roundoff (eps h) must not reach lambda through gbar . f.
-            let u = solver.solve(&(-e.f));
+            let u = solver.solve(&(-&e.f));
             let dl = -(e.r + e.d.gradient.dot(&u)) / lin.g_lambda;
             lambda += dl;
-            z += u + lin.z_lambda * dl;
+            z += u + &lin.z_lambda * dl;
             dl
         } else {
             let dl = -e.r / lin.g_lambda;
             lambda += dl;
             // Warm start of the next inner solve: first-order change of z(h, lambda).
-            z += lin.z_lambda * dl;
+            z += &lin.z_lambda * dl;
             dl
         };
         if !lambda.is_finite() || !all_finite(&z) {
@@ -798,12 +862,15 @@ fn nested<H: Hamiltonian<D>, L: Linear<D>, const D: usize>(
 /// Predictor for segment `k + 1` from its left vertex `v`: two fixed-point sweeps of
 /// `z = v + (h/2) lambda J gradH(z)` from `z = v` (error `O(h^3)`). It never starts at
 /// `zbar_k`, whose neighbourhood holds the spurious root `lambda_{k+1} = -lambda_k`.
-pub(crate) fn predict<H: Hamiltonian<D>, const D: usize>(
+pub(crate) fn predict<H: Hamiltonian<D>, D: Dim>(
     ham: &H,
-    v: &SVector<f64, D>,
+    v: &OVector<f64, D>,
     lambda: f64,
     h: f64,
-) -> SVector<f64, D> {
+) -> OVector<f64, D>
+where
+    DefaultAllocator: Alloc<D>,
+{
     let half = 0.5 * h * lambda;
     let z1 = v + j_times(&ham.gradient(v)) * half;
     v + j_times(&ham.gradient(&z1)) * half
@@ -824,13 +891,16 @@ pub(crate) fn predict<H: Hamiltonian<D>, const D: usize>(
 ///
 /// # References
 /// Shibberu (1998) eqs. 28-30 and Theorem 3; thesis eqs. 2.3.5-2.3.7.
-pub fn segment_from_vertex<H: Hamiltonian<D>, const D: usize>(
+pub fn segment_from_vertex<H: Hamiltonian<D>, D: Dim>(
     hamiltonian: &H,
-    vertex: &SVector<f64, D>,
+    vertex: &OVector<f64, D>,
     energy: f64,
     lambda_guess: f64,
     options: &DthOptions,
-) -> Result<(Segment<D>, SVector<f64, D>), Error> {
+) -> Result<(Segment<D>, OVector<f64, D>), Error>
+where
+    DefaultAllocator: Alloc<D>,
+{
     if !(lambda_guess.is_finite() && lambda_guess > 0.0) {
         return Err(Error::InvalidOption {
             name: "lambda_guess",
@@ -843,7 +913,7 @@ pub fn segment_from_vertex<H: Hamiltonian<D>, const D: usize>(
     }
     let z0 = predict(hamiltonian, vertex, lambda_guess, options.dtau());
     let anchor = Anchor {
-        v: *vertex,
+        v: vertex.clone(),
         energy,
         previous: None,
     };
@@ -863,5 +933,6 @@ pub fn segment_from_vertex<H: Hamiltonian<D>, const D: usize>(
             lambda: s.lambda,
         });
     }
-    Ok((s, s.zbar * 2.0 - vertex))
+    let right = &s.zbar * 2.0 - vertex;
+    Ok((s, right))
 }

@@ -16,17 +16,20 @@
 //! discrete gradients*, Phil. Trans. R. Soc. A 357 (1999). Used where Shibberu's DTH has no
 //! positive root (thesis Ch. III, Thm 3.11).
 
-use nalgebra::SVector;
-
 use super::linear::{self, Point};
 use super::newton::{all_finite, project_onto_energy, roundoff_scale};
 use super::options::DthOptions;
+use crate::hamiltonian::Alloc;
 use crate::methods::{DiscreteGradient, NewtonOptions, OneStepMethod, Structured};
 use crate::{j_times, Error, Hamiltonian};
+use nalgebra::{DefaultAllocator, Dim, OVector};
 
 /// A solved fallback step.
-pub(crate) struct FallbackStep<const D: usize> {
-    pub(crate) z: SVector<f64, D>,
+pub(crate) struct FallbackStep<D: Dim>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    pub(crate) z: OVector<f64, D>,
     /// `H`'s value, gradient and `Psi` at `z`.
     pub(crate) point: Point<D>,
     pub(crate) iterations: u32,
@@ -36,15 +39,18 @@ pub(crate) struct FallbackStep<const D: usize> {
 /// projected onto `H = energy`. The peer's Newton failures come back as its `Method*` errors.
 /// `storage` is the stepper's structured Newton storage (see `dth::linear`): the new point is
 /// evaluated without a `D x D` Hessian where `H` takes that path.
-pub(crate) fn fallback_step<H: Hamiltonian<D>, const D: usize>(
+pub(crate) fn fallback_step<H: Hamiltonian<D>, D: Dim>(
     ham: &H,
-    z0: &SVector<f64, D>,
+    z0: &OVector<f64, D>,
     dt: f64,
     energy: f64,
     options: &DthOptions,
     step: usize,
     storage: &mut Structured,
-) -> Result<FallbackStep<D>, Error> {
+) -> Result<FallbackStep<D>, Error>
+where
+    DefaultAllocator: Alloc<D>,
+{
     // Roundoff floor of the solve near an equilibrium. Without exact divided differences the
     // discrete gradient's correction `d (H(z1) - H(z0) - g . d) / |d|^2` (`d = z1 - z0`) divides
     // the rounding of a difference of numbers of size `scale_h` (the terms of `H`) by `|d|`, so
@@ -58,7 +64,7 @@ pub(crate) fn fallback_step<H: Hamiltonian<D>, const D: usize>(
     // exact divided differences (`H::EXACT_DIVIDED_DIFFERENCES`) there is no such cancellation
     // and no floor.
     let g0 = ham.gradient(z0);
-    let scale_h = if H::EXACT_DIVIDED_DIFFERENCES {
+    let scale_h = if ham.flags().exact_divided_differences {
         0.0
     } else {
         energy.abs().max(z0.component_mul(&g0).abs().sum())
@@ -85,7 +91,7 @@ pub(crate) fn fallback_step<H: Hamiltonian<D>, const D: usize>(
             what: "H or its derivatives after a fallback step",
         });
     }
-    let d = linear::point(ham, &z, linear::matrix::<H, D>(storage));
+    let d = linear::point(ham, &z, linear::matrix(ham, storage));
     if !d.finite() || !d.hessian_finite() {
         return Err(Error::NonFinite {
             step,
@@ -96,11 +102,11 @@ pub(crate) fn fallback_step<H: Hamiltonian<D>, const D: usize>(
     // residual explains, allowed in the check before projecting.
     let gbar = ham.discrete_gradient(z0, &z);
     let move_ = j_times(&gbar) * dt;
-    let f = (z - z0) - move_;
+    let f = (&z - z0) - &move_;
     // The peer's Newton accepts on its update size; insist on the residual too, relative to the
     // terms it is a difference of (a near-collision step can stall far from the solution),
     // including the rounding `dt scale_h / |d|` of the discrete gradient's correction (above).
-    let d_size = (z - z0).norm();
+    let d_size = (&z - z0).norm();
     let correction = if d_size > 0.0 && scale_h > 0.0 {
         dt * scale_h / d_size
     } else {
@@ -130,7 +136,7 @@ pub(crate) fn fallback_step<H: Hamiltonian<D>, const D: usize>(
         gbar.dot(&f),
         options,
         step,
-        linear::matrix::<H, D>(storage),
+        linear::matrix(ham, storage),
     )?;
     Ok(FallbackStep {
         z,

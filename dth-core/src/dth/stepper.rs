@@ -1,6 +1,7 @@
 //! The DTH stepper [`Dth`] and the one-call [`integrate`].
 
-use nalgebra::SVector;
+use crate::hamiltonian::Alloc;
+use nalgebra::{DefaultAllocator, Dim, OVector};
 
 use super::linear::{self, Point};
 use super::newton::all_finite;
@@ -12,7 +13,7 @@ use super::trajectory::Trajectory;
 use crate::error::RunError;
 use crate::methods::Structured;
 use crate::observer::{DthRecord, Observer, StepKind, StepRecord};
-use crate::{j_times, Error, Hamiltonian};
+use crate::{j_times, Error, Flags, Hamiltonian};
 
 /// The autonomous DTH stepper (paper Corollary 1, eqs. 28-30), monomorphized over the
 /// Hamiltonian: no `dyn`, no heap allocation per step.
@@ -59,8 +60,13 @@ use crate::{j_times, Error, Hamiltonian};
 /// Shibberu (1998), Corollary 1 (eqs. 28-30), Theorem 1 (eqs. 9-11); thesis eqs. 2.2.3-2.2.5,
 /// 2.3.1-2.3.7, Section 4.1.
 #[derive(Clone, Debug)]
-pub struct Dth<H, const D: usize> {
+pub struct Dth<H, D: Dim>
+where
+    DefaultAllocator: Alloc<D>,
+{
     hamiltonian: H,
+    /// `H`'s flags, read once in [`Dth::new`].
+    flags: Flags,
     options: DthOptions,
     /// The level every midpoint is solved against.
     energy: f64,
@@ -72,13 +78,16 @@ pub struct Dth<H, const D: usize> {
 }
 
 /// The state of a [`Dth`] stepper that steps change.
-#[derive(Clone, Copy, Debug)]
-struct State<const D: usize> {
+#[derive(Clone, Debug)]
+struct State<D: Dim>
+where
+    DefaultAllocator: Alloc<D>,
+{
     k: usize,
-    zbar: SVector<f64, D>,
+    zbar: OVector<f64, D>,
     lambda: f64,
     tbar: f64,
-    gradient: SVector<f64, D>,
+    gradient: OVector<f64, D>,
     psi: f64,
     iterations: u32,
     factorizations: u32,
@@ -132,65 +141,78 @@ struct Fallback {
     psi_last: f64,
 }
 
-impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
+impl<H: Hamiltonian<D>, D: Dim> Dth<H, D>
+where
+    DefaultAllocator: Alloc<D>,
+{
     /// A stepper at the initial midpoint `zbar_0` with `lambda_0 = options.lambda0()` and
     /// `tbar_0 = 0` (extended phase space: `tbar_0 = zbar_0[D/2 - 1]`).
     ///
-    /// Hamiltonians with `PSI_IDENTICALLY_ZERO` are rejected at compile time: DTH is
-    /// undetermined for them.
+    /// Hamiltonians with [`Flags::psi_identically_zero`] are rejected: DTH is undetermined
+    /// for them.
     ///
-    /// ```compile_fail
-    /// use dth_core::{dth::{Dth, DthOptions}, Hamiltonian, nalgebra::{Matrix2, Vector2}};
+    /// ```
+    /// use dth_core::{dth::{Dth, DthOptions}, Error, Flags, Hamiltonian};
+    /// use dth_core::nalgebra::{Const, Matrix2, Vector2};
     /// struct Linear;
-    /// impl Hamiltonian<2> for Linear {
-    ///     const PSI_IDENTICALLY_ZERO: bool = true;
+    /// impl Hamiltonian<Const<2>> for Linear {
+    ///     fn dim(&self) -> Const<2> { Const }
+    ///     fn flags(&self) -> Flags { Flags::default().with_psi_identically_zero(true) }
     ///     fn value(&self, z: &Vector2<f64>) -> f64 { z[0] + z[1] }
-    ///     fn gradient(&self, _: &Vector2<f64>) -> Vector2<f64> { Vector2::new(1.0, 1.0) }
-    ///     fn hessian(&self, _: &Vector2<f64>) -> Matrix2<f64> { Matrix2::zeros() }
+    ///     fn gradient_into(&self, _: &Vector2<f64>, out: &mut Vector2<f64>) {
+    ///         *out = Vector2::new(1.0, 1.0);
+    ///     }
+    ///     fn hessian_into(&self, _: &Vector2<f64>, out: &mut Matrix2<f64>) { out.fill(0.0) }
     /// }
-    /// let _ = Dth::new(Linear, Vector2::new(0.0, 1.0), DthOptions::default());
+    /// let err = Dth::new(Linear, Vector2::new(0.0, 1.0), DthOptions::default()).err().unwrap();
+    /// assert!(matches!(err, Error::PsiIdenticallyZero));
     /// ```
     ///
     /// # Errors
-    /// [`Error::NonFiniteInitialState`] for a NaN or infinite component of `zbar_0`;
+    /// [`Error::PsiIdenticallyZero`] as above; [`Error::OddDimension`] for a phase space of
+    /// odd dimension; [`Error::InvalidOption`] (`zbar0`) when `zbar_0`'s length is not
+    /// `H`'s dimension; [`Error::NonFiniteInitialState`] for a NaN or infinite component of
+    /// `zbar_0`;
     /// [`Error::NonFinite`] (step 0) when `H`, its gradient or Hessian is not finite there;
     /// [`Error::ExtendedEnergyNotZero`] for a time-dependent `H` with `calH(zbar_0) != 0`.
-    pub fn new(hamiltonian: H, zbar0: SVector<f64, D>, options: DthOptions) -> Result<Self, Error> {
-        const {
-            assert!(
-                !H::PSI_IDENTICALLY_ZERO,
-                "DTH needs Psi = (J gradH)^T HessH (J gradH) != 0: with Psi identically zero \
-                 the energy condition does not determine lambda (thesis Section 3.4, paper \
-                 Theorem 2); integrate this Hamiltonian with a peer method instead"
-            )
-        };
+    pub fn new(hamiltonian: H, zbar0: OVector<f64, D>, options: DthOptions) -> Result<Self, Error> {
+        let flags = hamiltonian.flags();
+        if flags.psi_identically_zero {
+            return Err(Error::PsiIdenticallyZero);
+        }
+        check_dimension(&hamiltonian, &zbar0)?;
         if let Some((index, &value)) = zbar0.iter().enumerate().find(|(_, x)| !x.is_finite()) {
             return Err(Error::NonFiniteInitialState { index, value });
         }
         let mut newton = Structured::default();
-        let d = linear::point(&hamiltonian, &zbar0, linear::matrix::<H, D>(&mut newton));
+        let d = linear::point(
+            &hamiltonian,
+            &zbar0,
+            linear::matrix(&hamiltonian, &mut newton),
+        );
         if !d.finite() || !d.hessian_finite() {
             return Err(Error::NonFinite {
                 step: 0,
                 what: "H, grad H or Hess H at zbar_0",
             });
         }
-        let tbar = if H::TIME_DEPENDENT {
+        let tbar = if flags.time_dependent {
             // calH(zbar_0) must vanish (Theorem 1, eq. 11) to roundoff of its terms.
             let scale = zbar0.component_mul(&d.gradient).abs().sum().max(1.0);
             if d.value.abs() > options.residual_tolerance() * scale {
                 return Err(Error::ExtendedEnergyNotZero { value: d.value });
             }
-            zbar0[D / 2 - 1]
+            zbar0[zbar0.len() / 2 - 1]
         } else {
             0.0
         };
         // Every midpoint is solved against this level: H(zbar_0) for autonomous H (eq. 30,
         // not the previous midpoint, so the energy cannot random-walk); exactly 0 for calH
         // (eq. 11).
-        let energy = if H::TIME_DEPENDENT { 0.0 } else { d.value };
+        let energy = if flags.time_dependent { 0.0 } else { d.value };
         Ok(Dth {
             hamiltonian,
+            flags,
             options,
             energy,
             s: State {
@@ -237,7 +259,7 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
         match self.options.energy_residual() {
             EnergyResidual::Plain => false,
             EnergyResidual::CancellationFree => true,
-            _ => H::EXACT_DIVIDED_DIFFERENCES,
+            _ => self.flags.exact_divided_differences,
         }
     }
 
@@ -254,7 +276,7 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
         self.s.k
     }
     /// Current midpoint `zbar_k`.
-    pub fn zbar(&self) -> &SVector<f64, D> {
+    pub fn zbar(&self) -> &OVector<f64, D> {
         &self.s.zbar
     }
     /// Current multiplier `lambda_k`.
@@ -271,26 +293,26 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
         self.energy
     }
     /// Slope `zbar'_k = lambda_k J gradH(zbar_k)` of the current segment.
-    pub fn slope(&self) -> SVector<f64, D> {
+    pub fn slope(&self) -> OVector<f64, D> {
         j_times(&self.s.gradient) * self.s.lambda
     }
     /// Left vertex `z^(k) = zbar_k - (h/2) zbar'_k` of the current segment (the node itself
     /// after a robust-mode fallback step). `h` is `dtau` at order 2; above, the segment of a
     /// composed step's end midpoint has the half-length of its last (and first) sub-step,
     /// `h = gamma_1 dtau` ([`Composition`](super::Composition)).
-    pub fn left_vertex(&self) -> SVector<f64, D> {
+    pub fn left_vertex(&self) -> OVector<f64, D> {
         self.vertex(self.s.kind, -self.s.h_edge)
     }
     /// Right vertex `z^(k+1) = zbar_k + (h/2) zbar'_k` of the current segment (the node itself
     /// after a robust-mode fallback step); `h` as for [`Dth::left_vertex`].
-    pub fn right_vertex(&self) -> SVector<f64, D> {
+    pub fn right_vertex(&self) -> OVector<f64, D> {
         self.vertex(self.s.kind, self.s.h_edge)
     }
     /// `zbar + (h/2) zbar'`, or the node itself after a fallback step.
-    fn vertex(&self, kind: StepKind, h: f64) -> SVector<f64, D> {
+    fn vertex(&self, kind: StepKind, h: f64) -> OVector<f64, D> {
         match kind {
-            StepKind::Fallback => self.s.zbar,
-            _ => self.s.zbar + self.slope() * (0.5 * h),
+            StepKind::Fallback => self.s.zbar.clone(),
+            _ => &self.s.zbar + self.slope() * (0.5 * h),
         }
     }
     /// What produced the current midpoint.
@@ -308,7 +330,7 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
         StepRecord {
             k: self.s.k,
             t: self.s.tbar,
-            z: self.s.zbar,
+            z: self.s.zbar.clone(),
             kind,
             iterations: self.s.iterations,
             factorizations: self.s.factorizations,
@@ -426,7 +448,7 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
                 reason: "must be finite and after the current midpoint time",
             });
         }
-        let saved = self.s;
+        let saved = self.s.clone();
         let dtau = self.options.dtau();
         let full = self.composed_step(self.options.composition().coefficients(), dtau)?;
         let advance = full.t - t0;
@@ -438,18 +460,18 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
         let tolerance = 4.0 * f64::EPSILON * t_end.abs().max(t0.abs());
         let (mut s_a, mut f_a) = (0.0, t0 - t_end);
         let (mut s_b, mut f_b) = (1.0, full.t - t_end);
-        let mut best = (f_b.abs(), self.s, full);
+        let mut best = (f_b.abs(), self.s.clone(), full);
         for _ in 0..MAX_END_ITERATIONS {
             if best.0 <= tolerance || f_b == f_a {
                 break;
             }
             let scale = (s_b - f_b * (s_b - s_a) / (f_b - f_a)).clamp(1e-3, 4.0);
-            self.s = saved;
+            self.s = saved.clone();
             let r = self.composed_step(self.options.composition().coefficients(), scale * dtau)?;
             let f = r.t - t_end;
             let improved = f.abs() <= 0.5 * best.0;
             if f.abs() < best.0 {
-                best = (f.abs(), self.s, r);
+                best = (f.abs(), self.s.clone(), r);
             }
             if !improved {
                 // At the noise of tbar(s): converged as far as it can.
@@ -473,7 +495,7 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
     /// sub-step's, with the iterations summed and [`StepKind::Fallback`] if any sub-step was a
     /// fallback step. On error the state is restored to the start of the step.
     fn composed_step(&mut self, gammas: &[f64], dtau: f64) -> Result<StepRecord<D>, Error> {
-        let saved = self.s;
+        let saved = self.s.clone();
         let step = saved.k + 1;
         let (mut iterations, mut factorizations, mut fallback) = (0u32, 0u32, false);
         let mut last = None;
@@ -486,7 +508,7 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
                     last = Some(r);
                 }
                 Err(e) => {
-                    self.s = saved;
+                    self.s = saved.clone();
                     return Err(e);
                 }
             }
@@ -605,8 +627,8 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
         self.s.psi = psi;
         // Extended phase space: time is the t coordinate (Gonzalez's discrete gradient moves it
         // by dt (1 + O(dt^2)), not exactly dt).
-        self.s.tbar = if H::TIME_DEPENDENT {
-            self.s.zbar[D / 2 - 1]
+        self.s.tbar = if self.flags.time_dependent {
+            self.s.zbar[self.s.zbar.len() / 2 - 1]
         } else {
             self.s.tbar + fb.dt * gamma
         };
@@ -654,7 +676,7 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
             _ => return error,
         };
         let dt = self.s.lambda * h;
-        let mut z = self.s.zbar;
+        let mut z = self.s.zbar.clone();
         for _ in 0..DIAGNOSE_STEPS {
             let Ok(s) = fallback_step(
                 &self.hamiltonian,
@@ -687,7 +709,7 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
     /// surface to within [`PREDICTOR_TRUST`] of the size of the terms of `H` (a predictor for a
     /// step far too large for the orbit lands elsewhere in phase space, where `Psi` says
     /// nothing about this orbit).
-    fn trusted_psi(&self, z: &SVector<f64, D>, d: &Point<D>) -> Option<f64> {
+    fn trusted_psi(&self, z: &OVector<f64, D>, d: &Point<D>) -> Option<f64> {
         let scale = self
             .energy
             .abs()
@@ -697,14 +719,14 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
     }
 
     /// `H` at a predicted midpoint, if it and its value and gradient are finite.
-    fn predicted(&mut self, z: &SVector<f64, D>) -> Option<Point<D>> {
+    fn predicted(&mut self, z: &OVector<f64, D>) -> Option<Point<D>> {
         if !all_finite(z) {
             return None;
         }
         let d = linear::point(
             &self.hamiltonian,
             z,
-            linear::matrix::<H, D>(&mut self.newton),
+            linear::matrix(&self.hamiltonian, &mut self.newton),
         );
         d.finite().then_some(d)
     }
@@ -757,7 +779,7 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
             Some(d)
                 if psi1.is_some() && (c - c_guess).abs() <= c_guess * c_guess * d.hessian_max =>
             {
-                v + j_times(&d.gradient) * c_guess
+                &v + j_times(&d.gradient) * c_guess
             }
             _ => predict(&self.hamiltonian, &v, lambda_guess, h),
         };
@@ -768,9 +790,9 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
             let d0 = self.predicted(&z0);
             verdict(d0.and_then(|d| self.trusted_psi(&z0, &d)))?;
         }
-        let previous = self.cancellation_free().then_some(Previous {
-            zbar: self.s.zbar,
-            gradient: self.s.gradient,
+        let previous = self.cancellation_free().then(|| Previous {
+            zbar: self.s.zbar.clone(),
+            gradient: self.s.gradient.clone(),
             lambda: self.s.lambda,
         });
         let anchor = Anchor {
@@ -821,7 +843,7 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
                 from_scale,
                 &self.options,
                 step,
-                linear::matrix::<H, D>(&mut self.newton),
+                linear::matrix(&self.hamiltonian, &mut self.newton),
             )?
         } else {
             s
@@ -919,12 +941,15 @@ impl<H: Hamiltonian<D>, const D: usize> Dth<H, D> {
 /// [`RunError`] with the construction error and an empty trajectory, or the first failing
 /// step's error and the trajectory up to the last accepted step.
 #[allow(clippy::result_large_err)] // see `Dth::trajectory`
-pub fn integrate<H: Hamiltonian<D>, const D: usize>(
+pub fn integrate<H: Hamiltonian<D>, D: Dim>(
     hamiltonian: H,
-    zbar0: SVector<f64, D>,
+    zbar0: OVector<f64, D>,
     options: DthOptions,
     steps: usize,
-) -> Result<Trajectory<D>, RunError<Trajectory<D>>> {
+) -> Result<Trajectory<D>, RunError<Trajectory<D>>>
+where
+    DefaultAllocator: Alloc<D>,
+{
     match Dth::new(hamiltonian, zbar0, options) {
         Ok(mut dth) => dth.trajectory(steps),
         Err(error) => Err(RunError {
@@ -932,4 +957,27 @@ pub fn integrate<H: Hamiltonian<D>, const D: usize>(
             partial: Trajectory::new(),
         }),
     }
+}
+
+/// The checks of a phase space every stepper makes once: an even dimension, and a state of
+/// the Hamiltonian's dimension.
+pub(crate) fn check_dimension<H: Hamiltonian<D>, D: Dim>(
+    hamiltonian: &H,
+    z: &OVector<f64, D>,
+) -> Result<(), Error>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    let dim = hamiltonian.dim().value();
+    if dim % 2 != 0 {
+        return Err(Error::OddDimension { dim });
+    }
+    if z.len() != dim {
+        return Err(Error::InvalidOption {
+            name: "zbar0",
+            value: z.len() as f64,
+            reason: "its length must be the Hamiltonian's dimension",
+        });
+    }
+    Ok(())
 }

@@ -1,8 +1,8 @@
 //! [`Trajectory`]: a stored DTH run (midpoints, vertices, multipliers, times, Newton counts).
 
+use crate::hamiltonian::Alloc;
+use nalgebra::{DefaultAllocator, Dim, OVector};
 use std::io::{self, Write};
-
-use nalgebra::SVector;
 
 use crate::observer::{DthRecord, Observer, StepKind, StepRecord};
 
@@ -13,11 +13,14 @@ use crate::observer::{DthRecord, Observer, StepKind, StepRecord};
 /// DTH records only: a fixed-step method's records (no [`StepRecord::dth`]) are skipped, so
 /// record those with [`Recorder`](crate::observer::Recorder).
 #[derive(Clone, Debug, Default, PartialEq)]
-pub struct Trajectory<const D: usize> {
-    midpoints: Vec<SVector<f64, D>>,
+pub struct Trajectory<D: Dim>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    midpoints: Vec<OVector<f64, D>>,
     lambdas: Vec<f64>,
     midpoint_times: Vec<f64>,
-    vertices: Vec<SVector<f64, D>>,
+    vertices: Vec<OVector<f64, D>>,
     vertex_times: Vec<f64>,
     psis: Vec<f64>,
     iterations: Vec<u32>,
@@ -27,7 +30,10 @@ pub struct Trajectory<const D: usize> {
     kinds: Vec<StepKind>,
 }
 
-impl<const D: usize> Trajectory<D> {
+impl<D: Dim> Trajectory<D>
+where
+    DefaultAllocator: Alloc<D>,
+{
     /// An empty trajectory.
     pub fn new() -> Self {
         Trajectory {
@@ -53,7 +59,7 @@ impl<const D: usize> Trajectory<D> {
         self.midpoints.is_empty()
     }
     /// Midpoints `zbar_0 .. zbar_{N-1}`.
-    pub fn midpoints(&self) -> &[SVector<f64, D>] {
+    pub fn midpoints(&self) -> &[OVector<f64, D>] {
         &self.midpoints
     }
     /// Multipliers `lambda_0 .. lambda_{N-1}`.
@@ -66,7 +72,7 @@ impl<const D: usize> Trajectory<D> {
     }
     /// Vertices `z^(0) .. z^(N)` (`z^(k)` is the left vertex of segment `k`; the last is the
     /// right vertex of the last segment). `N + 1` entries after a run has finished.
-    pub fn vertices(&self) -> &[SVector<f64, D>] {
+    pub fn vertices(&self) -> &[OVector<f64, D>] {
         &self.vertices
     }
     /// Vertex times `t^(0) .. t^(N)`.
@@ -108,13 +114,13 @@ impl<const D: usize> Trajectory<D> {
         Some(StepRecord {
             k: *self.ks.get(index)?,
             t: self.midpoint_times[index],
-            z: self.midpoints[index],
+            z: self.midpoints[index].clone(),
             kind: self.kinds[index],
             iterations: self.iterations[index],
             factorizations: self.factorizations[index],
             dth: Some(DthRecord {
                 lambda: self.lambdas[index],
-                vertex: self.vertices[index],
+                vertex: self.vertices[index].clone(),
                 vertex_time: self.vertex_times[index],
                 psi: self.psis[index],
             }),
@@ -133,12 +139,16 @@ impl<const D: usize> Trajectory<D> {
     /// psi,iterations,kind`, one line per midpoint, with a header (`kind` is `dth`, `fallback`
     /// or `shortened`).
     pub fn write_csv<W: Write>(&self, mut out: W) -> io::Result<()> {
+        // The dimension: the type's when fixed, else the stored states'.
+        let dim = D::try_to_usize()
+            .or_else(|| self.midpoints.first().map(|z| z.len()))
+            .unwrap_or(0);
         write!(out, "k,tbar,lambda")?;
-        for i in 1..=D {
+        for i in 1..=dim {
             write!(out, ",zbar_{i}")?;
         }
         write!(out, ",t_vertex")?;
-        for i in 1..=D {
+        for i in 1..=dim {
             write!(out, ",vertex_{i}")?;
         }
         writeln!(out, ",psi,iterations,kind")?;
@@ -166,7 +176,10 @@ impl<const D: usize> Trajectory<D> {
     }
 }
 
-impl<const D: usize> Observer<D> for Trajectory<D> {
+impl<D: Dim> Observer<D> for Trajectory<D>
+where
+    DefaultAllocator: Alloc<D>,
+{
     /// Stores a DTH record; records without DTH data (a fixed-step method's, see
     /// [`Recorder`](crate::observer::Recorder)) are not part of a DTH trajectory and are skipped.
     fn on_step(&mut self, r: &StepRecord<D>) {
@@ -178,19 +191,19 @@ impl<const D: usize> Observer<D> for Trajectory<D> {
             self.closed = false;
         }
         self.ks.push(r.k);
-        self.midpoints.push(r.z);
+        self.midpoints.push(r.z.clone());
         self.lambdas.push(d.lambda);
         self.midpoint_times.push(r.t);
-        self.vertices.push(d.vertex);
+        self.vertices.push(d.vertex.clone());
         self.vertex_times.push(d.vertex_time);
         self.psis.push(d.psi);
         self.iterations.push(r.iterations);
         self.factorizations.push(r.factorizations);
         self.kinds.push(r.kind);
     }
-    fn on_finish(&mut self, last_vertex: &SVector<f64, D>, last_vertex_time: f64) {
+    fn on_finish(&mut self, last_vertex: &OVector<f64, D>, last_vertex_time: f64) {
         if !self.closed && !self.midpoints.is_empty() {
-            self.vertices.push(*last_vertex);
+            self.vertices.push(last_vertex.clone());
             self.vertex_times.push(last_vertex_time);
             self.closed = true;
         }

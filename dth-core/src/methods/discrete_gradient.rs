@@ -1,6 +1,7 @@
 //! An energy-preserving discrete-gradient method.
 
-use nalgebra::SVector;
+use crate::hamiltonian::Alloc;
+use nalgebra::{DefaultAllocator, Dim, OVector};
 
 use super::newton::{self, NewtonOptions, Structured};
 use super::OneStepMethod;
@@ -47,11 +48,14 @@ impl DiscreteGradient {
     }
 }
 
-impl<const D: usize, H: Hamiltonian<D>> OneStepMethod<D, H> for DiscreteGradient {
+impl<D: Dim, H: Hamiltonian<D>> OneStepMethod<D, H> for DiscreteGradient
+where
+    DefaultAllocator: Alloc<D>,
+{
     const NAME: &'static str = "discrete_gradient";
     const ORDER: u32 = 2;
 
-    fn step(&mut self, h: &H, z0: &SVector<f64, D>, dt: f64) -> Result<SVector<f64, D>, Error> {
+    fn step(&mut self, h: &H, z0: &OVector<f64, D>, dt: f64) -> Result<OVector<f64, D>, Error> {
         let name = <Self as OneStepMethod<D, H>>::NAME;
         newton::one_stage(
             name,

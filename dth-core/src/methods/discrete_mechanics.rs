@@ -1,6 +1,7 @@
 //! Greenspan's discrete mechanics for central forces.
 
-use nalgebra::SVector;
+use crate::hamiltonian::Alloc;
+use nalgebra::{DefaultAllocator, Dim, OVector};
 
 use super::newton::{self, NewtonOptions, Structured};
 use super::OneStepMethod;
@@ -52,14 +53,17 @@ impl DiscreteMechanics {
     }
 }
 
-impl<const D: usize, H: CentralForce<D>> OneStepMethod<D, H> for DiscreteMechanics {
+impl<D: Dim, H: CentralForce<D>> OneStepMethod<D, H> for DiscreteMechanics
+where
+    DefaultAllocator: Alloc<D>,
+{
     const NAME: &'static str = "discrete_mechanics";
     const ORDER: u32 = 2;
 
-    fn step(&mut self, h: &H, z0: &SVector<f64, D>, dt: f64) -> Result<SVector<f64, D>, Error> {
-        let n = D / 2;
+    fn step(&mut self, h: &H, z0: &OVector<f64, D>, dt: f64) -> Result<OVector<f64, D>, Error> {
+        let n = z0.len() / 2;
         let m = h.mass();
-        let radius = |z: &SVector<f64, D>| z.rows(0, n).norm();
+        let radius = |z: &OVector<f64, D>| z.rows(0, n).norm();
         let r0 = radius(z0);
         let name = <Self as OneStepMethod<D, H>>::NAME;
         newton::one_stage(
@@ -73,7 +77,7 @@ impl<const D: usize, H: CentralForce<D>> OneStepMethod<D, H> for DiscreteMechani
             |z1, _| {
                 let r1 = radius(z1);
                 let force = h.phi_divided_difference(r0, r1) / (r1 + r0);
-                let mut residual = SVector::<f64, D>::zeros();
+                let mut residual = z1.clone();
                 for i in 0..n {
                     residual[i] = z1[i] - z0[i] - (0.5 * dt / m) * (z1[n + i] + z0[n + i]);
                     residual[n + i] = z1[n + i] - z0[n + i] + dt * force * (z1[i] + z0[i]);

@@ -1,8 +1,8 @@
 //! The 2-stage Gauss-Legendre collocation method.
 
+use crate::hamiltonian::Alloc;
+use nalgebra::{DefaultAllocator, Dim, OMatrix, OVector, U2};
 use std::cell::RefCell;
-
-use nalgebra::{SMatrix, SVector};
 
 use super::newton::{self, Evaluation, NewtonOptions, Structured};
 use super::{j_times_matrix, OneStepMethod};
@@ -52,14 +52,18 @@ impl GaussLegendre2 {
     }
 }
 
-impl<const D: usize, H: Hamiltonian<D>> OneStepMethod<D, H> for GaussLegendre2 {
+impl<D: Dim, H: Hamiltonian<D>> OneStepMethod<D, H> for GaussLegendre2
+where
+    DefaultAllocator: Alloc<D>,
+{
     const NAME: &'static str = "gauss_legendre2";
     const ORDER: u32 = 4;
 
-    fn step(&mut self, h: &H, z0: &SVector<f64, D>, dt: f64) -> Result<SVector<f64, D>, Error> {
+    fn step(&mut self, h: &H, z0: &OVector<f64, D>, dt: f64) -> Result<OVector<f64, D>, Error> {
         let f0 = j_times(&h.gradient(z0));
-        let predictor = SMatrix::<f64, D, 2>::from_columns(&[f0 * (C[0] * dt), f0 * (C[1] * dt)]);
-        let matrix = self.structured.matrix::<H, D>(2).map(RefCell::new);
+        let predictor =
+            OMatrix::<f64, D, U2>::from_columns(&[&f0 * (C[0] * dt), &f0 * (C[1] * dt)]);
+        let matrix = self.structured.matrix(h, 2).map(RefCell::new);
         let (stages, iterations) = newton::solve(
             <Self as OneStepMethod<D, H>>::NAME,
             &self.newton,
@@ -70,9 +74,9 @@ impl<const D: usize, H: Hamiltonian<D>> OneStepMethod<D, H> for GaussLegendre2 {
                 let y2 = z0 + z.column(1);
                 let f1 = j_times(&h.gradient(&y1));
                 let f2 = j_times(&h.gradient(&y2));
-                let r1 = z.column(0) - (f1 * A[0][0] + f2 * A[0][1]) * dt;
-                let r2 = z.column(1) - (f1 * A[1][0] + f2 * A[1][1]) * dt;
-                let residual = SMatrix::<f64, D, 2>::from_columns(&[r1, r2]);
+                let r1 = z.column(0) - (&f1 * A[0][0] + &f2 * A[0][1]) * dt;
+                let r2 = z.column(1) - (&f1 * A[1][0] + &f2 * A[1][1]) * dt;
+                let residual = OMatrix::<f64, D, U2>::from_columns(&[r1.clone(), r2.clone()]);
                 let delta = match &matrix {
                     Some(m) => {
                         let mut m = m.borrow_mut();
@@ -81,7 +85,7 @@ impl<const D: usize, H: Hamiltonian<D>> OneStepMethod<D, H> for GaussLegendre2 {
                         let a = [A[0][0] * dt, A[0][1] * dt, A[1][0] * dt, A[1][1] * dt];
                         m.factor(&a).ok().map(|()| {
                             // Column-major: stage 1's increments, then stage 2's.
-                            let mut delta = residual;
+                            let mut delta = residual.clone();
                             m.solve(delta.as_mut_slice());
                             delta
                         })
@@ -105,26 +109,30 @@ impl<const D: usize, H: Hamiltonian<D>> OneStepMethod<D, H> for GaussLegendre2 {
 /// The Newton update with the dense `2D x 2D` Jacobian by block elimination (three `D x D`
 /// LU solves), in a frame of its own (see `methods::newton`).
 #[inline(never)]
-fn dense_update<H: Hamiltonian<D>, const D: usize>(
+fn dense_update<H: Hamiltonian<D>, D: Dim>(
     h: &H,
-    y1: &SVector<f64, D>,
-    y2: &SVector<f64, D>,
+    y1: &OVector<f64, D>,
+    y2: &OVector<f64, D>,
     dt: f64,
-    r1: &SVector<f64, D>,
-    r2: &SVector<f64, D>,
-) -> Option<SMatrix<f64, D, 2>> {
-    let identity = SMatrix::<f64, D, D>::identity();
+    r1: &OVector<f64, D>,
+    r2: &OVector<f64, D>,
+) -> Option<OMatrix<f64, D, U2>>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    let (d, _) = y1.shape_generic();
+    let identity = OMatrix::<f64, D, D>::identity_generic(d, d);
     let k1 = j_times_matrix(&h.hessian(y1)) * dt;
     let k2 = j_times_matrix(&h.hessian(y2)) * dt;
-    let b11 = identity - k1 * A[0][0];
-    let b12 = -k2 * A[0][1];
-    let b21 = -k1 * A[1][0];
-    let b22 = identity - k2 * A[1][1];
-    let x = linear::solve(b11, b12)?;
-    let y = linear::solve(b11, *r1)?;
-    let d2 = linear::solve(b22 - b21 * x, r2 - b21 * y)?;
-    let d1 = y - x * d2;
-    Some(SMatrix::<f64, D, 2>::from_columns(&[d1, d2]))
+    let b11 = &identity - &k1 * A[0][0];
+    let b12 = -&k2 * A[0][1];
+    let b21 = -&k1 * A[1][0];
+    let b22 = &identity - &k2 * A[1][1];
+    let x = linear::solve(b11.clone(), b12)?;
+    let y = linear::solve(b11, r1.clone())?;
+    let d2 = linear::solve(b22 - &b21 * &x, r2 - &b21 * &y)?;
+    let d1 = y - x * &d2;
+    Some(OMatrix::<f64, D, U2>::from_columns(&[d1, d2]))
 }
 
 #[cfg(test)]

@@ -1,6 +1,7 @@
 //! The implicit midpoint rule, one of the thesis's comparisons.
 
-use nalgebra::SVector;
+use crate::hamiltonian::Alloc;
+use nalgebra::{DefaultAllocator, Dim, OVector};
 
 use super::newton::{self, NewtonOptions, Structured};
 use super::OneStepMethod;
@@ -39,11 +40,14 @@ impl ImplicitMidpoint {
     }
 }
 
-impl<const D: usize, H: Hamiltonian<D>> OneStepMethod<D, H> for ImplicitMidpoint {
+impl<D: Dim, H: Hamiltonian<D>> OneStepMethod<D, H> for ImplicitMidpoint
+where
+    DefaultAllocator: Alloc<D>,
+{
     const NAME: &'static str = "midpoint";
     const ORDER: u32 = 2;
 
-    fn step(&mut self, h: &H, z0: &SVector<f64, D>, dt: f64) -> Result<SVector<f64, D>, Error> {
+    fn step(&mut self, h: &H, z0: &OVector<f64, D>, dt: f64) -> Result<OVector<f64, D>, Error> {
         let name = <Self as OneStepMethod<D, H>>::NAME;
         newton::one_stage(
             name,

@@ -40,9 +40,11 @@
 //! assert_eq!(recorder.z.len(), 101); // the initial state and one per step
 //! let l = Kepler::angular_momentum(&end.z);
 //! assert!((l - 0.6).abs() < 1e-14); // midpoint keeps quadratic invariants
-//! # Ok::<(), dth_core::methods::RunError<dth_core::methods::RunEnd<4>>>(())
+//! # Ok::<(), dth_core::methods::RunError<dth_core::methods::RunEnd<dth_core::nalgebra::U4>>>(())
 //! ```
 
+use crate::hamiltonian::Alloc;
+use nalgebra::{DefaultAllocator, Dim, OMatrix, OVector};
 pub mod discrete_gradient;
 pub mod discrete_mechanics;
 pub mod gauss_legendre;
@@ -62,8 +64,6 @@ pub use rk4::Rk4;
 pub use trapezoidal::Trapezoidal;
 pub use verlet::StormerVerlet;
 
-use nalgebra::{SMatrix, SVector};
-
 /// A run that stopped early: the error, and in `partial` the last good [`RunEnd`] (the
 /// observer has seen it and every state before it). The same type as the DTH stepper's.
 pub use crate::error::RunError;
@@ -71,14 +71,17 @@ use crate::observer::{Observer, StepKind, StepRecord};
 use crate::{Error, Hamiltonian};
 
 /// A fixed-step one-step method for the Hamiltonian `H` on `R^D`.
-pub trait OneStepMethod<const D: usize, H: Hamiltonian<D>> {
+pub trait OneStepMethod<D: Dim, H: Hamiltonian<D>>
+where
+    DefaultAllocator: Alloc<D>,
+{
     /// Short name, used in errors and tables (`"midpoint"`, `"rk4"`, ...).
     const NAME: &'static str;
     /// Classical order of accuracy.
     const ORDER: u32;
 
     /// Advances `z` by `dt`. Errors report `step: 0`; [`run`] fills in the step index.
-    fn step(&mut self, h: &H, z: &SVector<f64, D>, dt: f64) -> Result<SVector<f64, D>, Error>;
+    fn step(&mut self, h: &H, z: &OVector<f64, D>, dt: f64) -> Result<OVector<f64, D>, Error>;
 
     /// Newton iterations spent by this method value so far (0 for explicit methods).
     fn newton_iterations(&self) -> usize {
@@ -87,15 +90,21 @@ pub trait OneStepMethod<const D: usize, H: Hamiltonian<D>> {
 }
 
 /// Where a run ended: the last state computed, its time and the number of steps taken.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct RunEnd<const D: usize> {
+#[derive(Clone, Debug, PartialEq)]
+pub struct RunEnd<D: Dim>
+where
+    DefaultAllocator: Alloc<D>,
+{
     /// The last state.
-    pub z: SVector<f64, D>,
+    pub z: OVector<f64, D>,
     /// Its time `t0 + steps * dt`.
     pub t: f64,
     /// Steps taken.
     pub steps: usize,
 }
+
+/// `Copy` for fixed sizes, as before the dimension became a type.
+impl<const N: usize> Copy for RunEnd<nalgebra::Const<N>> {}
 
 /// Integrates `steps` steps of size `dt` from `z0` at time `t0`, calling `observer` on the
 /// initial state and after each step.
@@ -103,22 +112,23 @@ pub struct RunEnd<const D: usize> {
 /// `dt` must be finite and non-zero (negative integrates backwards) and `z0` finite; a state
 /// that becomes non-finite is [`Error::MethodNonFinite`]. On failure the states already
 /// computed are kept: the observer has seen them and [`RunError::partial`] holds the last.
-pub fn run<const D: usize, H, M, O>(
+pub fn run<D: Dim, H, M, O>(
     method: &mut M,
     h: &H,
-    z0: &SVector<f64, D>,
+    z0: &OVector<f64, D>,
     t0: f64,
     dt: f64,
     steps: usize,
     observer: &mut O,
 ) -> Result<RunEnd<D>, RunError<RunEnd<D>>>
 where
+    DefaultAllocator: Alloc<D>,
     H: Hamiltonian<D>,
     M: OneStepMethod<D, H>,
     O: Observer<D>,
 {
     let mut end = RunEnd {
-        z: *z0,
+        z: z0.clone(),
         t: t0,
         steps: 0,
     };
@@ -154,7 +164,7 @@ where
     let mut record = StepRecord {
         k: 0,
         t: t0,
-        z: *z0,
+        z: z0.clone(),
         kind: StepKind::Fixed,
         iterations: 0,
         factorizations: 0,
@@ -186,7 +196,7 @@ where
         let total = method.newton_iterations();
         record.k = k;
         record.t = end.t;
-        record.z = end.z;
+        record.z.copy_from(&end.z);
         record.iterations = u32::try_from(total.saturating_sub(iterations)).unwrap_or(u32::MAX);
         iterations = total;
         observer.on_step(&record);
@@ -229,23 +239,33 @@ fn at_step(error: Error, k: usize) -> Error {
 }
 
 /// `J M` for `J = [[0, I], [-I, 0]]`: rows `(M_p, -M_q)`.
-pub(crate) fn j_times_matrix<const D: usize>(m: &SMatrix<f64, D, D>) -> SMatrix<f64, D, D> {
-    let n = D / 2;
-    SMatrix::<f64, D, D>::from_fn(|i, j| if i < n { m[(i + n, j)] } else { -m[(i - n, j)] })
+pub(crate) fn j_times_matrix<D: Dim>(m: &OMatrix<f64, D, D>) -> OMatrix<f64, D, D>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    let n = m.nrows() / 2;
+    let (r, c) = m.shape_generic();
+    OMatrix::from_fn_generic(
+        r,
+        c,
+        |i, j| if i < n { m[(i + n, j)] } else { -m[(i - n, j)] },
+    )
 }
 
 /// `I - c J Hess`, the Newton matrix of the one-stage implicit methods.
-pub(crate) fn newton_matrix<const D: usize>(
-    c: f64,
-    hessian: &SMatrix<f64, D, D>,
-) -> SMatrix<f64, D, D> {
-    SMatrix::<f64, D, D>::identity() - j_times_matrix(hessian) * c
+pub(crate) fn newton_matrix<D: Dim>(c: f64, hessian: &OMatrix<f64, D, D>) -> OMatrix<f64, D, D>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    let (r, k) = hessian.shape_generic();
+    OMatrix::identity_generic(r, k) - j_times_matrix(hessian) * c
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::systems::HarmonicOscillator;
+    use nalgebra::Const;
     use nalgebra::{Matrix2, Vector2};
 
     #[test]
@@ -276,15 +296,19 @@ mod tests {
     /// `H = p^2/2 + 2 q^(3/2)`: defined for `q >= 0` only, NaN beyond. A particle released at
     /// `q = 1` falls to `q < 0` in finite time.
     struct HalfLine;
-    impl Hamiltonian<2> for HalfLine {
+    impl Hamiltonian<Const<2>> for HalfLine {
+        fn dim(&self) -> Const<2> {
+            Const
+        }
+
         fn value(&self, z: &Vector2<f64>) -> f64 {
             0.5 * z[1] * z[1] + 2.0 * z[0].powf(1.5)
         }
-        fn gradient(&self, z: &Vector2<f64>) -> Vector2<f64> {
-            Vector2::new(3.0 * z[0].sqrt(), z[1])
+        fn gradient_into(&self, z: &Vector2<f64>, out: &mut Vector2<f64>) {
+            *out = Vector2::new(3.0 * z[0].sqrt(), z[1]);
         }
-        fn hessian(&self, z: &Vector2<f64>) -> Matrix2<f64> {
-            Matrix2::new(1.5 / z[0].sqrt(), 0.0, 0.0, 1.0)
+        fn hessian_into(&self, z: &Vector2<f64>, out: &mut Matrix2<f64>) {
+            *out = Matrix2::new(1.5 / z[0].sqrt(), 0.0, 0.0, 1.0);
         }
     }
 
@@ -299,7 +323,7 @@ mod tests {
             0.0,
             0.01,
             100_000,
-            &mut |_: &StepRecord<2>| count += 1,
+            &mut |_: &StepRecord<Const<2>>| count += 1,
         )
         .unwrap_err();
         assert!(matches!(

@@ -16,9 +16,10 @@
 //! when it runs. Both paths take the same iterations to the same stopping rule and agree to
 //! roundoff (`tests/structured_newton.rs`).
 
+use crate::hamiltonian::Alloc;
+use nalgebra::allocator::Allocator;
+use nalgebra::{DefaultAllocator, Dim, OMatrix, OVector};
 use std::cell::RefCell;
-
-use nalgebra::{SMatrix, SVector};
 
 use super::newton_matrix;
 use crate::linalg as linear;
@@ -27,12 +28,13 @@ use crate::structured::NewtonMatrix;
 use crate::{j_times, Error, Hamiltonian};
 
 /// The structured Newton storage of a peer method: the analysed Newton matrix, built on the
-/// first structured step (the only allocation) and reused while the pattern (the same
-/// `&'static` constant), the dimension and the number of stages stay the same. A cache, not
+/// first structured step (the only allocation, with a copy of the pattern) and reused while
+/// the pattern (compared entry by entry: `O(nonzeros)`, less than evaluating them), the
+/// dimension and the number of stages stay the same. A cache, not
 /// part of the method's value: two methods compare equal whatever their storage holds.
 #[derive(Clone, Debug, Default)]
 pub(crate) struct Structured {
-    matrix: Option<(&'static [(usize, usize)], NewtonMatrix)>,
+    matrix: Option<(Vec<(usize, usize)>, NewtonMatrix)>,
 }
 
 impl PartialEq for Structured {
@@ -44,25 +46,30 @@ impl PartialEq for Structured {
 impl Structured {
     /// The Newton matrix for `stages` stages of `H`, analysed if this storage holds none for
     /// it; `None` when `H` takes the dense path (no pattern, or not
-    /// [`Hamiltonian::STRUCTURED_NEWTON`]).
-    pub(crate) fn matrix<H: Hamiltonian<D>, const D: usize>(
+    /// [`Flags::structured_newton`](crate::Flags::structured_newton)).
+    pub(crate) fn matrix<H: Hamiltonian<D>, D: Dim>(
         &mut self,
+        ham: &H,
         stages: usize,
-    ) -> Option<&mut NewtonMatrix> {
-        if !H::STRUCTURED_NEWTON {
+    ) -> Option<&mut NewtonMatrix>
+    where
+        DefaultAllocator: Alloc<D>,
+    {
+        if !ham.flags().structured_newton {
             return None;
         }
-        let pattern = H::HESSIAN_PATTERN?;
+        let pattern = ham.hessian_pattern()?;
+        let d = ham.dim().value();
         let fits = self
             .matrix
             .as_ref()
-            .is_some_and(|(p, m)| std::ptr::eq(*p, pattern) && m.fits(D, stages, pattern.len()));
+            .is_some_and(|(p, m)| p.as_slice() == pattern && m.fits(d, stages, pattern.len()));
         if !fits {
             // A generated pattern is valid by construction; a hand-written one that is not
             // falls back to the dense path.
-            self.matrix = NewtonMatrix::analyse(D, stages, pattern)
+            self.matrix = NewtonMatrix::analyse(d, stages, pattern)
                 .ok()
-                .map(|m| (pattern, m));
+                .map(|m| (pattern.to_vec(), m));
         }
         self.matrix.as_mut().map(|(_, m)| m)
     }
@@ -137,20 +144,26 @@ impl NewtonOptions {
 
 /// One Newton evaluation: the residual `F(x)` and the update `delta = A^{-1} F(x)` (`None` when
 /// the matrix `A` is singular). The iterate moves to `x - delta`.
-pub(crate) struct Evaluation<const R: usize, const C: usize> {
-    pub residual: SMatrix<f64, R, C>,
-    pub delta: Option<SMatrix<f64, R, C>>,
+pub(crate) struct Evaluation<R: Dim, C: Dim>
+where
+    DefaultAllocator: Allocator<R, C>,
+{
+    pub residual: OMatrix<f64, R, C>,
+    pub delta: Option<OMatrix<f64, R, C>>,
 }
 
 /// Solves `F(x) = 0` from `x0`; `scale` is the size of the state the unknowns belong to (see
 /// [`NewtonOptions`]). Returns the solution and the number of iterations.
-pub(crate) fn solve<const R: usize, const C: usize>(
+pub(crate) fn solve<R: Dim, C: Dim>(
     method: &'static str,
     options: &NewtonOptions,
-    x0: SMatrix<f64, R, C>,
+    x0: OMatrix<f64, R, C>,
     scale: f64,
-    evaluate: impl Fn(&SMatrix<f64, R, C>) -> Evaluation<R, C>,
-) -> Result<(SMatrix<f64, R, C>, usize), Error> {
+    evaluate: impl Fn(&OMatrix<f64, R, C>) -> Evaluation<R, C>,
+) -> Result<(OMatrix<f64, R, C>, usize), Error>
+where
+    DefaultAllocator: Allocator<R, C>,
+{
     let mut x = x0;
     let iterations = newton::solve(
         Convergence::new(PEERS, options.max_iterations),
@@ -175,7 +188,7 @@ pub(crate) fn solve<const R: usize, const C: usize>(
                     residual: residual_norm,
                 });
             };
-            *x -= delta;
+            *x -= &delta;
             let size = delta.amax();
             if !size.is_finite() {
                 return Err(non_finite("Newton update"));
@@ -199,19 +212,22 @@ pub(crate) fn solve<const R: usize, const C: usize>(
 /// point `y` (the midpoint `(z0 + z1)/2`, or `z1` for the trapezoidal rule). The Newton
 /// iterations are added to `iterations`.
 #[allow(clippy::too_many_arguments)]
-pub(crate) fn one_stage<H: Hamiltonian<D>, const D: usize>(
+pub(crate) fn one_stage<H: Hamiltonian<D>, D: Dim>(
     method: &'static str,
     options: &NewtonOptions,
     iterations: &mut usize,
     structured: &mut Structured,
     h: &H,
-    z0: &SVector<f64, D>,
+    z0: &OVector<f64, D>,
     dt: f64,
-    equation: impl Fn(&SVector<f64, D>, &SVector<f64, D>) -> (SVector<f64, D>, SVector<f64, D>),
-) -> Result<SVector<f64, D>, Error> {
+    equation: impl Fn(&OVector<f64, D>, &OVector<f64, D>) -> (OVector<f64, D>, OVector<f64, D>),
+) -> Result<OVector<f64, D>, Error>
+where
+    DefaultAllocator: Alloc<D>,
+{
     let g0 = h.gradient(z0);
     let predictor = z0 + j_times(&g0) * dt;
-    let (z1, n) = match structured.matrix::<H, D>(1) {
+    let (z1, n) = match structured.matrix(h, 1) {
         Some(matrix) => {
             let matrix = RefCell::new(matrix);
             solve(method, options, predictor, z0.amax(), |z1| {
@@ -219,7 +235,7 @@ pub(crate) fn one_stage<H: Hamiltonian<D>, const D: usize>(
                 let mut m = matrix.borrow_mut();
                 h.hessian_nonzeros(&y, m.hessian_mut(0));
                 let delta = m.factor(&[0.5 * dt]).ok().map(|()| {
-                    let mut delta = residual;
+                    let mut delta = residual.clone();
                     m.solve(delta.as_mut_slice());
                     delta
                 });
@@ -235,19 +251,22 @@ pub(crate) fn one_stage<H: Hamiltonian<D>, const D: usize>(
 /// [`one_stage`]'s Newton with the dense `D x D` matrix, in a frame of its own.
 #[inline(never)]
 #[allow(clippy::too_many_arguments)]
-fn one_stage_dense<H: Hamiltonian<D>, const D: usize>(
+fn one_stage_dense<H: Hamiltonian<D>, D: Dim>(
     method: &'static str,
     options: &NewtonOptions,
     h: &H,
-    z0: &SVector<f64, D>,
+    z0: &OVector<f64, D>,
     dt: f64,
-    predictor: SVector<f64, D>,
-    g0: &SVector<f64, D>,
-    equation: &impl Fn(&SVector<f64, D>, &SVector<f64, D>) -> (SVector<f64, D>, SVector<f64, D>),
-) -> Result<(SVector<f64, D>, usize), Error> {
+    predictor: OVector<f64, D>,
+    g0: &OVector<f64, D>,
+    equation: &impl Fn(&OVector<f64, D>, &OVector<f64, D>) -> (OVector<f64, D>, OVector<f64, D>),
+) -> Result<(OVector<f64, D>, usize), Error>
+where
+    DefaultAllocator: Alloc<D>,
+{
     solve(method, options, predictor, z0.amax(), |z1| {
         let (residual, y) = equation(z1, g0);
-        let delta = linear::solve(newton_matrix(0.5 * dt, &h.hessian(&y)), residual);
+        let delta = linear::solve(newton_matrix(0.5 * dt, &h.hessian(&y)), residual.clone());
         Evaluation { residual, delta }
     })
 }

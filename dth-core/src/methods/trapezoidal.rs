@@ -1,6 +1,7 @@
 //! The trapezoidal rule, one of the thesis's comparisons.
 
-use nalgebra::SVector;
+use crate::hamiltonian::Alloc;
+use nalgebra::{DefaultAllocator, Dim, OVector};
 
 use super::newton::{self, NewtonOptions, Structured};
 use super::OneStepMethod;
@@ -39,11 +40,14 @@ impl Trapezoidal {
     }
 }
 
-impl<const D: usize, H: Hamiltonian<D>> OneStepMethod<D, H> for Trapezoidal {
+impl<D: Dim, H: Hamiltonian<D>> OneStepMethod<D, H> for Trapezoidal
+where
+    DefaultAllocator: Alloc<D>,
+{
     const NAME: &'static str = "trapezoidal";
     const ORDER: u32 = 2;
 
-    fn step(&mut self, h: &H, z0: &SVector<f64, D>, dt: f64) -> Result<SVector<f64, D>, Error> {
+    fn step(&mut self, h: &H, z0: &OVector<f64, D>, dt: f64) -> Result<OVector<f64, D>, Error> {
         let name = <Self as OneStepMethod<D, H>>::NAME;
         newton::one_stage(
             name,
@@ -53,7 +57,12 @@ impl<const D: usize, H: Hamiltonian<D>> OneStepMethod<D, H> for Trapezoidal {
             h,
             z0,
             dt,
-            |z1, g0| (z1 - z0 - j_times(&(g0 + h.gradient(z1))) * (0.5 * dt), *z1),
+            |z1, g0| {
+                (
+                    z1 - z0 - j_times(&(g0 + h.gradient(z1))) * (0.5 * dt),
+                    z1.clone(),
+                )
+            },
         )
     }
 

@@ -1,4 +1,6 @@
+use crate::hamiltonian::Alloc;
 use crate::Hamiltonian;
+use nalgebra::{DefaultAllocator, Dim};
 
 /// `eps^(1/3)`, the relative radius change below which the divided difference of `phi` is
 /// replaced by `phi'` (see [`CentralForce::phi_divided_difference`]).
@@ -9,7 +11,10 @@ pub const DIVIDED_DIFFERENCE_SWITCH: f64 = 6.055_454_452_393_343e-6;
 /// ([`DiscreteMechanics`](crate::methods::DiscreteMechanics)) needs.
 ///
 /// The [`Hamiltonian`] implementation must be this `H` (same `m` and `phi`).
-pub trait CentralForce<const D: usize>: Hamiltonian<D> {
+pub trait CentralForce<D: Dim>: Hamiltonian<D>
+where
+    DefaultAllocator: Alloc<D>,
+{
     /// The mass `m`.
     fn mass(&self) -> f64;
     /// The potential `phi(r)`.

@@ -1,3 +1,4 @@
+use nalgebra::Const;
 use nalgebra::{Matrix4, Vector4};
 
 use crate::Hamiltonian;
@@ -80,7 +81,11 @@ impl DoublePendulum {
     }
 }
 
-impl Hamiltonian<4> for DoublePendulum {
+impl Hamiltonian<Const<4>> for DoublePendulum {
+    fn dim(&self) -> Const<4> {
+        Const
+    }
+
     fn value(&self, z: &Vector4<f64>) -> f64 {
         let kin = self.kinetic(z);
         kin.n[0] * kin.inv_ka
@@ -88,63 +93,68 @@ impl Hamiltonian<4> for DoublePendulum {
             - self.m2 * self.g * self.l2 * z[1].cos()
     }
 
-    fn gradient(&self, z: &Vector4<f64>) -> Vector4<f64> {
-        let Kinetic {
-            inv_ka, n, a, n_p, ..
-        } = self.kinetic(z);
-        // T_d = (N_d A - N A_d) / (K A^2).
-        let t_d = (n[1] - n[0] * a[1] / a[0]) * inv_ka;
-        Vector4::new(
-            t_d + (self.m1 + self.m2) * self.g * self.l1 * z[0].sin(),
-            -t_d + self.m2 * self.g * self.l2 * z[1].sin(),
-            n_p[0] * inv_ka,
-            n_p[1] * inv_ka,
-        )
+    fn gradient_into(&self, z: &Vector4<f64>, out: &mut Vector4<f64>) {
+        *out = {
+            let Kinetic {
+                inv_ka, n, a, n_p, ..
+            } = self.kinetic(z);
+            // T_d = (N_d A - N A_d) / (K A^2).
+            let t_d = (n[1] - n[0] * a[1] / a[0]) * inv_ka;
+            Vector4::new(
+                t_d + (self.m1 + self.m2) * self.g * self.l1 * z[0].sin(),
+                -t_d + self.m2 * self.g * self.l2 * z[1].sin(),
+                n_p[0] * inv_ka,
+                n_p[1] * inv_ka,
+            )
+        };
     }
 
-    fn hessian(&self, z: &Vector4<f64>) -> Matrix4<f64> {
-        let Kinetic {
-            inv_ka,
-            n,
-            a,
-            n_p,
-            n_pd,
-            c,
-        } = self.kinetic(z);
-        let DoublePendulum { m1, m2, l1, l2, g } = *self;
-        // T_dd = [(N_dd A - N A_dd) A - 2 A_d (N_d A - N A_d)] / (K A^3).
-        let t_dd = ((n[2] * a[0] - n[0] * a[2]) - 2.0 * a[1] * (n[1] - n[0] * a[1] / a[0])) / a[0]
-            * inv_ka;
-        // T_{p_i d} = (P_i,d A - P_i A_d) / (K A^2).
-        let t_pd = [
-            (n_pd[0] - n_p[0] * a[1] / a[0]) * inv_ka,
-            (n_pd[1] - n_p[1] * a[1] / a[0]) * inv_ka,
-        ];
-        let b = m2 * l1 * l2;
-        let t_pp = [
-            2.0 * m2 * l2 * l2 * inv_ka,
-            -2.0 * b * c * inv_ka,
-            2.0 * (m1 + m2) * l1 * l1 * inv_ka,
-        ];
-        let v11 = (m1 + m2) * g * l1 * z[0].cos();
-        let v22 = m2 * g * l2 * z[1].cos();
-        Matrix4::new(
-            t_dd + v11,
-            -t_dd,
-            t_pd[0],
-            t_pd[1],
-            -t_dd,
-            t_dd + v22,
-            -t_pd[0],
-            -t_pd[1],
-            t_pd[0],
-            -t_pd[0],
-            t_pp[0],
-            t_pp[1],
-            t_pd[1],
-            -t_pd[1],
-            t_pp[1],
-            t_pp[2],
-        )
+    fn hessian_into(&self, z: &Vector4<f64>, out: &mut Matrix4<f64>) {
+        *out = {
+            let Kinetic {
+                inv_ka,
+                n,
+                a,
+                n_p,
+                n_pd,
+                c,
+            } = self.kinetic(z);
+            let DoublePendulum { m1, m2, l1, l2, g } = *self;
+            // T_dd = [(N_dd A - N A_dd) A - 2 A_d (N_d A - N A_d)] / (K A^3).
+            let t_dd = ((n[2] * a[0] - n[0] * a[2]) - 2.0 * a[1] * (n[1] - n[0] * a[1] / a[0]))
+                / a[0]
+                * inv_ka;
+            // T_{p_i d} = (P_i,d A - P_i A_d) / (K A^2).
+            let t_pd = [
+                (n_pd[0] - n_p[0] * a[1] / a[0]) * inv_ka,
+                (n_pd[1] - n_p[1] * a[1] / a[0]) * inv_ka,
+            ];
+            let b = m2 * l1 * l2;
+            let t_pp = [
+                2.0 * m2 * l2 * l2 * inv_ka,
+                -2.0 * b * c * inv_ka,
+                2.0 * (m1 + m2) * l1 * l1 * inv_ka,
+            ];
+            let v11 = (m1 + m2) * g * l1 * z[0].cos();
+            let v22 = m2 * g * l2 * z[1].cos();
+            Matrix4::new(
+                t_dd + v11,
+                -t_dd,
+                t_pd[0],
+                t_pd[1],
+                -t_dd,
+                t_dd + v22,
+                -t_pd[0],
+                -t_pd[1],
+                t_pd[0],
+                -t_pd[0],
+                t_pp[0],
+                t_pp[1],
+                t_pd[1],
+                -t_pd[1],
+                t_pp[1],
+                t_pp[2],
+            )
+        };
     }
 }

@@ -1,3 +1,5 @@
+use crate::Flags;
+use nalgebra::Const;
 use nalgebra::{Matrix4, Vector4};
 
 use crate::Hamiltonian;
@@ -42,9 +44,16 @@ impl ForcedOscillator {
     }
 }
 
-impl Hamiltonian<4> for ForcedOscillator {
-    const TIME_DEPENDENT: bool = true;
-    const SEPARABLE: bool = true;
+impl Hamiltonian<Const<4>> for ForcedOscillator {
+    fn dim(&self) -> Const<4> {
+        Const
+    }
+
+    fn flags(&self) -> Flags {
+        Flags::default()
+            .with_time_dependent(true)
+            .with_separable(true)
+    }
 
     fn value(&self, z: &Vector4<f64>) -> f64 {
         let (q, t, p, pt) = (z[0], z[1], z[2], z[3]);
@@ -52,39 +61,43 @@ impl Hamiltonian<4> for ForcedOscillator {
             - self.force * q * (self.omega * t).cos()
     }
 
-    fn gradient(&self, z: &Vector4<f64>) -> Vector4<f64> {
-        let (q, t, p) = (z[0], z[1], z[2]);
-        let (s, c) = (self.omega * t).sin_cos();
-        Vector4::new(
-            self.omega0 * self.omega0 * q - self.force * c,
-            self.force * self.omega * q * s,
-            p,
-            1.0,
-        )
+    fn gradient_into(&self, z: &Vector4<f64>, out: &mut Vector4<f64>) {
+        *out = {
+            let (q, t, p) = (z[0], z[1], z[2]);
+            let (s, c) = (self.omega * t).sin_cos();
+            Vector4::new(
+                self.omega0 * self.omega0 * q - self.force * c,
+                self.force * self.omega * q * s,
+                p,
+                1.0,
+            )
+        };
     }
 
-    fn hessian(&self, z: &Vector4<f64>) -> Matrix4<f64> {
-        let (q, t) = (z[0], z[1]);
-        let (s, c) = (self.omega * t).sin_cos();
-        let qt = self.force * self.omega * s;
-        let tt = self.force * self.omega * self.omega * q * c;
-        Matrix4::new(
-            self.omega0 * self.omega0,
-            qt,
-            0.0,
-            0.0,
-            qt,
-            tt,
-            0.0,
-            0.0,
-            0.0,
-            0.0,
-            1.0,
-            0.0,
-            0.0,
-            0.0,
-            0.0,
-            0.0,
-        )
+    fn hessian_into(&self, z: &Vector4<f64>, out: &mut Matrix4<f64>) {
+        *out = {
+            let (q, t) = (z[0], z[1]);
+            let (s, c) = (self.omega * t).sin_cos();
+            let qt = self.force * self.omega * s;
+            let tt = self.force * self.omega * self.omega * q * c;
+            Matrix4::new(
+                self.omega0 * self.omega0,
+                qt,
+                0.0,
+                0.0,
+                qt,
+                tt,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                1.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+            )
+        };
     }
 }

@@ -1,3 +1,5 @@
+use crate::Flags;
+use nalgebra::Const;
 use nalgebra::{Matrix4, Vector4};
 
 use crate::Hamiltonian;
@@ -26,61 +28,74 @@ impl Kepler {
     }
 }
 
-impl Hamiltonian<4> for Kepler {
-    const SEPARABLE: bool = true;
-    const EXACT_DIVIDED_DIFFERENCES: bool = true;
+impl Hamiltonian<Const<4>> for Kepler {
+    fn dim(&self) -> Const<4> {
+        Const
+    }
+
+    fn flags(&self) -> Flags {
+        Flags::default()
+            .with_separable(true)
+            .with_exact_divided_differences(true)
+    }
 
     fn value(&self, z: &Vector4<f64>) -> f64 {
         let r = z[0].hypot(z[1]);
         (z[2] * z[2] + z[3] * z[3]) / (2.0 * self.mass) - self.k / r
     }
 
-    fn gradient(&self, z: &Vector4<f64>) -> Vector4<f64> {
-        let r2 = z[0] * z[0] + z[1] * z[1];
-        let kr3 = self.k / (r2 * r2.sqrt());
-        Vector4::new(kr3 * z[0], kr3 * z[1], z[2] / self.mass, z[3] / self.mass)
+    fn gradient_into(&self, z: &Vector4<f64>, out: &mut Vector4<f64>) {
+        *out = {
+            let r2 = z[0] * z[0] + z[1] * z[1];
+            let kr3 = self.k / (r2 * r2.sqrt());
+            Vector4::new(kr3 * z[0], kr3 * z[1], z[2] / self.mass, z[3] / self.mass)
+        };
     }
 
-    fn hessian(&self, z: &Vector4<f64>) -> Matrix4<f64> {
-        let r2 = z[0] * z[0] + z[1] * z[1];
-        let kr3 = self.k / (r2 * r2.sqrt());
-        let kr5 = 3.0 * kr3 / r2;
-        let im = 1.0 / self.mass;
-        let (x, y) = (z[0], z[1]);
-        Matrix4::new(
-            kr3 - kr5 * x * x,
-            -kr5 * x * y,
-            0.0,
-            0.0,
-            -kr5 * x * y,
-            kr3 - kr5 * y * y,
-            0.0,
-            0.0,
-            0.0,
-            0.0,
-            im,
-            0.0,
-            0.0,
-            0.0,
-            0.0,
-            im,
-        )
+    fn hessian_into(&self, z: &Vector4<f64>, out: &mut Matrix4<f64>) {
+        *out = {
+            let r2 = z[0] * z[0] + z[1] * z[1];
+            let kr3 = self.k / (r2 * r2.sqrt());
+            let kr5 = 3.0 * kr3 / r2;
+            let im = 1.0 / self.mass;
+            let (x, y) = (z[0], z[1]);
+            Matrix4::new(
+                kr3 - kr5 * x * x,
+                -kr5 * x * y,
+                0.0,
+                0.0,
+                -kr5 * x * y,
+                kr3 - kr5 * y * y,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                im,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                im,
+            )
+        };
     }
 
     /// Exact divided differences, no cancellation as `z1 -> z0`:
     /// `gbar_q = k (q0 + q1) / (r0 r1 (r0 + r1))`, `gbar_p = (p0 + p1) / (2m)`.
     /// (`gbar_q . (q1 - q0) = k (r1^2 - r0^2) / (r0 r1 (r0 + r1)) = k/r0 - k/r1`.)
-    fn discrete_gradient(&self, z0: &Vector4<f64>, z1: &Vector4<f64>) -> Vector4<f64> {
-        let r0 = z0[0].hypot(z0[1]);
-        let r1 = z1[0].hypot(z1[1]);
-        let c = self.k / (r0 * r1 * (r0 + r1));
-        let im = 0.5 / self.mass;
-        Vector4::new(
-            c * (z0[0] + z1[0]),
-            c * (z0[1] + z1[1]),
-            im * (z0[2] + z1[2]),
-            im * (z0[3] + z1[3]),
-        )
+    fn discrete_gradient_into(&self, z0: &Vector4<f64>, z1: &Vector4<f64>, out: &mut Vector4<f64>) {
+        *out = {
+            let r0 = z0[0].hypot(z0[1]);
+            let r1 = z1[0].hypot(z1[1]);
+            let c = self.k / (r0 * r1 * (r0 + r1));
+            let im = 0.5 / self.mass;
+            Vector4::new(
+                c * (z0[0] + z1[0]),
+                c * (z0[1] + z1[1]),
+                im * (z0[2] + z1[2]),
+                im * (z0[3] + z1[3]),
+            )
+        };
     }
 
     /// `t = g0 + g1 - 2 gbar` from differences `dq = q1 - q0` only: `t_p = 0` and, with
@@ -91,31 +106,34 @@ impl Hamiltonian<4> for Kepler {
     /// ```
     ///
     /// (from `t_q / k = q0 a^3 + q1 b^3 - 2 (q0 + q1) a^2 b^2 / (a + b)`).
-    fn discrete_gradient_defect(
+    fn discrete_gradient_defect_into(
         &self,
         z0: &Vector4<f64>,
         z1: &Vector4<f64>,
         _gbar: &Vector4<f64>,
-    ) -> Vector4<f64> {
-        let r0 = z0[0].hypot(z0[1]);
-        let r1 = z1[0].hypot(z1[1]);
-        let (a, b) = (1.0 / r0, 1.0 / r1);
-        let dq = [z1[0] - z0[0], z1[1] - z0[1]];
-        let qm = [0.5 * (z0[0] + z1[0]), 0.5 * (z0[1] + z1[1])];
-        let a_minus_b = 2.0 * (dq[0] * qm[0] + dq[1] * qm[1]) / (r0 * r1 * (r0 + r1));
-        let c1 = a_minus_b * (a * a + 3.0 * a * b + b * b);
-        let c2 = 0.5 * (a * a * a + b * b * b + 2.0 * a * b * (a + b));
-        let f = self.k * a_minus_b / (a + b);
-        Vector4::new(
-            f * (c1 * qm[0] - c2 * dq[0]),
-            f * (c1 * qm[1] - c2 * dq[1]),
-            0.0,
-            0.0,
-        )
+        out: &mut Vector4<f64>,
+    ) {
+        *out = {
+            let r0 = z0[0].hypot(z0[1]);
+            let r1 = z1[0].hypot(z1[1]);
+            let (a, b) = (1.0 / r0, 1.0 / r1);
+            let dq = [z1[0] - z0[0], z1[1] - z0[1]];
+            let qm = [0.5 * (z0[0] + z1[0]), 0.5 * (z0[1] + z1[1])];
+            let a_minus_b = 2.0 * (dq[0] * qm[0] + dq[1] * qm[1]) / (r0 * r1 * (r0 + r1));
+            let c1 = a_minus_b * (a * a + 3.0 * a * b + b * b);
+            let c2 = 0.5 * (a * a * a + b * b * b + 2.0 * a * b * (a + b));
+            let f = self.k * a_minus_b / (a + b);
+            Vector4::new(
+                f * (c1 * qm[0] - c2 * dq[0]),
+                f * (c1 * qm[1] - c2 * dq[1]),
+                0.0,
+                0.0,
+            )
+        };
     }
 }
 
-impl crate::systems::CentralForce<4> for Kepler {
+impl crate::systems::CentralForce<Const<4>> for Kepler {
     fn mass(&self) -> f64 {
         self.mass
     }

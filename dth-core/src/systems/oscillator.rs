@@ -1,3 +1,5 @@
+use crate::Flags;
+use nalgebra::Const;
 use nalgebra::{Matrix2, Vector2};
 
 use crate::Hamiltonian;
@@ -11,35 +13,43 @@ pub struct HarmonicOscillator {
     pub k: f64,
 }
 
-impl Hamiltonian<2> for HarmonicOscillator {
-    const SEPARABLE: bool = true;
-    const EXACT_DIVIDED_DIFFERENCES: bool = true;
+impl Hamiltonian<Const<2>> for HarmonicOscillator {
+    fn dim(&self) -> Const<2> {
+        Const
+    }
+
+    fn flags(&self) -> Flags {
+        Flags::default()
+            .with_separable(true)
+            .with_exact_divided_differences(true)
+    }
 
     fn value(&self, z: &Vector2<f64>) -> f64 {
         z[1] * z[1] / (2.0 * self.mass) + 0.5 * self.k * z[0] * z[0]
     }
 
-    fn gradient(&self, z: &Vector2<f64>) -> Vector2<f64> {
-        Vector2::new(self.k * z[0], z[1] / self.mass)
+    fn gradient_into(&self, z: &Vector2<f64>, out: &mut Vector2<f64>) {
+        *out = Vector2::new(self.k * z[0], z[1] / self.mass);
     }
 
-    fn hessian(&self, _z: &Vector2<f64>) -> Matrix2<f64> {
-        Matrix2::new(self.k, 0.0, 0.0, 1.0 / self.mass)
+    fn hessian_into(&self, _z: &Vector2<f64>, out: &mut Matrix2<f64>) {
+        *out = Matrix2::new(self.k, 0.0, 0.0, 1.0 / self.mass);
     }
 
     /// Quadratic `H`: the discrete gradient is the gradient at the midpoint, exactly.
-    fn discrete_gradient(&self, z0: &Vector2<f64>, z1: &Vector2<f64>) -> Vector2<f64> {
-        self.gradient(&((z0 + z1) * 0.5))
+    fn discrete_gradient_into(&self, z0: &Vector2<f64>, z1: &Vector2<f64>, out: &mut Vector2<f64>) {
+        *out = self.gradient(&((z0 + z1) * 0.5));
     }
 
     /// Quadratic `H`: `g0 + g1 = 2 gbar` exactly.
-    fn discrete_gradient_defect(
+    fn discrete_gradient_defect_into(
         &self,
         _z0: &Vector2<f64>,
         _z1: &Vector2<f64>,
         _gbar: &Vector2<f64>,
-    ) -> Vector2<f64> {
-        Vector2::zeros()
+        out: &mut Vector2<f64>,
+    ) {
+        *out = Vector2::zeros();
     }
 }
 

@@ -1,3 +1,5 @@
+use crate::Flags;
+use nalgebra::Const;
 use nalgebra::{Matrix2, Vector2};
 
 use crate::Hamiltonian;
@@ -36,45 +38,57 @@ impl Pendulum {
     }
 }
 
-impl Hamiltonian<2> for Pendulum {
-    const SEPARABLE: bool = true;
-    const EXACT_DIVIDED_DIFFERENCES: bool = true;
+impl Hamiltonian<Const<2>> for Pendulum {
+    fn dim(&self) -> Const<2> {
+        Const
+    }
+
+    fn flags(&self) -> Flags {
+        Flags::default()
+            .with_separable(true)
+            .with_exact_divided_differences(true)
+    }
 
     fn value(&self, z: &Vector2<f64>) -> f64 {
         z[1] * z[1] / (2.0 * self.inertia()) - self.mgl() * z[0].cos()
     }
 
-    fn gradient(&self, z: &Vector2<f64>) -> Vector2<f64> {
-        Vector2::new(self.mgl() * z[0].sin(), z[1] / self.inertia())
+    fn gradient_into(&self, z: &Vector2<f64>, out: &mut Vector2<f64>) {
+        *out = Vector2::new(self.mgl() * z[0].sin(), z[1] / self.inertia());
     }
 
-    fn hessian(&self, z: &Vector2<f64>) -> Matrix2<f64> {
-        Matrix2::new(self.mgl() * z[0].cos(), 0.0, 0.0, 1.0 / self.inertia())
+    fn hessian_into(&self, z: &Vector2<f64>, out: &mut Matrix2<f64>) {
+        *out = Matrix2::new(self.mgl() * z[0].cos(), 0.0, 0.0, 1.0 / self.inertia());
     }
 
     /// Exact divided differences without cancellation, `qm = (q0 + q1)/2`, `dq = q1 - q0`:
     /// `gbar_q = m g l (cos q0 - cos q1) / dq = m g l sin(qm) sinc(dq/2)`,
     /// `gbar_p = (p0 + p1) / (2 m l^2)`.
-    fn discrete_gradient(&self, z0: &Vector2<f64>, z1: &Vector2<f64>) -> Vector2<f64> {
-        let qm = 0.5 * (z0[0] + z1[0]);
-        let x = 0.5 * (z1[0] - z0[0]);
-        Vector2::new(
-            self.mgl() * qm.sin() * sinc(x),
-            (z0[1] + z1[1]) / (2.0 * self.inertia()),
-        )
+    fn discrete_gradient_into(&self, z0: &Vector2<f64>, z1: &Vector2<f64>, out: &mut Vector2<f64>) {
+        *out = {
+            let qm = 0.5 * (z0[0] + z1[0]);
+            let x = 0.5 * (z1[0] - z0[0]);
+            Vector2::new(
+                self.mgl() * qm.sin() * sinc(x),
+                (z0[1] + z1[1]) / (2.0 * self.inertia()),
+            )
+        };
     }
 
     /// `t_q = m g l (sin q0 + sin q1 - 2 sin(qm) sinc(dq/2)) = 2 m g l sin(qm) (cos x - sinc x)`
     /// with `x = dq/2` (series for small `x`), `t_p = 0`.
-    fn discrete_gradient_defect(
+    fn discrete_gradient_defect_into(
         &self,
         z0: &Vector2<f64>,
         z1: &Vector2<f64>,
         _gbar: &Vector2<f64>,
-    ) -> Vector2<f64> {
-        let qm = 0.5 * (z0[0] + z1[0]);
-        let x = 0.5 * (z1[0] - z0[0]);
-        Vector2::new(2.0 * self.mgl() * qm.sin() * cos_minus_sinc(x), 0.0)
+        out: &mut Vector2<f64>,
+    ) {
+        *out = {
+            let qm = 0.5 * (z0[0] + z1[0]);
+            let x = 0.5 * (z1[0] - z0[0]);
+            Vector2::new(2.0 * self.mgl() * qm.sin() * cos_minus_sinc(x), 0.0)
+        };
     }
 }
 

@@ -1,6 +1,7 @@
-use nalgebra::{SMatrix, SVector};
+use crate::hamiltonian::Alloc;
+use nalgebra::{DefaultAllocator, Dim, OMatrix, OVector};
 
-use crate::Hamiltonian;
+use crate::{Flags, Hamiltonian};
 
 /// Boundary condition of a [`TodaChain`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -37,12 +38,13 @@ impl<const N: usize> TodaChain<N> {
     }
 
     /// Calls `bond(i, j, e)` for every bond, `e = exp(q_i - q_j)`, with `None` for a wall.
-    fn for_each_bond<const D: usize>(
+    fn for_each_bond<D: Dim>(
         &self,
-        z: &SVector<f64, D>,
+        z: &OVector<f64, D>,
         mut bond: impl FnMut(Option<usize>, Option<usize>, f64),
-    ) {
-        const { assert!(D == 2 * N, "TodaChain<N> lives in dimension D = 2N") };
+    ) where
+        DefaultAllocator: Alloc<D>,
+    {
         match self.boundary {
             TodaBoundary::Periodic => {
                 for i in 0..N {
@@ -64,17 +66,27 @@ impl<const N: usize> TodaChain<N> {
     }
 }
 
-impl<const N: usize, const D: usize> Hamiltonian<D> for TodaChain<N> {
-    const SEPARABLE: bool = true;
+impl<const N: usize, D: Dim> Hamiltonian<D> for TodaChain<N>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    /// `2N`: `D` must be `Const<2N>` or `Dyn` (another `Const` panics here, when a stepper is
+    /// built: a type error the compiler cannot see).
+    fn dim(&self) -> D {
+        D::from_usize(2 * N)
+    }
 
-    fn value(&self, z: &SVector<f64, D>) -> f64 {
+    fn flags(&self) -> Flags {
+        Flags::default().with_separable(true)
+    }
+    fn value(&self, z: &OVector<f64, D>) -> f64 {
         let mut v = 0.0;
         self.for_each_bond(z, |_, _, e| v += e);
         0.5 * z.rows(N, N).norm_squared() + v
     }
 
-    fn gradient(&self, z: &SVector<f64, D>) -> SVector<f64, D> {
-        let mut g = SVector::<f64, D>::zeros();
+    fn gradient_into(&self, z: &OVector<f64, D>, g: &mut OVector<f64, D>) {
+        g.fill(0.0);
         self.for_each_bond(z, |i, j, e| {
             if let Some(i) = i {
                 g[i] += e;
@@ -83,14 +95,13 @@ impl<const N: usize, const D: usize> Hamiltonian<D> for TodaChain<N> {
                 g[j] -= e;
             }
         });
-        for i in N..D {
+        for i in N..2 * N {
             g[i] = z[i];
         }
-        g
     }
 
-    fn hessian(&self, z: &SVector<f64, D>) -> SMatrix<f64, D, D> {
-        let mut m = SMatrix::<f64, D, D>::zeros();
+    fn hessian_into(&self, z: &OVector<f64, D>, m: &mut OMatrix<f64, D, D>) {
+        m.fill(0.0);
         self.for_each_bond(z, |i, j, e| {
             if let Some(i) = i {
                 m[(i, i)] += e;
@@ -103,9 +114,8 @@ impl<const N: usize, const D: usize> Hamiltonian<D> for TodaChain<N> {
                 m[(j, i)] -= e;
             }
         });
-        for i in N..D {
+        for i in N..2 * N {
             m[(i, i)] = 1.0;
         }
-        m
     }
 }

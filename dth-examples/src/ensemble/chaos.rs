@@ -19,6 +19,7 @@
 //! Why not the DTH step's own tangent map: `docs/theory.md#chaos-indicators`.
 
 use dth::linalg::Lu;
+use dth::nalgebra::Const;
 use dth::nalgebra::{SMatrix, SVector};
 use dth::observer::{Observer, StepRecord};
 use dth::Hamiltonian;
@@ -60,7 +61,7 @@ pub struct Megno<'s, const D: usize, S> {
     broken: bool,
 }
 
-impl<'s, const D: usize, S: Hamiltonian<D>> Megno<'s, D, S> {
+impl<'s, const D: usize, S: Hamiltonian<Const<D>>> Megno<'s, D, S> {
     /// The observer for a run of `system`; the tangent vector starts along `(1, ..., 1)`.
     pub fn new(system: &'s S) -> Self {
         Megno {
@@ -88,8 +89,8 @@ impl<'s, const D: usize, S: Hamiltonian<D>> Megno<'s, D, S> {
     }
 }
 
-impl<const D: usize, S: Hamiltonian<D>> Observer<D> for Megno<'_, D, S> {
-    fn on_step(&mut self, record: &StepRecord<D>) {
+impl<const D: usize, S: Hamiltonian<Const<D>>> Observer<Const<D>> for Megno<'_, D, S> {
+    fn on_step(&mut self, record: &StepRecord<Const<D>>) {
         if self.broken {
             return;
         }

@@ -1,6 +1,7 @@
 //! One member of an ensemble scene run with every method ([`run_member`]), and what it
 //! yields ([`MemberResult`]).
 
+use dth::nalgebra::Const;
 use std::collections::BTreeMap;
 
 use dth::nalgebra::SVector;
@@ -69,8 +70,8 @@ struct Watch<'s, const D: usize, S> {
     megno: Option<Megno<'s, D, S>>,
 }
 
-impl<const D: usize, S: SceneSystem<D>> Observer<D> for Watch<'_, D, S> {
-    fn on_step(&mut self, record: &StepRecord<D>) {
+impl<const D: usize, S: SceneSystem<D>> Observer<Const<D>> for Watch<'_, D, S> {
+    fn on_step(&mut self, record: &StepRecord<Const<D>>) {
         let h = self.system.value(&record.z);
         match self.h0 {
             None => self.h0 = Some(h),
@@ -172,7 +173,7 @@ pub fn run_member<const D: usize, S: SceneSystem<D>>(
     };
     let mut z0 = initial_state(&system, &own)?;
     if let Some(shell) = members.shell {
-        if S::TIME_DEPENDENT {
+        if system.flags().time_dependent {
             return Err(Error::NotAvailable {
                 what: "energy shell for system",
                 name: scene.system.clone(),

@@ -1,6 +1,7 @@
 //! The members of an ensemble scene: the states and parameters its sampler draws ([`draw`])
 //! and the energy shell ([`on_shell`]).
 
+use dth::nalgebra::Const;
 use std::collections::BTreeMap;
 
 use dth::nalgebra::SVector;
@@ -164,7 +165,7 @@ pub enum Shell {
 /// mechanical `H = |p|^2/(2m) + ...` is): its coefficients are read from `f(-1)`, `f(0)`,
 /// `f(1)`, checked at `f(2)`, and the root computed in the cancellation-free form
 /// (`Numerical Recipes` 5.6), so the member lands on the shell to roundoff.
-pub fn on_shell<const D: usize, S: Hamiltonian<D>>(
+pub fn on_shell<const D: usize, S: Hamiltonian<Const<D>>>(
     system: &S,
     z: &mut SVector<f64, D>,
     shell: EnergyShell,

@@ -15,6 +15,7 @@
 //! `(q1, p1)` is plotted. DTH is shown at its midpoints `zbar_k` (the thesis: "midpoint values
 //! were used for the DTH trajectories").
 
+use dth::nalgebra::Const;
 use std::path::Path;
 
 use dth::nalgebra::SVector;
@@ -66,12 +67,12 @@ type State = (f64, [f64; 4]);
 /// Stores every state (a few 10^4 for the figures' runs).
 struct Record(Vec<State>);
 
-fn state<const D: usize>(r: &StepRecord<D>) -> State {
+fn state<const D: usize>(r: &StepRecord<Const<D>>) -> State {
     (r.t, [r.z[0], r.z[1], r.z[D / 2], r.z[D / 2 + 1]])
 }
 
-impl<const D: usize> Observer<D> for Record {
-    fn on_step(&mut self, r: &StepRecord<D>) {
+impl<const D: usize> Observer<Const<D>> for Record {
+    fn on_step(&mut self, r: &StepRecord<Const<D>>) {
         self.0.push(state(r));
     }
 }
@@ -129,8 +130,8 @@ impl Section {
     }
 }
 
-impl<const D: usize> Observer<D> for Section {
-    fn on_step(&mut self, r: &StepRecord<D>) {
+impl<const D: usize> Observer<Const<D>> for Section {
+    fn on_step(&mut self, r: &StepRecord<Const<D>>) {
         self.push(&state(r));
     }
 }

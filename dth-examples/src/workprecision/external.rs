@@ -7,6 +7,7 @@
 //! run asks for the state at `T` only (`t_eval`); the diagnostic run stores every accepted step
 //! and takes the energy and invariant deviations over them.
 
+use dth::nalgebra::Const;
 use std::hint::black_box;
 
 use differential_equations::prelude::{ExplicitRungeKutta, IVP, ODE};
@@ -21,7 +22,7 @@ use super::{Record, WorkPrecisionOptions};
 /// time-dependent `H` lives in the extended phase space, where `t` is a coordinate).
 struct HamiltonianOde<'a, H>(&'a H);
 
-impl<H: Hamiltonian<D>, const D: usize> ODE<f64, SVector<f64, D>> for HamiltonianOde<'_, H> {
+impl<H: Hamiltonian<Const<D>>, const D: usize> ODE<f64, SVector<f64, D>> for HamiltonianOde<'_, H> {
     fn diff(&self, _t: f64, z: &SVector<f64, D>, dzdt: &mut SVector<f64, D>) {
         *dzdt = j_times(&self.0.gradient(z));
     }
@@ -31,7 +32,7 @@ impl<H: Hamiltonian<D>, const D: usize> ODE<f64, SVector<f64, D>> for Hamiltonia
 const MAX_STEPS: usize = 10_000_000;
 
 /// DOP853 over the tolerance ladder.
-pub(crate) fn sweep_dop853<H: Hamiltonian<D> + Clone, const D: usize>(
+pub(crate) fn sweep_dop853<H: Hamiltonian<Const<D>> + Clone, const D: usize>(
     problem: &Problem<H, D>,
     options: &WorkPrecisionOptions,
     ladder: &Ladder,

@@ -11,6 +11,7 @@
 //!
 //! The quick sweep integrates one period instead of ten.
 
+use dth::nalgebra::Const;
 use dth::nalgebra::{SVector, Vector2, Vector4};
 
 use dth::dth::DthOptions;
@@ -141,7 +142,7 @@ fn order_ladder(options: &WorkPrecisionOptions, info: &ProblemInfo, finest: f64)
 
 impl<H, const D: usize> Problem<H, D>
 where
-    H: Hamiltonian<D> + Clone,
+    H: Hamiltonian<Const<D>> + Clone,
 {
     /// Every method that applies to any Hamiltonian.
     fn sweep_common(&self, options: &WorkPrecisionOptions, records: &mut Vec<Record>) {
@@ -183,7 +184,13 @@ where
         sweep_peer(self, options, &ladder, ImplicitMidpoint::new, records);
         sweep_peer(self, options, &ladder, Trapezoidal::new, records);
         sweep_peer(self, options, &ladder, DiscreteGradient::new, records);
-        sweep_peer(self, options, &ladder, StormerVerlet::<D>::new, records);
+        sweep_peer(
+            self,
+            options,
+            &ladder,
+            StormerVerlet::<Const<D>>::new,
+            records,
+        );
         sweep_peer(self, options, &ladder, || Rk4, records);
         sweep_peer(self, options, &ladder, GaussLegendre2::new, records);
         sweep_dop853(self, options, &ladder, records);
@@ -199,7 +206,7 @@ where
 /// (the forced oscillator's `calH = p_t + p^2/2 + V(q, t)` too).
 struct Generic<H, const D: usize>(Problem<H, D>);
 
-impl<H: Hamiltonian<D> + Clone, const D: usize> Sweep for Generic<H, D> {
+impl<H: Hamiltonian<Const<D>> + Clone, const D: usize> Sweep for Generic<H, D> {
     fn sweep(
         &self,
         options: &WorkPrecisionOptions,

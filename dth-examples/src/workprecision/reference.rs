@@ -2,6 +2,7 @@
 //! cubic Hermite interpolation between its steps.
 
 use dth::methods::{run, GaussLegendre2};
+use dth::nalgebra::Const;
 use dth::nalgebra::SVector;
 use dth::observer::Recorder;
 use dth::{j_times, Hamiltonian};
@@ -66,7 +67,7 @@ const REFERENCE_TOLERANCE: f64 = 1e-12;
 /// Gauss-Legendre 2 at `step` (rounded so that `T` is a whole number of steps), checked by
 /// Richardson's estimate against the run at twice the step: for a 4th-order method the error of
 /// the finer run is about `|z_2h(T) - z_h(T)| / 15`.
-pub(crate) fn gauss_legendre_reference<H: Hamiltonian<D>, const D: usize>(
+pub(crate) fn gauss_legendre_reference<H: Hamiltonian<Const<D>>, const D: usize>(
     system: &'static str,
     hamiltonian: &H,
     z0: &SVector<f64, D>,

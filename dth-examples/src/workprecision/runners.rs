@@ -4,6 +4,7 @@
 //! without them: the timed run only integrates to `T` and returns the final state, which is
 //! passed through [`black_box`] so the work cannot be optimized away.
 
+use dth::nalgebra::Const;
 use std::hint::black_box;
 use std::time::Instant;
 
@@ -136,8 +137,8 @@ pub(crate) fn sweep_peer<H, M, const D: usize>(
     make: impl Fn() -> M,
     records: &mut Vec<Record>,
 ) where
-    H: Hamiltonian<D> + Clone,
-    M: OneStepMethod<D, H>,
+    H: Hamiltonian<Const<D>> + Clone,
+    M: OneStepMethod<Const<D>, H>,
 {
     let h = &problem.hamiltonian;
     let z0 = &problem.z0;
@@ -152,7 +153,7 @@ pub(crate) fn sweep_peer<H, M, const D: usize>(
         let mut invariant = problem.invariant.map(|f| (f, MaxDeviation::new(f(z0))));
         let mut method = make();
         let result = run(&mut method, h, z0, 0.0, dt, steps, &mut |r: &StepRecord<
-            D,
+            Const<D>,
         >| {
             energy.push(h.value(&r.z));
             if let Some((f, dev)) = invariant.as_mut() {
@@ -185,12 +186,12 @@ pub(crate) fn sweep_peer<H, M, const D: usize>(
 /// ([`Dth::step_toward`]: the last step is shortened or stretched in `tau` so that its
 /// midpoint time is `t_end` to roundoff). Returns that midpoint and its time; `observe` sees
 /// the stepper at every step, with `true` after the last one.
-fn dth_to_time<H: Hamiltonian<D> + Clone, const D: usize>(
+fn dth_to_time<H: Hamiltonian<Const<D>> + Clone, const D: usize>(
     hamiltonian: &H,
     z0: &SVector<f64, D>,
     options: DthOptions,
     t_end: f64,
-    mut observe: impl FnMut(&Dth<H, D>, bool),
+    mut observe: impl FnMut(&Dth<H, Const<D>>, bool),
 ) -> Result<(SVector<f64, D>, f64), (CoreError, usize)> {
     let mut dth = Dth::new(hamiltonian.clone(), *z0, options).map_err(|e| (e, 0))?;
     observe(&dth, false);
@@ -244,7 +245,7 @@ impl Stall {
 
 /// DTH with the given solver over the `dtau` ladder.
 #[allow(clippy::too_many_arguments)]
-pub(crate) fn sweep_dth<H: Hamiltonian<D> + Clone, const D: usize>(
+pub(crate) fn sweep_dth<H: Hamiltonian<Const<D>> + Clone, const D: usize>(
     problem: &Problem<H, D>,
     options: &WorkPrecisionOptions,
     ladder: &Ladder,
@@ -348,7 +349,7 @@ pub(crate) fn sweep_dth<H: Hamiltonian<D> + Clone, const D: usize>(
 /// ladder `dtau = dt / lambda_mean` puts DTH at the same mean number of points per period as
 /// the peers at `dt` (on the e = 0.7 Kepler orbit the mean `lambda` is about 6 from
 /// `lambda_0 = 1` at pericenter). 1 if the probe fails.
-fn mean_lambda<H: Hamiltonian<D> + Clone, const D: usize>(
+fn mean_lambda<H: Hamiltonian<Const<D>> + Clone, const D: usize>(
     problem: &Problem<H, D>,
     base: DthOptions,
 ) -> f64 {

@@ -300,147 +300,173 @@ pub fn looped_impl(looped: &Looped, name: &Ident, params: &[Ident]) -> Option<To
     });
     let source = format!(" A lattice of {n} sites compiled in loops (D = {d})");
     Some(quote! {
+            #[doc = #source]
+            #[automatically_derived]
+            #[allow(unused_variables, unused_mut, unused_assignments, unused_parens, clippy::all, clippy::pedantic, clippy::nursery)]
+            impl #name {
+                const HESSIAN_PATTERN: ::core::option::Option<&'static [(usize, usize)]> = {
+                    #helpers
+                    #tables
+                    ::core::option::Option::Some(&PATTERN)
+                };
+                // `structured_newton` of the emitter, on the pattern the constant evaluator built.
+                const STRUCTURED_NEWTON: bool = {
+                    let pattern = match Self::HESSIAN_PATTERN {
+                        ::core::option::Option::Some(p) => p,
+                        ::core::option::Option::None => &[],
+                    };
+                    let (mut k, mut diagonal) = (0, 0);
+                    while k < pattern.len() {
+                        if pattern[k].0 == pattern[k].1 {
+                            diagonal += 1;
+                        }
+                        k += 1;
+                    }
+                    #d >= #min_dim && 4 * (2 * pattern.len() - diagonal) <= #d * #d
+                };
+            }
+
+        #[automatically_derived]
+        impl #core::ConstFlags for #name {
+            const FLAGS: #core::Flags = #core::Flags::new()
+                .with_separable(#separable)
+                .with_psi_identically_zero(#psi0)
+                .with_exact_divided_differences(true)
+                .with_structured_newton(Self::STRUCTURED_NEWTON);
+        }
+
         #[doc = #source]
         #[automatically_derived]
         #[allow(unused_variables, unused_mut, unused_assignments, unused_parens, clippy::all, clippy::pedantic, clippy::nursery)]
-        impl #core::Hamiltonian<#d> for #name {
-            const TIME_DEPENDENT: bool = false;
-            const SEPARABLE: bool = #separable;
-            const PSI_IDENTICALLY_ZERO: bool = #psi0;
-            const EXACT_DIVIDED_DIFFERENCES: bool = true;
-            const HESSIAN_PATTERN: ::core::option::Option<&'static [(usize, usize)]> = {
-                #helpers
-                #tables
-                ::core::option::Option::Some(&PATTERN)
-            };
-            // `structured_newton` of the emitter, on the pattern the constant evaluator built.
-            const STRUCTURED_NEWTON: bool = {
-                let pattern = match <Self as #core::Hamiltonian<#d>>::HESSIAN_PATTERN {
-                    ::core::option::Option::Some(p) => p,
-                    ::core::option::Option::None => &[],
-                };
-                let (mut k, mut diagonal) = (0, 0);
-                while k < pattern.len() {
-                    if pattern[k].0 == pattern[k].1 {
-                        diagonal += 1;
+        impl #core::Hamiltonian<#nalgebra::Const<#d>> for #name {
+                #[inline]
+                fn dim(&self) -> #nalgebra::Const<#d> {
+                    #nalgebra::Const
+                }
+            #[inline]
+            fn flags(&self) -> #core::Flags {
+                <Self as #core::ConstFlags>::FLAGS
+            }
+                #[inline]
+                fn hessian_pattern(&self) -> ::core::option::Option<&[(usize, usize)]> {
+                    Self::HESSIAN_PATTERN
+                }
+    #[inline]
+                fn value(&self, z: &#nalgebra::SVector<f64, #d>) -> f64 {
+                    #helpers
+                    let zg = z;
+                    let mut acc = 0.0f64;
+                    #value
+                    acc
+                }
+                #[inline]
+                fn gradient_into(&self, z: &#nalgebra::SVector<f64, #d>, out: &mut #nalgebra::SVector<f64, #d>) {
+                    #helpers
+                    let zg = z;
+                    let g = out;
+                    g.fill(0.0);
+                    #gradient
+                }
+                #[inline]
+                fn hessian_into(&self, z: &#nalgebra::SVector<f64, #d>, out: &mut #nalgebra::SMatrix<f64, #d, #d>) {
+                    let pattern = Self::HESSIAN_PATTERN.unwrap_or(&[]);
+                    const NNZ: usize = match #name::HESSIAN_PATTERN {
+                        ::core::option::Option::Some(p) => p.len(),
+                        ::core::option::Option::None => 0,
+                    };
+                    let mut values = [0.0f64; NNZ];
+                    self.hessian_nonzeros(z, &mut values);
+                    let h = out;
+                    h.fill(0.0);
+                    for (&(a, b), &v) in pattern.iter().zip(values.iter()) {
+                        h[(a, b)] = v;
+                        h[(b, a)] = v;
                     }
-                    k += 1;
                 }
-                #d >= #min_dim && 4 * (2 * pattern.len() - diagonal) <= #d * #d
-            };
-
-            #[inline]
-            fn value(&self, z: &#nalgebra::SVector<f64, #d>) -> f64 {
-                #helpers
-                let zg = z;
-                let mut acc = 0.0f64;
-                #value
-                acc
-            }
-            #[inline]
-            fn gradient(&self, z: &#nalgebra::SVector<f64, #d>) -> #nalgebra::SVector<f64, #d> {
-                #helpers
-                let zg = z;
-                let mut g = #nalgebra::SVector::<f64, #d>::zeros();
-                #gradient
-                g
-            }
-            #[inline]
-            fn hessian(&self, z: &#nalgebra::SVector<f64, #d>) -> #nalgebra::SMatrix<f64, #d, #d> {
-                let pattern = <Self as #core::Hamiltonian<#d>>::HESSIAN_PATTERN.unwrap_or(&[]);
-                const NNZ: usize = match <#name as #core::Hamiltonian<#d>>::HESSIAN_PATTERN {
-                    ::core::option::Option::Some(p) => p.len(),
-                    ::core::option::Option::None => 0,
-                };
-                let mut values = [0.0f64; NNZ];
-                self.hessian_nonzeros(z, &mut values);
-                let mut h = #nalgebra::SMatrix::<f64, #d, #d>::zeros();
-                for (&(a, b), &v) in pattern.iter().zip(values.iter()) {
-                    h[(a, b)] = v;
-                    h[(b, a)] = v;
+                /// Only the Hessian's nonzero entries, in the order of `HESSIAN_PATTERN`.
+                #[inline]
+                fn hessian_nonzeros(&self, z: &#nalgebra::SVector<f64, #d>, values: &mut [f64]) {
+                    #helpers
+                    #tables
+                    let zg = z;
+                    let values = &mut values[..NNZ];
+                    for v in values.iter_mut() {
+                        *v = 0.0;
+                    }
+                    #nonzeros
                 }
-                h
-            }
-            /// Only the Hessian's nonzero entries, in the order of `HESSIAN_PATTERN`.
-            #[inline]
-            fn hessian_nonzeros(&self, z: &#nalgebra::SVector<f64, #d>, values: &mut [f64]) {
-                #helpers
-                #tables
-                let zg = z;
-                let values = &mut values[..NNZ];
-                for v in values.iter_mut() {
-                    *v = 0.0;
+                #[inline]
+                fn psi(&self, z: &#nalgebra::SVector<f64, #d>) -> f64 {
+                    let pattern = Self::HESSIAN_PATTERN.unwrap_or(&[]);
+                    const NNZ: usize = match #name::HESSIAN_PATTERN {
+                        ::core::option::Option::Some(p) => p.len(),
+                        ::core::option::Option::None => 0,
+                    };
+                    let g = self.gradient(z);
+                    let mut values = [0.0f64; NNZ];
+                    self.hessian_nonzeros(z, &mut values);
+                    let w = |i: usize| if i < #n { g[i + #n] } else { -g[i - #n] };
+                    let mut psi = 0.0f64;
+                    for (&(a, b), &v) in pattern.iter().zip(values.iter()) {
+                        psi += if a == b { v * w(a) * w(a) } else { 2.0 * v * w(a) * w(b) };
+                    }
+                    psi
                 }
-                #nonzeros
-            }
-            #[inline]
-            fn psi(&self, z: &#nalgebra::SVector<f64, #d>) -> f64 {
-                let pattern = <Self as #core::Hamiltonian<#d>>::HESSIAN_PATTERN.unwrap_or(&[]);
-                const NNZ: usize = match <#name as #core::Hamiltonian<#d>>::HESSIAN_PATTERN {
-                    ::core::option::Option::Some(p) => p.len(),
-                    ::core::option::Option::None => 0,
-                };
-                let g = self.gradient(z);
-                let mut values = [0.0f64; NNZ];
-                self.hessian_nonzeros(z, &mut values);
-                let w = |i: usize| if i < #n { g[i + #n] } else { -g[i - #n] };
-                let mut psi = 0.0f64;
-                for (&(a, b), &v) in pattern.iter().zip(values.iter()) {
-                    psi += if a == b { v * w(a) * w(a) } else { 2.0 * v * w(a) * w(b) };
+                #[inline]
+                fn derivatives_into(
+                    &self,
+                    z: &#nalgebra::SVector<f64, #d>,
+                    out: &mut #core::Derivatives<#nalgebra::Const<#d>>,
+                ) {
+                    out.value = self.value(z);
+                    self.gradient_into(z, &mut out.gradient);
+                    self.hessian_into(z, &mut out.hessian);
+                    out.psi = self.psi(z);
                 }
-                psi
-            }
-            #[inline]
-            fn derivatives(&self, z: &#nalgebra::SVector<f64, #d>) -> #core::Derivatives<#d> {
-                #core::Derivatives {
-                    value: self.value(z),
-                    gradient: self.gradient(z),
-                    hessian: self.hessian(z),
-                    psi: self.psi(z),
+                /// Exact divided differences of `H`, without cancellation, summand by summand.
+                #[inline]
+                fn discrete_gradient_into(
+                    &self,
+                    z0: &#nalgebra::SVector<f64, #d>,
+                    z1: &#nalgebra::SVector<f64, #d>,
+                    out: &mut #nalgebra::SVector<f64, #d>,
+                ) {
+                    #helpers
+                    let (zg, zg1) = (z0, z1);
+                    let g = out;
+                    g.fill(0.0);
+                    #discrete_gradient
+                }
+                /// `H(z1) - H(z0)` by exact divided differences, without cancellation.
+                #[inline]
+                fn energy_difference(
+                    &self,
+                    z0: &#nalgebra::SVector<f64, #d>,
+                    z1: &#nalgebra::SVector<f64, #d>,
+                ) -> f64 {
+                    #helpers
+                    let (zg, zg1) = (z0, z1);
+                    let mut acc = 0.0f64;
+                    #energy_difference
+                    acc
+                }
+                /// `grad H(z0) + grad H(z1) - 2 gbar(z0, z1)` without cancellation; `gbar` is
+                /// recomputed inside, not read.
+                #[inline]
+                fn discrete_gradient_defect_into(
+                    &self,
+                    z0: &#nalgebra::SVector<f64, #d>,
+                    z1: &#nalgebra::SVector<f64, #d>,
+                    gbar: &#nalgebra::SVector<f64, #d>,
+                    out: &mut #nalgebra::SVector<f64, #d>,
+                ) {
+                    #helpers
+                    let _ = gbar;
+                    let (zg, zg1) = (z0, z1);
+                    let g = out;
+                    g.fill(0.0);
+                    #defect
                 }
             }
-            /// Exact divided differences of `H`, without cancellation, summand by summand.
-            #[inline]
-            fn discrete_gradient(
-                &self,
-                z0: &#nalgebra::SVector<f64, #d>,
-                z1: &#nalgebra::SVector<f64, #d>,
-            ) -> #nalgebra::SVector<f64, #d> {
-                #helpers
-                let (zg, zg1) = (z0, z1);
-                let mut g = #nalgebra::SVector::<f64, #d>::zeros();
-                #discrete_gradient
-                g
-            }
-            /// `H(z1) - H(z0)` by exact divided differences, without cancellation.
-            #[inline]
-            fn energy_difference(
-                &self,
-                z0: &#nalgebra::SVector<f64, #d>,
-                z1: &#nalgebra::SVector<f64, #d>,
-            ) -> f64 {
-                #helpers
-                let (zg, zg1) = (z0, z1);
-                let mut acc = 0.0f64;
-                #energy_difference
-                acc
-            }
-            /// `grad H(z0) + grad H(z1) - 2 gbar(z0, z1)` without cancellation; `gbar` is
-            /// recomputed inside, not read.
-            #[inline]
-            fn discrete_gradient_defect(
-                &self,
-                z0: &#nalgebra::SVector<f64, #d>,
-                z1: &#nalgebra::SVector<f64, #d>,
-                gbar: &#nalgebra::SVector<f64, #d>,
-            ) -> #nalgebra::SVector<f64, #d> {
-                #helpers
-                let _ = gbar;
-                let (zg, zg1) = (z0, z1);
-                let mut g = #nalgebra::SVector::<f64, #d>::zeros();
-                #defect
-                g
-            }
-        }
-    })
+        })
 }
