@@ -9,6 +9,10 @@
 //! continuations and all), and validation must give the macro's messages in its order, each
 //! at the line and column of the character the macro underlines, inside the string (a
 //! parameter's at its key in `params`).
+//!
+//! The shipped scenes run: the Kepler scene ends where the built-in `kepler` does, and DTH
+//! keeps the energy of Morse, forced Duffing and the 12-particle chain at its midpoints to
+//! roundoff (shortened runs: the dev profile).
 
 #[path = "../../tests/ui_cases/mod.rs"]
 mod ui_cases;
@@ -17,7 +21,10 @@ use std::fs;
 
 use dth_examples::catalogue::Catalogue;
 use dth_examples::error::SceneDiagnostic;
-use dth_examples::scene::{line_col, MethodKind};
+use dth_examples::runtime_system::TextSystem;
+use dth_examples::scene::{line_col, Duration, EffectSpec, MethodKind, Scene};
+use dth_examples::simulate::{compute, MethodResult, RunOptions};
+use dth_examples::systems::Kepler;
 use dth_examples::{check_scene, Error};
 use ui_cases::{call, cases, diagnostics, macro_only};
 
@@ -413,4 +420,89 @@ fn the_shipped_text_scenes_are_valid() {
     assert_eq!((h.n, h.separable), (12, true));
     // The multi-line string's line continuations are gone from the expression.
     assert!(!h.source.contains('\\'), "{}", h.source);
+}
+
+/// A shipped scene, validated.
+fn shipped(name: &str) -> Scene {
+    let path = format!("{}/scenes/{name}", env!("CARGO_MANIFEST_DIR"));
+    let text = fs::read_to_string(&path).unwrap();
+    check_scene(&text, &path, &Catalogue::builtin()).unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn quiet() -> RunOptions {
+    RunOptions::default().with_progress(false)
+}
+
+/// Each method's final state.
+fn final_states(results: &[MethodResult]) -> Vec<(String, Vec<f64>)> {
+    results
+        .iter()
+        .map(|r| {
+            assert!(r.failure.is_none(), "{}: {:?}", r.summary.label, r.failure);
+            let end = r.summary.final_state.as_ref().expect("final_state");
+            (r.summary.label.clone(), end.z.clone())
+        })
+        .collect()
+}
+
+#[test]
+fn kepler_from_text_ends_where_the_builtin_kepler_does() {
+    // The thesis's settings, 2,000 steps of each method (80 orbits of DTH).
+    let mut scene = shipped("kepler-from-text.toml");
+    scene.duration = Duration::Steps(2000);
+    scene.effects = vec![EffectSpec::FinalState];
+    let text = TextSystem::build(&scene).unwrap();
+    let from_text = final_states(&compute(&text, &scene, &quiet()).unwrap());
+    let builtin = Kepler {
+        m: scene.params["m"],
+        k: scene.params["k"],
+    };
+    let compiled = final_states(&compute(&builtin, &scene, &quiet()).unwrap());
+    assert_eq!(from_text.len(), 2);
+    for ((label, a), (_, b)) in from_text.iter().zip(&compiled) {
+        // The runtime programs are the macro's (same operations, same order), and the Dyn
+        // stepper does the Const one's arithmetic: the states agree far inside 1e-8.
+        let diff = a
+            .iter()
+            .zip(b)
+            .map(|(x, y)| (x - y).abs())
+            .fold(0.0, f64::max);
+        assert!(diff <= 1e-8, "{label}: {a:?} vs {b:?} ({diff:e})");
+    }
+}
+
+#[test]
+fn dth_keeps_the_energy_of_the_text_scenes_at_its_midpoints() {
+    for (name, steps) in [
+        ("morse.toml", 2000),
+        ("duffing-forced.toml", 2000),
+        ("chain-12.toml", 500),
+    ] {
+        let mut scene = shipped(name);
+        scene.duration = Duration::Steps(steps);
+        scene.effects = vec![EffectSpec::EnergyDeviation { every: 1 }];
+        let system = TextSystem::build(&scene).unwrap();
+        let results = compute(&system, &scene, &quiet()).unwrap();
+        let dth = results
+            .iter()
+            .find(|r| r.summary.kind == "dth")
+            .expect("a dth method");
+        assert!(dth.failure.is_none(), "{name}: {:?}", dth.failure);
+        let energy = dth.summary.energy.as_ref().expect("energy_deviation");
+        assert_eq!(energy.points.count, steps, "{name}");
+        // Roundoff: each H (calH for Duffing) and its terms are of order 1 here (Morse 0.28,
+        // Duffing's terms below 2, the chain's 0.3 over 37 terms), so one evaluation rounds by
+        // a few eps ~ 1e-16 and the energy condition is solved to that: 1e-14 is ~45 eps.
+        assert!(energy.points.max <= 1e-14, "{name}: {:?}", energy.points);
+        // The peers drift far above it (the scenes' comparison).
+        let peers = results.iter().filter(|r| r.summary.kind != "dth");
+        for p in peers {
+            let e = p.summary.energy.as_ref().unwrap().points.max;
+            assert!(
+                e > 1e3 * energy.points.max.max(1e-17),
+                "{name}: {} {e}",
+                p.summary.label
+            );
+        }
+    }
 }
