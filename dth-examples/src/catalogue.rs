@@ -11,6 +11,9 @@
 //! and is registered the same way, with [`SystemEntry::runnable`] and [`Catalogue::register`];
 //! see `examples/custom_system.rs`.
 //!
+//! A scene whose Hamiltonian is given as text names no entry: [`Catalogue::run`] builds it
+//! ([`crate::runtime_system::TextSystem`], dimension `Dyn`) and runs it through the same path.
+//!
 //! A system whose `Psi` is identically zero (`Hamiltonian::PSI_IDENTICALLY_ZERO`, e.g. a free
 //! particle) cannot run DTH: the stepper's constructor rejects it at compile time (thesis
 //! Section 3.4). Register it with [`SystemEntry::runnable_without_dth`]: every peer method

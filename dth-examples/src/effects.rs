@@ -467,7 +467,14 @@ where
                     s.crossings.push((tc, at(s.x, tc, &zc), at(s.y, tc, &zc)));
                 }
             }
-            s.previous = Some((t, z.clone()));
+            match &mut s.previous {
+                // The stored state is overwritten: no allocation per step for `Dyn`.
+                Some((tp, zp)) => {
+                    *tp = t;
+                    zp.copy_from(z);
+                }
+                None => s.previous = Some((t, z.clone())),
+            }
         }
         if let Some(m) = &mut self.normal_modes {
             if step.is_multiple_of(m.every) {

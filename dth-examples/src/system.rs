@@ -13,8 +13,11 @@ use crate::driver::{DthRunner, MethodFailure, Stop};
 /// What a scene needs from a system beyond [`Hamiltonian`]: its quadratic invariants (for the
 /// `invariants` effect) and, optionally, an orbit period (for durations in `orbits`).
 ///
-/// `D` is the phase-space dimension of the implementation: `2n`, or `2n + 2` when
-/// `Flags::time_dependent` (the extended phase space `(q, t, p, p_t)`).
+/// `D` is the phase-space dimension of the implementation, `2n`, or `2n + 2` when
+/// `Flags::time_dependent` (the extended phase space `(q, t, p, p_t)`), as nalgebra's
+/// dimension type: `Const<N>` for a type whose size is known when compiled (the catalogue's
+/// `hamiltonian!` systems), `Dyn` for one known at run time (a scene's Hamiltonian given as
+/// text, [`crate::runtime_system::TextSystem`]).
 ///
 /// `Clone` because the DTH stepper owns its Hamiltonian (systems are small parameter structs).
 pub trait SceneSystem<D: Dim>: Hamiltonian<D> + Clone

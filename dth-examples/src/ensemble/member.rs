@@ -88,7 +88,14 @@ where
                 self.energy_error = self.energy_error.max(d);
             }
         }
-        self.last = Some((record.k, record.t, record.z.clone()));
+        match &mut self.last {
+            // The stored state is overwritten: no allocation per step for `Dyn`.
+            Some((k, t, z)) => {
+                (*k, *t) = (record.k, record.t);
+                z.copy_from(&record.z);
+            }
+            None => self.last = Some((record.k, record.t, record.z.clone())),
+        }
         if let Some(m) = &mut self.megno {
             m.on_step(record);
         }
