@@ -157,7 +157,7 @@ pub enum Error {
         /// What became non-finite (e.g. "state", "Newton residual").
         what: &'static str,
     },
-    /// A method for separable Hamiltonians was given one whose `SEPARABLE` is `false`.
+    /// A method for separable Hamiltonians was given one whose `separable` flag is `false`.
     #[error(
         "{method} needs a separable Hamiltonian H = T(p) + V(q) (Hamiltonian::SEPARABLE is false)"
     )]

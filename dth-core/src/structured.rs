@@ -11,7 +11,7 @@
 //! nearest-neighbour lattice) `I - c J Hess` has `kl, ku <= 3` after the ordering (`q_i` and
 //! `p_i` interleave), so a Newton iteration is linear in `D`. For a dense Hessian (all-pairs
 //! N-body) the bandwidth is `D`: the dense fixed-size LU of `linalg` is then the faster path,
-//! and generated types choose between the two ([`Hamiltonian::STRUCTURED_NEWTON`]).
+//! and generated types choose between the two ([`Flags::structured_newton`](crate::Flags::structured_newton)).
 //! `docs/benchmarks.md` records the measured crossover and the comparison with a general
 //! sparse LU (faer).
 //!
@@ -20,7 +20,7 @@
 //! upper bandwidth to `kl + ku`, which the storage reserves. A pivot at or below
 //! `m eps max|A_ij|` is [`Pivot::Singular`], as for the dense LU.
 //!
-//! [`Hamiltonian::STRUCTURED_NEWTON`]: crate::Hamiltonian::STRUCTURED_NEWTON
+//! [`Flags::structured_newton`]: crate::Flags::structured_newton
 //!
 //! ```
 //! use dth_core::structured::BandedLu;

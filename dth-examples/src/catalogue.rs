@@ -14,7 +14,7 @@
 //! A scene whose Hamiltonian is given as text names no entry: [`Catalogue::run`] builds it
 //! ([`crate::runtime_system::TextSystem`], dimension `Dyn`) and runs it through the same path.
 //!
-//! A system whose `Psi` is identically zero (`Hamiltonian::PSI_IDENTICALLY_ZERO`, e.g. a free
+//! A system whose `Psi` is identically zero (`Flags::psi_identically_zero`, e.g. a free
 //! particle) cannot run DTH: the stepper's constructor rejects it at compile time (thesis
 //! Section 3.4). Register it with [`SystemEntry::runnable_without_dth`]: every peer method
 //! runs, and a scene naming `dth` for it is rejected by validation.
@@ -177,7 +177,7 @@ impl SystemEntry {
     }
 
     /// A runnable entry that offers every peer method but not DTH: for systems whose `Psi` is
-    /// identically zero (`Hamiltonian::PSI_IDENTICALLY_ZERO`, e.g. a free particle), which the
+    /// identically zero (`Flags::psi_identically_zero`, e.g. a free particle), which the
     /// DTH stepper rejects at compile time. The system runs as [`WithoutDth`]`<S>`, so the
     /// stepper is never instantiated for it; validation rejects a scene naming method `dth`
     /// for it (file, line and column, and why).

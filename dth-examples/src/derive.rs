@@ -24,7 +24,8 @@
 use std::fmt::Write as _;
 
 use dth_symbolic::emit::{hamiltonian_impl, looped_source_impl};
-use dth_symbolic::{compile, Errors, System, Var};
+use dth_symbolic::looped::{self, Looped};
+use dth_symbolic::{compile, ErrorKind, Errors, System, Var, MAX_INDEX};
 use proc_macro2::{Ident, Span, TokenStream};
 use quote::quote;
 
@@ -36,11 +37,39 @@ use crate::error::Error;
 /// # Errors
 /// [`Error::Hamiltonian`] with every independent error of the expression, each shown under
 /// the expression with a caret line at its position.
+///
+/// A lattice beyond the [`dth_symbolic::MAX_INDEX`] sites the engine writes out site by site
+/// whose sums compile to loops (as `hamiltonian!` compiles it) is reported once per summand,
+/// in the summand's local coordinates, its flags and warnings those of
+/// the whole lattice.
+///
+/// ```
+/// let chain = "sum(i = 1..N, p[i]^2/2) + sum(i = 0..N, (q[i+1] - q[i])^2/2) \
+///              where N = 4096, q[0] = q[N+1] = 0";
+/// let text = dth_examples::derive::derive(chain, &[])?;
+/// assert!(text.contains("n = 4096 degrees of freedom, D = 8192"));
+/// assert!(text.contains("dS/dq1 = q1 - q2"));
+/// # Ok::<(), dth_examples::Error>(())
+/// ```
 pub fn derive(source: &str, params: &[&str]) -> Result<String, Error> {
-    let system = compile(source, params).map_err(|errors| Error::Hamiltonian {
-        diagnostics: render_errors(source, &errors),
-    })?;
-    Ok(report(source, &system))
+    match compile(source, params) {
+        Ok(system) => Ok(report(source, &system)),
+        Err(errors) => {
+            let written_out_only = errors.0.iter().all(|e| {
+                matches!(e.kind, ErrorKind::LatticeTooLarge { limit, .. } if limit == MAX_INDEX)
+            });
+            if written_out_only {
+                if let Ok(lattice) = looped::compile(source, params) {
+                    if lattice.has_momentum() {
+                        return Ok(report_looped(source, &lattice));
+                    }
+                }
+            }
+            Err(Error::Hamiltonian {
+                diagnostics: render_errors(source, &errors),
+            })
+        }
+    }
 }
 
 /// The name of the type [`rust`] declares: the one the macro's expression form declares.
@@ -182,6 +211,96 @@ fn report(source: &str, s: &System) -> String {
         "\nPsi = (J gradH)^T HessH (J gradH)\n  = {}",
         s.expr(s.psi())
     );
+    out
+}
+
+/// The report of a lattice compiled to loops: the whole lattice's size, flags and warnings,
+/// then each sum's summand differentiated once, in its local coordinates (`q1 = q[i-1]`,
+/// ...: the summand's `dS/dq1` is what each site `i` adds to `dH/dq[i-1]`).
+fn report_looped(source: &str, l: &Looped) -> String {
+    let mut out = String::new();
+    let (n, d) = (l.n(), l.dim());
+    let _ = writeln!(out, "H = {}", source.trim());
+    let _ = writeln!(
+        out,
+        "a lattice of {n} sites, each summand differentiated once and run in loops over the sites (beyond the {MAX_INDEX} written out site by site)"
+    );
+    let _ = writeln!(out, "z = (q[1]..q[{n}], p[1]..p[{n}])");
+    let params = l
+        .sums()
+        .first()
+        .map(|s| s.summand().params().to_vec())
+        .unwrap_or_default();
+    let _ = writeln!(
+        out,
+        "n = {n} degrees of freedom, D = {d}, parameters: {}",
+        if params.is_empty() {
+            "none".to_string()
+        } else {
+            params.join(", ")
+        }
+    );
+    for w in l.warnings() {
+        let _ = write!(
+            out,
+            "{}",
+            render("warning", source, &w.to_string(), w.span.range())
+        );
+    }
+    let psi0 = l.psi_identically_zero();
+    let _ = writeln!(out, "\nflags");
+    let _ = writeln!(out, "  separable: {} (H = T(p) + V(q))", yes(l.separable()));
+    let _ = writeln!(out, "  time-dependent: no");
+    let _ = writeln!(
+        out,
+        "  Psi identically zero: {}{}",
+        yes(psi0),
+        if psi0 {
+            " (DTH cannot run on it: the energy condition does not determine lambda)"
+        } else {
+            ""
+        }
+    );
+    let _ = writeln!(
+        out,
+        "\nHessian: {} nonzero entries in the upper triangle (of {})",
+        l.hessian_pattern().len(),
+        d * (d + 1) / 2
+    );
+    for (k, sum) in l.sums().iter().enumerate() {
+        let s = sum.summand();
+        let (lo, hi) = sum.range();
+        // The local coordinates' names in the summand's printed expressions, and what each is.
+        let local: Vec<String> = s.coordinates().iter().map(|&v| name(v)).collect();
+        let mut slots: Vec<String> = sum
+            .slots()
+            .iter()
+            .map(|&(letter, c, at)| {
+                let site = match c {
+                    0 => "i".to_string(),
+                    c if c > 0 => format!("i+{c}"),
+                    c => format!("i{c}"),
+                };
+                format!("{} = {letter}[{site}]", local[at])
+            })
+            .collect();
+        slots.sort();
+        let _ = writeln!(
+            out,
+            "\nsum {} over i = {lo}..{hi}, summand S in {}",
+            k + 1,
+            slots.join(", ")
+        );
+        let _ = writeln!(out, "  S = {}", s.expr(s.value()));
+        for (i, &g) in s.gradient().iter().enumerate() {
+            if s.constant(g).is_none_or(|c| !c.is_zero()) {
+                let _ = writeln!(out, "  dS/d{} = {}", local[i], s.expr(g));
+            }
+        }
+        for &(i, j, h) in s.hessian_nonzeros() {
+            let _ = writeln!(out, "  d2S/d{}d{} = {}", local[i], local[j], s.expr(h));
+        }
+    }
     out
 }
 

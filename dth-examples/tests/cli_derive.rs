@@ -149,3 +149,52 @@ fn derive_rust_prints_a_lattice_of_sums_as_loops() {
         "{a} bytes at N = 64, {b} at N = 4096"
     );
 }
+
+/// A lattice beyond the 512 sites the engine writes out site by site: derived once per summand
+/// when its sums compile to loops, else one error at `N`'s value; never one error per site.
+#[test]
+fn derive_a_lattice_beyond_what_is_written_out() {
+    let dir = tempfile::tempdir().unwrap();
+    let chain = "sum(i = 1..N, p[i]^2/2) + sum(i = 0..N, (q[i+1] - q[i])^2/2) \
+                 where N = 1000, q[0] = q[N+1] = 0";
+    let o = dth(&["derive", chain], dir.path());
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let out = stdout(&o);
+    for line in [
+        "n = 1000 degrees of freedom, D = 2000",
+        "separable: yes",
+        "Psi identically zero: no",
+        // The band of a chain: 1000 + 999 among the positions, 1000 momenta.
+        "Hessian: 2999 nonzero entries",
+        "sum 2 over i = 0..1000, summand S in q1 = q[i+1], q2 = q[i]",
+        "dS/dq1 = q1 - q2",
+    ] {
+        assert!(out.contains(line), "missing `{line}` in\n{out}");
+    }
+    let errors = |src: &str| {
+        let o = dth(&["derive", src], dir.path());
+        assert_eq!(o.status.code(), Some(2), "{}", stdout(&o));
+        let err = stderr(&o);
+        // One diagnostic, each located by its column.
+        assert_eq!(err.matches("(column ").count(), 1, "{err}");
+        err
+    };
+    // A term outside the sums: written out site by site, which stops at 512.
+    let src = "sum(i = 1..N, p[i]^2/2 + q[i]^2/2) + q1^4 where N = 1000";
+    let err = errors(src);
+    assert!(
+        err.contains("lattice too large: 1000 sites, at most 512 when the sums are written out"),
+        "{err}"
+    );
+    // At `N`'s value.
+    let at = src.rfind("1000").unwrap_or_default();
+    assert!(
+        err.contains(&format!("\n  {}^^^^\n", " ".repeat(at))),
+        "{err}"
+    );
+    let err = errors("sum(i = 1..N, p[i]^2/2 + q[i]^2/2) where N = 1000000000000");
+    assert!(
+        err.contains("lattice too large: 1000000000000 sites, at most 16384 are supported"),
+        "{err}"
+    );
+}

@@ -2,7 +2,7 @@
 //! emitter, `dth_symbolic::emit`) and the warnings; or the errors beside a stub.
 
 use dth_symbolic::emit::{hamiltonian_impl, looped_source_impl};
-use dth_symbolic::System;
+use dth_symbolic::{System, Warning};
 use proc_macro2::TokenStream;
 use quote::quote;
 use syn::Ident;
@@ -26,7 +26,8 @@ pub fn expand(input: Input) -> TokenStream {
     if errors.is_empty() {
         let (decl, name) = fallback::declaration(&input, &params);
         if let Some(imp) = looped_source_impl(&input.body.source, &name, &params) {
-            return wrap(&input, decl, name, imp, TokenStream::new());
+            let warnings = warnings(&input, &looped_warnings(&input, &params));
+            return wrap(&input, decl, name, imp, warnings);
         }
     }
     let system = check::system(&input, &params, &mut errors);
@@ -40,8 +41,19 @@ pub fn expand(input: Input) -> TokenStream {
 fn implementation(input: &Input, params: &[Ident], system: &System) -> TokenStream {
     let (decl, name) = fallback::declaration(input, params);
     let imp = hamiltonian_impl(system, &name, params);
-    let warnings = warnings(input, system);
+    let warnings = warnings(input, system.warnings());
     wrap(input, decl, name, imp, warnings)
+}
+
+/// The warnings of a lattice compiled to loops: the written-out path's, decided on the
+/// ranges (`looped_source_impl` compiled it already; compiling again costs what the loops'
+/// engine costs, the same at any number of sites).
+fn looped_warnings(input: &Input, params: &[Ident]) -> Vec<Warning> {
+    let names: Vec<String> = params.iter().map(Ident::to_string).collect();
+    let names: Vec<&str> = names.iter().map(String::as_str).collect();
+    dth_symbolic::looped::compile(&input.body.source, &names)
+        .map(|l| l.warnings().to_vec())
+        .unwrap_or_default()
 }
 
 /// The declaration, the implementation and the warnings, as an item or an expression.

@@ -4,14 +4,16 @@
 //! `#[allow(deprecated)]` silences it: on the enclosing function for the expression form, on
 //! the declared struct for the item form (its `allow` attributes are copied here).
 
-use dth_symbolic::System;
+use dth_symbolic::Warning;
 use proc_macro2::TokenStream;
 use quote::{quote, quote_spanned};
 
 use crate::parse::Input;
 
-/// One `const _` per warning of `system`, empty when there are none.
-pub fn warnings(input: &Input, system: &System) -> TokenStream {
+/// One `const _` per warning (of the written-out system, or of the lattice compiled to
+/// loops), empty when there are none. rustc underlines the constant's use, one token: the
+/// first of what the warning is about (`q` of `q[i]`; stable proc macros cannot join spans).
+pub fn warnings(input: &Input, warnings: &[Warning]) -> TokenStream {
     let allows = input.item.iter().flat_map(|header| {
         header
             .attrs
@@ -19,8 +21,7 @@ pub fn warnings(input: &Input, system: &System) -> TokenStream {
             .filter(|a| a.path().is_ident("allow") || a.path().is_ident("expect"))
     });
     let allows: Vec<_> = allows.collect();
-    system
-        .warnings()
+    warnings
         .iter()
         .map(|w| {
             let note = w.to_string();

@@ -75,3 +75,39 @@ fn trait_evaluations_allocate_nothing() {
     assert!(acc.is_finite());
     assert_eq!(allocations, 0, "allocations during evaluation");
 }
+
+/// The runtime Hamiltonian as `Hamiltonian<Dyn>` writes into the caller's storage: the `_into`
+/// methods allocate nothing once the buffers exist (and the fused evaluation's per-thread
+/// scratch has been sized by a first call).
+#[test]
+fn dyn_trait_evaluations_allocate_nothing() {
+    use dth_core::nalgebra::{DMatrix, DVector};
+    use dth_core::Derivatives;
+    let h = RuntimeHamiltonian::new(
+        "p1^2/(2*m) + p2^2/2 + exp(q1 - q2) + sin(q1)*cos(t) + (1 + q2^2)^(1/3)",
+        &[("m", 1.5)],
+    )
+    .unwrap();
+    let d = h.dim();
+    let z0 = DVector::from_fn(d, |i, _| 0.1 * i as f64 - 0.2);
+    let z1 = z0.add_scalar(0.01);
+    let (mut v, mut w, mut m) = (DVector::zeros(d), DVector::zeros(d), DMatrix::zeros(d, d));
+    let mut all = Derivatives::zeros(dth_core::nalgebra::Dyn(d));
+    Hamiltonian::derivatives_into(&h, &z0, &mut all);
+    let (acc, allocations) = alloc_counter::count(|| {
+        let mut acc = 0.0;
+        for _ in 0..100 {
+            acc += Hamiltonian::value(&h, &z0) + Hamiltonian::psi(&h, &z0);
+            acc += Hamiltonian::energy_difference(&h, &z0, &z1);
+            Hamiltonian::gradient_into(&h, &z0, &mut v);
+            Hamiltonian::hessian_into(&h, &z0, &mut m);
+            Hamiltonian::derivatives_into(&h, &z0, &mut all);
+            Hamiltonian::discrete_gradient_into(&h, &z0, &z1, &mut v);
+            Hamiltonian::discrete_gradient_defect_into(&h, &z0, &z1, &v, &mut w);
+            acc += v.sum() + w.sum() + m.sum() + all.value + all.psi;
+        }
+        acc
+    });
+    assert!(acc.is_finite());
+    assert_eq!(allocations, 0, "allocations during evaluation");
+}

@@ -11,7 +11,7 @@
 //! cannot go stale. Where the two differ by construction, the test says so:
 //!
 //! - text: the macro underlines whole Rust tokens, a run-time error the piece of text at
-//!   fault. A string literal `"q1"` is one Rust token, and an error at its quote is
+//!   fault; a warning, only the first token of the engine's span (`q` of `q[i]`). A string literal `"q1"` is one Rust token, and an error at its quote is
 //!   underlined to its end by rustc; the brackets of `[q1 + q2]` are one Rust group. So the
 //!   end of an error is compared only where the two tokenizations agree, the start always.
 //! - the empty expression: there is no token; the macro points at the call, a run-time error
@@ -72,6 +72,7 @@ fn every_ui_case_has_a_runtime_counterpart() {
             }
         }
         // (message, span, the parameter an error is about)
+        let result_is_ok = result.is_ok();
         let found: Vec<(String, std::ops::Range<usize>, Option<String>)> = match result {
             Err(e) => e
                 .0
@@ -113,7 +114,11 @@ fn every_ui_case_has_a_runtime_counterpart() {
                 continue;
             }
             let (start, end) = (call.at + span.start, call.at + span.end);
-            if (start, end) != (want.start, want.end) {
+            // A warning reaches rustc as the use of a deprecated constant, which rustc
+            // underlines as one token (stable proc macros cannot join spans): the first token
+            // of the engine's span (`q` of `q[i]`).
+            let warning = result_is_ok && want.end <= end && want.end > want.start;
+            if start != want.start || (!warning && end != want.end) {
                 failures.push(format!(
                     "{case}: `{message}` at {:?}, the macro at {:?}",
                     &source[start..end],

@@ -8,7 +8,7 @@
 use crate::arena::{Arena, Id, Var};
 use crate::check::{resolve, Name};
 use crate::error::{Error, ErrorKind};
-use crate::lattice::{compact, Boundary, Lattice};
+use crate::lattice::{compact, Bound, Boundary, Lattice};
 use crate::number::{parse_literal, Fault, LiteralError, Num};
 use crate::parser::{operand_text, Ast, BinOp, Decl, Range};
 use crate::span::Span;
@@ -312,7 +312,7 @@ impl Builder<'_> {
             self.lattice.bound = bound;
             return id;
         }
-        if site < 1 || (self.lattice.in_boundary && self.lattice.last.is_some_and(|n| site > n)) {
+        if self.lattice.in_boundary && (site < 1 || self.lattice.last.is_some_and(|n| site > n)) {
             self.errors.push(Error::new(
                 ErrorKind::IndexOutOfRange {
                     access: compact(&self.src[span.range()]),
@@ -325,8 +325,20 @@ impl Builder<'_> {
             ));
             return None;
         }
+        // Out of range at some sites of a sum: one error per access, at its farthest site
+        // ([`Lattice::finish`] reports them), not one per site.
+        if site < 1 {
+            self.record(true, span, site, letter);
+            return None;
+        }
         let k = match u32::try_from(site) {
             Ok(k) if k as usize <= crate::MAX_INDEX => k,
+            // Beyond the largest index: in a sum also beyond its lattice (whose bounds are at
+            // most that index), so out of range.
+            _ if !self.lattice.bound.is_empty() => {
+                self.record(false, span, site, letter);
+                return None;
+            }
             _ => {
                 self.errors.push(Error::new(
                     ErrorKind::IndexTooLarge {
@@ -337,20 +349,38 @@ impl Builder<'_> {
                 return None;
             }
         };
-        let higher = self
-            .lattice
-            .reached
-            .get(&span)
-            .is_none_or(|&(highest, ..)| site > highest);
-        if higher {
-            let at = self.lattice.at();
-            self.lattice.reached.insert(span, (site, letter, at));
-        }
+        self.record(false, span, site, letter);
         self.arena.span = span;
         Some(
             self.arena
                 .var(if letter == 'q' { Var::Q(k) } else { Var::P(k) }),
         )
+    }
+
+    /// Records that the access at `span` reached `letter[site]`, if it is the lowest (`below`)
+    /// or highest such site of that access so far, with the indices' values there.
+    fn record(&mut self, below: bool, span: Span, site: i64, letter: char) {
+        let map = if below {
+            &mut self.lattice.below
+        } else {
+            &mut self.lattice.reached
+        };
+        let farther = map.get(&span).is_none_or(|&(farthest, ..)| {
+            if below {
+                site < farthest
+            } else {
+                site > farthest
+            }
+        });
+        if farther {
+            let at = self.lattice.at();
+            let map = if below {
+                &mut self.lattice.below
+            } else {
+                &mut self.lattice.reached
+            };
+            map.insert(span, (site, letter, at));
+        }
     }
 
     /// `letter[index]` in a summand built once ([`crate::looped`]): the index must be the
@@ -376,7 +406,7 @@ impl Builder<'_> {
             local.not_loopable = Some("an index is not the sum's index plus a constant");
             return None;
         }
-        let v = local.slot(letter, c);
+        let v = local.slot(letter, c, span);
         self.arena.span = span;
         Some(self.arena.var(v))
     }
@@ -386,9 +416,12 @@ impl Builder<'_> {
         for decl in decls {
             match decl {
                 Decl::Constant { name, value } => {
-                    let (name, value) = (self.bindable(*name), self.int(value));
-                    if let (Some(name), Some(value)) = (name, value) {
-                        self.lattice.constants.push((name, value));
+                    let (name, number) = (self.bindable(*name), self.int(value));
+                    if let (Some(name), Some(number)) = (name, number) {
+                        self.lattice
+                            .constant_spans
+                            .push((name.clone(), value.span()));
+                        self.lattice.constants.push((name, number));
                     }
                 }
                 Decl::Boundary { targets, value } => {
@@ -431,10 +464,12 @@ impl Builder<'_> {
         let range_span = range.span();
         let sites: Vec<Vec<i64>> = match range {
             Range::Single { index, lo, hi } => {
-                let (name, lo, hi) = (self.bindable(*index), self.int(lo), self.int(hi));
-                let (_, lo, hi) = (name?, lo?, hi?);
-                self.extend_lattice(hi);
-                (lo..=hi).map(|i| vec![i]).collect()
+                let (name, lo_value, hi_value) =
+                    (self.bindable(*index), self.int(lo), self.int(hi));
+                let (_, lo_value, hi_value) = (name?, lo_value?, hi_value?);
+                self.fits(lo, lo_value, hi, hi_value)?;
+                self.extend_lattice(hi_value);
+                (lo_value..=hi_value).map(|i| vec![i]).collect()
             }
             Range::Pairs {
                 lo,
@@ -445,8 +480,9 @@ impl Builder<'_> {
                 hi,
             } => {
                 let (a, b) = (self.bindable(*i), self.bindable(*j));
-                let (lo, hi) = (self.int(lo), self.int(hi));
-                let (a, b, lo, hi) = (a?, b?, lo?, hi?);
+                let (lo_value, hi_value) = (self.int(lo), self.int(hi));
+                let (a, b, lo_value, hi_value) = (a?, b?, lo_value?, hi_value?);
+                self.fits(lo, lo_value, hi, hi_value)?;
                 if a == b {
                     self.errors.push(Error::new(
                         ErrorKind::BadIndexName {
@@ -457,7 +493,11 @@ impl Builder<'_> {
                     ));
                     return None;
                 }
-                let (lo, hi) = (lo + i64::from(*lo_strict), hi - i64::from(*hi_strict));
+                // Saturating: an empty range may sit at the ends of `i64`.
+                let (lo, hi) = (
+                    lo_value.saturating_add(i64::from(*lo_strict)),
+                    hi_value.saturating_sub(i64::from(*hi_strict)),
+                );
                 self.extend_lattice(hi);
                 (lo..=hi)
                     .flat_map(|i| (i + 1..=hi).map(move |j| vec![i, j]))
@@ -527,6 +567,36 @@ impl Builder<'_> {
                     .push(Error::new(ErrorKind::Fault(fault), range_span));
                 None
             }
+        }
+    }
+
+    /// Checks that the range `lo..=hi` has at most [`crate::MAX_INDEX`] sites and reaches no
+    /// further, before its sites are counted out: `None`, with the error, when it does not.
+    /// Beyond [`crate::MAX_SITES`] the error is the loops' (as [`crate::looped::compile`]
+    /// reports it), so both paths give one error, the same, for `N = 10^12`.
+    fn fits(&mut self, lo: &Ast, lo_value: i64, hi: &Ast, hi_value: i64) -> Option<()> {
+        let error = [crate::MAX_SITES, crate::MAX_INDEX]
+            .iter()
+            .find_map(|&limit| {
+                let lo = Bound {
+                    ast: lo,
+                    value: lo_value,
+                };
+                let hi = Bound {
+                    ast: hi,
+                    value: hi_value,
+                };
+                self.lattice.too_large(self.src, lo, hi, limit)
+            });
+        match error {
+            Some(e) => {
+                // The lattice reaches `hi` still: the other sums' accesses are checked
+                // against it, not reported out of range because this sum was not built.
+                self.extend_lattice(hi_value);
+                self.errors.push(e);
+                None
+            }
+            None => Some(()),
         }
     }
 

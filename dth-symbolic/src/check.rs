@@ -99,7 +99,9 @@ pub fn structure(arena: &Arena, h: Id, whole: Span) -> Vec<Error> {
 /// is a misnumbering: the pair would only sit still). A `q<i>` without `p<i>` is legal but a
 /// warning (it never moves). A `p<i>` without `q<i>` is a cyclic coordinate (an angle, a free
 /// particle) and fine, unless some position lacks its momentum too: then it is a warning, as
-/// the pair of mistakes looks like a misnumbering.
+/// the pair of mistakes looks like a misnumbering. Consecutive indices with the same verdict
+/// and the same first occurrence (one access of a sum, `q[i]`, over a run of sites) make one
+/// error or warning for the run, not one per site.
 pub fn indices(written: &[(Var, Span)]) -> (Vec<Error>, Vec<Warning>) {
     let find = |v: Var| written.iter().find(|(w, _)| *w == v).map(|&(_, s)| s);
     let largest = written
@@ -112,37 +114,76 @@ pub fn indices(written: &[(Var, Span)]) -> (Vec<Error>, Vec<Warning>) {
     let Some((n, top, top_span)) = largest else {
         return (Vec::new(), Vec::new());
     };
-    let (mut errors, mut frozen, mut cyclic) = (Vec::new(), Vec::new(), Vec::new());
+    let largest = if matches!(top, Var::Q(_)) { 'q' } else { 'p' };
+    // Runs `(first, last, span)` of the indices missing both, a `q` only, a `p` only.
+    let (mut skipped, mut frozen, mut cyclic) = (Vec::new(), Vec::new(), Vec::new());
     for i in 1..=n {
-        match (find(Var::Q(i)), find(Var::P(i))) {
-            (None, None) => errors.push(Error::new(
-                ErrorKind::SkippedIndex {
-                    missing: i,
-                    largest: if matches!(top, Var::Q(_)) { 'q' } else { 'p' },
-                    n,
-                },
-                top_span,
-            )),
-            (None, Some(span)) => cyclic.push((i, span)),
-            (Some(span), None) => frozen.push((i, span)),
-            (Some(_), Some(_)) => {}
-        }
+        let (run, span) = match (find(Var::Q(i)), find(Var::P(i))) {
+            (None, None) => (&mut skipped, top_span),
+            (None, Some(span)) => (&mut cyclic, span),
+            (Some(span), None) => (&mut frozen, span),
+            (Some(_), Some(_)) => continue,
+        };
+        extend_run(run, i, span);
     }
+    let errors = skipped
+        .iter()
+        .map(|&(first, last, span)| {
+            let kind = if first == last {
+                ErrorKind::SkippedIndex {
+                    missing: first,
+                    largest,
+                    n,
+                }
+            } else {
+                ErrorKind::SkippedIndices {
+                    first,
+                    last,
+                    largest,
+                    n,
+                }
+            };
+            Error::new(kind, span)
+        })
+        .collect();
     let mut warnings: Vec<Warning> = frozen
         .iter()
-        .map(|&(index, span)| Warning {
-            kind: WarningKind::FrozenCoordinate { index },
+        .map(|&(first, last, span)| Warning {
+            kind: if first == last {
+                WarningKind::FrozenCoordinate { index: first }
+            } else {
+                WarningKind::FrozenCoordinates { first, last }
+            },
             span,
         })
         .collect();
-    if let Some(&(position, _)) = frozen.first() {
-        warnings.extend(cyclic.iter().map(|&(momentum, span)| Warning {
-            kind: WarningKind::Misnumbered { momentum, position },
+    if let Some(&(position, _, _)) = frozen.first() {
+        warnings.extend(cyclic.iter().map(|&(first, last, span)| Warning {
+            kind: if first == last {
+                WarningKind::Misnumbered {
+                    momentum: first,
+                    position,
+                }
+            } else {
+                WarningKind::MisnumberedMomenta {
+                    first,
+                    last,
+                    position,
+                }
+            },
             span,
         }));
     }
     warnings.sort_by_key(|w| w.span.start);
     (errors, warnings)
+}
+
+/// Adds index `i` to `runs`: to the last run when it ends at `i - 1` with the same span.
+fn extend_run(runs: &mut Vec<(u32, u32, Span)>, i: u32, span: Span) {
+    match runs.last_mut() {
+        Some(last) if last.1 + 1 == i && last.2 == span => last.1 = i,
+        _ => runs.push((i, i, span)),
+    }
 }
 
 /// The errors of the names in `tokens`, read without a syntax tree (after a syntax error, so

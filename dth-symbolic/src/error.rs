@@ -177,6 +177,17 @@ pub enum ErrorKind {
         /// Why (`"is declared twice"`, `"is a name of the grammar"`, ...).
         reason: &'static str,
     },
+    /// A sum whose range, or a lattice whose last site, exceeds what can be compiled: more
+    /// than [`crate::MAX_INDEX`] sites written out site by site, or more than
+    /// [`crate::MAX_SITES`] compiled to loops. At the bound's value (the declared
+    /// size's, for `1..N`).
+    LatticeTooLarge {
+        /// The number of sites the range or the lattice has.
+        sites: i128,
+        /// The bound it exceeds: [`crate::MAX_SITES`], or [`crate::MAX_INDEX`] for sums
+        /// written out site by site.
+        limit: usize,
+    },
     /// The value and its derivatives exceed [`crate::MAX_SIZE`].
     TooLarge {
         /// The bound.
@@ -200,6 +211,18 @@ pub enum ErrorKind {
     SkippedIndex {
         /// The index that appears nowhere.
         missing: u32,
+        /// The variable with the largest index, which sets `n`: `'q'` or `'p'` ...
+        largest: char,
+        /// ... and that index, `n`.
+        n: u32,
+    },
+    /// [`ErrorKind::SkippedIndex`] for a run of consecutive indices `first..=last` (a lattice
+    /// whose sums leave sites out): one error for the run, not one per index.
+    SkippedIndices {
+        /// The first index that appears nowhere.
+        first: u32,
+        /// The last, `> first`.
+        last: u32,
         /// The variable with the largest index, which sets `n`: `'q'` or `'p'` ...
         largest: char,
         /// ... and that index, `n`.
@@ -381,6 +404,15 @@ impl fmt::Display for Error {
             StrayComma => f.write_str(
                 "unexpected `,`: a Hamiltonian is one expression and every function takes one argument",
             ),
+            LatticeTooLarge { sites, limit } if *limit == crate::MAX_INDEX => write!(
+                f,
+                "lattice too large: {sites} sites, at most {limit} when the sums are written out site by site, as these are; sums that compile to loops allow {} (single-index sums of `q[i + c]`, `p[i + c]`, added, with fixed or periodic boundaries)",
+                crate::MAX_SITES
+            ),
+            LatticeTooLarge { sites, limit } => write!(
+                f,
+                "lattice too large: {sites} sites, at most {limit} are supported (the generated type keeps phase-space vectors of 2 numbers per site on the stack, and its constants hold the Hessian's pattern)"
+            ),
             TooLarge { limit } => write!(
                 f,
                 "the derivatives of this Hamiltonian are too large: more than {limit} expression nodes and operands (value, gradient, Hessian and Psi); the bound keeps compile time and generated code in check"
@@ -403,6 +435,15 @@ impl fmt::Display for Error {
             SkippedIndex { missing, largest, n } => write!(
                 f,
                 "neither `q{missing}` nor `p{missing}` appears, yet `{largest}{n}` makes the system's degrees of freedom 1..{n}: number the coordinates without gaps"
+            ),
+            SkippedIndices {
+                first,
+                last,
+                largest,
+                n,
+            } => write!(
+                f,
+                "no `q` nor `p` of the indices {first}..{last} appears, yet `{largest}{n}` makes the system's degrees of freedom 1..{n}: number the coordinates without gaps"
             ),
         }
     }
@@ -526,6 +567,24 @@ pub enum WarningKind {
         /// The index `j` of the first position without its momentum.
         position: u32,
     },
+    /// [`WarningKind::FrozenCoordinate`] for the consecutive indices `first..=last` one access
+    /// of a sum reaches (`q[i]` over sites no `p[i]` reaches): one warning for the run.
+    FrozenCoordinates {
+        /// The first index.
+        first: u32,
+        /// The last, `> first`.
+        last: u32,
+    },
+    /// [`WarningKind::Misnumbered`] for the consecutive momenta `first..=last` one access of
+    /// a sum reaches.
+    MisnumberedMomenta {
+        /// The first momentum's index.
+        first: u32,
+        /// The last, `> first`.
+        last: u32,
+        /// The index `j` of the first position without its momentum.
+        position: u32,
+    },
 }
 
 impl fmt::Display for Warning {
@@ -541,6 +600,18 @@ impl fmt::Display for Warning {
             } => write!(
                 f,
                 "`p{i}` appears without `q{i}` while `q{j}` appears without `p{j}`: is an index misnumbered?"
+            ),
+            WarningKind::FrozenCoordinates { first, last } => write!(
+                f,
+                "`q{first}`..`q{last}` appear without `p{first}`..`p{last}`: they never move (dH/dp = 0) and their momenta only drift; constants are better declared as parameters"
+            ),
+            WarningKind::MisnumberedMomenta {
+                first,
+                last,
+                position: j,
+            } => write!(
+                f,
+                "`p{first}`..`p{last}` appear without `q{first}`..`q{last}` while `q{j}` appears without `p{j}`: is an index misnumbered?"
             ),
         }
     }

@@ -39,6 +39,9 @@ pub(crate) struct Boundary {
 pub(crate) struct Lattice {
     /// Declared sizes, in order.
     pub constants: Vec<(String, i64)>,
+    /// The span of each declared size's value (`4096` in `N = 4096`), where an error about
+    /// a bound `1..N` points.
+    pub constant_spans: Vec<(String, Span)>,
     /// The indices of the enclosing sums and their current values, outermost first.
     pub bound: Vec<(String, i64)>,
     /// The declared boundaries.
@@ -48,6 +51,9 @@ pub(crate) struct Lattice {
     /// Per indexed access (its span): the largest index it reached, its letter, and the
     /// indices' values there (checked against [`Lattice::last`] when it is known).
     pub reached: HashMap<Span, (i64, char, String)>,
+    /// Per indexed access (its span) that reached below site 1 without a boundary there: the
+    /// lowest index, its letter, and the indices' values there (one error per access).
+    pub below: HashMap<Span, (i64, char, String)>,
     /// Per sum (its range's span): whether any of its ranges had a site, and the range as
     /// written (a sum all of whose ranges are empty is an error).
     pub sums: HashMap<Span, (bool, String)>,
@@ -59,6 +65,14 @@ pub(crate) struct Lattice {
     pub local: Option<Local>,
 }
 
+/// A range's bound as written, for [`Lattice::too_large`].
+pub(crate) struct Bound<'a> {
+    /// The bound's expression.
+    pub ast: &'a Ast,
+    /// Its value.
+    pub value: i64,
+}
+
 /// A summand built once, in local coordinates: each indexed variable `q[i + c]` is a slot,
 /// the local coordinate `q<k>` (or `p<k>`) for the `k`-th distinct `q` (or `p`) offset.
 #[derive(Clone, Debug, Default)]
@@ -67,15 +81,18 @@ pub(crate) struct Local {
     pub index: String,
     /// The slots: letter and offset `c` of `q[i + c]`, in the order first met.
     pub slots: Vec<(char, i64)>,
+    /// The span of each slot's first access, in the order of `slots`.
+    pub spans: Vec<Span>,
     /// Why the summand cannot be built once for all sites, if it cannot.
     pub not_loopable: Option<&'static str>,
 }
 
 impl Local {
     /// The local coordinate of `letter[i + offset]`, a new slot if not met yet.
-    pub fn slot(&mut self, letter: char, offset: i64) -> Var {
+    pub fn slot(&mut self, letter: char, offset: i64, span: Span) -> Var {
         if !self.slots.contains(&(letter, offset)) {
             self.slots.push((letter, offset));
+            self.spans.push(span);
         }
         let k = self
             .slots
@@ -100,6 +117,53 @@ impl Lattice {
             .chain(self.constants.iter().rev())
             .find(|(n, _)| n == name)
             .map(|&(_, v)| v)
+    }
+
+    /// Where an error about the bound `ast` points: the declared size's value when the bound
+    /// is a size's name (`4096` in `N = 4096` for `1..N`), else the bound as written.
+    pub fn bound_span(&self, src: &str, ast: &Ast) -> Span {
+        let mut inner = ast;
+        while let Ast::Paren { inner: i, .. } = inner {
+            inner = i;
+        }
+        if let Ast::Name(s) = inner {
+            let name = &src[s.range()];
+            let declared = self.bound.iter().all(|(n, _)| n != name);
+            if let Some(&(_, span)) = self
+                .constant_spans
+                .iter()
+                .rev()
+                .find(|(n, _)| declared && n == name)
+            {
+                return span;
+            }
+        }
+        ast.span()
+    }
+
+    /// The error for a range `lo..=hi` with more than `limit` sites or reaching beyond site
+    /// `limit` (the lattice `1..hi` has `hi` sites): at the upper bound when it is too large,
+    /// else at the lower one. Counted in `i128`, so no range overflows.
+    pub fn too_large(
+        &self,
+        src: &str,
+        lo: Bound<'_>,
+        hi: Bound<'_>,
+        limit: usize,
+    ) -> Option<Error> {
+        let max = i128::try_from(limit).unwrap_or(i128::MAX);
+        let count = i128::from(hi.value) - i128::from(lo.value) + 1;
+        let (sites, at) = if i128::from(hi.value) > max {
+            (i128::from(hi.value), hi.ast)
+        } else if count > max {
+            (count, lo.ast)
+        } else {
+            return None;
+        };
+        Some(Error::new(
+            ErrorKind::LatticeTooLarge { sites, limit },
+            self.bound_span(src, at),
+        ))
     }
 
     /// The bound indices and their values, `i = 3, j = 5`.
@@ -209,23 +273,26 @@ impl Lattice {
                 *span,
             ));
         }
+        // Accesses below site 1 (with no boundary there), and beyond the last site.
+        let beyond = self
+            .reached
+            .iter()
+            .filter(|(_, (site, ..))| self.last.is_some_and(|last| *site > last));
+        for (span, (site, letter, at)) in self.below.iter().chain(beyond) {
+            errors.push(Error::new(
+                ErrorKind::IndexOutOfRange {
+                    access: compact(&src[span.range()]),
+                    letter: *letter,
+                    site: *site,
+                    at: at.clone(),
+                    last: self.last,
+                },
+                *span,
+            ));
+        }
         let Some(last) = self.last else {
             return errors;
         };
-        for (span, (site, letter, at)) in &self.reached {
-            if *site > last {
-                errors.push(Error::new(
-                    ErrorKind::IndexOutOfRange {
-                        access: compact(&src[span.range()]),
-                        letter: *letter,
-                        site: *site,
-                        at: at.clone(),
-                        last: Some(last),
-                    },
-                    *span,
-                ));
-            }
-        }
         for &(v, span) in &self.written {
             if let Var::Q(k) | Var::P(k) = v {
                 if i64::from(k) > last {

@@ -86,6 +86,24 @@ pub use system::{compile, expression, Method, System};
 /// silently produce a 2000-dimensional system.
 pub const MAX_INDEX: usize = 512;
 
+/// The most sites a lattice compiled to loops ([`looped`]) may have: `sum(i = 1..N, ...)`
+/// with `N` up to this, `D = 2N`. What bounds it is the generated type, not the engine (whose
+/// work does not grow with `N`):
+///
+/// - the Hessian's pattern is computed by the compiler's constant evaluator (see
+///   `emit::lattice`), in every build of the user's crate: `cargo check` of the FPUT-alpha
+///   chain took 4.1 s at `N = 8192`, 7.0 s at 16384, 14 s at 32768 and 54 s at 65536 (faster
+///   than linear beyond this bound; 2-core machine under load, 2026-11-26);
+/// - every phase-space vector of the generated type is an `SVector<f64, D>` on the stack, 16
+///   bytes per site: 256 KB at this bound, and a step of the stepper holds some of them, on
+///   the 8 MB main thread or the 2 MB threads `cargo test` runs tests on.
+///
+/// Beyond it (`N = 10^12`, `N = 9223372036854775807`) compiling is one error at `N`'s value,
+/// [`ErrorKind::LatticeTooLarge`], checked before anything is counted out per site; the
+/// site-by-site path ([`compile`]) reports the same error there, and its own bound,
+/// [`MAX_INDEX`], below.
+pub const MAX_SITES: usize = 16384;
+
 /// The largest arena [`compile`] builds ([`Arena::size`]: nodes plus operands, summed), value,
 /// gradient, Hessian and Psi together: about 60,000 for 20 bodies in 3D with all pairwise
 /// forces; 570,000, just beyond, for `exp` of the product of 64 variables, which took a

@@ -9,6 +9,12 @@
 //! the summand, not on the number of sites: [`Looped::ops`] is the same for `N = 64` and
 //! `N = 4096`.
 //!
+//! A lattice has at most [`crate::MAX_SITES`] sites: beyond, [`compile`] is one error
+//! ([`ErrorKind::LatticeTooLarge`], at `N`'s value), checked before anything is counted out
+//! per site; every index and size is computed with checked (or saturating) arithmetic. The
+//! flags and the written-out path's warnings are decided on the summands and the ranges
+//! (`reach`), never site by site.
+//!
 //! What loops: a sum of single-index sums (`sum(i = a..b, f)`, no nesting, no sum over
 //! pairs) whose indices are the sum's index plus a constant, with boundaries that are
 //! constants (fixed ends) or a variable of the lattice (periodic), no written-out coordinate
@@ -27,14 +33,18 @@
 //! assert_eq!((value, gradient[0], gradient[1]), (0.25, 1.0, -0.5));
 //! ```
 
+mod reach;
+mod runs;
+
 use crate::arena::Arena;
 use crate::build::Builder;
-use crate::error::{Error, ErrorKind, Errors, EvalError};
-use crate::lattice::{Lattice, Local};
+use crate::error::{Error, ErrorKind, Errors, EvalError, Warning};
+use crate::lattice::{Bound, Lattice, Local};
 use crate::lexer::lex;
 use crate::lower::Program;
 use crate::number::Num;
 use crate::parser::{parse, Ast, BinOp, Decl, Range};
+use crate::span::Span;
 use crate::system::{derive, Method};
 
 /// Why a Hamiltonian is not compiled by [`compile`].
@@ -76,6 +86,8 @@ pub struct LoopSum {
     pub(crate) local_dim: usize,
     /// The summand's Hessian nonzeros, upper triangle, as pairs of slots.
     pub(crate) pattern: Vec<(usize, usize)>,
+    /// Each slot's first access, in the order of `slots`.
+    spans: Vec<Span>,
     /// The summand in local coordinates.
     system: crate::System,
     all: Program,
@@ -89,6 +101,18 @@ impl LoopSum {
     pub fn summand(&self) -> &crate::System {
         &self.system
     }
+
+    /// The sum's range `lo..=hi`.
+    pub fn range(&self) -> (i64, i64) {
+        (self.lo, self.hi)
+    }
+
+    /// The slots: per distinct `q[i + c]` or `p[i + c]` of the summand, its letter, its
+    /// offset `c`, and its position in the summand's local coordinates
+    /// ([`LoopSum::summand`]'s `z`).
+    pub fn slots(&self) -> &[(char, i64, usize)] {
+        &self.slots
+    }
 }
 
 /// A lattice Hamiltonian compiled once per summand (see the module docs).
@@ -98,7 +122,11 @@ pub struct Looped {
     pub(crate) sums: Vec<LoopSum>,
     /// Boundaries: letter, index, and what the variable there is.
     pub(crate) boundaries: Vec<(char, i64, Site)>,
+    /// Each boundary's value as written, in the order of `boundaries`.
+    boundary_spans: Vec<Span>,
     params: usize,
+    /// The written-out path's warnings, decided on the ranges (`reach`).
+    warnings: Vec<Warning>,
 }
 
 /// The summands of `ast` (a sum of sums), or why it does not loop.
@@ -153,8 +181,27 @@ pub fn compile(src: &str, params: &[&str]) -> Result<Looped, LoopError> {
         let Range::Single { index, lo, hi } = &**range else {
             return Err(LoopError::NotLoopable("a sum over pairs"));
         };
-        let (name, lo, hi) = (root.bindable(*index), root.int(lo), root.int(hi));
-        if let (Some(name), Some(lo), Some(hi)) = (name, lo, hi) {
+        let (name, lo_value, hi_value) = (root.bindable(*index), root.int(lo), root.int(hi));
+        if let (Some(name), Some(lo_value), Some(hi_value)) = (name, lo_value, hi_value) {
+            let (lo_bound, hi_bound) = (
+                Bound {
+                    ast: lo,
+                    value: lo_value,
+                },
+                Bound {
+                    ast: hi,
+                    value: hi_value,
+                },
+            );
+            // Before anything is counted out per site: `N = 10^12` is one error, here.
+            if let Some(e) = root
+                .lattice
+                .too_large(src, lo_bound, hi_bound, crate::MAX_SITES)
+            {
+                root.errors.push(e);
+                continue;
+            }
+            let (lo, hi) = (lo_value, hi_value);
             if lo > hi {
                 root.errors.push(Error::new(
                     ErrorKind::EmptySum {
@@ -174,6 +221,7 @@ pub fn compile(src: &str, params: &[&str]) -> Result<Looped, LoopError> {
         return Err(LoopError::NotLoopable("the lattice is empty"));
     };
     let mut boundaries = Vec::new();
+    let mut boundary_spans = Vec::new();
     for b in &root.lattice.boundaries {
         let site = match &b.value {
             Ast::Index { name, index, .. } => {
@@ -205,6 +253,7 @@ pub fn compile(src: &str, params: &[&str]) -> Result<Looped, LoopError> {
             return Err(LoopError::NotLoopable("a boundary inside the lattice"));
         }
         boundaries.push((b.letter, b.site, site));
+        boundary_spans.push(b.value.span());
     }
     let mut compiled = Vec::new();
     for (name, lo, hi, body, span) in ranges {
@@ -247,9 +296,14 @@ pub fn compile(src: &str, params: &[&str]) -> Result<Looped, LoopError> {
         // The sites reached outside `1..=n` are those below 1 and above n of the range
         // `lo + c ..= hi + c`: at most a few per slot (a shift of `c` reaches `|c|` of them),
         // and each must be a declared boundary (`q[i+2]` on `1..N` reaches `N+1` and `N+2`).
+        // The loop stops at the first site that is not one, so it runs at most once more
+        // than there are boundaries, whatever `c`.
         for &(letter, c, _) in &slots {
-            let below = (lo + c)..=(hi + c).min(0);
-            let above = (lo + c).max(n + 1)..=(hi + c);
+            let (Some(from), Some(to)) = (lo.checked_add(c), hi.checked_add(c)) else {
+                return Err(LoopError::NotLoopable("an index outside the lattice"));
+            };
+            let below = from..=to.min(0);
+            let above = from.max(n + 1)..=to;
             for k in below.chain(above) {
                 if !boundaries.iter().any(|&(l, s, _)| l == letter && s == k) {
                     return Err(LoopError::NotLoopable("an index outside the lattice"));
@@ -267,6 +321,7 @@ pub fn compile(src: &str, params: &[&str]) -> Result<Looped, LoopError> {
             hi,
             slots,
             pattern,
+            spans: local.spans.clone(),
             local_dim: system.dim(),
             system: system.clone(),
             all: system.program(Method::All),
@@ -274,12 +329,22 @@ pub fn compile(src: &str, params: &[&str]) -> Result<Looped, LoopError> {
             defect: system.program(Method::DiscreteGradientDefect),
         });
     }
-    Ok(Looped {
+    let mut looped = Looped {
         n: n_sites,
         sums: compiled,
         boundaries,
+        boundary_spans,
         params: params.len(),
-    })
+        warnings: Vec::new(),
+    };
+    let Some((errors, warnings)) = looped.numbering() else {
+        return Err(LoopError::NotLoopable("no variable reaches the last site"));
+    };
+    if !errors.is_empty() {
+        return Err(fail(errors));
+    }
+    looped.warnings = warnings;
+    Ok(looped)
 }
 
 /// The position in `z` of `letter[k]`, `1 <= k <= n`.
@@ -314,6 +379,11 @@ impl Looped {
     /// `D = 2n`.
     pub fn dim(&self) -> usize {
         2 * self.n
+    }
+
+    /// The sums, each compiled once, in the order written.
+    pub fn sums(&self) -> &[LoopSum] {
+        &self.sums
     }
 
     /// The operations of all the summands' programs together: what a loop body holds, the
@@ -357,11 +427,20 @@ impl Looped {
             .any(|s| s.slots.iter().any(|&(letter, _, _)| letter == 'p'))
     }
 
-    /// `true` when no summand couples a position with a momentum.
-    pub fn separable(&self) -> bool {
-        self.sums
-            .iter()
-            .all(|s| s.pattern.iter().all(|&(r, t)| s.slots[r].0 == s.slots[t].0))
+    /// What is legal but easily a mistake, as the written-out path reports it (a `q` without
+    /// its `p`, ...): one warning per run of sites, decided on the ranges.
+    ///
+    /// ```
+    /// use dth_symbolic::looped;
+    /// let src = "sum(i = 1..4, p[i]^2/2) + sum(i = 1..N, q[i]^2/2) where N = 4096";
+    /// let h = looped::compile(src, &[]).unwrap();
+    /// let w: Vec<String> = h.warnings().iter().map(|w| w.to_string()).collect();
+    /// assert_eq!(w, ["`q5`..`q4096` appear without `p5`..`p4096`: they never move \
+    ///     (dH/dp = 0) and their momenta only drift; constants are better declared as parameters"]);
+    /// assert_eq!(&src[h.warnings()[0].span.range()], "q[i]");
+    /// ```
+    pub fn warnings(&self) -> &[Warning] {
+        &self.warnings
     }
 
     /// Where `letter[k]` is read from.

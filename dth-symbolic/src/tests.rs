@@ -657,7 +657,8 @@ fn a_cyclic_coordinate_may_be_absent() {
 }
 
 /// An index with neither `q<i>` nor `p<i>` below the largest one is a misnumbering: an error
-/// at the variable that sets `n`, one per missing index, beside the expression's other errors.
+/// at the variable that sets `n`, one per run of missing indices, beside the expression's
+/// other errors.
 #[test]
 fn a_skipped_index_is_an_error_at_the_largest() {
     let e = compile("p1^2 + p3^2 + q3 + q4^2", &[]).unwrap_err();
@@ -676,7 +677,20 @@ fn a_skipped_index_is_an_error_at_the_largest() {
         "neither `q2` nor `p2` appears, yet `q4` makes the system's degrees of freedom 1..4: number the coordinates without gaps"
     );
     let e = compile("p1^2 + p4^2 + q4 + q1", &[]).unwrap_err();
-    assert_eq!(e.0.len(), 2, "{e}");
+    assert_eq!(e.0.len(), 1, "{e}");
+    assert_eq!(
+        e.0[0].kind,
+        ErrorKind::SkippedIndices {
+            first: 2,
+            last: 3,
+            largest: 'p',
+            n: 4
+        }
+    );
+    assert_eq!(
+        e.0[0].to_string(),
+        "no `q` nor `p` of the indices 2..3 appears, yet `p4` makes the system's degrees of freedom 1..4: number the coordinates without gaps"
+    );
     // Reported with the structural errors of the same expression.
     let e = compile("q1 + q3", &[]).unwrap_err();
     let kinds: Vec<_> = e.0.iter().map(|e| e.kind.clone()).collect();

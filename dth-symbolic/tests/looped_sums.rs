@@ -166,3 +166,209 @@ fn every_site_a_shift_reaches_outside_the_lattice_must_be_declared() {
     assert!(looped::compile(src, &[]).is_ok());
     assert!(compile(src, &[]).is_ok());
 }
+
+/// The one error of a size beyond what compiles, as both paths report it: kind and the text
+/// it points at.
+fn too_large(src: &str) -> Vec<(dth_symbolic::ErrorKind, &str)> {
+    let written = compile(src, &[]).expect_err("too large").0;
+    written
+        .iter()
+        .map(|e| (e.kind.clone(), &src[e.span.range()]))
+        .collect()
+}
+
+/// A huge size (`10^12`, `i64::MAX`, a huge negative start, a product) is one error at the
+/// size's value, from both paths, at once: never one per site, never an overflow, never the
+/// memory of counting the sites out.
+#[test]
+fn a_huge_lattice_is_one_error_at_its_size() {
+    use dth_symbolic::{ErrorKind::LatticeTooLarge, MAX_INDEX, MAX_SITES};
+    let loops = |sites: i128| LatticeTooLarge {
+        sites,
+        limit: MAX_SITES,
+    };
+    for (src, sites, at) in [
+        (
+            "sum(i = 1..N, p[i]^2/2) + sum(i = 0..N, (q[i+1] - q[i])^2/2) \
+             where N = 1000000000000, q[0] = q[N+1] = 0",
+            1_000_000_000_000,
+            "1000000000000",
+        ),
+        (
+            "sum(i = 1..N, p[i]^2/2 + q[i]^2/2) where N = 9223372036854775807",
+            i128::from(i64::MAX),
+            "9223372036854775807",
+        ),
+        (
+            "sum(i = 1..2*N, p[i]^2/2 + q[i]^2/2) where N = 500000000000",
+            1_000_000_000_000,
+            "2*N",
+        ),
+        (
+            "sum(i = -9223372036854775807..4, p[i]^2/2) + sum(i = 1..4, q[i]^2)",
+            i128::from(i64::MAX) + 5,
+            "-9223372036854775807",
+        ),
+        (
+            "sum(i = 1..N, p[i]^2/2) + sum(1 <= i < j <= N, (q[i] - q[j])^2) where N = 100000",
+            100_000,
+            "100000",
+        ),
+    ] {
+        assert_eq!(too_large(src), [(loops(sites), at)], "{src}");
+        if let Err(looped::LoopError::Errors(e)) = looped::compile(src, &[]) {
+            let kinds: Vec<_> = e.0.iter().map(|e| e.kind.clone()).collect();
+            assert!(kinds.contains(&loops(sites)), "{src}: {kinds:?}");
+        }
+    }
+    // Between the two bounds: the loops take it; written out site by site it is one error.
+    let src = "sum(i = 1..N, p[i]^2/2 + q[i]^2/2) where N = 600";
+    assert_eq!(looped::compile(src, &[]).map(|l| l.n()), Ok(600));
+    let not_looped = "sum(i = 1..N, p[i]^2/2 + q[i]^2/2) + q1^4 where N = 600";
+    assert_eq!(
+        too_large(not_looped),
+        [(
+            LatticeTooLarge {
+                sites: 600,
+                limit: MAX_INDEX
+            },
+            "600"
+        )]
+    );
+    assert!(compile(not_looped, &[]).unwrap_err().0[0]
+        .to_string()
+        .starts_with("lattice too large: 600 sites, at most 512 when the sums are written out"));
+    // A sum before the large one reaches into its sites: no spurious out-of-range error.
+    let before =
+        "sum(i = 1..4, p[i]^2/2 + cos(q[i+1] - q[i])) + sum(i = 1..N, p[i]^2/2 + q[i]^2/2) \
+                  + q1^4 where N = 1000";
+    assert_eq!(compile(before, &[]).unwrap_err().0.len(), 1);
+    // An offset past `i64`: one error, no overflow.
+    let e = compile("sum(i = 1..4, p[i]^2 + q[i + 9223372036854775807])", &[]).unwrap_err();
+    assert_eq!(e.0.len(), 1, "{e}");
+    assert!(looped::compile("sum(i = 1..4, p[i]^2 + q[i + 9223372036854775806])", &[]).is_err());
+}
+
+/// Out of range at many sites: one error per access, at its farthest site.
+#[test]
+fn an_access_out_of_range_at_many_sites_is_one_error() {
+    let e = compile(
+        "sum(i = 1..N, p[i]^2 + q[i-5]^2 + q[i+100]^2) where N = 500",
+        &[],
+    )
+    .unwrap_err()
+    .0;
+    let messages: Vec<String> = e.iter().map(|e| e.to_string()).collect();
+    assert_eq!(messages.len(), 2, "{messages:#?}");
+    assert!(
+        messages[0].contains("`q[i-5]` is `q[-4]` at `i = 1`"),
+        "{messages:#?}"
+    );
+    assert!(
+        messages[1].contains("`q[i+100]` is `q[600]` at `i = 500`"),
+        "{messages:#?}"
+    );
+}
+
+/// The looped path's warnings and numbering errors are the written-out path's, one per run of
+/// sites, decided on the ranges (so a chain of 4096 has one warning, not 4092).
+#[test]
+fn looped_warnings_and_gaps_are_the_written_out_ones() {
+    let warnings = |src: &str| -> Vec<(String, std::ops::Range<usize>)> {
+        let l = looped::compile(src, &[]).unwrap();
+        let looped: Vec<_> = l
+            .warnings()
+            .iter()
+            .map(|w| (w.to_string(), w.span.range()))
+            .collect();
+        let s = compile(src, &[]).unwrap();
+        let written: Vec<_> = s
+            .warnings()
+            .iter()
+            .map(|w| (w.to_string(), w.span.range()))
+            .collect();
+        assert_eq!(looped, written, "{src}");
+        looped
+    };
+    let w = warnings("sum(i = 1..4, p[i]^2/2) + sum(i = 1..N, q[i]^2/2) where N = 8");
+    assert_eq!(w.len(), 1, "{w:#?}");
+    assert!(w[0].0.starts_with("`q5`..`q8` appear without `p5`..`p8`"));
+    let w = warnings("sum(i = 1..4, q[i]^2) + sum(i = 3..N, p[i]^2) where N = 8");
+    let texts: Vec<&str> = w.iter().map(|(m, _)| m.as_str()).collect();
+    assert_eq!(
+        texts,
+        [
+            "`q1`..`q2` appear without `p1`..`p2`: they never move (dH/dp = 0) and their momenta only drift; constants are better declared as parameters",
+            "`p5`..`p8` appear without `q5`..`q8` while `q1` appears without `p1`: is an index misnumbered?",
+        ]
+    );
+    // One frozen site alone, the last, reached by a shift: `q[i+1]` first reaches `q9`.
+    let w = warnings("sum(i = 1..N, p[i]^2/2 + (q[i+1] - q[i])^2/2) + sum(i = 1..9, q[i]^4) where N = 8, q[10] = 0");
+    assert_eq!(w.len(), 1, "{w:#?}");
+    assert!(w[0].0.starts_with("`q9` appears without `p9`"), "{w:#?}");
+    // A periodic chain and a fixed one: no warning.
+    assert!(
+        warnings("sum(i = 1..N, p[i]^2/2 + (q[i+1] - q[i])^2/2) where N = 8, q[N+1] = q[1]")
+            .is_empty()
+    );
+    assert!(warnings(
+        "sum(i = 1..N, p[i]^2/2) + sum(i = 0..N, (q[i+1] - q[i])^2/2) where N = 8, q[0] = q[N+1] = 0"
+    )
+    .is_empty());
+    // Sites no variable reaches: the same one error from both paths.
+    let gap = "sum(i = 1..3, p[i]^2 + q[i]^2) + sum(i = 7..N, p[i]^2 + q[i]^2) where N = 8";
+    let Err(looped::LoopError::Errors(e)) = looped::compile(gap, &[]) else {
+        panic!("sites 4..6 are reached by nothing");
+    };
+    assert_eq!(e, compile(gap, &[]).unwrap_err());
+    assert_eq!(e.0.len(), 1);
+    assert_eq!(&gap[e.0[0].span.range()], "p[i]");
+    // At 4096 sites: one warning for the run, decided without the sites.
+    let big = "sum(i = 1..4, p[i]^2/2) + sum(i = 1..N, q[i]^2/2) where N = 4096";
+    assert_eq!(looped::compile(big, &[]).unwrap().warnings().len(), 1);
+}
+
+/// Every flag of a looped lattice is its written-out twin's at `N = 8`, Psi's symbolic zero
+/// included: a chain with kinetic energy and a momentum-linear drift has a Hessian (the
+/// `p`-diagonal) yet `Psi = 0`, since `w_p = -dH/dq = 0` everywhere.
+#[test]
+fn looped_flags_are_the_written_out_ones() {
+    for src in [
+        "sum(i = 1..N, p[i]^2/2) + sum(i = 0..N, (q[i+1] - q[i])^2/2 + (q[i+1] - q[i])^3/3) \
+         where N = 8, q[0] = q[N+1] = 0",
+        "sum(i = 1..N, p[i]^2/2 + exp(q[i] - q[i+1])) where N = 8, q[N+1] = q[1]",
+        "sum(i = 1..N, p[i]^2/2) + sum(i = 1..N, 3*p[i]) where N = 8",
+        "sum(i = 1..N, p[i] + 2*q[i]) where N = 8",
+        "sum(i = 1..N, p[i]^2/2 + q[i]) where N = 8",
+        "sum(i = 1..N, p[i]^2/2 + q[i]^2/2 + q[i]*p[i+1]) where N = 8, p[N+1] = 0",
+        "sum(i = 1..N, p[i]^2/2 + q[i-1]*p[i]) where N = 8, q[0] = 0",
+        "sum(i = 1..N, p[i]^2/2 + q[i+1]^2) where N = 8, q[N+1] = p[1]",
+    ] {
+        let l = looped::compile(src, &[]).unwrap();
+        let s = compile(src, &[]).unwrap();
+        let mut pattern = l.hessian_pattern();
+        pattern.sort_unstable();
+        let written: Vec<(usize, usize)> = s
+            .hessian_nonzeros()
+            .iter()
+            .map(|&(i, j, _)| (i, j))
+            .collect();
+        assert_eq!(pattern, written, "{src}");
+        assert_eq!(
+            (l.dim(), l.separable(), l.psi_identically_zero(), false),
+            (
+                s.dim(),
+                s.separable(),
+                s.psi_identically_zero(),
+                s.time_dependent()
+            ),
+            "{src}"
+        );
+    }
+    let drift = looped::compile(
+        "sum(i = 1..N, p[i]^2/2) + sum(i = 1..N, 3*p[i]) where N = 8",
+        &[],
+    )
+    .unwrap();
+    assert!(drift.psi_identically_zero() && !drift.hessian_pattern().is_empty());
+}

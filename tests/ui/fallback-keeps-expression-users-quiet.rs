@@ -1,7 +1,6 @@
 // The bad expression is the only error: the fallback implements the trait for every D,
 // so the call below does not add a second one.
-use dth::nalgebra::Const;
-fn needs_kepler<H: dth::Hamiltonian<Const<4>>>(_: H) {}
+fn needs_kepler<H: dth::Hamiltonian<dth::nalgebra::U4>>(_: H) {}
 
 fn main() {
     needs_kepler(dth::hamiltonian!(p1^2 + p2^2 - (x1^2 + q2^2)^(-1/2)));

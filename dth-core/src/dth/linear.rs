@@ -1,7 +1,7 @@
 //! The linear algebra of the DTH Newton solvers behind one interface ([`Linear`]): the dense
 //! fixed-size LU of `crate::linalg` for small `D`, or the structured
 //! [`NewtonMatrix`](crate::structured::NewtonMatrix) for Hamiltonians that declare their
-//! Hessian pattern and set [`Hamiltonian::STRUCTURED_NEWTON`] (the peers' rule: generated types
+//! Hessian pattern and set [`Flags::structured_newton`](crate::Flags::structured_newton) (the peers' rule: generated types
 //! beyond the measured crossover).
 //!
 //! Both solvers need from `A = I - c J Hess H(z)` (`c = h lambda / 2`) only a factorization,

@@ -8,7 +8,7 @@
 //! # Conditioning, breakdown, robust mode
 //!
 //! - **Energy residual** ([`EnergyResidual`]). For Hamiltonians with exact divided differences
-//!   (`Hamiltonian::EXACT_DIVIDED_DIFFERENCES`, e.g. [`Kepler`](crate::systems::Kepler)) the
+//!   (`Flags::exact_divided_differences`, e.g. [`Kepler`](crate::systems::Kepler)) the
 //!   energy equation is solved cancellation-free, so `lambda` is exact to about one `eps` for
 //!   any `dtau` (the plain residual's error grows like `eps / dtau^2`), then checked and
 //!   projected against `H(zbar_0)` so the energy does not random-walk.
@@ -28,7 +28,7 @@
 //! - **Cost against size.** Each Newton iteration factors `A = I - (h lambda/2) J Hess H`
 //!   and borders it with two solves. For small `D` (and for Hamiltonians that do not declare
 //!   their Hessian pattern) that is the dense fixed-size LU, `O(D^3)`; generated types beyond
-//!   the crossover (`Hamiltonian::STRUCTURED_NEWTON`: from `D = 8` unless more than a quarter
+//!   the crossover (`Flags::structured_newton`: from `D = 8` unless more than a quarter
 //!   of the Hessian is nonzero) take the banded LU of [`crate::structured`] on the Hessian's
 //!   nonzeros, analysed once in [`Dth::new`], and never form a `D x D` matrix: a step of a
 //!   chain (FPUT, Toda) costs time linear in the number of particles and a few vectors of

@@ -122,7 +122,7 @@ where
     /// Roundoff scale of the energy residual when the Hamiltonian does not declare exact
     /// divided differences (the cancellation-free form forced on it): the plain residual's
     /// `|terms of H|`, which bounds the noise of a plain-difference `gbar` or defect. Zero for
-    /// Hamiltonians with `EXACT_DIVIDED_DIFFERENCES`.
+    /// Hamiltonians with `exact_divided_differences`.
     inexact_scale: f64,
 }
 

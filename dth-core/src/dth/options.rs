@@ -72,7 +72,7 @@ impl Solver {
 #[non_exhaustive]
 pub enum EnergyResidual {
     /// [`EnergyResidual::CancellationFree`] when the Hamiltonian declares exact divided
-    /// differences (`Hamiltonian::EXACT_DIVIDED_DIFFERENCES`), else
+    /// differences (`Flags::exact_divided_differences`), else
     /// [`EnergyResidual::Plain`] (with the default, plain-difference discrete gradient the
     /// cancellation-free form has the same `eps / h^2` noise and costs more). The default.
     #[default]

@@ -61,7 +61,7 @@ where
     // `H = E` in the gradient direction, not an error of the step (the projection below puts
     // the point back on `H = E`). So the Newton stall floor and the residual check are taken
     // relative to it; away from equilibria (`|grad H| |z| >> scale_h`) nothing changes. With
-    // exact divided differences (`H::EXACT_DIVIDED_DIFFERENCES`) there is no such cancellation
+    // exact divided differences (`flags().exact_divided_differences`) there is no such cancellation
     // and no floor.
     let g0 = ham.gradient(z0);
     let scale_h = if ham.flags().exact_divided_differences {

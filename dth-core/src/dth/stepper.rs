@@ -30,7 +30,7 @@ use crate::{j_times, Error, Flags, Hamiltonian};
 /// `z^(k) = zbar_k - (h/2) zbar'_k`, `z^(k+1) = zbar_k + (h/2) zbar'_k` with the slope
 /// `zbar'_k = lambda_k J gradH(zbar_k)`; vertex times `t^(k) = tbar_k - h lambda_k / 2`.
 ///
-/// A time-dependent Hamiltonian (`H::TIME_DEPENDENT`) lives in the extended phase space
+/// A time-dependent Hamiltonian (`flags().time_dependent`) lives in the extended phase space
 /// (paper Theorem 1, eqs. 9-11) with `calH(zbar_0) = 0`; there `tbar_0` is read from the `t`
 /// coordinate `zbar_0[D/2 - 1]`.
 ///
@@ -254,7 +254,7 @@ where
 
     /// `true` when steps solve the energy equation in the cancellation-free form
     /// ([`EnergyResidual`](super::EnergyResidual); `Auto` resolves on
-    /// `H::EXACT_DIVIDED_DIFFERENCES`).
+    /// `flags().exact_divided_differences`).
     pub fn cancellation_free(&self) -> bool {
         match self.options.energy_residual() {
             EnergyResidual::Plain => false,

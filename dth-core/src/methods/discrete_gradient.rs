@@ -3,9 +3,9 @@
 use crate::hamiltonian::Alloc;
 use nalgebra::{DefaultAllocator, Dim, OVector};
 
-use super::newton::{self, NewtonOptions, Structured};
+use super::newton::{self, residual_minus_j, NewtonOptions, Structured};
 use super::OneStepMethod;
-use crate::{j_times, Error, Hamiltonian};
+use crate::{Error, Hamiltonian};
 
 /// The discrete-gradient method `z1 = z0 + dt J gbar(z0, z1)`, with `gbar` the Hamiltonian's
 /// [`Hamiltonian::discrete_gradient`] (Gonzalez's midpoint discrete gradient by default).
@@ -56,6 +56,18 @@ where
     const ORDER: u32 = 2;
 
     fn step(&mut self, h: &H, z0: &OVector<f64, D>, dt: f64) -> Result<OVector<f64, D>, Error> {
+        let mut z1 = z0.clone();
+        self.step_into(h, z0, dt, &mut z1)?;
+        Ok(z1)
+    }
+
+    fn step_into(
+        &mut self,
+        h: &H,
+        z0: &OVector<f64, D>,
+        dt: f64,
+        z1: &mut OVector<f64, D>,
+    ) -> Result<(), Error> {
         let name = <Self as OneStepMethod<D, H>>::NAME;
         newton::one_stage(
             name,
@@ -65,9 +77,14 @@ where
             h,
             z0,
             dt,
-            |z1, _| {
-                let residual = z1 - z0 - j_times(&h.discrete_gradient(z0, z1)) * dt;
-                (residual, (z0 + z1) * 0.5)
+            z1,
+            |z1, _, r| {
+                // y = (z0 + z1)/2; F = z1 - z0 - dt J gbar(z0, z1).
+                h.discrete_gradient_into(z0, z1, &mut r.scratch);
+                residual_minus_j(z1, z0, &r.scratch, dt, &mut r.residual);
+                for i in 0..z1.len() {
+                    r.y[i] = (z0[i] + z1[i]) * 0.5;
+                }
             },
         )
     }

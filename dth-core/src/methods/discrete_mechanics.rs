@@ -61,6 +61,18 @@ where
     const ORDER: u32 = 2;
 
     fn step(&mut self, h: &H, z0: &OVector<f64, D>, dt: f64) -> Result<OVector<f64, D>, Error> {
+        let mut z1 = z0.clone();
+        self.step_into(h, z0, dt, &mut z1)?;
+        Ok(z1)
+    }
+
+    fn step_into(
+        &mut self,
+        h: &H,
+        z0: &OVector<f64, D>,
+        dt: f64,
+        z1: &mut OVector<f64, D>,
+    ) -> Result<(), Error> {
         let n = z0.len() / 2;
         let m = h.mass();
         let radius = |z: &OVector<f64, D>| z.rows(0, n).norm();
@@ -74,15 +86,17 @@ where
             h,
             z0,
             dt,
-            |z1, _| {
+            z1,
+            |z1, _, r| {
                 let r1 = radius(z1);
                 let force = h.phi_divided_difference(r0, r1) / (r1 + r0);
-                let mut residual = z1.clone();
                 for i in 0..n {
-                    residual[i] = z1[i] - z0[i] - (0.5 * dt / m) * (z1[n + i] + z0[n + i]);
-                    residual[n + i] = z1[n + i] - z0[n + i] + dt * force * (z1[i] + z0[i]);
+                    r.residual[i] = z1[i] - z0[i] - (0.5 * dt / m) * (z1[n + i] + z0[n + i]);
+                    r.residual[n + i] = z1[n + i] - z0[n + i] + dt * force * (z1[i] + z0[i]);
                 }
-                (residual, (z0 + z1) * 0.5)
+                for i in 0..z1.len() {
+                    r.y[i] = (z0[i] + z1[i]) * 0.5;
+                }
             },
         )
     }

@@ -3,9 +3,9 @@
 use crate::hamiltonian::Alloc;
 use nalgebra::{DefaultAllocator, Dim, OVector};
 
-use super::newton::{self, NewtonOptions, Structured};
+use super::newton::{self, residual_minus_j, NewtonOptions, Structured};
 use super::OneStepMethod;
-use crate::{j_times, Error, Hamiltonian};
+use crate::{Error, Hamiltonian};
 
 /// The implicit midpoint rule `z1 = z0 + dt J grad H((z0 + z1)/2)`.
 ///
@@ -48,6 +48,18 @@ where
     const ORDER: u32 = 2;
 
     fn step(&mut self, h: &H, z0: &OVector<f64, D>, dt: f64) -> Result<OVector<f64, D>, Error> {
+        let mut z1 = z0.clone();
+        self.step_into(h, z0, dt, &mut z1)?;
+        Ok(z1)
+    }
+
+    fn step_into(
+        &mut self,
+        h: &H,
+        z0: &OVector<f64, D>,
+        dt: f64,
+        z1: &mut OVector<f64, D>,
+    ) -> Result<(), Error> {
         let name = <Self as OneStepMethod<D, H>>::NAME;
         newton::one_stage(
             name,
@@ -57,9 +69,14 @@ where
             h,
             z0,
             dt,
-            |z1, _| {
-                let zbar = (z0 + z1) * 0.5;
-                (z1 - z0 - j_times(&h.gradient(&zbar)) * dt, zbar)
+            z1,
+            |z1, _, r| {
+                // y = (z0 + z1)/2; F = z1 - z0 - dt J grad H(y).
+                for i in 0..z1.len() {
+                    r.y[i] = (z0[i] + z1[i]) * 0.5;
+                }
+                h.gradient_into(&r.y, &mut r.scratch);
+                residual_minus_j(z1, z0, &r.scratch, dt, &mut r.residual);
             },
         )
     }

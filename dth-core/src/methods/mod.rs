@@ -83,6 +83,21 @@ where
     /// Advances `z` by `dt`. Errors report `step: 0`; [`run`] fills in the step index.
     fn step(&mut self, h: &H, z: &OVector<f64, D>, dt: f64) -> Result<OVector<f64, D>, Error>;
 
+    /// [`step`](Self::step) into `z1` (of `z`'s dimension, distinct from it): what [`run`]
+    /// calls. The one-stage implicit methods (midpoint, trapezoidal, discrete gradient,
+    /// discrete mechanics) override it without allocating, also for a `Dyn` dimension; the
+    /// default assigns [`step`](Self::step)'s value. On error `z1` holds no meaningful value.
+    fn step_into(
+        &mut self,
+        h: &H,
+        z: &OVector<f64, D>,
+        dt: f64,
+        z1: &mut OVector<f64, D>,
+    ) -> Result<(), Error> {
+        *z1 = self.step(h, z, dt)?;
+        Ok(())
+    }
+
     /// Newton iterations spent by this method value so far (0 for explicit methods).
     fn newton_iterations(&self) -> usize {
         0
@@ -172,9 +187,11 @@ where
     };
     observer.on_step(&record);
     let mut iterations = method.newton_iterations();
+    // The next state, written by the method and swapped with `end.z` once accepted.
+    let mut next = z0.clone();
     for k in 1..=steps {
-        let z = match method.step(h, &end.z, dt) {
-            Ok(z) if z.iter().all(|v| v.is_finite()) => z,
+        match method.step_into(h, &end.z, dt, &mut next) {
+            Ok(()) if next.iter().all(|v| v.is_finite()) => {}
             Ok(_) => {
                 return fail(
                     end,
@@ -186,13 +203,11 @@ where
                 )
             }
             Err(error) => return fail(end, at_step(error, k)),
-        };
+        }
+        std::mem::swap(&mut end.z, &mut next);
         // t0 + k dt, not a running sum: no accumulated rounding in the clock.
-        end = RunEnd {
-            z,
-            t: t0 + k as f64 * dt,
-            steps: k,
-        };
+        end.t = t0 + k as f64 * dt;
+        end.steps = k;
         let total = method.newton_iterations();
         record.k = k;
         record.t = end.t;
@@ -250,15 +265,6 @@ where
         c,
         |i, j| if i < n { m[(i + n, j)] } else { -m[(i - n, j)] },
     )
-}
-
-/// `I - c J Hess`, the Newton matrix of the one-stage implicit methods.
-pub(crate) fn newton_matrix<D: Dim>(c: f64, hessian: &OMatrix<f64, D, D>) -> OMatrix<f64, D, D>
-where
-    DefaultAllocator: Alloc<D>,
-{
-    let (r, k) = hessian.shape_generic();
-    OMatrix::identity_generic(r, k) - j_times_matrix(hessian) * c
 }
 
 #[cfg(test)]

@@ -8,7 +8,7 @@
 //! # Two linear solvers
 //! Each Newton iteration solves with `I - (dt/2) J Hess` (one stage) or the `2D x 2D`
 //! Gauss-Legendre matrix. For a Hamiltonian that declares its Hessian pattern and sets
-//! [`Hamiltonian::STRUCTURED_NEWTON`] (generated types beyond the measured crossover), the
+//! [`Flags::structured_newton`](crate::Flags::structured_newton) (generated types beyond the measured crossover), the
 //! matrix is assembled from the Hessian's nonzeros and factored by the banded LU of
 //! [`crate::structured`], held in the method's [`Structured`] storage (analysed on the first
 //! step, reused without allocation after); no `D x D` matrix is formed. Otherwise it is the
@@ -18,23 +18,42 @@
 
 use crate::hamiltonian::Alloc;
 use nalgebra::allocator::Allocator;
-use nalgebra::{DefaultAllocator, Dim, OMatrix, OVector};
-use std::cell::RefCell;
+use nalgebra::{DefaultAllocator, Dim, Dyn, OMatrix, OVector};
+use std::any::Any;
 
-use super::newton_matrix;
-use crate::linalg as linear;
+use crate::linalg::Lu;
 use crate::newton::{self, Convergence, PEERS};
 use crate::structured::NewtonMatrix;
-use crate::{j_times, Error, Hamiltonian};
+use crate::{j_times_into, zeros, zeros_matrix, Error, Hamiltonian};
 
 /// The structured Newton storage of a peer method: the analysed Newton matrix, built on the
 /// first structured step (the only allocation, with a copy of the pattern) and reused while
 /// the pattern (compared entry by entry: `O(nonzeros)`, less than evaluating them), the
 /// dimension and the number of stages stay the same. A cache, not
 /// part of the method's value: two methods compare equal whatever their storage holds.
-#[derive(Clone, Debug, Default)]
+#[derive(Default)]
 pub(crate) struct Structured {
     matrix: Option<(Vec<(usize, usize)>, NewtonMatrix)>,
+    /// A dynamic dimension's Newton buffers (see [`one_stage`]), kept between steps.
+    buffers: Option<Box<Kept<Dyn>>>,
+}
+
+impl Clone for Structured {
+    /// The analysed matrix; the buffers are rebuilt on the clone's first step.
+    fn clone(&self) -> Self {
+        Structured {
+            matrix: self.matrix.clone(),
+            buffers: None,
+        }
+    }
+}
+
+impl std::fmt::Debug for Structured {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Structured")
+            .field("matrix", &self.matrix)
+            .finish_non_exhaustive()
+    }
 }
 
 impl PartialEq for Structured {
@@ -206,11 +225,127 @@ where
     Ok((x, iterations))
 }
 
-/// One step of a one-stage implicit method from `z0`: Newton on `F(z1) = 0` from the explicit
-/// Euler predictor `z0 + dt J grad H(z0)`, with the matrix `I - (dt/2) J Hess H(y)` (structured
-/// or dense, see the [module docs](self)). `equation(z1, grad H(z0))` returns `F(z1)` and the
-/// point `y` (the midpoint `(z0 + z1)/2`, or `z1` for the trapezoidal rule). The Newton
-/// iterations are added to `iterations`.
+/// The buffers of one Newton iterate of a one-stage method, which its equation fills:
+/// `residual = F(z1)`, the point `y` where the Newton matrix's Hessian is taken, and a
+/// scratch vector for the equation's own use (a gradient).
+pub(crate) struct Residual<D: Dim>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    pub(crate) residual: OVector<f64, D>,
+    pub(crate) y: OVector<f64, D>,
+    pub(crate) scratch: OVector<f64, D>,
+}
+
+impl<D: Dim> Residual<D>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    fn new(d: D) -> Self {
+        Residual {
+            residual: zeros(d),
+            y: zeros(d),
+            scratch: zeros(d),
+        }
+    }
+}
+
+/// Everything a one-stage step writes besides the Hessian: `grad H(z0)`, the iterate's
+/// [`Residual`] and the Newton update.
+struct OneStage<D: Dim>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    g0: OVector<f64, D>,
+    r: Residual<D>,
+    delta: OVector<f64, D>,
+}
+
+impl<D: Dim> OneStage<D>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    fn new(d: D) -> Self {
+        OneStage {
+            g0: zeros(d),
+            r: Residual::new(d),
+            delta: zeros(d),
+        }
+    }
+}
+
+/// The dense path's storage: the Hessian and the LU of `I - c J Hess`.
+struct DenseParts<D: Dim>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    hessian: OMatrix<f64, D, D>,
+    lu: Lu<D>,
+}
+
+impl<D: Dim> DenseParts<D>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    fn new(d: D) -> Self {
+        DenseParts {
+            hessian: zeros_matrix(d),
+            lu: Lu::empty(d),
+        }
+    }
+
+    /// Factor `A = I - c J Hess` at the Hessian at `y` and solve `A delta = residual`; `false`
+    /// when `A` is singular or not finite. Entry for entry what `newton_matrix` builds.
+    fn solve<H: Hamiltonian<D>>(
+        &mut self,
+        h: &H,
+        y: &OVector<f64, D>,
+        c: f64,
+        residual: &OVector<f64, D>,
+        delta: &mut OVector<f64, D>,
+    ) -> bool {
+        h.hessian_into(y, &mut self.hessian);
+        let n = y.len() / 2;
+        let hessian = &self.hessian;
+        let factored = self.lu.factor_from(|i, j| {
+            let jh = if i < n {
+                hessian[(i + n, j)]
+            } else {
+                -hessian[(i - n, j)]
+            };
+            if i == j {
+                1.0 - jh * c
+            } else {
+                -(jh * c)
+            }
+        });
+        if factored.is_err() {
+            return false;
+        }
+        self.lu.solve_into(residual, delta);
+        true
+    }
+}
+
+/// A dynamic dimension's buffers, kept in the method's [`Structured`] storage between steps.
+struct Kept<D: Dim>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    stage: OneStage<D>,
+    dense: Option<DenseParts<D>>,
+}
+
+/// One step of a one-stage implicit method from `z0` into `z1`: Newton on `F(z1) = 0` from the
+/// explicit Euler predictor `z0 + dt J grad H(z0)`, with the matrix `I - (dt/2) J Hess H(y)`
+/// (structured or dense, see the [module docs](self)). `equation(z1, grad H(z0), r)` writes
+/// `F(z1)` and the point `y` (the midpoint `(z0 + z1)/2`, or `z1` for the trapezoidal rule)
+/// into `r`. The Newton iterations are added to `iterations`.
+///
+/// No allocation: a fixed dimension's buffers live in this frame (the dense `D x D` ones in a
+/// frame of their own, only on the dense path); a dynamic dimension's are allocated on the
+/// method's first step and kept in `structured` (a cache: reallocated when the dimension
+/// changes).
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn one_stage<H: Hamiltonian<D>, D: Dim>(
     method: &'static str,
@@ -220,55 +355,196 @@ pub(crate) fn one_stage<H: Hamiltonian<D>, D: Dim>(
     h: &H,
     z0: &OVector<f64, D>,
     dt: f64,
-    equation: impl Fn(&OVector<f64, D>, &OVector<f64, D>) -> (OVector<f64, D>, OVector<f64, D>),
-) -> Result<OVector<f64, D>, Error>
+    z1: &mut OVector<f64, D>,
+    equation: impl Fn(&OVector<f64, D>, &OVector<f64, D>, &mut Residual<D>),
+) -> Result<(), Error>
 where
     DefaultAllocator: Alloc<D>,
 {
-    let g0 = h.gradient(z0);
-    let predictor = z0 + j_times(&g0) * dt;
-    let (z1, n) = match structured.matrix(h, 1) {
-        Some(matrix) => {
-            let matrix = RefCell::new(matrix);
-            solve(method, options, predictor, z0.amax(), |z1| {
-                let (residual, y) = equation(z1, &g0);
-                let mut m = matrix.borrow_mut();
-                h.hessian_nonzeros(&y, m.hessian_mut(0));
-                let delta = m.factor(&[0.5 * dt]).ok().map(|()| {
-                    let mut delta = residual.clone();
-                    m.solve(delta.as_mut_slice());
-                    delta
-                });
-                Evaluation { residual, delta }
-            })?
+    let (d, _) = z0.shape_generic();
+    let n = if D::try_to_usize().is_some() {
+        let mut stage = OneStage::new(d);
+        let solve = Solve {
+            method,
+            options,
+            h,
+            z0,
+            dt,
+            equation: &equation,
+        };
+        match structured.matrix(h, 1) {
+            Some(matrix) => solve.structured(matrix, &mut stage, z1)?,
+            None => solve.dense_fixed(&mut stage, z1)?,
         }
-        None => one_stage_dense(method, options, h, z0, dt, predictor, &g0, &equation)?,
+    } else {
+        // `D` is `Dyn` here: the kept box is the same type, seen through `Any`.
+        let kept = structured
+            .buffers
+            .take()
+            .and_then(|b| (b as Box<dyn Any>).downcast::<Kept<D>>().ok());
+        let mut kept = match kept {
+            Some(k) if k.stage.g0.len() == d.value() => k,
+            _ => Box::new(Kept {
+                stage: OneStage::new(d),
+                dense: None,
+            }),
+        };
+        let solve = Solve {
+            method,
+            options,
+            h,
+            z0,
+            dt,
+            equation: &equation,
+        };
+        let Kept { stage, dense } = &mut *kept;
+        let result = match structured.matrix(h, 1) {
+            Some(matrix) => solve.structured(matrix, stage, z1),
+            None => {
+                let dense = dense.get_or_insert_with(|| DenseParts::new(d));
+                solve.run(stage, z1, |y, residual, delta| {
+                    dense.solve(h, y, 0.5 * dt, residual, delta)
+                })
+            }
+        };
+        structured.buffers = (kept as Box<dyn Any>).downcast::<Kept<Dyn>>().ok();
+        result?
     };
     *iterations += n;
-    Ok(z1)
+    Ok(())
 }
 
-/// [`one_stage`]'s Newton with the dense `D x D` matrix, in a frame of its own.
-#[inline(never)]
-#[allow(clippy::too_many_arguments)]
-fn one_stage_dense<H: Hamiltonian<D>, D: Dim>(
-    method: &'static str,
-    options: &NewtonOptions,
-    h: &H,
+/// `out = z1 - z0 - (J g) c`, entry by entry as the vector expression computes it.
+pub(crate) fn residual_minus_j<D: Dim>(
+    z1: &OVector<f64, D>,
     z0: &OVector<f64, D>,
-    dt: f64,
-    predictor: OVector<f64, D>,
-    g0: &OVector<f64, D>,
-    equation: &impl Fn(&OVector<f64, D>, &OVector<f64, D>) -> (OVector<f64, D>, OVector<f64, D>),
-) -> Result<(OVector<f64, D>, usize), Error>
+    g: &OVector<f64, D>,
+    c: f64,
+    out: &mut OVector<f64, D>,
+) where
+    DefaultAllocator: Alloc<D>,
+{
+    let n = z1.len() / 2;
+    for i in 0..z1.len() {
+        let jg = if i < n { g[i + n] } else { -g[i - n] };
+        out[i] = (z1[i] - z0[i]) - jg * c;
+    }
+}
+
+/// What a one-stage Newton solve needs besides its buffers.
+struct Solve<'a, H, D: Dim, E>
 where
     DefaultAllocator: Alloc<D>,
 {
-    solve(method, options, predictor, z0.amax(), |z1| {
-        let (residual, y) = equation(z1, g0);
-        let delta = linear::solve(newton_matrix(0.5 * dt, &h.hessian(&y)), residual.clone());
-        Evaluation { residual, delta }
-    })
+    method: &'static str,
+    options: &'a NewtonOptions,
+    h: &'a H,
+    z0: &'a OVector<f64, D>,
+    dt: f64,
+    equation: &'a E,
+}
+
+impl<H: Hamiltonian<D>, D: Dim, E> Solve<'_, H, D, E>
+where
+    DefaultAllocator: Alloc<D>,
+    E: Fn(&OVector<f64, D>, &OVector<f64, D>, &mut Residual<D>),
+{
+    /// On the structured path.
+    fn structured(
+        &self,
+        m: &mut NewtonMatrix,
+        stage: &mut OneStage<D>,
+        z1: &mut OVector<f64, D>,
+    ) -> Result<usize, Error> {
+        let (h, c) = (self.h, 0.5 * self.dt);
+        self.run(stage, z1, |y, residual, delta| {
+            h.hessian_nonzeros(y, m.hessian_mut(0));
+            if m.factor(&[c]).is_err() {
+                return false;
+            }
+            delta.copy_from(residual);
+            m.solve(delta.as_mut_slice());
+            true
+        })
+    }
+
+    /// On the dense path with a fixed dimension, in a frame of its own (its `D x D` storage).
+    #[inline(never)]
+    fn dense_fixed(
+        &self,
+        stage: &mut OneStage<D>,
+        z1: &mut OVector<f64, D>,
+    ) -> Result<usize, Error> {
+        let mut dense = DenseParts::new(self.z0.shape_generic().0);
+        let (h, c) = (self.h, 0.5 * self.dt);
+        self.run(stage, z1, |y, residual, delta| {
+            dense.solve(h, y, c, residual, delta)
+        })
+    }
+
+    /// Newton from the predictor with the linear solve `solve(y, residual, delta)` (`false`
+    /// when the matrix is singular); the iterations.
+    fn run(
+        &self,
+        stage: &mut OneStage<D>,
+        z1: &mut OVector<f64, D>,
+        mut solve: impl FnMut(&OVector<f64, D>, &OVector<f64, D>, &mut OVector<f64, D>) -> bool,
+    ) -> Result<usize, Error> {
+        let (method, z0, dt) = (self.method, self.z0, self.dt);
+        let OneStage { g0, r, delta } = stage;
+        self.h.gradient_into(z0, g0);
+        // The predictor z0 + (J g0) dt.
+        j_times_into(g0, &mut r.scratch);
+        for i in 0..z1.len() {
+            z1[i] = z0[i] + r.scratch[i] * dt;
+        }
+        let scale = z0.amax();
+        let g0 = &*g0;
+        let mut state = (z1, r, delta);
+        newton::solve(
+            Convergence::new(PEERS, self.options.max_iterations),
+            self.options.stall_tolerance,
+            &mut state,
+            |(x, r, delta), iteration| {
+                let non_finite = |what| Error::MethodNonFinite {
+                    method,
+                    step: 0,
+                    what,
+                };
+                (self.equation)(x, g0, r);
+                let residual_norm = r.residual.amax();
+                if !residual_norm.is_finite() {
+                    return Err(non_finite("Newton residual"));
+                }
+                if !solve(&r.y, &r.residual, delta) {
+                    return Err(Error::MethodSingularMatrix {
+                        method,
+                        step: 0,
+                        iteration,
+                        residual: residual_norm,
+                    });
+                }
+                **x -= &**delta;
+                let size = delta.amax();
+                if !size.is_finite() {
+                    return Err(non_finite("Newton update"));
+                }
+                Ok(size / scale.max(x.amax()).max(f64::MIN_POSITIVE))
+            },
+            |_| true,
+            |(x, _, _), iterations| {
+                // A failure: the residual at the last iterate, in storage of its own.
+                let mut r = Residual::new(x.shape_generic().0);
+                (self.equation)(x, g0, &mut r);
+                Error::MethodNotConverged {
+                    method,
+                    step: 0,
+                    iterations,
+                    residual: r.residual.amax(),
+                }
+            },
+        )
+    }
 }
 
 #[cfg(test)]

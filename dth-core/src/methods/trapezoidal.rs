@@ -3,9 +3,9 @@
 use crate::hamiltonian::Alloc;
 use nalgebra::{DefaultAllocator, Dim, OVector};
 
-use super::newton::{self, NewtonOptions, Structured};
+use super::newton::{self, residual_minus_j, NewtonOptions, Structured};
 use super::OneStepMethod;
-use crate::{j_times, Error, Hamiltonian};
+use crate::{Error, Hamiltonian};
 
 /// The trapezoidal rule `z1 = z0 + (dt/2) J (grad H(z0) + grad H(z1))`.
 ///
@@ -48,6 +48,18 @@ where
     const ORDER: u32 = 2;
 
     fn step(&mut self, h: &H, z0: &OVector<f64, D>, dt: f64) -> Result<OVector<f64, D>, Error> {
+        let mut z1 = z0.clone();
+        self.step_into(h, z0, dt, &mut z1)?;
+        Ok(z1)
+    }
+
+    fn step_into(
+        &mut self,
+        h: &H,
+        z0: &OVector<f64, D>,
+        dt: f64,
+        z1: &mut OVector<f64, D>,
+    ) -> Result<(), Error> {
         let name = <Self as OneStepMethod<D, H>>::NAME;
         newton::one_stage(
             name,
@@ -57,11 +69,13 @@ where
             h,
             z0,
             dt,
-            |z1, g0| {
-                (
-                    z1 - z0 - j_times(&(g0 + h.gradient(z1))) * (0.5 * dt),
-                    z1.clone(),
-                )
+            z1,
+            |z1, g0, r| {
+                // y = z1; F = z1 - z0 - (dt/2) J (grad H(z0) + grad H(z1)).
+                r.y.copy_from(z1);
+                h.gradient_into(z1, &mut r.scratch);
+                r.scratch += g0;
+                residual_minus_j(z1, z0, &r.scratch, 0.5 * dt, &mut r.residual);
             },
         )
     }

@@ -135,7 +135,7 @@ pub struct SystemInfo<'a> {
     pub fixed_end_chain: bool,
     /// `true` when method `dth` can run.
     pub dth: bool,
-    /// `true` when `Psi` is identically zero (`Hamiltonian::PSI_IDENTICALLY_ZERO`): the reason
+    /// `true` when `Psi` is identically zero (`Flags::psi_identically_zero`): the reason
     /// DTH is not offered, when it is not.
     pub psi_identically_zero: bool,
 }

@@ -44,7 +44,7 @@ pub fn looped_impl(looped: &Looped, name: &Ident, params: &[Ident]) -> Option<To
     let entries: usize = looped.sums.iter().map(|s| s.pattern.len()).sum();
     let width = (2 * entries * (1 + looped.boundaries.len())).max(1);
     let separable = looped.separable();
-    let psi0 = entries == 0;
+    let psi0 = looped.psi_identically_zero();
     let min_dim = super::STRUCTURED_MIN_DIM;
 
     // Where letter[k] lives: the lattice, or a boundary (periodic: a site; fixed: a value).

@@ -1,0 +1,230 @@
+//! A Hamiltonian read from text runs as `Hamiltonian<Dyn>`, its dimension known only when the
+//! text is read: DTH (joint and nested Newton), the implicit midpoint rule and the 2-stage
+//! Gauss-Legendre method step it as they step the `hamiltonian!` type of the same text with
+//! `Const<D>`; a time-dependent text runs in the extended phase space; the construction errors
+//! are typed.
+//!
+//! Why the same states: both run the engine's same programs operation for operation (see
+//! `typed_matches_macro.rs`), and the stepper's arithmetic is the same generic code for
+//! `Const<D>` and `Dyn`; only the storage differs (heap for `Dyn`, the stack for `Const`).
+
+#![cfg(feature = "runtime")]
+
+// The core's counting allocator: counts the calling thread's allocations inside `count`.
+#[path = "../dth-core/tests/alloc_counter/mod.rs"]
+mod alloc_counter;
+
+use dth::dth::{lift, set_momentum_of_time, Dth, DthOptions, Solver};
+use dth::methods::{
+    run, DiscreteGradient, GaussLegendre2, ImplicitMidpoint, OneStepMethod, Trapezoidal,
+};
+use dth::nalgebra::{Const, DMatrix, DVector, Dyn, SVector};
+use dth::observer::Recorder;
+use dth::runtime::RuntimeHamiltonian;
+use dth::{Error, Hamiltonian};
+
+dth::hamiltonian! {
+    #[derive(Clone, Copy)]
+    struct Kepler { m: f64, k: f64 } = (p1^2 + p2^2)/(2*m) - k*(q1^2 + q2^2)^(-1/2)
+}
+
+dth::hamiltonian! {
+    #[derive(Clone, Copy)]
+    struct ForcedDuffing { f: f64, w: f64 } = p1^2/2 + q1^2/2 + q1^4/4 - f*q1*cos(w*t)
+}
+
+const KEPLER: &str = "(p1^2 + p2^2)/(2*m) - k*(q1^2 + q2^2)^(-1/2)";
+const FORCED_DUFFING: &str = "p1^2/2 + q1^2/2 + q1^4/4 - f*q1*cos(w*t)";
+const STEPS: usize = 300;
+
+fn kepler_text() -> RuntimeHamiltonian {
+    let h = RuntimeHamiltonian::new(KEPLER, &[("m", 0.5), ("k", 1.0)]).unwrap();
+    assert_eq!(h.backend(), dth::runtime::Backend::Jit);
+    h
+}
+
+/// The largest difference between a fixed-size and a dynamic trajectory, relative to the
+/// states' size.
+fn worst<const D: usize>(a: &[SVector<f64, D>], b: &[DVector<f64>]) -> f64 {
+    assert_eq!(a.len(), b.len());
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| {
+            assert_eq!(y.len(), D);
+            (x - y).amax() / x.amax()
+        })
+        .fold(0.0, f64::max)
+}
+
+/// Roundoff of 300 steps on the thesis's Kepler orbit: `Const` and `Dyn` run the same
+/// operations, but nalgebra's kernels for the two storages may sum in another order (a dot
+/// product, a matrix-vector product), an `eps` at a time; on this non-chaotic orbit such
+/// differences grow at most linearly in the steps (and by the conditioning of each Newton
+/// solve, ~10 here): `eps * STEPS * 10 ~ 7e-13`, with a margin of 10.
+const ROUNDOFF: f64 = 1e-11;
+
+#[test]
+fn dyn_kepler_from_text_steps_as_the_macros_fixed_size_kepler() {
+    let fixed = Kepler { m: 0.5, k: 1.0 };
+    let z0 = SVector::<f64, 4>::new(0.5, 0.0, 0.0, 1.2);
+    let z0_dyn = DVector::from_column_slice(z0.as_slice());
+    for solver in [Solver::Joint, Solver::Nested] {
+        let options = DthOptions::default()
+            .with_dtau(0.06277)
+            .unwrap()
+            .with_solver(solver);
+        let mut a = Dth::new(fixed, z0, options).unwrap();
+        let mut b = Dth::new(kepler_text(), z0_dyn.clone(), options).unwrap();
+        let ta = a.trajectory(STEPS).unwrap();
+        let tb = b.trajectory(STEPS).unwrap();
+        let w = worst(ta.midpoints(), tb.midpoints());
+        assert!(w <= ROUNDOFF, "{solver:?}: midpoints differ by {w:e}");
+        let w = worst(ta.vertices(), tb.vertices());
+        assert!(w <= ROUNDOFF, "{solver:?}: vertices differ by {w:e}");
+        let lambdas = ta.lambdas().iter().zip(tb.lambdas());
+        assert!(lambdas.map(|(x, y)| (x - y).abs()).fold(0.0, f64::max) <= ROUNDOFF);
+        // The energy at the midpoints is exact to roundoff for the runtime Hamiltonian too.
+        let e0 = Hamiltonian::value(b.hamiltonian(), &z0_dyn);
+        for z in tb.midpoints() {
+            assert!((Hamiltonian::value(b.hamiltonian(), z) - e0).abs() <= 4.0 * f64::EPSILON);
+        }
+    }
+    // Two peers: the one-stage midpoint rule and the two-stage Gauss-Legendre method.
+    fn peer<M>(mut fixed_method: M, mut dyn_method: M) -> f64
+    where
+        M: OneStepMethod<Const<4>, Kepler> + OneStepMethod<Dyn, RuntimeHamiltonian>,
+    {
+        let z0 = SVector::<f64, 4>::new(0.5, 0.0, 0.0, 1.2);
+        let (mut ra, mut rb) = (Recorder::new(), Recorder::new());
+        let fixed = Kepler { m: 0.5, k: 1.0 };
+        run(&mut fixed_method, &fixed, &z0, 0.0, 0.15, STEPS, &mut ra).unwrap();
+        let z0 = DVector::from_column_slice(z0.as_slice());
+        run(
+            &mut dyn_method,
+            &kepler_text(),
+            &z0,
+            0.0,
+            0.15,
+            STEPS,
+            &mut rb,
+        )
+        .unwrap();
+        worst(&ra.z, &rb.z)
+    }
+    let w = peer(ImplicitMidpoint::new(), ImplicitMidpoint::new());
+    assert!(w <= ROUNDOFF, "midpoint: {w:e}");
+    let w = peer(GaussLegendre2::new(), GaussLegendre2::new());
+    assert!(w <= ROUNDOFF, "gauss-legendre: {w:e}");
+}
+
+#[test]
+fn time_dependent_text_runs_in_the_extended_phase_space() {
+    let (f, w) = (0.3, 1.2);
+    let text = RuntimeHamiltonian::new(FORCED_DUFFING, &[("f", f), ("w", w)]).unwrap();
+    // (q1, t, p1, p_t): D = 4 from the text, the flag from `t`.
+    assert_eq!(Hamiltonian::dim(&text), Dyn(4));
+    assert!(Hamiltonian::flags(&text).time_dependent);
+    let fixed = ForcedDuffing { f, w };
+    let x0 = SVector::<f64, 2>::new(0.8, 0.0);
+    let z0 = set_momentum_of_time(&fixed, lift(&x0, 0.25));
+    let z0_dyn = set_momentum_of_time(&text, DVector::from_column_slice(z0.as_slice()));
+    assert_eq!(z0_dyn.as_slice(), z0.as_slice());
+    let options = DthOptions::default().with_dtau(0.05).unwrap();
+    let mut a = Dth::new(fixed, z0, options).unwrap();
+    let mut b = Dth::new(text, z0_dyn, options).unwrap();
+    // Time starts at the t coordinate; calH = p_t + H stays 0 at the midpoints (Theorem 1).
+    assert_eq!(b.tbar(), 0.25);
+    let tb = b.trajectory(STEPS).unwrap();
+    let ta = a.trajectory(STEPS).unwrap();
+    for z in tb.midpoints() {
+        // The terms of calH are O(1): a few eps.
+        assert!(Hamiltonian::value(b.hamiltonian(), z).abs() <= 8.0 * f64::EPSILON);
+    }
+    let w = worst(ta.midpoints(), tb.midpoints());
+    assert!(w <= ROUNDOFF, "{w:e}");
+    assert!((a.tbar() - b.tbar()).abs() <= ROUNDOFF * a.tbar());
+}
+
+/// A hand-written `Hamiltonian<Dyn>` of any dimension: `H = |z|^2 / 2`.
+struct Quadratic(usize);
+
+impl Hamiltonian<Dyn> for Quadratic {
+    fn dim(&self) -> Dyn {
+        Dyn(self.0)
+    }
+    fn value(&self, z: &DVector<f64>) -> f64 {
+        0.5 * z.norm_squared()
+    }
+    fn gradient_into(&self, z: &DVector<f64>, out: &mut DVector<f64>) {
+        out.copy_from(z);
+    }
+    fn hessian_into(&self, _: &DVector<f64>, out: &mut DMatrix<f64>) {
+        out.fill_with_identity();
+    }
+}
+
+#[test]
+fn construction_errors_are_typed() {
+    // Psi identically zero (a free particle): DTH cannot determine lambda.
+    let free = RuntimeHamiltonian::new("p1^2/(2*m)", &[("m", 1.0)]).unwrap();
+    assert!(Hamiltonian::flags(&free).psi_identically_zero);
+    let z = DVector::from_column_slice(&[0.0, 1.0]);
+    let err = Dth::new(free, z, DthOptions::default()).err().unwrap();
+    assert!(matches!(err, Error::PsiIdenticallyZero), "{err:?}");
+    // An odd dimension has no (q, p) split.
+    let z = DVector::from_element(3, 0.5);
+    let err = Dth::new(Quadratic(3), z, DthOptions::default())
+        .err()
+        .unwrap();
+    assert!(matches!(err, Error::OddDimension { dim: 3 }), "{err:?}");
+    // A state whose length is not the Hamiltonian's dimension.
+    let z = DVector::from_element(6, 0.5);
+    let err = Dth::new(Quadratic(4), z, DthOptions::default())
+        .err()
+        .unwrap();
+    assert!(
+        matches!(err, Error::InvalidOption { name: "zbar0", .. }),
+        "{err:?}"
+    );
+    // The right one runs.
+    let z = DVector::from_element(4, 0.5);
+    let mut dth = Dth::new(Quadratic(4), z, DthOptions::default()).unwrap();
+    dth.advance(10).unwrap();
+}
+
+/// The one-stage implicit peers keep a `Dyn` dimension's Newton buffers from their first step:
+/// a run of 200 steps allocates exactly what a run of one step does (its start: the first
+/// state's record and the method's buffers), and steps after the first allocate nothing.
+#[test]
+fn dyn_one_stage_steps_allocate_nothing() {
+    fn per_step<M: OneStepMethod<Dyn, RuntimeHamiltonian>>(make: impl Fn() -> M) {
+        let h = kepler_text();
+        let z0 = DVector::from_column_slice(&[0.5, 0.0, 0.0, 1.2]);
+        let (one, a) = alloc_counter::count(|| run(&mut make(), &h, &z0, 0.0, 0.15, 1, &mut ()));
+        let (many, b) = alloc_counter::count(|| run(&mut make(), &h, &z0, 0.0, 0.15, 200, &mut ()));
+        assert!(one.is_ok() && many.is_ok());
+        assert_eq!(
+            a,
+            b,
+            "{}: allocations of a 1-step and a 200-step run",
+            M::NAME
+        );
+        let mut method = make();
+        let (mut z, mut next) = (z0.clone(), z0.clone());
+        method.step_into(&h, &z0, 0.15, &mut z).unwrap();
+        let (_, allocations) = alloc_counter::count(|| {
+            for _ in 0..100 {
+                method.step_into(&h, &z, 0.15, &mut next).unwrap();
+                std::mem::swap(&mut z, &mut next);
+            }
+        });
+        assert_eq!(allocations, 0, "{}: allocations in 100 steps", M::NAME);
+    }
+    per_step(ImplicitMidpoint::new);
+    per_step(Trapezoidal::new);
+    per_step(DiscreteGradient::new);
+    // Control: the counter is live.
+    let (v, control) = alloc_counter::count(|| std::hint::black_box(vec![1u8; 16]));
+    assert_eq!(control, 1);
+    drop(v);
+}
