@@ -13,6 +13,7 @@
 
 use std::path::Path;
 
+use dth::nalgebra::Const;
 use dth_examples::catalogue::{Catalogue, SystemEntry};
 use dth_examples::report::RunReport;
 use dth_examples::scene::{ParamRule, ParamSpec};
@@ -31,7 +32,7 @@ dth::hamiltonian! {
 }
 
 /// No quadratic invariants, no closed-form period: the defaults.
-impl SceneSystem<2> for Duffing {}
+impl SceneSystem<Const<2>> for Duffing {}
 
 /// The scene: DTH beside Stormer-Verlet (allowed: `hamiltonian!` found `H` separable).
 pub const SCENE: &str = r#"

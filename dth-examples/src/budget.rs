@@ -14,6 +14,8 @@ use crate::driver::Stop;
 use crate::error::Error;
 use crate::scene::{Direction, EffectSpec, MethodKind, Scene, StepSpec};
 use crate::system::SceneSystem;
+use dth::nalgebra::{DefaultAllocator, Dim};
+use dth::Alloc;
 
 /// Bytes per stored number (`f64`).
 const BYTES: u64 = 8;
@@ -45,12 +47,11 @@ fn steps(step: StepSpec, t0: f64, stop: Stop) -> u64 {
 }
 
 /// The memory the effects of `scene` would keep when run on `system` from `z0` until `stop`.
-pub fn estimate<const D: usize, S: SceneSystem<D>>(
-    system: &S,
-    scene: &Scene,
-    stop: Stop,
-) -> MemoryEstimate {
-    let d = D as u64;
+pub fn estimate<D: Dim, S: SceneSystem<D>>(system: &S, scene: &Scene, stop: Stop) -> MemoryEstimate
+where
+    DefaultAllocator: Alloc<D>,
+{
+    let d = system.dim().value() as u64;
     let invariants = system.invariant_names().len() as u64;
     let methods = scene
         .methods
@@ -128,12 +129,15 @@ pub fn human(bytes: u64) -> String {
 
 /// Refuses a run whose effects would keep more than `limit` bytes, naming the estimate and the
 /// largest consumer.
-pub fn check<const D: usize, S: SceneSystem<D>>(
+pub fn check<D: Dim, S: SceneSystem<D>>(
     system: &S,
     scene: &Scene,
     stop: Stop,
     limit: u64,
-) -> Result<MemoryEstimate, Error> {
+) -> Result<MemoryEstimate, Error>
+where
+    DefaultAllocator: Alloc<D>,
+{
     let e = estimate(system, scene, stop);
     let total = e.bytes();
     if total <= limit {

@@ -11,10 +11,16 @@
 //! and is registered the same way, with [`SystemEntry::runnable`] and [`Catalogue::register`];
 //! see `examples/custom_system.rs`.
 //!
+//! A scene whose Hamiltonian is given as text names no entry: [`Catalogue::run`] builds it
+//! ([`crate::runtime_system::TextSystem`], dimension `Dyn`) and runs it through the same path.
+//!
 //! A system whose `Psi` is identically zero (`Flags::psi_identically_zero`, e.g. a free
 //! particle) cannot run DTH: the stepper's constructor rejects it at compile time (thesis
 //! Section 3.4). Register it with [`SystemEntry::runnable_without_dth`]: every peer method
 //! runs, and a scene naming `dth` for it is rejected by validation.
+
+use dth::nalgebra::{Const, DefaultAllocator, Dim, Dyn};
+use dth::{Alloc, ConstFlags};
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -24,6 +30,7 @@ use crate::ensemble;
 use crate::error::Error;
 use crate::pipeline::{run_system, RunError};
 use crate::report::RunReport;
+use crate::runtime_system::TextSystem;
 use crate::scene::{ParamSpec, Scene, SystemInfo, SystemLookup};
 use crate::simulate::{initial_state, stop_for, RunOptions};
 use crate::system::{SceneSystem, WithoutDth};
@@ -90,6 +97,47 @@ fn params<const N: usize>(
     Ok(values)
 }
 
+/// Runs a validated scene on the systems `make` builds from parameters (the scene's, or an
+/// ensemble member's): an ensemble scene's members on every core after its memory estimate, a
+/// single run on rank 0 (under `mpirun`). The one path of every system, catalogue or text.
+fn run_built<D: Dim, S: SceneSystem<D>>(
+    make: &(dyn Fn(&Params) -> Result<S, Error> + Sync),
+    scene: &Scene,
+    out: &Path,
+    options: &RunOptions,
+) -> Result<RunReport, RunError>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    if scene.members.is_some() {
+        estimate_built::<D, S>(make, scene, options)?;
+        return ensemble::run::<D, S>(make, scene, out, options);
+    }
+    if ensemble::schedule::is_worker_rank() {
+        // Under `mpirun`, a single run is rank 0's alone.
+        return Ok(ensemble::idle_report(scene));
+    }
+    let system = make(&scene.params)?;
+    run_system::<D, S>(&system, scene, out, options)
+}
+
+/// The memory estimate of a validated scene on the system `make` builds from its parameters
+/// (`dth check`; also checked before an ensemble scene runs, a single run checks it in
+/// `simulate::compute`).
+fn estimate_built<D: Dim, S: SceneSystem<D>>(
+    make: &(dyn Fn(&Params) -> Result<S, Error> + Sync),
+    scene: &Scene,
+    options: &RunOptions,
+) -> Result<MemoryEstimate, Error>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    let system = make(&scene.params)?;
+    let z0 = initial_state(&system, scene)?;
+    let stop = stop_for(&system, scene, &z0, options)?;
+    budget::check(&system, scene, stop, options.memory_limit())
+}
+
 impl SystemEntry {
     /// A runnable entry: `build` makes the Hamiltonian from the scene's parameters (returning a
     /// message for an invalid combination), and scenes naming `name` run on it with every
@@ -115,7 +163,7 @@ impl SystemEntry {
         build: F,
     ) -> Self
     where
-        S: SceneSystem<D> + 'static,
+        S: SceneSystem<Const<D>> + ConstFlags + 'static,
         F: Fn(&Params) -> Result<S, String> + Send + Sync + 'static,
     {
         const {
@@ -158,7 +206,7 @@ impl SystemEntry {
         build: F,
     ) -> Self
     where
-        S: SceneSystem<D> + 'static,
+        S: SceneSystem<Const<D>> + ConstFlags + 'static,
         F: Fn(&Params) -> Result<S, String> + Send + Sync + 'static,
     {
         let mut entry =
@@ -177,7 +225,7 @@ impl SystemEntry {
         build: F,
     ) -> Self
     where
-        S: SceneSystem<D> + 'static,
+        S: SceneSystem<Const<D>> + ConstFlags + 'static,
         F: Fn(&Params) -> Result<S, String> + Send + Sync + 'static,
     {
         let n = if S::FLAGS.time_dependent {
@@ -203,18 +251,8 @@ impl SystemEntry {
             }
             build(params).map_err(unavailable)
         };
-        let entry_name = name.to_string();
-        // The memory estimate (`dth check`), also checked before an ensemble scene runs (a
-        // single run checks it in `simulate::compute`).
-        let make_check = make.clone();
-        let check_name = name.to_string();
-        let check = move |scene: &Scene, options: &RunOptions| {
-            let system = make_check(&check_name, &scene.params)?;
-            let z0 = initial_state(&system, scene)?;
-            let stop = stop_for(&system, scene, &z0, options)?;
-            budget::check(&system, scene, stop, options.memory_limit())
-        };
-        let check_too = check.clone();
+        let (run_name, estimate_name) = (name.to_string(), name.to_string());
+        let make_too = make.clone();
         SystemEntry {
             name: name.to_string(),
             doc: doc.to_string(),
@@ -229,19 +267,15 @@ impl SystemEntry {
             dth,
             psi_identically_zero: S::FLAGS.psi_identically_zero,
             run: Box::new(move |scene, out, options| {
-                if scene.members.is_some() {
-                    check(scene, options)?;
-                    let build = |params: &Params| make(&entry_name, params);
-                    return ensemble::run::<D, S>(&build, scene, out, options);
-                }
-                if ensemble::schedule::is_worker_rank() {
-                    // Under `mpirun`, a single run is rank 0's alone.
-                    return Ok(ensemble::idle_report(scene));
-                }
-                let system = make(&entry_name, &scene.params)?;
-                run_system::<D, S>(&system, scene, out, options)
+                run_built::<Const<D>, S>(&|p: &Params| make(&run_name, p), scene, out, options)
             }),
-            estimate: Box::new(check_too),
+            estimate: Box::new(move |scene, options| {
+                estimate_built::<Const<D>, S>(
+                    &|p: &Params| make_too(&estimate_name, p),
+                    scene,
+                    options,
+                )
+            }),
         }
     }
 
@@ -468,7 +502,8 @@ impl Catalogue {
     }
 
     /// Runs a validated scene into `out` (see [`crate::pipeline::run_system`] for the output
-    /// folder's rules). A run that lost a method is [`RunError::MethodsFailed`], with the
+    /// folder's rules); a scene whose Hamiltonian is given as text runs through
+    /// [`crate::runtime_system::TextSystem`]. A run that lost a method is [`RunError::MethodsFailed`], with the
     /// report of what was written.
     pub fn run(
         &self,
@@ -476,6 +511,11 @@ impl Catalogue {
         out: &Path,
         options: &RunOptions,
     ) -> Result<RunReport, RunError> {
+        if scene.hamiltonian.is_some() {
+            let system = TextSystem::build(scene)?;
+            let make = |p: &Params| system.with_params(scene, p);
+            return run_built::<Dyn, TextSystem>(&make, scene, out, options);
+        }
         (self.entry(scene)?.run)(scene, out, options)
     }
 
@@ -492,6 +532,11 @@ impl Catalogue {
     /// ([`Error::MemoryLimit`]) above `options`' limit, as a run would refuse it: so that
     /// `dth check` and `dth run` agree.
     pub fn estimate(&self, scene: &Scene, options: &RunOptions) -> Result<MemoryEstimate, Error> {
+        if scene.hamiltonian.is_some() {
+            let system = TextSystem::build(scene)?;
+            let make = |p: &Params| system.with_params(scene, p);
+            return estimate_built::<Dyn, TextSystem>(&make, scene, options);
+        }
         (self.entry(scene)?.estimate)(scene, options)
     }
 }

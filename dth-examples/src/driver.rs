@@ -8,9 +8,9 @@
 
 use dth::dth::{Dth, DthOptions, Solver};
 use dth::methods::{self, OneStepMethod, RunEnd};
-use dth::nalgebra::Const;
-use dth::nalgebra::SVector;
+use dth::nalgebra::{DefaultAllocator, Dim, OVector};
 use dth::observer::Observer;
+use dth::Alloc;
 use dth::Hamiltonian;
 
 pub use crate::error::{FailureCause, MethodFailure};
@@ -67,19 +67,20 @@ impl Stop {
 /// Runs a fixed-step peer (`dth::methods`) with step `dt` from `z0` at `t0` until `stop`,
 /// showing every state to `observer`. On failure the observer has seen every state before the
 /// failing step.
-pub fn run_peer<const D: usize, H, M, O>(
+pub fn run_peer<D: Dim, H, M, O>(
     method: &mut M,
     system: &H,
     dt: f64,
-    z0: SVector<f64, D>,
+    z0: OVector<f64, D>,
     t0: f64,
     stop: Stop,
     observer: &mut O,
-) -> Result<RunEnd<Const<D>>, MethodFailure>
+) -> Result<RunEnd<D>, MethodFailure>
 where
-    H: Hamiltonian<Const<D>>,
-    M: OneStepMethod<Const<D>, H>,
-    O: Observer<Const<D>>,
+    DefaultAllocator: Alloc<D>,
+    H: Hamiltonian<D>,
+    M: OneStepMethod<D, H>,
+    O: Observer<D>,
 {
     let steps = stop.fixed_steps(t0, dt);
     methods::run(method, system, &z0, t0, dt, steps, observer)
@@ -124,14 +125,17 @@ impl DthRunner {
     /// last midpoint lands on `t_end` to roundoff (`dth::dth::Dth::step_toward`), and that
     /// midpoint and its time are the run's end (its segment has its own `dtau`, so the vertex
     /// invariants of plain DTH jump once at its vertex).
-    pub fn run<const D: usize, H: Hamiltonian<Const<D>> + Clone, O: Observer<Const<D>>>(
+    pub fn run<D: Dim, H: Hamiltonian<D> + Clone, O: Observer<D>>(
         &self,
         system: &H,
-        z0: SVector<f64, D>,
+        z0: OVector<f64, D>,
         t0: f64,
         stop: Stop,
         observer: &mut O,
-    ) -> Result<RunEnd<Const<D>>, MethodFailure> {
+    ) -> Result<RunEnd<D>, MethodFailure>
+    where
+        DefaultAllocator: Alloc<D>,
+    {
         let start = |e| MethodFailure::integrator(0, e);
         let mut dth = Dth::new(system.clone(), z0, self.options).map_err(start)?;
         if !system.flags().time_dependent {

@@ -5,9 +5,9 @@
 //! erases). [`Effects::observer_calls`] and [`Effects::stored_values`] count what was done so
 //! tests can prove it.
 
-use dth::nalgebra::Const;
-use dth::nalgebra::SVector;
+use dth::nalgebra::{DefaultAllocator, Dim, OVector};
 use dth::observer::{Observer, StepRecord};
+use dth::Alloc;
 use serde::Serialize;
 
 use crate::normal_modes::ChainModes;
@@ -130,14 +130,17 @@ impl Tracked {
 /// A Poincare section's crossings `(t, x, y)`.
 pub type Crossings = Vec<(f64, f64, f64)>;
 
-struct Section<const D: usize> {
+struct Section<D: Dim>
+where
+    DefaultAllocator: Alloc<D>,
+{
     coordinate: Coord,
     value: f64,
     direction: Direction,
     interpolate: bool,
     x: Coord,
     y: Coord,
-    previous: Option<(f64, SVector<f64, D>)>,
+    previous: Option<(f64, OVector<f64, D>)>,
     crossings: Crossings,
 }
 
@@ -221,7 +224,10 @@ pub struct EffectOutputs {
 }
 
 /// The observers of one method's run, one per requested effect.
-pub struct Effects<'s, const D: usize, S: SceneSystem<D>> {
+pub struct Effects<'s, D: Dim, S: SceneSystem<D>>
+where
+    DefaultAllocator: Alloc<D>,
+{
     system: &'s S,
     final_state: Option<Option<FinalState>>,
     trajectory: Option<(usize, Vec<TrajectoryRow>)>,
@@ -236,7 +242,10 @@ pub struct Effects<'s, const D: usize, S: SceneSystem<D>> {
     calls: usize,
 }
 
-impl<'s, const D: usize, S: SceneSystem<D>> Effects<'s, D, S> {
+impl<'s, D: Dim, S: SceneSystem<D>> Effects<'s, D, S>
+where
+    DefaultAllocator: Alloc<D>,
+{
     /// Observers for `specs` only. Returns `None` when `specs` is empty: then there is nothing
     /// to observe and the runner uses `()`.
     pub fn new(system: &'s S, specs: &[EffectSpec]) -> Option<Self> {
@@ -317,7 +326,7 @@ impl<'s, const D: usize, S: SceneSystem<D>> Effects<'s, D, S> {
                 EffectSpec::NormalModes { modes, every } => {
                     e.normal_modes = Some(ModeSamples {
                         every,
-                        modes: ChainModes::new(D / 2, modes),
+                        modes: ChainModes::new(system.dim().value() / 2, modes),
                         rows: Vec::new(),
                     })
                 }
@@ -333,7 +342,7 @@ impl<'s, const D: usize, S: SceneSystem<D>> Effects<'s, D, S> {
 
     /// How many numbers are stored (all samples, series, rows and crossings).
     pub fn stored_values(&self) -> usize {
-        let d = D;
+        let d = self.system.dim().value();
         let series = |t: &Tracked| 3 * (t.series.len() + t.vertex_series.len());
         self.final_state
             .as_ref()
@@ -381,11 +390,14 @@ impl<'s, const D: usize, S: SceneSystem<D>> Effects<'s, D, S> {
     }
 }
 
-impl<const D: usize, S: SceneSystem<D>> Observer<Const<D>> for Effects<'_, D, S> {
-    fn on_step(&mut self, r: &StepRecord<Const<D>>) {
+impl<D: Dim, S: SceneSystem<D>> Observer<D> for Effects<'_, D, S>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    fn on_step(&mut self, r: &StepRecord<D>) {
         self.calls += 1;
         let (step, t, z) = (r.k, r.t, &r.z);
-        let lambda = r.dth.map(|d| d.lambda);
+        let lambda = r.dth.as_ref().map(|d| d.lambda);
         // The vertex of a shortened last step belongs to a segment of its own dtau, not to the
         // polygon of equal steps whose vertex invariants the statistics are about.
         let vertex = r
@@ -393,7 +405,7 @@ impl<const D: usize, S: SceneSystem<D>> Observer<Const<D>> for Effects<'_, D, S>
             .as_ref()
             .filter(|_| r.kind != dth::observer::StepKind::Shortened)
             .map(|d| (d.vertex_time, &d.vertex));
-        let at = |c: Coord, t: f64, z: &SVector<f64, D>| c.value(t, z.as_slice());
+        let at = |c: Coord, t: f64, z: &OVector<f64, D>| c.value(t, z.as_slice());
         if let Some(f) = &mut self.final_state {
             *f = Some(FinalState {
                 step,
@@ -455,11 +467,18 @@ impl<const D: usize, S: SceneSystem<D>> Observer<Const<D>> for Effects<'_, D, S>
                     s.crossings.push((tc, at(s.x, tc, &zc), at(s.y, tc, &zc)));
                 }
             }
-            s.previous = Some((t, *z));
+            match &mut s.previous {
+                // The stored state is overwritten: no allocation per step for `Dyn`.
+                Some((tp, zp)) => {
+                    *tp = t;
+                    zp.copy_from(z);
+                }
+                None => s.previous = Some((t, z.clone())),
+            }
         }
         if let Some(m) = &mut self.normal_modes {
             if step.is_multiple_of(m.every) {
-                let (q, p) = z.as_slice().split_at(D / 2);
+                let (q, p) = z.as_slice().split_at(z.len() / 2);
                 let mut energies = vec![0.0; m.modes.modes()];
                 m.modes.energies(q, p, &mut energies);
                 m.rows.push(ModeEnergies { step, t, energies });
@@ -497,7 +516,7 @@ mod tests {
         let mut e = Effects::new(&sys, &spec).unwrap();
         for k in 0..=(6.0 / h) as usize {
             let t = k as f64 * h;
-            let z = SVector::<f64, 2>::new(t.cos(), -t.sin());
+            let z = dth::nalgebra::SVector::<f64, 2>::new(t.cos(), -t.sin());
             e.on_step(&StepRecord {
                 k,
                 t,

@@ -1,6 +1,9 @@
 //! Scenes and the `dth` command: run Hamiltonian systems from TOML scene files, compute only
 //! the requested effects, and write CSV, JSON, figures and a static `index.html`.
 //!
+//! A scene may also write its own Hamiltonian (`[system] hamiltonian = "..."`), which runs
+//! without recompiling ([`runtime_system`]).
+//!
 //! The binary is thin; everything is here so a user can run a scene on their own system from
 //! their own crate: implement [`system::SceneSystem`] for it (a `hamiltonian!` type or a
 //! hand-written `Hamiltonian`), register it in a [`catalogue::Catalogue`], and call
@@ -23,8 +26,10 @@
 //! 7. [`report`]: CSV, figures, Table 4.1, the thesis's figures, `index.html`;
 //! 8. [`ensemble`] (ensemble scenes: members on every core and MPI rank, their table and
 //!    figures) and [`pipeline`]: simulate, report, stage;
-//! 9. [`catalogue`]: the systems scenes can name, each bound to the pipeline; then this file
-//!    and `main.rs`.
+//! 9. [`runtime_system`] (a scene's Hamiltonian given as text, compiled when the scene loads:
+//!    a [`system::SceneSystem`] of dimension `Dyn`), then [`catalogue`]: the systems scenes can
+//!    name, each bound to the pipeline, and the same path for a text Hamiltonian; then this
+//!    file and `main.rs`.
 //!
 //! [`workprecision`] (the benchmark behind `dth workprecision`) and [`derive`](mod@derive) (what the
 //! symbolic engine derives from a Hamiltonian as text, `dth derive`) sit beside the scene
@@ -62,6 +67,8 @@ pub mod report;
 
 pub mod ensemble;
 pub mod pipeline;
+
+pub mod runtime_system;
 
 pub mod catalogue;
 

@@ -10,9 +10,9 @@
 use dth::methods::{
     DiscreteGradient, GaussLegendre2, ImplicitMidpoint, Rk4, RunEnd, StormerVerlet, Trapezoidal,
 };
-use dth::nalgebra::Const;
-use dth::nalgebra::SVector;
+use dth::nalgebra::{DefaultAllocator, Dim, OVector};
 use dth::observer::{Observer, StepKind, StepRecord};
+use dth::Alloc;
 
 use crate::driver::{run_peer, DthRunner, FailureCause, MethodFailure, Stop};
 use crate::error::Error;
@@ -21,18 +21,21 @@ use crate::system::SceneSystem;
 
 /// The system's exact solution ([`SceneSystem::exact_solution`]) sampled at `t0 + k dt` from
 /// `z0` until `stop`, shown to `observer` like a fixed-step method's states.
-pub fn run_exact<const D: usize, S: SceneSystem<D>, O: Observer<Const<D>>>(
+pub fn run_exact<D: Dim, S: SceneSystem<D>, O: Observer<D>>(
     system: &S,
     dt: f64,
-    z0: SVector<f64, D>,
+    z0: OVector<f64, D>,
     t0: f64,
     stop: Stop,
     observer: &mut O,
-) -> Result<RunEnd<Const<D>>, MethodFailure> {
+) -> Result<RunEnd<D>, MethodFailure>
+where
+    DefaultAllocator: Alloc<D>,
+{
     let mut record = StepRecord {
         k: 0,
         t: t0,
-        z: z0,
+        z: z0.clone(),
         kind: StepKind::Fixed,
         iterations: 0,
         factorizations: 0,
@@ -58,14 +61,17 @@ pub fn run_exact<const D: usize, S: SceneSystem<D>, O: Observer<Const<D>>>(
 }
 
 /// Runs the method a scene names. The single dispatch point (see the module docs).
-pub fn run_method<const D: usize, H: SceneSystem<D>, O: Observer<Const<D>>>(
+pub fn run_method<D: Dim, H: SceneSystem<D>, O: Observer<D>>(
     spec: &MethodSpec,
     system: &H,
-    z0: SVector<f64, D>,
+    z0: OVector<f64, D>,
     t0: f64,
     stop: Stop,
     observer: &mut O,
-) -> Result<Result<RunEnd<Const<D>>, MethodFailure>, Error> {
+) -> Result<Result<RunEnd<D>, MethodFailure>, Error>
+where
+    DefaultAllocator: Alloc<D>,
+{
     let not_available = |reason: &str| Error::NotAvailable {
         what: "method",
         name: spec.kind.name().to_string(),

@@ -3,6 +3,8 @@
 //! succeeded ([`run_system`]). A run that lost a method is an error ([`RunError`]) that
 //! still carries everything written.
 
+use dth::nalgebra::{DefaultAllocator, Dim};
+use dth::Alloc;
 use std::path::Path;
 
 use crate::error::Error;
@@ -78,12 +80,15 @@ fn failures_message(report: &RunReport) -> String {
 /// A method that fails mid-run does not abort the run: its results up to the failing step
 /// are written, the folder is moved into place, and the run returns
 /// [`RunError::MethodsFailed`] with the report (the `dth` command then exits with code 1).
-pub fn run_system<const D: usize, S: SceneSystem<D>>(
+pub fn run_system<D: Dim, S: SceneSystem<D>>(
     system: &S,
     scene: &Scene,
     out: &Path,
     options: &RunOptions,
-) -> Result<RunReport, RunError> {
+) -> Result<RunReport, RunError>
+where
+    DefaultAllocator: Alloc<D>,
+{
     let staging = Staging::new(out)?;
     let results = compute(system, scene, options)?;
     let dir = staging.path().to_path_buf();

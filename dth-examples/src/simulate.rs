@@ -2,10 +2,10 @@
 //! only for the requested effects ([`compute`]); results stay in memory ([`MethodResult`]).
 //! Writing them is the report's job (`crate::report`), staging the folder the pipeline's.
 
-use dth::nalgebra::Const;
+use dth::nalgebra::{DefaultAllocator, Dim, OVector};
+use dth::Alloc;
 use std::collections::BTreeMap;
 
-use dth::nalgebra::SVector;
 use dth::observer::{Observer, StepRecord};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
@@ -147,19 +147,22 @@ pub struct MethodResult {
 /// The initial states of the ensemble `e` around `z0`, row by row: `z0` shifted by
 /// `(-w + i s, -w + j s)` in the plane of its two coordinates (`w` the half width, `s` the
 /// spacing), with `calH = 0` restored for a time-dependent system.
-pub fn ensemble_starts<const D: usize, S: SceneSystem<D>>(
+pub fn ensemble_starts<D: Dim, S: SceneSystem<D>>(
     system: &S,
     e: &Ensemble,
-    z0: &SVector<f64, D>,
-) -> Vec<SVector<f64, D>> {
-    let (Some(ix), Some(iy)) = (e.x.index(D), e.y.index(D)) else {
+    z0: &OVector<f64, D>,
+) -> Vec<OVector<f64, D>>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    let (Some(ix), Some(iy)) = (e.x.index(z0.len()), e.y.index(z0.len())) else {
         return Vec::new();
     };
     let h = 2.0 * e.half_width / (e.per_side - 1) as f64;
     let mut starts = Vec::with_capacity(e.per_side * e.per_side);
     for i in 0..e.per_side {
         for j in 0..e.per_side {
-            let mut z = *z0;
+            let mut z = z0.clone();
             z[ix] += -e.half_width + i as f64 * h;
             z[iy] += -e.half_width + j as f64 * h;
             if system.flags().time_dependent {
@@ -172,22 +175,26 @@ pub fn ensemble_starts<const D: usize, S: SceneSystem<D>>(
     starts
 }
 
-fn run_ensemble<const D: usize, S: SceneSystem<D>>(
+fn run_ensemble<D: Dim, S: SceneSystem<D>>(
     system: &S,
     m: &MethodSpec,
     e: &Ensemble,
-    z0: &SVector<f64, D>,
+    z0: &OVector<f64, D>,
     t0: f64,
-) -> Result<Vec<EnsembleMember>, Error> {
-    let (Some(ix), Some(iy)) = (e.x.index(D), e.y.index(D)) else {
+) -> Result<Vec<EnsembleMember>, Error>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    let (Some(ix), Some(iy)) = (e.x.index(z0.len()), e.y.index(z0.len())) else {
         return Ok(Vec::new());
     };
     let mut members = Vec::with_capacity(e.per_side * e.per_side);
     for z in ensemble_starts(system, e, z0) {
+        let (x0, y0) = (z[ix], z[iy]);
         let end = run_method(m, system, z, t0, Stop::Steps(e.steps), &mut ())?;
         members.push(EnsembleMember {
-            x0: z[ix],
-            y0: z[iy],
+            x0,
+            y0,
             end: end
                 .map(|end| (end.t, end.z.iter().copied().collect()))
                 .map_err(|f| Failure::from(&f)),
@@ -198,28 +205,32 @@ fn run_ensemble<const D: usize, S: SceneSystem<D>>(
 
 /// The initial phase-space point: `(q, p)`, or `(q, t0, p, p_t)` with `calH(z0) = 0` for a
 /// time-dependent system (the extended phase space, `docs/theory.md#extended-phase-space`).
-pub fn initial_state<const D: usize, S: SceneSystem<D>>(
+pub fn initial_state<D: Dim, S: SceneSystem<D>>(
     system: &S,
     scene: &Scene,
-) -> Result<SVector<f64, D>, Error> {
+) -> Result<OVector<f64, D>, Error>
+where
+    DefaultAllocator: Alloc<D>,
+{
     let n = scene.q.len();
     let expected = if system.flags().time_dependent {
         2 * n + 2
     } else {
         2 * n
     };
-    if D != expected || scene.p.len() != n {
+    let d = system.dim().value();
+    if d != expected || scene.p.len() != n {
         return Err(Error::Registration {
             name: scene.system.clone(),
             reason: format!(
-                "the implementation has phase-space dimension D = {D}, but the scene's q and p have lengths {} and {} (expected D = {expected})",
+                "the implementation has phase-space dimension D = {d}, but the scene's q and p have lengths {} and {} (expected D = {expected})",
                 n,
                 scene.p.len()
             ),
         });
     }
-    let mut z = SVector::<f64, D>::zeros();
-    let half = D / 2;
+    let mut z = dth::zeros(system.dim());
+    let half = d / 2;
     for i in 0..n {
         z[i] = scene.q[i];
         z[half + i] = scene.p[i];
@@ -233,19 +244,26 @@ pub fn initial_state<const D: usize, S: SceneSystem<D>>(
 
 /// Sets the momentum of time `p_t` (the last component of the extended state) so that
 /// `calH(z) = p_t + H(t, q, p) = 0`, the level every extended-phase-space run starts on.
-fn put_on_zero_level<const D: usize, S: SceneSystem<D>>(system: &S, z: &mut SVector<f64, D>) {
-    z[D - 1] = 0.0;
-    z[D - 1] = -system.value(z);
+fn put_on_zero_level<D: Dim, S: SceneSystem<D>>(system: &S, z: &mut OVector<f64, D>)
+where
+    DefaultAllocator: Alloc<D>,
+{
+    let last = z.len() - 1;
+    z[last] = 0.0;
+    z[last] = -system.value(z);
 }
 
 /// When a run of `scene` stops: after its steps, or at its end time (a duration in orbits
 /// needs the system's period from `z0`), capped at `options.max_steps`.
-pub fn stop_for<const D: usize, S: SceneSystem<D>>(
+pub fn stop_for<D: Dim, S: SceneSystem<D>>(
     system: &S,
     scene: &Scene,
-    z0: &SVector<f64, D>,
+    z0: &OVector<f64, D>,
     options: &RunOptions,
-) -> Result<Stop, Error> {
+) -> Result<Stop, Error>
+where
+    DefaultAllocator: Alloc<D>,
+{
     Ok(match scene.duration {
         Duration::Steps(n) => Stop::Steps(n),
         Duration::Time(t) => Stop::Time {
@@ -271,9 +289,12 @@ pub fn stop_for<const D: usize, S: SceneSystem<D>>(
 /// Progress as an observer: moves the bar every 1024 steps (nothing else per step).
 pub struct Progress(pub ProgressBar);
 
-impl<const D: usize> Observer<Const<D>> for Progress {
+impl<D: Dim> Observer<D> for Progress
+where
+    DefaultAllocator: Alloc<D>,
+{
     #[inline(always)]
-    fn on_step(&mut self, record: &StepRecord<Const<D>>) {
+    fn on_step(&mut self, record: &StepRecord<D>) {
         if record.k.is_multiple_of(1024) {
             self.0.set_position(record.k as u64);
         }
@@ -284,9 +305,12 @@ impl<const D: usize> Observer<Const<D>> for Progress {
 /// failed stopped.
 struct LastTime(f64);
 
-impl<const D: usize> Observer<Const<D>> for LastTime {
+impl<D: Dim> Observer<D> for LastTime
+where
+    DefaultAllocator: Alloc<D>,
+{
     #[inline(always)]
-    fn on_step(&mut self, record: &StepRecord<Const<D>>) {
+    fn on_step(&mut self, record: &StepRecord<D>) {
         self.0 = record.t;
     }
 }
@@ -353,11 +377,14 @@ fn step_summary(step: StepSpec) -> BTreeMap<String, serde_json::Value> {
 
 /// Runs every method of `scene` on `system` and keeps the results in memory (no files).
 /// Effects not requested are not constructed.
-pub fn compute<const D: usize, S: SceneSystem<D>>(
+pub fn compute<D: Dim, S: SceneSystem<D>>(
     system: &S,
     scene: &Scene,
     options: &RunOptions,
-) -> Result<Vec<MethodResult>, Error> {
+) -> Result<Vec<MethodResult>, Error>
+where
+    DefaultAllocator: Alloc<D>,
+{
     let z0 = initial_state(system, scene)?;
     let stop = stop_for(system, scene, &z0, options)?;
     budget::check(system, scene, stop, options.memory_limit())?;
@@ -368,14 +395,14 @@ pub fn compute<const D: usize, S: SceneSystem<D>>(
         let (end, outputs, calls, stored, last_t) = match Effects::new(system, &scene.effects) {
             Some(effects) => {
                 let mut observers = (progress, effects);
-                let end = run_method(m, system, z0, scene.t0, stop, &mut observers)?;
+                let end = run_method(m, system, z0.clone(), scene.t0, stop, &mut observers)?;
                 let ((_, last), effects) = observers;
                 let (calls, stored) = (effects.observer_calls(), effects.stored_values());
                 (end, effects.finish(), calls, stored, last.0)
             }
             None => {
                 let mut observers = progress;
-                let end = run_method(m, system, z0, scene.t0, stop, &mut observers)?;
+                let end = run_method(m, system, z0.clone(), scene.t0, stop, &mut observers)?;
                 (end, EffectOutputs::default(), 0, 0, observers.1 .0)
             }
         };

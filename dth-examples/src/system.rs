@@ -3,8 +3,9 @@
 //! method but DTH.
 
 use dth::methods::RunEnd;
-use dth::nalgebra::{Const, SMatrix, SVector};
+use dth::nalgebra::{DefaultAllocator, Dim, OMatrix, OVector};
 use dth::observer::Observer;
+use dth::Alloc;
 use dth::{ConstFlags, Flags, Hamiltonian};
 
 use crate::driver::{DthRunner, MethodFailure, Stop};
@@ -12,11 +13,17 @@ use crate::driver::{DthRunner, MethodFailure, Stop};
 /// What a scene needs from a system beyond [`Hamiltonian`]: its quadratic invariants (for the
 /// `invariants` effect) and, optionally, an orbit period (for durations in `orbits`).
 ///
-/// `D` is the phase-space dimension of the implementation: `2n`, or `2n + 2` when
-/// `Flags::time_dependent` (the extended phase space `(q, t, p, p_t)`).
+/// `D` is the phase-space dimension of the implementation, `2n`, or `2n + 2` when
+/// `Flags::time_dependent` (the extended phase space `(q, t, p, p_t)`), as nalgebra's
+/// dimension type: `Const<N>` for a type whose size is known when compiled (the catalogue's
+/// `hamiltonian!` systems), `Dyn` for one known at run time (a scene's Hamiltonian given as
+/// text, [`crate::runtime_system::TextSystem`]).
 ///
 /// `Clone` because the DTH stepper owns its Hamiltonian (systems are small parameter structs).
-pub trait SceneSystem<const D: usize>: Hamiltonian<Const<D>> + ConstFlags + Clone {
+pub trait SceneSystem<D: Dim>: Hamiltonian<D> + Clone
+where
+    DefaultAllocator: Alloc<D>,
+{
     /// `true` when [`SceneSystem::period`] returns `Some` for bound initial states.
     const HAS_PERIOD: bool = false;
 
@@ -26,7 +33,7 @@ pub trait SceneSystem<const D: usize>: Hamiltonian<Const<D>> + ConstFlags + Clon
     }
 
     /// Writes the invariants at `z` into `out` (length `invariant_names().len()`).
-    fn invariants(&self, z: &SVector<f64, D>, out: &mut [f64]) {
+    fn invariants(&self, z: &OVector<f64, D>, out: &mut [f64]) {
         let _ = (z, out);
     }
 
@@ -35,13 +42,13 @@ pub trait SceneSystem<const D: usize>: Hamiltonian<Const<D>> + ConstFlags + Clon
 
     /// The exact solution at time `t` after the state `z0`, or `None` when it cannot be
     /// computed (not implemented, or outside its domain).
-    fn exact_solution(&self, z0: &SVector<f64, D>, t: f64) -> Option<SVector<f64, D>> {
+    fn exact_solution(&self, z0: &OVector<f64, D>, t: f64) -> Option<OVector<f64, D>> {
         let _ = (z0, t);
         None
     }
 
     /// Orbit period from the initial state, if known.
-    fn period(&self, z0: &SVector<f64, D>) -> Option<f64> {
+    fn period(&self, z0: &OVector<f64, D>) -> Option<f64> {
         let _ = z0;
         None
     }
@@ -60,14 +67,14 @@ pub trait SceneSystem<const D: usize>: Hamiltonian<Const<D>> + ConstFlags + Clon
     /// `dth::systems::CentralForce`); `None` for systems that are not central forces. A
     /// central-force system implements it as
     /// `Some(run_peer(&mut DiscreteMechanics::new(), self, dt, z0, t0, stop, observer))`.
-    fn run_discrete_mechanics<O: Observer<Const<D>>>(
+    fn run_discrete_mechanics<O: Observer<D>>(
         &self,
         dt: f64,
-        z0: SVector<f64, D>,
+        z0: OVector<f64, D>,
         t0: f64,
         stop: Stop,
         observer: &mut O,
-    ) -> Option<Result<RunEnd<Const<D>>, MethodFailure>> {
+    ) -> Option<Result<RunEnd<D>, MethodFailure>> {
         let _ = (dt, z0, t0, stop, observer);
         None
     }
@@ -77,14 +84,14 @@ pub trait SceneSystem<const D: usize>: Hamiltonian<Const<D>> + ConstFlags + Clon
     /// identically zero (rejected by the stepper at compile time) runs through [`WithoutDth`]
     /// instead, which returns `None` here ([`SystemEntry::runnable_without_dth`](crate::catalogue::SystemEntry::runnable_without_dth)
     /// does that).
-    fn run_dth<O: Observer<Const<D>>>(
+    fn run_dth<O: Observer<D>>(
         &self,
         runner: &DthRunner,
-        z0: SVector<f64, D>,
+        z0: OVector<f64, D>,
         t0: f64,
         stop: Stop,
         observer: &mut O,
-    ) -> Option<Result<RunEnd<Const<D>>, MethodFailure>> {
+    ) -> Option<Result<RunEnd<D>, MethodFailure>> {
         Some(runner.run(self, z0, t0, stop, observer))
     }
 }
@@ -121,10 +128,13 @@ impl<S: ConstFlags> ConstFlags for WithoutDth<S> {
     const FLAGS: Flags = S::FLAGS;
 }
 
-impl<const D: usize, S: Hamiltonian<Const<D>>> Hamiltonian<Const<D>> for WithoutDth<S> {
+impl<D: Dim, S: Hamiltonian<D>> Hamiltonian<D> for WithoutDth<S>
+where
+    DefaultAllocator: Alloc<D>,
+{
     #[inline]
-    fn dim(&self) -> Const<D> {
-        Const
+    fn dim(&self) -> D {
+        self.0.dim()
     }
     #[inline]
     fn flags(&self) -> Flags {
@@ -135,55 +145,58 @@ impl<const D: usize, S: Hamiltonian<Const<D>>> Hamiltonian<Const<D>> for Without
         self.0.hessian_pattern()
     }
     #[inline]
-    fn value(&self, z: &SVector<f64, D>) -> f64 {
+    fn value(&self, z: &OVector<f64, D>) -> f64 {
         self.0.value(z)
     }
     #[inline]
-    fn gradient_into(&self, z: &SVector<f64, D>, out: &mut SVector<f64, D>) {
+    fn gradient_into(&self, z: &OVector<f64, D>, out: &mut OVector<f64, D>) {
         self.0.gradient_into(z, out)
     }
     #[inline]
-    fn hessian_into(&self, z: &SVector<f64, D>, out: &mut SMatrix<f64, D, D>) {
+    fn hessian_into(&self, z: &OVector<f64, D>, out: &mut OMatrix<f64, D, D>) {
         self.0.hessian_into(z, out)
     }
     #[inline]
-    fn hessian_nonzeros(&self, z: &SVector<f64, D>, values: &mut [f64]) {
+    fn hessian_nonzeros(&self, z: &OVector<f64, D>, values: &mut [f64]) {
         self.0.hessian_nonzeros(z, values)
     }
     #[inline]
-    fn psi(&self, z: &SVector<f64, D>) -> f64 {
+    fn psi(&self, z: &OVector<f64, D>) -> f64 {
         self.0.psi(z)
     }
     #[inline]
-    fn derivatives_into(&self, z: &SVector<f64, D>, out: &mut dth::Derivatives<Const<D>>) {
+    fn derivatives_into(&self, z: &OVector<f64, D>, out: &mut dth::Derivatives<D>) {
         self.0.derivatives_into(z, out)
     }
     #[inline]
     fn discrete_gradient_into(
         &self,
-        z0: &SVector<f64, D>,
-        z1: &SVector<f64, D>,
-        out: &mut SVector<f64, D>,
+        z0: &OVector<f64, D>,
+        z1: &OVector<f64, D>,
+        out: &mut OVector<f64, D>,
     ) {
         self.0.discrete_gradient_into(z0, z1, out)
     }
     #[inline]
     fn discrete_gradient_defect_into(
         &self,
-        z0: &SVector<f64, D>,
-        z1: &SVector<f64, D>,
-        gbar: &SVector<f64, D>,
-        out: &mut SVector<f64, D>,
+        z0: &OVector<f64, D>,
+        z1: &OVector<f64, D>,
+        gbar: &OVector<f64, D>,
+        out: &mut OVector<f64, D>,
     ) {
         self.0.discrete_gradient_defect_into(z0, z1, gbar, out)
     }
     #[inline]
-    fn energy_difference(&self, z0: &SVector<f64, D>, z1: &SVector<f64, D>) -> f64 {
+    fn energy_difference(&self, z0: &OVector<f64, D>, z1: &OVector<f64, D>) -> f64 {
         self.0.energy_difference(z0, z1)
     }
 }
 
-impl<const D: usize, S: SceneSystem<D>> SceneSystem<D> for WithoutDth<S> {
+impl<D: Dim, S: SceneSystem<D>> SceneSystem<D> for WithoutDth<S>
+where
+    DefaultAllocator: Alloc<D>,
+{
     const HAS_PERIOD: bool = S::HAS_PERIOD;
     const HAS_EXACT: bool = S::HAS_EXACT;
     const CENTRAL_FORCE: bool = S::CENTRAL_FORCE;
@@ -193,38 +206,38 @@ impl<const D: usize, S: SceneSystem<D>> SceneSystem<D> for WithoutDth<S> {
         self.0.invariant_names()
     }
 
-    fn invariants(&self, z: &SVector<f64, D>, out: &mut [f64]) {
+    fn invariants(&self, z: &OVector<f64, D>, out: &mut [f64]) {
         self.0.invariants(z, out);
     }
 
-    fn exact_solution(&self, z0: &SVector<f64, D>, t: f64) -> Option<SVector<f64, D>> {
+    fn exact_solution(&self, z0: &OVector<f64, D>, t: f64) -> Option<OVector<f64, D>> {
         self.0.exact_solution(z0, t)
     }
 
-    fn period(&self, z0: &SVector<f64, D>) -> Option<f64> {
+    fn period(&self, z0: &OVector<f64, D>) -> Option<f64> {
         self.0.period(z0)
     }
 
-    fn run_discrete_mechanics<O: Observer<Const<D>>>(
+    fn run_discrete_mechanics<O: Observer<D>>(
         &self,
         dt: f64,
-        z0: SVector<f64, D>,
+        z0: OVector<f64, D>,
         t0: f64,
         stop: Stop,
         observer: &mut O,
-    ) -> Option<Result<RunEnd<Const<D>>, MethodFailure>> {
+    ) -> Option<Result<RunEnd<D>, MethodFailure>> {
         self.0.run_discrete_mechanics(dt, z0, t0, stop, observer)
     }
 
     /// `None`: DTH is not offered (see [`WithoutDth`]).
-    fn run_dth<O: Observer<Const<D>>>(
+    fn run_dth<O: Observer<D>>(
         &self,
         runner: &DthRunner,
-        z0: SVector<f64, D>,
+        z0: OVector<f64, D>,
         t0: f64,
         stop: Stop,
         observer: &mut O,
-    ) -> Option<Result<RunEnd<Const<D>>, MethodFailure>> {
+    ) -> Option<Result<RunEnd<D>, MethodFailure>> {
         let _ = (runner, z0, t0, stop, observer);
         None
     }

@@ -66,7 +66,7 @@ fn angular_momentum(z: &SVector<f64, 4>) -> f64 {
     z[0] * z[3] - z[1] * z[2]
 }
 
-impl SceneSystem<4> for Kepler {
+impl SceneSystem<Const<4>> for Kepler {
     const HAS_PERIOD: bool = true;
     const HAS_EXACT: bool = true;
     const CENTRAL_FORCE: bool = true;
@@ -147,7 +147,7 @@ dth::hamiltonian! {
     } = p1^2/(2*m) + k*q1^2/2
 }
 
-impl SceneSystem<2> for HarmonicOscillator {
+impl SceneSystem<Const<2>> for HarmonicOscillator {
     const HAS_PERIOD: bool = true;
 
     /// `2 pi sqrt(m / k)`, whatever the amplitude.
@@ -170,7 +170,7 @@ dth::hamiltonian! {
     } = p1^2/(2*m*l^2) - m*g*l*cos(q1)
 }
 
-impl SceneSystem<2> for Pendulum {}
+impl SceneSystem<Const<2>> for Pendulum {}
 
 dth::hamiltonian! {
     /// The Henon-Heiles system
@@ -179,7 +179,7 @@ dth::hamiltonian! {
     pub struct HenonHeiles = (p1^2 + p2^2)/2 + (q1^2 + q2^2)/2 + q1^2*q2 - q2^3/3
 }
 
-impl SceneSystem<4> for HenonHeiles {}
+impl SceneSystem<Const<4>> for HenonHeiles {}
 
 dth::hamiltonian! {
     /// The planar double pendulum in canonical coordinates: angles `q1`, `q2` from the
@@ -201,7 +201,7 @@ dth::hamiltonian! {
         - (m1 + m2)*g*l1*cos(q1) - m2*g*l2*cos(q2)
 }
 
-impl SceneSystem<4> for DoublePendulum {}
+impl SceneSystem<Const<4>> for DoublePendulum {}
 
 dth::hamiltonian! {
     /// The periodic Toda chain of 4 unit masses: bonds `(i, i+1)` with `q5 = q1`.
@@ -226,7 +226,7 @@ fn total_momentum<const D: usize>(z: &SVector<f64, D>) -> f64 {
     z.rows(D / 2, D / 2).sum()
 }
 
-impl SceneSystem<8> for TodaChain4 {
+impl SceneSystem<Const<8>> for TodaChain4 {
     fn invariant_names(&self) -> &'static [&'static str] {
         &["total_momentum"]
     }
@@ -236,7 +236,7 @@ impl SceneSystem<8> for TodaChain4 {
     }
 }
 
-impl SceneSystem<20> for TodaChain10 {
+impl SceneSystem<Const<20>> for TodaChain10 {
     fn invariant_names(&self) -> &'static [&'static str] {
         &["total_momentum"]
     }
@@ -318,17 +318,17 @@ dth::hamiltonian! {
 
 /// The chains with fixed ends whose harmonic part is the unit-spring chain (the `normal_modes`
 /// effect's modes, [`crate::normal_modes`]).
-impl SceneSystem<64> for FputAlpha32 {
+impl SceneSystem<Const<64>> for FputAlpha32 {
     const FIXED_END_CHAIN: bool = true;
 }
 
-impl SceneSystem<64> for FputBeta32 {
+impl SceneSystem<Const<64>> for FputBeta32 {
     const FIXED_END_CHAIN: bool = true;
 }
 
 /// `exp(-d) = 1 - d + d^2/2 - ...` for each bond `d = q_{i+1} - q_i`: the linear terms
 /// telescope to `q_{33} - q_0 = 0`, so the harmonic part is the unit-spring chain.
-impl SceneSystem<64> for TodaFixedEnds32 {
+impl SceneSystem<Const<64>> for TodaFixedEnds32 {
     const FIXED_END_CHAIN: bool = true;
 }
 
@@ -358,7 +358,7 @@ fn spatial_momenta<const D: usize>(z: &SVector<f64, D>, out: &mut [f64]) {
     }
 }
 
-impl SceneSystem<12> for NBody2d3 {
+impl SceneSystem<Const<12>> for NBody2d3 {
     fn invariant_names(&self) -> &'static [&'static str] {
         &["momentum_x", "momentum_y", "angular_momentum"]
     }
@@ -368,7 +368,7 @@ impl SceneSystem<12> for NBody2d3 {
     }
 }
 
-impl SceneSystem<18> for NBody3d3 {
+impl SceneSystem<Const<18>> for NBody3d3 {
     fn invariant_names(&self) -> &'static [&'static str] {
         &[
             "momentum_x",
@@ -399,7 +399,7 @@ dth::hamiltonian! {
     } = p1^2/2 + omega0^2*q1^2/2 - f*q1*cos(omega*t)
 }
 
-impl SceneSystem<4> for ForcedOscillator {}
+impl SceneSystem<Const<4>> for ForcedOscillator {}
 
 dth::hamiltonian! {
     /// A free particle in the plane, `H = (p1^2 + p2^2)/(2 m)`.
@@ -415,7 +415,7 @@ dth::hamiltonian! {
     } = (p1^2 + p2^2)/(2*m)
 }
 
-impl SceneSystem<4> for FreeParticle {
+impl SceneSystem<Const<4>> for FreeParticle {
     const HAS_EXACT: bool = true;
     const CENTRAL_FORCE: bool = true;
 
@@ -733,7 +733,7 @@ mod tests {
     /// gradient; angular momentum: its rotation invariance).
     #[test]
     fn nbody_invariants_are_conserved_by_the_flow() {
-        fn check<const D: usize, S: SceneSystem<D>>(s: &S, z: SVector<f64, D>) {
+        fn check<const D: usize, S: SceneSystem<Const<D>>>(s: &S, z: SVector<f64, D>) {
             let n = D / 2;
             let g = s.gradient(&z);
             // zdot = J grad H = (dH/dp, -dH/dq).

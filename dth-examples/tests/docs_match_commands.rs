@@ -1,8 +1,9 @@
 //! The READMEs describe what the commands do; these tests hold them to what the commands
 //! print, so they cannot go stale: every subcommand and option `dth help` lists is in both
 //! command summaries (and nothing else is), the catalogue table and the scene reference name
-//! exactly the systems, parameters, methods and effects `dth list` prints, and the error shown
-//! for `dth` on the free particle is the one `dth check` prints. (Table 4.1 is held to
+//! exactly the systems, parameters, methods and effects `dth list` prints, and the errors shown
+//! for `dth` on the free particle and for a misspelt parameter of a Hamiltonian given as text
+//! are the ones `dth check` prints. (Table 4.1 is held to
 //! `dth table41` in `tests/table41.rs`.)
 
 mod common;
@@ -240,4 +241,39 @@ fn the_free_particle_error_shown_is_what_dth_check_prints() {
     let o = dth(&["check", "free.toml"], dir.path());
     assert_eq!(o.status.code(), Some(2));
     assert_eq!(stderr(&o).trim_end(), shown.trim_end());
+}
+
+#[test]
+fn the_text_hamiltonian_error_shown_is_what_dth_check_prints() {
+    let examples = read("README.md");
+    let shown = block(&examples, "**Hamiltonians as text.**", "text").join("\n");
+    // The README's example: `alpha` written for the parameter `a`.
+    let scene = "# The README's example: a Morse oscillator with a misspelt parameter.\n\
+                 title = \"Morse oscillator\"\n\
+                 \n\
+                 [system]\n\
+                 title = \"Morse oscillator\"\n\
+                 hamiltonian = \"p1^2/(2*m) + d*(1 - exp(-alpha*q1))^2\"\n\
+                 params = { m = 1.0, d = 1.0, a = 1.0 }\n\
+                 \n\
+                 [initial]\n\
+                 q = [0.5]\n\
+                 p = [0.5]\n\
+                 \n\
+                 [[method]]\n\
+                 kind = \"dth\"\n\
+                 dtau = 0.05\n\
+                 \n\
+                 [duration]\n\
+                 steps = 10\n";
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("morse.toml"), scene).unwrap();
+    let o = dth(&["check", "morse.toml"], dir.path());
+    assert_eq!(o.status.code(), Some(2));
+    assert_eq!(stderr(&o).trim_end(), shown.trim_end());
+    // `dth run` refuses it the same way, and writes nothing.
+    let o = dth(&["run", "morse.toml", "--out", "out"], dir.path());
+    assert_eq!(o.status.code(), Some(2));
+    assert_eq!(stderr(&o).trim_end(), shown.trim_end());
+    assert!(!dir.path().join("out").exists());
 }

@@ -44,7 +44,7 @@ impl ConstFlags for CountingKepler {
     const FLAGS: Flags = Flags::new();
 }
 
-impl SceneSystem<4> for CountingKepler {
+impl SceneSystem<Const<4>> for CountingKepler {
     fn invariant_names(&self) -> &'static [&'static str] {
         &["angular_momentum"]
     }

@@ -19,16 +19,20 @@
 //! Why not the DTH step's own tangent map: `docs/theory.md#chaos-indicators`.
 
 use dth::linalg::Lu;
-use dth::nalgebra::Const;
-use dth::nalgebra::{SMatrix, SVector};
+use dth::nalgebra::{DefaultAllocator, Dim, OMatrix, OVector};
 use dth::observer::{Observer, StepRecord};
+use dth::Alloc;
 use dth::Hamiltonian;
 
 /// `J M` for `J = [[0, I], [-I, 0]]` (`D/2` blocks): `z' = J gradH`.
-fn j_times<const D: usize>(m: &SMatrix<f64, D, D>) -> SMatrix<f64, D, D> {
-    let h = D / 2;
-    let mut out = SMatrix::<f64, D, D>::zeros();
-    for c in 0..D {
+fn j_times<D: Dim>(m: &OMatrix<f64, D, D>) -> OMatrix<f64, D, D>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    let (d, _) = m.shape_generic();
+    let h = d.value() / 2;
+    let mut out = OMatrix::zeros_generic(d, d);
+    for c in 0..d.value() {
         for r in 0..h {
             out[(r, c)] = m[(h + r, c)];
             out[(h + r, c)] = -m[(r, c)];
@@ -47,12 +51,15 @@ pub struct Indicators {
 }
 
 /// The observer: MEGNO and the Lyapunov estimate along a run (see the module docs).
-pub struct Megno<'s, const D: usize, S> {
+pub struct Megno<'s, D: Dim, S>
+where
+    DefaultAllocator: Alloc<D>,
+{
     system: &'s S,
     /// Start time, previous time, previous `A = J HessH`.
     start: Option<f64>,
-    prev: Option<(f64, SMatrix<f64, D, D>)>,
-    delta: SVector<f64, D>,
+    prev: Option<(f64, OMatrix<f64, D, D>)>,
+    delta: OVector<f64, D>,
     log_norm: f64,
     stieltjes: f64,
     y_prev: f64,
@@ -61,14 +68,20 @@ pub struct Megno<'s, const D: usize, S> {
     broken: bool,
 }
 
-impl<'s, const D: usize, S: Hamiltonian<Const<D>>> Megno<'s, D, S> {
+impl<'s, D: Dim, S: Hamiltonian<D>> Megno<'s, D, S>
+where
+    DefaultAllocator: Alloc<D>,
+{
     /// The observer for a run of `system`; the tangent vector starts along `(1, ..., 1)`.
     pub fn new(system: &'s S) -> Self {
         Megno {
             system,
             start: None,
             prev: None,
-            delta: SVector::<f64, D>::repeat(1.0 / (D as f64).sqrt()),
+            delta: {
+                let d = system.dim();
+                OVector::from_element_generic(d, dth::nalgebra::U1, 1.0 / (d.value() as f64).sqrt())
+            },
             log_norm: 0.0,
             stieltjes: 0.0,
             y_prev: 0.0,
@@ -89,8 +102,11 @@ impl<'s, const D: usize, S: Hamiltonian<Const<D>>> Megno<'s, D, S> {
     }
 }
 
-impl<const D: usize, S: Hamiltonian<Const<D>>> Observer<Const<D>> for Megno<'_, D, S> {
-    fn on_step(&mut self, record: &StepRecord<Const<D>>) {
+impl<D: Dim, S: Hamiltonian<D>> Observer<D> for Megno<'_, D, S>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    fn on_step(&mut self, record: &StepRecord<D>) {
         if self.broken {
             return;
         }
@@ -102,10 +118,11 @@ impl<const D: usize, S: Hamiltonian<Const<D>>> Observer<Const<D>> for Megno<'_, 
         };
         let start = self.start.unwrap_or(t0);
         let h = record.t - t0;
-        let id = SMatrix::<f64, D, D>::identity();
-        let rhs = (id + a0 * (h / 2.0)) * self.delta;
+        let (d, _) = a1.shape_generic();
+        let id = OMatrix::<f64, D, D>::identity_generic(d, d);
+        let rhs = (&id + a0 * (h / 2.0)) * &self.delta;
         // The core's allocation-free fixed-size LU: one factorization per step, no heap.
-        let lhs = id - a1 * (h / 2.0);
+        let lhs = id - &a1 * (h / 2.0);
         let next = Lu::factor(&lhs).ok().map(|lu| lu.solve(&rhs));
         let Some(next) = next else {
             self.broken = true;

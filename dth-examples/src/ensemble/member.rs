@@ -1,10 +1,10 @@
 //! One member of an ensemble scene run with every method ([`run_member`]), and what it
 //! yields ([`MemberResult`]).
 
-use dth::nalgebra::Const;
+use dth::nalgebra::{DefaultAllocator, Dim, OVector};
+use dth::Alloc;
 use std::collections::BTreeMap;
 
-use dth::nalgebra::SVector;
 use dth::observer::{Observer, StepRecord};
 
 use super::chaos::Megno;
@@ -62,16 +62,22 @@ pub struct MemberResult {
 }
 
 /// The last state, its time and the largest energy deviation of a run, and MEGNO when asked.
-struct Watch<'s, const D: usize, S> {
+struct Watch<'s, D: Dim, S>
+where
+    DefaultAllocator: Alloc<D>,
+{
     system: &'s S,
     h0: Option<f64>,
     energy_error: f64,
-    last: Option<(usize, f64, SVector<f64, D>)>,
+    last: Option<(usize, f64, OVector<f64, D>)>,
     megno: Option<Megno<'s, D, S>>,
 }
 
-impl<const D: usize, S: SceneSystem<D>> Observer<Const<D>> for Watch<'_, D, S> {
-    fn on_step(&mut self, record: &StepRecord<Const<D>>) {
+impl<D: Dim, S: SceneSystem<D>> Observer<D> for Watch<'_, D, S>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    fn on_step(&mut self, record: &StepRecord<D>) {
         let h = self.system.value(&record.z);
         match self.h0 {
             None => self.h0 = Some(h),
@@ -82,7 +88,14 @@ impl<const D: usize, S: SceneSystem<D>> Observer<Const<D>> for Watch<'_, D, S> {
                 self.energy_error = self.energy_error.max(d);
             }
         }
-        self.last = Some((record.k, record.t, record.z));
+        match &mut self.last {
+            // The stored state is overwritten: no allocation per step for `Dyn`.
+            Some((k, t, z)) => {
+                (*k, *t) = (record.k, record.t);
+                z.copy_from(&record.z);
+            }
+            None => self.last = Some((record.k, record.t, record.z.clone())),
+        }
         if let Some(m) = &mut self.megno {
             m.on_step(record);
         }
@@ -90,14 +103,17 @@ impl<const D: usize, S: SceneSystem<D>> Observer<Const<D>> for Watch<'_, D, S> {
 }
 
 /// Runs method `m` from `z0` with the watch and the scene's effects as observers.
-fn run_one<const D: usize, S: SceneSystem<D>>(
+fn run_one<D: Dim, S: SceneSystem<D>>(
     system: &S,
     scene: &Scene,
     chaos: Option<ChaosIndicator>,
     m: &MethodSpec,
-    z0: SVector<f64, D>,
+    z0: OVector<f64, D>,
     stop: Stop,
-) -> Result<MemberRun, Error> {
+) -> Result<MemberRun, Error>
+where
+    DefaultAllocator: Alloc<D>,
+{
     let watch = Watch {
         system,
         h0: None,
@@ -108,12 +124,12 @@ fn run_one<const D: usize, S: SceneSystem<D>>(
     let (end, watch, crossings) = match Effects::new(system, &scene.effects) {
         Some(effects) => {
             let mut obs = (watch, effects);
-            let end = run_method(m, system, z0, scene.t0, stop, &mut obs)?;
+            let end = run_method(m, system, z0.clone(), scene.t0, stop, &mut obs)?;
             (end, obs.0, obs.1.finish().poincare)
         }
         None => {
             let mut obs = watch;
-            let end = run_method(m, system, z0, scene.t0, stop, &mut obs)?;
+            let end = run_method(m, system, z0.clone(), scene.t0, stop, &mut obs)?;
             (end, obs, Vec::new())
         }
     };
@@ -143,13 +159,16 @@ fn run_one<const D: usize, S: SceneSystem<D>>(
 /// # Errors
 /// What fails for every member alike: a method not available for the system, an energy
 /// shell of a system that is not quadratic in the solved momentum.
-pub fn run_member<const D: usize, S: SceneSystem<D>>(
+pub fn run_member<D: Dim, S: SceneSystem<D>>(
     build: &Build<'_, S>,
     scene: &Scene,
     members: &Members,
     c: &Candidate,
     options: &RunOptions,
-) -> Result<MemberResult, Error> {
+) -> Result<MemberResult, Error>
+where
+    DefaultAllocator: Alloc<D>,
+{
     let mut result = MemberResult {
         index: c.index,
         params: c.params.clone(),
@@ -216,7 +235,7 @@ pub fn run_member<const D: usize, S: SceneSystem<D>>(
     for m in &scene.methods {
         result
             .runs
-            .push(run_one(&system, scene, members.chaos, m, z0, stop)?);
+            .push(run_one(&system, scene, members.chaos, m, z0.clone(), stop)?);
     }
     Ok(result)
 }

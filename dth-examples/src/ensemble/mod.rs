@@ -21,6 +21,8 @@ pub mod sample;
 pub mod schedule;
 pub mod wire;
 
+use dth::nalgebra::{DefaultAllocator, Dim};
+use dth::Alloc;
 use std::path::Path;
 
 use indicatif::{ProgressBar, ProgressStyle};
@@ -77,17 +79,22 @@ pub fn idle_report(scene: &Scene) -> RunReport {
 /// [`RunError::NotRun`] for a scene without an ensemble, an output folder that is refused,
 /// or what fails for every member alike (a method the system does not offer, an energy shell
 /// the system cannot be solved on).
-pub fn run<const D: usize, S: SceneSystem<D>>(
+pub fn run<D: Dim, S: SceneSystem<D>>(
     build: &Build<'_, S>,
     scene: &Scene,
     out: &Path,
     options: &RunOptions,
-) -> Result<RunReport, RunError> {
+) -> Result<RunReport, RunError>
+where
+    DefaultAllocator: Alloc<D>,
+{
     let members = scene.members.as_ref().ok_or_else(|| Error::NotAvailable {
         what: "ensemble of scene",
         name: scene.title.clone(),
         reason: "the scene has no `[ensemble]` with a `kind`".into(),
     })?;
+    // The phase-space dimension, for the table's columns (`Dyn` knows it from a value only).
+    let dim = build(&scene.params)?.dim().value();
     let worker = schedule::is_worker_rank();
     let staging = if worker {
         None
@@ -107,7 +114,7 @@ pub fn run<const D: usize, S: SceneSystem<D>>(
     let mut report = idle_report(scene);
     report.out = out.to_path_buf();
     let dir = staging.path().to_path_buf();
-    let (mut files, counts) = report::write(&dir, scene, members, D, &results)?;
+    let (mut files, counts) = report::write(&dir, scene, members, dim, &results)?;
     files.push("summary.json".into());
     files.push("index.html".into());
     write_file(

@@ -1,10 +1,10 @@
 //! The members of an ensemble scene: the states and parameters its sampler draws ([`draw`])
 //! and the energy shell ([`on_shell`]).
 
-use dth::nalgebra::Const;
+use dth::nalgebra::{DefaultAllocator, Dim, OVector};
+use dth::Alloc;
 use std::collections::BTreeMap;
 
-use dth::nalgebra::SVector;
 use dth::Hamiltonian;
 
 use crate::scene::{Axis, Coord, EnergyShell, Members, Sampler, Scene};
@@ -165,16 +165,19 @@ pub enum Shell {
 /// mechanical `H = |p|^2/(2m) + ...` is): its coefficients are read from `f(-1)`, `f(0)`,
 /// `f(1)`, checked at `f(2)`, and the root computed in the cancellation-free form
 /// (`Numerical Recipes` 5.6), so the member lands on the shell to roundoff.
-pub fn on_shell<const D: usize, S: Hamiltonian<Const<D>>>(
+pub fn on_shell<D: Dim, S: Hamiltonian<D>>(
     system: &S,
-    z: &mut SVector<f64, D>,
+    z: &mut OVector<f64, D>,
     shell: EnergyShell,
-) -> Shell {
-    let Some(k) = shell.solve.index(D) else {
+) -> Shell
+where
+    DefaultAllocator: Alloc<D>,
+{
+    let Some(k) = shell.solve.index(z.len()) else {
         return Shell::NotQuadratic;
     };
     let f = |s: f64| {
-        let mut w = *z;
+        let mut w = z.clone();
         w[k] = s;
         system.value(&w) - shell.energy
     };

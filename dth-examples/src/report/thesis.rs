@@ -15,10 +15,10 @@
 //! `(q1, p1)` is plotted. DTH is shown at its midpoints `zbar_k` (the thesis: "midpoint values
 //! were used for the DTH trajectories").
 
-use dth::nalgebra::Const;
+use dth::nalgebra::{DefaultAllocator, Dim, OVector};
+use dth::Alloc;
 use std::path::Path;
 
-use dth::nalgebra::SVector;
 use dth::observer::{Observer, StepRecord};
 use serde::Serialize;
 
@@ -67,12 +67,19 @@ type State = (f64, [f64; 4]);
 /// Stores every state (a few 10^4 for the figures' runs).
 struct Record(Vec<State>);
 
-fn state<const D: usize>(r: &StepRecord<Const<D>>) -> State {
-    (r.t, [r.z[0], r.z[1], r.z[D / 2], r.z[D / 2 + 1]])
+fn state<D: Dim>(r: &StepRecord<D>) -> State
+where
+    DefaultAllocator: Alloc<D>,
+{
+    let h = r.z.len() / 2;
+    (r.t, [r.z[0], r.z[1], r.z[h], r.z[h + 1]])
 }
 
-impl<const D: usize> Observer<Const<D>> for Record {
-    fn on_step(&mut self, r: &StepRecord<Const<D>>) {
+impl<D: Dim> Observer<D> for Record
+where
+    DefaultAllocator: Alloc<D>,
+{
+    fn on_step(&mut self, r: &StepRecord<D>) {
         self.0.push(state(r));
     }
 }
@@ -130,8 +137,11 @@ impl Section {
     }
 }
 
-impl<const D: usize> Observer<Const<D>> for Section {
-    fn on_step(&mut self, r: &StepRecord<Const<D>>) {
+impl<D: Dim> Observer<D> for Section
+where
+    DefaultAllocator: Alloc<D>,
+{
+    fn on_step(&mut self, r: &StepRecord<D>) {
         self.push(&state(r));
     }
 }
@@ -223,13 +233,16 @@ const NAMES: [&str; 4] = ["q1", "q2", "p1", "p2"];
 /// # Errors
 /// A method that fails in any of the figures' runs ([`Error::MethodFailed`]), a system without
 /// a period for this initial state, or a figure that cannot be written.
-pub fn figures<const D: usize, S: SceneSystem<D>>(
+pub fn figures<D: Dim, S: SceneSystem<D>>(
     system: &S,
     scene: &Scene,
-    z0: &SVector<f64, D>,
+    z0: &OVector<f64, D>,
     dir: &Path,
     options: &RunOptions,
-) -> Result<Vec<ThesisFigure>, Error> {
+) -> Result<Vec<ThesisFigure>, Error>
+where
+    DefaultAllocator: Alloc<D>,
+{
     let period = system.period(z0).ok_or_else(|| Error::NotAvailable {
         what: "thesis figures for system",
         name: scene.system.clone(),
@@ -261,7 +274,7 @@ pub fn figures<const D: usize, S: SceneSystem<D>>(
     for &(spec, name, color) in &specs {
         let bar = progress_bar(spec, scene.t0, stop, options);
         let mut observers = (Progress(bar.clone()), Record(Vec::new()));
-        let end = run_method(spec, system, *z0, scene.t0, stop, &mut observers)?;
+        let end = run_method(spec, system, z0.clone(), scene.t0, stop, &mut observers)?;
         bar.finish_and_clear();
         end.map_err(|f| failed(spec, "thesis Figures 4.1-4.9", f))?;
         runs.push((spec, name, color, observers.1 .0));
@@ -294,7 +307,8 @@ pub fn figures<const D: usize, S: SceneSystem<D>>(
         .filter_map(|i| {
             let t = (t_end - scene.t0) * f64::from(i) / 400.0;
             let z = system.exact_solution(z0, t)?;
-            Some((scene.t0 + t, [z[0], z[1], z[D / 2], z[D / 2 + 1]]))
+            let h = z.len() / 2;
+            Some((scene.t0 + t, [z[0], z[1], z[h], z[h + 1]]))
         })
         .collect();
     for (c, name) in NAMES.iter().enumerate() {
@@ -522,7 +536,7 @@ pub fn figures<const D: usize, S: SceneSystem<D>>(
             t_end: scene.t0 + period,
             max_steps: options.max_steps,
         };
-        run_method(&fine, system, *z0, scene.t0, stop, &mut record)?
+        run_method(&fine, system, z0.clone(), scene.t0, stop, &mut record)?
             .map_err(|f| failed(spec, "thesis Figure 4.14", f))?;
         let pts: Vec<(f64, f64)> = record
             .0
@@ -580,7 +594,7 @@ pub fn figures<const D: usize, S: SceneSystem<D>>(
         let fine = refined(spec, factor);
         let bar = progress_bar(&fine, scene.t0, stop, options);
         let mut observers = (Progress(bar.clone()), Section::default());
-        run_method(&fine, system, *z0, scene.t0, stop, &mut observers)?
+        run_method(&fine, system, z0.clone(), scene.t0, stop, &mut observers)?
             .map_err(|f| failed(spec, "thesis Figure 4.15", f))?;
         bar.finish_and_clear();
         let section = observers.1;

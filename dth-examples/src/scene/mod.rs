@@ -1,7 +1,9 @@
 //! Scene files: parsing (TOML, serde, unknown keys rejected) and validation against the
 //! systems a [`SystemLookup`] knows, with every error located at `file:line:column`.
 //!
-//! Three layers, imports pointing down: `validate` (the rules) -> `raw` (the serde types, as
+//! Layers, imports pointing down: `validate` (the rules) -> `members` (ensemble scenes) and
+//! `expression` (a Hamiltonian given as text, read by the symbolic engine) -> `toml_string`
+//! (where each byte of a TOML string comes from in the file) -> `raw` (the serde types, as
 //! written) and `schema` (the validated types the rest of the crate works with).
 //!
 //! A scene declares a system and its parameters, the initial state, the methods with their
@@ -33,15 +35,22 @@
 //! [[effect]]
 //! kind = "energy_deviation"
 //! ```
+//!
+//! Instead of a catalogue `name`, `[system]` may give the Hamiltonian as text, in the grammar
+//! of `hamiltonian!` (`hamiltonian = "(p1^2 + p2^2)/(2*m) - k*(q1^2 + q2^2)^(-1/2)"`, with
+//! `params` and an optional `title`): see `expression` and [`TextHamiltonian`].
 
+mod expression;
 mod members;
 mod raw;
 mod schema;
+mod toml_string;
 mod validate;
 
 pub(crate) use schema::thousands;
 pub use schema::{
     component_names, Axis, AxisRange, ChaosIndicator, Coord, Direction, Duration, EffectKind,
     EffectSpec, EnergyShell, Ensemble, Members, MethodKind, MethodSpec, Sampler, Scene, StepSpec,
+    TextHamiltonian,
 };
 pub use validate::{line_col, parse, ParamRule, ParamSpec, SystemInfo, SystemLookup};

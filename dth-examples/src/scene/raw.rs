@@ -45,10 +45,14 @@ pub(super) struct RawEnsemble {
     pub(super) chaos: Option<Spanned<String>>,
 }
 
+/// `[system]`: a catalogue system (`name`) or a Hamiltonian given as text (`hamiltonian`, and
+/// optionally a `title` naming it); exactly one of the two, checked in `super::validate`.
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(super) struct RawSystem {
-    pub(super) name: Spanned<String>,
+    pub(super) name: Option<Spanned<String>>,
+    pub(super) hamiltonian: Option<Spanned<String>>,
+    pub(super) title: Option<Spanned<String>>,
     #[serde(default)]
     pub(super) params: BTreeMap<Spanned<String>, Spanned<f64>>,
 }

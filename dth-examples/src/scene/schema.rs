@@ -12,9 +12,14 @@ pub struct Scene {
     pub title: String,
     /// Free-text description.
     pub description: String,
-    /// The system's catalogue name.
+    /// The system's catalogue name, or for a Hamiltonian given as text its `title` (default
+    /// `H = ` and the expression).
     pub system: String,
-    /// Parameters, with the catalogue's defaults filled in.
+    /// The Hamiltonian given as text (`[system] hamiltonian = "..."`), when the scene names
+    /// no catalogue system.
+    pub hamiltonian: Option<TextHamiltonian>,
+    /// Parameters, with the catalogue's defaults filled in (for a Hamiltonian given as text,
+    /// those the scene gives, each used by the expression).
     pub params: BTreeMap<String, f64>,
     /// Initial positions, length n.
     pub q: Vec<f64>,
@@ -38,6 +43,27 @@ pub struct Scene {
     /// with a period and an exact solution (Kepler), and the methods of
     /// [`MethodKind::THESIS_FIGURES`].
     pub thesis_figures: bool,
+}
+
+/// A Hamiltonian given as text in a scene (`[system] hamiltonian = "..."`, the grammar of
+/// `hamiltonian!`), as the symbolic engine read it when the scene was validated: the
+/// expression, and what the engine derived from it that validation checks the scene against.
+/// Its parameter values are the scene's [`Scene::params`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct TextHamiltonian {
+    /// The expression, as decoded from the TOML string.
+    pub source: String,
+    /// Degrees of freedom `n`: the largest index of `q` and `p` in the expression.
+    pub n: usize,
+    /// The phase-space dimension `D`: `2n`, or `2n + 2` when time-dependent.
+    pub dim: usize,
+    /// `true` when the expression uses `t`: it runs in the extended phase space
+    /// `(q, t, p, p_t)` as the macro's types do.
+    pub time_dependent: bool,
+    /// `true` for `H = T(p) + V(q)` (method `stormer_verlet` runs).
+    pub separable: bool,
+    /// `true` when `Psi` simplifies to zero (method `dth` cannot run).
+    pub psi_identically_zero: bool,
 }
 
 /// A square of initial conditions around the scene's initial state, in the plane of two of

@@ -7,13 +7,13 @@ use std::ops::Range;
 
 use toml::Spanned;
 
-use super::members;
 use super::raw::{RawEffect, RawMethod, RawScene};
+use super::{expression, members};
 use dth::dth::{Composition, Solver};
 
 use super::schema::{
     Coord, Direction, Duration, EffectKind, EffectSpec, Ensemble, MethodKind, MethodSpec, Scene,
-    StepSpec,
+    StepSpec, TextHamiltonian,
 };
 use crate::error::{Error, SceneDiagnostic, SceneErrors};
 
@@ -233,82 +233,62 @@ pub fn parse(text: &str, file: &str, systems: &dyn SystemLookup) -> Result<Scene
 }
 
 fn validate(raw: RawScene, systems: &dyn SystemLookup, cx: &mut Ctxt<'_>) -> Option<Scene> {
+    // The system: a catalogue name, or a Hamiltonian given as text (exactly one of the two).
+    let system_span = raw.system.span();
     let system = raw.system.into_inner();
-    let name = system.name.get_ref().clone();
-    let info = match systems.info(&name) {
-        Some(info) => Some(info),
-        None => {
-            cx.error(
-                system.name.span(),
-                format!(
-                    "unknown system `{name}`: expected one of {}",
-                    systems.names().join(", ")
+    let mut hamiltonian = None;
+    let (name, info, params) = match (&system.name, &system.hamiltonian) {
+        (Some(name), None) => {
+            if let Some(title) = &system.title {
+                cx.error(
+                    title.span(),
+                    "`title` names a Hamiltonian given as text (`hamiltonian`): a catalogue system is named by `name` (give the scene a `title` at the top instead)",
+                );
+            }
+            catalogue_system(name, &system.params, systems, cx)
+        }
+        (None, Some(source)) => {
+            let mut errors = Vec::new();
+            let checked = expression::check(cx.text, source, &system.params, &mut errors);
+            for (span, message) in errors {
+                cx.error(span, message);
+            }
+            let name = match &system.title {
+                Some(t) => t.get_ref().clone(),
+                None => format!(
+                    "H = {}",
+                    source
+                        .get_ref()
+                        .split_whitespace()
+                        .collect::<Vec<_>>()
+                        .join(" ")
                 ),
+            };
+            match checked {
+                Some((h, params)) => {
+                    let info = text_info(&h);
+                    hamiltonian = Some(h);
+                    (name, Some(info), params)
+                }
+                None => (name, None, BTreeMap::new()),
+            }
+        }
+        (Some(name), Some(source)) => {
+            cx.error(
+                source.span(),
+                "`[system]` takes `name` (a catalogue system) or `hamiltonian` (H as text), not both",
             );
-            None
+            (name.get_ref().clone(), None, BTreeMap::new())
+        }
+        (None, None) => {
+            cx.error(
+                system_span,
+                "`[system]` needs `name` (a catalogue system, see `dth list`) or `hamiltonian` (H as text in the grammar of `hamiltonian!`)",
+            );
+            (String::new(), None, BTreeMap::new())
         }
     };
-
-    // Parameters: known names only, defaults filled, required ones present, finite values,
-    // each within its declared rule (`ParamSpec::rule`).
-    let mut params = BTreeMap::new();
-    if let Some(info) = info {
-        for (k, v) in &system.params {
-            if !info.params.iter().any(|p| p.name == k.get_ref().as_str()) {
-                let expected: Vec<_> = info.params.iter().map(|p| p.name).collect();
-                cx.error(
-                    k.span(),
-                    format!(
-                        "unknown parameter `{}` of system `{name}`: expected {}",
-                        k.get_ref(),
-                        if expected.is_empty() {
-                            "no parameters".to_string()
-                        } else {
-                            format!("one of {}", expected.join(", "))
-                        }
-                    ),
-                );
-            } else if !v.get_ref().is_finite() {
-                cx.error(
-                    v.span(),
-                    format!("parameter `{}` must be finite", k.get_ref()),
-                );
-            } else if let Some(p) = info.params.iter().find(|p| p.name == k.get_ref().as_str()) {
-                // The parameter's declared rule, at the value that breaks it.
-                match p.check(&name, *v.get_ref()) {
-                    Ok(v) => {
-                        params.insert(k.get_ref().clone(), v);
-                    }
-                    Err(message) => cx.error(v.span(), message),
-                }
-            }
-        }
-        for p in info.params {
-            if !params.contains_key(p.name) && !system.params.keys().any(|k| k.get_ref() == p.name)
-            {
-                match p.default {
-                    // A default that breaks its own rule is the registration's mistake; it is
-                    // reported at the system's name, where the scene chose the system.
-                    Some(d) => match p.check(&name, d) {
-                        Ok(d) => {
-                            params.insert(p.name.to_string(), d);
-                        }
-                        Err(message) => cx.error(
-                            system.name.span(),
-                            format!("{message} (the default: give `{}` in `params`)", p.name),
-                        ),
-                    },
-                    None => cx.error(
-                        system.name.span(),
-                        format!(
-                            "system `{name}` needs parameter `{}` ({}): add it to `params`",
-                            p.name, p.doc
-                        ),
-                    ),
-                }
-            }
-        }
-    }
+    let text = hamiltonian.is_some();
 
     // Initial state: q and p present, length n, finite.
     let init_span = raw.initial.span();
@@ -464,6 +444,18 @@ fn validate(raw: RawScene, systems: &dyn SystemLookup, cx: &mut Ctxt<'_>) -> Opt
         }
     }
 
+    // A Hamiltonian given as text declares its energy and nothing else.
+    if text {
+        for (spec, span) in effects.iter().zip(&effect_spans) {
+            if spec.kind() == EffectKind::Invariants {
+                cx.error(
+                    span.clone(),
+                    format!("effect `invariants` measures a system's quadratic invariants (e.g. Kepler's angular momentum), and a Hamiltonian given as text declares none: `{name}` has its energy only (effect `energy_deviation`)"),
+                );
+            }
+        }
+    }
+
     // Normal modes are those of a chain with fixed ends.
     if info.is_some_and(|i| !i.fixed_end_chain) {
         for (spec, span) in effects.iter().zip(&effect_spans) {
@@ -479,8 +471,11 @@ fn validate(raw: RawScene, systems: &dyn SystemLookup, cx: &mut Ctxt<'_>) -> Opt
     }
 
     // `[ensemble]`: the thesis's square (no `kind`), or an ensemble scene (`members`).
-    let param_names: Vec<&str> =
-        info.map_or(Vec::new(), |i| i.params.iter().map(|p| p.name).collect());
+    let param_names: Vec<&str> = if text {
+        params.keys().map(String::as_str).collect()
+    } else {
+        info.map_or(Vec::new(), |i| i.params.iter().map(|p| p.name).collect())
+    };
     let (ensemble, members) = match raw.ensemble {
         None => (None, None),
         Some(e) => {
@@ -550,6 +545,7 @@ fn validate(raw: RawScene, systems: &dyn SystemLookup, cx: &mut Ctxt<'_>) -> Opt
         title: raw.title.unwrap_or_else(|| name.clone()),
         description: raw.description.unwrap_or_default(),
         system: name,
+        hamiltonian,
         params,
         q: q?,
         p: p?,
@@ -561,6 +557,108 @@ fn validate(raw: RawScene, systems: &dyn SystemLookup, cx: &mut Ctxt<'_>) -> Opt
         members,
         thesis_figures,
     })
+}
+
+/// The catalogue system `name` with the scene's parameters `given`: known names only,
+/// defaults filled, required ones present, finite values, each within its declared rule
+/// ([`ParamSpec::rule`]).
+fn catalogue_system<'s>(
+    system_name: &Spanned<String>,
+    given: &BTreeMap<Spanned<String>, Spanned<f64>>,
+    systems: &'s dyn SystemLookup,
+    cx: &mut Ctxt<'_>,
+) -> (String, Option<SystemInfo<'s>>, BTreeMap<String, f64>) {
+    let name = system_name.get_ref().clone();
+    let info = match systems.info(&name) {
+        Some(info) => Some(info),
+        None => {
+            cx.error(
+                system_name.span(),
+                format!(
+                    "unknown system `{name}`: expected one of {}",
+                    systems.names().join(", ")
+                ),
+            );
+            None
+        }
+    };
+    let mut params = BTreeMap::new();
+    if let Some(info) = info {
+        for (k, v) in given {
+            if !info.params.iter().any(|p| p.name == k.get_ref().as_str()) {
+                let expected: Vec<_> = info.params.iter().map(|p| p.name).collect();
+                cx.error(
+                    k.span(),
+                    format!(
+                        "unknown parameter `{}` of system `{name}`: expected {}",
+                        k.get_ref(),
+                        if expected.is_empty() {
+                            "no parameters".to_string()
+                        } else {
+                            format!("one of {}", expected.join(", "))
+                        }
+                    ),
+                );
+            } else if !v.get_ref().is_finite() {
+                cx.error(
+                    v.span(),
+                    format!("parameter `{}` must be finite", k.get_ref()),
+                );
+            } else if let Some(p) = info.params.iter().find(|p| p.name == k.get_ref().as_str()) {
+                // The parameter's declared rule, at the value that breaks it.
+                match p.check(&name, *v.get_ref()) {
+                    Ok(v) => {
+                        params.insert(k.get_ref().clone(), v);
+                    }
+                    Err(message) => cx.error(v.span(), message),
+                }
+            }
+        }
+        for p in info.params {
+            if !params.contains_key(p.name) && !given.keys().any(|k| k.get_ref() == p.name) {
+                match p.default {
+                    // A default that breaks its own rule is the registration's mistake; it is
+                    // reported at the system's name, where the scene chose the system.
+                    Some(d) => match p.check(&name, d) {
+                        Ok(d) => {
+                            params.insert(p.name.to_string(), d);
+                        }
+                        Err(message) => cx.error(
+                            system_name.span(),
+                            format!("{message} (the default: give `{}` in `params`)", p.name),
+                        ),
+                    },
+                    None => cx.error(
+                        system_name.span(),
+                        format!(
+                            "system `{name}` needs parameter `{}` ({}): add it to `params`",
+                            p.name, p.doc
+                        ),
+                    ),
+                }
+            }
+        }
+    }
+
+    (name, info, params)
+}
+
+/// What validation checks a Hamiltonian given as text against: the engine's dimension and
+/// flags; no parameters to fill in, no period, exact solution or central force, and DTH
+/// unless Psi is identically zero.
+fn text_info(h: &TextHamiltonian) -> SystemInfo<'static> {
+    SystemInfo {
+        n: h.n,
+        params: &[],
+        time_dependent: h.time_dependent,
+        has_period: false,
+        has_exact: false,
+        separable: h.separable,
+        central_force: false,
+        fixed_end_chain: false,
+        dth: !h.psi_identically_zero,
+        psi_identically_zero: h.psi_identically_zero,
+    }
 }
 
 /// The thesis's square of initial conditions (`[ensemble]` without `kind`).
