@@ -15,8 +15,8 @@
 //! ([`crate::runtime_system::TextSystem`], dimension `Dyn`) and runs it through the same path.
 //!
 //! A system whose `Psi` is identically zero (`Flags::psi_identically_zero`, e.g. a free
-//! particle) cannot run DTH: the stepper's constructor rejects it at compile time (thesis
-//! Section 3.4). Register it with [`SystemEntry::runnable_without_dth`]: every peer method
+//! particle) cannot run DTH: the stepper's constructor rejects it with
+//! `Error::PsiIdenticallyZero` (thesis Section 3.4). Register it with [`SystemEntry::runnable_without_dth`]: every peer method
 //! runs, and a scene naming `dth` for it is rejected by validation.
 
 use dth::nalgebra::{Const, DefaultAllocator, Dim, Dyn};
@@ -178,7 +178,7 @@ impl SystemEntry {
 
     /// A runnable entry that offers every peer method but not DTH: for systems whose `Psi` is
     /// identically zero (`Flags::psi_identically_zero`, e.g. a free particle), which the
-    /// DTH stepper rejects at compile time. The system runs as [`WithoutDth`]`<S>`, so the
+    /// DTH stepper rejects with `Error::PsiIdenticallyZero`. The system runs as [`WithoutDth`]`<S>`, so the
     /// stepper is never instantiated for it; validation rejects a scene naming method `dth`
     /// for it (file, line and column, and why).
     ///

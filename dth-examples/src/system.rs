@@ -81,7 +81,7 @@ where
 
     /// Runs the DTH stepper (`runner`) on this system. Keep the default: it is the only place
     /// the scene runner instantiates the stepper for `Self`, so a system whose `Psi` is
-    /// identically zero (rejected by the stepper at compile time) runs through [`WithoutDth`]
+    /// identically zero (rejected by the stepper with `Error::PsiIdenticallyZero`) runs through [`WithoutDth`]
     /// instead, which returns `None` here ([`SystemEntry::runnable_without_dth`](crate::catalogue::SystemEntry::runnable_without_dth)
     /// does that).
     fn run_dth<O: Observer<D>>(
@@ -99,7 +99,7 @@ where
 /// A system run without DTH: every [`Hamiltonian`] and [`SceneSystem`] item forwards to `S`,
 /// except [`SceneSystem::run_dth`], which returns `None` without instantiating the DTH stepper
 /// for `S`. This is how systems whose `Psi` is identically zero run scenes (the stepper rejects
-/// them at compile time); `catalogue::SystemEntry::runnable_without_dth` registers them with
+/// them with `Error::PsiIdenticallyZero`); `catalogue::SystemEntry::runnable_without_dth` registers them with
 /// it.
 ///
 /// ```

@@ -141,7 +141,7 @@ fn derive_rust_prints_a_lattice_of_sums_as_loops() {
         stdout(&o)
     };
     let (small, large) = (printed(64), printed(4096));
-    assert!(large.contains("Hamiltonian<8192usize>"), "{large}");
+    assert!(large.contains("Const<8192usize>"), "{large}");
     // The two differ only in the numbers that carry N (the dimension, the loop bounds).
     let (a, b) = (small.len() as f64, large.len() as f64);
     assert!(

@@ -111,8 +111,8 @@ pub enum RuntimeError {
     /// derived from the text.
     #[error("the type declares {flag} = {declared}, but the Hamiltonian's is {derived}")]
     FlagMismatch {
-        /// The constant of `dth_core::Hamiltonian`: `TIME_DEPENDENT`, `SEPARABLE` or
-        /// `PSI_IDENTICALLY_ZERO`.
+        /// The view's const parameter (`TIME_DEPENDENT`, `SEPARABLE`) or the flag
+        /// `PSI_IDENTICALLY_ZERO` a [`crate::Typed`] view may not have.
         flag: &'static str,
         /// The view's value.
         declared: bool,

@@ -43,8 +43,8 @@
 //! 5. [`backend`]: the JIT or the interpreter behind one call that checks lengths and
 //!    finiteness.
 //! 6. [`hamiltonian`]: [`RuntimeHamiltonian`], the public face.
-//! 7. [`typed`]: [`Typed`], a [`RuntimeHamiltonian`] as a `dth_core::Hamiltonian<D>` for a
-//!    `D` named at compile time, so the stepper and the peers run it.
+//! 7. [`typed`]: `RuntimeHamiltonian` as a `dth_core::Hamiltonian<Dyn>`, and [`Typed`], the
+//!    same checked for a `Const<D>` named at compile time, so the stepper and the peers run it.
 //!
 //! # Compiled code equals the interpreter
 //!
@@ -69,13 +69,13 @@
 //!
 //! # The `Hamiltonian` trait
 //!
-//! `dth_core::Hamiltonian<D>` fixes `D` and the flags at compile time; a runtime Hamiltonian
-//! knows them when its text is read. [`Typed`] names them in its type and checks them when
-//! built: every trait method is then one call of the compiled function of the same name
-//! ([`Function`] is named after them), so DTH and every peer run it, with the macro's bits
-//! (`tests/typed_matches_macro.rs` in the `dth` crate steps both). A `D` known only at run
-//! time needs the core generic over nalgebra's dimensions (`Const<D>` and `Dyn`); the plan
-//! is `docs/runtime_dimension.md`.
+//! `dth_core::Hamiltonian<D>` is generic over nalgebra's dimensions, and its flags are
+//! values: [`RuntimeHamiltonian`] implements `Hamiltonian<Dyn>` with the dimension and flags
+//! its text gives, so DTH and every peer run it with `DVector`s (`docs/runtime_dimension.md`).
+//! [`Typed`] names a `Const<D>` and the flags in its type and checks them when built, for code
+//! that wants fixed-size vectors. Either way every trait method is one call of the compiled
+//! function of the same name ([`Function`] is named after them), with the macro's bits
+//! (`tests/typed_matches_macro.rs` and `tests/runtime_dyn.rs` in the `dth` crate step both).
 #![warn(missing_docs)]
 
 pub mod backend;

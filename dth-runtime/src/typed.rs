@@ -158,7 +158,16 @@ fn fused<D: Dim>(runtime: &RuntimeHamiltonian, z: &[f64], out: &mut Derivatives<
 where
     DefaultAllocator: Alloc<D>,
 {
-    let d = z.len();
+    // The output's dimension, not the point's: a point of the wrong length must give NaN (see
+    // the module docs), not a panic in the copies below.
+    let d = out.gradient.len();
+    if z.len() != d {
+        out.value = f64::NAN;
+        out.gradient.fill(f64::NAN);
+        out.hessian.fill(f64::NAN);
+        out.psi = f64::NAN;
+        return;
+    }
     let len = Function::Derivatives.len(d);
     FUSED.with_borrow_mut(|buffer| {
         if buffer.len() < len {

@@ -109,3 +109,24 @@ fn a_non_finite_value_names_the_method_and_output() {
         "{r:?}"
     );
 }
+
+/// Through the core trait (`Hamiltonian<Dyn>`, whose methods cannot fail), a point of the
+/// wrong length gives NaN outputs, which the steppers' finiteness checks report; never a panic.
+#[test]
+fn a_point_of_the_wrong_length_through_the_trait_is_nan() {
+    use dth_core::nalgebra::{DVector, Dyn};
+    use dth_core::{Derivatives, Hamiltonian};
+    let h = RuntimeHamiltonian::new(SPRING, &[("m", 1.0), ("k", 2.0)]).unwrap();
+    let z = DVector::from_column_slice(&[1.0, 2.0, 3.0]); // D = 2 in the text
+    let mut out = Derivatives::zeros(Dyn(2));
+    Hamiltonian::derivatives_into(&h, &z, &mut out);
+    assert!(out.value.is_nan() && out.psi.is_nan());
+    assert!(out
+        .gradient
+        .iter()
+        .chain(out.hessian.iter())
+        .all(|x| x.is_nan()));
+    let mut g = DVector::zeros(2);
+    Hamiltonian::gradient_into(&h, &z, &mut g);
+    assert!(g.iter().all(|x| x.is_nan()));
+}

@@ -34,8 +34,8 @@ use crate::{Method, Op, Output, Program, System};
 use code::{constant, kernel};
 
 /// The implementation `hamiltonian!` emits for `source` when it is a lattice of sums that loop
-/// ([`crate::looped`]): `impl Hamiltonian<D>` as loops over the sites, its code independent of
-/// the number of sites. `None` for every other source (and for a lattice without a momentum,
+/// ([`crate::looped`]): `impl Hamiltonian<Const<D>>` as loops over the sites, its code
+/// independent of the number of sites. `None` for every other source (and for a lattice without a momentum,
 /// or with a summand too long for one loop body): the caller then compiles the source site by
 /// site and emits [`hamiltonian_impl`]. The macro and `dth derive --rust` both decide here,
 /// so they print the same code.

@@ -141,9 +141,13 @@ impl Lattice {
         ast.span()
     }
 
-    /// The error for a range `lo..=hi` with more than `limit` sites or reaching beyond site
-    /// `limit` (the lattice `1..hi` has `hi` sites): at the upper bound when it is too large,
-    /// else at the lower one. Counted in `i128`, so no range overflows.
+    /// The error for a range `lo..=hi` reaching beyond site `limit` (the lattice `1..hi` has
+    /// `hi` sites), at the upper bound, or with more than twice `limit` terms, at the lower
+    /// one. A valid range may start below site 1 (the bond sum `0..N` of a chain with fixed
+    /// ends has `N + 1` terms on `N` sites; accesses below the lattice are errors of their
+    /// own), so its term count may pass `limit` by the reach of its offsets but never by
+    /// `limit`: twice the limit only refuses runaway work. Counted in `i128`, so no range
+    /// overflows.
     pub fn too_large(
         &self,
         src: &str,
@@ -155,7 +159,7 @@ impl Lattice {
         let count = i128::from(hi.value) - i128::from(lo.value) + 1;
         let (sites, at) = if i128::from(hi.value) > max {
             (i128::from(hi.value), hi.ast)
-        } else if count > max {
+        } else if count > max.saturating_mul(2) {
             (count, lo.ast)
         } else {
             return None;

@@ -90,10 +90,12 @@ pub const MAX_INDEX: usize = 512;
 /// with `N` up to this, `D = 2N`. What bounds it is the generated type, not the engine (whose
 /// work does not grow with `N`):
 ///
-/// - the Hessian's pattern is computed by the compiler's constant evaluator (see
-///   `emit::lattice`), in every build of the user's crate: `cargo check` of the FPUT-alpha
-///   chain took 4.1 s at `N = 8192`, 7.0 s at 16384, 14 s at 32768 and 54 s at 65536 (faster
-///   than linear beyond this bound; 2-core machine under load, 2026-11-26);
+/// - the Hessian's pattern is written out by the compiler's constant evaluator (see
+///   `emit::lattice`), one entry per nonzero, in every build of the user's crate. When this
+///   bound was chosen the evaluator also searched for each entry's position, and `cargo check`
+///   of the FPUT-alpha chain took 4.1 s at `N = 8192`, 7.0 s at 16384, 14 s at 32768 and 54 s
+///   at 65536 (2-core machine under load, 2026-11-26); the pattern is now expanded from its
+///   diagonal runs, which is cheaper, and not re-measured at these sizes;
 /// - every phase-space vector of the generated type is an `SVector<f64, D>` on the stack, 16
 ///   bytes per site: 256 KB at this bound, and a step of the stepper holds some of them, on
 ///   the 8 MB main thread or the 2 MB threads `cargo test` runs tests on.

@@ -221,6 +221,29 @@ fn a_huge_lattice_is_one_error_at_its_size() {
             assert!(kinds.contains(&loops(sites)), "{src}: {kinds:?}");
         }
     }
+    // At each cap exactly, a chain with fixed ends (its bond sum `0..N` has N + 1 terms on N
+    // sites) is accepted: by the loops at `MAX_SITES`, written out at `MAX_INDEX`.
+    let chain = |n: usize, extra: &str| {
+        format!(
+            "sum(i = 1..N, p[i]^2/2) + sum(i = 0..N, (q[i+1] - q[i])^2/2){extra} \
+             where N = {n}, q[0] = q[N+1] = 0"
+        )
+    };
+    assert_eq!(
+        looped::compile(&chain(MAX_SITES, ""), &[]).map(|l| l.n()),
+        Ok(MAX_SITES)
+    );
+    assert!(compile(&chain(MAX_INDEX, " + q1^4"), &[]).is_ok());
+    assert_eq!(
+        too_large(&chain(MAX_INDEX + 1, " + q1^4")),
+        [(
+            LatticeTooLarge {
+                sites: (MAX_INDEX + 1) as i128,
+                limit: MAX_INDEX
+            },
+            (MAX_INDEX + 1).to_string().as_str()
+        )]
+    );
     // Between the two bounds: the loops take it; written out site by site it is one error.
     let src = "sum(i = 1..N, p[i]^2/2 + q[i]^2/2) where N = 600";
     assert_eq!(looped::compile(src, &[]).map(|l| l.n()), Ok(600));

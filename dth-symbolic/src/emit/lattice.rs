@@ -16,8 +16,8 @@ use super::{body, Context, Values, CHUNK_OPS};
 use crate::looped::{Looped, Site};
 use crate::{Method, Output, Program};
 
-/// `impl Hamiltonian<D>` for a looped lattice, or `None` when a summand's program is too long
-/// for one loop body (the caller emits the site-by-site code instead).
+/// `impl Hamiltonian<Const<D>>` for a looped lattice, or `None` when a summand's program is
+/// too long for one loop body (the caller emits the site-by-site code instead).
 pub fn looped_impl(looped: &Looped, name: &Ident, params: &[Ident]) -> Option<TokenStream> {
     let cx = Context { name, params };
     let programs = |m: Method| -> Vec<Program> {

@@ -158,7 +158,7 @@ impl Looped {
     ///
     /// ```
     /// use dth_symbolic::looped;
-    /// // A free chain pushed by a constant force: Psi = sum_i w_p[i]^2 = 0, w_p = -dH/dq = 0.
+    /// // A free chain pushed by a constant force: Psi = sum_i (dH/dq[i])^2 = N, not zero.
     /// let free = looped::compile("sum(i = 1..N, p[i]^2/2 + q[i]) where N = 8", &[]).unwrap();
     /// assert!(!free.psi_identically_zero());
     /// let drift = looped::compile("sum(i = 1..N, p[i]^2/2 + p[i]) where N = 8", &[]).unwrap();
