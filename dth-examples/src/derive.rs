@@ -17,7 +17,10 @@
 //! ```
 //! let code = dth_examples::derive::rust("p1^2/(2*m) + k*q1^2/2", &["m", "k"])?;
 //! assert!(code.starts_with("pub struct GeneratedHamiltonian {\n    pub m: f64,"));
-//! assert!(code.contains("impl ::dth::__private::dth_core::Hamiltonian<2usize> for GeneratedHamiltonian"));
+//! assert!(code.contains(
+//!     "impl ::dth::__private::dth_core::Hamiltonian<\n        \
+//!      ::dth::__private::nalgebra::Const<2usize>,\n    > for GeneratedHamiltonian {"
+//! ));
 //! # Ok::<(), dth_examples::Error>(())
 //! ```
 

@@ -19,7 +19,7 @@
 //! let name = Ident::new("Oscillator", Span::call_site());
 //! let params = [Ident::new("m", Span::call_site())];
 //! let code = hamiltonian_impl(&system, &name, &params).to_string();
-//! assert!(code.contains("Hamiltonian < :: dth :: __private :: nalgebra :: Const < 2usize > > for Oscillator"));
+//! assert!(code.contains("Hamiltonian < :: dth :: __private :: nalgebra :: Const < 2usize >> for Oscillator"));
 //! assert!(code.contains("self . m"));
 //! ```
 
