@@ -2,8 +2,8 @@
 //! over the sites, runs the summand's straight-line program on the local coordinates it reads
 //! and scatters the results, so the emitted code does not grow with the number of sites.
 //!
-//! The Hessian's pattern is emitted as runs along its diagonals ([`super::diagonals`]), which
-//! one short `const` loop expands into `HESSIAN_PATTERN`; the position each (sum, site,
+//! The Hessian's pattern is emitted as runs along its diagonals (the private module
+//! `emit::diagonals`), which one short `const` loop expands into `HESSIAN_PATTERN`; the position each (sum, site,
 //! summand entry) writes to is arithmetic on the site, listed only at the sites that reach a
 //! boundary. Neither the code nor the compiler's work on it grows with `N` beyond writing the
 //! pattern's entries.
