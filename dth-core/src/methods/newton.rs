@@ -171,6 +171,46 @@ where
     pub delta: Option<OMatrix<f64, R, C>>,
 }
 
+/// One Newton iteration's update for the peer methods, after the residual (infinity norm
+/// `residual_norm`) and the Newton step `delta` (`None`: the matrix was singular) are known:
+/// `x -= delta`, with the checks both peer solvers make, in this order (a non-finite residual,
+/// a singular matrix, a non-finite update). Returns the update's size relative to `scale` and
+/// `x`, what [`newton::solve`] tests for convergence.
+fn update<R: Dim, C: Dim>(
+    method: &'static str,
+    iteration: usize,
+    residual_norm: f64,
+    x: &mut OMatrix<f64, R, C>,
+    delta: Option<&OMatrix<f64, R, C>>,
+    scale: f64,
+) -> Result<f64, Error>
+where
+    DefaultAllocator: Allocator<R, C>,
+{
+    let non_finite = |what| Error::MethodNonFinite {
+        method,
+        step: 0,
+        what,
+    };
+    if !residual_norm.is_finite() {
+        return Err(non_finite("Newton residual"));
+    }
+    let Some(delta) = delta else {
+        return Err(Error::MethodSingularMatrix {
+            method,
+            step: 0,
+            iteration,
+            residual: residual_norm,
+        });
+    };
+    *x -= delta;
+    let size = delta.amax();
+    if !size.is_finite() {
+        return Err(non_finite("Newton update"));
+    }
+    Ok(size / scale.max(x.amax()).max(f64::MIN_POSITIVE))
+}
+
 /// Solves `F(x) = 0` from `x0`; `scale` is the size of the state the unknowns belong to (see
 /// [`NewtonOptions`]). Returns the solution and the number of iterations.
 pub(crate) fn solve<R: Dim, C: Dim>(
@@ -189,30 +229,8 @@ where
         options.stall_tolerance,
         &mut x,
         |x, iteration| {
-            let non_finite = |what| Error::MethodNonFinite {
-                method,
-                step: 0,
-                what,
-            };
             let Evaluation { residual, delta } = evaluate(x);
-            let residual_norm = residual.amax();
-            if !residual_norm.is_finite() {
-                return Err(non_finite("Newton residual"));
-            }
-            let Some(delta) = delta else {
-                return Err(Error::MethodSingularMatrix {
-                    method,
-                    step: 0,
-                    iteration,
-                    residual: residual_norm,
-                });
-            };
-            *x -= &delta;
-            let size = delta.amax();
-            if !size.is_finite() {
-                return Err(non_finite("Newton update"));
-            }
-            Ok(size / scale.max(x.amax()).max(f64::MIN_POSITIVE))
+            update(method, iteration, residual.amax(), x, delta.as_ref(), scale)
         },
         |_| true,
         |x, iterations| Error::MethodNotConverged {
@@ -506,30 +524,18 @@ where
             self.options.stall_tolerance,
             &mut state,
             |(x, r, delta), iteration| {
-                let non_finite = |what| Error::MethodNonFinite {
-                    method,
-                    step: 0,
-                    what,
-                };
                 (self.equation)(x, g0, r);
                 let residual_norm = r.residual.amax();
-                if !residual_norm.is_finite() {
-                    return Err(non_finite("Newton residual"));
-                }
-                if !solve(&r.y, &r.residual, delta) {
-                    return Err(Error::MethodSingularMatrix {
-                        method,
-                        step: 0,
-                        iteration,
-                        residual: residual_norm,
-                    });
-                }
-                **x -= &**delta;
-                let size = delta.amax();
-                if !size.is_finite() {
-                    return Err(non_finite("Newton update"));
-                }
-                Ok(size / scale.max(x.amax()).max(f64::MIN_POSITIVE))
+                // Solve only at a finite residual (`update` reports a non-finite one first).
+                let solved = residual_norm.is_finite() && solve(&r.y, &r.residual, delta);
+                update(
+                    method,
+                    iteration,
+                    residual_norm,
+                    x,
+                    solved.then_some(&**delta),
+                    scale,
+                )
             },
             |_| true,
             |(x, _, _), iterations| {
