@@ -80,7 +80,39 @@ pub use kernel::Kernel;
 pub use lower::{Op, Output, Program, Slot, Stats};
 pub use number::{Num, Rational};
 pub use span::Span;
-pub use system::{compile, expression, Method, System};
+pub use system::{expression, Method, System};
+
+/// Parses, checks and differentiates `src`, a Hamiltonian in the grammar, with the declared
+/// parameter names `params`. Every independent error is returned, in source order.
+///
+/// Sums are written out site by site, at most [`MAX_INDEX`] sites ([`looped`] compiles the
+/// lattices that loop, up to [`MAX_SITES`]). A lattice beyond that whose sums loop but hold a
+/// fault (an index out of range, a site no variable reaches, no momentum, ...) gets the
+/// fault's errors, as the same source at a smaller size does, not "too large": they are what
+/// the user must mend first.
+///
+/// ```
+/// let h = dth_symbolic::compile("p1^2/2 + q1^2/2", &[]).unwrap();
+/// assert_eq!(h.dim(), 2);
+/// assert_eq!(h.expr(h.gradient()[0]).to_string(), "q1");
+/// assert!(h.separable() && !h.psi_identically_zero());
+///
+/// // 1000 sites is too many to write out; the missing boundary `q[N+1]` is what is wrong.
+/// let chain = "sum(i = 1..N, p[i]^2/2 + (q[i+1] - q[i])^2/2) where N = 1000";
+/// let errors = dth_symbolic::compile(chain, &[]).unwrap_err().to_string();
+/// assert!(errors.starts_with("index out of range: `q[i+1]` is `q[1001]` at `i = 1000`"), "{errors}");
+/// ```
+pub fn compile(src: &str, params: &[&str]) -> Result<System, Errors> {
+    system::written_out(src, params).map_err(|errors| {
+        let too_large = errors.0.iter().any(
+            |e| matches!(e.kind, ErrorKind::LatticeTooLarge { limit, .. } if limit == MAX_INDEX),
+        );
+        match looped::compile(src, params) {
+            Err(looped::LoopError::Errors(faults)) if too_large => faults,
+            _ => errors,
+        }
+    })
+}
 
 /// The largest coordinate index accepted (`q512`, a chain of 512 particles): a typo like `q1000` would otherwise
 /// silently produce a 2000-dimensional system.
