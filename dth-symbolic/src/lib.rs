@@ -107,8 +107,11 @@ pub fn compile(src: &str, params: &[&str]) -> Result<System, Errors> {
         let too_large = errors.0.iter().any(
             |e| matches!(e.kind, ErrorKind::LatticeTooLarge { limit, .. } if limit == MAX_INDEX),
         );
+        if !too_large {
+            return errors;
+        }
         match looped::compile(src, params) {
-            Err(looped::LoopError::Errors(faults)) if too_large => faults,
+            Err(looped::LoopError::Errors(faults)) => faults,
             _ => errors,
         }
     })
@@ -122,15 +125,15 @@ pub const MAX_INDEX: usize = 512;
 /// with `N` up to this, `D = 2N`. What bounds it is the generated type, not the engine (whose
 /// work does not grow with `N`):
 ///
-/// - the Hessian's pattern is written out by the compiler's constant evaluator (see
-///   `emit::lattice`), one entry per nonzero, in every build of the user's crate. When this
-///   bound was chosen the evaluator also searched for each entry's position, and `cargo check`
-///   of the FPUT-alpha chain took 4.1 s at `N = 8192`, 7.0 s at 16384, 14 s at 32768 and 54 s
-///   at 65536 (2-core machine under load, 2026-11-26); the pattern is now expanded from its
-///   diagonal runs, which is cheaper, and not re-measured at these sizes;
+/// - when this bound was chosen, the generated code wrote the Hessian's pattern out in the
+///   compiler's constant evaluator in every build of the user's crate (`cargo check` of the
+///   FPUT-alpha chain took 4.1 s at `N = 8192`, 7.0 s at 16384, 14 s at 32768 and 54 s at
+///   65536, 2-core machine under load, 2026-11-26); the pattern is now expanded at run time
+///   from its diagonal runs (see `emit::lattice`), and these sizes are not re-measured;
 /// - every phase-space vector of the generated type is an `SVector<f64, D>` on the stack, 16
 ///   bytes per site: 256 KB at this bound, and a step of the stepper holds some of them, on
-///   the 8 MB main thread or the 2 MB threads `cargo test` runs tests on.
+///   the 8 MB main thread or the 2 MB threads `cargo test` runs tests on; `psi` and the dense
+///   `hessian_into` keep the Hessian's nonzeros (3 per site for a chain) on the stack too.
 ///
 /// Beyond it (`N = 10^12`, `N = 9223372036854775807`) compiling is one error at `N`'s value,
 /// [`ErrorKind::LatticeTooLarge`], checked before anything is counted out per site; the
