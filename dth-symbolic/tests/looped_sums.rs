@@ -449,6 +449,14 @@ fn looped_flags_see_terms_that_cancel() {
             (separable, psi_zero),
             "{src}"
         );
+        // The same lattice at 4096 sites (beyond what is written out): decided on the same
+        // classes of sites, the same flags.
+        let large = looped::compile(&src.replace("N = 8", "N = 4096"), &[]).unwrap();
+        assert_eq!(
+            (large.n(), large.separable(), large.psi_identically_zero()),
+            (4096, separable, psi_zero),
+            "{src} at N = 4096"
+        );
         let pattern: std::collections::HashSet<(usize, usize)> =
             l.hessian_pattern().into_iter().collect();
         assert!(
