@@ -366,6 +366,10 @@ pub fn compile(src: &str, params: &[&str]) -> Result<Looped, LoopError> {
         params: params.len(),
         warnings: Vec::new(),
     };
+    let faults = looped.boundary_faults();
+    if !faults.is_empty() {
+        return Err(fail(faults));
+    }
     let Some((errors, warnings)) = looped.numbering() else {
         return Err(LoopError::NotLoopable("no variable reaches the last site"));
     };

@@ -499,6 +499,8 @@ fn a_fault_beyond_the_written_out_size_is_the_fault_not_the_size() {
         // A divisor that is zero, an unknown name.
         "sum(i = 1..N, p[i]^2/2 + 1/(q[i] - q[i])) where N = {n}",
         "sum(i = 1..N, p[i]^2/2 + a*q[i]^2) where N = {n}",
+        // A divisor that is 0 only where the summand reads a fixed end.
+        "sum(i = 1..N, p[i]^2/2 + 1/q[i-1]^2) where N = {n}, q[0] = 0",
     ] {
         let small = template.replace("{n}", "8");
         let large = template.replace("{n}", "1000");
@@ -516,6 +518,13 @@ fn a_fault_beyond_the_written_out_size_is_the_fault_not_the_size() {
         let messages = compile(&large, &[]).unwrap_err().to_string();
         assert!(!messages.contains("too large"), "{large}: {messages}");
     }
+    // The loops refuse it at any size, as the site-by-site path does: the generated code
+    // would divide by 0 at the first site.
+    let at_the_end = "sum(i = 1..N, p[i]^2/2 + 1/q[i-1]^2) where N = 8, q[0] = 0";
+    assert!(matches!(
+        looped::compile(at_the_end, &[]),
+        Err(looped::LoopError::Errors(_))
+    ));
     // The message names the site at the size written.
     let e = compile(
         "sum(i = 1..N, p[i]^2 + q[i-5]^2 + q[i+100]^2) where N = 1000",

@@ -28,6 +28,7 @@ use std::collections::HashMap;
 use super::runs::Runs;
 use super::{half, LoopSum, Looped, Site};
 use crate::arena::{Arena, Id, Node, Var};
+use crate::error::{Error, ErrorKind};
 use crate::number::{Fault, Num};
 
 /// A Hessian entry of the whole lattice that is not identically zero: at every site `a` of
@@ -58,6 +59,8 @@ fn import(
     if let Some(&done) = memo.get(&id) {
         return Ok(done);
     }
+    // A fault (a divisor that is 0 once a boundary's value is in) points at its node.
+    to.span = from.span(id);
     let out = match from.node(id) {
         Node::Num(x) => to.num(*x),
         Node::Var(v) => var(*v, to)?,
@@ -66,6 +69,7 @@ fn import(
             for &t in terms.iter() {
                 parts.push(import(from, t, to, var, memo)?);
             }
+            to.span = from.span(id);
             match from.node(id) {
                 Node::Add(_) => to.add(&parts)?,
                 _ => to.mul(&parts)?,
@@ -73,10 +77,12 @@ fn import(
         }
         &Node::Pow(base, e) => {
             let base = import(from, base, to, var, memo)?;
+            to.span = from.span(id);
             to.pow(base, e)?
         }
         &Node::Func(f, x) => {
             let x = import(from, x, to, var, memo)?;
+            to.span = from.span(id);
             to.func(f, x)?
         }
     };
@@ -202,6 +208,54 @@ impl Looped {
                 Ok(arena.var(Var::Q(k)))
             }
         }
+    }
+
+    /// The faults of the summands at the sites where a slot reads a fixed boundary (`1/q[i-1]^2`
+    /// at `i = 1` with `q[0] = 0`: a divisor that is 0 there), as the site-by-site path finds
+    /// them when it builds those terms: one error per fault and place. The summand is built
+    /// again there with the boundary's value in; the sites are a few at each end of a sum.
+    pub(crate) fn boundary_faults(&self) -> Vec<Error> {
+        let n = self.n as i64;
+        let params: Vec<&str> = self
+            .sums
+            .first()
+            .map(|s| {
+                s.summand()
+                    .arena()
+                    .params()
+                    .iter()
+                    .map(String::as_str)
+                    .collect()
+            })
+            .unwrap_or_default();
+        let mut errors: Vec<Error> = Vec::new();
+        for s in &self.sums {
+            let low = s.slots.iter().map(|slot| slot.1).min().unwrap_or(0);
+            let high = s.slots.iter().map(|slot| slot.1).max().unwrap_or(0);
+            // Below `1 - low` some slot reads below the lattice, above `n - high` beyond it.
+            let below = s.lo..=s.hi.min(0i64.saturating_sub(low));
+            let above = s.lo.max(n.saturating_sub(high).saturating_add(1))..=s.hi;
+            for i in below.chain(above) {
+                let mut arena = Arena::new(&params);
+                let mut positions = Vec::new();
+                let system = s.summand();
+                let mut var = |v: Var, to: &mut Arena| self.at_site(s, i, v, to, &mut positions);
+                let built = import(
+                    system.arena(),
+                    system.value(),
+                    &mut arena,
+                    &mut var,
+                    &mut HashMap::new(),
+                );
+                if let Err(fault) = built {
+                    let e = Error::new(ErrorKind::Fault(fault), arena.span);
+                    if !errors.contains(&e) {
+                        errors.push(e);
+                    }
+                }
+            }
+        }
+        errors
     }
 
     /// The gradient and the nonzero Hessian entries of the whole lattice, class by class;
