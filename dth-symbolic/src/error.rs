@@ -411,7 +411,7 @@ impl fmt::Display for Error {
             ),
             LatticeTooLarge { sites, limit } => write!(
                 f,
-                "lattice too large: {sites} sites, at most {limit} are supported (the generated type keeps phase-space vectors of 2 numbers per site on the stack, and its constants hold the Hessian's pattern)"
+                "lattice too large: {sites} sites, at most {limit} are supported (the generated type keeps phase-space vectors of 2 numbers per site and the Hessian's nonzeros on the stack)"
             ),
             TooLarge { limit } => write!(
                 f,

@@ -83,6 +83,8 @@ pub(crate) struct Local {
     pub slots: Vec<(char, i64)>,
     /// The span of each slot's first access, in the order of `slots`.
     pub spans: Vec<Span>,
+    /// Every access: its slot (a position in `slots`) and its span.
+    pub accesses: Vec<(usize, Span)>,
     /// Why the summand cannot be built once for all sites, if it cannot.
     pub not_loopable: Option<&'static str>,
 }
@@ -90,10 +92,15 @@ pub(crate) struct Local {
 impl Local {
     /// The local coordinate of `letter[i + offset]`, a new slot if not met yet.
     pub fn slot(&mut self, letter: char, offset: i64, span: Span) -> Var {
-        if !self.slots.contains(&(letter, offset)) {
-            self.slots.push((letter, offset));
-            self.spans.push(span);
-        }
+        let slot = match self.slots.iter().position(|&s| s == (letter, offset)) {
+            Some(slot) => slot,
+            None => {
+                self.slots.push((letter, offset));
+                self.spans.push(span);
+                self.slots.len() - 1
+            }
+        };
+        self.accesses.push((slot, span));
         let k = self
             .slots
             .iter()

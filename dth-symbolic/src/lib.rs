@@ -80,7 +80,42 @@ pub use kernel::Kernel;
 pub use lower::{Op, Output, Program, Slot, Stats};
 pub use number::{Num, Rational};
 pub use span::Span;
-pub use system::{compile, expression, Method, System};
+pub use system::{expression, Method, System};
+
+/// Parses, checks and differentiates `src`, a Hamiltonian in the grammar, with the declared
+/// parameter names `params`. Every independent error is returned, in source order.
+///
+/// Sums are written out site by site, at most [`MAX_INDEX`] sites ([`looped`] compiles the
+/// lattices that loop, up to [`MAX_SITES`]). A lattice beyond that whose sums loop but hold a
+/// fault (an index out of range, a site no variable reaches, no momentum, ...) gets the
+/// fault's errors, as the same source at a smaller size does, not "too large": they are what
+/// the user must mend first.
+///
+/// ```
+/// let h = dth_symbolic::compile("p1^2/2 + q1^2/2", &[]).unwrap();
+/// assert_eq!(h.dim(), 2);
+/// assert_eq!(h.expr(h.gradient()[0]).to_string(), "q1");
+/// assert!(h.separable() && !h.psi_identically_zero());
+///
+/// // 1000 sites is too many to write out; the missing boundary `q[N+1]` is what is wrong.
+/// let chain = "sum(i = 1..N, p[i]^2/2 + (q[i+1] - q[i])^2/2) where N = 1000";
+/// let errors = dth_symbolic::compile(chain, &[]).unwrap_err().to_string();
+/// assert!(errors.starts_with("index out of range: `q[i+1]` is `q[1001]` at `i = 1000`"), "{errors}");
+/// ```
+pub fn compile(src: &str, params: &[&str]) -> Result<System, Errors> {
+    system::written_out(src, params).map_err(|errors| {
+        let too_large = errors.0.iter().any(
+            |e| matches!(e.kind, ErrorKind::LatticeTooLarge { limit, .. } if limit == MAX_INDEX),
+        );
+        if !too_large {
+            return errors;
+        }
+        match looped::compile(src, params) {
+            Err(looped::LoopError::Errors(faults)) => faults,
+            _ => errors,
+        }
+    })
+}
 
 /// The largest coordinate index accepted (`q512`, a chain of 512 particles): a typo like `q1000` would otherwise
 /// silently produce a 2000-dimensional system.
@@ -90,15 +125,15 @@ pub const MAX_INDEX: usize = 512;
 /// with `N` up to this, `D = 2N`. What bounds it is the generated type, not the engine (whose
 /// work does not grow with `N`):
 ///
-/// - the Hessian's pattern is written out by the compiler's constant evaluator (see
-///   `emit::lattice`), one entry per nonzero, in every build of the user's crate. When this
-///   bound was chosen the evaluator also searched for each entry's position, and `cargo check`
-///   of the FPUT-alpha chain took 4.1 s at `N = 8192`, 7.0 s at 16384, 14 s at 32768 and 54 s
-///   at 65536 (2-core machine under load, 2026-11-26); the pattern is now expanded from its
-///   diagonal runs, which is cheaper, and not re-measured at these sizes;
+/// - when this bound was chosen, the generated code wrote the Hessian's pattern out in the
+///   compiler's constant evaluator in every build of the user's crate (`cargo check` of the
+///   FPUT-alpha chain took 4.1 s at `N = 8192`, 7.0 s at 16384, 14 s at 32768 and 54 s at
+///   65536, 2-core machine under load, 2026-11-26); the pattern is now expanded at run time
+///   from its diagonal runs (see `emit::lattice`), and these sizes are not re-measured;
 /// - every phase-space vector of the generated type is an `SVector<f64, D>` on the stack, 16
 ///   bytes per site: 256 KB at this bound, and a step of the stepper holds some of them, on
-///   the 8 MB main thread or the 2 MB threads `cargo test` runs tests on.
+///   the 8 MB main thread or the 2 MB threads `cargo test` runs tests on; `psi` and the dense
+///   `hessian_into` keep the Hessian's nonzeros (3 per site for a chain) on the stack too.
 ///
 /// Beyond it (`N = 10^12`, `N = 9223372036854775807`) compiling is one error at `N`'s value,
 /// [`ErrorKind::LatticeTooLarge`], checked before anything is counted out per site; the

@@ -12,8 +12,9 @@
 //! A lattice has at most [`crate::MAX_SITES`] sites: beyond, [`compile`] is one error
 //! ([`ErrorKind::LatticeTooLarge`], at `N`'s value), checked before anything is counted out
 //! per site; every index and size is computed with checked (or saturating) arithmetic. The
-//! flags and the written-out path's warnings are decided on the summands and the ranges
-//! (`reach`), never site by site.
+//! flags (`flags`: on the whole lattice's derivatives, one class of sites at a time) and the
+//! written-out path's warnings (`reach`) are decided on the summands and the ranges, never
+//! site by site.
 //!
 //! What loops: a sum of single-index sums (`sum(i = a..b, f)`, no nesting, no sum over
 //! pairs) whose indices are the sum's index plus a constant, with boundaries that are
@@ -33,13 +34,14 @@
 //! assert_eq!((value, gradient[0], gradient[1]), (0.25, 1.0, -0.5));
 //! ```
 
+mod flags;
 mod reach;
 mod runs;
 
 use crate::arena::Arena;
 use crate::build::Builder;
 use crate::error::{Error, ErrorKind, Errors, EvalError, Warning};
-use crate::lattice::{Bound, Lattice, Local};
+use crate::lattice::{compact, Bound, Lattice, Local};
 use crate::lexer::lex;
 use crate::lower::Program;
 use crate::number::Num;
@@ -220,16 +222,39 @@ pub fn compile(src: &str, params: &[&str]) -> Result<Looped, LoopError> {
     let Ok(n_sites) = usize::try_from(n) else {
         return Err(LoopError::NotLoopable("the lattice is empty"));
     };
+    // The faults of a source that loops are errors here, as the site-by-site path reports
+    // them: `crate::compile` shows them for a lattice too large to write out.
+    let mut errors = Vec::new();
+    let mut not_loopable = None;
     let mut boundaries = Vec::new();
     let mut boundary_spans = Vec::new();
     for b in &root.lattice.boundaries {
+        if (1..=n).contains(&b.site) {
+            errors.push(Error::new(
+                ErrorKind::BadBoundary {
+                    name: compact(&src[b.span.range()]),
+                    reason: format!(
+                        "is inside the lattice 1..{n}: boundaries define sites below 1 or above {n}"
+                    ),
+                },
+                b.span,
+            ));
+            continue;
+        }
         let site = match &b.value {
-            Ast::Index { name, index, .. } => {
+            Ast::Index { name, index, span } => {
                 let letter = src[name.range()].chars().next().unwrap_or('q');
-                let k = root.lattice.int(src, index, root.arena.params());
-                match k {
+                match root.lattice.int(src, index, root.arena.params()) {
                     Ok(k) if (1..=n).contains(&k) => Site::Var(index_of(letter, k, n_sites)),
-                    _ => return Err(LoopError::NotLoopable("a boundary is not a site")),
+                    // Still a boundary: the accesses that reach it are not out of range.
+                    Ok(k) => {
+                        errors.push(boundary_outside(src, &root.lattice, letter, k, n, *span));
+                        Site::Const(0.0)
+                    }
+                    Err(e) => {
+                        errors.push(e);
+                        Site::Const(0.0)
+                    }
                 }
             }
             value => {
@@ -242,16 +267,12 @@ pub fn compile(src: &str, params: &[&str]) -> Result<Looped, LoopError> {
                 match scratch.build(value).and_then(|id| scratch.arena.as_num(id)) {
                     Some(c) => Site::Const(Num::to_f64(c)),
                     None => {
-                        return Err(LoopError::NotLoopable(
-                            "a boundary is neither a constant nor a site",
-                        ))
+                        not_loopable = Some("a boundary is neither a constant nor a site");
+                        continue;
                     }
                 }
             }
         };
-        if (1..=n).contains(&b.site) {
-            return Err(LoopError::NotLoopable("a boundary inside the lattice"));
-        }
         boundaries.push((b.letter, b.site, site));
         boundary_spans.push(b.value.span());
     }
@@ -271,13 +292,31 @@ pub fn compile(src: &str, params: &[&str]) -> Result<Looped, LoopError> {
         let f = b.build(body);
         let local = b.lattice.local.take().unwrap_or_default();
         if let Some(why) = local.not_loopable {
-            return Err(LoopError::NotLoopable(why));
+            not_loopable = Some(why);
+            continue;
         }
+        // Every site the summand reaches is in the lattice or a boundary.
+        errors.extend(out_of_range(
+            src,
+            (&local.index, lo, hi),
+            n,
+            &local,
+            &boundaries,
+        ));
         let f = match f {
             Some(f) if b.errors.is_empty() => f,
-            _ => return Err(fail(b.errors)),
+            _ => {
+                errors.append(&mut b.errors);
+                continue;
+            }
         };
-        let system = derive(b.arena, f, span).map_err(|e| fail(vec![e]))?;
+        let system = match derive(b.arena, f, span) {
+            Ok(system) => system,
+            Err(e) => {
+                errors.push(e);
+                continue;
+            }
+        };
         let half = system.dim() / 2;
         let slots = local
             .slots
@@ -292,24 +331,6 @@ pub fn compile(src: &str, params: &[&str]) -> Result<Looped, LoopError> {
                 (letter, c, if letter == 'q' { k } else { half + k })
             })
             .collect::<Vec<_>>();
-        // Every site the summand reaches is in the lattice or a boundary.
-        // The sites reached outside `1..=n` are those below 1 and above n of the range
-        // `lo + c ..= hi + c`: at most a few per slot (a shift of `c` reaches `|c|` of them),
-        // and each must be a declared boundary (`q[i+2]` on `1..N` reaches `N+1` and `N+2`).
-        // The loop stops at the first site that is not one, so it runs at most once more
-        // than there are boundaries, whatever `c`.
-        for &(letter, c, _) in &slots {
-            let (Some(from), Some(to)) = (lo.checked_add(c), hi.checked_add(c)) else {
-                return Err(LoopError::NotLoopable("an index outside the lattice"));
-            };
-            let below = from..=to.min(0);
-            let above = from.max(n + 1)..=to;
-            for k in below.chain(above) {
-                if !boundaries.iter().any(|&(l, s, _)| l == letter && s == k) {
-                    return Err(LoopError::NotLoopable("an index outside the lattice"));
-                }
-            }
-        }
         let slot_of = |local: usize| slots.iter().position(|&(_, _, l)| l == local);
         let pattern = system
             .hessian_nonzeros()
@@ -329,6 +350,14 @@ pub fn compile(src: &str, params: &[&str]) -> Result<Looped, LoopError> {
             defect: system.program(Method::DiscreteGradientDefect),
         });
     }
+    if let Some(why) = not_loopable {
+        return Err(LoopError::NotLoopable(why));
+    }
+    if !errors.is_empty() {
+        errors.sort_by_key(|e| e.span.start);
+        errors.dedup();
+        return Err(fail(errors));
+    }
     let mut looped = Looped {
         n: n_sites,
         sums: compiled,
@@ -337,14 +366,92 @@ pub fn compile(src: &str, params: &[&str]) -> Result<Looped, LoopError> {
         params: params.len(),
         warnings: Vec::new(),
     };
+    let faults = looped.boundary_faults();
+    if !faults.is_empty() {
+        return Err(fail(faults));
+    }
     let Some((errors, warnings)) = looped.numbering() else {
         return Err(LoopError::NotLoopable("no variable reaches the last site"));
     };
     if !errors.is_empty() {
         return Err(fail(errors));
     }
+    // Without a momentum the flow does not move: the site-by-site path's error.
+    if !looped.has_momentum() {
+        return Err(fail(vec![Error::new(ErrorKind::NoMomentum, ast.span())]));
+    }
     looped.warnings = warnings;
     Ok(looped)
+}
+
+/// The errors of the accesses of one sum `index = lo..hi` (built in `local`) that leave the
+/// lattice `1..n` where no boundary is declared: one per access, at its farthest such site,
+/// as the site-by-site path reports them. The sites outside the lattice a slot `q[i + c]`
+/// reaches are a few at either end of `lo + c..hi + c`; each scan stops at the first site
+/// that is not a boundary, so it runs at most once more than there are boundaries.
+fn out_of_range(
+    src: &str,
+    (index, lo, hi): (&str, i64, i64),
+    n: i64,
+    local: &Local,
+    boundaries: &[(char, i64, Site)],
+) -> Vec<Error> {
+    let open = |letter: char, k: i64| !boundaries.iter().any(|&(l, s, _)| l == letter && s == k);
+    let mut errors = Vec::new();
+    for &(slot, span) in &local.accesses {
+        let (letter, c) = local.slots[slot];
+        let (from, to) = (lo.saturating_add(c), hi.saturating_add(c));
+        let lowest = (from..=to.min(0)).find(|&k| open(letter, k));
+        let highest = (from.max(n.saturating_add(1))..=to)
+            .rev()
+            .find(|&k| open(letter, k));
+        for site in lowest.into_iter().chain(highest) {
+            errors.push(Error::new(
+                ErrorKind::IndexOutOfRange {
+                    access: compact(&src[span.range()]),
+                    letter,
+                    site,
+                    at: format!("{index} = {}", site.saturating_sub(c)),
+                    last: Some(n),
+                },
+                span,
+            ));
+        }
+    }
+    errors
+}
+
+/// The error of a boundary whose value `letter[k]` is not a site of the lattice `1..n`, as
+/// the site-by-site path reports it: another boundary, or out of range.
+fn boundary_outside(
+    src: &str,
+    lattice: &Lattice,
+    letter: char,
+    k: i64,
+    n: i64,
+    span: Span,
+) -> Error {
+    let kind = if lattice.boundary(letter, k).is_some() {
+        ErrorKind::BadBoundary {
+            name: compact(&src[span.range()]),
+            reason: "is defined by a boundary: a boundary's value uses sites of the lattice"
+                .to_string(),
+        }
+    } else {
+        ErrorKind::IndexOutOfRange {
+            access: compact(&src[span.range()]),
+            letter,
+            site: k,
+            at: String::new(),
+            last: Some(n),
+        }
+    };
+    Error::new(kind, span)
+}
+
+/// `q` is 0, `p` is 1: the half of `z` a letter's variables fill.
+fn half(letter: char) -> usize {
+    usize::from(letter != 'q')
 }
 
 /// The position in `z` of `letter[k]`, `1 <= k <= n`.

@@ -53,16 +53,9 @@ pub struct System {
     psi_assembled: bool,
 }
 
-/// Parses, checks and differentiates `src`, a Hamiltonian in the grammar, with the declared
-/// parameter names `params`. Every independent error is returned, in source order.
-///
-/// ```
-/// let h = dth_symbolic::compile("p1^2/2 + q1^2/2", &[]).unwrap();
-/// assert_eq!(h.dim(), 2);
-/// assert_eq!(h.expr(h.gradient()[0]).to_string(), "q1");
-/// assert!(h.separable() && !h.psi_identically_zero());
-/// ```
-pub fn compile(src: &str, params: &[&str]) -> Result<System, Errors> {
+/// [`crate::compile`] with every sum written out site by site (at most [`crate::MAX_INDEX`]
+/// sites): what it runs before it looks at the loops.
+pub(crate) fn written_out(src: &str, params: &[&str]) -> Result<System, Errors> {
     let (arena, h, whole) = expression(src, params)?;
     let (mut errors, warnings) = check::indices(&written(&arena));
     errors.extend(check::structure(&arena, h, whole));

@@ -395,3 +395,158 @@ fn looped_flags_are_the_written_out_ones() {
     .unwrap();
     assert!(drift.psi_identically_zero() && !drift.hessian_pattern().is_empty());
 }
+
+/// Terms that cancel between sums (shifted or not) or between the sites of one sum (a
+/// telescoping ring) are seen by the looped flags as by the written-out path's simplifier:
+/// the flags are the same. The looped pattern still holds the cancelled entries (their value
+/// computes to 0): it is the written-out one or more.
+#[test]
+fn looped_flags_see_terms_that_cancel() {
+    for (src, separable, psi_zero) in [
+        (
+            "sum(i = 1..N, p[i]^2/2 + q[i]) + sum(i = 1..N, -q[i]) where N = 8",
+            true,
+            true,
+        ),
+        (
+            "sum(i = 1..N, p[i]^2/2 + q[i+1] - q[i]) where N = 8, q[N+1] = q[1]",
+            true,
+            true,
+        ),
+        (
+            "sum(i = 0..N-1, p[i+1]^2/2 + q[i+1]^2) + sum(i = 1..N, -q[i]^2) where N = 8",
+            true,
+            true,
+        ),
+        (
+            "sum(i = 1..N, p[i]^2/2 + q[i]*p[i]) + sum(i = 1..N, q[i]^2/2 - q[i]*p[i]) \
+             where N = 8",
+            true,
+            false,
+        ),
+        (
+            "sum(i = 1..N, p[i]^2/2 + q[i]^2/2) + sum(i = 0..N, q[i]*q[i+1]) \
+             + sum(i = 1..N, -q[i]*q[i+1]) where N = 8, q[0] = q[N+1] = 0",
+            true,
+            false,
+        ),
+        // Not everything cancels: a force is left at the last site.
+        (
+            "sum(i = 1..N, p[i]^2/2 + q[i]) + sum(i = 1..N-1, -q[i]) where N = 8",
+            true,
+            false,
+        ),
+    ] {
+        let l = looped::compile(src, &[]).unwrap();
+        let s = compile(src, &[]).unwrap();
+        assert_eq!(
+            (l.separable(), l.psi_identically_zero()),
+            (s.separable(), s.psi_identically_zero()),
+            "{src}: looped against written out"
+        );
+        assert_eq!(
+            (s.separable(), s.psi_identically_zero()),
+            (separable, psi_zero),
+            "{src}"
+        );
+        // The same lattice at 4096 sites (beyond what is written out): decided on the same
+        // classes of sites, the same flags.
+        let large = looped::compile(&src.replace("N = 8", "N = 4096"), &[]).unwrap();
+        assert_eq!(
+            (large.n(), large.separable(), large.psi_identically_zero()),
+            (4096, separable, psi_zero),
+            "{src} at N = 4096"
+        );
+        let pattern: std::collections::HashSet<(usize, usize)> =
+            l.hessian_pattern().into_iter().collect();
+        assert!(
+            s.hessian_nonzeros()
+                .iter()
+                .all(|&(i, j, _)| pattern.contains(&(i, j))),
+            "{src}"
+        );
+    }
+}
+
+/// What the site-by-site path reports of a faulty source, as `(kind, text pointed at)`, the
+/// kind's numbers left out (they name sites, which move with `N`).
+fn faults(src: &str) -> Vec<(std::mem::Discriminant<dth_symbolic::ErrorKind>, &str)> {
+    compile(src, &[])
+        .expect_err("faulty")
+        .0
+        .iter()
+        .map(|e| (std::mem::discriminant(&e.kind), &src[e.span.range()]))
+        .collect()
+}
+
+/// A lattice that loops, too large to write out site by site (512 sites) but within the
+/// loops' 16384, with a fault: the errors are the fault's, as for the same source at 8 sites,
+/// not "too large to write out".
+#[test]
+fn a_fault_beyond_the_written_out_size_is_the_fault_not_the_size() {
+    for template in [
+        // No boundary where `q[i+1]` leaves the lattice.
+        "sum(i = 1..N, p[i]^2/2 + (q[i+1] - q[i])^2/2) where N = {n}",
+        "sum(i = 1..N, p[i]^2/2 + (q[i+1] - q[i])^2/2 + q[i-2]^2) where N = {n}, q[N+1] = 0, \
+         q[0] = 0",
+        // A boundary inside the lattice, a boundary defined by a boundary.
+        "sum(i = 1..N, p[i]^2/2 + (q[i+1] - q[i])^2/2) where N = {n}, q[N+1] = 0, q[3] = 0",
+        "sum(i = 1..N, p[i]^2/2 + (q[i+1] - q[i])^2/2) where N = {n}, q[N+1] = q[N+2], q[N+2] = 0",
+        // A site no variable reaches.
+        "sum(i = 1..N, p[i]^2/2) + sum(i = N+2..N+2, p[i]^2 + q[i]^2) where N = {n}",
+        // No momentum.
+        "sum(i = 1..N, (q[i+1] - q[i])^2/2) where N = {n}, q[N+1] = 0",
+        // A divisor that is zero, an unknown name.
+        "sum(i = 1..N, p[i]^2/2 + 1/(q[i] - q[i])) where N = {n}",
+        "sum(i = 1..N, p[i]^2/2 + a*q[i]^2) where N = {n}",
+        // A divisor that is 0 only where the summand reads a fixed end.
+        "sum(i = 1..N, p[i]^2/2 + 1/q[i-1]^2) where N = {n}, q[0] = 0",
+    ] {
+        let small = template.replace("{n}", "8");
+        let large = template.replace("{n}", "1000");
+        // The same kinds at the same places (an error about the whole source points at its
+        // size too).
+        let large_faults: Vec<_> = faults(&large)
+            .into_iter()
+            .map(|(kind, text)| (kind, text.replace("N = 1000", "N = 8")))
+            .collect();
+        let small_faults: Vec<_> = faults(&small)
+            .into_iter()
+            .map(|(kind, text)| (kind, text.to_string()))
+            .collect();
+        assert_eq!(large_faults, small_faults, "{large}");
+        let messages = compile(&large, &[]).unwrap_err().to_string();
+        assert!(!messages.contains("too large"), "{large}: {messages}");
+    }
+    // The loops refuse it at any size, as the site-by-site path does: the generated code
+    // would divide by 0 at the first site.
+    let at_the_end = "sum(i = 1..N, p[i]^2/2 + 1/q[i-1]^2) where N = 8, q[0] = 0";
+    assert!(matches!(
+        looped::compile(at_the_end, &[]),
+        Err(looped::LoopError::Errors(_))
+    ));
+    // The message names the site at the size written.
+    let e = compile(
+        "sum(i = 1..N, p[i]^2 + q[i-5]^2 + q[i+100]^2) where N = 1000",
+        &[],
+    )
+    .unwrap_err()
+    .0;
+    let messages: Vec<String> = e.iter().map(|e| e.to_string()).collect();
+    assert_eq!(messages.len(), 2, "{messages:#?}");
+    assert!(
+        messages[0].contains("`q[i-5]` is `q[-4]` at `i = 1`"),
+        "{messages:#?}"
+    );
+    assert!(
+        messages[1].contains("`q[i+100]` is `q[1100]` at `i = 1000`"),
+        "{messages:#?}"
+    );
+    // A source that does not loop is too large whatever else is wrong with it: it cannot be
+    // built at that size at all.
+    let not_looped = "sum(i = 1..N, p[i]^2/2 + q[i+1]^2) + q1^4 where N = 1000";
+    assert!(compile(not_looped, &[])
+        .unwrap_err()
+        .to_string()
+        .starts_with("lattice too large: 1000 sites"));
+}

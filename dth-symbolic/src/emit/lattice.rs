@@ -3,10 +3,12 @@
 //! and scatters the results, so the emitted code does not grow with the number of sites.
 //!
 //! The Hessian's pattern is emitted as runs along its diagonals (the private module
-//! `emit::diagonals`), which one short `const` loop expands into `HESSIAN_PATTERN`; the position each (sum, site,
-//! summand entry) writes to is arithmetic on the site, listed only at the sites that reach a
-//! boundary. Neither the code nor the compiler's work on it grows with `N` beyond writing the
-//! pattern's entries.
+//! `emit::diagonals`), which `hessian_pattern` expands once, at its first call, into a
+//! `static`; the position each (sum, site, summand entry) writes to is arithmetic on the
+//! site, listed only at the sites that reach a boundary. Neither the code nor the compiler's
+//! work on it grows with `N`: a constant pattern would make every build of the user's crate
+//! write out its `3N - 1` entries in the constant evaluator (which grew the build by about
+//! 0.3 s in dev and 0.8 s in release at `N = 4096`, docs/benchmarks.md).
 
 use proc_macro2::{Ident, TokenStream};
 use quote::quote;
@@ -87,7 +89,7 @@ pub fn looped_impl(looped: &Looped, name: &Ident, params: &[Ident]) -> Option<To
         }
     };
 
-    // The pattern: its runs, expanded by one loop of the constant evaluator.
+    // The pattern: its runs, expanded at run time (see the module docs).
     let runs = layout
         .runs
         .iter()
@@ -96,22 +98,18 @@ pub fn looped_impl(looped: &Looped, name: &Ident, params: &[Ident]) -> Option<To
     let pattern = quote! {
         /// Runs along the Hessian's diagonals: `(a, b, len)` holds `(a + k, b + k)`, `k < len`.
         const RUNS: [(usize, usize, usize); #nruns] = [#(#runs),*];
-        /// The pattern, the runs one after the other.
-        const PATTERN: [(usize, usize); #nnz] = {
-            let mut out = [(0usize, 0usize); #nnz];
-            let (mut r, mut at) = (0usize, 0usize);
-            while r < RUNS.len() {
-                let (a, b, len) = RUNS[r];
-                let mut k = 0;
-                while k < len {
-                    out[at] = (a + k, b + k);
-                    at += 1;
-                    k += 1;
+        /// The pattern, the runs one after the other, expanded once, at the first call.
+        fn pattern() -> &'static [(usize, usize)] {
+            static PATTERN: ::std::sync::OnceLock<::std::vec::Vec<(usize, usize)>> =
+                ::std::sync::OnceLock::new();
+            PATTERN.get_or_init(|| {
+                let mut out = ::std::vec::Vec::with_capacity(#nnz);
+                for &(a, b, len) in Self::RUNS.iter() {
+                    out.extend((0..len).map(|k| (a + k, b + k)));
                 }
-                r += 1;
-            }
-            out
-        };
+                out
+            })
+        }
     };
     // Where a summand entry lands at site `i`: `base + i` inside, listed sites at the edges.
     let position = |place: &Place| {
@@ -256,10 +254,7 @@ pub fn looped_impl(looped: &Looped, name: &Ident, params: &[Ident]) -> Option<To
             #[automatically_derived]
             #[allow(unused_variables, unused_mut, unused_assignments, unused_parens, clippy::all, clippy::pedantic, clippy::nursery)]
             impl #name {
-                const HESSIAN_PATTERN: ::core::option::Option<&'static [(usize, usize)]> = {
-                    #pattern
-                    ::core::option::Option::Some(&PATTERN)
-                };
+                #pattern
                 const STRUCTURED_NEWTON: bool = #structured;
             }
 
@@ -286,7 +281,7 @@ pub fn looped_impl(looped: &Looped, name: &Ident, params: &[Ident]) -> Option<To
             }
                 #[inline]
                 fn hessian_pattern(&self) -> ::core::option::Option<&[(usize, usize)]> {
-                    Self::HESSIAN_PATTERN
+                    ::core::option::Option::Some(Self::pattern())
                 }
     #[inline]
                 fn value(&self, z: &#nalgebra::SVector<f64, #d>) -> f64 {
@@ -306,12 +301,8 @@ pub fn looped_impl(looped: &Looped, name: &Ident, params: &[Ident]) -> Option<To
                 }
                 #[inline]
                 fn hessian_into(&self, z: &#nalgebra::SVector<f64, #d>, out: &mut #nalgebra::SMatrix<f64, #d, #d>) {
-                    let pattern = Self::HESSIAN_PATTERN.unwrap_or(&[]);
-                    const NNZ: usize = match #name::HESSIAN_PATTERN {
-                        ::core::option::Option::Some(p) => p.len(),
-                        ::core::option::Option::None => 0,
-                    };
-                    let mut values = [0.0f64; NNZ];
+                    let pattern = Self::pattern();
+                    let mut values = [0.0f64; #nnz];
                     self.hessian_nonzeros(z, &mut values);
                     let h = out;
                     h.fill(0.0);
@@ -320,7 +311,7 @@ pub fn looped_impl(looped: &Looped, name: &Ident, params: &[Ident]) -> Option<To
                         h[(b, a)] = v;
                     }
                 }
-                /// Only the Hessian's nonzero entries, in the order of `HESSIAN_PATTERN`.
+                /// Only the Hessian's nonzero entries, in the order of `hessian_pattern`.
                 #[inline]
                 fn hessian_nonzeros(&self, z: &#nalgebra::SVector<f64, #d>, values: &mut [f64]) {
                     #helpers
@@ -333,13 +324,9 @@ pub fn looped_impl(looped: &Looped, name: &Ident, params: &[Ident]) -> Option<To
                 }
                 #[inline]
                 fn psi(&self, z: &#nalgebra::SVector<f64, #d>) -> f64 {
-                    let pattern = Self::HESSIAN_PATTERN.unwrap_or(&[]);
-                    const NNZ: usize = match #name::HESSIAN_PATTERN {
-                        ::core::option::Option::Some(p) => p.len(),
-                        ::core::option::Option::None => 0,
-                    };
+                    let pattern = Self::pattern();
                     let g = self.gradient(z);
-                    let mut values = [0.0f64; NNZ];
+                    let mut values = [0.0f64; #nnz];
                     self.hessian_nonzeros(z, &mut values);
                     let w = |i: usize| if i < #n { g[i + #n] } else { -g[i - #n] };
                     let mut psi = 0.0f64;

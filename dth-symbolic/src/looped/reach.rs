@@ -1,31 +1,17 @@
-//! What a looped lattice's flags and diagnostics are, decided on the summands and the ranges,
+//! What a looped lattice's diagnostics are, decided on the summands and the ranges,
 //! never site by site: each slot `q[i + c]` of a sum over `lo..hi` reaches the run of sites
 //! `lo + c..hi + c` inside the lattice and a few boundaries, so the questions the written-out
 //! path asks of every coordinate are asked of a few runs ([`Runs`]).
 //!
-//! - [`Looped::psi_identically_zero`]: the written-out path proves `Psi = w^T Hess w = 0`
-//!   (`w = J grad H`) when every term `Hess_ab w_a w_b` has a factor the simplifier makes 0.
-//!   Here the same on the summands' derivatives: an entry of a summand's Hessian at site `i`
-//!   lands on `(a, b)`, and `w_a` is the gradient with respect to `a`'s conjugate, nonzero
-//!   exactly on the sites some slot with a nonzero derivative reaches. Psi is identically zero
-//!   when no entry, at no site, lands where both `w` are nonzero. Like the written-out path,
-//!   a cancellation between summands (`sum(i = 1..N, q[i]) - sum(i = 1..N, q[i])`) is not
-//!   seen by this rule; the written-out simplifier may see some.
-//! - [`Looped::separable`]: no entry, at no site, lands between a position and a momentum.
 //! - [`Looped::numbering`]: the written-out path's numbering rules ([`crate::check::indices`])
 //!   on the sites each letter reaches: sites reached by neither letter are an error, a `q`
 //!   without its `p` a warning, and a `p` without its `q` one too beside such a `q`; each for a
 //!   run of sites, at the access that first reaches it, as the written-out path reports them.
 
 use super::runs::Runs;
-use super::{LoopSum, Looped, Site};
+use super::{half, LoopSum, Looped, Site};
 use crate::error::{Error, ErrorKind, Warning, WarningKind};
 use crate::span::Span;
-
-/// `q` is 0, `p` is 1.
-fn half(letter: char) -> usize {
-    usize::from(letter != 'q')
-}
 
 /// An in-lattice reach of one slot: the sum's number, the slot's offset and number, the run
 /// of sites, and the slot's first access.
@@ -47,7 +33,7 @@ struct Through {
 
 impl Looped {
     /// The letter and site of position `a` of `z`.
-    fn letter_site(&self, a: usize) -> (char, i64) {
+    pub(super) fn letter_site(&self, a: usize) -> (char, i64) {
         if a < self.n {
             ('q', a as i64 + 1)
         } else {
@@ -115,92 +101,6 @@ impl Looped {
                 runs.insert(t.site, t.site);
             }
             runs
-        })
-    }
-
-    /// Whether some site `i` of `s` puts slots `r` and `t` on positions `(a, b)` of `z` that
-    /// `ok` accepts. Where both slots are inside the lattice (a run of sites, the positions
-    /// moving with `i`) `inside(first, last)` answers for the run; the few other sites (where
-    /// a slot meets a boundary) are asked one by one.
-    fn any_site(
-        &self,
-        s: &LoopSum,
-        (r, t): (usize, usize),
-        inside: impl Fn(i64, i64) -> bool,
-        ok: impl Fn(usize, usize) -> bool,
-    ) -> bool {
-        let n = self.n as i64;
-        let (lr, cr, _) = s.slots[r];
-        let (lt, ct, _) = s.slots[t];
-        let first =
-            s.lo.max(1i64.saturating_sub(cr))
-                .max(1i64.saturating_sub(ct));
-        let last = s.hi.min(n.saturating_sub(cr)).min(n.saturating_sub(ct));
-        if first <= last && inside(first, last) {
-            return true;
-        }
-        let below = s.lo..=s.hi.min(first.saturating_sub(1));
-        let above = s.lo.max(last.saturating_add(1))..=s.hi;
-        below.chain(above).any(|i| {
-            match (
-                self.site(lr, i.saturating_add(cr)),
-                self.site(lt, i.saturating_add(ct)),
-            ) {
-                (Site::Var(a), Site::Var(b)) => ok(a, b),
-                _ => false,
-            }
-        })
-    }
-
-    /// `true` when Psi is identically zero by the written-out path's rule (see the module
-    /// docs): no Hessian entry of a summand, at any site, lands on `(a, b)` where the
-    /// gradient with respect to both conjugates `a*`, `b*` is nonzero.
-    ///
-    /// ```
-    /// use dth_symbolic::looped;
-    /// // A free chain pushed by a constant force: Psi = sum_i (dH/dq[i])^2 = N, not zero.
-    /// let free = looped::compile("sum(i = 1..N, p[i]^2/2 + q[i]) where N = 8", &[]).unwrap();
-    /// assert!(!free.psi_identically_zero());
-    /// let drift = looped::compile("sum(i = 1..N, p[i]^2/2 + p[i]) where N = 8", &[]).unwrap();
-    /// assert!(drift.psi_identically_zero());
-    /// ```
-    pub fn psi_identically_zero(&self) -> bool {
-        let nonzero = Self::cover(&self.reaches(|s, r| {
-            let system = s.summand();
-            !system.arena().is_zero(system.gradient()[s.slots[r].2])
-        }));
-        // `w` at `q[k]` is `dH/dp[k]`, at `p[k]` it is `-dH/dq[k]`: nonzero on the sites
-        // where the other letter's gradient is.
-        let w = |letter: char| &nonzero[1 - half(letter)];
-        let w_at = |a: usize| {
-            let (letter, k) = self.letter_site(a);
-            w(letter).contains(k)
-        };
-        !self.sums.iter().any(|s| {
-            s.pattern.iter().any(|&(r, t)| {
-                let (lr, cr, _) = s.slots[r];
-                let (lt, ct, _) = s.slots[t];
-                let inside = |first, last| {
-                    !w(lr)
-                        .minus(cr)
-                        .intersect(&w(lt).minus(ct))
-                        .intersect(&Runs::run(first, last))
-                        .is_empty()
-                };
-                self.any_site(s, (r, t), inside, |a, b| w_at(a) && w_at(b))
-            })
-        })
-    }
-
-    /// `true` when no Hessian entry of a summand, at any site, lands between a position and a
-    /// momentum: `H = T(p) + V(q)`.
-    pub fn separable(&self) -> bool {
-        let n = self.n;
-        !self.sums.iter().any(|s| {
-            s.pattern.iter().any(|&(r, t)| {
-                let mixed = s.slots[r].0 != s.slots[t].0;
-                self.any_site(s, (r, t), |_, _| mixed, |a, b| (a < n) != (b < n))
-            })
         })
     }
 
