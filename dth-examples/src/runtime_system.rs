@@ -7,12 +7,13 @@
 //! admits.
 //!
 //! A text of small dimension runs at a fixed size: [`dispatch`] hands the pipeline a
-//! [`Fixed<N>`] (`Hamiltonian<Const<N>>`, the same compiled code) for `D` = 2 and 4, so the stepper and the peers use nalgebra's fixed-size linear algebra
+//! [`Fixed<N>`] (`Hamiltonian<Const<N>>`, the same compiled code) for `D = 4`, so the stepper and the peers use nalgebra's fixed-size linear algebra
 //! (stack storage, unrolled loops) as for a catalogue system; any other `D` runs as
 //! [`TextSystem`] (`Dyn`). Measured on Kepler (`docs/benchmarks.md`, "Run-time compiled
 //! Hamiltonians"): the `Dyn` run of 300,000 DTH and midpoint steps took 3.3x the built-in
-//! system's wall time, the fixed-size one about the built-in's. Each size in the list is one
-//! more instance of the whole pipeline to compile, so the list is short.
+//! system's wall time, the fixed-size one about the built-in's. Each fixed size is one more
+//! instance of the whole pipeline to compile (measured: about a quarter more build time of
+//! this crate per size), so there is one: another size is one more arm in [`dispatch`].
 
 use std::collections::BTreeMap;
 use std::sync::Arc;
@@ -185,8 +186,8 @@ pub trait TextJob {
 }
 
 /// Compiles the scene's text and runs `job` on it: at `Const<D>` ([`Fixed`]) when its
-/// dimension `D` is 2 or 4 (one or two degrees of freedom, or one in the extended phase space
-/// of a time-dependent `H`), else at `Dyn` ([`TextSystem`]). The one place a text's dimension
+/// dimension `D` is 4 (two degrees of freedom, or one in the extended phase space of a
+/// time-dependent `H`), else at `Dyn` ([`TextSystem`]). The one place a text's dimension
 /// picks a type.
 ///
 /// # Errors
@@ -206,7 +207,6 @@ pub fn dispatch<J: TextJob>(scene: &Scene, job: J) -> Result<J::Output, Error> {
         })
     }
     Ok(match system.0.dim() {
-        2 => job.run::<Const<2>, Fixed<2>>(&|p| fixed(&system, scene, p)),
         4 => job.run::<Const<4>, Fixed<4>>(&|p| fixed(&system, scene, p)),
         _ => job.run::<Dyn, TextSystem>(&|p| system.with_params(scene, p)),
     })
