@@ -31,7 +31,7 @@ use crate::ensemble;
 use crate::error::Error;
 use crate::pipeline::{run_system, RunError};
 use crate::report::RunReport;
-use crate::runtime_system::{self, TextJob};
+use crate::runtime_system::{self, MakeSystem, TextJob};
 use crate::scene::{ParamSpec, Scene, SystemInfo, SystemLookup};
 use crate::simulate::{initial_state, stop_for, RunOptions};
 use crate::system::{SceneSystem, WithoutDth};
@@ -149,10 +149,7 @@ struct RunText<'a> {
 impl TextJob for RunText<'_> {
     type Output = Result<RunReport, RunError>;
 
-    fn run<D: Dim, S: SceneSystem<D>>(
-        self,
-        make: &(dyn Fn(&Params) -> Result<S, Error> + Sync),
-    ) -> Self::Output
+    fn run<D: Dim, S: SceneSystem<D>>(self, make: &MakeSystem<'_, S>) -> Self::Output
     where
         DefaultAllocator: Alloc<D>,
     {
@@ -169,10 +166,7 @@ struct EstimateText<'a> {
 impl TextJob for EstimateText<'_> {
     type Output = Result<MemoryEstimate, Error>;
 
-    fn run<D: Dim, S: SceneSystem<D>>(
-        self,
-        make: &(dyn Fn(&Params) -> Result<S, Error> + Sync),
-    ) -> Self::Output
+    fn run<D: Dim, S: SceneSystem<D>>(self, make: &MakeSystem<'_, S>) -> Self::Output
     where
         DefaultAllocator: Alloc<D>,
     {

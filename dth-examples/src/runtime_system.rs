@@ -170,6 +170,9 @@ impl SceneSystem<Dyn> for TextSystem {}
 /// Energy only, as [`TextSystem`]: the fixed-size view of the same compiled code.
 impl<const N: usize> SceneSystem<Const<N>> for Fixed<N> {}
 
+/// Builds a scene's system from parameters (the scene's, or an ensemble member's).
+pub type MakeSystem<'a, S> = dyn Fn(&BTreeMap<String, f64>) -> Result<S, Error> + Sync + 'a;
+
 /// Work to do on a scene's text Hamiltonian at whichever dimension type [`dispatch`] picks:
 /// `make` builds the system from parameters (the scene's, or an ensemble member's).
 pub trait TextJob {
@@ -177,10 +180,7 @@ pub trait TextJob {
     type Output;
 
     /// Does the work on the systems `make` builds.
-    fn run<D: Dim, S: SceneSystem<D>>(
-        self,
-        make: &(dyn Fn(&BTreeMap<String, f64>) -> Result<S, Error> + Sync),
-    ) -> Self::Output
+    fn run<D: Dim, S: SceneSystem<D>>(self, make: &MakeSystem<'_, S>) -> Self::Output
     where
         DefaultAllocator: Alloc<D>;
 }

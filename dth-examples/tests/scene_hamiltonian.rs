@@ -18,7 +18,6 @@
 #[path = "../../tests/ui_cases/mod.rs"]
 mod ui_cases;
 
-use std::collections::BTreeMap;
 use std::fs;
 
 use dth::nalgebra::{DefaultAllocator, Dim};
@@ -26,7 +25,7 @@ use dth::runtime::Fixed;
 use dth::Alloc;
 use dth_examples::catalogue::Catalogue;
 use dth_examples::error::SceneDiagnostic;
-use dth_examples::runtime_system::{dispatch, TextJob, TextSystem};
+use dth_examples::runtime_system::{dispatch, MakeSystem, TextJob, TextSystem};
 use dth_examples::scene::{line_col, Duration, EffectSpec, MethodKind, Scene};
 use dth_examples::simulate::{compute, MethodResult, RunOptions};
 use dth_examples::system::SceneSystem;
@@ -521,10 +520,7 @@ struct SystemType;
 impl TextJob for SystemType {
     type Output = &'static str;
 
-    fn run<D: Dim, S: SceneSystem<D>>(
-        self,
-        _make: &(dyn Fn(&BTreeMap<String, f64>) -> Result<S, Error> + Sync),
-    ) -> &'static str
+    fn run<D: Dim, S: SceneSystem<D>>(self, _make: &MakeSystem<'_, S>) -> &'static str
     where
         DefaultAllocator: Alloc<D>,
     {
