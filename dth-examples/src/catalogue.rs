@@ -539,8 +539,8 @@ impl Catalogue {
 
     /// Runs a validated scene into `out` (see [`crate::pipeline::run_system`] for the output
     /// folder's rules); a scene whose Hamiltonian is given as text runs through
-    /// [`crate::runtime_system::TextSystem`]. A run that lost a method is [`RunError::MethodsFailed`], with the
-    /// report of what was written.
+    /// [`crate::runtime_system::dispatch`] (at a fixed size or `Dyn`). A run that lost a method
+    /// is [`RunError::MethodsFailed`], with the report of what was written.
     pub fn run(
         &self,
         scene: &Scene,
