@@ -19,7 +19,7 @@ use dth::methods::{
     run, DiscreteGradient, GaussLegendre2, ImplicitMidpoint, OneStepMethod, Trapezoidal,
 };
 use dth::nalgebra::{Const, DMatrix, DVector, Dyn, SVector};
-use dth::observer::Recorder;
+use dth::observer::{Recorder, StepKind, StepRecord};
 use dth::runtime::RuntimeHamiltonian;
 use dth::{Error, Hamiltonian};
 
@@ -227,4 +227,45 @@ fn dyn_one_stage_steps_allocate_nothing() {
     let (v, control) = alloc_counter::count(|| std::hint::black_box(vec![1u8; 16]));
     assert_eq!(control, 1);
     drop(v);
+}
+
+/// A DTH stepper over a `Dyn` dimension keeps its workspace from `Dth::new`: after its first
+/// step nothing allocates, with the joint and the nested solver, a composition of order 4
+/// (negative sub-steps), and the robust mode through a breakdown (Kepler at e = 0.9, where
+/// `Psi < 0` on part of the orbit, stepped by fallback steps there).
+#[test]
+fn dyn_dth_steps_allocate_nothing() {
+    let thesis = DVector::from_column_slice(&[0.5, 0.0, 0.0, 1.2]);
+    let eccentric = DVector::from_column_slice(&[0.5, 0.0, 0.0, 1.9f64.sqrt()]);
+    let default = DthOptions::default();
+    let cases = [
+        ("joint", default, &thesis),
+        ("nested", default.with_solver(Solver::Nested), &thesis),
+        ("order 4", default.with_order(4).unwrap(), &thesis),
+        (
+            "robust",
+            default.with_dtau(0.0157).unwrap().with_robust(true),
+            &eccentric,
+        ),
+    ];
+    for (name, options, z0) in cases {
+        let mut dth = Dth::new(kepler_text(), z0.clone(), options).unwrap();
+        dth.advance(1).unwrap();
+        let (mut steps, mut fallbacks) = (0usize, 0usize);
+        let mut observe = |r: &StepRecord<Dyn>| {
+            steps += 1;
+            fallbacks += usize::from(r.kind == StepKind::Fallback);
+        };
+        let (result, allocations) = alloc_counter::count(|| dth.run(300, &mut observe));
+        result.unwrap();
+        assert_eq!(allocations, 0, "{name}: allocations in 300 steps");
+        assert_eq!(steps, 300, "{name}");
+        if options.robust() {
+            // The run went through the breakdown band and out again.
+            assert!(
+                fallbacks > 0 && fallbacks < 300,
+                "{name}: {fallbacks} fallback steps"
+            );
+        }
+    }
 }

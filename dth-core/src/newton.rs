@@ -201,7 +201,7 @@ pub(crate) fn solve<S, E>(
     state: &mut S,
     mut update: impl FnMut(&mut S, usize) -> Result<f64, E>,
     passes: impl Fn(&S) -> bool,
-    diverged: impl FnOnce(&S, usize) -> E,
+    diverged: impl FnOnce(&mut S, usize) -> E,
 ) -> Result<usize, E> {
     loop {
         match convergence.check(stall, || passes(state)) {

@@ -10,15 +10,18 @@
 //! nonzeros straight into the matrix's storage (`Hamiltonian::hessian_nonzeros`), value,
 //! gradient and `Psi` by their own generated programs, so that no `D x D` matrix exists: the
 //! stepper at `D = 1024` runs on a 2 MB stack. The dense path evaluates all four through the
-//! fused `Hamiltonian::derivatives` (one program, shared subexpressions) and keeps its `D x D`
-//! storage in frames of its own (`#[inline(never)]`), which exist only when it runs.
+//! fused `Hamiltonian::derivatives_into` (one program, shared subexpressions) into its kept
+//! storage ([`Dense`], held by the stepper's workspace on the heap).
+//!
+//! Every operation writes into the caller's storage: nothing here allocates, for `Const<N>`
+//! or `Dyn` dimensions alike.
 
-use crate::hamiltonian::Alloc;
+use crate::hamiltonian::{Alloc, Derivatives};
 use crate::linalg::{Lu, Pivot};
 use crate::methods::Structured;
 use crate::structured::NewtonMatrix;
 use crate::Hamiltonian;
-use nalgebra::{DefaultAllocator, Dim, OMatrix, OVector};
+use nalgebra::{DefaultAllocator, Dim, OVector};
 
 /// `H`'s value, gradient and `Psi` at one point, and the size of its Hessian.
 #[derive(Clone, Debug)]
@@ -63,66 +66,19 @@ fn largest<'a>(entries: impl IntoIterator<Item = &'a f64>) -> f64 {
     max
 }
 
-/// The Hamiltonian's point at `z`; with a structured `matrix`, its Hessian nonzeros are written
-/// into the matrix's storage (stage 0) on the way.
-pub(crate) fn point<H: Hamiltonian<D>, D: Dim>(
-    ham: &H,
-    z: &OVector<f64, D>,
-    matrix: Option<&mut NewtonMatrix>,
-) -> Point<D>
+impl<D: Dim> Point<D>
 where
     DefaultAllocator: Alloc<D>,
 {
-    match matrix {
-        Some(m) => structured_point(ham, z, m),
-        None => dense_point(ham, z),
+    /// Zeros of dimension `d`: storage for [`Linear::evaluate`].
+    pub(crate) fn zeros(d: D) -> Self {
+        Point {
+            value: 0.0,
+            gradient: crate::zeros(d),
+            psi: 0.0,
+            hessian_max: 0.0,
+        }
     }
-}
-
-/// [`point`] on the structured path.
-fn structured_point<H: Hamiltonian<D>, D: Dim>(
-    ham: &H,
-    z: &OVector<f64, D>,
-    matrix: &mut NewtonMatrix,
-) -> Point<D>
-where
-    DefaultAllocator: Alloc<D>,
-{
-    let nonzeros = matrix.hessian_mut(0);
-    ham.hessian_nonzeros(z, nonzeros);
-    Point {
-        value: ham.value(z),
-        gradient: ham.gradient(z),
-        psi: ham.psi(z),
-        hessian_max: largest(nonzeros.iter()),
-    }
-}
-
-/// [`point`] on the dense path, in a frame of its own (the fused evaluation's `D x D` Hessian).
-#[inline(never)]
-fn dense_point<H: Hamiltonian<D>, D: Dim>(ham: &H, z: &OVector<f64, D>) -> Point<D>
-where
-    DefaultAllocator: Alloc<D>,
-{
-    let d = ham.derivatives(z);
-    Point {
-        value: d.value,
-        hessian_max: largest(d.hessian.iter()),
-        gradient: d.gradient,
-        psi: d.psi,
-    }
-}
-
-/// The structured Newton matrix of a DTH stepper (one stage), when `H` takes the structured
-/// path: analysed on first use and kept in `storage` (the peers' rule and cache).
-pub(crate) fn matrix<'a, H: Hamiltonian<D>, D: Dim>(
-    ham: &H,
-    storage: &'a mut Structured,
-) -> Option<&'a mut NewtonMatrix>
-where
-    DefaultAllocator: Alloc<D>,
-{
-    storage.matrix(ham, 1)
 }
 
 /// What the DTH Newton solvers need of `A = I - c J Hess H(z)` at their iterate.
@@ -130,24 +86,25 @@ pub(crate) trait Linear<D: Dim>
 where
     DefaultAllocator: Alloc<D>,
 {
-    /// Evaluate `H` at `z` and keep its Hessian for [`factor`](Self::factor) and
-    /// [`hessian_times`](Self::hessian_times) (the factorization is kept until the next
-    /// `factor`).
-    fn evaluate<H: Hamiltonian<D>>(&mut self, ham: &H, z: &OVector<f64, D>) -> Point<D>;
+    /// Evaluate `H` at `z` into `out` and keep its Hessian for [`factor`](Self::factor) and
+    /// [`hessian_times_into`](Self::hessian_times_into) (the factorization is kept until the
+    /// next `factor`).
+    fn evaluate<H: Hamiltonian<D>>(&mut self, ham: &H, z: &OVector<f64, D>, out: &mut Point<D>);
     /// Factor `A = I - c J Hess` with the Hessian last evaluated.
     fn factor(&mut self, c: f64) -> Result<(), Pivot>;
-    /// `A^{-1} b` with the last factorization.
-    fn solve(&self, b: &OVector<f64, D>) -> OVector<f64, D>;
-    /// `Hess x` with the Hessian last evaluated.
-    fn hessian_times(&self, x: &OVector<f64, D>) -> OVector<f64, D>;
+    /// `x = A^{-1} b` with the last factorization (`x` and `b` distinct).
+    fn solve_into(&mut self, b: &OVector<f64, D>, x: &mut OVector<f64, D>);
+    /// `out = Hess x` with the Hessian last evaluated.
+    fn hessian_times_into(&self, x: &OVector<f64, D>, out: &mut OVector<f64, D>);
 }
 
-/// The dense path: the fused evaluation's Hessian and the fixed-size LU.
+/// The dense path: the fused evaluation's derivatives (its Hessian the matrix's) and the LU.
+#[derive(Clone, Debug)]
 pub(crate) struct Dense<D: Dim>
 where
     DefaultAllocator: Alloc<D>,
 {
-    hessian: OMatrix<f64, D, D>,
+    derivatives: Derivatives<D>,
     lu: Lu<D>,
 }
 
@@ -158,7 +115,7 @@ where
     /// Empty storage of dimension `d`.
     pub(crate) fn new(d: D) -> Self {
         Dense {
-            hessian: OMatrix::zeros_generic(d, d),
+            derivatives: Derivatives::zeros(d),
             lu: Lu::empty(d),
         }
     }
@@ -168,21 +125,19 @@ impl<D: Dim> Linear<D> for Dense<D>
 where
     DefaultAllocator: Alloc<D>,
 {
-    fn evaluate<H: Hamiltonian<D>>(&mut self, ham: &H, z: &OVector<f64, D>) -> Point<D> {
-        let d = ham.derivatives(z);
-        self.hessian.copy_from(&d.hessian);
-        Point {
-            value: d.value,
-            gradient: d.gradient,
-            psi: d.psi,
-            hessian_max: largest(self.hessian.iter()),
-        }
+    fn evaluate<H: Hamiltonian<D>>(&mut self, ham: &H, z: &OVector<f64, D>, out: &mut Point<D>) {
+        let d = &mut self.derivatives;
+        ham.derivatives_into(z, d);
+        out.value = d.value;
+        out.gradient.copy_from(&d.gradient);
+        out.psi = d.psi;
+        out.hessian_max = largest(d.hessian.iter());
     }
 
     /// `A` entry by entry, `delta_ij - c (J Hess)_ij`, factored in place.
     fn factor(&mut self, c: f64) -> Result<(), Pivot> {
-        let n = self.hessian.nrows() / 2;
-        let hessian = &self.hessian;
+        let hessian = &self.derivatives.hessian;
+        let n = hessian.nrows() / 2;
         self.lu.factor_from(|i, j| {
             let jh = if i < n {
                 hessian[(i + n, j)]
@@ -197,12 +152,12 @@ where
         })
     }
 
-    fn solve(&self, b: &OVector<f64, D>) -> OVector<f64, D> {
-        self.lu.solve(b)
+    fn solve_into(&mut self, b: &OVector<f64, D>, x: &mut OVector<f64, D>) {
+        self.lu.solve_into(b, x);
     }
 
-    fn hessian_times(&self, x: &OVector<f64, D>) -> OVector<f64, D> {
-        &self.hessian * x
+    fn hessian_times_into(&self, x: &OVector<f64, D>, out: &mut OVector<f64, D>) {
+        self.derivatives.hessian.mul_to(x, out);
     }
 }
 
@@ -215,26 +170,87 @@ impl<D: Dim> Linear<D> for Sparse<'_>
 where
     DefaultAllocator: Alloc<D>,
 {
-    fn evaluate<H: Hamiltonian<D>>(&mut self, ham: &H, z: &OVector<f64, D>) -> Point<D> {
-        structured_point(ham, z, self.matrix)
+    fn evaluate<H: Hamiltonian<D>>(&mut self, ham: &H, z: &OVector<f64, D>, out: &mut Point<D>) {
+        let nonzeros = self.matrix.hessian_mut(0);
+        ham.hessian_nonzeros(z, nonzeros);
+        out.hessian_max = largest(nonzeros.iter());
+        out.value = ham.value(z);
+        ham.gradient_into(z, &mut out.gradient);
+        out.psi = ham.psi(z);
     }
 
     fn factor(&mut self, c: f64) -> Result<(), Pivot> {
         self.matrix.factor(&[c])
     }
 
-    fn solve(&self, b: &OVector<f64, D>) -> OVector<f64, D> {
-        let mut x = b.clone();
-        let mut work = b.clone();
-        self.matrix
-            .solve_with(x.as_mut_slice(), work.as_mut_slice());
-        x
+    fn solve_into(&mut self, b: &OVector<f64, D>, x: &mut OVector<f64, D>) {
+        x.copy_from(b);
+        self.matrix.solve(x.as_mut_slice());
     }
 
-    fn hessian_times(&self, x: &OVector<f64, D>) -> OVector<f64, D> {
-        let mut out = x.clone();
+    fn hessian_times_into(&self, x: &OVector<f64, D>, out: &mut OVector<f64, D>) {
         self.matrix
             .hessian_times(0, x.as_slice(), out.as_mut_slice());
-        out
+    }
+}
+
+/// The linear algebra of a stepper, chosen once per Hamiltonian: its structured Newton matrix
+/// (analysed on first use and kept in `storage`, the peers' rule and cache) when `H` takes that
+/// path, else the dense storage, created on first use and kept in `dense`.
+pub(crate) enum Path<'a, D: Dim>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    /// The dense fixed-size LU.
+    Dense(&'a mut Dense<D>),
+    /// The structured Newton matrix.
+    Sparse(Sparse<'a>),
+}
+
+/// The [`Path`] of `H` for a stepper with this storage.
+pub(crate) fn path<'a, H: Hamiltonian<D>, D: Dim>(
+    ham: &H,
+    storage: &'a mut Structured,
+    dense: &'a mut Option<Dense<D>>,
+) -> Path<'a, D>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    match storage.matrix(ham, 1) {
+        Some(matrix) => Path::Sparse(Sparse { matrix }),
+        None => Path::Dense(dense.get_or_insert_with(|| Dense::new(ham.dim()))),
+    }
+}
+
+impl<D: Dim> Linear<D> for Path<'_, D>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    fn evaluate<H: Hamiltonian<D>>(&mut self, ham: &H, z: &OVector<f64, D>, out: &mut Point<D>) {
+        match self {
+            Path::Dense(d) => d.evaluate(ham, z, out),
+            Path::Sparse(s) => s.evaluate(ham, z, out),
+        }
+    }
+
+    fn factor(&mut self, c: f64) -> Result<(), Pivot> {
+        match self {
+            Path::Dense(d) => d.factor(c),
+            Path::Sparse(s) => Linear::<D>::factor(s, c),
+        }
+    }
+
+    fn solve_into(&mut self, b: &OVector<f64, D>, x: &mut OVector<f64, D>) {
+        match self {
+            Path::Dense(d) => d.solve_into(b, x),
+            Path::Sparse(s) => s.solve_into(b, x),
+        }
+    }
+
+    fn hessian_times_into(&self, x: &OVector<f64, D>, out: &mut OVector<f64, D>) {
+        match self {
+            Path::Dense(d) => d.hessian_times_into(x, out),
+            Path::Sparse(s) => s.hessian_times_into(x, out),
+        }
     }
 }

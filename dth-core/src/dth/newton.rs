@@ -33,14 +33,13 @@
 //! `Eval::stall`). A gated stop that fails after an update of at most `4 eps`, or the iteration
 //! limit, is [`Error::NewtonDiverged`].
 
-use super::linear::{self, Dense, Linear, Point, Sparse};
+use super::linear::{self, Dense, Linear, Path, Point};
 use super::options::{DthOptions, Solver};
 use crate::hamiltonian::Alloc;
 use crate::linalg::Pivot;
 use crate::methods::Structured;
 use crate::newton::{self, Convergence, Status, DTH};
-use crate::structured::NewtonMatrix;
-use crate::{j_times, zeros, Error, Hamiltonian};
+use crate::{zeros, Error, Hamiltonian};
 use nalgebra::{DefaultAllocator, Dim, OVector};
 
 /// Relative update below which joint Newton evaluates the cancellation-free residual at every
@@ -84,54 +83,47 @@ impl<const N: usize> Copy for Segment<nalgebra::Const<N>> {}
 /// The previous midpoint of a step, for the cancellation-free energy residual (see
 /// [`EnergyResidual`](super::EnergyResidual)): `H(z) - H(zbar_k)` is evaluated through exact
 /// divided differences between `zbar_k` and `z`.
-#[derive(Clone, Debug)]
-pub(crate) struct Previous<D: Dim>
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Previous<'a, D: Dim>
 where
     DefaultAllocator: Alloc<D>,
 {
     /// `zbar_k`.
-    pub(crate) zbar: OVector<f64, D>,
+    pub(crate) zbar: &'a OVector<f64, D>,
     /// `grad H(zbar_k)`.
-    pub(crate) gradient: OVector<f64, D>,
+    pub(crate) gradient: &'a OVector<f64, D>,
     /// `lambda_k`.
     pub(crate) lambda: f64,
 }
 
 /// What a segment is solved from: its left vertex `v`, the energy level `E`, and (for the
 /// cancellation-free residual) the previous midpoint.
-#[derive(Clone, Debug)]
-pub(crate) struct Anchor<D: Dim>
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Anchor<'a, D: Dim>
 where
     DefaultAllocator: Alloc<D>,
 {
-    pub(crate) v: OVector<f64, D>,
+    pub(crate) v: &'a OVector<f64, D>,
     pub(crate) energy: f64,
-    pub(crate) previous: Option<Previous<D>>,
+    pub(crate) previous: Option<Previous<'a, D>>,
 }
 
-/// The parts of the cancellation-free energy residual at one iterate.
-struct CancellationFree<D: Dim>
-where
-    DefaultAllocator: Alloc<D>,
-{
-    gbar: OVector<f64, D>,
-    /// `(h/2) gbar^T J w`: equals `H(z) - H(zbar_k) - gbar . f`.
-    r_cf: f64,
-    /// Size of the terms `r_cf` is a sum of: `(h/4)(lambda + lambda_k) sum |gbar_i (g - g_k)_i|`.
-    scale: f64,
-    /// Roundoff scale of the energy residual when the Hamiltonian does not declare exact
-    /// divided differences (the cancellation-free form forced on it): the plain residual's
-    /// `|terms of H|`, which bounds the noise of a plain-difference `gbar` or defect. Zero for
-    /// Hamiltonians with `exact_divided_differences`.
-    inexact_scale: f64,
+/// A solved segment whose midpoint and evaluation are in the [`Work`] (`z`, `e.d`).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Solved {
+    pub(crate) lambda: f64,
+    pub(crate) iterations: u32,
+    pub(crate) factorizations: u32,
 }
 
 /// Everything the Newton loops need at one iterate.
-struct Eval<D: Dim>
+#[derive(Clone, Debug)]
+pub(crate) struct Eval<D: Dim>
 where
     DefaultAllocator: Alloc<D>,
 {
-    d: Point<D>,
+    /// `H`, `grad H`, `Psi` at the iterate.
+    pub(crate) d: Point<D>,
     jg: OVector<f64, D>,
     f: OVector<f64, D>,
     /// Energy residual for the Newton update: `H(z) - E` (plain) or `H(z) - H(zbar_k)` as
@@ -149,7 +141,21 @@ where
     plain_residual: f64,
     /// Size of the terms of `H(z) - E`.
     scale_r: f64,
-    cf: Option<CancellationFree<D>>,
+    /// Whether the cancellation-free parts below belong to this iterate.
+    cf: bool,
+    /// The discrete gradient `gbar(zbar_k, z)`.
+    gbar: OVector<f64, D>,
+    /// Its trapezoid defect, then `J w` (see [`add_cancellation_free`]).
+    t: OVector<f64, D>,
+    /// `(h/2) gbar^T J w`: equals `H(z) - H(zbar_k) - gbar . f`.
+    r_cf: f64,
+    /// Size of the terms `r_cf` is a sum of: `(h/4)(lambda + lambda_k) sum |gbar_i (g - g_k)_i|`.
+    cf_scale: f64,
+    /// Roundoff scale of the energy residual when the Hamiltonian does not declare exact
+    /// divided differences (the cancellation-free form forced on it): the plain residual's
+    /// `|terms of H|`, which bounds the noise of a plain-difference `gbar` or defect. Zero for
+    /// Hamiltonians with `exact_divided_differences`.
+    inexact_scale: f64,
 }
 
 impl<D: Dim> Eval<D>
@@ -159,12 +165,7 @@ where
     /// Storage for [`evaluate`], overwritten by each evaluation.
     fn empty(d: D) -> Self {
         Eval {
-            d: Point {
-                value: 0.0,
-                gradient: zeros(d),
-                psi: 0.0,
-                hessian_max: 0.0,
-            },
+            d: Point::zeros(d),
             jg: zeros(d),
             f: zeros(d),
             r: 0.0,
@@ -173,7 +174,12 @@ where
             noise: 0.0,
             plain_residual: 0.0,
             scale_r: 0.0,
-            cf: None,
+            cf: false,
+            gbar: zeros(d),
+            t: zeros(d),
+            r_cf: 0.0,
+            cf_scale: 0.0,
+            inexact_scale: 0.0,
         }
     }
 
@@ -185,17 +191,26 @@ where
     /// of `r_cf` and `|g_lambda lambda|` (the residual that a relative change `eps` of `lambda`
     /// makes): where the gradient barely turns (Kepler's apocentre) the terms are much smaller
     /// than the sensitivity, and the residual is a forward estimate of the relative error of
-    /// `lambda`.
-    fn residual<L: Linear<D>>(&self, last: Last<'_, L, D>, lambda: f64) -> f64 {
-        let energy = match (&self.cf, last) {
-            (Some(c), Some((lin, solver))) => {
+    /// `lambda`. `u` is scratch; it holds `A^{-1}(-f)` afterwards when that was computed.
+    fn residual<L: Linear<D>>(
+        &self,
+        last: Option<&Linearization<D>>,
+        solver: &mut L,
+        u: &mut OVector<f64, D>,
+        lambda: f64,
+    ) -> f64 {
+        let energy = match (self.cf, last) {
+            (true, Some(lin)) => {
                 let g_lambda = lin.g_lambda;
-                let u = solver.solve(&(-&self.f));
-                let scale = c.scale.max((g_lambda * lambda).abs()).max(c.inexact_scale);
-                (c.r_cf + (c.gbar.dot(&self.f) + self.d.gradient.dot(&u))).abs() / scale
+                minus_solve(solver, &self.f, u);
+                let scale = self
+                    .cf_scale
+                    .max((g_lambda * lambda).abs())
+                    .max(self.inexact_scale);
+                (self.r_cf + (self.gbar.dot(&self.f) + self.d.gradient.dot(u))).abs() / scale
             }
-            (Some(_), None) => f64::INFINITY,
-            (None, _) => self.plain_residual,
+            (true, None) => f64::INFINITY,
+            (false, _) => self.plain_residual,
         };
         self.f_residual.max(energy)
     }
@@ -205,10 +220,10 @@ where
     /// (`~eps / h^2`): below that, updates are noise and can never settle.
     /// The same holds for the cancellation-free form forced on a Hamiltonian without exact
     /// divided differences; with them the option stands.
-    fn stall<L: Linear<D>>(&self, options: &DthOptions, last: Last<'_, L, D>, lambda: f64) -> f64 {
+    fn stall(&self, options: &DthOptions, last: Option<&Linearization<D>>, lambda: f64) -> f64 {
         let noise = self.noise;
         match last {
-            Some((lin, _)) if noise > 0.0 => options
+            Some(lin) if noise > 0.0 => options
                 .stall_tolerance()
                 .max(8.0 * f64::EPSILON * noise / (lin.g_lambda * lambda).abs())
                 .min(0.5),
@@ -216,21 +231,13 @@ where
         }
     }
 
-    /// The residual gate of the stopping rule at the iterate `(z, lambda)` evaluated here.
-    fn passes<L: Linear<D>>(
-        &self,
-        options: &DthOptions,
-        last: Last<'_, L, D>,
-        lambda: f64,
-    ) -> bool {
-        self.residual(last, lambda) <= options.residual_tolerance()
-    }
-
     /// The failure of a segment solve after `iterations` Newton iterations (LU factorizations),
     /// at the iterate `(z, lambda)` evaluated here.
     fn diverged<L: Linear<D>>(
         &self,
-        last: Last<'_, L, D>,
+        last: Option<&Linearization<D>>,
+        solver: &mut L,
+        u: &mut OVector<f64, D>,
         lambda: f64,
         iterations: u32,
         step: usize,
@@ -238,34 +245,55 @@ where
         Error::NewtonDiverged {
             step,
             iterations,
-            residual: self.residual(last, lambda),
+            residual: self.residual(last, solver, u, lambda),
         }
     }
+}
 
-    /// The end of a segment solve at the iterate `(z, lambda)` evaluated here, after
-    /// `iterations` Newton iterations and `factorizations` LU factorizations: the segment when
-    /// Newton has converged, the failure when it has diverged (labelled with the iterations),
-    /// `None` to go on.
-    fn finish<L: Linear<D>>(
-        &self,
-        status: Status,
-        (z, lambda): (&OVector<f64, D>, f64),
-        last: Last<'_, L, D>,
-        (iterations, factorizations): (u32, u32),
-        step: usize,
-    ) -> Option<Result<Segment<D>, Error>> {
-        match status {
-            Status::Converged => Some(Ok(Segment {
-                zbar: z.clone(),
-                lambda,
-                value: self.d.value,
-                gradient: self.d.gradient.clone(),
-                psi: self.d.psi,
-                iterations,
-                factorizations,
-            })),
-            Status::Diverged => Some(Err(self.diverged(last, lambda, iterations, step))),
-            Status::Continue => None,
+/// `u = A^{-1}(-f)` with the solver's factorization (bit for bit the solve of `-f`: the
+/// substitutions are linear and negation is exact).
+fn minus_solve<L: Linear<D>, D: Dim>(solver: &mut L, f: &OVector<f64, D>, u: &mut OVector<f64, D>)
+where
+    DefaultAllocator: Alloc<D>,
+{
+    solver.solve_into(f, u);
+    u.neg_mut();
+}
+
+/// The storage of a segment solve: the iterate (the predictor on entry, the solution on
+/// success), its evaluation, the linearization and scratch vectors. A stepper keeps one (built
+/// once, so that a step of a `Dyn` dimension allocates nothing).
+#[derive(Clone, Debug)]
+pub(crate) struct Work<D: Dim>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    /// The Newton iterate `z`: the start on entry, `zbar_{k+1}` after a solve.
+    pub(crate) z: OVector<f64, D>,
+    /// The evaluation at `z` (`e.d`: value, gradient, `Psi` of the solution after a solve).
+    pub(crate) e: Eval<D>,
+    lin: Linearization<D>,
+    u: OVector<f64, D>,
+    dz: OVector<f64, D>,
+    /// The projected point and its evaluation (see [`project`]).
+    zp: OVector<f64, D>,
+    pp: Point<D>,
+}
+
+impl<D: Dim> Work<D>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    /// Storage of dimension `d`.
+    pub(crate) fn new(d: D) -> Self {
+        Work {
+            z: zeros(d),
+            e: Eval::empty(d),
+            lin: Linearization::empty(d),
+            u: zeros(d),
+            dz: zeros(d),
+            zp: zeros(d),
+            pp: Point::zeros(d),
         }
     }
 }
@@ -287,12 +315,28 @@ where
     v.iter().all(|x| x.is_finite())
 }
 
+/// `out = a + c J b` (`J b = (b_p, -b_q)`), element by element.
+pub(crate) fn add_j_times<D: Dim>(
+    a: &OVector<f64, D>,
+    b: &OVector<f64, D>,
+    c: f64,
+    out: &mut OVector<f64, D>,
+) where
+    DefaultAllocator: Alloc<D>,
+{
+    let n = a.len() / 2;
+    for i in 0..n {
+        out[i] = a[i] + b[i + n] * c;
+        out[i + n] = a[i + n] + (-b[i]) * c;
+    }
+}
+
 /// Evaluate everything at the iterate `(z, lambda)` into `e`, the Hessian into `solver`.
 #[allow(clippy::too_many_arguments)]
 fn evaluate<H: Hamiltonian<D>, L: Linear<D>, D: Dim>(
     ham: &H,
     solver: &mut L,
-    anchor: &Anchor<D>,
+    anchor: &Anchor<'_, D>,
     h: f64,
     z: &OVector<f64, D>,
     lambda: f64,
@@ -302,7 +346,7 @@ fn evaluate<H: Hamiltonian<D>, L: Linear<D>, D: Dim>(
 where
     DefaultAllocator: Alloc<D>,
 {
-    e.d = solver.evaluate(ham, z);
+    solver.evaluate(ham, z, &mut e.d);
     let d = &e.d;
     if !d.finite() {
         return Err(Error::NonFinite {
@@ -316,32 +360,37 @@ where
             what: "Hess H at a Newton iterate",
         });
     }
-    let v = &anchor.v;
+    let v = anchor.v;
     let energy = anchor.energy;
-    let jg = j_times(&d.gradient);
-    let move_ = &jg * (0.5 * h * lambda);
+    // jg = J grad H; f = z - v - (h lambda/2) jg, and the largest |(h lambda/2) jg_i|.
+    let half = 0.5 * h * lambda;
+    let n = z.len() / 2;
+    let mut move_max = 0.0f64;
+    for i in 0..z.len() {
+        let jg = if i < n {
+            d.gradient[i + n]
+        } else {
+            -d.gradient[i - n]
+        };
+        let m = jg * half;
+        e.jg[i] = jg;
+        e.f[i] = z[i] - v[i] - m;
+        move_max = move_max.max(m.abs());
+    }
     // Roundoff scales: the magnitudes of the terms each residual is a difference of.
-    let scale_f = z
-        .amax()
-        .max(v.amax())
-        .max(move_.amax())
-        .max(f64::MIN_POSITIVE);
+    let scale_f = z.amax().max(v.amax()).max(move_max).max(f64::MIN_POSITIVE);
     let r_plain = d.value - energy;
     let scale_r = energy
         .abs()
         .max(d.value.abs())
-        .max(z.component_mul(&d.gradient).abs().sum())
+        .max(roundoff_scale(z, &d.gradient))
         .max(f64::MIN_POSITIVE);
-    let plain_residual = r_plain.abs() / scale_r;
-    let f = z - v - &move_;
-    e.f_residual = f.amax() / scale_f;
+    e.plain_residual = r_plain.abs() / scale_r;
+    e.f_residual = e.f.amax() / scale_f;
     e.scale_f = scale_f;
-    e.jg = jg;
-    e.f = f;
     e.r = r_plain;
-    e.plain_residual = plain_residual;
     e.scale_r = scale_r;
-    e.cf = None;
+    e.cf = false;
     // The roundoff scale of the energy equation that is being solved (see `Eval::stall`): the
     // plain residual's, or, for the cancellation-free form, zero when the Hamiltonian has
     // exact divided differences.
@@ -357,7 +406,7 @@ where
 /// cancellation-free ones (the anchor must carry the previous midpoint).
 fn add_cancellation_free<H: Hamiltonian<D>, D: Dim>(
     ham: &H,
-    p: &Previous<D>,
+    p: &Previous<'_, D>,
     h: f64,
     z: &OVector<f64, D>,
     lambda: f64,
@@ -367,50 +416,63 @@ fn add_cancellation_free<H: Hamiltonian<D>, D: Dim>(
 where
     DefaultAllocator: Alloc<D>,
 {
-    let d = &e.d;
+    let g = &e.d.gradient;
+    let n = z.len() / 2;
     // f = (z - zbar_k) - (h/2) J (lambda g + lambda_k g_k): the difference z - zbar_k
     // is exact (Sterbenz) for small steps, so f carries roundoff eps h, not eps |z|.
-    let dz = z - &p.zbar;
-    let f = dz - j_times(&(&d.gradient * lambda + &p.gradient * p.lambda)) * (0.5 * h);
-    let gbar = ham.discrete_gradient(&p.zbar, z);
-    let t = ham.discrete_gradient_defect(&p.zbar, z, &gbar);
-    let dg = &d.gradient - &p.gradient;
-    let w = &dg * (0.5 * (lambda - p.lambda)) + t * (0.5 * (lambda + p.lambda));
-    let r_cf = 0.5 * h * gbar.dot(&j_times(&w));
-    let scale = (0.25 * h * (lambda + p.lambda)).abs() * gbar.component_mul(&dg).abs().sum()
-        + f64::MIN_POSITIVE;
-    if !r_cf.is_finite() || !all_finite(&gbar) {
+    for i in 0..z.len() {
+        let s = |k: usize| g[k] * lambda + p.gradient[k] * p.lambda;
+        let js = if i < n { s(i + n) } else { -s(i - n) };
+        e.f[i] = (z[i] - p.zbar[i]) - js * (0.5 * h);
+    }
+    ham.discrete_gradient_into(p.zbar, z, &mut e.gbar);
+    ham.discrete_gradient_defect_into(p.zbar, z, &e.gbar, &mut e.t);
+    // w = ((lambda - lambda_k)/2) (g - g_k) + ((lambda + lambda_k)/2) t, then J w in `t`
+    // (in place: rows i and i + n are read before either is written).
+    let (a, b) = (0.5 * (lambda - p.lambda), 0.5 * (lambda + p.lambda));
+    let mut scale = 0.0f64;
+    for i in 0..n {
+        let (dq, dp) = (g[i] - p.gradient[i], g[i + n] - p.gradient[i + n]);
+        let wq = dq * a + e.t[i] * b;
+        let wp = dp * a + e.t[i + n] * b;
+        e.t[i] = wp;
+        e.t[i + n] = -wq;
+    }
+    for i in 0..z.len() {
+        scale += (e.gbar[i] * (g[i] - p.gradient[i])).abs();
+    }
+    let r_cf = 0.5 * h * e.gbar.dot(&e.t);
+    let scale = (0.25 * h * (lambda + p.lambda)).abs() * scale + f64::MIN_POSITIVE;
+    if !r_cf.is_finite() || !all_finite(&e.gbar) {
         return Err(Error::NonFinite {
             step,
             what: "discrete gradient at a Newton iterate",
         });
     }
-    let r = r_cf + gbar.dot(&f);
-    let inexact_scale = if ham.flags().exact_divided_differences {
+    e.r = r_cf + e.gbar.dot(&e.f);
+    e.inexact_scale = if ham.flags().exact_divided_differences {
         0.0
     } else {
         e.scale_r
     };
-    e.f_residual = f.amax() / e.scale_f;
-    e.f = f;
-    e.r = r;
-    e.cf = Some(CancellationFree {
-        gbar,
-        r_cf,
-        scale,
-        inexact_scale,
-    });
+    e.f_residual = e.f.amax() / e.scale_f;
+    e.cf = true;
+    e.r_cf = r_cf;
+    e.cf_scale = scale;
     Ok(())
 }
 
 /// `z_lambda` and `g_lambda` from the factored `A = I - (h lambda / 2) J HessH` (held by the
 /// solver).
+#[derive(Clone, Debug)]
 struct Linearization<D: Dim>
 where
     DefaultAllocator: Alloc<D>,
 {
     z_lambda: OVector<f64, D>,
     g_lambda: f64,
+    /// Scratch: the right-hand side `(h/2) J grad H`, then `Hess z_lambda`.
+    scratch: OVector<f64, D>,
 }
 
 impl<D: Dim> Linearization<D>
@@ -421,12 +483,10 @@ where
         Linearization {
             z_lambda: zeros(d),
             g_lambda: 0.0,
+            scratch: zeros(d),
         }
     }
 }
-
-/// The last linearization and the solver holding its factorization; `None` before the first.
-type Last<'a, L, D> = Option<(&'a Linearization<D>, &'a L)>;
 
 /// Factor `A = I - c J HessH` (`c = h lambda / 2`) at the Hessian last evaluated.
 fn factor<L: Linear<D>, D: Dim>(solver: &mut L, c: f64, step: usize) -> Result<(), Error>
@@ -449,11 +509,15 @@ where
     DefaultAllocator: Alloc<D>,
 {
     factor(solver, 0.5 * h * lambda, step)?;
-    let z_lambda = solver.solve(&(&e.jg * (0.5 * h)));
+    for (s, jg) in lin.scratch.iter_mut().zip(e.jg.iter()) {
+        *s = jg * (0.5 * h);
+    }
+    solver.solve_into(&lin.scratch, &mut lin.z_lambda);
+    solver.hessian_times_into(&lin.z_lambda, &mut lin.scratch);
     // Cancellation-free g_lambda = (h lambda/2) gradH^T J HessH z_lambda
     //                          = -(h lambda/2) (J gradH)^T HessH z_lambda.
-    let g_lambda = -(0.5 * h * lambda) * e.jg.dot(&solver.hessian_times(&z_lambda));
-    if !g_lambda.is_finite() || !all_finite(&z_lambda) {
+    let g_lambda = -(0.5 * h * lambda) * e.jg.dot(&lin.scratch);
+    if !g_lambda.is_finite() || !all_finite(&lin.z_lambda) {
         return Err(Error::NonFinite {
             step,
             what: "Newton linear solve",
@@ -462,7 +526,6 @@ where
     if g_lambda == 0.0 {
         return Err(Error::SingularMatrix { step });
     }
-    lin.z_lambda = z_lambda;
     lin.g_lambda = g_lambda;
     Ok(())
 }
@@ -478,55 +541,29 @@ where
 
 /// Solve one segment of signed step `h` in `tau` from `anchor` (left vertex, energy, previous
 /// midpoint for the cancellation-free form), starting Newton from the predictor
-/// `(z0, lambda0)`. `step` labels errors; `storage` holds the structured Newton matrix when `H`
-/// takes that path. For the cancellation-free form the caller finishes with [`project`] (after
-/// rejecting roots with the wrong `lambda`, whose energy check would misreport them).
+/// `(work.z, lambda0)`; the solution is left in `work` (`z`, `e.d`). `step` labels errors;
+/// `storage` and `dense` hold the linear algebra of `H`'s [`Path`]. For the cancellation-free
+/// form the caller finishes with [`project`] (after rejecting roots with the wrong `lambda`,
+/// whose energy check would misreport them).
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn solve_segment<H: Hamiltonian<D>, D: Dim>(
     ham: &H,
-    anchor: &Anchor<D>,
-    z0: OVector<f64, D>,
+    anchor: &Anchor<'_, D>,
     lambda0: f64,
     h: f64,
     options: &DthOptions,
     step: usize,
     storage: &mut Structured,
-) -> Result<Segment<D>, Error>
+    dense: &mut Option<Dense<D>>,
+    work: &mut Work<D>,
+) -> Result<Solved, Error>
 where
     DefaultAllocator: Alloc<D>,
 {
-    match linear::matrix(ham, storage) {
-        Some(matrix) => solve_with(
-            ham,
-            &mut Sparse { matrix },
-            anchor,
-            z0,
-            lambda0,
-            h,
-            options,
-            step,
-        ),
-        None => solve_dense(ham, anchor, z0, lambda0, h, options, step),
+    match linear::path(ham, storage, dense) {
+        Path::Sparse(mut s) => solve_with(ham, &mut s, anchor, lambda0, h, options, step, work),
+        Path::Dense(d) => solve_with(ham, d, anchor, lambda0, h, options, step, work),
     }
-}
-
-/// [`solve_segment`] on the dense path, in a frame of its own (its `D x D` storage).
-#[inline(never)]
-#[allow(clippy::too_many_arguments)]
-fn solve_dense<H: Hamiltonian<D>, D: Dim>(
-    ham: &H,
-    anchor: &Anchor<D>,
-    z0: OVector<f64, D>,
-    lambda0: f64,
-    h: f64,
-    options: &DthOptions,
-    step: usize,
-) -> Result<Segment<D>, Error>
-where
-    DefaultAllocator: Alloc<D>,
-{
-    let mut solver = Dense::new(z0.shape_generic().0);
-    solve_with(ham, &mut solver, anchor, z0, lambda0, h, options, step)
 }
 
 /// [`solve_segment`] with the given linear solver.
@@ -534,51 +571,49 @@ where
 fn solve_with<H: Hamiltonian<D>, L: Linear<D>, D: Dim>(
     ham: &H,
     solver: &mut L,
-    anchor: &Anchor<D>,
-    z0: OVector<f64, D>,
+    anchor: &Anchor<'_, D>,
     lambda0: f64,
     h: f64,
     options: &DthOptions,
     step: usize,
-) -> Result<Segment<D>, Error>
+    work: &mut Work<D>,
+) -> Result<Solved, Error>
 where
     DefaultAllocator: Alloc<D>,
 {
     match options.solver() {
-        Solver::Joint => joint(ham, solver, anchor, z0, lambda0, h, options, step),
-        Solver::Nested => nested(ham, solver, anchor, z0, lambda0, h, options, step),
+        Solver::Joint => joint(ham, solver, anchor, lambda0, h, options, step, work),
+        Solver::Nested => nested(ham, solver, anchor, lambda0, h, options, step, work),
     }
 }
 
-/// Check a cancellation-free solution against the energy level `E` and project it onto it
-/// (see [`EnergyResidual`](super::EnergyResidual)). `from_scale` is the roundoff scale of the
-/// previous midpoint (see [`roundoff_scale`]); `matrix` as for [`project_onto_energy`].
-pub(crate) fn project<H: Hamiltonian<D>, D: Dim>(
+/// Check the cancellation-free solution in `work` against the energy level `E` and project it
+/// onto it (see [`EnergyResidual`](super::EnergyResidual)). `from_scale` is the roundoff scale
+/// of the previous midpoint (see [`roundoff_scale`]); `solver` as for [`project_onto_energy`].
+pub(crate) fn project<H: Hamiltonian<D>, L: Linear<D>, D: Dim>(
     ham: &H,
     energy: f64,
-    mut s: Segment<D>,
+    work: &mut Work<D>,
     from_scale: f64,
     options: &DthOptions,
     step: usize,
-    matrix: Option<&mut NewtonMatrix>,
-) -> Result<Segment<D>, Error>
+    solver: &mut L,
+) -> Result<(), Error>
 where
     DefaultAllocator: Alloc<D>,
 {
-    let d = Point {
-        value: s.value,
-        gradient: s.gradient,
-        psi: s.psi,
-        hessian_max: 0.0,
-    };
-    let (z, d) = project_onto_energy(
-        ham, energy, s.zbar, d, from_scale, 0.0, options, step, matrix,
-    )?;
-    s.zbar = z;
-    s.value = d.value;
-    s.gradient = d.gradient;
-    s.psi = d.psi;
-    Ok(s)
+    work.e.d.hessian_max = 0.0;
+    project_onto_energy(
+        ham,
+        energy,
+        (&mut work.z, &mut work.e.d),
+        (&mut work.zp, &mut work.pp),
+        from_scale,
+        0.0,
+        options,
+        step,
+        solver,
+    )
 }
 
 /// Check `z` (with its point `d`) against the energy level `E` with the plain residual
@@ -595,20 +630,21 @@ where
 /// time-dependent `H` the `t` coordinate grows, and `t dH/dt` may be large at one end of a
 /// step and near zero at the other. `explained` is a part of the deviation that the caller knows
 /// the size of (the fallback step's `gbar . f`), allowed on top of the tolerance. The projected
-/// point is evaluated through `matrix` when `H` takes the structured path (its Hessian
-/// nonzeros land there; nothing reads them before the next evaluation).
+/// point is evaluated through `solver` (on the structured path its Hessian nonzeros land in the
+/// matrix; nothing reads them before the next evaluation) into `scratch`, and swapped into
+/// `(z, d)` when kept.
 #[allow(clippy::too_many_arguments)]
-pub(crate) fn project_onto_energy<H: Hamiltonian<D>, D: Dim>(
+pub(crate) fn project_onto_energy<H: Hamiltonian<D>, L: Linear<D>, D: Dim>(
     ham: &H,
     energy: f64,
-    z: OVector<f64, D>,
-    d: Point<D>,
+    (z, d): (&mut OVector<f64, D>, &mut Point<D>),
+    (zp, dp): (&mut OVector<f64, D>, &mut Point<D>),
     from_scale: f64,
     explained: f64,
     options: &DthOptions,
     step: usize,
-    matrix: Option<&mut NewtonMatrix>,
-) -> Result<(OVector<f64, D>, Point<D>), Error>
+    solver: &mut L,
+) -> Result<(), Error>
 where
     DefaultAllocator: Alloc<D>,
 {
@@ -616,7 +652,7 @@ where
     let scale = energy
         .abs()
         .max(d.value.abs())
-        .max(roundoff_scale(&z, &d.gradient))
+        .max(roundoff_scale(z, &d.gradient))
         .max(from_scale)
         .max(f64::MIN_POSITIVE);
     let scaled = deviation.abs() / scale;
@@ -629,15 +665,19 @@ where
     }
     let gg = d.gradient.norm_squared();
     if deviation != 0.0 && gg > 0.0 {
-        let zp = &z - &d.gradient * (deviation / gg);
-        let dp = linear::point(ham, &zp, matrix);
+        let c = deviation / gg;
+        for ((p, x), g) in zp.iter_mut().zip(z.iter()).zip(d.gradient.iter()) {
+            *p = x - g * c;
+        }
+        solver.evaluate(ham, zp, dp);
         // Keep the projection only if it does not make things worse (it cannot, beyond
         // evaluation roundoff).
         if dp.finite() && dp.hessian_finite() && (dp.value - energy).abs() <= deviation.abs() {
-            return Ok((zp, dp));
+            std::mem::swap(z, zp);
+            std::mem::swap(d, dp);
         }
     }
-    Ok((z, d))
+    Ok(())
 }
 
 /// The roundoff scale of evaluating `H` at `z`: `sum_i |z_i dH/dz_i|`, the size of the terms
@@ -647,7 +687,9 @@ pub(crate) fn roundoff_scale<D: Dim>(z: &OVector<f64, D>, gradient: &OVector<f64
 where
     DefaultAllocator: Alloc<D>,
 {
-    z.component_mul(gradient).abs().sum()
+    z.iter()
+        .zip(gradient.iter())
+        .fold(0.0, |sum, (x, g)| sum + (x * g).abs())
 }
 
 /// A fresh stopping rule for one Newton solve of a segment.
@@ -664,27 +706,24 @@ fn count(iterations: usize) -> u32 {
 fn joint<H: Hamiltonian<D>, L: Linear<D>, D: Dim>(
     ham: &H,
     solver: &mut L,
-    anchor: &Anchor<D>,
-    mut z: OVector<f64, D>,
+    anchor: &Anchor<'_, D>,
     mut lambda: f64,
     h: f64,
     options: &DthOptions,
     step: usize,
-) -> Result<Segment<D>, Error>
+    w: &mut Work<D>,
+) -> Result<Solved, Error>
 where
     DefaultAllocator: Alloc<D>,
 {
     let mut convergence = convergence(options);
-    // Workspace, overwritten in place each iteration.
-    let mut e = Eval::empty(z.shape_generic().0);
-    let mut lin = Linearization::empty(z.shape_generic().0);
     // Whether the last update came from the cancellation-free residual.
     let mut cf_update = false;
     let mut factorizations = 0u32;
     loop {
-        evaluate(ham, solver, anchor, h, &z, lambda, step, &mut e)?;
-        let last = (convergence.iterations() > 0).then_some((&lin, &*solver));
-        let mut stop = convergence.stop(e.stall(options, last, lambda));
+        evaluate(ham, solver, anchor, h, &w.z, lambda, step, &mut w.e)?;
+        let last = (convergence.iterations() > 0).then_some(&w.lin);
+        let mut stop = convergence.stop(w.e.stall(options, last, lambda));
         if let Some(p) = &anchor.previous {
             // The cancellation-free residual (a discrete gradient and its defect) only where it
             // can matter. Far from the solution (relative update above `CF_FROM`, and its
@@ -695,59 +734,69 @@ where
             // by a cancellation-free update (below `CF_FROM` a stop after a plain update
             // cannot happen with quadratic convergence; if it does, one more iteration).
             let near = match (convergence.last(), last) {
-                (Some(u), Some((lin, _))) => {
+                (Some(u), Some(lin)) => {
                     u <= CF_FROM
-                        || u * u <= 64.0 * f64::EPSILON * e.scale_r / (lin.g_lambda * lambda).abs()
+                        || u * u
+                            <= 64.0 * f64::EPSILON * w.e.scale_r / (lin.g_lambda * lambda).abs()
                 }
                 _ => false,
             };
             if stop.is_some() || near {
-                add_cancellation_free(ham, p, h, &z, lambda, step, &mut e)?;
+                add_cancellation_free(ham, p, h, &w.z, lambda, step, &mut w.e)?;
             }
             if !cf_update {
                 stop = None;
             }
         }
-        let status = convergence.status(stop, || e.passes(options, last, lambda));
+        let status = convergence.status(stop, || {
+            w.e.residual(last, solver, &mut w.u, lambda) <= options.residual_tolerance()
+        });
         let iterations = count(convergence.iterations());
-        if let Some(end) = e.finish(
-            status,
-            (&z, lambda),
-            last,
-            (iterations, factorizations),
-            step,
-        ) {
-            return end;
+        match status {
+            Status::Converged => {
+                return Ok(Solved {
+                    lambda,
+                    iterations,
+                    factorizations,
+                })
+            }
+            Status::Diverged => {
+                return Err(w
+                    .e
+                    .diverged(last, solver, &mut w.u, lambda, iterations, step))
+            }
+            Status::Continue => {}
         }
         if convergence.last().is_none_or(|u| u > REFACTOR_ABOVE) {
-            linearize(&e, solver, h, lambda, step, &mut lin)?;
+            linearize(&w.e, solver, h, lambda, step, &mut w.lin)?;
             factorizations += 1;
         }
-        cf_update = e.cf.is_some();
+        cf_update = w.e.cf;
         // Bordered system [[A, -(h/2) J g], [g^T, 0]] (dz, dl) = -(f, r):
         // dz = u + z_lambda dl with A u = -f, and g^T dz = -r.
-        let u = solver.solve(&(-&e.f));
-        let dl = -(e.r + e.d.gradient.dot(&u)) / lin.g_lambda;
-        let dz = u + &lin.z_lambda * dl;
-        z += &dz;
+        minus_solve(solver, &w.e.f, &mut w.u);
+        let dl = -(w.e.r + w.e.d.gradient.dot(&w.u)) / w.lin.g_lambda;
+        for ((dz, u), zl) in w.dz.iter_mut().zip(w.u.iter()).zip(w.lin.z_lambda.iter()) {
+            *dz = u + zl * dl;
+        }
+        w.z += &w.dz;
         lambda += dl;
-        if !all_finite(&z) || !lambda.is_finite() {
+        if !all_finite(&w.z) || !lambda.is_finite() {
             return Err(Error::NonFinite {
                 step,
                 what: "Newton iterate",
             });
         }
-        convergence.push(relative_update(&dz, &z, dl, lambda));
+        convergence.push(relative_update(&w.dz, &w.z, dl, lambda));
     }
 }
 
-/// The inner Newton's iterate and workspace in [`nested`].
+/// The inner Newton's workspace in [`nested`].
 struct Inner<'a, L, D: Dim>
 where
     DefaultAllocator: Alloc<D>,
 {
-    z: OVector<f64, D>,
-    e: &'a mut Eval<D>,
+    w: &'a mut Work<D>,
     solver: &'a mut L,
     factorizations: u32,
 }
@@ -760,21 +809,18 @@ where
 fn nested<H: Hamiltonian<D>, L: Linear<D>, D: Dim>(
     ham: &H,
     solver: &mut L,
-    anchor: &Anchor<D>,
-    mut z: OVector<f64, D>,
+    anchor: &Anchor<'_, D>,
     mut lambda: f64,
     h: f64,
     options: &DthOptions,
     step: usize,
-) -> Result<Segment<D>, Error>
+    w: &mut Work<D>,
+) -> Result<Solved, Error>
 where
     DefaultAllocator: Alloc<D>,
 {
     let mut outer = convergence(options);
     let mut factorizations = 0u32;
-    // Workspace, overwritten in place.
-    let mut e = Eval::empty(z.shape_generic().0);
-    let mut lin = Linearization::empty(z.shape_generic().0);
     // Everything at an iterate, with the cancellation-free residual whenever the anchor has it.
     let evaluate_at = |solver: &mut L, z: &OVector<f64, D>, lambda: f64, e: &mut Eval<D>| {
         evaluate(ham, solver, anchor, h, z, lambda, step, e)?;
@@ -786,10 +832,9 @@ where
     loop {
         let started = outer.iterations() > 0;
         // Inner Newton (thesis 4.1.2): z(h, lambda) at fixed lambda, on the residual f alone.
-        evaluate_at(solver, &z, lambda, &mut e)?;
+        evaluate_at(solver, &w.z, lambda, &mut w.e)?;
         let mut inner = Inner {
-            z,
-            e: &mut e,
+            w: &mut *w,
             solver: &mut *solver,
             factorizations,
         };
@@ -800,56 +845,69 @@ where
             |s, _| {
                 factor(s.solver, 0.5 * h * lambda, step)?;
                 s.factorizations += 1;
-                let dz = s.solver.solve(&(-&s.e.f));
-                s.z += &dz;
-                if !all_finite(&s.z) {
+                let w = &mut *s.w;
+                minus_solve(s.solver, &w.e.f, &mut w.dz);
+                w.z += &w.dz;
+                if !all_finite(&w.z) {
                     return Err(Error::NonFinite {
                         step,
                         what: "inner Newton iterate",
                     });
                 }
-                evaluate_at(s.solver, &s.z, lambda, s.e)?;
-                Ok(dz.amax() / s.z.amax().max(f64::MIN_POSITIVE))
+                evaluate_at(s.solver, &w.z, lambda, &mut w.e)?;
+                Ok(w.dz.amax() / w.z.amax().max(f64::MIN_POSITIVE))
             },
-            |s| s.e.f_residual <= options.residual_tolerance(),
+            |s| s.w.e.f_residual <= options.residual_tolerance(),
             |s, _| {
-                let last = started.then_some((&lin, &*s.solver));
-                s.e.diverged(last, lambda, s.factorizations, step)
+                let w = &mut *s.w;
+                let last = started.then_some(&w.lin);
+                w.e.diverged(last, s.solver, &mut w.u, lambda, s.factorizations, step)
             },
         )?;
-        (z, factorizations) = (inner.z, inner.factorizations);
+        factorizations = inner.factorizations;
         // Outer Newton (thesis 4.1.1) on g(lambda) = H(z(h, lambda)) - E.
-        let last = started.then_some((&lin, &*solver));
-        let status = outer.check(e.stall(options, last, lambda), || {
-            e.passes(options, last, lambda)
+        let last = started.then_some(&w.lin);
+        let status = outer.check(w.e.stall(options, last, lambda), || {
+            w.e.residual(last, solver, &mut w.u, lambda) <= options.residual_tolerance()
         });
-        if let Some(end) = e.finish(
-            status,
-            (&z, lambda),
-            last,
-            (factorizations, factorizations),
-            step,
-        ) {
-            return end;
+        match status {
+            Status::Converged => {
+                return Ok(Solved {
+                    lambda,
+                    iterations: factorizations,
+                    factorizations,
+                })
+            }
+            Status::Diverged => {
+                return Err(w
+                    .e
+                    .diverged(last, solver, &mut w.u, lambda, factorizations, step))
+            }
+            Status::Continue => {}
         }
-        linearize(&e, solver, h, lambda, step, &mut lin)?;
+        linearize(&w.e, solver, h, lambda, step, &mut w.lin)?;
         factorizations += 1;
-        let dl = if e.cf.is_some() {
+        let dl = if w.e.cf {
             // Eliminate the inner solve's remaining f to first order, as the joint update does:
             // its roundoff (eps h) must not reach lambda through gbar . f.
-            let u = solver.solve(&(-&e.f));
-            let dl = -(e.r + e.d.gradient.dot(&u)) / lin.g_lambda;
+            minus_solve(solver, &w.e.f, &mut w.u);
+            let dl = -(w.e.r + w.e.d.gradient.dot(&w.u)) / w.lin.g_lambda;
             lambda += dl;
-            z += u + &lin.z_lambda * dl;
+            for ((dz, u), zl) in w.dz.iter_mut().zip(w.u.iter()).zip(w.lin.z_lambda.iter()) {
+                *dz = u + zl * dl;
+            }
+            w.z += &w.dz;
             dl
         } else {
-            let dl = -e.r / lin.g_lambda;
+            let dl = -w.e.r / w.lin.g_lambda;
             lambda += dl;
             // Warm start of the next inner solve: first-order change of z(h, lambda).
-            z += &lin.z_lambda * dl;
+            for (z, zl) in w.z.iter_mut().zip(w.lin.z_lambda.iter()) {
+                *z += zl * dl;
+            }
             dl
         };
-        if !lambda.is_finite() || !all_finite(&z) {
+        if !lambda.is_finite() || !all_finite(&w.z) {
             return Err(Error::NonFinite {
                 step,
                 what: "outer Newton iterate",
@@ -860,20 +918,24 @@ where
 }
 
 /// Predictor for segment `k + 1` from its left vertex `v`: two fixed-point sweeps of
-/// `z = v + (h/2) lambda J gradH(z)` from `z = v` (error `O(h^3)`). It never starts at
-/// `zbar_k`, whose neighbourhood holds the spurious root `lambda_{k+1} = -lambda_k`.
-pub(crate) fn predict<H: Hamiltonian<D>, D: Dim>(
+/// `z = v + (h/2) lambda J gradH(z)` from `z = v` (error `O(h^3)`), written into `out` (`g` and
+/// `z1` are scratch). It never starts at `zbar_k`, whose neighbourhood holds the spurious root
+/// `lambda_{k+1} = -lambda_k`.
+pub(crate) fn predict_into<H: Hamiltonian<D>, D: Dim>(
     ham: &H,
     v: &OVector<f64, D>,
     lambda: f64,
     h: f64,
-) -> OVector<f64, D>
-where
+    (g, z1): (&mut OVector<f64, D>, &mut OVector<f64, D>),
+    out: &mut OVector<f64, D>,
+) where
     DefaultAllocator: Alloc<D>,
 {
     let half = 0.5 * h * lambda;
-    let z1 = v + j_times(&ham.gradient(v)) * half;
-    v + j_times(&ham.gradient(&z1)) * half
+    ham.gradient_into(v, g);
+    add_j_times(v, g, half, z1);
+    ham.gradient_into(z1, g);
+    add_j_times(v, g, half, out);
 }
 
 /// One DTH segment from a given left vertex at a given energy: find `zbar`, `lambda > 0` with
@@ -911,21 +973,32 @@ where
     if let Some((index, &value)) = vertex.iter().enumerate().find(|(_, x)| !x.is_finite()) {
         return Err(Error::NonFiniteInitialState { index, value });
     }
-    let z0 = predict(hamiltonian, vertex, lambda_guess, options.dtau());
+    let d = hamiltonian.dim();
+    let mut work = Work::new(d);
+    let (mut g, mut z1) = (zeros(d), zeros(d));
+    predict_into(
+        hamiltonian,
+        vertex,
+        lambda_guess,
+        options.dtau(),
+        (&mut g, &mut z1),
+        &mut work.z,
+    );
     let anchor = Anchor {
-        v: vertex.clone(),
+        v: vertex,
         energy,
         previous: None,
     };
     let s = solve_segment(
         hamiltonian,
         &anchor,
-        z0,
         lambda_guess,
         options.dtau(),
         options,
         0,
         &mut Structured::default(),
+        &mut None,
+        &mut work,
     )?;
     if s.lambda <= 0.0 {
         return Err(Error::SpuriousRoot {
@@ -933,6 +1006,15 @@ where
             lambda: s.lambda,
         });
     }
-    let right = &s.zbar * 2.0 - vertex;
-    Ok((s, right))
+    let right = &work.z * 2.0 - vertex;
+    let segment = Segment {
+        zbar: work.z,
+        lambda: s.lambda,
+        value: work.e.d.value,
+        gradient: work.e.d.gradient,
+        psi: work.e.d.psi,
+        iterations: s.iterations,
+        factorizations: s.factorizations,
+    };
+    Ok((segment, right))
 }

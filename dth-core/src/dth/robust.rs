@@ -16,38 +16,71 @@
 //! discrete gradients*, Phil. Trans. R. Soc. A 357 (1999). Used where Shibberu's DTH has no
 //! positive root (thesis Ch. III, Thm 3.11).
 
-use super::linear::{self, Point};
+use super::linear::{Linear, Point};
 use super::newton::{all_finite, project_onto_energy, roundoff_scale};
 use super::options::DthOptions;
 use crate::hamiltonian::Alloc;
-use crate::methods::{DiscreteGradient, NewtonOptions, OneStepMethod, Structured};
-use crate::{j_times, Error, Hamiltonian};
+use crate::methods::{DiscreteGradient, NewtonOptions, OneStepMethod};
+use crate::{zeros, Error, Hamiltonian};
 use nalgebra::{DefaultAllocator, Dim, OVector};
 
-/// A solved fallback step.
-pub(crate) struct FallbackStep<D: Dim>
+/// The storage of fallback steps, kept by the stepper (built once: a step of a `Dyn`
+/// dimension allocates nothing). After [`fallback_step`], `z` and `point` hold the new node
+/// and `H`'s value, gradient and `Psi` there.
+#[derive(Clone, Debug)]
+pub(crate) struct FallbackWork<D: Dim>
 where
     DefaultAllocator: Alloc<D>,
 {
     pub(crate) z: OVector<f64, D>,
-    /// `H`'s value, gradient and `Psi` at `z`.
     pub(crate) point: Point<D>,
-    pub(crate) iterations: u32,
+    g0: OVector<f64, D>,
+    gbar: OVector<f64, D>,
+    f: OVector<f64, D>,
+    zp: OVector<f64, D>,
+    pp: Point<D>,
+    /// The discrete-gradient peer (its Newton buffers kept between steps).
+    method: DiscreteGradient,
+}
+
+impl<D: Dim> FallbackWork<D>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    /// Storage for fallback steps on `H` (the peer's buffers included).
+    pub(crate) fn new<H: Hamiltonian<D>>(ham: &H) -> Self {
+        let d = ham.dim();
+        let mut method = DiscreteGradient::new();
+        method.reserve(ham);
+        FallbackWork {
+            z: zeros(d),
+            point: Point::zeros(d),
+            g0: zeros(d),
+            gbar: zeros(d),
+            f: zeros(d),
+            zp: zeros(d),
+            pp: Point::zeros(d),
+            method,
+        }
+    }
 }
 
 /// One discrete-gradient step of size `dt` from `z0` (which lies on `H = energy`), checked and
-/// projected onto `H = energy`. The peer's Newton failures come back as its `Method*` errors.
-/// `storage` is the stepper's structured Newton storage (see `dth::linear`): the new point is
-/// evaluated without a `D x D` Hessian where `H` takes that path.
-pub(crate) fn fallback_step<H: Hamiltonian<D>, D: Dim>(
+/// projected onto `H = energy`, into `work` (`z`, `point`); returns the peer's Newton
+/// iterations. The peer's Newton failures come back as its `Method*` errors. `solver` is the
+/// stepper's linear algebra (see `dth::linear`): the new point is evaluated without a `D x D`
+/// Hessian where `H` takes the structured path.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn fallback_step<H: Hamiltonian<D>, L: Linear<D>, D: Dim>(
     ham: &H,
     z0: &OVector<f64, D>,
     dt: f64,
     energy: f64,
     options: &DthOptions,
     step: usize,
-    storage: &mut Structured,
-) -> Result<FallbackStep<D>, Error>
+    solver: &mut L,
+    work: &mut FallbackWork<D>,
+) -> Result<u32, Error>
 where
     DefaultAllocator: Alloc<D>,
 {
@@ -63,16 +96,17 @@ where
     // relative to it; away from equilibria (`|grad H| |z| >> scale_h`) nothing changes. With
     // exact divided differences (`flags().exact_divided_differences`) there is no such cancellation
     // and no floor.
-    let g0 = ham.gradient(z0);
+    let w = work;
+    ham.gradient_into(z0, &mut w.g0);
     let scale_h = if ham.flags().exact_divided_differences {
         0.0
     } else {
-        energy.abs().max(z0.component_mul(&g0).abs().sum())
+        energy.abs().max(roundoff_scale(z0, &w.g0))
     };
     let z0_size = z0.amax().max(f64::MIN_POSITIVE);
     // (At an equilibrium, `grad H = 0`, the step does not move and the floor is not needed.)
-    let floor = if scale_h > 0.0 && g0.amax() > 0.0 {
-        options.residual_tolerance() * scale_h / (g0.amax() * z0_size)
+    let floor = if scale_h > 0.0 && w.g0.amax() > 0.0 {
+        options.residual_tolerance() * scale_h / (w.g0.amax() * z0_size)
     } else {
         0.0
     };
@@ -81,18 +115,19 @@ where
     // (relative to `|z|`); raise it to the floor (capped at the peer's largest allowed value,
     // below which an update that still contracts is never accepted).
     let stall = floor.clamp(newton.stall_tolerance, 1e-8);
-    let newton = newton.with_stall_tolerance(stall).unwrap_or(newton);
-    let mut method = DiscreteGradient::with_newton(newton);
-    let z = OneStepMethod::<D, H>::step(&mut method, ham, z0, dt).map_err(|e| at_step(e, step))?;
-    let iterations = OneStepMethod::<D, H>::newton_iterations(&method);
-    if !all_finite(&z) {
+    w.method.newton = newton.with_stall_tolerance(stall).unwrap_or(newton);
+    let before = OneStepMethod::<D, H>::newton_iterations(&w.method);
+    OneStepMethod::<D, H>::step_into(&mut w.method, ham, z0, dt, &mut w.z)
+        .map_err(|e| at_step(e, step))?;
+    let iterations = OneStepMethod::<D, H>::newton_iterations(&w.method) - before;
+    if !all_finite(&w.z) {
         return Err(Error::NonFinite {
             step,
             what: "H or its derivatives after a fallback step",
         });
     }
-    let d = linear::point(ham, &z, linear::matrix(ham, storage));
-    if !d.finite() || !d.hessian_finite() {
+    solver.evaluate(ham, &w.z, &mut w.point);
+    if !w.point.finite() || !w.point.hessian_finite() {
         return Err(Error::NonFinite {
             step,
             what: "H or its derivatives after a fallback step",
@@ -100,25 +135,33 @@ where
     }
     // H(z) - H(z0) = gbar . (z - z0) = gbar . f exactly: the energy error the solve's own
     // residual explains, allowed in the check before projecting.
-    let gbar = ham.discrete_gradient(z0, &z);
-    let move_ = j_times(&gbar) * dt;
-    let f = (&z - z0) - &move_;
+    ham.discrete_gradient_into(z0, &w.z, &mut w.gbar);
+    // f = (z - z0) - dt J gbar, and the size of dt J gbar; `zp` holds z - z0 for its norm.
+    let n = z0.len() / 2;
+    let mut move_max = 0.0f64;
+    for i in 0..z0.len() {
+        let jg = if i < n { w.gbar[i + n] } else { -w.gbar[i - n] };
+        let m = jg * dt;
+        move_max = move_max.max(m.abs());
+        w.zp[i] = w.z[i] - z0[i];
+        w.f[i] = w.zp[i] - m;
+    }
     // The peer's Newton accepts on its update size; insist on the residual too, relative to the
     // terms it is a difference of (a near-collision step can stall far from the solution),
     // including the rounding `dt scale_h / |d|` of the discrete gradient's correction (above).
-    let d_size = (&z - z0).norm();
+    let d_size = w.zp.norm();
     let correction = if d_size > 0.0 && scale_h > 0.0 {
         dt * scale_h / d_size
     } else {
         0.0
     };
-    let scale = z
-        .amax()
-        .max(z0.amax())
-        .max(move_.amax())
-        .max(correction)
-        .max(f64::MIN_POSITIVE);
-    let residual = f.amax();
+    let scale =
+        w.z.amax()
+            .max(z0.amax())
+            .max(move_max)
+            .max(correction)
+            .max(f64::MIN_POSITIVE);
+    let residual = w.f.amax();
     if residual.is_nan() || residual > options.residual_tolerance() * scale {
         return Err(Error::MethodNotConverged {
             method: "discrete_gradient",
@@ -127,22 +170,19 @@ where
             residual,
         });
     }
-    let (z, point) = project_onto_energy(
+    let explained = w.gbar.dot(&w.f);
+    project_onto_energy(
         ham,
         energy,
-        z,
-        d,
-        roundoff_scale(z0, &g0),
-        gbar.dot(&f),
+        (&mut w.z, &mut w.point),
+        (&mut w.zp, &mut w.pp),
+        roundoff_scale(z0, &w.g0),
+        explained,
         options,
         step,
-        linear::matrix(ham, storage),
+        solver,
     )?;
-    Ok(FallbackStep {
-        z,
-        point,
-        iterations: u32::try_from(iterations).unwrap_or(u32::MAX),
-    })
+    Ok(u32::try_from(iterations).unwrap_or(u32::MAX))
 }
 
 /// Label a peer method's error (step 0 for a direct call) with the run's step index.

@@ -3,20 +3,24 @@
 use crate::hamiltonian::Alloc;
 use nalgebra::{DefaultAllocator, Dim, OVector};
 
-use super::linear::{self, Point};
-use super::newton::all_finite;
-use super::newton::{predict, project, roundoff_scale, solve_segment, Anchor, Previous};
+use super::linear::{self, Dense, Linear, Point};
+use super::newton::{add_j_times, all_finite, Work};
+use super::newton::{predict_into, project, roundoff_scale, solve_segment, Anchor, Previous};
 use super::options::DthOptions;
 use super::options::EnergyResidual;
-use super::robust::fallback_step;
+use super::robust::{fallback_step, FallbackWork};
 use super::trajectory::Trajectory;
 use crate::error::RunError;
 use crate::methods::Structured;
 use crate::observer::{DthRecord, Observer, StepKind, StepRecord};
-use crate::{j_times, Error, Flags, Hamiltonian};
+use crate::{j_times, zeros, Error, Flags, Hamiltonian};
 
 /// The autonomous DTH stepper (paper Corollary 1, eqs. 28-30), monomorphized over the
-/// Hamiltonian: no `dyn`, no heap allocation per step.
+/// Hamiltonian: no `dyn`, no heap allocation per step. Its workspace (the Newton iterate and
+/// evaluation, the linear algebra, the predictor's and the robust mode's vectors, the record
+/// it reports) is allocated once, in [`Dth::new`]; after that, [`Dth::run`] and
+/// [`Dth::advance`] allocate nothing, for a `Dyn` dimension too (the records they report are
+/// borrowed; [`Dth::step`] returns an owned copy, a heap allocation each for `Dyn`).
 ///
 /// State: midpoint `zbar_k`, multiplier `lambda_k`, midpoint time `tbar_k`. A step finds
 /// `zbar_{k+1}` and `lambda_{k+1} > 0` with
@@ -75,6 +79,36 @@ where
     /// The structured Newton matrix when `H` takes that path (see `dth::linear`): analysed
     /// once, in [`Dth::new`], and reused by every step without allocation. A cache, not state.
     newton: Structured,
+    /// Everything a step writes besides its state (on the heap, so that a stepper of any size
+    /// moves cheaply). Scratch, not state.
+    work: Box<Workspace<D>>,
+}
+
+/// The storage a step works in, built once in [`Dth::new`].
+#[derive(Clone, Debug)]
+struct Workspace<D: Dim>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    /// The segment solve: the predictor goes into `newton.z`, the solution comes out there.
+    newton: Work<D>,
+    /// The dense path's storage (`None` on the structured path).
+    dense: Option<Dense<D>>,
+    /// The left vertex of the new segment.
+    v: OVector<f64, D>,
+    /// Scratch of the predictor's fixed-point sweeps (`g`, `z1`), and `z1` itself.
+    g: OVector<f64, D>,
+    sweep: OVector<f64, D>,
+    z1: OVector<f64, D>,
+    /// `H` at a predicted midpoint.
+    point: Point<D>,
+    /// The state at the start of a composed step, restored when it fails.
+    saved: State<D>,
+    /// The record of the current midpoint, as reported.
+    record: StepRecord<D>,
+    /// The robust mode's fallback steps, and the walk of [`Dth::diagnose`].
+    fallback: FallbackWork<D>,
+    walk: OVector<f64, D>,
 }
 
 /// The state of a [`Dth`] stepper that steps change.
@@ -109,6 +143,39 @@ where
     /// (`gamma_1 dtau` for a composed step, `gamma_1 = gamma_s`; `dtau` at order 2). The
     /// vertices of the current segment are `zbar -+ (h_edge/2) zbar'`.
     h_edge: f64,
+}
+
+impl<D: Dim> State<D>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    /// Make this a copy of `other`, in its own storage (`clone_from` would allocate for `Dyn`).
+    fn assign(&mut self, other: &Self) {
+        let State {
+            k,
+            zbar,
+            lambda,
+            tbar,
+            gradient,
+            psi,
+            iterations,
+            factorizations,
+            reported,
+            fallback,
+            kind,
+            step_kind,
+            law,
+            lambda_max,
+            h_edge,
+        } = other;
+        self.zbar.copy_from(zbar);
+        self.gradient.copy_from(gradient);
+        (self.k, self.lambda, self.tbar, self.psi) = (*k, *lambda, *tbar, *psi);
+        (self.iterations, self.factorizations) = (*iterations, *factorizations);
+        (self.reported, self.fallback, self.kind, self.step_kind) =
+            (*reported, *fallback, *kind, *step_kind);
+        (self.law, self.lambda_max, self.h_edge) = (*law, *lambda_max, *h_edge);
+    }
 }
 
 /// Predicted growth of `lambda` in one step beyond which breakdown detection looks a second time,
@@ -185,11 +252,10 @@ where
             return Err(Error::NonFiniteInitialState { index, value });
         }
         let mut newton = Structured::default();
-        let d = linear::point(
-            &hamiltonian,
-            &zbar0,
-            linear::matrix(&hamiltonian, &mut newton),
-        );
+        let dim = hamiltonian.dim();
+        let mut dense = None;
+        let mut d = Point::zeros(dim);
+        linear::path(&hamiltonian, &mut newton, &mut dense).evaluate(&hamiltonian, &zbar0, &mut d);
         if !d.finite() || !d.hessian_finite() {
             return Err(Error::NonFinite {
                 step: 0,
@@ -210,29 +276,57 @@ where
         // not the previous midpoint, so the energy cannot random-walk); exactly 0 for calH
         // (eq. 11).
         let energy = if flags.time_dependent { 0.0 } else { d.value };
+        let s = State {
+            k: 0,
+            zbar: zbar0,
+            lambda: options.lambda0(),
+            tbar,
+            gradient: d.gradient,
+            psi: d.psi,
+            iterations: 0,
+            factorizations: 0,
+            reported: false,
+            fallback: None,
+            kind: StepKind::Dth,
+            step_kind: StepKind::Dth,
+            law: options.lambda0().powi(3) * d.psi,
+            lambda_max: options.lambda0(),
+            h_edge: options.dtau() * options.composition().coefficients()[0],
+        };
+        let work = Box::new(Workspace {
+            newton: Work::new(dim),
+            dense,
+            v: zeros(dim),
+            g: zeros(dim),
+            sweep: zeros(dim),
+            z1: zeros(dim),
+            point: Point::zeros(dim),
+            saved: s.clone(),
+            record: StepRecord {
+                k: 0,
+                t: 0.0,
+                z: zeros(dim),
+                kind: StepKind::Dth,
+                iterations: 0,
+                factorizations: 0,
+                dth: Some(DthRecord {
+                    lambda: 0.0,
+                    vertex: zeros(dim),
+                    vertex_time: 0.0,
+                    psi: 0.0,
+                }),
+            },
+            fallback: FallbackWork::new(&hamiltonian),
+            walk: zeros(dim),
+        });
         Ok(Dth {
             hamiltonian,
             flags,
             options,
             energy,
-            s: State {
-                k: 0,
-                zbar: zbar0,
-                lambda: options.lambda0(),
-                tbar,
-                gradient: d.gradient,
-                psi: d.psi,
-                iterations: 0,
-                factorizations: 0,
-                reported: false,
-                fallback: None,
-                kind: StepKind::Dth,
-                step_kind: StepKind::Dth,
-                law: options.lambda0().powi(3) * d.psi,
-                lambda_max: options.lambda0(),
-                h_edge: options.dtau() * options.composition().coefficients()[0],
-            },
+            s,
             newton,
+            work,
         })
     }
 
@@ -310,10 +404,9 @@ where
     }
     /// `zbar + (h/2) zbar'`, or the node itself after a fallback step.
     fn vertex(&self, kind: StepKind, h: f64) -> OVector<f64, D> {
-        match kind {
-            StepKind::Fallback => self.s.zbar.clone(),
-            _ => &self.s.zbar + self.slope() * (0.5 * h),
-        }
+        let mut out = self.s.zbar.clone();
+        vertex_into(&self.s, kind, h, &mut out);
+        out
     }
     /// What produced the current midpoint.
     pub fn kind(&self) -> StepKind {
@@ -325,25 +418,9 @@ where
     }
     /// The record of the current midpoint.
     pub fn record(&self) -> StepRecord<D> {
-        let h = self.s.h_edge;
-        let kind = self.s.step_kind;
-        StepRecord {
-            k: self.s.k,
-            t: self.s.tbar,
-            z: self.s.zbar.clone(),
-            kind,
-            iterations: self.s.iterations,
-            factorizations: self.s.factorizations,
-            dth: Some(DthRecord {
-                lambda: self.s.lambda,
-                vertex: self.vertex(kind, -h),
-                vertex_time: match kind {
-                    StepKind::Fallback => self.s.tbar,
-                    _ => self.s.tbar - 0.5 * h * self.s.lambda,
-                },
-                psi: self.s.psi,
-            }),
-        }
+        let mut record = self.work.record.clone();
+        fill_record(&self.s, &mut record);
+        record
     }
 
     /// Advance one step: solve for `zbar_{k+1}`, `lambda_{k+1}` (in robust mode, possibly a
@@ -368,7 +445,8 @@ where
         self.composed_step(
             self.options.composition().coefficients(),
             self.options.dtau(),
-        )
+        )?;
+        Ok(self.work.record.clone())
     }
 
     /// One plain DTH step (no composition, whatever [`DthOptions::order`]) with the signed
@@ -401,7 +479,8 @@ where
                 reason: "must be finite and nonzero",
             });
         }
-        self.composed_step(&[1.0], dtau)
+        self.composed_step(&[1.0], dtau)?;
+        Ok(self.work.record.clone())
     }
 
     /// Advance toward the time `t_end`, ending on it exactly: a full step ([`Dth::step`]) when
@@ -450,7 +529,8 @@ where
         }
         let saved = self.s.clone();
         let dtau = self.options.dtau();
-        let full = self.composed_step(self.options.composition().coefficients(), dtau)?;
+        self.composed_step(self.options.composition().coefficients(), dtau)?;
+        let full = self.work.record.clone();
         let advance = full.t - t0;
         if full.t < t_end - 0.5 * advance {
             return Ok((full, false));
@@ -467,7 +547,8 @@ where
             }
             let scale = (s_b - f_b * (s_b - s_a) / (f_b - f_a)).clamp(1e-3, 4.0);
             self.s = saved.clone();
-            let r = self.composed_step(self.options.composition().coefficients(), scale * dtau)?;
+            self.composed_step(self.options.composition().coefficients(), scale * dtau)?;
+            let r = self.work.record.clone();
             let f = r.t - t_end;
             let improved = f.abs() <= 0.5 * best.0;
             if f.abs() < best.0 {
@@ -491,24 +572,24 @@ where
     }
 
     /// One composed step of size `dtau`: the sub-steps `gamma_i dtau` in turn (`gammas` is
-    /// the composition's coefficients, `[1.0]` for a single DTH step). Its record is the last
-    /// sub-step's, with the iterations summed and [`StepKind::Fallback`] if any sub-step was a
-    /// fallback step. On error the state is restored to the start of the step.
-    fn composed_step(&mut self, gammas: &[f64], dtau: f64) -> Result<StepRecord<D>, Error> {
-        let saved = self.s.clone();
-        let step = saved.k + 1;
+    /// the composition's coefficients, `[1.0]` for a single DTH step). Its record (in the
+    /// workspace) is the last sub-step's, with the iterations summed and
+    /// [`StepKind::Fallback`] if any sub-step was a fallback step. On error the state is
+    /// restored to the start of the step.
+    fn composed_step(&mut self, gammas: &[f64], dtau: f64) -> Result<(), Error> {
+        self.work.saved.assign(&self.s);
+        let step = self.s.k + 1;
         let (mut iterations, mut factorizations, mut fallback) = (0u32, 0u32, false);
-        let mut last = None;
         for (i, &gamma) in gammas.iter().enumerate() {
             match self.sub_step(gamma * dtau, dtau.abs(), step, i == 0) {
-                Ok(r) => {
+                Ok(()) => {
+                    let r = &self.work.record;
                     iterations = iterations.saturating_add(r.iterations);
                     factorizations = factorizations.saturating_add(r.factorizations);
                     fallback |= r.kind == StepKind::Fallback;
-                    last = Some(r);
                 }
                 Err(e) => {
-                    self.s = saved.clone();
+                    self.s.assign(&self.work.saved);
                     return Err(e);
                 }
             }
@@ -522,27 +603,21 @@ where
         self.s.iterations = iterations;
         self.s.factorizations = factorizations;
         self.s.step_kind = kind;
-        let mut r = last.unwrap_or_else(|| self.record());
+        let r = &mut self.work.record;
         r.k = step;
         r.iterations = iterations;
         r.factorizations = factorizations;
         r.kind = kind;
-        Ok(r)
+        Ok(())
     }
 
     /// One DTH step of signed size `h` (or, in robust mode, a fallback step instead), labelled
     /// `step` in errors. `h_base` (positive) is the size of the composed step it belongs to:
     /// fallback steps are sized from it and scaled by `h / h_base`, so that a run of fallback
     /// steps is composed like the DTH steps it replaces; `first` marks the first sub-step of
-    /// the composed step, the only one where that size may grow. On error the state may have
-    /// changed (the callers restore it).
-    fn sub_step(
-        &mut self,
-        h: f64,
-        h_base: f64,
-        step: usize,
-        first: bool,
-    ) -> Result<StepRecord<D>, Error> {
+    /// the composed step, the only one where that size may grow. Its record goes into the
+    /// workspace. On error the state may have changed (the callers restore it).
+    fn sub_step(&mut self, h: f64, h_base: f64, step: usize, first: bool) -> Result<(), Error> {
         if let Some(fb) = self.s.fallback {
             return self.fallback_step(fb, h, h_base, step, first);
         }
@@ -577,7 +652,7 @@ where
         h_base: f64,
         step: usize,
         first: bool,
-    ) -> Result<StepRecord<D>, Error> {
+    ) -> Result<(), Error> {
         // Size: what DTH's law of time would give here, lambda = (law / |Psi|)^(1/3), capped
         // by the largest DTH lambda of the run (the law blows up as Psi -> 0) and growing at
         // most 2x per (composed) step, at its first sub-step, so that the sub-steps of one
@@ -599,7 +674,8 @@ where
             fb.dt = target.min(2.0 * fb.dt);
         }
         let dt_min = target * 0.5f64.powi(MAX_FALLBACK_HALVINGS as i32);
-        let s = loop {
+        let w = &mut *self.work;
+        let iterations = loop {
             match fallback_step(
                 &self.hamiltonian,
                 &self.s.zbar,
@@ -607,9 +683,10 @@ where
                 self.energy,
                 &self.options,
                 step,
-                &mut self.newton,
+                &mut linear::path(&self.hamiltonian, &mut self.newton, &mut w.dense),
+                &mut w.fallback,
             ) {
-                Ok(s) => break s,
+                Ok(iterations) => break iterations,
                 Err(
                     Error::MethodNotConverged { .. }
                     | Error::MethodSingularMatrix { .. }
@@ -621,9 +698,9 @@ where
                 Err(e) => return Err(e),
             }
         };
-        let psi = s.point.psi;
-        self.s.zbar = s.z;
-        self.s.gradient = s.point.gradient;
+        let psi = w.fallback.point.psi;
+        std::mem::swap(&mut self.s.zbar, &mut w.fallback.z);
+        std::mem::swap(&mut self.s.gradient, &mut w.fallback.point.gradient);
         self.s.psi = psi;
         // Extended phase space: time is the t coordinate (Gonzalez's discrete gradient moves it
         // by dt (1 + O(dt^2)), not exactly dt).
@@ -633,14 +710,14 @@ where
             self.s.tbar + fb.dt * gamma
         };
         self.s.lambda = fb.dt / h_base;
-        self.s.iterations = s.iterations;
-        self.s.factorizations = s.iterations;
+        self.s.iterations = iterations;
+        self.s.factorizations = iterations;
         self.s.k = step;
         self.s.kind = StepKind::Fallback;
         self.s.step_kind = StepKind::Fallback;
         self.s.h_edge = h;
         self.s.reported = false;
-        let record = self.record();
+        fill_record(&self.s, &mut self.work.record);
         // Resume DTH when Psi has the sign of the run's law of time again, moves away from zero,
         // and the law gives a lambda within the breakdown ratio of the fallback's.
         let ratio = self.s.law / psi;
@@ -659,7 +736,7 @@ where
                 ..fb
             });
         }
-        Ok(record)
+        Ok(())
     }
 
     /// A Newton failure (or a root with `lambda <= 0`) where `Psi` changes sign just ahead on
@@ -676,20 +753,23 @@ where
             _ => return error,
         };
         let dt = self.s.lambda * h;
-        let mut z = self.s.zbar.clone();
+        let w = &mut *self.work;
+        w.walk.copy_from(&self.s.zbar);
         for _ in 0..DIAGNOSE_STEPS {
-            let Ok(s) = fallback_step(
+            let walked = fallback_step(
                 &self.hamiltonian,
-                &z,
+                &w.walk,
                 dt,
                 self.energy,
                 &self.options,
                 step,
-                &mut self.newton,
-            ) else {
+                &mut linear::path(&self.hamiltonian, &mut self.newton, &mut w.dense),
+                &mut w.fallback,
+            );
+            if walked.is_err() {
                 break;
-            };
-            let psi = s.point.psi;
+            }
+            let psi = w.fallback.point.psi;
             if self.s.psi * psi < 0.0 {
                 return Error::Breakdown {
                     step,
@@ -700,47 +780,31 @@ where
                     lambda_predicted: self.s.lambda * (self.s.psi / psi).cbrt(),
                 };
             }
-            z = s.z;
+            std::mem::swap(&mut w.walk, &mut w.fallback.z);
         }
         error
-    }
-
-    /// `Psi` at a predicted midpoint, if finite and if the prediction lies on the energy
-    /// surface to within [`PREDICTOR_TRUST`] of the size of the terms of `H` (a predictor for a
-    /// step far too large for the orbit lands elsewhere in phase space, where `Psi` says
-    /// nothing about this orbit).
-    fn trusted_psi(&self, z: &OVector<f64, D>, d: &Point<D>) -> Option<f64> {
-        let scale = self
-            .energy
-            .abs()
-            .max(z.component_mul(&d.gradient).abs().sum());
-        ((d.value - self.energy).abs() <= PREDICTOR_TRUST * scale && d.psi.is_finite())
-            .then_some(d.psi)
-    }
-
-    /// `H` at a predicted midpoint, if it and its value and gradient are finite.
-    fn predicted(&mut self, z: &OVector<f64, D>) -> Option<Point<D>> {
-        if !all_finite(z) {
-            return None;
-        }
-        let d = linear::point(
-            &self.hamiltonian,
-            z,
-            linear::matrix(&self.hamiltonian, &mut self.newton),
-        );
-        d.finite().then_some(d)
     }
 
     /// One DTH step of signed size `h` with breakdown detection (every part of it holds for
     /// `h < 0`: the predictor, the law of time and the checks read `h` only through
     /// `h lambda`, and Newton's matrix and `g_lambda ~ -lambda h^2 Psi / 4` keep their form).
-    fn dth_step(&mut self, h: f64, step: usize) -> Result<StepRecord<D>, Error> {
-        let v = self.vertex(self.s.kind, h);
+    fn dth_step(&mut self, h: f64, step: usize) -> Result<(), Error> {
+        let cancellation_free = self.cancellation_free();
+        let ham = &self.hamiltonian;
+        let w = &mut *self.work;
+        vertex_into(&self.s, self.s.kind, h, &mut w.v);
         // Predict lambda from the asymptotic law of time (paper Theorem 5):
         // lambda psi^(1/3) ~ const, with psi at an explicit predictor of zbar_{k+1}; fall back
         // to lambda_k where psi vanishes. A sign change of psi, or a predicted lambda that blows
         // up, means the step has no positive root near lambda_k: stop before Newton wanders.
-        let z1 = predict(&self.hamiltonian, &v, self.s.lambda, h);
+        predict_into(
+            ham,
+            &w.v,
+            self.s.lambda,
+            h,
+            (&mut w.g, &mut w.sweep),
+            &mut w.z1,
+        );
         let (time, psi_previous, lambda) = (self.s.tbar, self.s.psi, self.s.lambda);
         let max_ratio = self.options.max_lambda_ratio();
         // Psi exactly zero at either point (ratio 0, infinite or NaN), or a predictor too far
@@ -762,8 +826,11 @@ where
             }
             Ok((predicted.is_finite() && predicted > 0.0).then_some(predicted))
         };
-        let d1 = self.predicted(&z1);
-        let psi1 = d1.as_ref().and_then(|d| self.trusted_psi(&z1, d));
+        let mut path = linear::path(ham, &mut self.newton, &mut w.dense);
+        let evaluated = predicted(ham, &mut path, &w.z1, &mut w.point);
+        let psi1 = evaluated
+            .then(|| trusted_psi(self.energy, &w.z1, &w.point))
+            .flatten();
         let lambda_guess = verdict(psi1)?.unwrap_or(self.s.lambda);
         // Newton's start. With c = (h/2) lambda_k, c' = (h/2) lambda_guess and the fixed point
         // z* = v + c' J gradH(z*), a third fixed-point sweep at c' with the gradient the check
@@ -775,42 +842,55 @@ where
         // sweeps at c' (a step far too large, or lambda changing fast).
         let c = 0.5 * h * self.s.lambda;
         let c_guess = 0.5 * h * lambda_guess;
-        let z0 = match &d1 {
-            Some(d)
-                if psi1.is_some() && (c - c_guess).abs() <= c_guess * c_guess * d.hessian_max =>
-            {
-                &v + j_times(&d.gradient) * c_guess
-            }
-            _ => predict(&self.hamiltonian, &v, lambda_guess, h),
-        };
+        if evaluated
+            && psi1.is_some()
+            && (c - c_guess).abs() <= c_guess * c_guess * w.point.hessian_max
+        {
+            add_j_times(&w.v, &w.point.gradient, c_guess, &mut w.newton.z);
+        } else {
+            predict_into(
+                ham,
+                &w.v,
+                lambda_guess,
+                h,
+                (&mut w.g, &mut w.sweep),
+                &mut w.newton.z,
+            );
+        }
         if lambda_guess > LOOK_AGAIN * self.s.lambda {
             // Look again where the law of time says the midpoint will be: further out when
             // lambda grows fast, as it does towards Psi = 0 (one more evaluation of H's
             // derivatives, so only then).
-            let d0 = self.predicted(&z0);
-            verdict(d0.and_then(|d| self.trusted_psi(&z0, &d)))?;
+            let z0 = &w.newton.z;
+            let again = predicted(ham, &mut path, z0, &mut w.point);
+            verdict(
+                again
+                    .then(|| trusted_psi(self.energy, z0, &w.point))
+                    .flatten(),
+            )?;
         }
-        let previous = self.cancellation_free().then(|| Previous {
-            zbar: self.s.zbar.clone(),
-            gradient: self.s.gradient.clone(),
+        let previous = cancellation_free.then_some(Previous {
+            zbar: &self.s.zbar,
+            gradient: &self.s.gradient,
             lambda: self.s.lambda,
         });
         let anchor = Anchor {
-            v,
+            v: &w.v,
             energy: self.energy,
             previous,
         };
-        let s = solve_segment(
-            &self.hamiltonian,
+        let solved = solve_segment(
+            ham,
             &anchor,
-            z0,
             lambda_guess,
             h,
             &self.options,
             step,
             &mut self.newton,
+            &mut w.dense,
+            &mut w.newton,
         );
-        let s = match s {
+        let s = match solved {
             Ok(s) => s,
             Err(e) => return Err(self.diagnose(e, time, h)),
         };
@@ -824,35 +904,34 @@ where
                 h,
             ));
         }
+        let w = &mut *self.work;
         if s.lambda > self.options.max_lambda_ratio() * self.s.lambda {
             return Err(Error::Breakdown {
                 step,
                 time,
-                psi: s.psi,
+                psi: w.newton.e.d.psi,
                 psi_previous,
                 lambda,
                 lambda_predicted: s.lambda,
             });
         }
-        let s = if anchor.previous.is_some() {
+        if cancellation_free {
             let from_scale = roundoff_scale(&self.s.zbar, &self.s.gradient);
             project(
                 &self.hamiltonian,
                 self.energy,
-                s,
+                &mut w.newton,
                 from_scale,
                 &self.options,
                 step,
-                linear::matrix(&self.hamiltonian, &mut self.newton),
-            )?
-        } else {
-            s
-        };
+                &mut linear::path(&self.hamiltonian, &mut self.newton, &mut w.dense),
+            )?;
+        }
         self.s.tbar += 0.5 * h * (self.s.lambda + s.lambda);
         self.s.lambda = s.lambda;
-        self.s.zbar = s.zbar;
-        self.s.gradient = s.gradient;
-        self.s.psi = s.psi;
+        std::mem::swap(&mut self.s.zbar, &mut w.newton.z);
+        std::mem::swap(&mut self.s.gradient, &mut w.newton.e.d.gradient);
+        self.s.psi = w.newton.e.d.psi;
         self.s.iterations = s.iterations;
         self.s.factorizations = s.factorizations;
         self.s.k = step;
@@ -864,7 +943,8 @@ where
         if self.s.law == 0.0 {
             self.s.law = self.s.lambda.powi(3) * self.s.psi;
         }
-        Ok(self.record())
+        fill_record(&self.s, &mut w.record);
+        Ok(())
     }
 
     /// Take `steps` steps, reporting to `observer`: first the current midpoint if not reported
@@ -876,14 +956,16 @@ where
     /// The first failing step's error (see [`Dth::step`]).
     pub fn run<O: Observer<D>>(&mut self, steps: usize, observer: &mut O) -> Result<(), Error> {
         if !self.s.reported {
-            observer.on_step(&self.record());
+            fill_record(&self.s, &mut self.work.record);
+            observer.on_step(&self.work.record);
             self.s.reported = true;
         }
         let mut result = Ok(());
         for _ in 0..steps {
-            match self.step() {
-                Ok(r) => {
-                    observer.on_step(&r);
+            let gammas = self.options.composition().coefficients();
+            match self.composed_step(gammas, self.options.dtau()) {
+                Ok(()) => {
+                    observer.on_step(&self.work.record);
                     self.s.reported = true;
                 }
                 Err(e) => {
@@ -893,7 +975,9 @@ where
             }
         }
         let t_end = self.s.tbar + 0.5 * self.s.h_edge * self.s.lambda;
-        observer.on_finish(&self.right_vertex(), t_end);
+        let w = &mut *self.work;
+        vertex_into(&self.s, self.s.kind, self.s.h_edge, &mut w.walk);
+        observer.on_finish(&w.walk, t_end);
         result
     }
 
@@ -956,6 +1040,93 @@ where
             error,
             partial: Trajectory::new(),
         }),
+    }
+}
+
+/// `H` at a predicted midpoint `z` into `out`, through the stepper's linear algebra: `true`
+/// if `z`, the value and the gradient are finite.
+fn predicted<H: Hamiltonian<D>, L: Linear<D>, D: Dim>(
+    ham: &H,
+    solver: &mut L,
+    z: &OVector<f64, D>,
+    out: &mut Point<D>,
+) -> bool
+where
+    DefaultAllocator: Alloc<D>,
+{
+    if !all_finite(z) {
+        return false;
+    }
+    solver.evaluate(ham, z, out);
+    out.finite()
+}
+
+/// `Psi` at a predicted midpoint, if finite and if the prediction lies on the energy
+/// surface to within [`PREDICTOR_TRUST`] of the size of the terms of `H` (a predictor for a
+/// step far too large for the orbit lands elsewhere in phase space, where `Psi` says
+/// nothing about this orbit).
+fn trusted_psi<D: Dim>(energy: f64, z: &OVector<f64, D>, d: &Point<D>) -> Option<f64>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    let scale = energy.abs().max(roundoff_scale(z, &d.gradient));
+    ((d.value - energy).abs() <= PREDICTOR_TRUST * scale && d.psi.is_finite()).then_some(d.psi)
+}
+
+/// `out = zbar + (h/2) zbar'` with the slope `zbar' = lambda J grad H(zbar)` of the state's
+/// segment, or the node itself after a fallback step.
+fn vertex_into<D: Dim>(s: &State<D>, kind: StepKind, h: f64, out: &mut OVector<f64, D>)
+where
+    DefaultAllocator: Alloc<D>,
+{
+    match kind {
+        StepKind::Fallback => out.copy_from(&s.zbar),
+        _ => {
+            // zbar + (lambda J g) (h/2), rounded as written.
+            let n = s.zbar.len() / 2;
+            let half = 0.5 * h;
+            for i in 0..n {
+                out[i] = s.zbar[i] + (s.gradient[i + n] * s.lambda) * half;
+                out[i + n] = s.zbar[i + n] + (-s.gradient[i] * s.lambda) * half;
+            }
+        }
+    }
+}
+
+/// The record of the state's midpoint, written into `record` (its `dth` part is `Some`).
+fn fill_record<D: Dim>(s: &State<D>, record: &mut StepRecord<D>)
+where
+    DefaultAllocator: Alloc<D>,
+{
+    let h = s.h_edge;
+    let kind = s.step_kind;
+    record.k = s.k;
+    record.t = s.tbar;
+    record.z.copy_from(&s.zbar);
+    record.kind = kind;
+    record.iterations = s.iterations;
+    record.factorizations = s.factorizations;
+    let vertex_time = match kind {
+        StepKind::Fallback => s.tbar,
+        _ => s.tbar - 0.5 * h * s.lambda,
+    };
+    match &mut record.dth {
+        Some(d) => {
+            vertex_into(s, kind, -h, &mut d.vertex);
+            d.lambda = s.lambda;
+            d.vertex_time = vertex_time;
+            d.psi = s.psi;
+        }
+        None => {
+            let mut vertex = s.zbar.clone();
+            vertex_into(s, kind, -h, &mut vertex);
+            record.dth = Some(DthRecord {
+                lambda: s.lambda,
+                vertex,
+                vertex_time,
+                psi: s.psi,
+            });
+        }
     }
 }
 

@@ -46,6 +46,15 @@ impl DiscreteGradient {
             structured: Structured::default(),
         }
     }
+
+    /// Allocate the Newton buffers of a dynamic dimension for `h` now rather than on the first
+    /// step (see `Structured::reserve`).
+    pub(crate) fn reserve<D: Dim, H: Hamiltonian<D>>(&mut self, h: &H)
+    where
+        DefaultAllocator: Alloc<D>,
+    {
+        self.structured.reserve(h);
+    }
 }
 
 impl<D: Dim, H: Hamiltonian<D>> OneStepMethod<D, H> for DiscreteGradient

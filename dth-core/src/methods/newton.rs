@@ -92,6 +92,26 @@ impl Structured {
         }
         self.matrix.as_mut().map(|(_, m)| m)
     }
+
+    /// A dynamic dimension's one-stage Newton buffers for `H`, allocated now rather than on
+    /// the first step (nothing to do for a fixed dimension): for callers that must not
+    /// allocate once they run, such as the DTH stepper's robust mode, whose first fallback
+    /// step may come at any step.
+    pub(crate) fn reserve<H: Hamiltonian<D>, D: Dim>(&mut self, h: &H)
+    where
+        DefaultAllocator: Alloc<D>,
+    {
+        if D::try_to_usize().is_some() {
+            return;
+        }
+        let d = h.dim();
+        let dense = self.matrix(h, 1).is_none().then(|| DenseParts::new(d));
+        let kept = Box::new(Kept {
+            stage: OneStage::new(d),
+            dense,
+        });
+        self.buffers = (kept as Box<dyn Any>).downcast::<Kept<Dyn>>().ok();
+    }
 }
 
 /// Settings of the Newton iteration of the implicit peer methods.
