@@ -12,14 +12,15 @@
 //! see `examples/custom_system.rs`.
 //!
 //! A scene whose Hamiltonian is given as text names no entry: [`Catalogue::run`] builds it
-//! ([`crate::runtime_system::TextSystem`], dimension `Dyn`) and runs it through the same path.
+//! ([`crate::runtime_system::dispatch`]: dimension `Const<D>` for small `D`, else `Dyn`) and
+//! runs it through the same path.
 //!
 //! A system whose `Psi` is identically zero (`Flags::psi_identically_zero`, e.g. a free
 //! particle) cannot run DTH: the stepper's constructor rejects it with
 //! `Error::PsiIdenticallyZero` (thesis Section 3.4). Register it with [`SystemEntry::runnable_without_dth`]: every peer method
 //! runs, and a scene naming `dth` for it is rejected by validation.
 
-use dth::nalgebra::{Const, DefaultAllocator, Dim, Dyn};
+use dth::nalgebra::{Const, DefaultAllocator, Dim};
 use dth::{Alloc, ConstFlags};
 
 use std::collections::BTreeMap;
@@ -30,7 +31,7 @@ use crate::ensemble;
 use crate::error::Error;
 use crate::pipeline::{run_system, RunError};
 use crate::report::RunReport;
-use crate::runtime_system::TextSystem;
+use crate::runtime_system::{self, MakeSystem, TextJob};
 use crate::scene::{ParamSpec, Scene, SystemInfo, SystemLookup};
 use crate::simulate::{initial_state, stop_for, RunOptions};
 use crate::system::{SceneSystem, WithoutDth};
@@ -136,6 +137,41 @@ where
     let z0 = initial_state(&system, scene)?;
     let stop = stop_for(&system, scene, &z0, options)?;
     budget::check(&system, scene, stop, options.memory_limit())
+}
+
+/// [`run_built`] on a scene's text Hamiltonian.
+struct RunText<'a> {
+    scene: &'a Scene,
+    out: &'a Path,
+    options: &'a RunOptions,
+}
+
+impl TextJob for RunText<'_> {
+    type Output = Result<RunReport, RunError>;
+
+    fn run<D: Dim, S: SceneSystem<D>>(self, make: &MakeSystem<'_, S>) -> Self::Output
+    where
+        DefaultAllocator: Alloc<D>,
+    {
+        run_built::<D, S>(make, self.scene, self.out, self.options)
+    }
+}
+
+/// [`estimate_built`] on a scene's text Hamiltonian.
+struct EstimateText<'a> {
+    scene: &'a Scene,
+    options: &'a RunOptions,
+}
+
+impl TextJob for EstimateText<'_> {
+    type Output = Result<MemoryEstimate, Error>;
+
+    fn run<D: Dim, S: SceneSystem<D>>(self, make: &MakeSystem<'_, S>) -> Self::Output
+    where
+        DefaultAllocator: Alloc<D>,
+    {
+        estimate_built::<D, S>(make, self.scene, self.options)
+    }
 }
 
 impl SystemEntry {
@@ -503,8 +539,8 @@ impl Catalogue {
 
     /// Runs a validated scene into `out` (see [`crate::pipeline::run_system`] for the output
     /// folder's rules); a scene whose Hamiltonian is given as text runs through
-    /// [`crate::runtime_system::TextSystem`]. A run that lost a method is [`RunError::MethodsFailed`], with the
-    /// report of what was written.
+    /// [`crate::runtime_system::dispatch`] (at a fixed size or `Dyn`). A run that lost a method
+    /// is [`RunError::MethodsFailed`], with the report of what was written.
     pub fn run(
         &self,
         scene: &Scene,
@@ -512,9 +548,14 @@ impl Catalogue {
         options: &RunOptions,
     ) -> Result<RunReport, RunError> {
         if scene.hamiltonian.is_some() {
-            let system = TextSystem::build(scene)?;
-            let make = |p: &Params| system.with_params(scene, p);
-            return run_built::<Dyn, TextSystem>(&make, scene, out, options);
+            return runtime_system::dispatch(
+                scene,
+                RunText {
+                    scene,
+                    out,
+                    options,
+                },
+            )?;
         }
         (self.entry(scene)?.run)(scene, out, options)
     }
@@ -533,9 +574,7 @@ impl Catalogue {
     /// `dth check` and `dth run` agree.
     pub fn estimate(&self, scene: &Scene, options: &RunOptions) -> Result<MemoryEstimate, Error> {
         if scene.hamiltonian.is_some() {
-            let system = TextSystem::build(scene)?;
-            let make = |p: &Params| system.with_params(scene, p);
-            return estimate_built::<Dyn, TextSystem>(&make, scene, options);
+            return runtime_system::dispatch(scene, EstimateText { scene, options })?;
         }
         (self.entry(scene)?.estimate)(scene, options)
     }

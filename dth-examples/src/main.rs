@@ -298,6 +298,9 @@ fn main_inner(cli: Cli) -> Result<ExitCode, CliError> {
             let text = dth_examples::read_scene(&scene)?;
             let catalogue = Catalogue::builtin();
             let s = dth_examples::check_scene(&text, &scene.display().to_string(), &catalogue)?;
+            for warning in s.hamiltonian.iter().flat_map(|h| &h.warnings) {
+                eprintln!("warning: {warning}");
+            }
             let memory = catalogue.estimate(&s, &options)?;
             println!(
                 "{}: ok ({}, {} method{}, {} effect{}; effects keep about {}, limit {})",

@@ -5,13 +5,22 @@
 //! [`TextSystem`] it is a [`SceneSystem<Dyn>`] and runs through the same pipeline as a
 //! catalogue system (`catalogue::Catalogue::run`): every method and effect validation
 //! admits.
+//!
+//! A text of small dimension runs at a fixed size: [`dispatch`] hands the pipeline a
+//! [`Fixed<N>`] (`Hamiltonian<Const<N>>`, the same compiled code) for `D = 4`, so the stepper and the peers use nalgebra's fixed-size linear algebra
+//! (stack storage, unrolled loops) as for a catalogue system; any other `D` runs as
+//! [`TextSystem`] (`Dyn`). Measured on Kepler (`docs/benchmarks.md`, "Run-time compiled
+//! Hamiltonians"): the `Dyn` run of 300,000 DTH and midpoint steps took 3.3x the built-in
+//! system's wall time, the fixed-size one about the built-in's. Each fixed size is one more
+//! instance of the whole pipeline to compile (measured: about a quarter more build time of
+//! this crate per size), so there is one: another size is one more arm in [`dispatch`].
 
 use std::collections::BTreeMap;
 use std::sync::Arc;
 
-use dth::nalgebra::{DMatrix, DVector, Dyn};
-use dth::runtime::RuntimeHamiltonian;
-use dth::{Derivatives, Flags, Hamiltonian};
+use dth::nalgebra::{Const, DMatrix, DVector, DefaultAllocator, Dim, Dyn};
+use dth::runtime::{Fixed, RuntimeHamiltonian};
+use dth::{Alloc, Derivatives, Flags, Hamiltonian};
 
 use crate::error::Error;
 use crate::scene::{Scene, TextHamiltonian};
@@ -157,3 +166,48 @@ impl Hamiltonian<Dyn> for TextSystem {
 
 /// Energy only: the defaults (no invariants, period, exact solution, central force).
 impl SceneSystem<Dyn> for TextSystem {}
+
+/// Energy only, as [`TextSystem`]: the fixed-size view of the same compiled code.
+impl<const N: usize> SceneSystem<Const<N>> for Fixed<N> {}
+
+/// Builds a scene's system from parameters (the scene's, or an ensemble member's).
+pub type MakeSystem<'a, S> = dyn Fn(&BTreeMap<String, f64>) -> Result<S, Error> + Sync + 'a;
+
+/// Work to do on a scene's text Hamiltonian at whichever dimension type [`dispatch`] picks:
+/// `make` builds the system from parameters (the scene's, or an ensemble member's).
+pub trait TextJob {
+    /// What the work returns.
+    type Output;
+
+    /// Does the work on the systems `make` builds.
+    fn run<D: Dim, S: SceneSystem<D>>(self, make: &MakeSystem<'_, S>) -> Self::Output
+    where
+        DefaultAllocator: Alloc<D>;
+}
+
+/// Compiles the scene's text and runs `job` on it: at `Const<D>` ([`Fixed`]) when its
+/// dimension `D` is 4 (two degrees of freedom, or one in the extended phase space of a
+/// time-dependent `H`), else at `Dyn` ([`TextSystem`]). The one place a text's dimension
+/// picks a type.
+///
+/// # Errors
+/// As [`TextSystem::build`].
+pub fn dispatch<J: TextJob>(scene: &Scene, job: J) -> Result<J::Output, Error> {
+    let system = TextSystem::build(scene)?;
+    fn fixed<const N: usize>(
+        system: &TextSystem,
+        scene: &Scene,
+        params: &BTreeMap<String, f64>,
+    ) -> Result<Fixed<N>, Error> {
+        let text = system.with_params(scene, params)?;
+        Fixed::new(text.0).map_err(|e| Error::NotAvailable {
+            what: "system",
+            name: scene.system.clone(),
+            reason: e.to_string(),
+        })
+    }
+    Ok(match system.0.dim() {
+        4 => job.run::<Const<4>, Fixed<4>>(&|p| fixed(&system, scene, p)),
+        _ => job.run::<Dyn, TextSystem>(&|p| system.with_params(scene, p)),
+    })
+}

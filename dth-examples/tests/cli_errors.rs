@@ -292,3 +292,38 @@ steps = 10
         "parameter `g` (gravity)",
     );
 }
+
+#[test]
+fn check_prints_the_engines_warnings_for_a_text_hamiltonian_at_their_place() {
+    // `q2` without `p2`: legal (exit 0), but the warning `hamiltonian!` gives as a compiler
+    // warning, here at the token in the scene file: `q2` starts at byte 25 of the expression,
+    // after the 15 characters of `hamiltonian = "` on line 2, so at column 41.
+    let scene = "[system]
+hamiltonian = \"p1^2/2 + q1^2/2 + eps*q1*q2\"
+params = { eps = 0.5 }
+[initial]
+q = [0.5, 0.1]
+p = [0.0, 0.0]
+[[method]]
+kind = \"midpoint\"
+dt = 0.01
+[duration]
+steps = 10
+";
+    let engine = dth_symbolic::compile("p1^2/2 + q1^2/2 + eps*q1*q2", &["eps"]).unwrap();
+    let expected = engine.warnings()[0].to_string();
+    assert_eq!(engine.warnings()[0].span.start, 25);
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("warns.toml"), scene).unwrap();
+    let o = dth(&["check", "warns.toml"], dir.path());
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(0), "{err}");
+    assert_eq!(err, format!("warning: warns.toml:2:41: {expected}\n"));
+    // A text without anything suspicious, and a catalogue system: no warning.
+    let clean = scene
+        .replace("eps*q1*q2", "eps*q1^4")
+        .replace("q = [0.5, 0.1]\np = [0.0, 0.0]", "q = [0.5]\np = [0.0]");
+    std::fs::write(dir.path().join("clean.toml"), clean).unwrap();
+    let o = dth(&["check", "clean.toml"], dir.path());
+    assert_eq!((o.status.code(), stderr(&o)), (Some(0), String::new()));
+}

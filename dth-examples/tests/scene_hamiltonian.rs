@@ -10,7 +10,8 @@
 //! at the line and column of the character the macro underlines, inside the string (a
 //! parameter's at its key in `params`).
 //!
-//! The shipped scenes run: the Kepler scene ends where the built-in `kepler` does, and DTH
+//! The shipped scenes run: the Kepler scene ends where the built-in `kepler` does (as `Dyn`,
+//! and at the fixed size `dth run` picks for it, bit for bit), and DTH
 //! keeps the energy of Morse, forced Duffing and the 12-particle chain at its midpoints to
 //! roundoff (shortened runs: the dev profile).
 
@@ -19,11 +20,15 @@ mod ui_cases;
 
 use std::fs;
 
+use dth::nalgebra::{DefaultAllocator, Dim};
+use dth::runtime::Fixed;
+use dth::Alloc;
 use dth_examples::catalogue::Catalogue;
 use dth_examples::error::SceneDiagnostic;
-use dth_examples::runtime_system::TextSystem;
+use dth_examples::runtime_system::{dispatch, MakeSystem, TextJob, TextSystem};
 use dth_examples::scene::{line_col, Duration, EffectSpec, MethodKind, Scene};
 use dth_examples::simulate::{compute, MethodResult, RunOptions};
+use dth_examples::system::SceneSystem;
 use dth_examples::systems::Kepler;
 use dth_examples::{check_scene, Error};
 use ui_cases::{call, cases, diagnostics, macro_only};
@@ -507,4 +512,47 @@ fn dth_keeps_the_energy_of_the_text_scenes_at_its_midpoints() {
             );
         }
     }
+}
+
+/// Which system type [`dispatch`] hands the pipeline.
+struct SystemType;
+
+impl TextJob for SystemType {
+    type Output = &'static str;
+
+    fn run<D: Dim, S: SceneSystem<D>>(self, _make: &MakeSystem<'_, S>) -> &'static str
+    where
+        DefaultAllocator: Alloc<D>,
+    {
+        std::any::type_name::<S>()
+    }
+}
+
+#[test]
+fn a_four_dimensional_text_runs_at_a_fixed_size_and_ends_where_the_builtin_kepler_does() {
+    let mut scene = shipped("kepler-from-text.toml");
+    assert_eq!(
+        dispatch(&scene, SystemType).unwrap(),
+        std::any::type_name::<Fixed<4>>()
+    );
+    let morse = shipped("morse.toml");
+    assert_eq!(
+        dispatch(&morse, SystemType).unwrap(),
+        std::any::type_name::<TextSystem>()
+    );
+
+    // What `dth run` runs on it, against the built-in system: 2,000 steps of each method.
+    scene.duration = Duration::Steps(2000);
+    scene.effects = vec![EffectSpec::FinalState];
+    let text = Fixed::<4>::new(TextSystem::build(&scene).unwrap().0).unwrap();
+    let from_text = final_states(&compute(&text, &scene, &quiet()).unwrap());
+    let builtin = Kepler {
+        m: scene.params["m"],
+        k: scene.params["k"],
+    };
+    let compiled = final_states(&compute(&builtin, &scene, &quiet()).unwrap());
+    // Equal bits, stronger than the 1e-8 promised: the compiled programs perform the macro's
+    // operations in its order (the same bits per evaluation) and both run the same
+    // `Const<4>` stepper code, so nothing differs to round differently.
+    assert_eq!(from_text, compiled);
 }

@@ -46,6 +46,10 @@ pub struct RuntimeHamiltonian {
     fallback: Option<JitError>,
     /// One per [`Function`], in the order of [`Function::ALL`].
     functions: Vec<Compiled>,
+    /// The engine's flags, read once: the stepper asks for them inside its Newton loop, and
+    /// [`System::separable`] scans the Hessian's nonzeros.
+    separable: bool,
+    psi_identically_zero: bool,
 }
 
 // One Hamiltonian serves every thread of an ensemble: compiled code is immutable and
@@ -136,6 +140,8 @@ impl RuntimeHamiltonian {
             .collect::<Result<Vec<_>, RuntimeError>>()?;
         let (functions, fallback) = Compiled::all(programs, backend)?;
         Ok(RuntimeHamiltonian {
+            separable: system.separable(),
+            psi_identically_zero: system.psi_identically_zero(),
             system,
             names: names.iter().map(|n| n.to_string()).collect(),
             values: params.iter().map(|&(_, v)| v).collect(),
@@ -168,7 +174,7 @@ impl RuntimeHamiltonian {
 
     /// `true` when `H = T(p) + V(q)`.
     pub fn separable(&self) -> bool {
-        self.system.separable()
+        self.separable
     }
 
     /// `true` when `H` uses `t`: `z` is extended with `t` and `p_t`.
@@ -179,7 +185,7 @@ impl RuntimeHamiltonian {
     /// `true` when Psi simplifies to 0 (DTH's energy condition then does not determine the
     /// step).
     pub fn psi_identically_zero(&self) -> bool {
-        self.system.psi_identically_zero()
+        self.psi_identically_zero
     }
 
     /// The backend running the programs: [`Backend::Jit`] unless the interpreter was asked

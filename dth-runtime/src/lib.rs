@@ -73,7 +73,8 @@
 //! values: [`RuntimeHamiltonian`] implements `Hamiltonian<Dyn>` with the dimension and flags
 //! its text gives, so DTH and every peer run it with `DVector`s (`docs/runtime_dimension.md`).
 //! [`Typed`] names a `Const<D>` and the flags in its type and checks them when built, for code
-//! that wants fixed-size vectors. Either way every trait method is one call of the compiled
+//! that wants fixed-size vectors; [`Fixed`] names only the `Const<D>` and keeps the text's
+//! flags, for code that chooses the size at run time. Either way every trait method is one call of the compiled
 //! function of the same name ([`Function`] is named after them), with the macro's bits
 //! (`tests/typed_matches_macro.rs` and `tests/runtime_dyn.rs` in the `dth` crate step both).
 #![warn(missing_docs)]
@@ -90,4 +91,4 @@ pub use backend::Backend;
 pub use error::{JitError, RuntimeError};
 pub use hamiltonian::{Derivatives, RuntimeHamiltonian};
 pub use layout::Function;
-pub use typed::Typed;
+pub use typed::{Fixed, Typed};

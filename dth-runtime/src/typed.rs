@@ -129,6 +129,56 @@ impl<const D: usize, const TIME_DEPENDENT: bool, const SEPARABLE: bool>
     }
 }
 
+/// A [`RuntimeHamiltonian`] checked to have dimension `D`, with the flags its text gives
+/// (read when it is built, not declared in the type as [`Typed`]'s): a
+/// `dth_core::Hamiltonian<Const<D>>` for code that picks a fixed size at run time from a
+/// short list, so that the stepper and the peers use fixed-size linear algebra (stack storage,
+/// unrolled loops) on a Hamiltonian read from text. The scene runner runs a text of small
+/// dimension this way. Evaluations are those of [`Typed`] and of the `Dyn` implementation:
+/// one call of compiled code each, the same bits.
+///
+/// ```
+/// use dth_core::{nalgebra::Vector4, Hamiltonian};
+/// use dth_runtime::{Fixed, RuntimeError, RuntimeHamiltonian};
+///
+/// let text = "(p1^2 + p2^2)/(2*m) - k*(q1^2 + q2^2)^(-1/2)";
+/// let kepler = Fixed::<4>::new(RuntimeHamiltonian::new(text, &[("m", 0.5), ("k", 1.0)])?)?;
+/// assert!(kepler.flags().separable);
+/// assert!((kepler.value(&Vector4::new(0.5, 0.0, 0.0, 1.2)) - (1.44 - 2.0)).abs() < 1e-15);
+///
+/// let wrong = Fixed::<2>::new(RuntimeHamiltonian::new(text, &[("m", 0.5), ("k", 1.0)])?);
+/// assert!(matches!(wrong, Err(RuntimeError::DimensionMismatch { expected: 2, found: 4 })));
+/// # Ok::<(), RuntimeError>(())
+/// ```
+#[derive(Clone, Debug)]
+pub struct Fixed<const D: usize> {
+    runtime: Arc<RuntimeHamiltonian>,
+    flags: Flags,
+}
+
+impl<const D: usize> Fixed<D> {
+    /// The view of `runtime` (owned, or shared through an [`Arc`]) at `Const<D>`.
+    ///
+    /// # Errors
+    /// [`RuntimeError::DimensionMismatch`] when the text's `D` is not `D`.
+    pub fn new(runtime: impl Into<Arc<RuntimeHamiltonian>>) -> Result<Self, RuntimeError> {
+        let runtime = runtime.into();
+        if runtime.dim() != D {
+            return Err(RuntimeError::DimensionMismatch {
+                expected: D,
+                found: runtime.dim(),
+            });
+        }
+        let flags = derived_flags(&runtime);
+        Ok(Fixed { runtime, flags })
+    }
+
+    /// The runtime Hamiltonian viewed.
+    pub fn runtime(&self) -> &RuntimeHamiltonian {
+        &self.runtime
+    }
+}
+
 /// Runs `f` at `z0`, `z1` into `out`. The only error expected is a non-finite output, which is
 /// then in `out` for the caller's checks to report; any other (a point of the wrong length)
 /// fills `out` with NaN, which no caller takes for a value.
@@ -314,6 +364,19 @@ impl<const D: usize, const TIME_DEPENDENT: bool, const SEPARABLE: bool> Hamilton
             .with_time_dependent(TIME_DEPENDENT)
             .with_separable(SEPARABLE)
             .with_exact_divided_differences(true)
+    }
+
+    evaluations!(Const<D>);
+}
+
+/// The text's flags, as the `Dyn` implementation gives them.
+impl<const D: usize> Hamiltonian<Const<D>> for Fixed<D> {
+    fn dim(&self) -> Const<D> {
+        Const
+    }
+
+    fn flags(&self) -> Flags {
+        self.flags
     }
 
     evaluations!(Const<D>);

@@ -32,12 +32,14 @@ use super::toml_string::StringPositions;
 
 /// Reads the expression `source` (the spanned TOML string in `text`) with the parameters
 /// `params`: the Hamiltonian and the parameter values, or `None` with every independent error
-/// pushed to `errors` (file byte ranges and messages).
+/// pushed to `errors` (file byte ranges and messages). The engine's warnings go to `warnings`
+/// in the same form (the returned Hamiltonian's own list is left for the caller to locate).
 pub(super) fn check(
     text: &str,
     source: &Spanned<String>,
     params: &BTreeMap<Spanned<String>, Spanned<f64>>,
     errors: &mut Errors,
+    warnings: &mut Errors,
 ) -> Option<(TextHamiltonian, BTreeMap<String, f64>)> {
     let expression = source.get_ref().as_str();
     let positions = StringPositions::new(text, source.span(), expression);
@@ -59,7 +61,12 @@ pub(super) fn check(
     };
 
     let system = match dth_symbolic::compile(expression, &names) {
-        Ok(system) => Some(system),
+        Ok(system) => {
+            for w in system.warnings() {
+                warnings.push((at(w.span.range()), w.to_string()));
+            }
+            Some(system)
+        }
         Err(e) => {
             for e in &e.0 {
                 // A parameter's error is about a name beside the text: at its key.
@@ -110,6 +117,7 @@ pub(super) fn check(
             time_dependent: system.time_dependent(),
             separable: system.separable(),
             psi_identically_zero: system.psi_identically_zero(),
+            warnings: Vec::new(),
         },
         values,
     ))

@@ -5,6 +5,8 @@ use std::collections::BTreeMap;
 
 use dth::dth::Solver;
 
+use crate::error::SceneDiagnostic;
+
 /// A validated scene: every name resolved, every number in range, every length checked.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Scene {
@@ -64,6 +66,10 @@ pub struct TextHamiltonian {
     pub separable: bool,
     /// `true` when `Psi` simplifies to zero (method `dth` cannot run).
     pub psi_identically_zero: bool,
+    /// The engine's warnings about the expression (the ones `hamiltonian!` gives as compiler
+    /// warnings: a position without its momentum, a misnumbered index), located in the scene
+    /// file at the token they concern. They do not stop the scene; `dth check` prints them.
+    pub warnings: Vec<SceneDiagnostic>,
 }
 
 /// A square of initial conditions around the scene's initial state, in the plane of two of

@@ -177,13 +177,19 @@ struct Ctxt<'a> {
 
 impl Ctxt<'_> {
     fn error(&mut self, span: Range<usize>, message: impl Into<String>) {
+        let diagnostic = self.locate(span, message);
+        self.diagnostics.push(diagnostic);
+    }
+
+    /// `message` at the start of `span`, as `file:line:column`.
+    fn locate(&self, span: Range<usize>, message: impl Into<String>) -> SceneDiagnostic {
         let (line, column) = line_col(self.text, span.start);
-        self.diagnostics.push(SceneDiagnostic {
+        SceneDiagnostic {
             file: self.file.to_string(),
             line,
             column,
             message: message.into(),
-        });
+        }
     }
 }
 
@@ -248,8 +254,9 @@ fn validate(raw: RawScene, systems: &dyn SystemLookup, cx: &mut Ctxt<'_>) -> Opt
             catalogue_system(name, &system.params, systems, cx)
         }
         (None, Some(source)) => {
-            let mut errors = Vec::new();
-            let checked = expression::check(cx.text, source, &system.params, &mut errors);
+            let (mut errors, mut warnings) = (Vec::new(), Vec::new());
+            let checked =
+                expression::check(cx.text, source, &system.params, &mut errors, &mut warnings);
             for (span, message) in errors {
                 cx.error(span, message);
             }
@@ -265,7 +272,11 @@ fn validate(raw: RawScene, systems: &dyn SystemLookup, cx: &mut Ctxt<'_>) -> Opt
                 ),
             };
             match checked {
-                Some((h, params)) => {
+                Some((mut h, params)) => {
+                    h.warnings = warnings
+                        .into_iter()
+                        .map(|(span, message)| cx.locate(span, message))
+                        .collect();
                     let info = text_info(&h);
                     hamiltonian = Some(h);
                     (name, Some(info), params)
