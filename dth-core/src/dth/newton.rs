@@ -22,9 +22,9 @@
 //! `D x D` matrix anywhere) for generated types beyond the crossover. Both solvers factor `A`
 //! alone and border it with two solves, so the structured solver sees only `A`'s band.
 //!
-//! Joint Newton factors `A` afresh while the relative update is above `1e-6` and keeps the last
-//! factorization below (simplified Newton: as fast there, one factorization fewer per step on
-//! the thesis Kepler orbit); `Segment::factorizations` counts the factorizations.
+//! Joint Newton factors `A` afresh while the relative update is above `1e-4` and keeps the last
+//! factorization below (simplified Newton: as many iterations there, one factorization fewer
+//! per step on the thesis Kepler orbit); `Segment::factorizations` counts the factorizations.
 //!
 //! Newton stops by the crate's one stopping rule ([`crate::newton`]) with the DTH parameters:
 //! relative updates `u = max(|dz|/|z|, |dlambda|/|lambda|)`, every stop gated on the scaled
@@ -48,11 +48,15 @@ const CF_FROM: f64 = 1e-5;
 
 /// Relative update at or below which joint Newton keeps the last factorization of `A` (and its
 /// `z_lambda`, `g_lambda`) instead of factoring again: a simplified-Newton iteration. The
-/// frozen matrix differs from the current one by `O(|Hess'| |dz|)`, so the iteration contracts
-/// by about the last relative update: from `1e-6` the error after one such iteration is below
-/// `1e-12` of what was left, as fast as Newton's to roundoff, and the stopping rule (gated on
-/// the residual at the final iterate) is unchanged.
-const REFACTOR_ABOVE: f64 = 1e-6;
+/// frozen matrix differs from the current one by `O(|Hess'| |dz|)`, the distance from the
+/// iterate it was taken at, so the iteration contracts by about the update that left that
+/// iterate: from `1e-4` each iteration keeps at most about `1e-4` of the error left (Newton
+/// from the same iterate would keep the error squared). The stopping rule bounds the remainder
+/// from the observed contraction, so it stops such a linearly converging tail at roundoff just
+/// as it stops Newton's (one more iteration where the contraction is not below `4 eps /
+/// update`). On the thesis Kepler orbit this keeps the iterations per step and takes the
+/// factorizations from 3 to about 2 (`docs/benchmarks.md`, "Small systems").
+const REFACTOR_ABOVE: f64 = 1e-4;
 
 /// One solved DTH segment: its midpoint, multiplier and both vertices.
 #[derive(Clone, Debug, PartialEq)]
@@ -767,14 +771,21 @@ where
             }
             Status::Continue => {}
         }
+        // The gate (called only on a signalled stop) solved A u = -f with the last
+        // factorization when the residual is cancellation-free: the update reuses that u
+        // unless A is factored afresh.
+        let mut solved = stop.is_some() && w.e.cf && last.is_some();
         if convergence.last().is_none_or(|u| u > REFACTOR_ABOVE) {
             linearize(&w.e, solver, h, lambda, step, &mut w.lin)?;
             factorizations += 1;
+            solved = false;
         }
         cf_update = w.e.cf;
         // Bordered system [[A, -(h/2) J g], [g^T, 0]] (dz, dl) = -(f, r):
         // dz = u + z_lambda dl with A u = -f, and g^T dz = -r.
-        minus_solve(solver, &w.e.f, &mut w.u);
+        if !solved {
+            minus_solve(solver, &w.e.f, &mut w.u);
+        }
         let dl = -(w.e.r + w.e.d.gradient.dot(&w.u)) / w.lin.g_lambda;
         for ((dz, u), zl) in w.dz.iter_mut().zip(w.u.iter()).zip(w.lin.z_lambda.iter()) {
             *dz = u + zl * dl;
