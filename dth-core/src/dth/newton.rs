@@ -335,22 +335,25 @@ pub(crate) fn add_j_times<D: Dim>(
     }
 }
 
-/// Evaluate everything at the iterate `(z, lambda)` into `e`, the Hessian into `solver`.
+/// Evaluate everything at the iterate `(z, lambda)` into `e`, the Hessian into `solver`; with
+/// `fresh` false, `e.d` and the solver already hold `H` at `z` (the predictor's evaluation).
 #[allow(clippy::too_many_arguments)]
 fn evaluate<H: Hamiltonian<D>, L: Linear<D>, D: Dim>(
     ham: &H,
     solver: &mut L,
     anchor: &Anchor<'_, D>,
     h: f64,
-    z: &OVector<f64, D>,
-    lambda: f64,
+    (z, lambda): (&OVector<f64, D>, f64),
     step: usize,
     e: &mut Eval<D>,
+    fresh: bool,
 ) -> Result<(), Error>
 where
     DefaultAllocator: Alloc<D>,
 {
-    solver.evaluate(ham, z, &mut e.d);
+    if fresh {
+        solver.evaluate(ham, z, &mut e.d);
+    }
     let d = &e.d;
     if !d.finite() {
         return Err(Error::NonFinite {
@@ -545,7 +548,9 @@ where
 
 /// Solve one segment of signed step `h` in `tau` from `anchor` (left vertex, energy, previous
 /// midpoint for the cancellation-free form), starting Newton from the predictor
-/// `(work.z, lambda0)`; the solution is left in `work` (`z`, `e.d`). `step` labels errors;
+/// `(work.z, lambda0)`, `start = (lambda0, evaluated)`: with `evaluated`, `work.e.d` and the
+/// solver (the linear algebra in `storage`, `dense`) already hold `H` at `work.z` (the joint
+/// solver then starts without evaluating again). The solution is left in `work` (`z`, `e.d`). `step` labels errors;
 /// `storage` and `dense` hold the linear algebra of `H`'s [`Path`]. For the cancellation-free
 /// form the caller finishes with [`project`] (after rejecting roots with the wrong `lambda`,
 /// whose energy check would misreport them).
@@ -553,7 +558,7 @@ where
 pub(crate) fn solve_segment<H: Hamiltonian<D>, D: Dim>(
     ham: &H,
     anchor: &Anchor<'_, D>,
-    lambda0: f64,
+    start: (f64, bool),
     h: f64,
     options: &DthOptions,
     step: usize,
@@ -565,8 +570,8 @@ where
     DefaultAllocator: Alloc<D>,
 {
     match linear::path(ham, storage, dense) {
-        Path::Sparse(mut s) => solve_with(ham, &mut s, anchor, lambda0, h, options, step, work),
-        Path::Dense(d) => solve_with(ham, d, anchor, lambda0, h, options, step, work),
+        Path::Sparse(mut s) => solve_with(ham, &mut s, anchor, start, h, options, step, work),
+        Path::Dense(d) => solve_with(ham, d, anchor, start, h, options, step, work),
     }
 }
 
@@ -576,7 +581,7 @@ fn solve_with<H: Hamiltonian<D>, L: Linear<D>, D: Dim>(
     ham: &H,
     solver: &mut L,
     anchor: &Anchor<'_, D>,
-    lambda0: f64,
+    (lambda0, evaluated): (f64, bool),
     h: f64,
     options: &DthOptions,
     step: usize,
@@ -586,7 +591,18 @@ where
     DefaultAllocator: Alloc<D>,
 {
     match options.solver() {
-        Solver::Joint => joint(ham, solver, anchor, lambda0, h, options, step, work),
+        Solver::Joint => joint(
+            ham,
+            solver,
+            anchor,
+            (lambda0, evaluated),
+            h,
+            options,
+            step,
+            work,
+        ),
+        // (The nested solver's first inner iteration evaluates with its own cancellation-free
+        // residual; it starts from scratch.)
         Solver::Nested => nested(ham, solver, anchor, lambda0, h, options, step, work),
     }
 }
@@ -711,7 +727,7 @@ fn joint<H: Hamiltonian<D>, L: Linear<D>, D: Dim>(
     ham: &H,
     solver: &mut L,
     anchor: &Anchor<'_, D>,
-    mut lambda: f64,
+    (mut lambda, evaluated): (f64, bool),
     h: f64,
     options: &DthOptions,
     step: usize,
@@ -725,7 +741,17 @@ where
     let mut cf_update = false;
     let mut factorizations = 0u32;
     loop {
-        evaluate(ham, solver, anchor, h, &w.z, lambda, step, &mut w.e)?;
+        let fresh = !evaluated || convergence.iterations() > 0;
+        evaluate(
+            ham,
+            solver,
+            anchor,
+            h,
+            (&w.z, lambda),
+            step,
+            &mut w.e,
+            fresh,
+        )?;
         let last = (convergence.iterations() > 0).then_some(&w.lin);
         let mut stop = convergence.stop(w.e.stall(options, last, lambda));
         if let Some(p) = &anchor.previous {
@@ -834,7 +860,7 @@ where
     let mut factorizations = 0u32;
     // Everything at an iterate, with the cancellation-free residual whenever the anchor has it.
     let evaluate_at = |solver: &mut L, z: &OVector<f64, D>, lambda: f64, e: &mut Eval<D>| {
-        evaluate(ham, solver, anchor, h, z, lambda, step, e)?;
+        evaluate(ham, solver, anchor, h, (z, lambda), step, e, true)?;
         match &anchor.previous {
             Some(p) => add_cancellation_free(ham, p, h, z, lambda, step, e),
             None => Ok(()),
@@ -1003,7 +1029,7 @@ where
     let s = solve_segment(
         hamiltonian,
         &anchor,
-        lambda_guess,
+        (lambda_guess, false),
         options.dtau(),
         options,
         0,
