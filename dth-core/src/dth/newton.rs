@@ -563,7 +563,7 @@ pub(crate) fn solve_segment<H: Hamiltonian<D>, D: Dim>(
     options: &DthOptions,
     step: usize,
     storage: &mut Structured,
-    dense: &mut Option<Dense<D>>,
+    dense: &mut Option<Box<Dense<D>>>,
     work: &mut Work<D>,
 ) -> Result<Solved, Error>
 where

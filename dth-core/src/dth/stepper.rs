@@ -93,7 +93,7 @@ where
     /// The segment solve: the predictor goes into `newton.z`, the solution comes out there.
     newton: Work<D>,
     /// The dense path's storage (`None` on the structured path).
-    dense: Option<Dense<D>>,
+    dense: Option<Box<Dense<D>>>,
     /// The left vertex of the new segment.
     v: OVector<f64, D>,
     /// Scratch of the predictor's fixed-point sweeps (`g`, `z1`), and `z1` itself.
