@@ -211,15 +211,26 @@ where
 pub(crate) fn path<'a, H: Hamiltonian<D>, D: Dim>(
     ham: &H,
     storage: &'a mut Structured,
-    dense: &'a mut Option<Dense<D>>,
+    dense: &'a mut Option<Box<Dense<D>>>,
 ) -> Path<'a, D>
 where
     DefaultAllocator: Alloc<D>,
 {
     match storage.matrix(ham, 1) {
         Some(matrix) => Path::Sparse(Sparse { matrix }),
-        None => Path::Dense(dense.get_or_insert_with(|| Dense::new(ham.dim()))),
+        None => Path::Dense(dense.get_or_insert_with(|| new_dense(ham.dim()))),
     }
+}
+
+/// The dense storage, in a frame of its own: its `D x D` matrices pass through the stack only
+/// when it is built (a fixed-size stepper on the structured path, `D` in the thousands, never
+/// has them in any frame).
+#[inline(never)]
+fn new_dense<D: Dim>(d: D) -> Box<Dense<D>>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    Box::new(Dense::new(d))
 }
 
 impl<D: Dim> Linear<D> for Path<'_, D>

@@ -22,9 +22,9 @@
 //! `D x D` matrix anywhere) for generated types beyond the crossover. Both solvers factor `A`
 //! alone and border it with two solves, so the structured solver sees only `A`'s band.
 //!
-//! Joint Newton factors `A` afresh while the relative update is above `1e-6` and keeps the last
-//! factorization below (simplified Newton: as fast there, one factorization fewer per step on
-//! the thesis Kepler orbit); `Segment::factorizations` counts the factorizations.
+//! Joint Newton factors `A` afresh while the relative update is above `1e-4` and keeps the last
+//! factorization below (simplified Newton: as many iterations there, one factorization fewer
+//! per step on the thesis Kepler orbit); `Segment::factorizations` counts the factorizations.
 //!
 //! Newton stops by the crate's one stopping rule ([`crate::newton`]) with the DTH parameters:
 //! relative updates `u = max(|dz|/|z|, |dlambda|/|lambda|)`, every stop gated on the scaled
@@ -48,11 +48,15 @@ const CF_FROM: f64 = 1e-5;
 
 /// Relative update at or below which joint Newton keeps the last factorization of `A` (and its
 /// `z_lambda`, `g_lambda`) instead of factoring again: a simplified-Newton iteration. The
-/// frozen matrix differs from the current one by `O(|Hess'| |dz|)`, so the iteration contracts
-/// by about the last relative update: from `1e-6` the error after one such iteration is below
-/// `1e-12` of what was left, as fast as Newton's to roundoff, and the stopping rule (gated on
-/// the residual at the final iterate) is unchanged.
-const REFACTOR_ABOVE: f64 = 1e-6;
+/// frozen matrix differs from the current one by `O(|Hess'| |dz|)`, the distance from the
+/// iterate it was taken at, so the iteration contracts by about the update that left that
+/// iterate: from `1e-4` each iteration keeps at most about `1e-4` of the error left (Newton
+/// from the same iterate would keep the error squared). The stopping rule bounds the remainder
+/// from the observed contraction, so it stops such a linearly converging tail at roundoff just
+/// as it stops Newton's (one more iteration where the contraction is not below `4 eps /
+/// update`). On the thesis Kepler orbit this keeps the iterations per step and takes the
+/// factorizations from 3 to about 2 (`docs/benchmarks.md`, "Small systems").
+const REFACTOR_ABOVE: f64 = 1e-4;
 
 /// One solved DTH segment: its midpoint, multiplier and both vertices.
 #[derive(Clone, Debug, PartialEq)]
@@ -331,22 +335,25 @@ pub(crate) fn add_j_times<D: Dim>(
     }
 }
 
-/// Evaluate everything at the iterate `(z, lambda)` into `e`, the Hessian into `solver`.
+/// Evaluate everything at the iterate `(z, lambda)` into `e`, the Hessian into `solver`; with
+/// `fresh` false, `e.d` and the solver already hold `H` at `z` (the predictor's evaluation).
 #[allow(clippy::too_many_arguments)]
 fn evaluate<H: Hamiltonian<D>, L: Linear<D>, D: Dim>(
     ham: &H,
     solver: &mut L,
     anchor: &Anchor<'_, D>,
     h: f64,
-    z: &OVector<f64, D>,
-    lambda: f64,
+    (z, lambda): (&OVector<f64, D>, f64),
     step: usize,
     e: &mut Eval<D>,
+    fresh: bool,
 ) -> Result<(), Error>
 where
     DefaultAllocator: Alloc<D>,
 {
-    solver.evaluate(ham, z, &mut e.d);
+    if fresh {
+        solver.evaluate(ham, z, &mut e.d);
+    }
     let d = &e.d;
     if !d.finite() {
         return Err(Error::NonFinite {
@@ -541,7 +548,9 @@ where
 
 /// Solve one segment of signed step `h` in `tau` from `anchor` (left vertex, energy, previous
 /// midpoint for the cancellation-free form), starting Newton from the predictor
-/// `(work.z, lambda0)`; the solution is left in `work` (`z`, `e.d`). `step` labels errors;
+/// `(work.z, lambda0)`, `start = (lambda0, evaluated)`: with `evaluated`, `work.e.d` and the
+/// solver (the linear algebra in `storage`, `dense`) already hold `H` at `work.z` (the joint
+/// solver then starts without evaluating again). The solution is left in `work` (`z`, `e.d`). `step` labels errors;
 /// `storage` and `dense` hold the linear algebra of `H`'s [`Path`]. For the cancellation-free
 /// form the caller finishes with [`project`] (after rejecting roots with the wrong `lambda`,
 /// whose energy check would misreport them).
@@ -549,20 +558,20 @@ where
 pub(crate) fn solve_segment<H: Hamiltonian<D>, D: Dim>(
     ham: &H,
     anchor: &Anchor<'_, D>,
-    lambda0: f64,
+    start: (f64, bool),
     h: f64,
     options: &DthOptions,
     step: usize,
     storage: &mut Structured,
-    dense: &mut Option<Dense<D>>,
+    dense: &mut Option<Box<Dense<D>>>,
     work: &mut Work<D>,
 ) -> Result<Solved, Error>
 where
     DefaultAllocator: Alloc<D>,
 {
     match linear::path(ham, storage, dense) {
-        Path::Sparse(mut s) => solve_with(ham, &mut s, anchor, lambda0, h, options, step, work),
-        Path::Dense(d) => solve_with(ham, d, anchor, lambda0, h, options, step, work),
+        Path::Sparse(mut s) => solve_with(ham, &mut s, anchor, start, h, options, step, work),
+        Path::Dense(d) => solve_with(ham, d, anchor, start, h, options, step, work),
     }
 }
 
@@ -572,7 +581,7 @@ fn solve_with<H: Hamiltonian<D>, L: Linear<D>, D: Dim>(
     ham: &H,
     solver: &mut L,
     anchor: &Anchor<'_, D>,
-    lambda0: f64,
+    (lambda0, evaluated): (f64, bool),
     h: f64,
     options: &DthOptions,
     step: usize,
@@ -582,7 +591,18 @@ where
     DefaultAllocator: Alloc<D>,
 {
     match options.solver() {
-        Solver::Joint => joint(ham, solver, anchor, lambda0, h, options, step, work),
+        Solver::Joint => joint(
+            ham,
+            solver,
+            anchor,
+            (lambda0, evaluated),
+            h,
+            options,
+            step,
+            work,
+        ),
+        // (The nested solver's first inner iteration evaluates with its own cancellation-free
+        // residual; it starts from scratch.)
         Solver::Nested => nested(ham, solver, anchor, lambda0, h, options, step, work),
     }
 }
@@ -707,7 +727,7 @@ fn joint<H: Hamiltonian<D>, L: Linear<D>, D: Dim>(
     ham: &H,
     solver: &mut L,
     anchor: &Anchor<'_, D>,
-    mut lambda: f64,
+    (mut lambda, evaluated): (f64, bool),
     h: f64,
     options: &DthOptions,
     step: usize,
@@ -721,7 +741,17 @@ where
     let mut cf_update = false;
     let mut factorizations = 0u32;
     loop {
-        evaluate(ham, solver, anchor, h, &w.z, lambda, step, &mut w.e)?;
+        let fresh = !evaluated || convergence.iterations() > 0;
+        evaluate(
+            ham,
+            solver,
+            anchor,
+            h,
+            (&w.z, lambda),
+            step,
+            &mut w.e,
+            fresh,
+        )?;
         let last = (convergence.iterations() > 0).then_some(&w.lin);
         let mut stop = convergence.stop(w.e.stall(options, last, lambda));
         if let Some(p) = &anchor.previous {
@@ -767,14 +797,21 @@ where
             }
             Status::Continue => {}
         }
+        // The gate (called only on a signalled stop) solved A u = -f with the last
+        // factorization when the residual is cancellation-free: the update reuses that u
+        // unless A is factored afresh.
+        let mut solved = stop.is_some() && w.e.cf && last.is_some();
         if convergence.last().is_none_or(|u| u > REFACTOR_ABOVE) {
             linearize(&w.e, solver, h, lambda, step, &mut w.lin)?;
             factorizations += 1;
+            solved = false;
         }
         cf_update = w.e.cf;
         // Bordered system [[A, -(h/2) J g], [g^T, 0]] (dz, dl) = -(f, r):
         // dz = u + z_lambda dl with A u = -f, and g^T dz = -r.
-        minus_solve(solver, &w.e.f, &mut w.u);
+        if !solved {
+            minus_solve(solver, &w.e.f, &mut w.u);
+        }
         let dl = -(w.e.r + w.e.d.gradient.dot(&w.u)) / w.lin.g_lambda;
         for ((dz, u), zl) in w.dz.iter_mut().zip(w.u.iter()).zip(w.lin.z_lambda.iter()) {
             *dz = u + zl * dl;
@@ -823,7 +860,7 @@ where
     let mut factorizations = 0u32;
     // Everything at an iterate, with the cancellation-free residual whenever the anchor has it.
     let evaluate_at = |solver: &mut L, z: &OVector<f64, D>, lambda: f64, e: &mut Eval<D>| {
-        evaluate(ham, solver, anchor, h, z, lambda, step, e)?;
+        evaluate(ham, solver, anchor, h, (z, lambda), step, e, true)?;
         match &anchor.previous {
             Some(p) => add_cancellation_free(ham, p, h, z, lambda, step, e),
             None => Ok(()),
@@ -992,7 +1029,7 @@ where
     let s = solve_segment(
         hamiltonian,
         &anchor,
-        lambda_guess,
+        (lambda_guess, false),
         options.dtau(),
         options,
         0,

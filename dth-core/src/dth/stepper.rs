@@ -93,7 +93,7 @@ where
     /// The segment solve: the predictor goes into `newton.z`, the solution comes out there.
     newton: Work<D>,
     /// The dense path's storage (`None` on the structured path).
-    dense: Option<Dense<D>>,
+    dense: Option<Box<Dense<D>>>,
     /// The left vertex of the new segment.
     v: OVector<f64, D>,
     /// Scratch of the predictor's fixed-point sweeps (`g`, `z1`), and `z1` itself.
@@ -842,10 +842,15 @@ where
         // sweeps at c' (a step far too large, or lambda changing fast).
         let c = 0.5 * h * self.s.lambda;
         let c_guess = 0.5 * h * lambda_guess;
-        if evaluated
+        let mut start_evaluated = false;
+        let near = evaluated
             && psi1.is_some()
-            && (c - c_guess).abs() <= c_guess * c_guess * w.point.hessian_max
-        {
+            && (c - c_guess).abs() <= c_guess * c_guess * w.point.hessian_max;
+        let look_again = lambda_guess > LOOK_AGAIN * self.s.lambda;
+        // (Starting Newton at z1 itself on the evaluation just made, one evaluation fewer, was
+        // measured: 4.54 iterations and 3.16 factorizations per thesis Kepler step against
+        // 3.93 and 2.34 from the sweep, and slower.)
+        if near {
             add_j_times(&w.v, &w.point.gradient, c_guess, &mut w.newton.z);
         } else {
             predict_into(
@@ -857,7 +862,7 @@ where
                 &mut w.newton.z,
             );
         }
-        if lambda_guess > LOOK_AGAIN * self.s.lambda {
+        if look_again {
             // Look again where the law of time says the midpoint will be: further out when
             // lambda grows fast, as it does towards Psi = 0 (one more evaluation of H's
             // derivatives, so only then).
@@ -868,6 +873,11 @@ where
                     .then(|| trusted_psi(self.energy, z0, &w.point))
                     .flatten(),
             )?;
+            // Newton starts with this evaluation (the solver holds its Hessian).
+            if again {
+                std::mem::swap(&mut w.newton.e.d, &mut w.point);
+                start_evaluated = true;
+            }
         }
         let previous = cancellation_free.then_some(Previous {
             zbar: &self.s.zbar,
@@ -882,7 +892,7 @@ where
         let solved = solve_segment(
             ham,
             &anchor,
-            lambda_guess,
+            (lambda_guess, start_evaluated),
             h,
             &self.options,
             step,

@@ -1,4 +1,4 @@
-use crate::Flags;
+use crate::{Derivatives, Flags};
 use nalgebra::Const;
 use nalgebra::{Matrix4, Vector4};
 
@@ -78,6 +78,48 @@ impl Hamiltonian<Const<4>> for Kepler {
                 im,
             )
         };
+    }
+
+    /// Value, gradient, Hessian and `Psi` together: `|q|^2`, `|q|^3` and `k / |q|^3` once (the
+    /// separate methods compute them each; value, gradient and Hessian are the same bits), and
+    /// `Psi` from the Hessian's two diagonal blocks.
+    fn derivatives_into(&self, z: &Vector4<f64>, out: &mut Derivatives<Const<4>>) {
+        let r2 = z[0] * z[0] + z[1] * z[1];
+        let kr3 = self.k / (r2 * r2.sqrt());
+        let kr5 = 3.0 * kr3 / r2;
+        let im = 1.0 / self.mass;
+        let (x, y) = (z[0], z[1]);
+        out.value = (z[2] * z[2] + z[3] * z[3]) / (2.0 * self.mass) - self.k / z[0].hypot(z[1]);
+        out.gradient = Vector4::new(kr3 * x, kr3 * y, z[2] / self.mass, z[3] / self.mass);
+        let xy = -kr5 * x * y;
+        out.hessian = Matrix4::new(
+            kr3 - kr5 * x * x,
+            xy,
+            0.0,
+            0.0,
+            xy,
+            kr3 - kr5 * y * y,
+            0.0,
+            0.0,
+            0.0,
+            0.0,
+            im,
+            0.0,
+            0.0,
+            0.0,
+            0.0,
+            im,
+        );
+        // Psi = (J g)^T Hess (J g) with J g = (g_p, -g_q) and a block-diagonal Hessian:
+        // g_p^T Hess_qq g_p + g_q^T Hess_pp g_q (the same terms as `psi_from`, without its
+        // products by the zero blocks).
+        let (a, b) = (out.gradient[2], out.gradient[3]);
+        let (c, d) = (out.gradient[0], out.gradient[1]);
+        let h = &out.hessian;
+        out.psi = a * a * h[(0, 0)]
+            + 2.0 * (a * b * h[(0, 1)])
+            + b * b * h[(1, 1)]
+            + im * (c * c + d * d);
     }
 
     /// Exact divided differences, no cancellation as `z1 -> z0`:
