@@ -97,6 +97,71 @@ impl ChainModes {
     }
 }
 
+/// Why a Hamiltonian whose gradient and Hessian at `z = 0` are `gradient` and `hessian`
+/// (`D = 2n` entries and `D x D` column-major, `z = (q, p)`) is not, to second order about
+/// rest, the unit chain with fixed ends whose modes [`ChainModes`] computes; `None` when it
+/// is. That chain's expansion is `H = |p|^2/2 + q^T K q/2 + O(|z|^3)` with
+/// `K = tridiag(-1, 2, -1)`: zero gradient, Hessian `[[K, 0], [0, I]]`. What a scene's
+/// Hamiltonian given as text must satisfy for the `normal_modes` effect.
+///
+/// Entries are compared to roundoff: `4 eps (1 + |expected|)`, the error of evaluating a few
+/// operations on numbers of size 1 (the derivatives of such chains at rest are exact small
+/// integers: `1 + 2 alpha (q_2 - q_1)`, `exp(q_2 - q_1)` at 0).
+///
+/// ```
+/// use dth_examples::normal_modes::unit_chain_mismatch;
+/// // Two particles: K = [[2, -1], [-1, 2]], then the identity for p.
+/// let mut h = vec![0.0; 16];
+/// for (i, j, v) in [(0, 0, 2.0), (1, 1, 2.0), (0, 1, -1.0), (1, 0, -1.0), (2, 2, 1.0), (3, 3, 1.0)] {
+///     h[i + 4 * j] = v;
+/// }
+/// assert_eq!(unit_chain_mismatch(2, &[0.0; 4], &h), None);
+/// h[0] = 3.0; // a spring to a wall of stiffness 2
+/// assert!(unit_chain_mismatch(2, &[0.0; 4], &h).unwrap().contains("d2H/dq1dq1 = 3"));
+/// ```
+pub fn unit_chain_mismatch(n: usize, gradient: &[f64], hessian: &[f64]) -> Option<String> {
+    let d = 2 * n;
+    if gradient.len() != d || hessian.len() != d * d {
+        return Some(format!(
+            "it has {} coordinates, not the 2 x {n} of a chain of {n} particles",
+            gradient.len()
+        ));
+    }
+    let close = |x: f64, e: f64| (x - e).abs() <= 4.0 * f64::EPSILON * (1.0 + e.abs());
+    let name = |i: usize| {
+        if i < n {
+            format!("q{}", i + 1)
+        } else {
+            format!("p{}", i - n + 1)
+        }
+    };
+    if let Some((i, g)) = gradient.iter().enumerate().find(|&(_, &g)| !close(g, 0.0)) {
+        return Some(format!(
+            "rest is not an equilibrium: dH/d{} = {g} at z = 0",
+            name(i)
+        ));
+    }
+    for j in 0..d {
+        for i in 0..d {
+            let expected = match (i < n, j < n) {
+                (true, true) if i == j => 2.0,
+                (true, true) if i.abs_diff(j) == 1 => -1.0,
+                (false, false) if i == j => 1.0,
+                _ => 0.0,
+            };
+            let v = hessian[i + d * j];
+            if !close(v, expected) {
+                return Some(format!(
+                    "its expansion at rest is not the unit chain's: d2H/d{}d{} = {v} at z = 0, the chain has {expected}",
+                    name(i),
+                    name(j)
+                ));
+            }
+        }
+    }
+    None
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -10,6 +10,7 @@ use toml::Spanned;
 use super::raw::{RawEffect, RawMethod, RawScene};
 use super::{expression, members};
 use dth::dth::{Composition, Solver};
+use dth::runtime::{Backend, RuntimeHamiltonian};
 
 use super::schema::{
     Coord, Direction, Duration, EffectKind, EffectSpec, Ensemble, MethodKind, MethodSpec, Scene,
@@ -467,14 +468,22 @@ fn validate(raw: RawScene, systems: &dyn SystemLookup, cx: &mut Ctxt<'_>) -> Opt
         }
     }
 
-    // Normal modes are those of a chain with fixed ends.
-    if info.is_some_and(|i| !i.fixed_end_chain) {
+    // Normal modes are those of a chain with fixed ends: a catalogue system says whether it is
+    // one; a Hamiltonian given as text is checked on its expansion at rest.
+    let wants_modes = effects.iter().any(|s| s.kind() == EffectKind::NormalModes);
+    let not_a_chain = match (&hamiltonian, info) {
+        (Some(h), _) if wants_modes => text_chain_mismatch(h, &params)
+            .map(|why| format!("the Hamiltonian given as text is not one: {why}")),
+        (None, Some(i)) if !i.fixed_end_chain => Some(format!("system `{name}` is not one")),
+        _ => None,
+    };
+    if let Some(why) = not_a_chain {
         for (spec, span) in effects.iter().zip(&effect_spans) {
             if spec.kind() == EffectKind::NormalModes {
                 cx.error(
                     span.clone(),
                     format!(
-                        "effect `normal_modes` needs a chain with fixed ends (unit masses and springs to second order, e.g. fput_alpha, fput_beta, toda_fixed_ends): system `{name}` is not one"
+                        "effect `normal_modes` needs a chain with fixed ends (unit masses and springs to second order, e.g. fput_alpha, fput_beta, toda_fixed_ends): {why}"
                     ),
                 );
             }
@@ -669,6 +678,29 @@ fn text_info(h: &TextHamiltonian) -> SystemInfo<'static> {
         fixed_end_chain: false,
         dth: !h.psi_identically_zero,
         psi_identically_zero: h.psi_identically_zero,
+    }
+}
+
+/// Why the text Hamiltonian `h` with parameter values `params` is not a chain whose normal
+/// modes the `normal_modes` effect measures ([`crate::normal_modes::unit_chain_mismatch`] on
+/// its gradient and Hessian at `z = 0`, evaluated by the engine's interpreter); `None` when
+/// it is one.
+fn text_chain_mismatch(h: &TextHamiltonian, params: &BTreeMap<String, f64>) -> Option<String> {
+    if h.time_dependent {
+        return Some("it depends on `t`".to_string());
+    }
+    let params: Vec<(&str, f64)> = params.iter().map(|(k, v)| (k.as_str(), *v)).collect();
+    let at_rest = RuntimeHamiltonian::with_backend(&h.source, &params, Backend::Interpreter)
+        .and_then(|rt| {
+            let z = vec![0.0; h.dim];
+            let (mut g, mut hess) = (vec![0.0; h.dim], vec![0.0; h.dim * h.dim]);
+            rt.gradient(&z, &mut g)?;
+            rt.hessian(&z, &mut hess)?;
+            Ok((g, hess))
+        });
+    match at_rest {
+        Ok((g, hess)) => crate::normal_modes::unit_chain_mismatch(h.n, &g, &hess),
+        Err(e) => Some(format!("its derivatives at z = 0 cannot be evaluated: {e}")),
     }
 }
 
