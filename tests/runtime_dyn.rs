@@ -16,7 +16,8 @@ mod alloc_counter;
 
 use dth::dth::{lift, set_momentum_of_time, Dth, DthOptions, Solver};
 use dth::methods::{
-    run, DiscreteGradient, GaussLegendre2, ImplicitMidpoint, OneStepMethod, Trapezoidal,
+    run, DiscreteGradient, GaussLegendre2, ImplicitMidpoint, OneStepMethod, Rk4, StormerVerlet,
+    Trapezoidal,
 };
 use dth::nalgebra::{Const, DMatrix, DVector, Dyn, SVector};
 use dth::observer::{Recorder, StepKind, StepRecord};
@@ -192,7 +193,8 @@ fn construction_errors_are_typed() {
     dth.advance(10).unwrap();
 }
 
-/// The one-stage implicit peers keep a `Dyn` dimension's Newton buffers from their first step:
+/// The one-stage implicit peers keep a `Dyn` dimension's Newton buffers from their first step,
+/// RK4 and Stormer-Verlet their stage vectors:
 /// a run of 200 steps allocates exactly what a run of one step does (its start: the first
 /// state's record and the method's buffers), and steps after the first allocate nothing.
 #[test]
@@ -223,6 +225,8 @@ fn dyn_one_stage_steps_allocate_nothing() {
     per_step(ImplicitMidpoint::new);
     per_step(Trapezoidal::new);
     per_step(DiscreteGradient::new);
+    per_step(Rk4::new);
+    per_step(StormerVerlet::new);
     // Control: the counter is live.
     let (v, control) = alloc_counter::count(|| std::hint::black_box(vec![1u8; 16]));
     assert_eq!(control, 1);

@@ -148,7 +148,7 @@ fn discrete_gradient_conserves_energy() {
 fn rk4_and_trapezoidal_conserve_neither() {
     // Control: the measurement can fail.
     let h = Kepler::thesis();
-    let (de, dl) = max_deviations(Rk4, &h, &THESIS_Z0, 0.15, 1000);
+    let (de, dl) = max_deviations(Rk4::new(), &h, &THESIS_Z0, 0.15, 1000);
     assert!(de > 1e-6 && dl > 1e-6);
     let (de, dl) = max_deviations(Trapezoidal::new(), &h, &THESIS_Z0, 0.15, 1000);
     assert!(de > 1e-6 && dl > 1e-6);
@@ -183,7 +183,7 @@ fn symmetric_methods_are_reversible() {
         assert!(e < 1e-12, "{name}: {e:e}");
     }
     // Control: RK4 is not symmetric.
-    assert!(round_trip(Rk4, &h) > 1e-9);
+    assert!(round_trip(Rk4::new(), &h) > 1e-9);
 }
 
 /// A non-separable H (the q-p block of the Hessian is not zero).

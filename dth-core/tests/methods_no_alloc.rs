@@ -35,7 +35,7 @@ fn peers_allocate_nothing_per_step() {
             allocations(DiscreteMechanics::new(), &h, &z0),
         ),
         ("verlet", allocations(StormerVerlet::new(), &h, &z0)),
-        ("rk4", allocations(Rk4, &h, &z0)),
+        ("rk4", allocations(Rk4::new(), &h, &z0)),
         (
             "gauss_legendre2",
             allocations(GaussLegendre2::new(), &h, &z0),

@@ -133,7 +133,7 @@ order_tests! {
     midpoint: ImplicitMidpoint::new(), 2, 400, 100;
     verlet: StormerVerlet::new(), 2, 400, 100;
     discrete_gradient: DiscreteGradient::new(), 2, 400, 100;
-    rk4: Rk4, 4, 400, 50;
+    rk4: Rk4::new(), 4, 400, 50;
     gauss_legendre2: GaussLegendre2::new(), 4, 100, 25;
 }
 
@@ -226,7 +226,7 @@ mod forced_oscillator {
             2,
             "discrete gradient, forced",
         );
-        assert_order(&orders(Rk4, 50, true), 4, "rk4, forced");
+        assert_order(&orders(Rk4::new(), 50, true), 4, "rk4, forced");
         assert_order(
             &orders(GaussLegendre2::new(), 25, true),
             4,

@@ -133,7 +133,7 @@ where
             }
             peer!(StormerVerlet::new())
         }
-        MethodKind::Rk4 => peer!(Rk4),
+        MethodKind::Rk4 => peer!(Rk4::new()),
         MethodKind::GaussLegendre2 => peer!(GaussLegendre2::new()),
         MethodKind::DiscreteGradient => peer!(DiscreteGradient::new()),
         MethodKind::DiscreteMechanics => system

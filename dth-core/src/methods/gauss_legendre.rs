@@ -59,7 +59,15 @@ where
     const NAME: &'static str = "gauss_legendre2";
     const ORDER: u32 = 4;
 
-    fn step(&mut self, h: &H, z0: &OVector<f64, D>, dt: f64) -> Result<OVector<f64, D>, Error> {
+    /// Allocates on a `Dyn` dimension (its Newton iterates are values); a fixed one's live on
+    /// the stack.
+    fn step_into(
+        &mut self,
+        h: &H,
+        z0: &OVector<f64, D>,
+        dt: f64,
+        z1: &mut OVector<f64, D>,
+    ) -> Result<(), Error> {
         let f0 = j_times(&h.gradient(z0));
         let predictor =
             OMatrix::<f64, D, U2>::from_columns(&[&f0 * (C[0] * dt), &f0 * (C[1] * dt)]);
@@ -98,7 +106,8 @@ where
         self.iterations += iterations;
         let f1 = j_times(&h.gradient(&(z0 + stages.column(0))));
         let f2 = j_times(&h.gradient(&(z0 + stages.column(1))));
-        Ok(z0 + (f1 + f2) * (0.5 * dt))
+        *z1 = z0 + (f1 + f2) * (0.5 * dt);
+        Ok(())
     }
 
     fn newton_iterations(&self) -> usize {

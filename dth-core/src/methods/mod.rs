@@ -48,6 +48,7 @@ use nalgebra::{DefaultAllocator, Dim, OMatrix, OVector};
 pub mod discrete_gradient;
 pub mod discrete_mechanics;
 pub mod gauss_legendre;
+mod kept;
 pub mod midpoint;
 mod newton;
 pub mod rk4;
@@ -80,22 +81,25 @@ where
     /// Classical order of accuracy.
     const ORDER: u32;
 
-    /// Advances `z` by `dt`. Errors report `step: 0`; [`run`] fills in the step index.
-    fn step(&mut self, h: &H, z: &OVector<f64, D>, dt: f64) -> Result<OVector<f64, D>, Error>;
-
-    /// [`step`](Self::step) into `z1` (of `z`'s dimension, distinct from it): what [`run`]
-    /// calls. The one-stage implicit methods (midpoint, trapezoidal, discrete gradient,
-    /// discrete mechanics) override it without allocating, also for a `Dyn` dimension; the
-    /// default assigns [`step`](Self::step)'s value. On error `z1` holds no meaningful value.
+    /// Advances `z` by `dt` into `z1` (of `z`'s dimension, distinct from it): what [`run`]
+    /// calls. Every method here does it without allocating (for a `Dyn` dimension after its
+    /// first step, buffers kept in the method value), except Gauss-Legendre at `Dyn`. Errors
+    /// report `step: 0`; [`run`]
+    /// fills in the step index. On error `z1` holds no meaningful value.
     fn step_into(
         &mut self,
         h: &H,
         z: &OVector<f64, D>,
         dt: f64,
         z1: &mut OVector<f64, D>,
-    ) -> Result<(), Error> {
-        *z1 = self.step(h, z, dt)?;
-        Ok(())
+    ) -> Result<(), Error>;
+
+    /// [`step_into`](Self::step_into) returning the new state (allocates it for a `Dyn`
+    /// dimension).
+    fn step(&mut self, h: &H, z: &OVector<f64, D>, dt: f64) -> Result<OVector<f64, D>, Error> {
+        let mut z1 = z.clone();
+        self.step_into(h, z, dt, &mut z1)?;
+        Ok(z1)
     }
 
     /// Newton iterations spent by this method value so far (0 for explicit methods).
@@ -288,11 +292,11 @@ mod tests {
     fn run_rejects_bad_input_and_keeps_the_start() {
         let h = HarmonicOscillator { mass: 1.0, k: 1.0 };
         let z0 = Vector2::new(1.0, 0.0);
-        let err = run(&mut Rk4, &h, &z0, 0.0, 0.0, 10, &mut ()).unwrap_err();
+        let err = run(&mut Rk4::new(), &h, &z0, 0.0, 0.0, 10, &mut ()).unwrap_err();
         assert!(matches!(err.error, Error::InvalidOption { name: "dt", .. }));
         assert_eq!(err.partial.z, z0);
         let bad = Vector2::new(f64::NAN, 0.0);
-        let err = run(&mut Rk4, &h, &bad, 0.0, 0.1, 10, &mut ()).unwrap_err();
+        let err = run(&mut Rk4::new(), &h, &bad, 0.0, 0.1, 10, &mut ()).unwrap_err();
         assert!(matches!(
             err.error,
             Error::NonFiniteInitialState { index: 0, .. }
@@ -323,7 +327,7 @@ mod tests {
         let z0 = Vector2::new(1.0, 0.0);
         let mut count = 0;
         let err = run(
-            &mut Rk4,
+            &mut Rk4::new(),
             &HalfLine,
             &z0,
             0.0,

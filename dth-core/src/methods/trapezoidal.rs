@@ -47,12 +47,6 @@ where
     const NAME: &'static str = "trapezoidal";
     const ORDER: u32 = 2;
 
-    fn step(&mut self, h: &H, z0: &OVector<f64, D>, dt: f64) -> Result<OVector<f64, D>, Error> {
-        let mut z1 = z0.clone();
-        self.step_into(h, z0, dt, &mut z1)?;
-        Ok(z1)
-    }
-
     fn step_into(
         &mut self,
         h: &H,

@@ -25,8 +25,21 @@ pub struct StormerVerlet<D: Dim>
 where
     DefaultAllocator: Alloc<D>,
 {
-    /// `(z1, grad H(z1))` of the last step.
-    last: Option<(OVector<f64, D>, OVector<f64, D>)>,
+    /// The step's buffers and the last force, made on the first step.
+    kept: Option<Forces<D>>,
+}
+
+/// `z1` and `grad H(z1)` of the last step (`last` says whether they are one: a failed or
+/// interrupted step leaves them unusable), and the half-step gradient.
+#[derive(Clone, Debug, PartialEq)]
+struct Forces<D: Dim>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    z: OVector<f64, D>,
+    g: OVector<f64, D>,
+    g_half: OVector<f64, D>,
+    last: bool,
 }
 
 impl<D: Dim> Default for StormerVerlet<D>
@@ -34,7 +47,7 @@ where
     DefaultAllocator: Alloc<D>,
 {
     fn default() -> Self {
-        StormerVerlet { last: None }
+        StormerVerlet { kept: None }
     }
 }
 
@@ -55,31 +68,47 @@ where
     const NAME: &'static str = "verlet";
     const ORDER: u32 = 2;
 
-    fn step(&mut self, h: &H, z0: &OVector<f64, D>, dt: f64) -> Result<OVector<f64, D>, Error> {
+    fn step_into(
+        &mut self,
+        h: &H,
+        z0: &OVector<f64, D>,
+        dt: f64,
+        z1: &mut OVector<f64, D>,
+    ) -> Result<(), Error> {
         if !h.flags().separable {
             return Err(Error::NotSeparable {
                 method: <Self as OneStepMethod<D, H>>::NAME,
             });
         }
+        if self.kept.as_ref().is_some_and(|f| f.z.len() != z0.len()) {
+            self.kept = None;
+        }
+        let f = self.kept.get_or_insert_with(|| Forces {
+            z: z0.clone(),
+            g: z0.clone(),
+            g_half: z0.clone(),
+            last: false,
+        });
+        if !(f.last && f.z == *z0) {
+            h.gradient_into(z0, &mut f.g);
+        }
+        f.last = false;
         let n = z0.len() / 2;
-        let g0 = match self.last.take() {
-            Some((z, g)) if z == *z0 => g,
-            _ => h.gradient(z0),
-        };
-        let mut z = z0.clone();
+        z1.copy_from(z0);
         for i in 0..n {
-            z[n + i] -= 0.5 * dt * g0[i];
+            z1[n + i] -= 0.5 * dt * f.g[i];
         }
-        let g_half = h.gradient(&z);
+        h.gradient_into(z1, &mut f.g_half);
         for i in 0..n {
-            z[i] += dt * g_half[n + i];
+            z1[i] += dt * f.g_half[n + i];
         }
-        let g1 = h.gradient(&z);
+        h.gradient_into(z1, &mut f.g);
         for i in 0..n {
-            z[n + i] -= 0.5 * dt * g1[i];
+            z1[n + i] -= 0.5 * dt * f.g[i];
         }
-        // grad V(q1) is the q part of g1 whatever p is: valid at the new z.
-        self.last = Some((z.clone(), g1));
-        Ok(z)
+        // grad V(q1) is the q part of g at the new z: valid there whatever p is.
+        f.z.copy_from(z1);
+        f.last = true;
+        Ok(())
     }
 }

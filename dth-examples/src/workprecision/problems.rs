@@ -191,7 +191,7 @@ where
             StormerVerlet::<Const<D>>::new,
             records,
         );
-        sweep_peer(self, options, &ladder, || Rk4, records);
+        sweep_peer(self, options, &ladder, Rk4::new, records);
         sweep_peer(self, options, &ladder, GaussLegendre2::new, records);
         sweep_dop853(self, options, &ladder, records);
     }
