@@ -10,8 +10,9 @@
 //! [`Fixed<N>`] (`Hamiltonian<Const<N>>`, the same compiled code) for `D = 4`, so the stepper and the peers use nalgebra's fixed-size linear algebra
 //! (stack storage, unrolled loops) as for a catalogue system; any other `D` runs as
 //! [`TextSystem`] (`Dyn`). Measured on Kepler (`docs/benchmarks.md`, "Run-time compiled
-//! Hamiltonians"): the `Dyn` run of 300,000 DTH and midpoint steps took 3.3x the built-in
-//! system's wall time, the fixed-size one about the built-in's. Each fixed size is one more
+//! Hamiltonians", "A whole `dth run`"): 300,000 DTH and midpoint steps took 1.3-1.4x the
+//! built-in system's CPU time at the fixed size, 2.05x at `Dyn` (3.3x before the `Dyn` DTH
+//! step stopped allocating). Each fixed size is one more
 //! instance of the whole pipeline to compile (measured: about a quarter more build time of
 //! this crate per size), so there is one: another size is one more arm in [`dispatch`].
 

@@ -13,8 +13,8 @@
 //! fused `Hamiltonian::derivatives_into` (one program, shared subexpressions) into its kept
 //! storage ([`Dense`], held by the stepper's workspace on the heap).
 //!
-//! Every operation writes into the caller's storage: nothing here allocates, for `Const<N>`
-//! or `Dyn` dimensions alike.
+//! Every operation writes into the caller's storage: after the first step, which boxes the
+//! dense path's storage, nothing here allocates, for `Const<N>` or `Dyn` dimensions alike.
 
 use crate::hamiltonian::{Alloc, Derivatives};
 use crate::linalg::{Lu, Pivot};

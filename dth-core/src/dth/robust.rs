@@ -47,11 +47,17 @@ impl<D: Dim> FallbackWork<D>
 where
     DefaultAllocator: Alloc<D>,
 {
-    /// Storage for fallback steps on `H` (the peer's buffers included).
-    pub(crate) fn new<H: Hamiltonian<D>>(ham: &H) -> Self {
+    /// Storage for fallback steps on `H`; the peer's Newton buffers too when `robust` (a
+    /// fallback step may come at any step and must not allocate then; without the robust mode
+    /// only [`Dth::diagnose`](super::Dth::diagnose) walks with the peer, on an error path, where
+    /// allocating its buffers is fine and a `Dyn` stepper of a large `D` is spared a second
+    /// `D x D` Hessian and LU).
+    pub(crate) fn new<H: Hamiltonian<D>>(ham: &H, robust: bool) -> Self {
         let d = ham.dim();
         let mut method = DiscreteGradient::new();
-        method.reserve(ham);
+        if robust {
+            method.reserve(ham);
+        }
         FallbackWork {
             z: zeros(d),
             point: Point::zeros(d),

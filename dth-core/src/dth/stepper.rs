@@ -17,10 +17,11 @@ use crate::{j_times, zeros, Error, Flags, Hamiltonian};
 
 /// The autonomous DTH stepper (paper Corollary 1, eqs. 28-30), monomorphized over the
 /// Hamiltonian: no `dyn`, no heap allocation per step. Its workspace (the Newton iterate and
-/// evaluation, the linear algebra, the predictor's and the robust mode's vectors, the record
-/// it reports) is allocated once, in [`Dth::new`]; after that, [`Dth::run`] and
-/// [`Dth::advance`] allocate nothing, for a `Dyn` dimension too (the records they report are
-/// borrowed; [`Dth::step`] returns an owned copy, a heap allocation each for `Dyn`).
+/// evaluation, the predictor's and the robust mode's vectors, the record it reports) is
+/// allocated in [`Dth::new`], the dense linear algebra on the first step; after that,
+/// [`Dth::run`] and [`Dth::advance`] allocate nothing, for a `Dyn` dimension too (the records
+/// they report are borrowed; [`Dth::step`] returns an owned copy, two heap allocations for
+/// `Dyn`: the state and the vertex).
 ///
 /// State: midpoint `zbar_k`, multiplier `lambda_k`, midpoint time `tbar_k`. A step finds
 /// `zbar_{k+1}` and `lambda_{k+1} > 0` with
@@ -316,7 +317,7 @@ where
                     psi: 0.0,
                 }),
             },
-            fallback: FallbackWork::new(&hamiltonian),
+            fallback: FallbackWork::new(&hamiltonian, options.robust()),
             walk: zeros(dim),
         });
         Ok(Dth {

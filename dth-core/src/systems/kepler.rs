@@ -198,6 +198,33 @@ impl crate::systems::CentralForce<Const<4>> for Kepler {
 mod tests {
     use super::*;
 
+    /// The fused evaluation is the separate methods' bits for value, gradient and Hessian, and
+    /// `psi_from`'s `Psi` to roundoff (the same terms without the zero blocks' products, summed
+    /// in another order: a few eps of the largest term).
+    #[test]
+    fn fused_derivatives_are_the_separate_ones() {
+        let k = Kepler::thesis();
+        for z in [
+            Vector4::new(0.5, 0.0, 0.0, 1.2),
+            Vector4::new(-0.3, 0.8, 0.7, -0.2),
+            Vector4::new(1e-3, -2e-3, 30.0, 5.0),
+        ] {
+            let mut d = Derivatives::<Const<4>>::zeros(Const);
+            k.derivatives_into(&z, &mut d);
+            assert_eq!(d.value, k.value(&z));
+            assert_eq!(d.gradient, k.gradient(&z));
+            assert_eq!(d.hessian, k.hessian(&z));
+            let psi = crate::psi_from(&d.gradient, &d.hessian);
+            let jg = crate::j_times(&d.gradient);
+            let scale = jg.abs().dot(&(d.hessian.abs() * jg.abs()));
+            assert!(
+                (d.psi - psi).abs() <= 8.0 * f64::EPSILON * scale,
+                "{z:?}: {} vs {psi}",
+                d.psi
+            );
+        }
+    }
+
     #[test]
     fn divided_differences_are_exact_and_cancellation_free() {
         let k = Kepler::thesis();
