@@ -193,12 +193,12 @@ fn construction_errors_are_typed() {
     dth.advance(10).unwrap();
 }
 
-/// The one-stage implicit peers keep a `Dyn` dimension's Newton buffers from their first step,
-/// RK4 and Stormer-Verlet their stage vectors:
-/// a run of 200 steps allocates exactly what a run of one step does (its start: the first
+/// Every peer keeps a `Dyn` dimension's buffers from its first step (the implicit ones their
+/// Newton buffers, Gauss-Legendre its block elimination's too; RK4 and Stormer-Verlet their
+/// stage vectors): a run of 200 steps allocates exactly what a run of one step does (its start: the first
 /// state's record and the method's buffers), and steps after the first allocate nothing.
 #[test]
-fn dyn_one_stage_steps_allocate_nothing() {
+fn dyn_peer_steps_allocate_nothing() {
     fn per_step<M: OneStepMethod<Dyn, RuntimeHamiltonian>>(make: impl Fn() -> M) {
         let h = kepler_text();
         let z0 = DVector::from_column_slice(&[0.5, 0.0, 0.0, 1.2]);
@@ -227,6 +227,7 @@ fn dyn_one_stage_steps_allocate_nothing() {
     per_step(DiscreteGradient::new);
     per_step(Rk4::new);
     per_step(StormerVerlet::new);
+    per_step(GaussLegendre2::new);
     // Control: the counter is live.
     let (v, control) = alloc_counter::count(|| std::hint::black_box(vec![1u8; 16]));
     assert_eq!(control, 1);

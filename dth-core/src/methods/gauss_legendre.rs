@@ -1,13 +1,14 @@
 //! The 2-stage Gauss-Legendre collocation method.
 
 use crate::hamiltonian::Alloc;
-use nalgebra::{DefaultAllocator, Dim, OMatrix, OVector, U2};
-use std::cell::RefCell;
+use nalgebra::{DefaultAllocator, Dim, Dyn, OMatrix, OVector, U2};
 
-use super::newton::{self, Evaluation, NewtonOptions, Structured};
-use super::{j_times_matrix, OneStepMethod};
-use crate::linalg as linear;
-use crate::{j_times, Error, Hamiltonian};
+use super::kept::Kept;
+use super::newton::{self, NewtonOptions, Step, Structured};
+use super::OneStepMethod;
+use crate::linalg::Lu;
+use crate::structured::NewtonMatrix;
+use crate::{j_times_into, zeros, zeros_matrix, Error, Hamiltonian};
 
 const S3: f64 = 0.288_675_134_594_812_9; // sqrt(3)/6
 /// Butcher matrix `A` of the 2-stage Gauss method.
@@ -19,10 +20,14 @@ const C: [f64; 2] = [0.5 - S3, 0.5 + S3];
 /// quadratic invariants exactly.
 ///
 /// Unknowns are the stage increments `Z_i = Y_i - z0` (a `D x 2` matrix), solved by full Newton
-/// with the `2D x 2D` Jacobian `[delta_ij I - dt a_ij J Hess H(Y_j)]`: by block elimination (three
-/// `D x D` LU solves, no heap), or for large sparse systems by the structured solver of
+/// with the `2D x 2D` Jacobian `[delta_ij I - dt a_ij J Hess H(Y_j)]`: by block elimination (two
+/// `D x D` LU factorizations), or for large sparse systems by the structured solver of
 /// `crate::structured` on the whole `2D x 2D` matrix (see `methods::newton`). Predictor `Z_i = c_i dt J grad H(z0)`. The update is
 /// `z1 = z0 + (dt/2) (f(Y1) + f(Y2))` with `f = J grad H` at the converged stages.
+///
+/// No allocation: a fixed dimension's buffers live on the stack (the dense `D x D` ones in a
+/// frame of their own, only on the dense path); a `Dyn` dimension's are made on the first step
+/// and kept in the method value.
 ///
 /// # References
 /// E. Hairer, C. Lubich, G. Wanner, *Geometric Numerical Integration*, Table II.1.1 (Gauss
@@ -34,6 +39,7 @@ pub struct GaussLegendre2 {
     pub newton: NewtonOptions,
     iterations: usize,
     structured: Structured,
+    kept: Kept,
 }
 
 impl GaussLegendre2 {
@@ -48,6 +54,7 @@ impl GaussLegendre2 {
             newton,
             iterations: 0,
             structured: Structured::default(),
+            kept: Kept::default(),
         }
     }
 }
@@ -59,8 +66,6 @@ where
     const NAME: &'static str = "gauss_legendre2";
     const ORDER: u32 = 4;
 
-    /// Allocates on a `Dyn` dimension (its Newton iterates are values); a fixed one's live on
-    /// the stack.
     fn step_into(
         &mut self,
         h: &H,
@@ -68,45 +73,49 @@ where
         dt: f64,
         z1: &mut OVector<f64, D>,
     ) -> Result<(), Error> {
-        let f0 = j_times(&h.gradient(z0));
-        let predictor =
-            OMatrix::<f64, D, U2>::from_columns(&[&f0 * (C[0] * dt), &f0 * (C[1] * dt)]);
-        let matrix = self.structured.matrix(h, 2).map(RefCell::new);
-        let (stages, iterations) = newton::solve(
-            <Self as OneStepMethod<D, H>>::NAME,
-            &self.newton,
-            predictor,
-            z0.amax(),
-            |z| {
-                let y1 = z0 + z.column(0);
-                let y2 = z0 + z.column(1);
-                let f1 = j_times(&h.gradient(&y1));
-                let f2 = j_times(&h.gradient(&y2));
-                let r1 = z.column(0) - (&f1 * A[0][0] + &f2 * A[0][1]) * dt;
-                let r2 = z.column(1) - (&f1 * A[1][0] + &f2 * A[1][1]) * dt;
-                let residual = OMatrix::<f64, D, U2>::from_columns(&[r1.clone(), r2.clone()]);
-                let delta = match &matrix {
-                    Some(m) => {
-                        let mut m = m.borrow_mut();
-                        h.hessian_nonzeros(&y1, m.hessian_mut(0));
-                        h.hessian_nonzeros(&y2, m.hessian_mut(1));
-                        let a = [A[0][0] * dt, A[0][1] * dt, A[1][0] * dt, A[1][1] * dt];
-                        m.factor(&a).ok().map(|()| {
-                            // Column-major: stage 1's increments, then stage 2's.
-                            let mut delta = residual.clone();
-                            m.solve(delta.as_mut_slice());
-                            delta
-                        })
+        let (d, _) = z0.shape_generic();
+        let n = d.value();
+        let GaussLegendre2 {
+            newton,
+            iterations,
+            structured,
+            kept,
+        } = self;
+        let step = Step {
+            method: <Self as OneStepMethod<D, H>>::NAME,
+            options: newton,
+            h,
+            z0,
+            dt,
+        };
+        let done = kept.with(
+            d,
+            || Work::new(d),
+            || Box::new(Work::<Dyn>::new(Dyn(n))),
+            |w: &Work<D>| w.stages.points.g.len() == n,
+            |work| {
+                let Work { stages, dense } = work;
+                let done = match structured.matrix(h, 2) {
+                    Some(m) => run(&step, stages, |p, delta| {
+                        structured_update(h, dt, m, p, delta)
+                    }),
+                    None if D::try_to_usize().is_some() => dense_fixed(&step, stages),
+                    None => {
+                        let dense = dense.get_or_insert_with(|| Dense::boxed(d));
+                        run(&step, stages, |p, delta| dense.update(h, dt, p, delta))
                     }
-                    None => dense_update(h, &y1, &y2, dt, &r1, &r2),
-                };
-                Evaluation { residual, delta }
+                }?;
+                // z1 = z0 + (dt/2) (f(Y1) + f(Y2)) at the converged stages.
+                let Stages { z, points, .. } = stages;
+                points.slopes(h, z0, z);
+                let f = &points.f;
+                for i in 0..n {
+                    z1[i] = z0[i] + (f[0][i] + f[1][i]) * (0.5 * dt);
+                }
+                Ok::<usize, Error>(done)
             },
         )?;
-        self.iterations += iterations;
-        let f1 = j_times(&h.gradient(&(z0 + stages.column(0))));
-        let f2 = j_times(&h.gradient(&(z0 + stages.column(1))));
-        *z1 = z0 + (f1 + f2) * (0.5 * dt);
+        *iterations += done;
         Ok(())
     }
 
@@ -115,33 +124,259 @@ where
     }
 }
 
-/// The Newton update with the dense `2D x 2D` Jacobian by block elimination (three `D x D`
-/// LU solves), in a frame of its own (see `methods::newton`).
-#[inline(never)]
-fn dense_update<H: Hamiltonian<D>, D: Dim>(
-    h: &H,
-    y1: &OVector<f64, D>,
-    y2: &OVector<f64, D>,
-    dt: f64,
-    r1: &OVector<f64, D>,
-    r2: &OVector<f64, D>,
-) -> Option<OMatrix<f64, D, U2>>
+/// A step's storage: the Newton buffers, and for a `Dyn` dimension on the dense path the
+/// block elimination's (boxed: a fixed dimension's live in a frame of their own).
+struct Work<D: Dim>
 where
     DefaultAllocator: Alloc<D>,
 {
-    let (d, _) = y1.shape_generic();
-    let identity = OMatrix::<f64, D, D>::identity_generic(d, d);
-    let k1 = j_times_matrix(&h.hessian(y1)) * dt;
-    let k2 = j_times_matrix(&h.hessian(y2)) * dt;
-    let b11 = &identity - &k1 * A[0][0];
-    let b12 = -&k2 * A[0][1];
-    let b21 = -&k1 * A[1][0];
-    let b22 = &identity - &k2 * A[1][1];
-    let x = linear::solve(b11.clone(), b12)?;
-    let y = linear::solve(b11, r1.clone())?;
-    let d2 = linear::solve(b22 - &b21 * &x, r2 - &b21 * &y)?;
-    let d1 = y - x * &d2;
-    Some(OMatrix::<f64, D, U2>::from_columns(&[d1, d2]))
+    stages: Stages<D>,
+    dense: Option<Box<Dense<D>>>,
+}
+
+impl<D: Dim> Work<D>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    fn new(d: D) -> Self {
+        Work {
+            stages: Stages {
+                z: OMatrix::zeros_generic(d, U2),
+                delta: OMatrix::zeros_generic(d, U2),
+                points: Points {
+                    y: [zeros(d), zeros(d)],
+                    f: [zeros(d), zeros(d)],
+                    r: [zeros(d), zeros(d)],
+                    g: zeros(d),
+                },
+            },
+            dense: None,
+        }
+    }
+}
+
+/// The Newton iterate (the stage increments `Z`, one column per stage), its update, and what
+/// the residual writes.
+struct Stages<D: Dim>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    z: OMatrix<f64, D, U2>,
+    delta: OMatrix<f64, D, U2>,
+    points: Points<D>,
+}
+
+/// At an iterate `Z`: the stage points `Y_i = z0 + Z_i`, the slopes `f_i = J grad H(Y_i)`, the
+/// residual's columns `r_i = Z_i - dt sum_j a_ij f_j`, and a gradient.
+struct Points<D: Dim>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    y: [OVector<f64, D>; 2],
+    f: [OVector<f64, D>; 2],
+    r: [OVector<f64, D>; 2],
+    g: OVector<f64, D>,
+}
+
+impl<D: Dim> Points<D>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    /// The stage points and slopes at `z`.
+    fn slopes<H: Hamiltonian<D>>(&mut self, h: &H, z0: &OVector<f64, D>, z: &OMatrix<f64, D, U2>) {
+        for s in 0..2 {
+            for i in 0..z0.len() {
+                self.y[s][i] = z0[i] + z[(i, s)];
+            }
+            h.gradient_into(&self.y[s], &mut self.g);
+            j_times_into(&self.g, &mut self.f[s]);
+        }
+    }
+
+    /// The residual at `z`; its infinity norm.
+    fn residual<H: Hamiltonian<D>>(
+        &mut self,
+        h: &H,
+        z0: &OVector<f64, D>,
+        dt: f64,
+        z: &OMatrix<f64, D, U2>,
+    ) -> f64 {
+        self.slopes(h, z0, z);
+        let Points { f, r, .. } = self;
+        for (s, r) in r.iter_mut().enumerate() {
+            for i in 0..z0.len() {
+                r[i] = z[(i, s)] - (f[0][i] * A[s][0] + f[1][i] * A[s][1]) * dt;
+            }
+        }
+        r[0].amax().max(r[1].amax())
+    }
+}
+
+/// Newton from the predictor `Z_i = c_i dt J grad H(z0)` with the linear solve
+/// `update(points, delta)` (`false` when the matrix is singular); the iterations.
+fn run<H: Hamiltonian<D>, D: Dim>(
+    step: &Step<'_, H, D>,
+    stages: &mut Stages<D>,
+    mut update: impl FnMut(&Points<D>, &mut OMatrix<f64, D, U2>) -> bool,
+) -> Result<usize, Error>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    let (h, z0, dt) = (step.h, step.z0, step.dt);
+    let Stages { z, delta, points } = stages;
+    h.gradient_into(z0, &mut points.g);
+    j_times_into(&points.g, &mut points.f[0]);
+    for (s, c) in C.iter().enumerate() {
+        for i in 0..z0.len() {
+            z[(i, s)] = points.f[0][i] * (c * dt);
+        }
+    }
+    newton::solve(
+        step.method,
+        step.options,
+        z0.amax(),
+        z,
+        delta,
+        points,
+        |z, p| p.residual(h, z0, dt, z),
+        |_, p, delta| update(p, delta),
+    )
+}
+
+/// [`run`] on the dense path with a fixed dimension, in a frame of its own (its `D x D`
+/// storage).
+#[inline(never)]
+fn dense_fixed<H: Hamiltonian<D>, D: Dim>(
+    step: &Step<'_, H, D>,
+    stages: &mut Stages<D>,
+) -> Result<usize, Error>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    let mut dense = Dense::new(step.z0.shape_generic().0);
+    let (h, dt) = (step.h, step.dt);
+    run(step, stages, |p, delta| dense.update(h, dt, p, delta))
+}
+
+/// The Newton update on the structured path: the whole `2D x 2D` matrix from the Hessians'
+/// nonzeros (column-major `delta`: stage 1's increments, then stage 2's).
+fn structured_update<H: Hamiltonian<D>, D: Dim>(
+    h: &H,
+    dt: f64,
+    m: &mut NewtonMatrix,
+    p: &Points<D>,
+    delta: &mut OMatrix<f64, D, U2>,
+) -> bool
+where
+    DefaultAllocator: Alloc<D>,
+{
+    h.hessian_nonzeros(&p.y[0], m.hessian_mut(0));
+    h.hessian_nonzeros(&p.y[1], m.hessian_mut(1));
+    let a = [A[0][0] * dt, A[0][1] * dt, A[1][0] * dt, A[1][1] * dt];
+    if m.factor(&a).is_err() {
+        return false;
+    }
+    delta.set_column(0, &p.r[0]);
+    delta.set_column(1, &p.r[1]);
+    m.solve(delta.as_mut_slice());
+    true
+}
+
+/// The dense path's storage: `K_i = dt J Hess H(Y_i)`, `X = B11^-1 B12` (the Hessian before
+/// it), one LU and three vectors.
+struct Dense<D: Dim>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    k: [OMatrix<f64, D, D>; 2],
+    x: OMatrix<f64, D, D>,
+    lu: Lu<D>,
+    v: [OVector<f64, D>; 3],
+}
+
+impl<D: Dim> Dense<D>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    fn new(d: D) -> Self {
+        Dense {
+            k: [zeros_matrix(d), zeros_matrix(d)],
+            x: zeros_matrix(d),
+            lu: Lu::empty(d),
+            v: [zeros(d), zeros(d), zeros(d)],
+        }
+    }
+
+    /// On the heap (for a `Dyn` dimension), made in a frame of its own: a caller generic over
+    /// the dimension keeps no `D x D` temporary in its frame.
+    #[inline(never)]
+    fn boxed(d: D) -> Box<Self> {
+        Box::new(Self::new(d))
+    }
+
+    /// The Newton update with the dense `2D x 2D` Jacobian by block elimination: with
+    /// `B_ij = delta_ij I - a_ij K_j`, `X = B11^-1 B12`, `y = B11^-1 r1`,
+    /// `d2 = (B22 - B21 X)^-1 (r2 - B21 y)`, `d1 = y - X d2`. `false` when `B11` or the Schur
+    /// complement is singular or not finite.
+    fn update<H: Hamiltonian<D>>(
+        &mut self,
+        h: &H,
+        dt: f64,
+        p: &Points<D>,
+        delta: &mut OMatrix<f64, D, U2>,
+    ) -> bool {
+        let Dense { k, x, lu, v } = self;
+        let n = p.g.len();
+        let half = n / 2;
+        for (k, y) in k.iter_mut().zip(&p.y) {
+            h.hessian_into(y, x);
+            for j in 0..n {
+                for i in 0..n {
+                    let jh = if i < half {
+                        x[(i + half, j)]
+                    } else {
+                        -x[(i - half, j)]
+                    };
+                    k[(i, j)] = jh * dt;
+                }
+            }
+        }
+        let [k1, k2] = &*k;
+        let identity = |i: usize, j: usize| if i == j { 1.0 } else { 0.0 };
+        if lu
+            .factor_from(|i, j| identity(i, j) - k1[(i, j)] * A[0][0])
+            .is_err()
+        {
+            return false;
+        }
+        let [y, b, s] = v;
+        for j in 0..n {
+            for i in 0..n {
+                b[i] = -k2[(i, j)] * A[0][1];
+            }
+            lu.solve_into(b, s);
+            x.set_column(j, s);
+        }
+        lu.solve_into(&p.r[0], y);
+        // B21 = -a21 K1.
+        let b21 = |i: usize, l: usize| -k1[(i, l)] * A[1][0];
+        let schur = |i: usize, j: usize| {
+            let b21_x = (0..n).fold(0.0, |acc, l| acc + b21(i, l) * x[(l, j)]);
+            (identity(i, j) - k2[(i, j)] * A[1][1]) - b21_x
+        };
+        if lu.factor_from(schur).is_err() {
+            return false;
+        }
+        for i in 0..n {
+            b[i] = p.r[1][i] - (0..n).fold(0.0, |acc, l| acc + b21(i, l) * y[l]);
+        }
+        lu.solve_into(b, s);
+        for i in 0..n {
+            delta[(i, 0)] = y[i] - (0..n).fold(0.0, |acc, l| acc + x[(i, l)] * s[l]);
+            delta[(i, 1)] = s[i];
+        }
+        true
+    }
 }
 
 #[cfg(test)]

@@ -44,7 +44,7 @@
 //! ```
 
 use crate::hamiltonian::Alloc;
-use nalgebra::{DefaultAllocator, Dim, OMatrix, OVector};
+use nalgebra::{DefaultAllocator, Dim, OVector};
 pub mod discrete_gradient;
 pub mod discrete_mechanics;
 pub mod gauss_legendre;
@@ -83,9 +83,8 @@ where
 
     /// Advances `z` by `dt` into `z1` (of `z`'s dimension, distinct from it): what [`run`]
     /// calls. Every method here does it without allocating (for a `Dyn` dimension after its
-    /// first step, buffers kept in the method value), except Gauss-Legendre at `Dyn`. Errors
-    /// report `step: 0`; [`run`]
-    /// fills in the step index. On error `z1` holds no meaningful value.
+    /// first step, buffers kept in the method value). Errors report `step: 0`; [`run`] fills
+    /// in the step index. On error `z1` holds no meaningful value.
     fn step_into(
         &mut self,
         h: &H,
@@ -257,14 +256,18 @@ fn at_step(error: Error, k: usize) -> Error {
     }
 }
 
-/// `J M` for `J = [[0, I], [-I, 0]]`: rows `(M_p, -M_q)`.
-pub(crate) fn j_times_matrix<D: Dim>(m: &OMatrix<f64, D, D>) -> OMatrix<f64, D, D>
+/// `J M` for `J = [[0, I], [-I, 0]]`: rows `(M_p, -M_q)` (a test oracle: the steps write `J`
+/// entry by entry).
+#[cfg(test)]
+pub(crate) fn j_times_matrix<D: Dim>(
+    m: &nalgebra::OMatrix<f64, D, D>,
+) -> nalgebra::OMatrix<f64, D, D>
 where
     DefaultAllocator: Alloc<D>,
 {
     let n = m.nrows() / 2;
     let (r, c) = m.shape_generic();
-    OMatrix::from_fn_generic(
+    nalgebra::OMatrix::from_fn_generic(
         r,
         c,
         |i, j| if i < n { m[(i + n, j)] } else { -m[(i - n, j)] },

@@ -181,16 +181,6 @@ impl NewtonOptions {
     }
 }
 
-/// One Newton evaluation: the residual `F(x)` and the update `delta = A^{-1} F(x)` (`None` when
-/// the matrix `A` is singular). The iterate moves to `x - delta`.
-pub(crate) struct Evaluation<R: Dim, C: Dim>
-where
-    DefaultAllocator: Allocator<R, C>,
-{
-    pub residual: OMatrix<f64, R, C>,
-    pub delta: Option<OMatrix<f64, R, C>>,
-}
-
 /// One Newton iteration's update for the peer methods, after the residual (infinity norm
 /// `residual_norm`) and the Newton step `delta` (`None`: the matrix was singular) are known:
 /// `x -= delta`, with the checks both peer solvers make, in this order (a non-finite residual,
@@ -231,36 +221,53 @@ where
     Ok(size / scale.max(x.amax()).max(f64::MIN_POSITIVE))
 }
 
-/// Solves `F(x) = 0` from `x0`; `scale` is the size of the state the unknowns belong to (see
-/// [`NewtonOptions`]). Returns the solution and the number of iterations.
-pub(crate) fn solve<R: Dim, C: Dim>(
+/// Solves `F(x) = 0` by Newton from the `x` given, in place, with the caller's buffers: the
+/// update `delta` and the `work` storage of the equation. `residual(x, work)` writes `F(x)`
+/// into `work` and returns its infinity norm; `solve(x, work, delta)` then writes the update
+/// `A^{-1} F(x)` into `delta`, `false` when the matrix `A` is singular (called only at a
+/// finite residual). The iterate moves to `x - delta`. `scale` is the size of the state the
+/// unknowns belong to (see [`NewtonOptions`]). Returns the number of iterations.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn solve<R: Dim, C: Dim, W>(
     method: &'static str,
     options: &NewtonOptions,
-    x0: OMatrix<f64, R, C>,
     scale: f64,
-    evaluate: impl Fn(&OMatrix<f64, R, C>) -> Evaluation<R, C>,
-) -> Result<(OMatrix<f64, R, C>, usize), Error>
+    x: &mut OMatrix<f64, R, C>,
+    delta: &mut OMatrix<f64, R, C>,
+    work: &mut W,
+    residual: impl Fn(&OMatrix<f64, R, C>, &mut W) -> f64,
+    mut solve: impl FnMut(&OMatrix<f64, R, C>, &mut W, &mut OMatrix<f64, R, C>) -> bool,
+) -> Result<usize, Error>
 where
     DefaultAllocator: Allocator<R, C>,
 {
-    let mut x = x0;
-    let iterations = newton::solve(
+    let mut state = (x, delta, work);
+    newton::solve(
         Convergence::new(PEERS, options.max_iterations),
         options.stall_tolerance,
-        &mut x,
-        |x, iteration| {
-            let Evaluation { residual, delta } = evaluate(x);
-            update(method, iteration, residual.amax(), x, delta.as_ref(), scale)
+        &mut state,
+        |(x, delta, work), iteration| {
+            let residual_norm = residual(x, work);
+            // Solve only at a finite residual (`update` reports a non-finite one first).
+            let solved = residual_norm.is_finite() && solve(x, work, delta);
+            update(
+                method,
+                iteration,
+                residual_norm,
+                x,
+                solved.then_some(&**delta),
+                scale,
+            )
         },
         |_| true,
-        |x, iterations| Error::MethodNotConverged {
+        |(x, _, work), iterations| Error::MethodNotConverged {
             method,
             step: 0,
             iterations,
-            residual: evaluate(x).residual.amax(),
+            // A failure: the residual at the last iterate.
+            residual: residual(x, work),
         },
-    )?;
-    Ok((x, iterations))
+    )
 }
 
 /// The buffers of one Newton iterate of a one-stage method, which its equation fills:
@@ -400,16 +407,18 @@ where
     DefaultAllocator: Alloc<D>,
 {
     let (d, _) = z0.shape_generic();
-    let n = if D::try_to_usize().is_some() {
-        let mut stage = OneStage::new(d);
-        let solve = Solve {
+    let solve = Solve {
+        step: Step {
             method,
             options,
             h,
             z0,
             dt,
-            equation: &equation,
-        };
+        },
+        equation: &equation,
+    };
+    let n = if D::try_to_usize().is_some() {
+        let mut stage = OneStage::new(d);
         match structured.matrix(h, 1) {
             Some(matrix) => solve.structured(matrix, &mut stage, z1)?,
             None => solve.dense_fixed(&mut stage, z1)?,
@@ -426,14 +435,6 @@ where
                 stage: OneStage::new(d),
                 dense: None,
             }),
-        };
-        let solve = Solve {
-            method,
-            options,
-            h,
-            z0,
-            dt,
-            equation: &equation,
         };
         let Kept { stage, dense } = &mut *kept;
         let result = match structured.matrix(h, 1) {
@@ -469,16 +470,26 @@ pub(crate) fn residual_minus_j<D: Dim>(
     }
 }
 
-/// What a one-stage Newton solve needs besides its buffers.
+/// What a step's Newton solve needs besides its buffers and its equation.
+pub(crate) struct Step<'a, H, D: Dim>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    /// The method's name, for errors.
+    pub(crate) method: &'static str,
+    pub(crate) options: &'a NewtonOptions,
+    pub(crate) h: &'a H,
+    /// The state the step starts from.
+    pub(crate) z0: &'a OVector<f64, D>,
+    pub(crate) dt: f64,
+}
+
+/// A one-stage Newton solve: the step and its equation.
 struct Solve<'a, H, D: Dim, E>
 where
     DefaultAllocator: Alloc<D>,
 {
-    method: &'static str,
-    options: &'a NewtonOptions,
-    h: &'a H,
-    z0: &'a OVector<f64, D>,
-    dt: f64,
+    step: Step<'a, H, D>,
     equation: &'a E,
 }
 
@@ -494,7 +505,7 @@ where
         stage: &mut OneStage<D>,
         z1: &mut OVector<f64, D>,
     ) -> Result<usize, Error> {
-        let (h, c) = (self.h, 0.5 * self.dt);
+        let (h, c) = (self.step.h, 0.5 * self.step.dt);
         self.run(stage, z1, |y, residual, delta| {
             h.hessian_nonzeros(y, m.hessian_mut(0));
             if m.factor(&[c]).is_err() {
@@ -513,62 +524,42 @@ where
         stage: &mut OneStage<D>,
         z1: &mut OVector<f64, D>,
     ) -> Result<usize, Error> {
-        let mut dense = DenseParts::new(self.z0.shape_generic().0);
-        let (h, c) = (self.h, 0.5 * self.dt);
+        let mut dense = DenseParts::new(self.step.z0.shape_generic().0);
+        let (h, c) = (self.step.h, 0.5 * self.step.dt);
         self.run(stage, z1, |y, residual, delta| {
             dense.solve(h, y, c, residual, delta)
         })
     }
 
-    /// Newton from the predictor with the linear solve `solve(y, residual, delta)` (`false`
+    /// Newton from the predictor with the linear solve `linear(y, residual, delta)` (`false`
     /// when the matrix is singular); the iterations.
     fn run(
         &self,
         stage: &mut OneStage<D>,
         z1: &mut OVector<f64, D>,
-        mut solve: impl FnMut(&OVector<f64, D>, &OVector<f64, D>, &mut OVector<f64, D>) -> bool,
+        mut linear: impl FnMut(&OVector<f64, D>, &OVector<f64, D>, &mut OVector<f64, D>) -> bool,
     ) -> Result<usize, Error> {
-        let (method, z0, dt) = (self.method, self.z0, self.dt);
+        let (method, z0, dt) = (self.step.method, self.step.z0, self.step.dt);
         let OneStage { g0, r, delta } = stage;
-        self.h.gradient_into(z0, g0);
+        self.step.h.gradient_into(z0, g0);
         // The predictor z0 + (J g0) dt.
         j_times_into(g0, &mut r.scratch);
         for i in 0..z1.len() {
             z1[i] = z0[i] + r.scratch[i] * dt;
         }
-        let scale = z0.amax();
         let g0 = &*g0;
-        let mut state = (z1, r, delta);
-        newton::solve(
-            Convergence::new(PEERS, self.options.max_iterations),
-            self.options.stall_tolerance,
-            &mut state,
-            |(x, r, delta), iteration| {
+        solve(
+            method,
+            self.step.options,
+            z0.amax(),
+            z1,
+            delta,
+            r,
+            |x, r| {
                 (self.equation)(x, g0, r);
-                let residual_norm = r.residual.amax();
-                // Solve only at a finite residual (`update` reports a non-finite one first).
-                let solved = residual_norm.is_finite() && solve(&r.y, &r.residual, delta);
-                update(
-                    method,
-                    iteration,
-                    residual_norm,
-                    x,
-                    solved.then_some(&**delta),
-                    scale,
-                )
+                r.residual.amax()
             },
-            |_| true,
-            |(x, _, _), iterations| {
-                // A failure: the residual at the last iterate, in storage of its own.
-                let mut r = Residual::new(x.shape_generic().0);
-                (self.equation)(x, g0, &mut r);
-                Error::MethodNotConverged {
-                    method,
-                    step: 0,
-                    iterations,
-                    residual: r.residual.amax(),
-                }
-            },
+            |_, r, delta| linear(&r.y, &r.residual, delta),
         )
     }
 }
@@ -578,44 +569,42 @@ mod tests {
     use super::*;
     use nalgebra::Vector1;
 
+    /// Newton on the scalar `f(x) = 0` from `x0` with derivative `df`, its residual kept in
+    /// the work storage; `None` for the update makes the matrix singular.
+    fn scalar(
+        x0: f64,
+        f: impl Fn(f64) -> f64,
+        df: impl Fn(f64) -> Option<f64>,
+    ) -> Result<(f64, usize), Error> {
+        let (mut x, mut delta, mut fx) = (Vector1::new(x0), Vector1::zeros(), 0.0);
+        let iterations = solve(
+            "test",
+            &NewtonOptions::default(),
+            1.0,
+            &mut x,
+            &mut delta,
+            &mut fx,
+            |x, fx| {
+                *fx = f(x[0]);
+                fx.abs()
+            },
+            |x, fx, delta| df(x[0]).map(|d| delta[0] = *fx / d).is_some(),
+        )?;
+        Ok((x[0], iterations))
+    }
+
     #[test]
     fn converges_to_roundoff_on_a_scalar_root() {
         // x^2 - 2 = 0 from 1: quadratic convergence to sqrt(2) within one ulp.
-        let (x, iterations) = solve(
-            "test",
-            &NewtonOptions::default(),
-            Vector1::new(1.0),
-            1.0,
-            |x| {
-                let f = Vector1::new(x[0] * x[0] - 2.0);
-                Evaluation {
-                    residual: f,
-                    delta: Some(f / (2.0 * x[0])),
-                }
-            },
-        )
-        .unwrap();
-        assert!((x[0] - 2f64.sqrt()).abs() <= f64::EPSILON * 2f64.sqrt());
+        let (x, iterations) = scalar(1.0, |x| x * x - 2.0, |x| Some(2.0 * x)).unwrap();
+        assert!((x - 2f64.sqrt()).abs() <= f64::EPSILON * 2f64.sqrt());
         assert!(iterations <= 8, "{iterations}");
     }
 
     #[test]
     fn no_root_is_reported_with_the_residual() {
         // x^2 + 1 = 0 has no real root: Newton wanders; it must not claim convergence.
-        let err = solve(
-            "test",
-            &NewtonOptions::default(),
-            Vector1::new(0.5),
-            1.0,
-            |x| {
-                let f = Vector1::new(x[0] * x[0] + 1.0);
-                Evaluation {
-                    residual: f,
-                    delta: Some(f / (2.0 * x[0])),
-                }
-            },
-        )
-        .unwrap_err();
+        let err = scalar(0.5, |x| x * x + 1.0, |x| Some(2.0 * x)).unwrap_err();
         match err {
             Error::MethodNotConverged {
                 iterations,
@@ -632,17 +621,7 @@ mod tests {
 
     #[test]
     fn singular_matrix_is_a_typed_error() {
-        let err = solve(
-            "test",
-            &NewtonOptions::default(),
-            Vector1::new(0.5),
-            1.0,
-            |x| Evaluation {
-                residual: *x,
-                delta: None,
-            },
-        )
-        .unwrap_err();
+        let err = scalar(0.5, |x| x, |_| None).unwrap_err();
         assert!(matches!(
             err,
             Error::MethodSingularMatrix { iteration: 1, residual, .. } if residual == 0.5
