@@ -296,3 +296,24 @@ fn dth_keeps_the_energy_of_the_looped_1024_particle_chain() {
         "energy error {drift:e}, terms of H {scale}"
     );
 }
+
+/// A user's own inherent items with ordinary names beside a looped lattice: the macro's
+/// helpers on the type are hidden `__dth_` names, so these do not collide with them.
+impl FputSum8 {
+    const RUNS: usize = 3;
+    const STRUCTURED_NEWTON: &'static str = "mine";
+    fn pattern(&self) -> f64 {
+        self.alpha
+    }
+}
+
+#[test]
+fn a_users_inherent_items_do_not_collide_with_the_looped_lattices() {
+    let h = FputSum8 { alpha: 0.25 };
+    assert_eq!(FputSum8::RUNS, 3);
+    assert_eq!(FputSum8::STRUCTURED_NEWTON, "mine");
+    assert_eq!(h.pattern(), 0.25);
+    // The trait's pattern is still the lattice's upper triangle: 8 diagonal q entries, 7
+    // pairs of neighbours, 8 p entries.
+    assert_eq!(h.hessian_pattern().map(<[_]>::len), Some(8 + 7 + 8));
+}

@@ -97,14 +97,16 @@ pub fn looped_impl(looped: &Looped, name: &Ident, params: &[Ident]) -> Option<To
     let nruns = layout.runs.len();
     let pattern = quote! {
         /// Runs along the Hessian's diagonals: `(a, b, len)` holds `(a + k, b + k)`, `k < len`.
-        const RUNS: [(usize, usize, usize); #nruns] = [#(#runs),*];
+        #[doc(hidden)]
+        const __DTH_HESSIAN_RUNS: [(usize, usize, usize); #nruns] = [#(#runs),*];
         /// The pattern, the runs one after the other, expanded once, at the first call.
-        fn pattern() -> &'static [(usize, usize)] {
+        #[doc(hidden)]
+        fn __dth_hessian_pattern() -> &'static [(usize, usize)] {
             static PATTERN: ::std::sync::OnceLock<::std::vec::Vec<(usize, usize)>> =
                 ::std::sync::OnceLock::new();
             PATTERN.get_or_init(|| {
                 let mut out = ::std::vec::Vec::with_capacity(#nnz);
-                for &(a, b, len) in Self::RUNS.iter() {
+                for &(a, b, len) in Self::__DTH_HESSIAN_RUNS.iter() {
                     out.extend((0..len).map(|k| (a + k, b + k)));
                 }
                 out
@@ -255,7 +257,8 @@ pub fn looped_impl(looped: &Looped, name: &Ident, params: &[Ident]) -> Option<To
             #[allow(unused_variables, unused_mut, unused_assignments, unused_parens, clippy::all, clippy::pedantic, clippy::nursery)]
             impl #name {
                 #pattern
-                const STRUCTURED_NEWTON: bool = #structured;
+                #[doc(hidden)]
+                const __DTH_STRUCTURED_NEWTON: bool = #structured;
             }
 
         #[automatically_derived]
@@ -264,7 +267,7 @@ pub fn looped_impl(looped: &Looped, name: &Ident, params: &[Ident]) -> Option<To
                 .with_separable(#separable)
                 .with_psi_identically_zero(#psi0)
                 .with_exact_divided_differences(true)
-                .with_structured_newton(Self::STRUCTURED_NEWTON);
+                .with_structured_newton(Self::__DTH_STRUCTURED_NEWTON);
         }
 
         #[doc = #source]
@@ -281,7 +284,7 @@ pub fn looped_impl(looped: &Looped, name: &Ident, params: &[Ident]) -> Option<To
             }
                 #[inline]
                 fn hessian_pattern(&self) -> ::core::option::Option<&[(usize, usize)]> {
-                    ::core::option::Option::Some(Self::pattern())
+                    ::core::option::Option::Some(Self::__dth_hessian_pattern())
                 }
     #[inline]
                 fn value(&self, z: &#nalgebra::SVector<f64, #d>) -> f64 {
@@ -301,7 +304,7 @@ pub fn looped_impl(looped: &Looped, name: &Ident, params: &[Ident]) -> Option<To
                 }
                 #[inline]
                 fn hessian_into(&self, z: &#nalgebra::SVector<f64, #d>, out: &mut #nalgebra::SMatrix<f64, #d, #d>) {
-                    let pattern = Self::pattern();
+                    let pattern = Self::__dth_hessian_pattern();
                     let mut values = [0.0f64; #nnz];
                     self.hessian_nonzeros(z, &mut values);
                     let h = out;
@@ -324,7 +327,7 @@ pub fn looped_impl(looped: &Looped, name: &Ident, params: &[Ident]) -> Option<To
                 }
                 #[inline]
                 fn psi(&self, z: &#nalgebra::SVector<f64, #d>) -> f64 {
-                    let pattern = Self::pattern();
+                    let pattern = Self::__dth_hessian_pattern();
                     let g = self.gradient(z);
                     let mut values = [0.0f64; #nnz];
                     self.hessian_nonzeros(z, &mut values);
