@@ -53,31 +53,8 @@ impl Hamiltonian<Const<4>> for Kepler {
     }
 
     fn hessian_into(&self, z: &Vector4<f64>, out: &mut Matrix4<f64>) {
-        *out = {
-            let r2 = z[0] * z[0] + z[1] * z[1];
-            let kr3 = self.k / (r2 * r2.sqrt());
-            let kr5 = 3.0 * kr3 / r2;
-            let im = 1.0 / self.mass;
-            let (x, y) = (z[0], z[1]);
-            Matrix4::new(
-                kr3 - kr5 * x * x,
-                -kr5 * x * y,
-                0.0,
-                0.0,
-                -kr5 * x * y,
-                kr3 - kr5 * y * y,
-                0.0,
-                0.0,
-                0.0,
-                0.0,
-                im,
-                0.0,
-                0.0,
-                0.0,
-                0.0,
-                im,
-            )
-        };
+        let r2 = z[0] * z[0] + z[1] * z[1];
+        *out = self.hessian_from(z[0], z[1], r2, self.k / (r2 * r2.sqrt()));
     }
 
     /// Value, gradient, Hessian and `Psi` together: `|q|^2`, `|q|^3` and `k / |q|^3` once (the
@@ -86,30 +63,10 @@ impl Hamiltonian<Const<4>> for Kepler {
     fn derivatives_into(&self, z: &Vector4<f64>, out: &mut Derivatives<Const<4>>) {
         let r2 = z[0] * z[0] + z[1] * z[1];
         let kr3 = self.k / (r2 * r2.sqrt());
-        let kr5 = 3.0 * kr3 / r2;
         let im = 1.0 / self.mass;
-        let (x, y) = (z[0], z[1]);
         out.value = (z[2] * z[2] + z[3] * z[3]) / (2.0 * self.mass) - self.k / z[0].hypot(z[1]);
-        out.gradient = Vector4::new(kr3 * x, kr3 * y, z[2] / self.mass, z[3] / self.mass);
-        let xy = -kr5 * x * y;
-        out.hessian = Matrix4::new(
-            kr3 - kr5 * x * x,
-            xy,
-            0.0,
-            0.0,
-            xy,
-            kr3 - kr5 * y * y,
-            0.0,
-            0.0,
-            0.0,
-            0.0,
-            im,
-            0.0,
-            0.0,
-            0.0,
-            0.0,
-            im,
-        );
+        out.gradient = Vector4::new(kr3 * z[0], kr3 * z[1], z[2] / self.mass, z[3] / self.mass);
+        out.hessian = self.hessian_from(z[0], z[1], r2, kr3);
         // Psi = (J g)^T Hess (J g) with J g = (g_p, -g_q) and a block-diagonal Hessian:
         // g_p^T Hess_qq g_p + g_q^T Hess_pp g_q (the same terms as `psi_from`, without its
         // products by the zero blocks).
@@ -191,6 +148,35 @@ impl crate::systems::CentralForce<Const<4>> for Kepler {
     /// `(-k/r1 + k/r0) / (r1 - r0) = k / (r0 r1)` exactly: no cancellation, no guard needed.
     fn phi_divided_difference(&self, r0: f64, r1: f64) -> f64 {
         self.k / (r0 * r1)
+    }
+}
+
+impl Kepler {
+    /// The Hessian at `q = (x, y)` from `r2 = |q|^2` and `kr3 = k / |q|^3`: what
+    /// `hessian_into` and the fused `derivatives_into` both write.
+    #[inline]
+    fn hessian_from(&self, x: f64, y: f64, r2: f64, kr3: f64) -> Matrix4<f64> {
+        let kr5 = 3.0 * kr3 / r2;
+        let im = 1.0 / self.mass;
+        let xy = -kr5 * x * y;
+        Matrix4::new(
+            kr3 - kr5 * x * x,
+            xy,
+            0.0,
+            0.0,
+            xy,
+            kr3 - kr5 * y * y,
+            0.0,
+            0.0,
+            0.0,
+            0.0,
+            im,
+            0.0,
+            0.0,
+            0.0,
+            0.0,
+            im,
+        )
     }
 }
 
