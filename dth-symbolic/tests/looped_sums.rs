@@ -275,22 +275,22 @@ fn a_huge_lattice_is_one_error_at_its_size() {
 /// Out of range at many sites: one error per access, at its farthest site.
 #[test]
 fn an_access_out_of_range_at_many_sites_is_one_error() {
-    let e = compile(
-        "sum(i = 1..N, p[i]^2 + q[i-5]^2 + q[i+100]^2) where N = 500",
-        &[],
-    )
-    .unwrap_err()
-    .0;
+    two_accesses_out_of_range(500);
+}
+
+/// `q[i-5]` and `q[i+100]` in a sum over `1..=n`: exactly two errors, each at its farthest
+/// site, whatever `n` (site by site up to the written-out size, loops beyond it).
+fn two_accesses_out_of_range(n: usize) {
+    let source = format!("sum(i = 1..N, p[i]^2 + q[i-5]^2 + q[i+100]^2) where N = {n}");
+    let e = compile(&source, &[]).unwrap_err().0;
     let messages: Vec<String> = e.iter().map(|e| e.to_string()).collect();
     assert_eq!(messages.len(), 2, "{messages:#?}");
     assert!(
         messages[0].contains("`q[i-5]` is `q[-4]` at `i = 1`"),
         "{messages:#?}"
     );
-    assert!(
-        messages[1].contains("`q[i+100]` is `q[600]` at `i = 500`"),
-        "{messages:#?}"
-    );
+    let far = format!("`q[i+100]` is `q[{}]` at `i = {n}`", n + 100);
+    assert!(messages[1].contains(&far), "{messages:#?}");
 }
 
 /// The looped path's warnings and numbering errors are the written-out path's, one per run of
@@ -526,22 +526,7 @@ fn a_fault_beyond_the_written_out_size_is_the_fault_not_the_size() {
         Err(looped::LoopError::Errors(_))
     ));
     // The message names the site at the size written.
-    let e = compile(
-        "sum(i = 1..N, p[i]^2 + q[i-5]^2 + q[i+100]^2) where N = 1000",
-        &[],
-    )
-    .unwrap_err()
-    .0;
-    let messages: Vec<String> = e.iter().map(|e| e.to_string()).collect();
-    assert_eq!(messages.len(), 2, "{messages:#?}");
-    assert!(
-        messages[0].contains("`q[i-5]` is `q[-4]` at `i = 1`"),
-        "{messages:#?}"
-    );
-    assert!(
-        messages[1].contains("`q[i+100]` is `q[1100]` at `i = 1000`"),
-        "{messages:#?}"
-    );
+    two_accesses_out_of_range(1000);
     // A source that does not loop is too large whatever else is wrong with it: it cannot be
     // built at that size at all.
     let not_looped = "sum(i = 1..N, p[i]^2/2 + q[i+1]^2) + q1^4 where N = 1000";

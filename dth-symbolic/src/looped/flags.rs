@@ -210,14 +210,10 @@ impl Looped {
         }
     }
 
-    /// The faults of the summands at the sites where a slot reads a fixed boundary (`1/q[i-1]^2`
-    /// at `i = 1` with `q[0] = 0`: a divisor that is 0 there), as the site-by-site path finds
-    /// them when it builds those terms: one error per fault and place. The summand is built
-    /// again there with the boundary's value in; the sites are a few at each end of a sum.
-    pub(crate) fn boundary_faults(&self) -> Vec<Error> {
-        let n = self.n as i64;
-        let params: Vec<&str> = self
-            .sums
+    /// The parameter names of the summands (every sum's arena has the same), for a new
+    /// arena of the whole lattice.
+    fn params(&self) -> Vec<&str> {
+        self.sums
             .first()
             .map(|s| {
                 s.summand()
@@ -227,7 +223,16 @@ impl Looped {
                     .map(String::as_str)
                     .collect()
             })
-            .unwrap_or_default();
+            .unwrap_or_default()
+    }
+
+    /// The faults of the summands at the sites where a slot reads a fixed boundary (`1/q[i-1]^2`
+    /// at `i = 1` with `q[0] = 0`: a divisor that is 0 there), as the site-by-site path finds
+    /// them when it builds those terms: one error per fault and place. The summand is built
+    /// again there with the boundary's value in; the sites are a few at each end of a sum.
+    pub(crate) fn boundary_faults(&self) -> Vec<Error> {
+        let n = self.n as i64;
+        let params = self.params();
         let mut errors: Vec<Error> = Vec::new();
         for s in &self.sums {
             let low = s.slots.iter().map(|slot| slot.1).min().unwrap_or(0);
@@ -261,18 +266,7 @@ impl Looped {
     /// The gradient and the nonzero Hessian entries of the whole lattice, class by class;
     /// `None` when building a class faults.
     fn derivatives(&self) -> Option<Derivatives> {
-        let params: Vec<&str> = self
-            .sums
-            .first()
-            .map(|s| {
-                s.summand()
-                    .arena()
-                    .params()
-                    .iter()
-                    .map(String::as_str)
-                    .collect()
-            })
-            .unwrap_or_default();
+        let params = self.params();
         let mut gradient: [Runs; 2] = Default::default();
         let mut entries = Vec::new();
         for (first, last) in self.classes() {
