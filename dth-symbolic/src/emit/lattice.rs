@@ -43,8 +43,7 @@ pub fn looped_impl(looped: &Looped, name: &Ident, params: &[Ident]) -> Option<To
     let n_i64 = n as i64;
     let nalgebra = quote!(::dth::__private::nalgebra);
     let core = quote!(::dth::__private::dth_core);
-    let separable = looped.separable();
-    let psi0 = looped.psi_identically_zero();
+    let (separable, psi0) = looped.flags();
     let layout = layout(looped);
     let nnz = layout.nnz;
     let structured = super::structured_newton(d, nnz, layout.diagonal);

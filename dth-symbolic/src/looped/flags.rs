@@ -314,17 +314,7 @@ impl Looped {
     /// assert!(looped::compile(cancelled, &[]).unwrap().psi_identically_zero());
     /// ```
     pub fn psi_identically_zero(&self) -> bool {
-        let Some(d) = self.derivatives() else {
-            return false;
-        };
-        // `w` at letter `l` is the gradient by the other letter.
-        let w = |l: usize| &d.gradient[1 - l];
-        !d.entries.iter().any(|e| {
-            !w(e.letter)
-                .intersect(&w(e.other).minus(e.offset))
-                .intersect(&Runs::run(e.sites.0, e.sites.1))
-                .is_empty()
-        })
+        self.flags().1
     }
 
     /// `true` when no Hessian entry of the whole lattice between a position and a momentum is
@@ -337,7 +327,24 @@ impl Looped {
     /// assert!(looped::compile(src, &[]).unwrap().separable());
     /// ```
     pub fn separable(&self) -> bool {
-        self.derivatives()
-            .is_some_and(|d| d.entries.iter().all(|e| e.letter == e.other))
+        self.flags().0
+    }
+
+    /// `(separable, psi_identically_zero)` from one build of the lattice's derivatives (what
+    /// the emitter asks for together); `(false, false)` when building them faults.
+    pub(crate) fn flags(&self) -> (bool, bool) {
+        let Some(d) = self.derivatives() else {
+            return (false, false);
+        };
+        let separable = d.entries.iter().all(|e| e.letter == e.other);
+        // `w` at letter `l` is the gradient by the other letter.
+        let w = |l: usize| &d.gradient[1 - l];
+        let psi_identically_zero = !d.entries.iter().any(|e| {
+            !w(e.letter)
+                .intersect(&w(e.other).minus(e.offset))
+                .intersect(&Runs::run(e.sites.0, e.sites.1))
+                .is_empty()
+        });
+        (separable, psi_identically_zero)
     }
 }
