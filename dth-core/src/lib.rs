@@ -17,6 +17,7 @@
 //! 4. [`diagnostics`] (invariants and errors of computed trajectories).
 #![warn(missing_docs)]
 
+mod dense_newton;
 pub mod diagnostics;
 pub mod dth;
 pub mod error;
