@@ -14,6 +14,8 @@
 //!
 //! so `A (x, y) = (b1, b2)` is `S x = b1 + P b2`, `y = b2 - Q x`: one `m x m` LU (of the
 //! Schur complement of the lower identity block) instead of a `D x D` one, `det A = det S`.
+//! Forming `S` takes `2 m^3` operations and its LU `2 m^3 / 3`, half the `D x D` LU's
+//! `2 D^3 / 3`; a solve takes `3 m^2` multiply-adds against `D^2 = 4 m^2`.
 //! This path is taken when [`Flags::separable`](crate::Flags::separable) is set, the
 //! off-diagonal blocks of the Hessian are indeed zero (a flag that does not hold costs
 //! nothing in correctness) and the bound below holds; otherwise `A` is factored by the
@@ -33,13 +35,15 @@
 //! ```
 //!
 //! Growth, hence lost accuracy against the pivoted LU, needs both blocks large: `S` is then
-//! formed from terms of size `a b` that may cancel (the test `schur_beyond_the_bound_loses_
-//! accuracy_and_the_lu_is_taken` builds such a matrix). The Schur path is taken while
+//! formed from terms of size `a b` that may cancel (a unit test builds such a matrix and
+//! measures the loss). The Schur path is taken while
 //! `min(a, b) <= `[`SCHUR_BOUND`]` = 1`, where the bound is at most `4 gamma |A|_inf`, the
 //! size of the pivoted LU's own (`gamma (|A| + |L| |U|)` with `|L|, |U|` of order `|A|`). The
 //! common case passes with a wide margin: `H_pp` is an inverse mass matrix, and `c |H_pp|` is
-//! half a time step over a mass (0.075 for the thesis Kepler orbit and the midpoint rule at
-//! `dt = 0.15`), whatever the stiffness of `V` (`b` may be large).
+//! half a time step over a mass, whatever the stiffness of `V` (`b` may be large). On the
+//! thesis Kepler orbit (`m = 1/2`, mean `dt` 0.15) and a Henon-Heiles orbit, DTH and the
+//! midpoint rule at `dt = 0.15`, every factorization takes the Schur path: `a <= 0.26`,
+//! `b <= 1.8`, `min(a, b) <= 0.21` (counted over the unit test's 200-step runs).
 //!
 //! # Singularity
 //! The pivots of `S`'s LU are tested against the size of the terms `S` was formed from,
