@@ -51,7 +51,8 @@
 //! so a pivot at or below it carries no correct digit): the dense LU's rule (`m eps
 //! max|A_ij|` for an `m x m` matrix) applied to `S` with the scale of its formation. Both
 //! report [`Pivot::Singular`]; a non-finite Hessian entry takes the pivoted LU, which reports
-//! [`Pivot::NonFinite`] as before.
+//! it as before ([`Pivot::NonFinite`] for a NaN; an infinity makes its threshold infinite,
+//! [`Pivot::Singular`]).
 
 use crate::hamiltonian::{Alloc, Derivatives};
 use crate::linalg::{Lu, Pivot};
