@@ -8,7 +8,9 @@
 //! # Layers
 //! Each layer imports only from the layers above it:
 //! 1. [`error`], [`hamiltonian`] (the traits), [`observer`] (the one per-step protocol every
-//!    integrator reports to), `linalg` (small dense LU), [`structured`] (banded LU and the
+//!    integrator reports to), `linalg` (small dense LU), `dense_newton` (the dense Newton
+//!    matrix `I - c J Hess H` of small systems: that LU, or for a separable `H` the LU of its
+//!    half-size Schur complement), [`structured`] (banded LU and the
 //!    sparse Newton matrices of large systems) and `newton` (the one Newton stopping rule and
 //!    loop);
 //! 2. [`systems`] (concrete Hamiltonians), then [`kepler`] (the exact Kepler solution);
@@ -17,6 +19,7 @@
 //! 4. [`diagnostics`] (invariants and errors of computed trajectories).
 #![warn(missing_docs)]
 
+mod dense_newton;
 pub mod diagnostics;
 pub mod dth;
 pub mod error;

@@ -87,14 +87,22 @@ where
     fn eliminate(&mut self) -> Result<(), Pivot> {
         let n = self.n();
         let tiny = n as f64 * f64::EPSILON * self.lu.amax();
+        self.eliminate_leading(n, tiny)
+    }
+
+    /// Gaussian elimination with partial pivoting of the leading `m x m` block of `self.lu` in
+    /// place, a pivot at or below `tiny` being [`Pivot::Singular`]. Rows are exchanged over the
+    /// whole width, so entries right of the block move with their rows (the permutation is
+    /// [`row`](Self::row)); rows below the block are not touched.
+    pub(crate) fn eliminate_leading(&mut self, m: usize, tiny: f64) -> Result<(), Pivot> {
         let Lu { lu, perm } = self;
         for (i, p) in perm.iter_mut().enumerate() {
             *p = i;
         }
-        for k in 0..n {
+        for k in 0..m {
             let mut piv = k;
             let mut best = lu[(k, k)].abs();
-            for i in k + 1..n {
+            for i in k + 1..m {
                 let v = lu[(i, k)].abs();
                 if v > best {
                     best = v;
@@ -112,15 +120,31 @@ where
                 perm.swap_rows(piv, k);
             }
             let inv = 1.0 / lu[(k, k)];
-            for i in k + 1..n {
+            for i in k + 1..m {
                 let l = lu[(i, k)] * inv;
                 lu[(i, k)] = l;
-                for j in k + 1..n {
+                for j in k + 1..m {
                     lu[(i, j)] -= l * lu[(k, j)];
                 }
             }
         }
         Ok(())
+    }
+
+    /// The storage, for a caller that lays out a matrix around a leading block it factors with
+    /// [`eliminate_leading`](Self::eliminate_leading).
+    pub(crate) fn storage_mut(&mut self) -> &mut OMatrix<f64, D, D> {
+        &mut self.lu
+    }
+
+    /// The storage (factored leading block, and what the caller keeps around it).
+    pub(crate) fn storage(&self) -> &OMatrix<f64, D, D> {
+        &self.lu
+    }
+
+    /// The original row that elimination moved to row `i`.
+    pub(crate) fn row(&self, i: usize) -> usize {
+        self.perm[i]
     }
 
     /// Solve `A x = b`.
@@ -141,17 +165,22 @@ where
 
     /// Forward and back substitution of a permuted right-hand side in `x`.
     fn substitute(&self, x: &mut OVector<f64, D>) {
-        let n = self.n();
-        for i in 0..n {
+        self.substitute_leading(self.n(), x);
+    }
+
+    /// Forward and back substitution with the factored leading `m x m` block of a permuted
+    /// right-hand side in `x[..m]` (the rest of `x` is not touched).
+    pub(crate) fn substitute_leading(&self, m: usize, x: &mut OVector<f64, D>) {
+        for i in 0..m {
             let mut s = x[i];
             for j in 0..i {
                 s -= self.lu[(i, j)] * x[j];
             }
             x[i] = s;
         }
-        for i in (0..n).rev() {
+        for i in (0..m).rev() {
             let mut s = x[i];
-            for j in i + 1..n {
+            for j in i + 1..m {
                 s -= self.lu[(i, j)] * x[j];
             }
             x[i] = s / self.lu[(i, i)];

@@ -11,13 +11,15 @@
 //! gradient and `Psi` by their own generated programs, so that no `D x D` matrix exists: the
 //! stepper at `D = 1024` runs on a 2 MB stack. The dense path evaluates all four through the
 //! fused `Hamiltonian::derivatives_into` (one program, shared subexpressions) into its kept
-//! storage ([`Dense`], held by the stepper's workspace on the heap).
+//! storage ([`Dense`], held by the stepper's workspace on the heap), and factors `A` through
+//! its Schur complement when `H` is separable (half the dimension; see
+//! [`crate::dense_newton`]).
 //!
 //! Every operation writes into the caller's storage: after the first step, which boxes the
 //! dense path's storage, nothing here allocates, for `Const<N>` or `Dyn` dimensions alike.
 
-use crate::hamiltonian::{Alloc, Derivatives};
-use crate::linalg::{Lu, Pivot};
+use crate::hamiltonian::Alloc;
+use crate::linalg::Pivot;
 use crate::methods::Structured;
 use crate::structured::NewtonMatrix;
 use crate::Hamiltonian;
@@ -98,66 +100,32 @@ where
     fn hessian_times_into(&self, x: &OVector<f64, D>, out: &mut OVector<f64, D>);
 }
 
-/// The dense path: the fused evaluation's derivatives (its Hessian the matrix's) and the LU.
-#[derive(Clone, Debug)]
-pub(crate) struct Dense<D: Dim>
-where
-    DefaultAllocator: Alloc<D>,
-{
-    derivatives: Derivatives<D>,
-    lu: Lu<D>,
-}
-
-impl<D: Dim> Dense<D>
-where
-    DefaultAllocator: Alloc<D>,
-{
-    /// Empty storage of dimension `d`.
-    pub(crate) fn new(d: D) -> Self {
-        Dense {
-            derivatives: Derivatives::zeros(d),
-            lu: Lu::empty(d),
-        }
-    }
-}
+/// The dense path: the fused evaluation's derivatives and the factorization of `A` (through
+/// the Schur complement for a separable `H`, see [`crate::dense_newton`]).
+pub(crate) use crate::dense_newton::DenseNewton as Dense;
 
 impl<D: Dim> Linear<D> for Dense<D>
 where
     DefaultAllocator: Alloc<D>,
 {
     fn evaluate<H: Hamiltonian<D>>(&mut self, ham: &H, z: &OVector<f64, D>, out: &mut Point<D>) {
-        let d = &mut self.derivatives;
-        ham.derivatives_into(z, d);
+        let d = self.derivatives_at(ham, z);
         out.value = d.value;
         out.gradient.copy_from(&d.gradient);
         out.psi = d.psi;
         out.hessian_max = largest(d.hessian.iter());
     }
 
-    /// `A` entry by entry, `delta_ij - c (J Hess)_ij`, factored in place.
     fn factor(&mut self, c: f64) -> Result<(), Pivot> {
-        let hessian = &self.derivatives.hessian;
-        let n = hessian.nrows() / 2;
-        self.lu.factor_from(|i, j| {
-            let jh = if i < n {
-                hessian[(i + n, j)]
-            } else {
-                -hessian[(i - n, j)]
-            };
-            if i == j {
-                1.0 - jh * c
-            } else {
-                -(jh * c)
-            }
-        })
+        Dense::factor(self, c)
     }
 
     fn solve_into(&mut self, b: &OVector<f64, D>, x: &mut OVector<f64, D>) {
-        self.lu.solve_into(b, x);
+        Dense::solve_into(self, b, x);
     }
 
     fn hessian_times_into(&self, x: &OVector<f64, D>, out: &mut OVector<f64, D>) {
-        self.derivatives.hessian.mul_to(x, out);
+        self.derivatives().hessian.mul_to(x, out);
     }
 }
 

@@ -27,7 +27,9 @@
 //!   every midpoint; the vertex invariants hold for order 2 only.
 //! - **Cost against size.** Each Newton iteration factors `A = I - (h lambda/2) J Hess H`
 //!   and borders it with two solves. For small `D` (and for Hamiltonians that do not declare
-//!   their Hessian pattern) that is the dense fixed-size LU, `O(D^3)`; generated types beyond
+//!   their Hessian pattern) that is the dense fixed-size LU, `O(D^3)` (for a separable `H`
+//!   the LU of the `D/2 x D/2` Schur complement `I + c^2 H_pp H_qq`, half the operations of
+//!   the full factorization, where it is as stable: `dense_newton`); generated types beyond
 //!   the crossover (`Flags::structured_newton`: from `D = 8` unless more than a quarter
 //!   of the Hessian is nonzero) take the banded LU of [`crate::structured`] on the Hessian's
 //!   nonzeros, analysed once in [`Dth::new`], and never form a `D x D` matrix: a step of a

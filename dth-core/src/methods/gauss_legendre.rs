@@ -6,6 +6,7 @@ use nalgebra::{DefaultAllocator, Dim, Dyn, OMatrix, OVector, U2};
 use super::kept::Kept;
 use super::newton::{self, NewtonOptions, Step, Structured};
 use super::OneStepMethod;
+use crate::dense_newton::DenseNewton;
 use crate::linalg::Lu;
 use crate::structured::NewtonMatrix;
 use crate::{j_times_into, zeros, zeros_matrix, Error, Hamiltonian};
@@ -21,8 +22,11 @@ const C: [f64; 2] = [0.5 - S3, 0.5 + S3];
 ///
 /// Unknowns are the stage increments `Z_i = Y_i - z0` (a `D x 2` matrix), solved by full Newton
 /// with the `2D x 2D` Jacobian `[delta_ij I - dt a_ij J Hess H(Y_j)]`: by block elimination (two
-/// `D x D` LU factorizations), or for large sparse systems by the structured solver of
-/// `crate::structured` on the whole `2D x 2D` matrix (see `methods::newton`). Predictor `Z_i = c_i dt J grad H(z0)`. The update is
+/// `D x D` factorizations: `B11 = I - a11 dt J Hess H(Y1)`, a one-stage Newton matrix factored
+/// through its `D/2 x D/2` Schur complement when `H` is separable, and the Schur complement of
+/// `B11` in the `2D x 2D` matrix, a general one, by the pivoted LU), or for large sparse
+/// systems by the structured solver of `crate::structured` on the whole `2D x 2D` matrix (see
+/// `methods::newton`). Predictor `Z_i = c_i dt J grad H(z0)`. The update is
 /// `z1 = z0 + (dt/2) (f(Y1) + f(Y2))` with `f = J grad H` at the converged stages.
 ///
 /// No allocation: a fixed dimension's buffers live on the stack (the dense `D x D` ones in a
@@ -282,12 +286,16 @@ where
     true
 }
 
-/// The dense path's storage: `K_i = dt J Hess H(Y_i)`, `X = B11^-1 B12` (the Hessian before
-/// it), one LU and three vectors.
+/// The dense path's storage: `B11 = I - a11 dt J Hess H(Y1)` with its Hessian and
+/// factorization (a one-stage Newton matrix: through its Schur complement for a separable `H`,
+/// see [`crate::dense_newton`]), `K_i = dt J Hess H(Y_i)`, `X = B11^-1 B12` (the Hessian at
+/// `Y2` before it), the LU of the `2D x 2D` system's Schur complement (a general matrix) and
+/// three vectors.
 struct Dense<D: Dim>
 where
     DefaultAllocator: Alloc<D>,
 {
+    b11: DenseNewton<D>,
     k: [OMatrix<f64, D, D>; 2],
     x: OMatrix<f64, D, D>,
     lu: Lu<D>,
@@ -300,6 +308,7 @@ where
 {
     fn new(d: D) -> Self {
         Dense {
+            b11: DenseNewton::new(d),
             k: [zeros_matrix(d), zeros_matrix(d)],
             x: zeros_matrix(d),
             lu: Lu::empty(d),
@@ -325,17 +334,18 @@ where
         p: &Points<D>,
         delta: &mut OMatrix<f64, D, U2>,
     ) -> bool {
-        let Dense { k, x, lu, v } = self;
+        let Dense { b11, k, x, lu, v } = self;
         let n = p.g.len();
         let half = n / 2;
-        for (k, y) in k.iter_mut().zip(&p.y) {
-            h.hessian_into(y, x);
+        b11.hessian_at(h, &p.y[0]);
+        h.hessian_into(&p.y[1], x);
+        for (k, hessian) in k.iter_mut().zip([&b11.derivatives().hessian, &*x]) {
             for j in 0..n {
                 for i in 0..n {
                     let jh = if i < half {
-                        x[(i + half, j)]
+                        hessian[(i + half, j)]
                     } else {
-                        -x[(i - half, j)]
+                        -hessian[(i - half, j)]
                     };
                     k[(i, j)] = jh * dt;
                 }
@@ -343,10 +353,7 @@ where
         }
         let [k1, k2] = &*k;
         let identity = |i: usize, j: usize| if i == j { 1.0 } else { 0.0 };
-        if lu
-            .factor_from(|i, j| identity(i, j) - k1[(i, j)] * A[0][0])
-            .is_err()
-        {
+        if b11.factor(A[0][0] * dt).is_err() {
             return false;
         }
         let [y, b, s] = v;
@@ -354,10 +361,10 @@ where
             for i in 0..n {
                 b[i] = -k2[(i, j)] * A[0][1];
             }
-            lu.solve_into(b, s);
+            b11.solve_into(b, s);
             x.set_column(j, s);
         }
-        lu.solve_into(&p.r[0], y);
+        b11.solve_into(&p.r[0], y);
         // B21 = -a21 K1.
         let b21 = |i: usize, l: usize| -k1[(i, l)] * A[1][0];
         let schur = |i: usize, j: usize| {

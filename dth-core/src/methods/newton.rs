@@ -21,10 +21,10 @@ use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, Dim, Dyn, OMatrix, OVector};
 use std::any::Any;
 
-use crate::linalg::Lu;
+use crate::dense_newton::DenseNewton;
 use crate::newton::{self, Convergence, PEERS};
 use crate::structured::NewtonMatrix;
-use crate::{j_times_into, zeros, zeros_matrix, Error, Hamiltonian};
+use crate::{j_times_into, zeros, Error, Hamiltonian};
 
 /// The structured Newton storage of a peer method: the analysed Newton matrix, built on the
 /// first structured step (the only allocation, with a copy of the pattern) and reused while
@@ -105,7 +105,7 @@ impl Structured {
             return;
         }
         let d = h.dim();
-        let dense = self.matrix(h, 1).is_none().then(|| DenseParts::new(d));
+        let dense = self.matrix(h, 1).is_none().then(|| DenseNewton::new(d));
         let kept = Box::new(Kept {
             stage: OneStage::new(d),
             dense,
@@ -319,66 +319,13 @@ where
     }
 }
 
-/// The dense path's storage: the Hessian and the LU of `I - c J Hess`.
-struct DenseParts<D: Dim>
-where
-    DefaultAllocator: Alloc<D>,
-{
-    hessian: OMatrix<f64, D, D>,
-    lu: Lu<D>,
-}
-
-impl<D: Dim> DenseParts<D>
-where
-    DefaultAllocator: Alloc<D>,
-{
-    fn new(d: D) -> Self {
-        DenseParts {
-            hessian: zeros_matrix(d),
-            lu: Lu::empty(d),
-        }
-    }
-
-    /// Factor `A = I - c J Hess` at the Hessian at `y` and solve `A delta = residual`; `false`
-    /// when `A` is singular or not finite. Entry for entry what `newton_matrix` builds.
-    fn solve<H: Hamiltonian<D>>(
-        &mut self,
-        h: &H,
-        y: &OVector<f64, D>,
-        c: f64,
-        residual: &OVector<f64, D>,
-        delta: &mut OVector<f64, D>,
-    ) -> bool {
-        h.hessian_into(y, &mut self.hessian);
-        let n = y.len() / 2;
-        let hessian = &self.hessian;
-        let factored = self.lu.factor_from(|i, j| {
-            let jh = if i < n {
-                hessian[(i + n, j)]
-            } else {
-                -hessian[(i - n, j)]
-            };
-            if i == j {
-                1.0 - jh * c
-            } else {
-                -(jh * c)
-            }
-        });
-        if factored.is_err() {
-            return false;
-        }
-        self.lu.solve_into(residual, delta);
-        true
-    }
-}
-
 /// A dynamic dimension's buffers, kept in the method's [`Structured`] storage between steps.
 struct Kept<D: Dim>
 where
     DefaultAllocator: Alloc<D>,
 {
     stage: OneStage<D>,
-    dense: Option<DenseParts<D>>,
+    dense: Option<DenseNewton<D>>,
 }
 
 /// One step of a one-stage implicit method from `z0` into `z1`: Newton on `F(z1) = 0` from the
@@ -440,9 +387,9 @@ where
         let result = match structured.matrix(h, 1) {
             Some(matrix) => solve.structured(matrix, stage, z1),
             None => {
-                let dense = dense.get_or_insert_with(|| DenseParts::new(d));
+                let dense = dense.get_or_insert_with(|| DenseNewton::new(d));
                 solve.run(stage, z1, |y, residual, delta| {
-                    dense.solve(h, y, 0.5 * dt, residual, delta)
+                    dense.solve_at(h, y, 0.5 * dt, residual, delta).is_ok()
                 })
             }
         };
@@ -524,10 +471,10 @@ where
         stage: &mut OneStage<D>,
         z1: &mut OVector<f64, D>,
     ) -> Result<usize, Error> {
-        let mut dense = DenseParts::new(self.step.z0.shape_generic().0);
+        let mut dense = DenseNewton::new(self.step.z0.shape_generic().0);
         let (h, c) = (self.step.h, 0.5 * self.step.dt);
         self.run(stage, z1, |y, residual, delta| {
-            dense.solve(h, y, c, residual, delta)
+            dense.solve_at(h, y, c, residual, delta).is_ok()
         })
     }
 
