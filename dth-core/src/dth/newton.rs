@@ -312,6 +312,15 @@ fn pivot_error(p: Pivot, step: usize) -> Error {
     }
 }
 
+/// `max |v_i|` (of finite entries; the callers check finiteness apart), as a branch-free fold:
+/// nalgebra's `amax` compares with branches, and this runs several times per Newton iterate.
+fn amax<D: Dim>(v: &OVector<f64, D>) -> f64
+where
+    DefaultAllocator: Alloc<D>,
+{
+    v.iter().fold(0.0, |m, x| m.max(x.abs()))
+}
+
 pub(crate) fn all_finite<D: Dim>(v: &OVector<f64, D>) -> bool
 where
     DefaultAllocator: Alloc<D>,
@@ -385,7 +394,7 @@ where
         move_max = move_max.max(m.abs());
     }
     // Roundoff scales: the magnitudes of the terms each residual is a difference of.
-    let scale_f = z.amax().max(v.amax()).max(move_max).max(f64::MIN_POSITIVE);
+    let scale_f = amax(z).max(amax(v)).max(move_max).max(f64::MIN_POSITIVE);
     let r_plain = d.value - energy;
     let scale_r = energy
         .abs()
@@ -393,7 +402,7 @@ where
         .max(roundoff_scale(z, &d.gradient))
         .max(f64::MIN_POSITIVE);
     e.plain_residual = r_plain.abs() / scale_r;
-    e.f_residual = e.f.amax() / scale_f;
+    e.f_residual = amax(&e.f) / scale_f;
     e.scale_f = scale_f;
     e.r = r_plain;
     e.scale_r = scale_r;
@@ -462,7 +471,7 @@ where
     } else {
         e.scale_r
     };
-    e.f_residual = e.f.amax() / e.scale_f;
+    e.f_residual = amax(&e.f) / e.scale_f;
     e.cf = true;
     e.r_cf = r_cf;
     e.cf_scale = scale;
@@ -542,8 +551,7 @@ fn relative_update<D: Dim>(dz: &OVector<f64, D>, z: &OVector<f64, D>, dl: f64, l
 where
     DefaultAllocator: Alloc<D>,
 {
-    (dz.amax() / z.amax().max(f64::MIN_POSITIVE))
-        .max(dl.abs() / lambda.abs().max(f64::MIN_POSITIVE))
+    (amax(dz) / amax(z).max(f64::MIN_POSITIVE)).max(dl.abs() / lambda.abs().max(f64::MIN_POSITIVE))
 }
 
 /// Solve one segment of signed step `h` in `tau` from `anchor` (left vertex, energy, previous

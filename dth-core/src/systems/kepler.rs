@@ -16,6 +16,16 @@ pub struct Kepler {
     pub k: f64,
 }
 
+/// `|q| = sqrt(q1^2 + q2^2)` from `r2 = q1^2 + q2^2`, one rounding each: within about one
+/// unit in the last place, as `f64::hypot` (which guards against overflow of `r2` beyond
+/// `|q| ~ 1e154`, far outside any orbit here, at several times the cost: `hypot` was a tenth
+/// of a Kepler DTH step). Every method takes `|q|` from here, so that the fused
+/// [`Hamiltonian::derivatives_into`] and the separate methods stay the same bits.
+#[inline]
+fn radius(r2: f64) -> f64 {
+    r2.sqrt()
+}
+
 impl Kepler {
     /// The thesis's Kepler problem: `m = 1/2`, `k = 1`.
     pub const fn thesis() -> Self {
@@ -40,21 +50,21 @@ impl Hamiltonian<Const<4>> for Kepler {
     }
 
     fn value(&self, z: &Vector4<f64>) -> f64 {
-        let r = z[0].hypot(z[1]);
+        let r = radius(z[0] * z[0] + z[1] * z[1]);
         (z[2] * z[2] + z[3] * z[3]) / (2.0 * self.mass) - self.k / r
     }
 
     fn gradient_into(&self, z: &Vector4<f64>, out: &mut Vector4<f64>) {
         *out = {
             let r2 = z[0] * z[0] + z[1] * z[1];
-            let kr3 = self.k / (r2 * r2.sqrt());
+            let kr3 = self.k / (r2 * radius(r2));
             Vector4::new(kr3 * z[0], kr3 * z[1], z[2] / self.mass, z[3] / self.mass)
         };
     }
 
     fn hessian_into(&self, z: &Vector4<f64>, out: &mut Matrix4<f64>) {
         let r2 = z[0] * z[0] + z[1] * z[1];
-        *out = self.hessian_from(z[0], z[1], r2, self.k / (r2 * r2.sqrt()));
+        *out = self.hessian_from(z[0], z[1], r2, self.k / (r2 * radius(r2)));
     }
 
     /// Value, gradient, Hessian and `Psi` together: `|q|^2`, `|q|^3` and `k / |q|^3` once (the
@@ -62,9 +72,10 @@ impl Hamiltonian<Const<4>> for Kepler {
     /// `Psi` from the Hessian's two diagonal blocks.
     fn derivatives_into(&self, z: &Vector4<f64>, out: &mut Derivatives<Const<4>>) {
         let r2 = z[0] * z[0] + z[1] * z[1];
-        let kr3 = self.k / (r2 * r2.sqrt());
+        let r = radius(r2);
+        let kr3 = self.k / (r2 * r);
         let im = 1.0 / self.mass;
-        out.value = (z[2] * z[2] + z[3] * z[3]) / (2.0 * self.mass) - self.k / z[0].hypot(z[1]);
+        out.value = (z[2] * z[2] + z[3] * z[3]) / (2.0 * self.mass) - self.k / r;
         out.gradient = Vector4::new(kr3 * z[0], kr3 * z[1], z[2] / self.mass, z[3] / self.mass);
         out.hessian = self.hessian_from(z[0], z[1], r2, kr3);
         // Psi = (J g)^T Hess (J g) with J g = (g_p, -g_q) and a block-diagonal Hessian:
@@ -84,8 +95,8 @@ impl Hamiltonian<Const<4>> for Kepler {
     /// (`gbar_q . (q1 - q0) = k (r1^2 - r0^2) / (r0 r1 (r0 + r1)) = k/r0 - k/r1`.)
     fn discrete_gradient_into(&self, z0: &Vector4<f64>, z1: &Vector4<f64>, out: &mut Vector4<f64>) {
         *out = {
-            let r0 = z0[0].hypot(z0[1]);
-            let r1 = z1[0].hypot(z1[1]);
+            let r0 = radius(z0[0] * z0[0] + z0[1] * z0[1]);
+            let r1 = radius(z1[0] * z1[0] + z1[1] * z1[1]);
             let c = self.k / (r0 * r1 * (r0 + r1));
             let im = 0.5 / self.mass;
             Vector4::new(
@@ -113,8 +124,8 @@ impl Hamiltonian<Const<4>> for Kepler {
         out: &mut Vector4<f64>,
     ) {
         *out = {
-            let r0 = z0[0].hypot(z0[1]);
-            let r1 = z1[0].hypot(z1[1]);
+            let r0 = radius(z0[0] * z0[0] + z0[1] * z0[1]);
+            let r1 = radius(z1[0] * z1[0] + z1[1] * z1[1]);
             let (a, b) = (1.0 / r0, 1.0 / r1);
             let dq = [z1[0] - z0[0], z1[1] - z0[1]];
             let qm = [0.5 * (z0[0] + z1[0]), 0.5 * (z0[1] + z1[1])];
