@@ -327,3 +327,30 @@ steps = 10
     let o = dth(&["check", "clean.toml"], dir.path());
     assert_eq!((o.status.code(), stderr(&o)), (Some(0), String::new()));
 }
+
+/// A second `energy_deviation` (or any effect a run keeps one of) used to replace the first
+/// silently (`every = 1` asked, `every = 2` written); a second identical figure or section
+/// was computed twice. Both are now errors at the second one; different sections are fine.
+#[test]
+fn an_effect_asked_twice() {
+    let twice = |a: &str, b: &str| format!("{BASE}[[effect]]\n{a}\n[[effect]]\n{b}\n");
+    rejects(
+        &twice(
+            "kind = \"energy_deviation\"",
+            "kind = \"energy_deviation\"\nevery = 2",
+        ),
+        "14:8",
+        "effect `energy_deviation` is asked twice (first on line 12), and a run keeps one of it: remove one",
+    );
+    let section = "kind = \"poincare\"\ncoordinate = \"q2\"\nx = \"q1\"\ny = \"p1\"";
+    rejects(
+        &twice(section, section),
+        "17:8",
+        "effect `poincare` is asked twice (first on line 12) with the same keys: remove one",
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let other = section.replace("\"q2\"", "\"q1\"").replace("\"q1\"\ny", "\"q2\"\ny");
+    std::fs::write(dir.path().join("two.toml"), twice(section, &other)).unwrap();
+    let o = dth(&["check", "two.toml"], dir.path());
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+}

@@ -484,6 +484,13 @@ impl EffectKind {
         Self::ALL.into_iter().find(|k| k.name() == s)
     }
 
+    /// `true` when a scene may ask for it more than once (with different keys): each
+    /// `phase_plot` is a figure and each `poincare` a section of its own; a run keeps one of
+    /// every other effect.
+    pub fn repeatable(self) -> bool {
+        matches!(self, EffectKind::PhasePlot | EffectKind::Poincare)
+    }
+
     /// The keys a scene may give it (besides `kind`).
     pub fn keys(self) -> &'static [&'static str] {
         match self {

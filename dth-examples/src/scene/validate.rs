@@ -446,11 +446,33 @@ fn validate(raw: RawScene, systems: &dyn SystemLookup, cx: &mut Ctxt<'_>) -> Opt
     };
 
     // Effects.
-    let mut effects = Vec::new();
-    let mut effect_spans = Vec::new();
+    let mut effects: Vec<EffectSpec> = Vec::new();
+    let mut effect_spans: Vec<Range<usize>> = Vec::new();
     for e in raw.effects {
         let span = e.get_ref().kind.span();
         if let Some(spec) = validate_effect(e, n, cx) {
+            // A run keeps one of each effect but `phase_plot` and `poincare` (one per figure
+            // or section): a second `energy_deviation` would silently replace the first, and
+            // a second identical figure or section would be computed twice.
+            let first = effects.iter().zip(&effect_spans).find(|(other, _)| {
+                **other == spec || (other.kind() == spec.kind() && !spec.kind().repeatable())
+            });
+            if let Some((_, at)) = first {
+                let (line, _) = line_col(cx.text, at.start);
+                cx.error(
+                    span,
+                    format!(
+                        "effect `{}` is asked twice (first on line {line}){}: remove one",
+                        spec.kind().name(),
+                        if spec.kind().repeatable() {
+                            " with the same keys"
+                        } else {
+                            ", and a run keeps one of it"
+                        }
+                    ),
+                );
+                continue;
+            }
             effects.push(spec);
             effect_spans.push(span);
         }
