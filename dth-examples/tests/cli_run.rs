@@ -422,3 +422,25 @@ fn list_names_the_systems_each_restricted_method_runs_on() {
     // Every system runs midpoint: no list.
     assert!(!systems_of("midpoint").1.starts_with("systems:"), "{s}");
 }
+
+/// `time_law` on a fixed-step method used to write `NaN` as its `lambda` (a method without a
+/// law of time has none): the column is empty, as in the trajectory, and DTH's is a number.
+#[test]
+fn time_law_writes_no_nan_for_a_fixed_step_method() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = "[system]\nname = \"harmonic_oscillator\"\n[initial]\nq = [1.0]\np = [0.0]\n\
+                 [[method]]\nkind = \"midpoint\"\ndt = 0.1\n[[method]]\nkind = \"dth\"\ndtau = 0.1\n\
+                 [duration]\nsteps = 2\n[[effect]]\nkind = \"time_law\"\n";
+    std::fs::write(dir.path().join("law.toml"), scene).unwrap();
+    let o = dth(&["run", "law.toml", "--out", "out"], dir.path());
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let read = |f: &str| std::fs::read_to_string(dir.path().join("out").join(f)).unwrap();
+    let midpoint = read("midpoint_time_law.csv");
+    assert_eq!(midpoint, "step,t,lambda\n0,0e0,\n1,1e-1,\n2,2e-1,\n");
+    let dth_rows: Vec<String> = read("dth_time_law.csv").lines().map(String::from).collect();
+    assert_eq!(dth_rows.len(), 4, "{dth_rows:?}");
+    for row in &dth_rows[1..] {
+        let lambda: f64 = row.rsplit(',').next().unwrap().parse().unwrap();
+        assert!(lambda.is_finite() && lambda > 0.0, "{row}");
+    }
+}
