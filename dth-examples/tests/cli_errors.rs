@@ -349,8 +349,84 @@ fn an_effect_asked_twice() {
         "effect `poincare` is asked twice (first on line 12) with the same keys: remove one",
     );
     let dir = tempfile::tempdir().unwrap();
-    let other = section.replace("\"q2\"", "\"q1\"").replace("\"q1\"\ny", "\"q2\"\ny");
+    let other = section
+        .replace("\"q2\"", "\"q1\"")
+        .replace("\"q1\"\ny", "\"q2\"\ny");
     std::fs::write(dir.path().join("two.toml"), twice(section, &other)).unwrap();
     let o = dth(&["check", "two.toml"], dir.path());
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+}
+
+/// Runs `dth check` and `dth run` on `scene` and checks both exit with `code`, print
+/// `expected`, and leave no output behind (for refusals that are not located in the file).
+fn refuses(scene: &str, code: i32, expected: &str) {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("bad.toml"), scene).unwrap();
+    for args in [
+        &["check", "bad.toml"][..],
+        &["run", "bad.toml", "--out", "out"],
+    ] {
+        let o = dth(args, dir.path());
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(code), "{args:?}: {err}");
+        assert!(
+            err.contains(expected),
+            "{args:?}: want `{expected}` in {err}"
+        );
+        assert_eq!(entries(dir.path()), ["bad.toml"], "output left behind");
+    }
+}
+
+/// Kepler at `q = 0`, or `sqrt(q1)` at `q1 < 0`: `dth check` passed, and `dth run` let every
+/// method fail at its first step with a message about Newton residuals. Both now refuse the
+/// state before anything runs (exit 2), naming H and its gradient there.
+#[test]
+fn an_initial_state_where_h_is_not_finite() {
+    refuses(
+        &BASE.replace("q = [0.5, 0.0]", "q = [0.0, 0.0]"),
+        2,
+        "error: H is not finite at the initial state: H = NaN and grad H = [NaN, NaN, 0.0, 2.4] at q = [0.0, 0.0], p = [0.0, 1.2]: expected an initial state where `kepler` and its gradient are finite",
+    );
+    let text = BASE
+        .replace("name = \"kepler\"", "hamiltonian = \"p1^2/2 + sqrt(q1)\"")
+        .replace("q = [0.5, 0.0]\np = [0.0, 1.2]", "q = [-1.0]\np = [0.0]");
+    refuses(
+        &text,
+        2,
+        "H = NaN and grad H = [NaN, 0.0] at q = [-1.0], p = [0.0]",
+    );
+    // Overflow: finite coordinates, H = inf; large values in exponent form.
+    refuses(
+        &BASE.replace("p = [0.0, 1.2]", "p = [0.0, 1e200]"),
+        2,
+        "H = inf and grad H = [4.0, 0.0, 0.0, 2e200]",
+    );
+}
+
+/// `exact` on an unbound Kepler orbit after `midpoint`: `dth check` passed it, and `dth run`
+/// computed the midpoint run, then stopped at `exact` and wrote nothing of it. Both now
+/// refuse it before any method runs.
+#[test]
+fn a_method_that_cannot_run_is_refused_before_any_runs() {
+    refuses(
+        &BASE.replace("p = [0.0, 1.2]", "p = [0.0, 3.0]").replace(
+            "[duration]",
+            "[[method]]\nkind = \"exact\"\ndt = 0.01\n[duration]",
+        ),
+        1,
+        "error: method `exact` cannot run: this system has no exact solution for this initial state",
+    );
+}
+
+/// `time = 1e9` with `dt = 0.5` needs 2e9 steps: the run stopped at the cap of 1e8 steps, at
+/// t = 5e7, and reported success (exit 0, nothing said). It is now refused before it runs.
+#[test]
+fn a_duration_in_time_beyond_the_step_cap() {
+    refuses(
+        &BASE
+            .replace("dt = 0.001", "dt = 0.5")
+            .replace("steps = 100", "time = 1e9"),
+        2,
+        "method `midpoint` would need 2.000e9 steps of dt = 0.5 to reach t = 1000000000, more than the cap of 100000000 steps",
+    );
 }
