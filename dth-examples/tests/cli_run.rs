@@ -444,3 +444,52 @@ fn time_law_writes_no_nan_for_a_fixed_step_method() {
         assert!(lambda.is_finite() && lambda > 0.0, "{row}");
     }
 }
+
+/// A scene with `thesis_figures = true` whose DTH breaks down (Kepler at e = 0.9): the
+/// figures run the methods again, the failure there was an error, and the whole output
+/// (every method's results, Table 4.1) was discarded. Now the figures are missing, said why,
+/// and the rest is written (exit 1, as for any failed method).
+#[test]
+fn a_failing_method_costs_the_thesis_figures_not_the_output() {
+    let scene = "thesis_figures = true\n[system]\nname = \"kepler\"\n[initial]\nq = [0.5, 0.0]\n\
+                 p = [0.0, 1.378404875209022]\n\
+                 [[method]]\nkind = \"exact\"\ndt = 0.15\n[[method]]\nkind = \"trapezoidal\"\ndt = 0.15\n\
+                 [[method]]\nkind = \"midpoint\"\ndt = 0.15\n[[method]]\nkind = \"discrete_mechanics\"\ndt = 0.15\n\
+                 [[method]]\nkind = \"dth\"\ndtau = 0.01\n[duration]\nsteps = 40\n\
+                 [ensemble]\nx = \"q1\"\ny = \"p1\"\nhalf_width = 0.01\nper_side = 2\nsteps = 5\n\
+                 [[effect]]\nkind = \"final_state\"\n";
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("e09.toml"), scene).unwrap();
+    let o = dth(&["run", "e09.toml", "--out", "out"], dir.path());
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("error: the thesis's figures were not drawn: method `dth (thesis Figures 4.1-4.9)` failed at step"),
+        "{err}"
+    );
+    let out = dir.path().join("out");
+    let files = entries(&out);
+    for f in [
+        "summary.json",
+        "index.html",
+        "table41.json",
+        "midpoint_ensemble.csv",
+    ] {
+        assert!(files.contains(&f.to_string()), "{f} missing: {files:?}");
+    }
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert!(summary["thesis_figures_failure"]
+        .as_str()
+        .is_some_and(|s| s.contains("DTH breaks down")));
+    let failed: Vec<&str> = summary["methods"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|m| !m["failure"].is_null())
+        .map(|m| m["label"].as_str().unwrap())
+        .collect();
+    assert_eq!(failed, ["dth"]);
+    let html = std::fs::read_to_string(out.join("index.html")).unwrap();
+    assert!(html.contains("not drawn: method `dth (thesis Figures 4.1-4.9)`"));
+}

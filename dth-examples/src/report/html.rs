@@ -100,6 +100,13 @@ pub fn index(scene: &Scene, report: &RunReport) -> String {
         }
         h.push_str("</table>\n");
     }
+    if let Some(why) = &report.thesis_figures_failure {
+        let _ = writeln!(
+            h,
+            "<h2>The thesis's figures</h2>\n<p class=\"fail\">not drawn: {}</p>",
+            escape(why)
+        );
+    }
     if !report.thesis_figures.is_empty() {
         h.push_str("<h2>The thesis's figures</h2>\n");
         for f in &report.thesis_figures {

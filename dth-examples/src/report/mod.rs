@@ -41,6 +41,10 @@ pub struct RunReport {
     /// The thesis's figures (scenes with `thesis_figures = true`), in its order.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub thesis_figures: Vec<thesis::ThesisFigure>,
+    /// Why the thesis's figures were not drawn, when one of their runs failed (a scene with
+    /// `thesis_figures = true` whose method fails: the rest of the output is written).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub thesis_figures_failure: Option<String>,
     /// What an ensemble scene ran (`crate::ensemble`), counted; `None` for a single run.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub ensemble: Option<EnsembleCounts>,
@@ -86,6 +90,12 @@ impl RunReport {
     /// The methods that failed mid-run.
     pub fn failures(&self) -> impl Iterator<Item = &MethodSummary> {
         self.methods.iter().filter(|m| m.failure.is_some())
+    }
+
+    /// `true` when the run computed everything the scene asked for: no method failed and the
+    /// thesis's figures (if asked for) were drawn.
+    pub fn complete(&self) -> bool {
+        self.failures().next().is_none() && self.thesis_figures_failure.is_none()
     }
 }
 
