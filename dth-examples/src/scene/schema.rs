@@ -616,7 +616,8 @@ impl Members {
     /// The number of members drawn before the energy shell skips any.
     pub fn candidates(&self) -> usize {
         match &self.sampler {
-            Sampler::Grid { x, y } => x.1 * y.as_ref().map_or(1, |y| y.1),
+            // Saturating: two counts of up to 2^63 each; the memory estimate refuses the product.
+            Sampler::Grid { x, y } => x.1.saturating_mul(y.as_ref().map_or(1, |y| y.1)),
             Sampler::Random { samples, .. } => *samples,
             Sampler::List { rows, .. } => rows.len(),
         }
