@@ -430,3 +430,21 @@ fn a_duration_in_time_beyond_the_step_cap() {
         "method `midpoint` would need 2.000e9 steps of dt = 0.5 to reach t = 1000000000, more than the cap of 100000000 steps",
     );
 }
+
+/// An output folder that cannot be created (its parent is a file) is the user's `--out`
+/// being wrong, as a refused folder is: exit 2 with the system's reason (it was exit 1, an
+/// I/O failure), and nothing written.
+#[test]
+fn an_output_folder_that_cannot_be_created() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("good.toml"), BASE).unwrap();
+    std::fs::write(dir.path().join("file"), "").unwrap();
+    let o = dth(&["run", "good.toml", "--out", "file/out"], dir.path());
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("refusing to write to `file/out`: cannot create its parent folder `file`"),
+        "{err}"
+    );
+    assert_eq!(entries(dir.path()), ["file", "good.toml"]);
+}
