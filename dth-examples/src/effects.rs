@@ -25,6 +25,15 @@ pub struct Deviation {
     pub count: usize,
 }
 
+impl Deviation {
+    /// `(mean, max)`, or `None` when no state after the initial one was seen (a method that
+    /// failed at its first step): then there is no deviation to show, and `0` would read as
+    /// perfect conservation.
+    pub fn observed(&self) -> Option<(f64, f64)> {
+        (self.count > 0).then_some((self.mean, self.max))
+    }
+}
+
 #[derive(Debug, Clone, Default)]
 struct Accumulator {
     reference: Option<f64>,

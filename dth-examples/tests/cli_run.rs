@@ -493,3 +493,28 @@ fn a_failing_method_costs_the_thesis_figures_not_the_output() {
     let html = std::fs::read_to_string(out.join("index.html")).unwrap();
     assert!(html.contains("not drawn: method `dth (thesis Figures 4.1-4.9)`"));
 }
+
+/// A method that fails at its first step has no deviation to show: its table rows printed
+/// `0.000e0` (perfect conservation) for a mean over no states. They now show `-`, in the
+/// printed table and in index.html.
+#[test]
+fn a_method_that_took_no_step_shows_no_deviation() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = "[system]\nname = \"kepler\"\n[initial]\nq = [0.5, 0.0]\np = [0.0, 1.2]\n\
+                 [[method]]\nkind = \"midpoint\"\ndt = 1e300\n[duration]\nsteps = 3\n\
+                 [[effect]]\nkind = \"comparison_table\"\n";
+    std::fs::write(dir.path().join("bad-dt.toml"), scene).unwrap();
+    let o = dth(&["run", "bad-dt.toml", "--out", "out"], dir.path());
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    let table = stdout(&o);
+    assert!(
+        table.contains("| midpoint | energy | - | - | - | - |"),
+        "{table}"
+    );
+    assert!(!table.contains("0.000e0"), "{table}");
+    let html = std::fs::read_to_string(dir.path().join("out/index.html")).unwrap();
+    assert!(
+        html.contains("<tr><td>midpoint</td><td>energy</td><td>-</td><td>-</td>"),
+        "{html}"
+    );
+}

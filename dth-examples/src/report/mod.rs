@@ -17,6 +17,7 @@ use std::path::{Path, PathBuf};
 
 use serde::Serialize;
 
+use crate::effects::Deviation;
 use crate::error::Error;
 use crate::simulate::MethodSummary;
 
@@ -74,13 +75,13 @@ impl RunReport {
                 if s.is_empty() {
                     s.push_str("| method | quantity | mean | max | vertices mean | vertices max |\n|---|---|---:|---:|---:|---:|\n");
                 }
-                let (vm, vx) = d.vertices.map_or(("-".to_string(), "-".to_string()), |v| {
-                    (format!("{:.3e}", v.mean), format!("{:.3e}", v.max))
-                });
+                let sci = |x: f64| format!("{x:.3e}");
+                let (mean, max) = deviation_cells(Some(d.points), sci);
+                let (vm, vx) = deviation_cells(d.vertices, sci);
                 let _ = writeln!(
                     s,
-                    "| {} | {} | {:.3e} | {:.3e} | {vm} | {vx} |",
-                    m.label, d.name, d.points.mean, d.points.max
+                    "| {} | {} | {mean} | {max} | {vm} | {vx} |",
+                    m.label, d.name
                 );
             }
         }
@@ -97,6 +98,15 @@ impl RunReport {
     pub fn complete(&self) -> bool {
         self.failures().next().is_none() && self.thesis_figures_failure.is_none()
     }
+}
+
+/// The mean and max cells of a deviation in a table, formatted by `format`; `-` where there is
+/// nothing to show (no vertices, or no state after the first: `Deviation::observed`).
+pub fn deviation_cells(d: Option<Deviation>, format: impl Fn(f64) -> String) -> (String, String) {
+    d.and_then(|d| d.observed())
+        .map_or(("-".to_string(), "-".to_string()), |(mean, max)| {
+            (format(mean), format(max))
+        })
 }
 
 /// Writes `contents` to `path`.
