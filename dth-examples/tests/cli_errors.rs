@@ -68,12 +68,24 @@ fn wrong_type() {
     rejects(
         &BASE.replace("steps = 100", "steps = \"many\""),
         "10:9",
-        "expected i64",
+        "invalid type: string \"many\", expected an integer",
     );
     rejects(
         &BASE.replace("q = [0.5, 0.0]", "q = 0.5"),
         "4:5",
-        "expected a sequence",
+        "invalid type: floating point `0.5`, expected an array",
+    );
+    // TOML's types, not Rust's (the messages said `i64`, `f64`, `map`, `sequence`).
+    rejects(
+        &BASE.replace("dt = 0.001", "dt = \"0.01\""),
+        "8:6",
+        "invalid type: string \"0.01\", expected a number",
+    );
+    // `[method]` for `[[method]]`: what to write.
+    rejects(
+        &BASE.replace("[[method]]", "[method]"),
+        "6:1",
+        "invalid type: table, expected an array of tables: write `[[method]]` and `[[effect]]`",
     );
 }
 

@@ -223,7 +223,7 @@ pub fn parse(text: &str, file: &str, systems: &dyn SystemLookup) -> Result<Scene
                 text,
                 diagnostics: Vec::new(),
             };
-            cx.error(span, e.message().trim().to_string());
+            cx.error(span, plain_types(e.message().trim()));
             return Err(Error::Scene(SceneErrors(cx.diagnostics)));
         }
     };
@@ -1137,6 +1137,28 @@ fn validate_effect(
             }
         }
     })
+}
+
+/// A TOML or serde message in the scene's words: TOML's types where serde names Rust's
+/// (`expected i64` is `expected an integer`, `map` a table, `sequence` an array), and for a
+/// table written where an array of tables is expected (`[method]` for `[[method]]`), the
+/// form to write.
+fn plain_types(message: &str) -> String {
+    let mut m = message.to_string();
+    for (rust, toml) in [
+        ("expected i64", "expected an integer"),
+        ("expected f64", "expected a number"),
+        ("expected a sequence", "expected an array"),
+        ("invalid type: map,", "invalid type: table,"),
+        ("invalid type: sequence,", "invalid type: array,"),
+        ("expected a map", "expected a table"),
+    ] {
+        m = m.replace(rust, toml);
+    }
+    if m.starts_with("invalid type: table, expected an array") {
+        m.push_str(" of tables: write `[[method]]` and `[[effect]]`, one per method or effect");
+    }
+    m
 }
 
 /// `"a, b and c"`.
