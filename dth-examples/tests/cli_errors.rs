@@ -460,3 +460,26 @@ fn an_output_folder_that_cannot_be_created() {
     );
     assert_eq!(entries(dir.path()), ["file", "good.toml"]);
 }
+
+/// A scene missing `[system]`, `[initial]` and `[duration]` got one error, for the first
+/// (serde stops there); every missing table is now reported at once.
+#[test]
+fn every_missing_table_at_once() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("bare.toml"),
+        "[[method]]\nkind = \"midpoint\"\ndt = 0.1\n",
+    )
+    .unwrap();
+    let o = dth(&["check", "bare.toml"], dir.path());
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    for expected in [
+        "bare.toml:1:1: missing table `[system]`: expected `name` (a catalogue system, see `dth list`) or `hamiltonian`",
+        "bare.toml:1:1: missing table `[initial]`: expected `q` and `p`",
+        "bare.toml:1:1: missing table `[duration]`: expected one of `steps`, `time`, `orbits`",
+    ] {
+        assert!(err.contains(expected), "want `{expected}` in {err}");
+    }
+    assert_eq!(err.lines().count(), 4, "one line per missing table: {err}");
+}

@@ -241,8 +241,15 @@ pub fn parse(text: &str, file: &str, systems: &dyn SystemLookup) -> Result<Scene
 
 fn validate(raw: RawScene, systems: &dyn SystemLookup, cx: &mut Ctxt<'_>) -> Option<Scene> {
     // The system: a catalogue name, or a Hamiltonian given as text (exactly one of the two).
-    let system_span = raw.system.span();
-    let system = raw.system.into_inner();
+    // A missing table is one error each, all reported at once (serde stopped at the first),
+    // and validation goes on with an empty one.
+    let missing_system = raw.system.is_none();
+    let (system_span, system) = table(
+        raw.system,
+        "system",
+        "`name` (a catalogue system, see `dth list`) or `hamiltonian` (H as text)",
+        cx,
+    );
     let mut hamiltonian = None;
     let (name, info, params) = match (&system.name, &system.hamiltonian) {
         (Some(name), None) => {
@@ -292,6 +299,7 @@ fn validate(raw: RawScene, systems: &dyn SystemLookup, cx: &mut Ctxt<'_>) -> Opt
             );
             (name.get_ref().clone(), None, BTreeMap::new())
         }
+        (None, None) if missing_system => (String::new(), None, BTreeMap::new()),
         (None, None) => {
             cx.error(
                 system_span,
@@ -303,10 +311,11 @@ fn validate(raw: RawScene, systems: &dyn SystemLookup, cx: &mut Ctxt<'_>) -> Opt
     let text = hamiltonian.is_some();
 
     // Initial state: q and p present, length n, finite.
-    let init_span = raw.initial.span();
-    let initial = raw.initial.into_inner();
+    let missing_initial = raw.initial.is_none();
+    let (init_span, initial) = table(raw.initial, "initial", "`q` and `p`", cx);
     let n = info.map(|i| i.n);
     let vector = |v: Option<Spanned<Vec<f64>>>, what: &str, cx: &mut Ctxt<'_>| match v {
+        None if missing_initial => None,
         None => {
             cx.error(
                 init_span.clone(),
@@ -409,10 +418,17 @@ fn validate(raw: RawScene, systems: &dyn SystemLookup, cx: &mut Ctxt<'_>) -> Opt
     }
 
     // Duration: exactly one of steps, time, orbits.
-    let dspan = raw.duration.span();
-    let d = raw.duration.into_inner();
+    let missing_duration = raw.duration.is_none();
+    let (dspan, d) = table(
+        raw.duration,
+        "duration",
+        "one of `steps`, `time`, `orbits`",
+        cx,
+    );
     let given = d.steps.is_some() as u8 + d.time.is_some() as u8 + d.orbits.is_some() as u8;
-    let duration = if given != 1 {
+    let duration = if missing_duration {
+        None
+    } else if given != 1 {
         cx.error(
             dspan,
             "duration: expected exactly one of `steps`, `time`, `orbits`",
@@ -599,6 +615,26 @@ fn validate(raw: RawScene, systems: &dyn SystemLookup, cx: &mut Ctxt<'_>) -> Opt
         members,
         thesis_figures,
     })
+}
+
+/// The table `[name]` of the scene and its span; when it is missing, an error at the top of
+/// the file (`missing table [name]: expected ...`) and an empty table.
+fn table<T: Default>(
+    t: Option<Spanned<T>>,
+    name: &str,
+    expected: &str,
+    cx: &mut Ctxt<'_>,
+) -> (Range<usize>, T) {
+    match t {
+        Some(t) => (t.span(), t.into_inner()),
+        None => {
+            cx.error(
+                0..0,
+                format!("missing table `[{name}]`: expected {expected}"),
+            );
+            (0..0, T::default())
+        }
+    }
 }
 
 /// The catalogue system `name` with the scene's parameters `given`: known names only,
