@@ -191,6 +191,19 @@ where
     let mut members = Vec::with_capacity(e.per_side * e.per_side);
     for z in ensemble_starts(system, e, z0) {
         let (x0, y0) = (z[ix], z[iy]);
+        if let Some(reason) = unavailable(m, system, &z) {
+            // A method that cannot run from this member (e.g. `exact` past the escape
+            // energy) is the member's failure, not the run's end.
+            members.push(EnsembleMember {
+                x0,
+                y0,
+                end: Err(Failure {
+                    step: 0,
+                    reason: format!("method `{}` cannot run: {reason}", m.label),
+                }),
+            });
+            continue;
+        }
         let end = run_method(m, system, z, t0, Stop::Steps(e.steps), &mut ())?;
         members.push(EnsembleMember {
             x0,

@@ -518,3 +518,23 @@ fn a_method_that_took_no_step_shows_no_deviation() {
         "{html}"
     );
 }
+
+/// The thesis's square around a Kepler orbit near escape: `exact` cannot run from the member
+/// past the escape energy, and that ended the run (exit 1, nothing written). The member is
+/// now a row with its failure and the others complete.
+#[test]
+fn a_square_member_a_method_cannot_run_from_is_its_row() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = "[system]\nname = \"kepler\"\n[initial]\nq = [0.5, 0.0]\np = [0.0, 1.40]\n\
+                 [[method]]\nkind = \"exact\"\ndt = 0.01\n[duration]\nsteps = 10\n\
+                 [ensemble]\nx = \"q1\"\ny = \"p2\"\nhalf_width = 0.02\nper_side = 2\nsteps = 5\n";
+    std::fs::write(dir.path().join("square.toml"), scene).unwrap();
+    let o = dth(&["run", "square.toml", "--out", "out"], dir.path());
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let csv = std::fs::read_to_string(dir.path().join("out/exact_ensemble.csv")).unwrap();
+    let rows: Vec<&str> = csv.lines().skip(1).collect();
+    assert_eq!(rows.len(), 4, "{csv}");
+    // p2 = 1.42 at q1 = 0.52 is past the escape speed (E = p^2 - 1/r > 0): that member only.
+    let failed: Vec<&&str> = rows.iter().filter(|r| r.contains("cannot run")).collect();
+    assert_eq!(failed, [&"5.2e-1,1.42e0,,,,,,step 0: method `exact` cannot run: this system has no exact solution for this initial state (Kepler: an elliptic orbit is needed)"]);
+}
