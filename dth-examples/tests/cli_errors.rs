@@ -81,11 +81,34 @@ fn wrong_type() {
         "8:6",
         "invalid type: string \"0.01\", expected a number",
     );
-    // `[method]` for `[[method]]`: what to write.
+}
+
+/// `[method]` for `[[method]]`, or `[[initial]]` for `[initial]`: serde's messages named
+/// types ("invalid type: map, expected a sequence"), `[[system]]`'s at line 1 whatever its
+/// place. Each wrong header is now named at its line with the one to write.
+#[test]
+fn a_table_header_of_the_wrong_kind() {
     rejects(
-        &BASE.replace("[[method]]", "[method]"),
+        &BASE.replace("[[method]]", "[method]  # the integrator"),
         "6:1",
-        "invalid type: table, expected an array of tables: write `[[method]]` and `[[effect]]`",
+        "`[method]` is one table, but a scene has a list of them: write `[[method]]`, once per method",
+    );
+    let scene = format!(
+        "title = \"x\"\n{}",
+        BASE.replace("[initial]", "[[initial]]")
+    );
+    rejects(
+        &scene,
+        "4:1",
+        "`[[initial]]` makes a list of tables, but a scene has one: write `[initial]`",
+    );
+    rejects(
+        &format!(
+            "title = \"x\"\n{}",
+            BASE.replace("[system]", "  [[system]]")
+        ),
+        "2:3",
+        "`[[system]]` makes a list of tables, but a scene has one: write `[system]`",
     );
 }
 

@@ -214,6 +214,18 @@ pub fn line_col(text: &str, offset: usize) -> (usize, usize) {
 /// assert!(err.to_string().contains("bad.toml:5:5: initial `p` has 1 value"));
 /// ```
 pub fn parse(text: &str, file: &str, systems: &dyn SystemLookup) -> Result<Scene, Error> {
+    let headers = header_mistakes(text);
+    if !headers.is_empty() {
+        let mut cx = Ctxt {
+            file,
+            text,
+            diagnostics: Vec::new(),
+        };
+        for (span, message) in headers {
+            cx.error(span, message);
+        }
+        return Err(Error::Scene(SceneErrors(cx.diagnostics)));
+    }
     let raw: RawScene = match toml::from_str(text) {
         Ok(raw) => raw,
         Err(e) => {
@@ -1176,9 +1188,7 @@ fn validate_effect(
 }
 
 /// A TOML or serde message in the scene's words: TOML's types where serde names Rust's
-/// (`expected i64` is `expected an integer`, `map` a table, `sequence` an array), and for a
-/// table written where an array of tables is expected (`[method]` for `[[method]]`), the
-/// form to write.
+/// (`expected i64` is `expected an integer`, `map` a table, `sequence` an array).
 fn plain_types(message: &str) -> String {
     let mut m = message.to_string();
     for (rust, toml) in [
@@ -1191,10 +1201,40 @@ fn plain_types(message: &str) -> String {
     ] {
         m = m.replace(rust, toml);
     }
-    if m.starts_with("invalid type: table, expected an array") {
-        m.push_str(" of tables: write `[[method]]` and `[[effect]]`, one per method or effect");
-    }
     m
+}
+
+/// Table headers of the wrong kind, each at its line: `[method]` or `[effect]` for the arrays
+/// of tables `[[method]]`, `[[effect]]`, and `[[system]]`, `[[initial]]`, `[[duration]]`,
+/// `[[ensemble]]` for those single tables. Found before serde, whose messages for them name
+/// types, not headers, and some at the top of the file.
+fn header_mistakes(text: &str) -> Vec<(Range<usize>, String)> {
+    let mut found = Vec::new();
+    let mut at = 0;
+    for line in text.split_inclusive('\n') {
+        let header = line.split('#').next().unwrap_or("").trim();
+        let start = at + line.len() - line.trim_start().len();
+        at += line.len();
+        let (one, many) = (
+            header.strip_prefix('[').and_then(|h| h.strip_suffix(']')),
+            header.strip_prefix("[[").and_then(|h| h.strip_suffix("]]")),
+        );
+        if let Some(name @ ("method" | "effect")) = one {
+            found.push((
+                start..start + header.len(),
+                format!("`[{name}]` is one table, but a scene has a list of them: write `[[{name}]]`, once per {name}"),
+            ));
+        }
+        if let Some(name @ ("system" | "initial" | "duration" | "ensemble")) = many {
+            found.push((
+                start..start + header.len(),
+                format!(
+                    "`[[{name}]]` makes a list of tables, but a scene has one: write `[{name}]`"
+                ),
+            ));
+        }
+    }
+    found
 }
 
 /// `"a, b and c"`.
