@@ -8,7 +8,8 @@
 //! time; for DTH run for a time it assumes the initial step `lambda0 dtau` throughout (DTH's
 //! time step varies along the orbit, so this is an estimate). Poincare crossings are bounded by
 //! one per two steps (one per step for `direction = "both"`). The thesis figures keep every
-//! state of their long runs.
+//! state of their long runs. An ensemble scene multiplies the effects by its members and adds
+//! its table (a row per member and method, as numbers and as the text of its two files).
 
 use crate::driver::Stop;
 use crate::error::Error;
@@ -19,6 +20,11 @@ use dth::Alloc;
 
 /// Bytes per stored number (`f64`).
 const BYTES: u64 = 8;
+
+/// Bytes per number of an ensemble scene's table: kept as an `f64` and as text (up to 24
+/// characters in the `{:e}` form) in both `ensemble.csv` and `ensemble.json`, which are built
+/// in memory before they are written.
+const TABLE_BYTES: u64 = BYTES + 2 * 24;
 
 /// What a run would store, by method.
 #[derive(Debug, Clone, PartialEq)]
@@ -56,7 +62,8 @@ where
     let methods = scene
         .methods
         .iter()
-        .map(|m| {
+        .enumerate()
+        .map(|(i, m)| {
             let n = steps(m.step, scene.t0, stop);
             let dth = u64::from(matches!(m.step, StepSpec::Dth { .. })) + 1;
             // Saturating: a scene may ask for up to 2^63 steps, and a wrapped estimate would
@@ -90,15 +97,30 @@ where
             if let Some(e) = &scene.ensemble {
                 values = values.saturating_add((e.per_side * e.per_side) as u64 * (d + 1));
             }
+            let mut table = 0u64;
             if let Some(members) = &scene.members {
                 // An ensemble scene keeps every member's section crossings until it writes.
-                values = values.saturating_mul(members.candidates() as u64);
+                let candidates = members.candidates() as u64;
+                values = values.saturating_mul(candidates);
+                // And its table: per member and method a row (parameters, start and end
+                // states, steps, times, energy error, failure, MEGNO, Lyapunov); the members
+                // themselves (state and parameters) are counted with the first method.
+                let params = scene.params.len() as u64;
+                let mut row = (2 * d + params + 8) * TABLE_BYTES;
+                if i == 0 {
+                    row += (d + params) * BYTES;
+                }
+                table = candidates.saturating_mul(row);
             }
             if scene.thesis_figures && MethodKind::THESIS_FIGURES.contains(&m.kind) {
                 // Every state of the long run: time and (q1, q2, p1, p2).
                 values = values.saturating_add(n.saturating_add(1).saturating_mul(5));
             }
-            (m.label.clone(), n, values.saturating_mul(BYTES))
+            (
+                m.label.clone(),
+                n,
+                values.saturating_mul(BYTES).saturating_add(table),
+            )
         })
         .collect();
     MemoryEstimate { methods }
@@ -150,13 +172,20 @@ where
         .map_or(String::new(), |(label, n, bytes)| {
             format!("; the largest: `{label}`, {n} steps, {}", human(*bytes))
         });
+    let (what, fewer) = match &scene.members {
+        Some(m) => (
+            format!("the effects and the table of {} members", m.candidates()),
+            "fewer members (`samples`, `x_count`, `y_count`, `members`), ",
+        ),
+        None => ("the effects".to_string(), ""),
+    };
     Err(Error::MemoryLimit {
         estimate: total,
         limit,
         detail: format!(
-            "the effects would keep about {} for {} method(s){largest}, above the limit of {}: \
-             sample less often (`every`), shorten the duration, drop effects, or raise the limit \
-             (--max-memory)",
+            "{what} would keep about {} for {} method(s){largest}, above the limit of {}: \
+             {fewer}sample less often (`every`), shorten the duration, drop effects, or raise \
+             the limit (--max-memory)",
             human(total),
             e.methods.len(),
             human(limit)

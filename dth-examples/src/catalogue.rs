@@ -33,7 +33,7 @@ use crate::pipeline::{run_system, RunError};
 use crate::report::RunReport;
 use crate::runtime_system::{self, MakeSystem, TextJob};
 use crate::scene::{ParamSpec, Scene, SystemInfo, SystemLookup};
-use crate::simulate::{initial_state, stop_for, RunOptions};
+use crate::simulate::{initial_state, preflight, stop_for, RunOptions};
 use crate::system::{SceneSystem, WithoutDth};
 use crate::systems::{
     DoublePendulum, ForcedOscillator, FputAlpha32, FputBeta32, FreeParticle, HarmonicOscillator,
@@ -136,7 +136,13 @@ where
     let system = make(&scene.params)?;
     let z0 = initial_state(&system, scene)?;
     let stop = stop_for(&system, scene, &z0, options)?;
-    budget::check(&system, scene, stop, options.memory_limit())
+    let estimate = budget::check(&system, scene, stop, options.memory_limit())?;
+    if scene.members.is_none() {
+        // What a single run refuses before it starts, `dth check` reports too (an ensemble's
+        // members each have their own state: a member that cannot run is a row of its table).
+        preflight(&system, scene, &z0, stop)?;
+    }
+    Ok(estimate)
 }
 
 /// [`run_built`] on a scene's text Hamiltonian.

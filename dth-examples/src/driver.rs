@@ -38,6 +38,23 @@ impl Stop {
         }
     }
 
+    /// The failure of a run that is done at step `k` and time `t` only because the cap
+    /// `max_steps` of a [`Stop::Time`] stopped it short of `t_end` (`None` when it reached its
+    /// end): the run did not compute what it was asked for, so it failed at step `k + 1`.
+    pub fn cut_short(&self, k: usize, t: f64) -> Option<MethodFailure> {
+        match *self {
+            Stop::Time { t_end, max_steps } if k >= max_steps && t < t_end => Some(MethodFailure {
+                step: k + 1,
+                cause: FailureCause::StepCap {
+                    max_steps,
+                    t,
+                    t_end,
+                },
+            }),
+            _ => None,
+        }
+    }
+
     /// The number of steps a fixed-step method with step `dt > 0` takes from `t0`: the first
     /// `k` with `t0 + k dt >= t_end` (the clock is `t0 + k dt`, as `dth::methods::run`
     /// computes it), capped at `max_steps`.
@@ -83,8 +100,12 @@ where
     O: Observer<D>,
 {
     let steps = stop.fixed_steps(t0, dt);
-    methods::run(method, system, &z0, t0, dt, steps, observer)
-        .map_err(|e| MethodFailure::integrator(e.partial.steps + 1, e.error))
+    let end = methods::run(method, system, &z0, t0, dt, steps, observer)
+        .map_err(|e| MethodFailure::integrator(e.partial.steps + 1, e.error))?;
+    match stop.cut_short(end.steps, end.t) {
+        Some(failure) => Err(failure),
+        None => Ok(end),
+    }
 }
 
 /// The DTH stepper (`dth::dth::Dth`) driven until a [`Stop`]: every midpoint `zbar_k` is shown
@@ -144,6 +165,9 @@ impl DthRunner {
         let mut record = dth.record();
         loop {
             observer.on_step(&record);
+            if let Some(failure) = stop.cut_short(record.k, record.t) {
+                return Err(failure);
+            }
             if stop.done(record.k, record.t) {
                 return Ok(RunEnd {
                     z: record.z,

@@ -25,6 +25,15 @@ pub struct Deviation {
     pub count: usize,
 }
 
+impl Deviation {
+    /// `(mean, max)`, or `None` when no state after the initial one was seen (a method that
+    /// failed at its first step): then there is no deviation to show, and `0` would read as
+    /// perfect conservation.
+    pub fn observed(&self) -> Option<(f64, f64)> {
+        (self.count > 0).then_some((self.mean, self.max))
+    }
+}
+
 #[derive(Debug, Clone, Default)]
 struct Accumulator {
     reference: Option<f64>,
@@ -170,8 +179,9 @@ pub struct TrajectoryRow {
     pub lambda: Option<f64>,
 }
 
-/// One row of the `time_law` effect (`lambda` NaN for fixed-step methods).
-pub type TimeLawRow = (usize, f64, f64);
+/// One row of the `time_law` effect: step, `t` and `lambda` (`None` for fixed-step methods,
+/// which have no `lambda`; the CSV leaves it empty, as the trajectory's).
+pub type TimeLawRow = (usize, f64, Option<f64>);
 
 /// One row of the `normal_modes` effect: the energies `E_1..E_k` of the first `k` linear
 /// normal modes ([`crate::normal_modes`]) at a step.
@@ -213,7 +223,7 @@ pub struct EffectOutputs {
     pub energy: Option<(DeviationStats, Series, Series)>,
     /// `invariants` (or `comparison_table`): per invariant, statistics and sampled series.
     pub invariants: Option<Vec<(DeviationStats, Series, Series)>>,
-    /// `time_law`: `(step, t, lambda)` rows (`lambda` NaN for fixed-step methods).
+    /// `time_law`: `(step, t, lambda)` rows (`lambda` `None` for fixed-step methods).
     pub time_law: Option<Vec<TimeLawRow>>,
     /// `poincare`: one list of crossings per requested section, in scene order.
     pub poincare: Vec<Crossings>,
@@ -440,7 +450,7 @@ where
         }
         if let Some((every, rows)) = &mut self.time_law {
             if step.is_multiple_of(*every) {
-                rows.push((step, t, lambda.unwrap_or(f64::NAN)));
+                rows.push((step, t, lambda));
             }
         }
         for s in &mut self.sections {

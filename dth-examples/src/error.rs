@@ -124,6 +124,30 @@ pub enum Error {
         /// What would keep it, the limit, and what to do.
         detail: String,
     },
+    /// `H` or its gradient is not finite at the initial state (outside `H`'s domain, e.g.
+    /// Kepler at `q = 0` or `sqrt(q1)` at `q1 < 0`, or overflowing): exit code 2, refused
+    /// before any method runs.
+    #[error("H is not finite at the initial state: {detail}")]
+    InitialState {
+        /// The state, what is not finite there, and what was expected.
+        detail: String,
+    },
+    /// A fixed-step method run for a time would need more steps than the cap on runs given a
+    /// duration in time (`RunOptions::max_steps`): exit code 2, refused before any method
+    /// runs (the run would otherwise stop at the cap, short of the end time).
+    #[error("method `{method}` would need {steps:.3e} steps of dt = {dt} to reach t = {t_end}, more than the cap of {max_steps} steps on a run given a duration in time: give a larger `dt`, a shorter duration, or the number of steps (`steps = N`, not capped)")]
+    TooManySteps {
+        /// The method's label.
+        method: String,
+        /// The steps it would need.
+        steps: f64,
+        /// Its step.
+        dt: f64,
+        /// The end time.
+        t_end: f64,
+        /// The cap.
+        max_steps: usize,
+    },
     /// A system registration is invalid (e.g. a duplicate name).
     #[error("invalid system registration `{name}`: {reason}")]
     Registration {
@@ -142,7 +166,9 @@ impl Error {
             | Error::SceneUnreadable { .. }
             | Error::OutputRefused { .. }
             | Error::Hamiltonian { .. }
-            | Error::MemoryLimit { .. } => 2,
+            | Error::MemoryLimit { .. }
+            | Error::InitialState { .. }
+            | Error::TooManySteps { .. } => 2,
             _ => 1,
         }
     }
@@ -155,6 +181,18 @@ pub enum FailureCause {
     /// The integrator failed (Newton, breakdown, a non-finite state, ...).
     #[error(transparent)]
     Integrator(#[from] dth::Error),
+    /// A run given a duration in time reached the cap on its steps
+    /// (`RunOptions::max_steps`) before its end time (e.g. DTH whose `lambda` became tiny):
+    /// what it computed up to there is kept.
+    #[error("the cap of {max_steps} steps on a run given a duration in time was reached at t = {t}, before the end time {t_end}: give a larger step or the number of steps (`steps = N`, not capped)")]
+    StepCap {
+        /// The cap.
+        max_steps: usize,
+        /// The time reached.
+        t: f64,
+        /// The end time asked for.
+        t_end: f64,
+    },
     /// The sampled exact solution could not be computed at this time.
     #[error("the exact solution is not available at t = {t}")]
     NoExactSolution {

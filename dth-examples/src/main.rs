@@ -195,9 +195,13 @@ fn run(
         report.out.display()
     );
     println!("open {}", report.out.join("index.html").display());
-    let mut failed = false;
+    let failed = !report.complete();
+    if let Some(why) = &report.thesis_figures_failure {
+        eprintln!(
+            "error: the thesis's figures were not drawn: {why} (the rest of the output is written)"
+        );
+    }
     for m in report.failures() {
-        failed = true;
         if let Some(f) = &m.failure {
             eprintln!(
                 "error: method `{}` failed at step {}: {} (its results up to there are in the output)",

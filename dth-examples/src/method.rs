@@ -53,11 +53,39 @@ where
         record.t = t;
         observer.on_step(&record);
     }
+    if let Some(failure) = stop.cut_short(record.k, record.t) {
+        return Err(failure);
+    }
     Ok(RunEnd {
         z: record.z,
         t: record.t,
         steps: record.k,
     })
+}
+
+/// Why the method `spec` cannot run on `system` from `z0`, when that depends on the system's
+/// instance or the initial state rather than on the scene alone (validation checks the
+/// rest): `exact` needs an exact solution for this state (Kepler: an elliptic orbit), and
+/// `stormer_verlet` a separable `H`. `None` when it can run. [`run_method`] refuses with it,
+/// and `simulate::preflight` asks it of every method before any runs, so that a method
+/// that cannot run does not discard what the ones before it computed.
+pub fn unavailable<D: Dim, H: SceneSystem<D>>(
+    spec: &MethodSpec,
+    system: &H,
+    z0: &OVector<f64, D>,
+) -> Option<&'static str>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    match spec.kind {
+        MethodKind::Exact if !H::HAS_EXACT || system.exact_solution(z0, 0.0).is_none() => Some(
+            "this system has no exact solution for this initial state (Kepler: an elliptic orbit is needed)",
+        ),
+        MethodKind::StormerVerlet if !system.flags().separable => {
+            Some("Stormer-Verlet needs a separable H = T(p) + V(q)")
+        }
+        _ => None,
+    }
 }
 
 /// Runs the method a scene names. The single dispatch point (see the module docs).
@@ -77,6 +105,9 @@ where
         name: spec.kind.name().to_string(),
         reason: reason.to_string(),
     };
+    if let Some(reason) = unavailable(spec, system, &z0) {
+        return Err(not_available(reason));
+    }
     let dt = match (spec.kind, spec.step) {
         (
             MethodKind::Dth,
@@ -115,24 +146,10 @@ where
         };
     }
     match spec.kind {
-        MethodKind::Exact => {
-            if !H::HAS_EXACT || system.exact_solution(&z0, 0.0).is_none() {
-                return Err(not_available(
-                    "this system has no exact solution for this initial state (Kepler: an elliptic orbit is needed)",
-                ));
-            }
-            Ok(run_exact(system, dt, z0, t0, stop, observer))
-        }
+        MethodKind::Exact => Ok(run_exact(system, dt, z0, t0, stop, observer)),
         MethodKind::Trapezoidal => peer!(Trapezoidal::new()),
         MethodKind::Midpoint => peer!(ImplicitMidpoint::new()),
-        MethodKind::StormerVerlet => {
-            if !system.flags().separable {
-                return Err(not_available(
-                    "Stormer-Verlet needs a separable H = T(p) + V(q)",
-                ));
-            }
-            peer!(StormerVerlet::new())
-        }
+        MethodKind::StormerVerlet => peer!(StormerVerlet::new()),
         MethodKind::Rk4 => peer!(Rk4::new()),
         MethodKind::GaussLegendre2 => peer!(GaussLegendre2::new()),
         MethodKind::DiscreteGradient => peer!(DiscreteGradient::new()),

@@ -129,7 +129,20 @@ impl Staging {
             .take_while(|a| !a.as_os_str().is_empty() && !a.exists())
             .last()
             .map(Path::to_path_buf);
-        std::fs::create_dir_all(&parent).map_err(io("cannot create folder", &parent))?;
+        // The output folder cannot be made here: the user's `--out` is wrong (exit code 2, as
+        // for a refused folder), with the system's reason.
+        let unwritable = |what: &str| {
+            let target = target.to_path_buf();
+            let what = what.to_string();
+            move |e: std::io::Error| Error::OutputRefused {
+                path: target,
+                reason: format!("{what}: {e}"),
+            }
+        };
+        std::fs::create_dir_all(&parent).map_err(unwritable(&format!(
+            "cannot create its parent folder `{}`",
+            parent.display()
+        )))?;
         let name = target
             .file_name()
             .map(|n| n.to_string_lossy().into_owned())
@@ -137,7 +150,10 @@ impl Staging {
         let tmp = tempfile::Builder::new()
             .prefix(&format!(".{name}.tmp-"))
             .tempdir_in(&parent)
-            .map_err(io("cannot create temporary folder in", &parent))?;
+            .map_err(unwritable(&format!(
+                "cannot create a folder in `{}`",
+                parent.display()
+            )))?;
         live().push((tmp.path().to_path_buf(), created.clone()));
         Ok(Staging {
             tmp: Some(tmp),

@@ -27,7 +27,8 @@ pub enum RunError {
     #[error(transparent)]
     NotRun(#[from] Error),
     /// The scene ran and every output was written, but at least one method failed mid-run
-    /// (its results up to the failing step are in the output).
+    /// (its results up to the failing step are in the output), or a run of the thesis's
+    /// figures failed (they are missing; [`RunReport::thesis_figures_failure`] says why).
     #[error("{}", failures_message(report))]
     MethodsFailed {
         /// What the run wrote; [`RunReport::failures`] lists the failed methods.
@@ -66,6 +67,12 @@ fn failures_message(report: &RunReport) -> String {
                 )
             })
         })
+        .chain(
+            report
+                .thesis_figures_failure
+                .iter()
+                .map(|why| format!("the thesis's figures were not drawn: {why}")),
+        )
         .collect();
     format!(
         "{} (what was computed up to there is in `{}`)",
@@ -100,9 +107,14 @@ where
         system.invariant_names(),
     )?);
     let methods: Vec<MethodSummary> = results.into_iter().map(|r| r.summary).collect();
-    let (table41, thesis_figures) = if scene.thesis_figures {
+    let (table41, thesis_figures, thesis_figures_failure) = if scene.thesis_figures {
         let z0 = initial_state(system, scene)?;
-        let figures = thesis::figures(system, scene, &z0, &dir, options)?;
+        // The figures run the methods again (and at finer steps): one that fails there costs
+        // the figures, not the rest of the output, which is written as for a failed method.
+        let (figures, failure) = match thesis::figures(system, scene, &z0, &dir, options) {
+            Ok(figures) => (figures, None),
+            Err(e) => (Vec::new(), Some(e.to_string())),
+        };
         for f in &figures {
             files.push(format!("{}.png", f.stem));
             files.push(format!("{}.svg", f.stem));
@@ -110,9 +122,9 @@ where
         let table = table41::rows_from(&methods);
         write_json(&dir.join("table41.json"), &table)?;
         files.push("table41.json".into());
-        (Some(table), figures)
+        (Some(table), figures, failure)
     } else {
-        (None, Vec::new())
+        (None, Vec::new(), None)
     };
     files.push("summary.json".into());
     files.push("index.html".into());
@@ -125,12 +137,13 @@ where
         files,
         table41,
         thesis_figures,
+        thesis_figures_failure,
         ensemble: None,
     };
     write_file(&dir.join("index.html"), html::index(scene, &report))?;
     write_json(&dir.join("summary.json"), &report)?;
     report.out = staging.commit()?;
-    if report.failures().next().is_some() {
+    if !report.complete() {
         return Err(RunError::MethodsFailed {
             report: Box::new(report),
         });

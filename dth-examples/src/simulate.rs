@@ -14,7 +14,7 @@ use crate::budget;
 use crate::driver::{MethodFailure, Stop};
 use crate::effects::{DeviationStats, EffectOutputs, Effects, FinalState};
 use crate::error::Error;
-use crate::method::run_method;
+use crate::method::{run_method, unavailable};
 use crate::scene::{Duration, Ensemble, MethodSpec, Scene, StepSpec};
 use crate::system::SceneSystem;
 
@@ -191,6 +191,19 @@ where
     let mut members = Vec::with_capacity(e.per_side * e.per_side);
     for z in ensemble_starts(system, e, z0) {
         let (x0, y0) = (z[ix], z[iy]);
+        if let Some(reason) = unavailable(m, system, &z) {
+            // A method that cannot run from this member (e.g. `exact` past the escape
+            // energy) is the member's failure, not the run's end.
+            members.push(EnsembleMember {
+                x0,
+                y0,
+                end: Err(Failure {
+                    step: 0,
+                    reason: format!("method `{}` cannot run: {reason}", m.label),
+                }),
+            });
+            continue;
+        }
         let end = run_method(m, system, z, t0, Stop::Steps(e.steps), &mut ())?;
         members.push(EnsembleMember {
             x0,
@@ -284,6 +297,67 @@ where
             }
         }
     })
+}
+
+/// Refuses, before any method runs, what would otherwise stop the run after some methods
+/// computed (and lose their results) or end it short of what the scene asks:
+/// - an initial state where `H` or its gradient is not finite ([`Error::InitialState`]:
+///   outside `H`'s domain, or overflowing; no method can take a step from it);
+/// - a method that cannot run from `z0` ([`Error::NotAvailable`], `method::unavailable`:
+///   e.g. `exact` on an unbound Kepler orbit);
+/// - a fixed-step method given a duration in time that would need more than
+///   `options.max_steps` steps ([`Error::TooManySteps`]: the cap would stop it short).
+///
+/// A single run checks this in [`compute`]; `dth check` too (`Catalogue::estimate`).
+pub fn preflight<D: Dim, S: SceneSystem<D>>(
+    system: &S,
+    scene: &Scene,
+    z0: &OVector<f64, D>,
+    stop: Stop,
+) -> Result<(), Error>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    let h = system.value(z0);
+    let gradient = system.gradient(z0);
+    if !h.is_finite() || gradient.iter().any(|g| !g.is_finite()) {
+        // `{:?}`: exponents for large and small values, and every digit.
+        let g: Vec<String> = gradient.iter().map(|g| format!("{g:?}")).collect();
+        return Err(Error::InitialState {
+            detail: format!(
+                "H = {h:?} and grad H = [{}] at q = {:?}, p = {:?}: expected an initial state where `{}` and its gradient are finite",
+                g.join(", "),
+                scene.q,
+                scene.p,
+                scene.system
+            ),
+        });
+    }
+    for m in &scene.methods {
+        if let Some(reason) = unavailable(m, system, z0) {
+            return Err(Error::NotAvailable {
+                what: "method",
+                name: m.label.clone(),
+                reason: reason.to_string(),
+            });
+        }
+        if let (StepSpec::Fixed { dt }, Stop::Time { t_end, max_steps }) = (m.step, stop) {
+            let steps = stop.fixed_steps(scene.t0, dt);
+            if stop
+                .cut_short(steps, scene.t0 + steps as f64 * dt)
+                .is_some()
+            {
+                return Err(Error::TooManySteps {
+                    method: m.label.clone(),
+                    steps: ((t_end - scene.t0) / dt).ceil(),
+                    dt,
+                    t_end,
+                    max_steps,
+                });
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Progress as an observer: moves the bar every 1024 steps (nothing else per step).
@@ -388,6 +462,7 @@ where
     let z0 = initial_state(system, scene)?;
     let stop = stop_for(system, scene, &z0, options)?;
     budget::check(system, scene, stop, options.memory_limit())?;
+    preflight(system, scene, &z0, stop)?;
     let mut results = Vec::new();
     for m in &scene.methods {
         let bar = progress_bar(m, scene.t0, stop, options);

@@ -78,3 +78,37 @@ fn a_scene_above_the_limit_is_refused_by_check_and_run() {
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("is not a size"), "{}", stderr(&o));
 }
+
+/// An ensemble of 10^11 random members with no effect was estimated at 0 bytes: `check`
+/// passed it and `run` aborted allocating the members (exit 134, its temporary folder left
+/// behind). The members and their table now count, and the scene is refused before it runs.
+#[test]
+fn an_ensemble_too_large_for_memory_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let members = "[system]\nname = \"kepler\"\n[initial]\nq = [0.5, 0.0]\np = [0.0, 1.2]\n\
+         [[method]]\nkind = \"midpoint\"\ndt = 0.1\n[duration]\nsteps = 10\n\
+         [ensemble]\nkind = \"random\"\nx = \"q1\"\nx_range = [0.4, 0.6]\nsamples = 100000000000\n";
+    // Two grid axes whose product overflows a 64-bit count.
+    let grid = members.replace(
+        "kind = \"random\"\nx = \"q1\"\nx_range = [0.4, 0.6]\nsamples = 100000000000",
+        "kind = \"grid\"\nx = \"q1\"\nx_range = [0.4, 0.6]\nx_count = 9000000000000000000\n\
+         y = \"p2\"\ny_range = [1.0, 1.2]\ny_count = 9000000000000000000",
+    );
+    for scene in [members.to_string(), grid] {
+        std::fs::write(dir.path().join("many.toml"), scene).unwrap();
+        for args in [
+            &["check", "many.toml"][..],
+            &["run", "many.toml", "--out", "out"],
+        ] {
+            let o = dth(args, dir.path());
+            let err = stderr(&o);
+            assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+            assert!(
+                err.contains("refusing to run: the effects and the table of"),
+                "{err}"
+            );
+            assert!(err.contains("fewer members"), "{err}");
+            assert_eq!(entries(dir.path()), ["many.toml"], "output left behind");
+        }
+    }
+}

@@ -68,12 +68,47 @@ fn wrong_type() {
     rejects(
         &BASE.replace("steps = 100", "steps = \"many\""),
         "10:9",
-        "expected i64",
+        "invalid type: string \"many\", expected an integer",
     );
     rejects(
         &BASE.replace("q = [0.5, 0.0]", "q = 0.5"),
         "4:5",
-        "expected a sequence",
+        "invalid type: floating point `0.5`, expected an array",
+    );
+    // TOML's types, not Rust's (the messages said `i64`, `f64`, `map`, `sequence`).
+    rejects(
+        &BASE.replace("dt = 0.001", "dt = \"0.01\""),
+        "8:6",
+        "invalid type: string \"0.01\", expected a number",
+    );
+}
+
+/// `[method]` for `[[method]]`, or `[[initial]]` for `[initial]`: serde's messages named
+/// types ("invalid type: map, expected a sequence"), `[[system]]`'s at line 1 whatever its
+/// place. Each wrong header is now named at its line with the one to write.
+#[test]
+fn a_table_header_of_the_wrong_kind() {
+    rejects(
+        &BASE.replace("[[method]]", "[method]  # the integrator"),
+        "6:1",
+        "`[method]` is one table, but a scene has a list of them: write `[[method]]`, once per method",
+    );
+    let scene = format!(
+        "title = \"x\"\n{}",
+        BASE.replace("[initial]", "[[initial]]")
+    );
+    rejects(
+        &scene,
+        "4:1",
+        "`[[initial]]` makes a list of tables, but a scene has one: write `[initial]`",
+    );
+    rejects(
+        &format!(
+            "title = \"x\"\n{}",
+            BASE.replace("[system]", "  [[system]]")
+        ),
+        "2:3",
+        "`[[system]]` makes a list of tables, but a scene has one: write `[system]`",
     );
 }
 
@@ -326,4 +361,148 @@ steps = 10
     std::fs::write(dir.path().join("clean.toml"), clean).unwrap();
     let o = dth(&["check", "clean.toml"], dir.path());
     assert_eq!((o.status.code(), stderr(&o)), (Some(0), String::new()));
+}
+
+/// A second `energy_deviation` (or any effect a run keeps one of) used to replace the first
+/// silently (`every = 1` asked, `every = 2` written); a second identical figure or section
+/// was computed twice. Both are now errors at the second one; different sections are fine.
+#[test]
+fn an_effect_asked_twice() {
+    let twice = |a: &str, b: &str| format!("{BASE}[[effect]]\n{a}\n[[effect]]\n{b}\n");
+    rejects(
+        &twice(
+            "kind = \"energy_deviation\"",
+            "kind = \"energy_deviation\"\nevery = 2",
+        ),
+        "14:8",
+        "effect `energy_deviation` is asked twice (first on line 12), and a run keeps one of it: remove one",
+    );
+    let section = "kind = \"poincare\"\ncoordinate = \"q2\"\nx = \"q1\"\ny = \"p1\"";
+    rejects(
+        &twice(section, section),
+        "17:8",
+        "effect `poincare` is asked twice (first on line 12) with the same keys: remove one",
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let other = section
+        .replace("\"q2\"", "\"q1\"")
+        .replace("\"q1\"\ny", "\"q2\"\ny");
+    std::fs::write(dir.path().join("two.toml"), twice(section, &other)).unwrap();
+    let o = dth(&["check", "two.toml"], dir.path());
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+}
+
+/// Runs `dth check` and `dth run` on `scene` and checks both exit with `code`, print
+/// `expected`, and leave no output behind (for refusals that are not located in the file).
+fn refuses(scene: &str, code: i32, expected: &str) {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("bad.toml"), scene).unwrap();
+    for args in [
+        &["check", "bad.toml"][..],
+        &["run", "bad.toml", "--out", "out"],
+    ] {
+        let o = dth(args, dir.path());
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(code), "{args:?}: {err}");
+        assert!(
+            err.contains(expected),
+            "{args:?}: want `{expected}` in {err}"
+        );
+        assert_eq!(entries(dir.path()), ["bad.toml"], "output left behind");
+    }
+}
+
+/// Kepler at `q = 0`, or `sqrt(q1)` at `q1 < 0`: `dth check` passed, and `dth run` let every
+/// method fail at its first step with a message about Newton residuals. Both now refuse the
+/// state before anything runs (exit 2), naming H and its gradient there.
+#[test]
+fn an_initial_state_where_h_is_not_finite() {
+    refuses(
+        &BASE.replace("q = [0.5, 0.0]", "q = [0.0, 0.0]"),
+        2,
+        "error: H is not finite at the initial state: H = NaN and grad H = [NaN, NaN, 0.0, 2.4] at q = [0.0, 0.0], p = [0.0, 1.2]: expected an initial state where `kepler` and its gradient are finite",
+    );
+    let text = BASE
+        .replace("name = \"kepler\"", "hamiltonian = \"p1^2/2 + sqrt(q1)\"")
+        .replace("q = [0.5, 0.0]\np = [0.0, 1.2]", "q = [-1.0]\np = [0.0]");
+    refuses(
+        &text,
+        2,
+        "H = NaN and grad H = [NaN, 0.0] at q = [-1.0], p = [0.0]",
+    );
+    // Overflow: finite coordinates, H = inf; large values in exponent form.
+    refuses(
+        &BASE.replace("p = [0.0, 1.2]", "p = [0.0, 1e200]"),
+        2,
+        "H = inf and grad H = [4.0, 0.0, 0.0, 2e200]",
+    );
+}
+
+/// `exact` on an unbound Kepler orbit after `midpoint`: `dth check` passed it, and `dth run`
+/// computed the midpoint run, then stopped at `exact` and wrote nothing of it. Both now
+/// refuse it before any method runs.
+#[test]
+fn a_method_that_cannot_run_is_refused_before_any_runs() {
+    refuses(
+        &BASE.replace("p = [0.0, 1.2]", "p = [0.0, 3.0]").replace(
+            "[duration]",
+            "[[method]]\nkind = \"exact\"\ndt = 0.01\n[duration]",
+        ),
+        1,
+        "error: method `exact` cannot run: this system has no exact solution for this initial state",
+    );
+}
+
+/// `time = 1e9` with `dt = 0.5` needs 2e9 steps: the run stopped at the cap of 1e8 steps, at
+/// t = 5e7, and reported success (exit 0, nothing said). It is now refused before it runs.
+#[test]
+fn a_duration_in_time_beyond_the_step_cap() {
+    refuses(
+        &BASE
+            .replace("dt = 0.001", "dt = 0.5")
+            .replace("steps = 100", "time = 1e9"),
+        2,
+        "method `midpoint` would need 2.000e9 steps of dt = 0.5 to reach t = 1000000000, more than the cap of 100000000 steps",
+    );
+}
+
+/// An output folder that cannot be created (its parent is a file) is the user's `--out`
+/// being wrong, as a refused folder is: exit 2 with the system's reason (it was exit 1, an
+/// I/O failure), and nothing written.
+#[test]
+fn an_output_folder_that_cannot_be_created() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("good.toml"), BASE).unwrap();
+    std::fs::write(dir.path().join("file"), "").unwrap();
+    let o = dth(&["run", "good.toml", "--out", "file/out"], dir.path());
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("refusing to write to `file/out`: cannot create its parent folder `file`"),
+        "{err}"
+    );
+    assert_eq!(entries(dir.path()), ["file", "good.toml"]);
+}
+
+/// A scene missing `[system]`, `[initial]` and `[duration]` got one error, for the first
+/// (serde stops there); every missing table is now reported at once.
+#[test]
+fn every_missing_table_at_once() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("bare.toml"),
+        "[[method]]\nkind = \"midpoint\"\ndt = 0.1\n",
+    )
+    .unwrap();
+    let o = dth(&["check", "bare.toml"], dir.path());
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    for expected in [
+        "bare.toml:1:1: missing table `[system]`: expected `name` (a catalogue system, see `dth list`) or `hamiltonian`",
+        "bare.toml:1:1: missing table `[initial]`: expected `q` and `p`",
+        "bare.toml:1:1: missing table `[duration]`: expected one of `steps`, `time`, `orbits`",
+    ] {
+        assert!(err.contains(expected), "want `{expected}` in {err}");
+    }
+    assert_eq!(err.lines().count(), 4, "one line per missing table: {err}");
 }

@@ -422,3 +422,119 @@ fn list_names_the_systems_each_restricted_method_runs_on() {
     // Every system runs midpoint: no list.
     assert!(!systems_of("midpoint").1.starts_with("systems:"), "{s}");
 }
+
+/// `time_law` on a fixed-step method used to write `NaN` as its `lambda` (a method without a
+/// law of time has none): the column is empty, as in the trajectory, and DTH's is a number.
+#[test]
+fn time_law_writes_no_nan_for_a_fixed_step_method() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = "[system]\nname = \"harmonic_oscillator\"\n[initial]\nq = [1.0]\np = [0.0]\n\
+                 [[method]]\nkind = \"midpoint\"\ndt = 0.1\n[[method]]\nkind = \"dth\"\ndtau = 0.1\n\
+                 [duration]\nsteps = 2\n[[effect]]\nkind = \"time_law\"\n";
+    std::fs::write(dir.path().join("law.toml"), scene).unwrap();
+    let o = dth(&["run", "law.toml", "--out", "out"], dir.path());
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let read = |f: &str| std::fs::read_to_string(dir.path().join("out").join(f)).unwrap();
+    let midpoint = read("midpoint_time_law.csv");
+    assert_eq!(midpoint, "step,t,lambda\n0,0e0,\n1,1e-1,\n2,2e-1,\n");
+    let dth_rows: Vec<String> = read("dth_time_law.csv").lines().map(String::from).collect();
+    assert_eq!(dth_rows.len(), 4, "{dth_rows:?}");
+    for row in &dth_rows[1..] {
+        let lambda: f64 = row.rsplit(',').next().unwrap().parse().unwrap();
+        assert!(lambda.is_finite() && lambda > 0.0, "{row}");
+    }
+}
+
+/// A scene with `thesis_figures = true` whose DTH breaks down (Kepler at e = 0.9): the
+/// figures run the methods again, the failure there was an error, and the whole output
+/// (every method's results, Table 4.1) was discarded. Now the figures are missing, said why,
+/// and the rest is written (exit 1, as for any failed method).
+#[test]
+fn a_failing_method_costs_the_thesis_figures_not_the_output() {
+    let scene = "thesis_figures = true\n[system]\nname = \"kepler\"\n[initial]\nq = [0.5, 0.0]\n\
+                 p = [0.0, 1.378404875209022]\n\
+                 [[method]]\nkind = \"exact\"\ndt = 0.15\n[[method]]\nkind = \"trapezoidal\"\ndt = 0.15\n\
+                 [[method]]\nkind = \"midpoint\"\ndt = 0.15\n[[method]]\nkind = \"discrete_mechanics\"\ndt = 0.15\n\
+                 [[method]]\nkind = \"dth\"\ndtau = 0.01\n[duration]\nsteps = 40\n\
+                 [ensemble]\nx = \"q1\"\ny = \"p1\"\nhalf_width = 0.01\nper_side = 2\nsteps = 5\n\
+                 [[effect]]\nkind = \"final_state\"\n";
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("e09.toml"), scene).unwrap();
+    let o = dth(&["run", "e09.toml", "--out", "out"], dir.path());
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("error: the thesis's figures were not drawn: method `dth (thesis Figures 4.1-4.9)` failed at step"),
+        "{err}"
+    );
+    let out = dir.path().join("out");
+    let files = entries(&out);
+    for f in [
+        "summary.json",
+        "index.html",
+        "table41.json",
+        "midpoint_ensemble.csv",
+    ] {
+        assert!(files.contains(&f.to_string()), "{f} missing: {files:?}");
+    }
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert!(summary["thesis_figures_failure"]
+        .as_str()
+        .is_some_and(|s| s.contains("DTH breaks down")));
+    let failed: Vec<&str> = summary["methods"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|m| !m["failure"].is_null())
+        .map(|m| m["label"].as_str().unwrap())
+        .collect();
+    assert_eq!(failed, ["dth"]);
+    let html = std::fs::read_to_string(out.join("index.html")).unwrap();
+    assert!(html.contains("not drawn: method `dth (thesis Figures 4.1-4.9)`"));
+}
+
+/// A method that fails at its first step has no deviation to show: its table rows printed
+/// `0.000e0` (perfect conservation) for a mean over no states. They now show `-`, in the
+/// printed table and in index.html.
+#[test]
+fn a_method_that_took_no_step_shows_no_deviation() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = "[system]\nname = \"kepler\"\n[initial]\nq = [0.5, 0.0]\np = [0.0, 1.2]\n\
+                 [[method]]\nkind = \"midpoint\"\ndt = 1e300\n[duration]\nsteps = 3\n\
+                 [[effect]]\nkind = \"comparison_table\"\n";
+    std::fs::write(dir.path().join("bad-dt.toml"), scene).unwrap();
+    let o = dth(&["run", "bad-dt.toml", "--out", "out"], dir.path());
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    let table = stdout(&o);
+    assert!(
+        table.contains("| midpoint | energy | - | - | - | - |"),
+        "{table}"
+    );
+    assert!(!table.contains("0.000e0"), "{table}");
+    let html = std::fs::read_to_string(dir.path().join("out/index.html")).unwrap();
+    assert!(
+        html.contains("<tr><td>midpoint</td><td>energy</td><td>-</td><td>-</td>"),
+        "{html}"
+    );
+}
+
+/// The thesis's square around a Kepler orbit near escape: `exact` cannot run from the member
+/// past the escape energy, and that ended the run (exit 1, nothing written). The member is
+/// now a row with its failure and the others complete.
+#[test]
+fn a_square_member_a_method_cannot_run_from_is_its_row() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = "[system]\nname = \"kepler\"\n[initial]\nq = [0.5, 0.0]\np = [0.0, 1.40]\n\
+                 [[method]]\nkind = \"exact\"\ndt = 0.01\n[duration]\nsteps = 10\n\
+                 [ensemble]\nx = \"q1\"\ny = \"p2\"\nhalf_width = 0.02\nper_side = 2\nsteps = 5\n";
+    std::fs::write(dir.path().join("square.toml"), scene).unwrap();
+    let o = dth(&["run", "square.toml", "--out", "out"], dir.path());
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let csv = std::fs::read_to_string(dir.path().join("out/exact_ensemble.csv")).unwrap();
+    let rows: Vec<&str> = csv.lines().skip(1).collect();
+    assert_eq!(rows.len(), 4, "{csv}");
+    // p2 = 1.42 at q1 = 0.52 is past the escape speed (E = p^2 - 1/r > 0): that member only.
+    let failed: Vec<&&str> = rows.iter().filter(|r| r.contains("cannot run")).collect();
+    assert_eq!(failed, [&"5.2e-1,1.42e0,,,,,,step 0: method `exact` cannot run: this system has no exact solution for this initial state (Kepler: an elliptic orbit is needed)"]);
+}

@@ -1,7 +1,8 @@
 //! An effect that is not requested costs nothing per step: proved by counting, not timing.
 //!
-//! The system below counts its evaluations of `H` (only the energy effect needs them; RK4 uses
-//! the gradient only) and of the invariants; the runner reports how many states
+//! The system below counts its evaluations of `H` (only the energy effect needs them per step;
+//! RK4 uses the gradient only; one more, before the run, checks the initial state) and of the
+//! invariants; the runner reports how many states
 //! its effect observers saw and how many numbers they stored.
 
 use dth::nalgebra::Const;
@@ -84,9 +85,11 @@ fn no_effects_observes_and_stores_nothing() {
     assert_eq!(r.summary.observer_calls, 0);
     assert_eq!(r.summary.stored_values, 0);
     assert_eq!(r.outputs, EffectOutputs::default());
+    // Once, before the run: `simulate::preflight` checks that H is finite at the initial
+    // state. Never per step.
     assert_eq!(
         sys.values.get(),
-        0,
+        1,
         "H was evaluated although no effect needs it"
     );
     assert_eq!(sys.invariants.get(), 0);
@@ -98,9 +101,10 @@ fn only_the_requested_effect_runs() {
     let s = scene("[[effect]]\nkind = \"energy_deviation\"\nevery = 1000\n");
     let results = compute(&sys, &s, &RunOptions::default().with_progress(false)).unwrap();
     let r = &results[0];
-    // Every state 0..=5000 is observed once, H evaluated once per state, no invariants.
+    // Every state 0..=5000 is observed once, H evaluated once per state (and once before the
+    // run, by the check of the initial state), no invariants.
     assert_eq!(r.summary.observer_calls, 5001);
-    assert_eq!(sys.values.get(), 5001);
+    assert_eq!(sys.values.get(), 1 + 5001);
     assert_eq!(sys.invariants.get(), 0);
     // Stored: the energy series at steps 0, 1000, ..., 5000, three numbers each; nothing else.
     assert_eq!(r.summary.stored_values, 6 * 3);
@@ -116,7 +120,8 @@ fn comparison_table_computes_statistics_but_stores_no_series() {
     let s = scene("[[effect]]\nkind = \"comparison_table\"\n");
     let results = compute(&sys, &s, &RunOptions::default().with_progress(false)).unwrap();
     let r = &results[0];
-    assert_eq!(sys.values.get(), 5001);
+    // Once per state, and once before the run (the check of the initial state).
+    assert_eq!(sys.values.get(), 1 + 5001);
     assert_eq!(sys.invariants.get(), 5001);
     assert_eq!(r.summary.stored_values, 0);
     let e = r.summary.energy.as_ref().unwrap();

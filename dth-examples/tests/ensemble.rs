@@ -204,3 +204,32 @@ fn a_parameter_grid_runs_each_member_with_its_own_system() {
         "k = 2: q = {q2}"
     );
 }
+
+/// A grid over Kepler's `p2` from bound to unbound orbits with method `exact`: the members
+/// whose orbit has no exact solution used to end the whole ensemble with an error (every
+/// member's results discarded, nothing written). They are now failed runs of their rows.
+#[test]
+fn a_method_that_cannot_run_from_one_member_is_that_members_row() {
+    let scene = "[system]\nname = \"kepler\"\n[initial]\nq = [0.5, 0.0]\np = [0.0, 1.2]\n\
+                 [[method]]\nkind = \"midpoint\"\ndt = 0.01\n[[method]]\nkind = \"exact\"\ndt = 0.01\n\
+                 [duration]\nsteps = 10\n\
+                 [ensemble]\nkind = \"grid\"\nx = \"p2\"\nx_range = [1.0, 3.0]\nx_count = 3\n\
+                 [[effect]]\nkind = \"poincare\"\ncoordinate = \"q2\"\nx = \"q1\"\ny = \"p1\"\n";
+    let dir = tempfile::tempdir().unwrap();
+    let report = run(scene, dir.path(), 1);
+    assert_eq!(report.ensemble.map(|c| c.failed_runs), Some(2));
+    let rows = json(dir.path());
+    let rows = rows["rows"].as_array().unwrap();
+    let failed: Vec<(u64, &str)> = rows
+        .iter()
+        .filter(|r| !r["failure"].is_null())
+        .map(|r| (r["member"].as_u64().unwrap(), r["method"].as_str().unwrap()))
+        .collect();
+    assert_eq!(failed, [(1, "exact"), (2, "exact")]);
+    // Every midpoint run, and the bound orbit's exact one, ran their 10 steps.
+    let full = rows
+        .iter()
+        .filter(|r| r["steps"].as_u64() == Some(10))
+        .count();
+    assert_eq!(full, 4);
+}

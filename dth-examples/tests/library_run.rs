@@ -53,3 +53,36 @@ fn a_scene_that_cannot_run_is_not_run() {
     assert!(err.partial_report().is_err());
     assert!(!dir.path().join("o").exists());
 }
+
+/// A DTH run given a duration in time cannot know its steps in advance; when the cap on them
+/// (`RunOptions::max_steps`) stopped it short of the end time, it used to end as a success at
+/// an earlier time. It is now a failure at the step past the cap, with its results written.
+#[test]
+fn a_run_stopped_by_the_step_cap_is_a_failure_that_keeps_its_results() {
+    let scene = "[system]\nname = \"harmonic_oscillator\"\n[initial]\nq = [1.0]\np = [0.0]\n\
+                 [[method]]\nkind = \"dth\"\ndtau = 0.1\n[duration]\ntime = 10.0\n\
+                 [[effect]]\nkind = \"trajectory\"\n";
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("o");
+    let mut options = RunOptions::default().with_progress(false);
+    options.max_steps = 5;
+    let err = dth_examples::run_scene(scene, "cap.toml", &Catalogue::builtin(), &out, &options)
+        .expect_err("a run stopped by the cap returned Ok");
+    assert_eq!(err.exit_code(), 1);
+    assert!(err.to_string().contains("the cap of 5 steps"), "{err}");
+    let report = err.partial_report().unwrap();
+    let failure = report.methods[0].failure.as_ref().unwrap();
+    assert_eq!((report.methods[0].steps, failure.step), (5, 6));
+    assert!(report.methods[0].t_end < 10.0);
+    let rows = std::fs::read_to_string(out.join("dth_trajectory.csv")).unwrap();
+    assert_eq!(rows.lines().count(), 1 + 6, "{rows}");
+    // A fixed-step method knows its steps: it is refused before it runs (exit 2).
+    let fixed = scene.replace("kind = \"dth\"\ndtau", "kind = \"midpoint\"\ndt");
+    let err = dth_examples::run_scene(&fixed, "cap.toml", &Catalogue::builtin(), &out, &options)
+        .unwrap_err();
+    assert_eq!(err.exit_code(), 2, "{err}");
+    assert!(
+        err.to_string().contains("would need 1.000e2 steps"),
+        "{err}"
+    );
+}

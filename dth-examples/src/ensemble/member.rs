@@ -12,8 +12,8 @@ use super::sample::{on_shell, Candidate, Shell};
 use crate::driver::Stop;
 use crate::effects::{Crossings, Effects};
 use crate::error::Error;
-use crate::method::run_method;
-use crate::scene::{ChaosIndicator, Members, MethodSpec, Scene};
+use crate::method::{run_method, unavailable};
+use crate::scene::{ChaosIndicator, EffectSpec, Members, MethodSpec, Scene};
 use crate::simulate::{initial_state, stop_for, Failure, RunOptions};
 use crate::system::SceneSystem;
 
@@ -158,7 +158,8 @@ where
 ///
 /// # Errors
 /// What fails for every member alike: a method not available for the system, an energy
-/// shell of a system that is not quadratic in the solved momentum.
+/// shell of a system that is not quadratic in the solved momentum. A method that cannot run
+/// from one member's state (`method::unavailable`) is a failed run of that member.
 pub fn run_member<D: Dim, S: SceneSystem<D>>(
     build: &Build<'_, S>,
     scene: &Scene,
@@ -233,9 +234,35 @@ where
         }
     };
     for m in &scene.methods {
-        result
-            .runs
-            .push(run_one(&system, scene, members.chaos, m, z0.clone(), stop)?);
+        let run = match unavailable(m, &system, &z0) {
+            // A method that cannot run from this member's state (e.g. `exact` on an unbound
+            // orbit) is this member's row, not the ensemble's end: the others complete.
+            Some(reason) => MemberRun {
+                method: m.label.clone(),
+                steps: 0,
+                t_end: scene.t0,
+                end: z0.iter().copied().collect(),
+                energy_error: 0.0,
+                failure: Some(Failure {
+                    step: 0,
+                    reason: format!("method `{}` cannot run: {reason}", m.label),
+                }),
+                megno: None,
+                lyapunov: None,
+                crossings: vec![Vec::new(); sections(scene)],
+            },
+            None => run_one(&system, scene, members.chaos, m, z0.clone(), stop)?,
+        };
+        result.runs.push(run);
     }
     Ok(result)
+}
+
+/// The number of `poincare` effects of `scene` (one list of crossings each).
+fn sections(scene: &Scene) -> usize {
+    scene
+        .effects
+        .iter()
+        .filter(|e| matches!(e, EffectSpec::Poincare { .. }))
+        .count()
 }

@@ -64,6 +64,7 @@ pub fn idle_report(scene: &Scene) -> RunReport {
         files: Vec::new(),
         table41: None,
         thesis_figures: Vec::new(),
+        thesis_figures_failure: None,
         ensemble: None,
     }
 }

@@ -73,7 +73,8 @@ pub fn write(dir: &Path, scene: &Scene, results: &[MethodResult]) -> Result<Vec<
         if let Some(rows) = &o.time_law {
             let mut s = String::from("step,t,lambda\n");
             for (k, t, lambda) in rows {
-                let _ = writeln!(s, "{k},{t:e},{lambda:e}");
+                let lambda = lambda.map_or(String::new(), |v| format!("{v:e}"));
+                let _ = writeln!(s, "{k},{t:e},{lambda}");
             }
             put(format!("{l}_time_law.csv"), s, &mut files)?;
         }

@@ -67,11 +67,12 @@ pub fn write(
                             Mark::Line,
                             rows.iter().map(|p| (p.0 as f64, p.1)),
                         ));
-                        if rows.iter().any(|p| p.2.is_finite()) {
+                        if rows.iter().any(|p| p.2.is_some()) {
                             fl = fl.with_series(PlotSeries::new(
                                 l,
                                 Mark::Line,
-                                rows.iter().map(|p| (p.0 as f64, p.2)),
+                                rows.iter()
+                                    .filter_map(|p| p.2.map(|lambda| (p.0 as f64, lambda))),
                             ));
                         }
                     }

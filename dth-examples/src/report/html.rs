@@ -4,7 +4,7 @@
 use std::fmt::Write as _;
 
 use super::table41::thesis_cells;
-use super::RunReport;
+use super::{deviation_cells, RunReport};
 use crate::scene::{Duration, Scene};
 
 /// Escapes text for HTML.
@@ -100,6 +100,13 @@ pub fn index(scene: &Scene, report: &RunReport) -> String {
         }
         h.push_str("</table>\n");
     }
+    if let Some(why) = &report.thesis_figures_failure {
+        let _ = writeln!(
+            h,
+            "<h2>The thesis's figures</h2>\n<p class=\"fail\">not drawn: {}</p>",
+            escape(why)
+        );
+    }
     if !report.thesis_figures.is_empty() {
         h.push_str("<h2>The thesis's figures</h2>\n");
         for f in &report.thesis_figures {
@@ -121,18 +128,13 @@ pub fn index(scene: &Scene, report: &RunReport) -> String {
         h.push_str("<h2>Deviations</h2>\n<p>Mean and maximum of |Q_k - Q_ref| over k = 1..N; for DTH at midpoints (reference zbar_0) and at vertices (reference the first vertex).</p>\n<table><tr><th>method</th><th>quantity</th><th>mean</th><th>max</th><th>vertices mean</th><th>vertices max</th></tr>\n");
         for m in &report.methods {
             for s in m.energy.iter().chain(&m.invariants) {
-                let (vm, vx) = s.vertices.map_or(("-".to_string(), "-".to_string()), |v| {
-                    (num(v.mean), num(v.max))
-                });
+                let (mean, max) = deviation_cells(Some(s.points), num);
+                let (vm, vx) = deviation_cells(s.vertices, num);
                 let _ = writeln!(
                     h,
-                    "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+                    "<tr><td>{}</td><td>{}</td><td>{mean}</td><td>{max}</td><td>{vm}</td><td>{vx}</td></tr>",
                     escape(&m.label),
                     escape(&s.name),
-                    num(s.points.mean),
-                    num(s.points.max),
-                    vm,
-                    vx
                 );
             }
         }

@@ -17,6 +17,7 @@ use std::path::{Path, PathBuf};
 
 use serde::Serialize;
 
+use crate::effects::Deviation;
 use crate::error::Error;
 use crate::simulate::MethodSummary;
 
@@ -41,6 +42,10 @@ pub struct RunReport {
     /// The thesis's figures (scenes with `thesis_figures = true`), in its order.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub thesis_figures: Vec<thesis::ThesisFigure>,
+    /// Why the thesis's figures were not drawn, when one of their runs failed (a scene with
+    /// `thesis_figures = true` whose method fails: the rest of the output is written).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub thesis_figures_failure: Option<String>,
     /// What an ensemble scene ran (`crate::ensemble`), counted; `None` for a single run.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub ensemble: Option<EnsembleCounts>,
@@ -70,13 +75,13 @@ impl RunReport {
                 if s.is_empty() {
                     s.push_str("| method | quantity | mean | max | vertices mean | vertices max |\n|---|---|---:|---:|---:|---:|\n");
                 }
-                let (vm, vx) = d.vertices.map_or(("-".to_string(), "-".to_string()), |v| {
-                    (format!("{:.3e}", v.mean), format!("{:.3e}", v.max))
-                });
+                let sci = |x: f64| format!("{x:.3e}");
+                let (mean, max) = deviation_cells(Some(d.points), sci);
+                let (vm, vx) = deviation_cells(d.vertices, sci);
                 let _ = writeln!(
                     s,
-                    "| {} | {} | {:.3e} | {:.3e} | {vm} | {vx} |",
-                    m.label, d.name, d.points.mean, d.points.max
+                    "| {} | {} | {mean} | {max} | {vm} | {vx} |",
+                    m.label, d.name
                 );
             }
         }
@@ -87,6 +92,21 @@ impl RunReport {
     pub fn failures(&self) -> impl Iterator<Item = &MethodSummary> {
         self.methods.iter().filter(|m| m.failure.is_some())
     }
+
+    /// `true` when the run computed everything the scene asked for: no method failed and the
+    /// thesis's figures (if asked for) were drawn.
+    pub fn complete(&self) -> bool {
+        self.failures().next().is_none() && self.thesis_figures_failure.is_none()
+    }
+}
+
+/// The mean and max cells of a deviation in a table, formatted by `format`; `-` where there is
+/// nothing to show (no vertices, or no state after the first: `Deviation::observed`).
+pub fn deviation_cells(d: Option<Deviation>, format: impl Fn(f64) -> String) -> (String, String) {
+    d.and_then(|d| d.observed())
+        .map_or(("-".to_string(), "-".to_string()), |(mean, max)| {
+            (format(mean), format(max))
+        })
 }
 
 /// Writes `contents` to `path`.

@@ -11,11 +11,11 @@ use toml::Spanned;
 pub(super) struct RawScene {
     pub(super) title: Option<String>,
     pub(super) description: Option<String>,
-    pub(super) system: Spanned<RawSystem>,
-    pub(super) initial: Spanned<RawInitial>,
+    pub(super) system: Option<Spanned<RawSystem>>,
+    pub(super) initial: Option<Spanned<RawInitial>>,
     #[serde(rename = "method")]
     pub(super) methods: Option<Spanned<Vec<Spanned<RawMethod>>>>,
-    pub(super) duration: Spanned<RawDuration>,
+    pub(super) duration: Option<Spanned<RawDuration>>,
     #[serde(rename = "effect", default)]
     pub(super) effects: Vec<Spanned<RawEffect>>,
     pub(super) ensemble: Option<Spanned<RawEnsemble>>,
@@ -47,7 +47,7 @@ pub(super) struct RawEnsemble {
 
 /// `[system]`: a catalogue system (`name`) or a Hamiltonian given as text (`hamiltonian`, and
 /// optionally a `title` naming it); exactly one of the two, checked in `super::validate`.
-#[derive(Deserialize)]
+#[derive(Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 pub(super) struct RawSystem {
     pub(super) name: Option<Spanned<String>>,
@@ -57,7 +57,7 @@ pub(super) struct RawSystem {
     pub(super) params: BTreeMap<Spanned<String>, Spanned<f64>>,
 }
 
-#[derive(Deserialize)]
+#[derive(Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 pub(super) struct RawInitial {
     pub(super) q: Option<Spanned<Vec<f64>>>,
@@ -78,7 +78,7 @@ pub(super) struct RawMethod {
     pub(super) order: Option<Spanned<i64>>,
 }
 
-#[derive(Deserialize)]
+#[derive(Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 pub(super) struct RawDuration {
     pub(super) steps: Option<Spanned<i64>>,

@@ -484,6 +484,13 @@ impl EffectKind {
         Self::ALL.into_iter().find(|k| k.name() == s)
     }
 
+    /// `true` when a scene may ask for it more than once (with different keys): each
+    /// `phase_plot` is a figure and each `poincare` a section of its own; a run keeps one of
+    /// every other effect.
+    pub fn repeatable(self) -> bool {
+        matches!(self, EffectKind::PhasePlot | EffectKind::Poincare)
+    }
+
     /// The keys a scene may give it (besides `kind`).
     pub fn keys(self) -> &'static [&'static str] {
         match self {
@@ -609,7 +616,8 @@ impl Members {
     /// The number of members drawn before the energy shell skips any.
     pub fn candidates(&self) -> usize {
         match &self.sampler {
-            Sampler::Grid { x, y } => x.1 * y.as_ref().map_or(1, |y| y.1),
+            // Saturating: two counts of up to 2^63 each; the memory estimate refuses the product.
+            Sampler::Grid { x, y } => x.1.saturating_mul(y.as_ref().map_or(1, |y| y.1)),
             Sampler::Random { samples, .. } => *samples,
             Sampler::List { rows, .. } => rows.len(),
         }

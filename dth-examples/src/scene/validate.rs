@@ -214,6 +214,18 @@ pub fn line_col(text: &str, offset: usize) -> (usize, usize) {
 /// assert!(err.to_string().contains("bad.toml:5:5: initial `p` has 1 value"));
 /// ```
 pub fn parse(text: &str, file: &str, systems: &dyn SystemLookup) -> Result<Scene, Error> {
+    let headers = header_mistakes(text);
+    if !headers.is_empty() {
+        let mut cx = Ctxt {
+            file,
+            text,
+            diagnostics: Vec::new(),
+        };
+        for (span, message) in headers {
+            cx.error(span, message);
+        }
+        return Err(Error::Scene(SceneErrors(cx.diagnostics)));
+    }
     let raw: RawScene = match toml::from_str(text) {
         Ok(raw) => raw,
         Err(e) => {
@@ -223,7 +235,7 @@ pub fn parse(text: &str, file: &str, systems: &dyn SystemLookup) -> Result<Scene
                 text,
                 diagnostics: Vec::new(),
             };
-            cx.error(span, e.message().trim().to_string());
+            cx.error(span, plain_types(e.message().trim()));
             return Err(Error::Scene(SceneErrors(cx.diagnostics)));
         }
     };
@@ -241,8 +253,15 @@ pub fn parse(text: &str, file: &str, systems: &dyn SystemLookup) -> Result<Scene
 
 fn validate(raw: RawScene, systems: &dyn SystemLookup, cx: &mut Ctxt<'_>) -> Option<Scene> {
     // The system: a catalogue name, or a Hamiltonian given as text (exactly one of the two).
-    let system_span = raw.system.span();
-    let system = raw.system.into_inner();
+    // A missing table is one error each, all reported at once (serde stopped at the first),
+    // and validation goes on with an empty one.
+    let missing_system = raw.system.is_none();
+    let (system_span, system) = table(
+        raw.system,
+        "system",
+        "`name` (a catalogue system, see `dth list`) or `hamiltonian` (H as text)",
+        cx,
+    );
     let mut hamiltonian = None;
     let (name, info, params) = match (&system.name, &system.hamiltonian) {
         (Some(name), None) => {
@@ -292,6 +311,7 @@ fn validate(raw: RawScene, systems: &dyn SystemLookup, cx: &mut Ctxt<'_>) -> Opt
             );
             (name.get_ref().clone(), None, BTreeMap::new())
         }
+        (None, None) if missing_system => (String::new(), None, BTreeMap::new()),
         (None, None) => {
             cx.error(
                 system_span,
@@ -303,10 +323,11 @@ fn validate(raw: RawScene, systems: &dyn SystemLookup, cx: &mut Ctxt<'_>) -> Opt
     let text = hamiltonian.is_some();
 
     // Initial state: q and p present, length n, finite.
-    let init_span = raw.initial.span();
-    let initial = raw.initial.into_inner();
+    let missing_initial = raw.initial.is_none();
+    let (init_span, initial) = table(raw.initial, "initial", "`q` and `p`", cx);
     let n = info.map(|i| i.n);
     let vector = |v: Option<Spanned<Vec<f64>>>, what: &str, cx: &mut Ctxt<'_>| match v {
+        None if missing_initial => None,
         None => {
             cx.error(
                 init_span.clone(),
@@ -409,10 +430,17 @@ fn validate(raw: RawScene, systems: &dyn SystemLookup, cx: &mut Ctxt<'_>) -> Opt
     }
 
     // Duration: exactly one of steps, time, orbits.
-    let dspan = raw.duration.span();
-    let d = raw.duration.into_inner();
+    let missing_duration = raw.duration.is_none();
+    let (dspan, d) = table(
+        raw.duration,
+        "duration",
+        "one of `steps`, `time`, `orbits`",
+        cx,
+    );
     let given = d.steps.is_some() as u8 + d.time.is_some() as u8 + d.orbits.is_some() as u8;
-    let duration = if given != 1 {
+    let duration = if missing_duration {
+        None
+    } else if given != 1 {
         cx.error(
             dspan,
             "duration: expected exactly one of `steps`, `time`, `orbits`",
@@ -446,11 +474,33 @@ fn validate(raw: RawScene, systems: &dyn SystemLookup, cx: &mut Ctxt<'_>) -> Opt
     };
 
     // Effects.
-    let mut effects = Vec::new();
-    let mut effect_spans = Vec::new();
+    let mut effects: Vec<EffectSpec> = Vec::new();
+    let mut effect_spans: Vec<Range<usize>> = Vec::new();
     for e in raw.effects {
         let span = e.get_ref().kind.span();
         if let Some(spec) = validate_effect(e, n, cx) {
+            // A run keeps one of each effect but `phase_plot` and `poincare` (one per figure
+            // or section): a second `energy_deviation` would silently replace the first, and
+            // a second identical figure or section would be computed twice.
+            let first = effects.iter().zip(&effect_spans).find(|(other, _)| {
+                **other == spec || (other.kind() == spec.kind() && !spec.kind().repeatable())
+            });
+            if let Some((_, at)) = first {
+                let (line, _) = line_col(cx.text, at.start);
+                cx.error(
+                    span,
+                    format!(
+                        "effect `{}` is asked twice (first on line {line}){}: remove one",
+                        spec.kind().name(),
+                        if spec.kind().repeatable() {
+                            " with the same keys"
+                        } else {
+                            ", and a run keeps one of it"
+                        }
+                    ),
+                );
+                continue;
+            }
             effects.push(spec);
             effect_spans.push(span);
         }
@@ -577,6 +627,26 @@ fn validate(raw: RawScene, systems: &dyn SystemLookup, cx: &mut Ctxt<'_>) -> Opt
         members,
         thesis_figures,
     })
+}
+
+/// The table `[name]` of the scene and its span; when it is missing, an error at the top of
+/// the file (`missing table [name]: expected ...`) and an empty table.
+fn table<T: Default>(
+    t: Option<Spanned<T>>,
+    name: &str,
+    expected: &str,
+    cx: &mut Ctxt<'_>,
+) -> (Range<usize>, T) {
+    match t {
+        Some(t) => (t.span(), t.into_inner()),
+        None => {
+            cx.error(
+                0..0,
+                format!("missing table `[{name}]`: expected {expected}"),
+            );
+            (0..0, T::default())
+        }
+    }
 }
 
 /// The catalogue system `name` with the scene's parameters `given`: known names only,
@@ -1115,6 +1185,56 @@ fn validate_effect(
             }
         }
     })
+}
+
+/// A TOML or serde message in the scene's words: TOML's types where serde names Rust's
+/// (`expected i64` is `expected an integer`, `map` a table, `sequence` an array).
+fn plain_types(message: &str) -> String {
+    let mut m = message.to_string();
+    for (rust, toml) in [
+        ("expected i64", "expected an integer"),
+        ("expected f64", "expected a number"),
+        ("expected a sequence", "expected an array"),
+        ("invalid type: map,", "invalid type: table,"),
+        ("invalid type: sequence,", "invalid type: array,"),
+        ("expected a map", "expected a table"),
+    ] {
+        m = m.replace(rust, toml);
+    }
+    m
+}
+
+/// Table headers of the wrong kind, each at its line: `[method]` or `[effect]` for the arrays
+/// of tables `[[method]]`, `[[effect]]`, and `[[system]]`, `[[initial]]`, `[[duration]]`,
+/// `[[ensemble]]` for those single tables. Found before serde, whose messages for them name
+/// types, not headers, and some at the top of the file.
+fn header_mistakes(text: &str) -> Vec<(Range<usize>, String)> {
+    let mut found = Vec::new();
+    let mut at = 0;
+    for line in text.split_inclusive('\n') {
+        let header = line.split('#').next().unwrap_or("").trim();
+        let start = at + line.len() - line.trim_start().len();
+        at += line.len();
+        let (one, many) = (
+            header.strip_prefix('[').and_then(|h| h.strip_suffix(']')),
+            header.strip_prefix("[[").and_then(|h| h.strip_suffix("]]")),
+        );
+        if let Some(name @ ("method" | "effect")) = one {
+            found.push((
+                start..start + header.len(),
+                format!("`[{name}]` is one table, but a scene has a list of them: write `[[{name}]]`, once per {name}"),
+            ));
+        }
+        if let Some(name @ ("system" | "initial" | "duration" | "ensemble")) = many {
+            found.push((
+                start..start + header.len(),
+                format!(
+                    "`[[{name}]]` makes a list of tables, but a scene has one: write `[{name}]`"
+                ),
+            ));
+        }
+    }
+    found
 }
 
 /// `"a, b and c"`.
