@@ -312,8 +312,12 @@ fn pivot_error(p: Pivot, step: usize) -> Error {
     }
 }
 
-/// `max |v_i|` (of finite entries; the callers check finiteness apart), as a branch-free fold:
-/// nalgebra's `amax` compares with branches, and this runs several times per Newton iterate.
+/// `max |v_i|` as a fold without early exit or branches (nalgebra's `amax` compares with
+/// branches, and this runs five times per Newton iterate: 2.4% of a thesis Kepler step). It
+/// drops a NaN entry (`f64::max`), and needs none: every call site's vector is made of finite
+/// numbers (an iterate and a vertex checked finite, `f` and `dz` built from them and from a
+/// gradient checked finite), where an overflow gives an infinity, not a NaN. (A NaN-keeping
+/// fold, with a compare per entry, measured as slow as `amax`.)
 fn amax<D: Dim>(v: &OVector<f64, D>) -> f64
 where
     DefaultAllocator: Alloc<D>,
