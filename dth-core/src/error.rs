@@ -26,6 +26,16 @@ pub enum Error {
          this Hamiltonian with a peer method instead"
     )]
     PsiIdenticallyZero,
+    /// The DTH stepper's initial midpoint is an equilibrium: `grad H(zbar_0) = 0` exactly. The
+    /// orbit stays at the point, and with `J grad H = 0` the step equation and the energy
+    /// condition hold for every `lambda` (`Psi = 0` there too): nothing determines DTH's time
+    /// step, and its Newton matrix is singular.
+    #[error(
+        "zbar_0 is an equilibrium (grad H = 0 there): the orbit stays at the point and DTH's \
+         energy condition does not determine lambda; start away from it, or integrate with a \
+         peer method, which keeps the point"
+    )]
+    Equilibrium,
     /// The phase space has an odd dimension: `z = (q, p)` needs `D = 2n`.
     #[error("phase space dimension {dim} is odd: z = (q1..qn, p1..pn) needs an even dimension")]
     OddDimension {

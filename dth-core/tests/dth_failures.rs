@@ -42,6 +42,34 @@ fn non_finite_hamiltonian_at_zbar0_is_rejected() {
 }
 
 #[test]
+fn an_equilibrium_start_is_refused_as_one() {
+    // The pendulum at rest hanging down (q = 0, p = 0): grad H = 0, every lambda solves the
+    // step, and Newton would meet a singular matrix at step 1.
+    let r = Dth::new(
+        Pendulum::normalized(),
+        Vector2::new(0.0, 0.0),
+        DthOptions::default(),
+    );
+    assert!(matches!(r, Err(Error::Equilibrium)), "{r:?}");
+    let e = integrate(
+        Pendulum::normalized(),
+        Vector2::zeros(),
+        DthOptions::default(),
+        10,
+    )
+    .expect_err("equilibrium");
+    assert!(matches!(e.error, Error::Equilibrium) && e.partial.is_empty());
+    // Next to it, DTH runs.
+    let mut dth = Dth::new(
+        Pendulum::normalized(),
+        Vector2::new(0.0, 1e-3),
+        DthOptions::default(),
+    )
+    .expect("a small oscillation");
+    dth.advance(10).expect("steps");
+}
+
+#[test]
 fn iteration_limit_gives_newton_diverged_with_data() {
     let options = DthOptions::default().with_max_iterations(1).expect("valid");
     for solver in [Solver::Joint, Solver::Nested] {

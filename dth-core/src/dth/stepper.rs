@@ -263,6 +263,9 @@ where
                 what: "H, grad H or Hess H at zbar_0",
             });
         }
+        if d.gradient.iter().all(|g| *g == 0.0) {
+            return Err(Error::Equilibrium);
+        }
         let tbar = if flags.time_dependent {
             // calH(zbar_0) must vanish (Theorem 1, eq. 11) to roundoff of its terms.
             let scale = zbar0.component_mul(&d.gradient).abs().sum().max(1.0);
