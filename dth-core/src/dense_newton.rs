@@ -15,7 +15,8 @@
 //! so `A (x, y) = (b1, b2)` is `S x = b1 + P b2`, `y = b2 - Q x`: one `m x m` LU (of the
 //! Schur complement of the lower identity block) instead of a `D x D` one, `det A = det S`.
 //! Forming `S` takes `2 m^3` operations and its LU `2 m^3 / 3`, half the `D x D` LU's
-//! `2 D^3 / 3`; a solve takes `3 m^2` multiply-adds against `D^2 = 4 m^2`.
+//! `2 D^3 / 3` (the pivot test's scale is an `O(m^2)` bound, below); a solve takes `3 m^2`
+//! multiply-adds against `D^2 = 4 m^2`.
 //! This path is taken when [`Flags::separable`](crate::Flags::separable) is set, the
 //! off-diagonal blocks of the Hessian are indeed zero (a flag that does not hold costs
 //! nothing in correctness) and the bound below holds; otherwise `A` is factored by the
@@ -46,13 +47,15 @@
 //! `b <= 1.8`, `min(a, b) <= 0.21` (counted over the unit test's 200-step runs).
 //!
 //! # Singularity
-//! The pivots of `S`'s LU are tested against the size of the terms `S` was formed from,
-//! `m eps max_ij (delta_ij + sum_k |P_ik Q_kj|)` (its entries' rounding errors are that size,
-//! so a pivot at or below it carries no correct digit): the dense LU's rule (`m eps
-//! max|A_ij|` for an `m x m` matrix) applied to `S` with the scale of its formation. Both
-//! report [`Pivot::Singular`]; a non-finite Hessian entry takes the pivoted LU, which reports
-//! it as before ([`Pivot::NonFinite`] for a NaN; an infinity makes its threshold infinite,
-//! [`Pivot::Singular`]).
+//! The pivots of `S`'s LU are tested against `m eps (1 + a b)`. `1 + a b` bounds the size of
+//! the terms `S` was formed from, `max_ij (delta_ij + sum_k |P_ik Q_kj|)`, from above
+//! (`sum_k |P_ik| |Q_kj| <= a max_kj |Q_kj| <= a b`) and costs nothing beyond the row sums the
+//! bound test already took; `S`'s entries' rounding errors are of that size, so a pivot at or
+//! below it carries no correct digit (the bound makes the test more conservative, never
+//! less). It is the dense LU's rule (`m eps max|A_ij|` for an `m x m` matrix) applied to `S`
+//! with the scale of its formation. Both report [`Pivot::Singular`]; a non-finite Hessian
+//! entry takes the pivoted LU, which reports it as before ([`Pivot::NonFinite`] for a NaN; an
+//! infinity makes its threshold infinite, [`Pivot::Singular`]).
 
 use crate::hamiltonian::{Alloc, Derivatives};
 use crate::linalg::{Lu, Pivot};
@@ -124,11 +127,20 @@ where
     /// complement when the [module docs](self)' conditions hold, by the pivoted LU otherwise.
     /// Errors as [`Lu::factor`]; the factorization is meaningless after one.
     pub(crate) fn factor(&mut self, c: f64) -> Result<(), Pivot> {
-        self.schur = self.separable && self.schur_is_stable(c);
-        if self.schur {
-            self.factor_schur(c)
+        let norms = if self.separable {
+            self.block_norms(c)
         } else {
-            self.factor_lu(c)
+            None
+        };
+        match norms {
+            Some((a, b)) if a.min(b) <= SCHUR_BOUND => {
+                self.schur = true;
+                self.factor_schur(c, a * b)
+            }
+            _ => {
+                self.schur = false;
+                self.factor_lu(c)
+            }
         }
     }
 
@@ -138,30 +150,31 @@ where
         self.schur
     }
 
-    /// Whether the Hessian is block diagonal, finite, and `min(c |H_pp|_inf, c |H_qq|_inf)` at
-    /// most [`SCHUR_BOUND`].
-    fn schur_is_stable(&self, c: f64) -> bool {
+    /// `(a, b) = (c |H_pp|_inf, c |H_qq|_inf)` (largest row sums) when the Hessian is block
+    /// diagonal and they are finite; `None` otherwise.
+    fn block_norms(&self, c: f64) -> Option<(f64, f64)> {
         let h = &self.derivatives.hessian;
         let m = h.nrows() / 2;
+        debug_assert!(h.nrows() % 2 == 0, "odd dimension {}", h.nrows());
         let (mut a, mut b) = (0.0f64, 0.0f64);
         for i in 0..m {
             let (mut row_p, mut row_q) = (0.0, 0.0);
             for j in 0..m {
                 if h[(i, m + j)] != 0.0 || h[(m + i, j)] != 0.0 {
-                    return false;
+                    return None;
                 }
                 row_p += h[(m + i, m + j)].abs();
                 row_q += h[(i, j)].abs();
             }
             // `f64::max` drops a NaN: finiteness is tested on its own.
             if !(row_p.is_finite() && row_q.is_finite()) {
-                return false;
+                return None;
             }
             a = a.max(row_p);
             b = b.max(row_q);
         }
         let (a, b) = (c.abs() * a, c.abs() * b);
-        a.is_finite() && b.is_finite() && a.min(b) <= SCHUR_BOUND
+        (a.is_finite() && b.is_finite()).then_some((a, b))
     }
 
     /// `A` entry by entry, `delta_ij - c (J Hess)_ij`, factored by the pivoted LU.
@@ -183,11 +196,12 @@ where
     }
 
     /// `S = I + P Q` into the leading block, `P` to its right, `Q` below it, and `S` factored
-    /// with the pivot test of the [module docs](self) (whatever the bound: the tests call it
-    /// beyond).
-    fn factor_schur(&mut self, c: f64) -> Result<(), Pivot> {
+    /// with the pivot test of the [module docs](self), `ab` being `|P|_inf |Q|_inf` (whatever
+    /// the bound: the tests call it beyond).
+    fn factor_schur(&mut self, c: f64, ab: f64) -> Result<(), Pivot> {
         let h = &self.derivatives.hessian;
         let m = h.nrows() / 2;
+        debug_assert!(h.nrows() % 2 == 0, "odd dimension {}", h.nrows());
         let a = self.lu.storage_mut();
         for j in 0..m {
             for i in 0..m {
@@ -195,21 +209,19 @@ where
                 a[(m + i, j)] = c * h[(i, j)];
             }
         }
-        let mut scale = 0.0f64;
         for j in 0..m {
             for i in 0..m {
-                let (mut s, mut size) = (if i == j { 1.0 } else { 0.0 }, 0.0);
+                let mut s = if i == j { 1.0 } else { 0.0 };
                 for k in 0..m {
-                    let t = a[(i, m + k)] * a[(m + k, j)];
-                    s += t;
-                    size += t.abs();
+                    s += a[(i, m + k)] * a[(m + k, j)];
                 }
                 a[(i, j)] = s;
-                scale = scale.max(size + if i == j { 1.0 } else { 0.0 });
             }
         }
+        // `1 + a b` bounds the size of the terms `S` is formed from,
+        // `max_ij (delta_ij + sum_k |P_ik Q_kj|)`, from above (module docs).
         self.lu
-            .eliminate_leading(m, m as f64 * f64::EPSILON * scale)
+            .eliminate_leading(m, m as f64 * f64::EPSILON * (1.0 + ab))
     }
 
     /// `x = A^{-1} b` with the last factorization (`x` and `b` distinct).
@@ -504,7 +516,8 @@ mod tests {
         let b = Vector4::from(B);
         let mut dense = two_blocks(1e6, 1e6);
         dense.schur = true;
-        dense.factor_schur(1.0).expect("nonsingular");
+        let (norm_p, norm_q) = dense.block_norms(1.0).expect("block diagonal");
+        dense.factor_schur(1.0, norm_p * norm_q).expect("nonsingular");
         let mut x = b;
         dense.solve_into(&b, &mut x);
         let forced = relative_residual(&newton_matrix(&dense, 1.0), &x, &b);
