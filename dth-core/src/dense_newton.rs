@@ -53,7 +53,16 @@
 //! bound test already took; `S`'s entries' rounding errors are of that size, so a pivot at or
 //! below it carries no correct digit (the bound makes the test more conservative, never
 //! less). It is the dense LU's rule (`m eps max|A_ij|` for an `m x m` matrix) applied to `S`
-//! with the scale of its formation. Both report [`Pivot::Singular`]; a non-finite Hessian
+//! with the scale of its formation.
+//!
+//! It is not the rule the pivoted LU applies to the same `A`: that one tests `A`'s pivots
+//! against `D eps max|A_ij| = 2m eps max(1, max|P_ij|, max|Q_ij|)`, and these are other
+//! pivots (only their products agree, `det A = det S`) against another scale. Neither rule
+//! implies the other: a matrix whose smallest pivot is within a small factor of either
+//! threshold may be reported singular on one path and not on the other (each is right that
+//! its own solve would carry few or no correct digits). Far from the thresholds they agree, and
+//! a unit test puts pivots at half and twice the Schur threshold, at `a b ~ 1` and at
+//! `a ~ 1e-3, b ~ 1e6`. Both report [`Pivot::Singular`]; a non-finite Hessian
 //! entry takes the pivoted LU, which reports it as before ([`Pivot::NonFinite`] for a NaN; an
 //! infinity makes its threshold infinite, [`Pivot::Singular`]).
 
@@ -569,6 +578,42 @@ mod tests {
         dense.derivatives.hessian[(3, 0)] = 0.5;
         let (residual, taken) = residual_of_chosen(&mut dense, 0.3, &Vector4::from(B));
         assert!(!taken && residual <= tolerance(2), "{residual} eps");
+    }
+
+    #[test]
+    fn pivots_at_half_and_twice_the_threshold() {
+        // D = 2, c = 1, P = 1 - delta, Q = -1: S = delta exactly, a b = 1 - delta, threshold
+        // eps (2 - delta) ~ 2 eps. The LU on A = [[1, -P], [-1, 1]] meets the same pivot
+        // (delta, exactly) against its own 2 eps max|A_ij| = 2 eps: the rules agree here.
+        for (k, singular) in [(0.5, true), (2.0, false)] {
+            let delta = k * 2.0 * EPS;
+            let mut dense = separable(Const::<2>, &[-1.0], &[1.0 - delta]);
+            let want = if singular { Err(Pivot::Singular) } else { Ok(()) };
+            assert_eq!(dense.factor(1.0), want, "{k} x the threshold");
+            assert!(dense.is_schur());
+            assert_eq!(dense.factor_lu(1.0), want, "LU, {k} x the threshold");
+        }
+        // A large scale: P = 2^-10 I, Q = 2^10 [[512, y], [y, 512]] (a = 2^-10 ~ 1e-3,
+        // b = 2^10 (512 + y) ~ 1e6, a b = 512 + y), so S = [[513, y], [y, 513]] exactly. With
+        // y = 513 - delta its second pivot is delta (1026 - delta) / 513 ~ 2 delta, up to the
+        // rounding of the elimination (~ 513 eps ~ 1.1e-13, a quarter of the threshold
+        // 2 eps (1 + a b) ~ 4.6e-13).
+        for (k, singular) in [(0.5, true), (2.0, false)] {
+            let y = 513.0 - k * 1025.0 * EPS;
+            let delta = 513.0 - y; // exact (Sterbenz)
+            let threshold = 2.0 * EPS * (1.0 + 512.0 + y);
+            let ratio = delta * (1026.0 - delta) / 513.0 / threshold;
+            assert!((ratio / k - 1.0).abs() < 0.1, "pivot {ratio} x the threshold");
+            let scale = 1024.0;
+            let h_qq = [512.0, y, y, 512.0].map(|x| x * scale);
+            let mut dense = separable(Const::<4>, &h_qq, &[1.0 / scale, 0.0, 0.0, 1.0 / scale]);
+            let want = if singular { Err(Pivot::Singular) } else { Ok(()) };
+            assert_eq!(dense.factor(1.0), want, "{k} x the threshold");
+            assert!(dense.is_schur());
+            // The LU tests A's own pivots against 4 eps max|A_ij| ~ 4 eps 5e5 and reports
+            // both singular, twice the Schur threshold included: the rules differ here.
+            assert_eq!(dense.factor_lu(1.0), Err(Pivot::Singular), "LU, {k}");
+        }
     }
 
     #[test]
