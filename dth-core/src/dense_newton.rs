@@ -610,32 +610,6 @@ mod tests {
     }
 
     #[test]
-    fn non_finite_hessians_and_wrong_flags_take_the_lu() {
-        // A NaN or an infinity in either block: the pivoted LU's typed error, as before
-        // (NaN is `NonFinite`; an infinity makes its singularity threshold infinite).
-        for (bad, want) in [
-            (f64::NAN, Pivot::NonFinite),
-            (f64::INFINITY, Pivot::Singular),
-        ] {
-            for (h_qq, h_pp) in [
-                ([1.0, 0.0, 0.0, bad], [1.0; 4]),
-                ([1.0; 4], [0.0, 0.0, 0.0, bad]),
-            ] {
-                let mut dense = separable(Const::<4>, &h_qq, &h_pp);
-                assert_eq!(dense.factor(0.1), Err(want), "{bad}");
-                assert!(!dense.is_schur());
-                assert_eq!(dense.factor_lu(0.1), Err(want), "{bad}");
-            }
-        }
-        // Flagged separable, but H_qp = 0.5: the LU, and the solve is right.
-        let mut dense = two_blocks(1.0, 1.0);
-        dense.derivatives.hessian[(0, 3)] = 0.5;
-        dense.derivatives.hessian[(3, 0)] = 0.5;
-        let (residual, taken) = residual_of_chosen(&mut dense, 0.3, &Vector4::from(B));
-        assert!(!taken && residual <= tolerance(2), "{residual} eps");
-    }
-
-    #[test]
     fn pivots_at_half_and_twice_the_threshold() {
         // D = 2, c = 1, P = 1 - delta, Q = -1: S = delta exactly, a b = 1 - delta, threshold
         // eps (2 - delta) ~ 2 eps. The LU on A = [[1, -P], [-1, 1]] meets the same pivot
@@ -669,6 +643,32 @@ mod tests {
             // both singular, twice the Schur threshold included: the rules differ here.
             assert_eq!(dense.factor_lu(1.0), Err(Pivot::Singular), "LU, {k}");
         }
+    }
+
+    #[test]
+    fn non_finite_hessians_and_wrong_flags_take_the_lu() {
+        // A NaN or an infinity in either block: the pivoted LU's typed error, as before
+        // (NaN is `NonFinite`; an infinity makes its singularity threshold infinite).
+        for (bad, want) in [
+            (f64::NAN, Pivot::NonFinite),
+            (f64::INFINITY, Pivot::Singular),
+        ] {
+            for (h_qq, h_pp) in [
+                ([1.0, 0.0, 0.0, bad], [1.0; 4]),
+                ([1.0; 4], [0.0, 0.0, 0.0, bad]),
+            ] {
+                let mut dense = separable(Const::<4>, &h_qq, &h_pp);
+                assert_eq!(dense.factor(0.1), Err(want), "{bad}");
+                assert!(!dense.is_schur());
+                assert_eq!(dense.factor_lu(0.1), Err(want), "{bad}");
+            }
+        }
+        // Flagged separable, but H_qp = 0.5: the LU, and the solve is right.
+        let mut dense = two_blocks(1.0, 1.0);
+        dense.derivatives.hessian[(0, 3)] = 0.5;
+        dense.derivatives.hessian[(3, 0)] = 0.5;
+        let (residual, taken) = residual_of_chosen(&mut dense, 0.3, &Vector4::from(B));
+        assert!(!taken && residual <= tolerance(2), "{residual} eps");
     }
 
     #[test]
@@ -731,6 +731,37 @@ mod tests {
         fn energy_difference(&self, z0: &Vector4<f64>, z1: &Vector4<f64>) -> f64 {
             self.0.energy_difference(z0, z1)
         }
+    }
+
+    /// Factor `A(H1, c)` with `H1` the Hessian of `h` at `z1`, evaluate `h` at two other
+    /// points (the fused evaluation, then the Hessian alone), then solve: the residual
+    /// against `A(H1, c)` is roundoff. The DTH simplified Newton relies on this: it solves
+    /// with a kept factorization after evaluating `H` at new iterates. Whether the path was
+    /// the Schur complement's.
+    fn solves_with_the_kept_factorization<H: Hamiltonian<Const<4>>>(h: &H) -> bool {
+        let c = 0.075;
+        let b = Vector4::from(B);
+        let mut dense = DenseNewton::new(Const::<4>);
+        dense.derivatives_at(h, &Vector4::new(0.5, 0.1, 0.2, 1.2));
+        dense.factor(c).expect("factor");
+        let a1 = newton_matrix(&dense, c);
+        dense.derivatives_at(h, &Vector4::new(-0.3, 0.8, 1.0, -0.4));
+        assert!((newton_matrix(&dense, c) - a1).amax() > 1e-3, "the Hessian must change");
+        dense.hessian_at(h, &Vector4::new(0.9, -0.6, 0.1, 0.3));
+        assert!((newton_matrix(&dense, c) - a1).amax() > 1e-3, "the Hessian must change");
+        let mut x = Vector4::zeros();
+        dense.solve_into(&b, &mut x);
+        let residual = relative_residual(&a1, &x, &b);
+        assert!(residual <= tolerance(2), "{residual} eps");
+        dense.is_schur()
+    }
+
+    #[test]
+    fn a_kept_factorization_solves_with_the_matrix_it_was_factored_from() {
+        assert!(solves_with_the_kept_factorization(&Kepler::thesis()));
+        assert!(!solves_with_the_kept_factorization(&Unflagged(
+            Kepler::thesis()
+        )));
     }
 
     /// DTH with `steps` steps from `z0`: the final midpoint and lambda.
