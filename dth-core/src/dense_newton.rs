@@ -70,7 +70,7 @@
 use crate::hamiltonian::{Alloc, Derivatives};
 use crate::linalg::{Lu, Pivot};
 use crate::Hamiltonian;
-use nalgebra::{DefaultAllocator, Dim, OVector};
+use nalgebra::{DefaultAllocator, Dim, OMatrix, OVector};
 
 /// The largest `min(c |H_pp|_inf, c |H_qq|_inf)` for which a separable Newton matrix is
 /// factored through its Schur complement (see the [module docs](self): its backward error
@@ -174,6 +174,14 @@ where
     /// The derivatives last evaluated.
     pub(crate) fn derivatives(&self) -> &Derivatives<D> {
         &self.derivatives
+    }
+
+    /// The Hessian last evaluated and the factorization's storage, for a caller done solving
+    /// with it that needs a `D x D` factorization of its own (Gauss-Legendre's second one):
+    /// [`solve_into`](Self::solve_into) is meaningless until the next
+    /// [`factor`](Self::factor).
+    pub(crate) fn hessian_and_spare_lu(&mut self) -> (&OMatrix<f64, D, D>, &mut Lu<D>) {
+        (&self.derivatives.hessian, &mut self.lu)
     }
 
     /// Factor `A = I - c J Hess` with the Hessian last evaluated: through the Schur
