@@ -225,7 +225,7 @@ where
     fn block_norms(&self, c: f64) -> Option<(f64, f64)> {
         let h = &self.derivatives.hessian;
         let m = h.nrows() / 2;
-        debug_assert!(h.nrows() % 2 == 0, "odd dimension {}", h.nrows());
+        debug_assert!(h.nrows().is_multiple_of(2), "odd dimension {}", h.nrows());
         let (mut a, mut b) = (0.0f64, 0.0f64);
         for i in 0..m {
             let (mut row_p, mut row_q) = (0.0, 0.0);
@@ -271,7 +271,7 @@ where
     fn factor_schur(&mut self, c: f64, ab: f64) -> Result<(), Pivot> {
         let h = &self.derivatives.hessian;
         let m = h.nrows() / 2;
-        debug_assert!(h.nrows() % 2 == 0, "odd dimension {}", h.nrows());
+        debug_assert!(h.nrows().is_multiple_of(2), "odd dimension {}", h.nrows());
         let a = self.lu.storage_mut();
         for j in 0..m {
             for i in 0..m {
@@ -452,6 +452,7 @@ mod tests {
         s
     }
 
+    /// `|S|_inf` (the largest row sum) of the column-major `m x m` matrix `s`.
     fn inf_norm(m: usize, s: &[f64]) -> f64 {
         (0..m)
             .map(|i| (0..m).map(|j| s[i + m * j].abs()).sum::<f64>())
@@ -494,6 +495,8 @@ mod tests {
         Ok(())
     }
 
+    /// The random entries of one case at `D = 2m`: `H_qq`'s and `H_pp`'s `m x m` (before
+    /// [`symmetric`]), then the right-hand side's `2m`, all in `[-1, 1)`.
     fn raw(m: usize) -> impl Strategy<Value = Vec<f64>> {
         prop::collection::vec(-1.0..1.0f64, 2 * m * m + 2 * m)
     }
@@ -563,7 +566,8 @@ mod tests {
     #[test]
     fn the_bound_is_on_the_smaller_block() {
         let b = Vector4::from(B);
-        // |H_pp|_inf = 1.3, |H_qq|_inf = 1.5 s: at c = 1/1.3 (1 +- 1e-12), a = 1 -+ ...
+        // |H_pp|_inf = 1.3, |H_qq|_inf = 1.5 s = 15: at c = (1 -+ 1e-12) / 1.3, a = 1 -+ 1e-12
+        // and b ~ 11.5, so min(a, b) = a, just below and just above the bound.
         for (factor, schur) in [(1.0 - 1e-12, true), (1.0 + 1e-12, false)] {
             let mut dense = two_blocks(10.0, 1.0);
             let (residual, taken) = residual_of_chosen(&mut dense, factor / 1.3, &b);
@@ -571,7 +575,8 @@ mod tests {
             assert!(residual <= tolerance(2), "{residual} eps");
         }
         // One block huge, the other small (a light mass in a soft potential, or a stiff
-        // potential at a small step): min(a, b) = 1.3e-3, the Schur path and roundoff.
+        // potential at a small step): min(a, b) = 1.5e-3 and 1.3e-3, the Schur path and
+        // roundoff.
         for (s, t) in [(1e-3, 1e6), (1e6, 1e-3)] {
             let mut dense = two_blocks(s, t);
             let (residual, taken) = residual_of_chosen(&mut dense, 1.0, &b);
@@ -589,7 +594,9 @@ mod tests {
         let mut dense = two_blocks(1e6, 1e6);
         dense.schur = true;
         let (norm_p, norm_q) = dense.block_norms(1.0).expect("block diagonal");
-        dense.factor_schur(1.0, norm_p * norm_q).expect("nonsingular");
+        dense
+            .factor_schur(1.0, norm_p * norm_q)
+            .expect("nonsingular");
         let mut x = b;
         dense.solve_into(&b, &mut x);
         let forced = relative_residual(&newton_matrix(&dense, 1.0), &x, &b);
@@ -625,7 +632,11 @@ mod tests {
         for (k, singular) in [(0.5, true), (2.0, false)] {
             let delta = k * 2.0 * EPS;
             let mut dense = separable(Const::<2>, &[-1.0], &[1.0 - delta]);
-            let want = if singular { Err(Pivot::Singular) } else { Ok(()) };
+            let want = if singular {
+                Err(Pivot::Singular)
+            } else {
+                Ok(())
+            };
             assert_eq!(dense.factor(1.0), want, "{k} x the threshold");
             assert!(dense.is_schur());
             assert_eq!(dense.factor_lu(1.0), want, "LU, {k} x the threshold");
@@ -640,11 +651,18 @@ mod tests {
             let delta = 513.0 - y; // exact (Sterbenz)
             let threshold = 2.0 * EPS * (1.0 + 512.0 + y);
             let ratio = delta * (1026.0 - delta) / 513.0 / threshold;
-            assert!((ratio / k - 1.0).abs() < 0.1, "pivot {ratio} x the threshold");
+            assert!(
+                (ratio / k - 1.0).abs() < 0.1,
+                "pivot {ratio} x the threshold"
+            );
             let scale = 1024.0;
             let h_qq = [512.0, y, y, 512.0].map(|x| x * scale);
             let mut dense = separable(Const::<4>, &h_qq, &[1.0 / scale, 0.0, 0.0, 1.0 / scale]);
-            let want = if singular { Err(Pivot::Singular) } else { Ok(()) };
+            let want = if singular {
+                Err(Pivot::Singular)
+            } else {
+                Ok(())
+            };
             assert_eq!(dense.factor(1.0), want, "{k} x the threshold");
             assert!(dense.is_schur());
             // The LU tests A's own pivots against 4 eps max|A_ij| ~ 4 eps 5e5 and reports
@@ -682,7 +700,7 @@ mod tests {
     #[test]
     fn kepler_takes_the_schur_path_at_the_thesis_settings() {
         // The peers' entry point at the midpoint rule's c = dt/2 = 0.075 near the thesis
-        // orbit's pericentre (r = 0.5): c |H_pp| = 0.15, the Schur path; Dyn storage alike.
+        // orbit's pericentre (r = 0.5): c |H_pp| = 0.15, the Schur path.
         let mut dense = DenseNewton::new(Const::<4>);
         let (y, mut x) = (Vector4::new(0.5, 0.1, 0.2, 1.2), Vector4::zeros());
         let b = Vector4::from(B);
@@ -754,9 +772,15 @@ mod tests {
         dense.factor(c).expect("factor");
         let a1 = newton_matrix(&dense, c);
         dense.derivatives_at(h, &Vector4::new(-0.3, 0.8, 1.0, -0.4));
-        assert!((newton_matrix(&dense, c) - a1).amax() > 1e-3, "the Hessian must change");
+        assert!(
+            (newton_matrix(&dense, c) - a1).amax() > 1e-3,
+            "the Hessian must change"
+        );
         dense.hessian_at(h, &Vector4::new(0.9, -0.6, 0.1, 0.3));
-        assert!((newton_matrix(&dense, c) - a1).amax() > 1e-3, "the Hessian must change");
+        assert!(
+            (newton_matrix(&dense, c) - a1).amax() > 1e-3,
+            "the Hessian must change"
+        );
         let mut x = Vector4::zeros();
         dense.solve_into(&b, &mut x);
         let residual = relative_residual(&a1, &x, &b);
@@ -793,8 +817,9 @@ mod tests {
     /// solver; Kepler's flow then shears such differences (an energy perturbation `delta`
     /// moves the frequency by about `delta`, the phase after the `N - k` remaining steps by
     /// `(N - k) delta`), and `N` per-step roundoffs of random sign add to about
-    /// `sqrt(N) N eps` times the size of the state (or of `lambda`). Measured: 0.05 to 0.2 of this at `N = 100..800` (DTH and midpoint,
-    /// Kepler; Henon-Heiles at this regular orbit agrees to the bit).
+    /// `sqrt(N) N eps` times the size of the state (or of `lambda`). Measured: 0.05 to 0.2 of
+    /// this at `N = 100..800` (DTH and midpoint, Kepler; Henon-Heiles at this regular orbit
+    /// agrees to the bit).
     fn shear_tolerance(steps: usize, size: f64) -> f64 {
         EPS * (steps as f64).powf(1.5) * size
     }
