@@ -15,7 +15,8 @@
 //! so `A (x, y) = (b1, b2)` is `S x = b1 + P b2`, `y = b2 - Q x`: one `m x m` LU (of the
 //! Schur complement of the lower identity block) instead of a `D x D` one, `det A = det S`.
 //! Forming `S` takes `2 m^3` operations and its LU `2 m^3 / 3`, half the `D x D` LU's
-//! `2 D^3 / 3`; a solve takes `3 m^2` multiply-adds against `D^2 = 4 m^2`.
+//! `2 D^3 / 3` (the pivot test's scale is an `O(m^2)` bound, below); a solve takes `3 m^2`
+//! multiply-adds against `D^2 = 4 m^2`.
 //! This path is taken when [`Flags::separable`](crate::Flags::separable) is set, the
 //! off-diagonal blocks of the Hessian are indeed zero (a flag that does not hold costs
 //! nothing in correctness) and the bound below holds; otherwise `A` is factored by the
@@ -43,26 +44,81 @@
 //! half a time step over a mass, whatever the stiffness of `V` (`b` may be large). On the
 //! thesis Kepler orbit (`m = 1/2`, mean `dt` 0.15) and a Henon-Heiles orbit, DTH and the
 //! midpoint rule at `dt = 0.15`, every factorization takes the Schur path: `a <= 0.26`,
-//! `b <= 1.8`, `min(a, b) <= 0.21` (counted over the unit test's 200-step runs).
+//! `b <= 1.8`, `min(a, b) <= 0.22` (measured by the unit test's 200-step runs, which also
+//! count the factorizations and Newton iterations: the same on both paths).
 //!
 //! # Singularity
-//! The pivots of `S`'s LU are tested against the size of the terms `S` was formed from,
-//! `m eps max_ij (delta_ij + sum_k |P_ik Q_kj|)` (its entries' rounding errors are that size,
-//! so a pivot at or below it carries no correct digit): the dense LU's rule (`m eps
-//! max|A_ij|` for an `m x m` matrix) applied to `S` with the scale of its formation. Both
-//! report [`Pivot::Singular`]; a non-finite Hessian entry takes the pivoted LU, which reports
-//! it as before ([`Pivot::NonFinite`] for a NaN; an infinity makes its threshold infinite,
-//! [`Pivot::Singular`]).
+//! The pivots of `S`'s LU are tested against `m eps (1 + a b)`. `1 + a b` bounds the size of
+//! the terms `S` was formed from, `max_ij (delta_ij + sum_k |P_ik Q_kj|)`, from above
+//! (`sum_k |P_ik| |Q_kj| <= a max_kj |Q_kj| <= a b`) and costs nothing beyond the row sums the
+//! bound test already took; `S`'s entries' rounding errors are of that size, so a pivot at or
+//! below it carries no correct digit (the bound makes the test more conservative, never
+//! less). It is the dense LU's rule (`m eps max|A_ij|` for an `m x m` matrix) applied to `S`
+//! with the scale of its formation.
+//!
+//! It is not the rule the pivoted LU applies to the same `A`: that one tests `A`'s pivots
+//! against `D eps max|A_ij| = 2m eps max(1, max|P_ij|, max|Q_ij|)`, and these are other
+//! pivots (only their products agree, `det A = det S`) against another scale. Neither rule
+//! implies the other: a matrix whose smallest pivot is within a small factor of either
+//! threshold may be reported singular on one path and not on the other (each is right that
+//! its own solve would carry few or no correct digits). Far from the thresholds they agree, and
+//! a unit test puts pivots at half and twice the Schur threshold, at `a b ~ 1` and at
+//! `a ~ 1e-3, b ~ 1e6`. Both report [`Pivot::Singular`]; a non-finite Hessian
+//! entry takes the pivoted LU, which reports it as before ([`Pivot::NonFinite`] for a NaN; an
+//! infinity makes its threshold infinite, [`Pivot::Singular`]).
 
 use crate::hamiltonian::{Alloc, Derivatives};
 use crate::linalg::{Lu, Pivot};
 use crate::Hamiltonian;
-use nalgebra::{DefaultAllocator, Dim, OVector};
+use nalgebra::{DefaultAllocator, Dim, OMatrix, OVector};
 
 /// The largest `min(c |H_pp|_inf, c |H_qq|_inf)` for which a separable Newton matrix is
 /// factored through its Schur complement (see the [module docs](self): its backward error
 /// stays within twice that of the pivoted LU's bound).
 pub(crate) const SCHUR_BOUND: f64 = 1.0;
+
+/// Per-thread counts of [`DenseNewton`]'s factorizations and solves, with the largest block
+/// norms of its Schur factorizations: how the tests see which path an integrator's solves
+/// take (each test runs on its own thread).
+#[cfg(test)]
+pub(crate) mod census {
+    use std::cell::Cell;
+
+    /// The counts since the last [`take`].
+    #[derive(Clone, Copy, Debug, Default, PartialEq)]
+    pub(crate) struct Census {
+        /// Factorizations through the Schur complement.
+        pub(crate) schur: usize,
+        /// Factorizations by the pivoted LU.
+        pub(crate) lu: usize,
+        /// Solves (one per Newton iteration).
+        pub(crate) solves: usize,
+        /// The largest `a = c |H_pp|_inf` of the Schur factorizations.
+        pub(crate) a: f64,
+        /// The largest `b = c |H_qq|_inf` of the Schur factorizations.
+        pub(crate) b: f64,
+        /// The largest `min(a, b)` of the Schur factorizations.
+        pub(crate) min_ab: f64,
+    }
+
+    thread_local! {
+        static CENSUS: Cell<Census> = Cell::new(Census::default());
+    }
+
+    /// The counts of this thread since the last call, reset to zero.
+    pub(crate) fn take() -> Census {
+        CENSUS.with(Cell::take)
+    }
+
+    /// Update this thread's counts.
+    pub(crate) fn record(f: impl FnOnce(&mut Census)) {
+        CENSUS.with(|cell| {
+            let mut census = cell.get();
+            f(&mut census);
+            cell.set(census);
+        });
+    }
+}
 
 /// The derivatives of `H` at the iterate and the factorization of `A = I - c J Hess H`.
 ///
@@ -120,15 +176,41 @@ where
         &self.derivatives
     }
 
+    /// The Hessian last evaluated and the factorization's storage, for a caller done solving
+    /// with it that needs a `D x D` factorization of its own (Gauss-Legendre's second one):
+    /// [`solve_into`](Self::solve_into) is meaningless until the next
+    /// [`factor`](Self::factor).
+    pub(crate) fn hessian_and_spare_lu(&mut self) -> (&OMatrix<f64, D, D>, &mut Lu<D>) {
+        (&self.derivatives.hessian, &mut self.lu)
+    }
+
     /// Factor `A = I - c J Hess` with the Hessian last evaluated: through the Schur
     /// complement when the [module docs](self)' conditions hold, by the pivoted LU otherwise.
     /// Errors as [`Lu::factor`]; the factorization is meaningless after one.
     pub(crate) fn factor(&mut self, c: f64) -> Result<(), Pivot> {
-        self.schur = self.separable && self.schur_is_stable(c);
-        if self.schur {
-            self.factor_schur(c)
+        let norms = if self.separable {
+            self.block_norms(c)
         } else {
-            self.factor_lu(c)
+            None
+        };
+        match norms {
+            Some((a, b)) if a.min(b) <= SCHUR_BOUND => {
+                #[cfg(test)]
+                census::record(|n| {
+                    n.schur += 1;
+                    n.a = n.a.max(a);
+                    n.b = n.b.max(b);
+                    n.min_ab = n.min_ab.max(a.min(b));
+                });
+                self.schur = true;
+                self.factor_schur(c, a * b)
+            }
+            _ => {
+                #[cfg(test)]
+                census::record(|n| n.lu += 1);
+                self.schur = false;
+                self.factor_lu(c)
+            }
         }
     }
 
@@ -138,30 +220,31 @@ where
         self.schur
     }
 
-    /// Whether the Hessian is block diagonal, finite, and `min(c |H_pp|_inf, c |H_qq|_inf)` at
-    /// most [`SCHUR_BOUND`].
-    fn schur_is_stable(&self, c: f64) -> bool {
+    /// `(a, b) = (c |H_pp|_inf, c |H_qq|_inf)` (largest row sums) when the Hessian is block
+    /// diagonal and they are finite; `None` otherwise.
+    fn block_norms(&self, c: f64) -> Option<(f64, f64)> {
         let h = &self.derivatives.hessian;
         let m = h.nrows() / 2;
+        debug_assert!(h.nrows().is_multiple_of(2), "odd dimension {}", h.nrows());
         let (mut a, mut b) = (0.0f64, 0.0f64);
         for i in 0..m {
             let (mut row_p, mut row_q) = (0.0, 0.0);
             for j in 0..m {
                 if h[(i, m + j)] != 0.0 || h[(m + i, j)] != 0.0 {
-                    return false;
+                    return None;
                 }
                 row_p += h[(m + i, m + j)].abs();
                 row_q += h[(i, j)].abs();
             }
             // `f64::max` drops a NaN: finiteness is tested on its own.
             if !(row_p.is_finite() && row_q.is_finite()) {
-                return false;
+                return None;
             }
             a = a.max(row_p);
             b = b.max(row_q);
         }
         let (a, b) = (c.abs() * a, c.abs() * b);
-        a.is_finite() && b.is_finite() && a.min(b) <= SCHUR_BOUND
+        (a.is_finite() && b.is_finite()).then_some((a, b))
     }
 
     /// `A` entry by entry, `delta_ij - c (J Hess)_ij`, factored by the pivoted LU.
@@ -183,11 +266,12 @@ where
     }
 
     /// `S = I + P Q` into the leading block, `P` to its right, `Q` below it, and `S` factored
-    /// with the pivot test of the [module docs](self) (whatever the bound: the tests call it
-    /// beyond).
-    fn factor_schur(&mut self, c: f64) -> Result<(), Pivot> {
+    /// with the pivot test of the [module docs](self), `ab` being `|P|_inf |Q|_inf` (whatever
+    /// the bound: the tests call it beyond).
+    fn factor_schur(&mut self, c: f64, ab: f64) -> Result<(), Pivot> {
         let h = &self.derivatives.hessian;
         let m = h.nrows() / 2;
+        debug_assert!(h.nrows().is_multiple_of(2), "odd dimension {}", h.nrows());
         let a = self.lu.storage_mut();
         for j in 0..m {
             for i in 0..m {
@@ -195,25 +279,25 @@ where
                 a[(m + i, j)] = c * h[(i, j)];
             }
         }
-        let mut scale = 0.0f64;
         for j in 0..m {
             for i in 0..m {
-                let (mut s, mut size) = (if i == j { 1.0 } else { 0.0 }, 0.0);
+                let mut s = if i == j { 1.0 } else { 0.0 };
                 for k in 0..m {
-                    let t = a[(i, m + k)] * a[(m + k, j)];
-                    s += t;
-                    size += t.abs();
+                    s += a[(i, m + k)] * a[(m + k, j)];
                 }
                 a[(i, j)] = s;
-                scale = scale.max(size + if i == j { 1.0 } else { 0.0 });
             }
         }
+        // `1 + a b` bounds the size of the terms `S` is formed from,
+        // `max_ij (delta_ij + sum_k |P_ik Q_kj|)`, from above (module docs).
         self.lu
-            .eliminate_leading(m, m as f64 * f64::EPSILON * scale)
+            .eliminate_leading(m, m as f64 * f64::EPSILON * (1.0 + ab))
     }
 
     /// `x = A^{-1} b` with the last factorization (`x` and `b` distinct).
     pub(crate) fn solve_into(&self, b: &OVector<f64, D>, x: &mut OVector<f64, D>) {
+        #[cfg(test)]
+        census::record(|n| n.solves += 1);
         if !self.schur {
             self.lu.solve_into(b, x);
             return;
@@ -368,6 +452,7 @@ mod tests {
         s
     }
 
+    /// `|S|_inf` (the largest row sum) of the column-major `m x m` matrix `s`.
     fn inf_norm(m: usize, s: &[f64]) -> f64 {
         (0..m)
             .map(|i| (0..m).map(|j| s[i + m * j].abs()).sum::<f64>())
@@ -410,6 +495,8 @@ mod tests {
         Ok(())
     }
 
+    /// The random entries of one case at `D = 2m`: `H_qq`'s and `H_pp`'s `m x m` (before
+    /// [`symmetric`]), then the right-hand side's `2m`, all in `[-1, 1)`.
     fn raw(m: usize) -> impl Strategy<Value = Vec<f64>> {
         prop::collection::vec(-1.0..1.0f64, 2 * m * m + 2 * m)
     }
@@ -479,7 +566,8 @@ mod tests {
     #[test]
     fn the_bound_is_on_the_smaller_block() {
         let b = Vector4::from(B);
-        // |H_pp|_inf = 1.3, |H_qq|_inf = 1.5 s: at c = 1/1.3 (1 +- 1e-12), a = 1 -+ ...
+        // |H_pp|_inf = 1.3, |H_qq|_inf = 1.5 s = 15: at c = (1 -+ 1e-12) / 1.3, a = 1 -+ 1e-12
+        // and b ~ 11.5, so min(a, b) = a, just below and just above the bound.
         for (factor, schur) in [(1.0 - 1e-12, true), (1.0 + 1e-12, false)] {
             let mut dense = two_blocks(10.0, 1.0);
             let (residual, taken) = residual_of_chosen(&mut dense, factor / 1.3, &b);
@@ -487,7 +575,8 @@ mod tests {
             assert!(residual <= tolerance(2), "{residual} eps");
         }
         // One block huge, the other small (a light mass in a soft potential, or a stiff
-        // potential at a small step): min(a, b) = 1.3e-3, the Schur path and roundoff.
+        // potential at a small step): min(a, b) = 1.5e-3 and 1.3e-3, the Schur path and
+        // roundoff.
         for (s, t) in [(1e-3, 1e6), (1e6, 1e-3)] {
             let mut dense = two_blocks(s, t);
             let (residual, taken) = residual_of_chosen(&mut dense, 1.0, &b);
@@ -504,7 +593,10 @@ mod tests {
         let b = Vector4::from(B);
         let mut dense = two_blocks(1e6, 1e6);
         dense.schur = true;
-        dense.factor_schur(1.0).expect("nonsingular");
+        let (norm_p, norm_q) = dense.block_norms(1.0).expect("block diagonal");
+        dense
+            .factor_schur(1.0, norm_p * norm_q)
+            .expect("nonsingular");
         let mut x = b;
         dense.solve_into(&b, &mut x);
         let forced = relative_residual(&newton_matrix(&dense, 1.0), &x, &b);
@@ -530,6 +622,53 @@ mod tests {
         // D = 2, the saddle at c = 1/2: H = diag(-2, 2), S = 1 - 1 = 0.
         let mut dense = separable(Const::<2>, &[-2.0], &[2.0]);
         assert_eq!(dense.factor(0.5), Err(Pivot::Singular));
+    }
+
+    #[test]
+    fn pivots_at_half_and_twice_the_threshold() {
+        // D = 2, c = 1, P = 1 - delta, Q = -1: S = delta exactly, a b = 1 - delta, threshold
+        // eps (2 - delta) ~ 2 eps. The LU on A = [[1, -P], [-1, 1]] meets the same pivot
+        // (delta, exactly) against its own 2 eps max|A_ij| = 2 eps: the rules agree here.
+        for (k, singular) in [(0.5, true), (2.0, false)] {
+            let delta = k * 2.0 * EPS;
+            let mut dense = separable(Const::<2>, &[-1.0], &[1.0 - delta]);
+            let want = if singular {
+                Err(Pivot::Singular)
+            } else {
+                Ok(())
+            };
+            assert_eq!(dense.factor(1.0), want, "{k} x the threshold");
+            assert!(dense.is_schur());
+            assert_eq!(dense.factor_lu(1.0), want, "LU, {k} x the threshold");
+        }
+        // A large scale: P = 2^-10 I, Q = 2^10 [[512, y], [y, 512]] (a = 2^-10 ~ 1e-3,
+        // b = 2^10 (512 + y) ~ 1e6, a b = 512 + y), so S = [[513, y], [y, 513]] exactly. With
+        // y = 513 - delta its second pivot is delta (1026 - delta) / 513 ~ 2 delta, up to the
+        // rounding of the elimination (~ 513 eps ~ 1.1e-13, a quarter of the threshold
+        // 2 eps (1 + a b) ~ 4.6e-13).
+        for (k, singular) in [(0.5, true), (2.0, false)] {
+            let y = 513.0 - k * 1025.0 * EPS;
+            let delta = 513.0 - y; // exact (Sterbenz)
+            let threshold = 2.0 * EPS * (1.0 + 512.0 + y);
+            let ratio = delta * (1026.0 - delta) / 513.0 / threshold;
+            assert!(
+                (ratio / k - 1.0).abs() < 0.1,
+                "pivot {ratio} x the threshold"
+            );
+            let scale = 1024.0;
+            let h_qq = [512.0, y, y, 512.0].map(|x| x * scale);
+            let mut dense = separable(Const::<4>, &h_qq, &[1.0 / scale, 0.0, 0.0, 1.0 / scale]);
+            let want = if singular {
+                Err(Pivot::Singular)
+            } else {
+                Ok(())
+            };
+            assert_eq!(dense.factor(1.0), want, "{k} x the threshold");
+            assert!(dense.is_schur());
+            // The LU tests A's own pivots against 4 eps max|A_ij| ~ 4 eps 5e5 and reports
+            // both singular, twice the Schur threshold included: the rules differ here.
+            assert_eq!(dense.factor_lu(1.0), Err(Pivot::Singular), "LU, {k}");
+        }
     }
 
     #[test]
@@ -561,7 +700,7 @@ mod tests {
     #[test]
     fn kepler_takes_the_schur_path_at_the_thesis_settings() {
         // The peers' entry point at the midpoint rule's c = dt/2 = 0.075 near the thesis
-        // orbit's pericentre (r = 0.5): c |H_pp| = 0.15, the Schur path; Dyn storage alike.
+        // orbit's pericentre (r = 0.5): c |H_pp| = 0.15, the Schur path.
         let mut dense = DenseNewton::new(Const::<4>);
         let (y, mut x) = (Vector4::new(0.5, 0.1, 0.2, 1.2), Vector4::zeros());
         let b = Vector4::from(B);
@@ -620,6 +759,43 @@ mod tests {
         }
     }
 
+    /// Factor `A(H1, c)` with `H1` the Hessian of `h` at `z1`, evaluate `h` at two other
+    /// points (the fused evaluation, then the Hessian alone), then solve: the residual
+    /// against `A(H1, c)` is roundoff. The DTH simplified Newton relies on this: it solves
+    /// with a kept factorization after evaluating `H` at new iterates. Whether the path was
+    /// the Schur complement's.
+    fn solves_with_the_kept_factorization<H: Hamiltonian<Const<4>>>(h: &H) -> bool {
+        let c = 0.075;
+        let b = Vector4::from(B);
+        let mut dense = DenseNewton::new(Const::<4>);
+        dense.derivatives_at(h, &Vector4::new(0.5, 0.1, 0.2, 1.2));
+        dense.factor(c).expect("factor");
+        let a1 = newton_matrix(&dense, c);
+        dense.derivatives_at(h, &Vector4::new(-0.3, 0.8, 1.0, -0.4));
+        assert!(
+            (newton_matrix(&dense, c) - a1).amax() > 1e-3,
+            "the Hessian must change"
+        );
+        dense.hessian_at(h, &Vector4::new(0.9, -0.6, 0.1, 0.3));
+        assert!(
+            (newton_matrix(&dense, c) - a1).amax() > 1e-3,
+            "the Hessian must change"
+        );
+        let mut x = Vector4::zeros();
+        dense.solve_into(&b, &mut x);
+        let residual = relative_residual(&a1, &x, &b);
+        assert!(residual <= tolerance(2), "{residual} eps");
+        dense.is_schur()
+    }
+
+    #[test]
+    fn a_kept_factorization_solves_with_the_matrix_it_was_factored_from() {
+        assert!(solves_with_the_kept_factorization(&Kepler::thesis()));
+        assert!(!solves_with_the_kept_factorization(&Unflagged(
+            Kepler::thesis()
+        )));
+    }
+
     /// DTH with `steps` steps from `z0`: the final midpoint and lambda.
     fn dth<H: Hamiltonian<Const<4>>>(h: H, z0: Vector4<f64>, steps: usize) -> (Vector4<f64>, f64) {
         let mut dth = Dth::new(h, z0, DthOptions::default()).expect("start");
@@ -641,45 +817,78 @@ mod tests {
     /// solver; Kepler's flow then shears such differences (an energy perturbation `delta`
     /// moves the frequency by about `delta`, the phase after the `N - k` remaining steps by
     /// `(N - k) delta`), and `N` per-step roundoffs of random sign add to about
-    /// `sqrt(N) N eps` times the size of the state (or of `lambda`). Measured: 0.05 to 0.2 of this at `N = 100..800` (DTH and midpoint,
-    /// Kepler; Henon-Heiles at this regular orbit agrees to the bit).
+    /// `sqrt(N) N eps` times the size of the state (or of `lambda`). Measured: 0.05 to 0.2 of
+    /// this at `N = 100..800` (DTH and midpoint, Kepler; Henon-Heiles at this regular orbit
+    /// agrees to the bit).
     fn shear_tolerance(steps: usize, size: f64) -> f64 {
         EPS * (steps as f64).powf(1.5) * size
     }
 
+    /// The result of `run` and the census of its factorizations and solves.
+    fn counted<T>(run: impl FnOnce() -> T) -> (T, census::Census) {
+        census::take();
+        let out = run();
+        (out, census::take())
+    }
+
+    /// Every factorization of the flagged run took the Schur path, every one of the
+    /// unflagged run the LU, and both took as many factorizations and Newton iterations
+    /// (solves).
+    fn same_work_on_each_path(what: &str, schur: &census::Census, lu: &census::Census) {
+        assert!(schur.schur > 0 && schur.lu == 0, "{what}: {schur:?}");
+        assert!(lu.schur == 0, "{what}: {lu:?}");
+        assert_eq!(
+            (schur.schur, schur.solves),
+            (lu.lu, lu.solves),
+            "{what}: factorizations and solves, Schur {schur:?}, LU {lu:?}"
+        );
+    }
+
     #[test]
-    fn dth_and_midpoint_reach_the_same_states_as_with_the_lu() {
+    fn dth_and_midpoint_take_the_schur_path_and_reach_the_same_states_as_with_the_lu() {
         const STEPS: usize = 200;
         let kepler = Vector4::new(0.5, 0.0, 0.0, 1.2); // the thesis orbit
         let henon = Vector4::new(0.0, 0.1, 0.39, 0.0); // H = 0.081 < 1/8, regular
-        let (z, lambda) = dth(Kepler::thesis(), kepler, STEPS);
-        let (z_lu, lambda_lu) = dth(Unflagged(Kepler::thesis()), kepler, STEPS);
+        let mut largest = census::Census::default();
+        let mut widen = |n: &census::Census| {
+            largest.a = largest.a.max(n.a);
+            largest.b = largest.b.max(n.b);
+            largest.min_ab = largest.min_ab.max(n.min_ab);
+        };
+        let ((z, lambda), n) = counted(|| dth(Kepler::thesis(), kepler, STEPS));
+        let ((z_lu, lambda_lu), n_lu) = counted(|| dth(Unflagged(Kepler::thesis()), kepler, STEPS));
+        same_work_on_each_path("DTH Kepler", &n, &n_lu);
+        widen(&n);
         let tol = shear_tolerance(STEPS, z.amax());
         assert!((z - z_lu).amax() <= tol, "{:e}", (z - z_lu).amax());
         assert!(
             (lambda - lambda_lu).abs() <= shear_tolerance(STEPS, lambda),
             "{lambda} {lambda_lu}"
         );
-        let (z, lambda) = dth(HenonHeiles, henon, STEPS);
-        let (z_lu, lambda_lu) = dth(Unflagged(HenonHeiles), henon, STEPS);
+        let ((z, lambda), n) = counted(|| dth(HenonHeiles, henon, STEPS));
+        let ((z_lu, lambda_lu), n_lu) = counted(|| dth(Unflagged(HenonHeiles), henon, STEPS));
+        same_work_on_each_path("DTH Henon-Heiles", &n, &n_lu);
+        widen(&n);
         let tol = shear_tolerance(STEPS, z.amax());
         assert!((z - z_lu).amax() <= tol, "{:e}", (z - z_lu).amax());
         assert!(
             (lambda - lambda_lu).abs() <= shear_tolerance(STEPS, lambda),
             "{lambda} {lambda_lu}"
         );
-        for (start, schur, lu) in [
+        for (start, (schur, n), (lu, n_lu)) in [
             (
                 kepler,
-                midpoint(&Kepler::thesis(), kepler, STEPS),
-                midpoint(&Unflagged(Kepler::thesis()), kepler, STEPS),
+                counted(|| midpoint(&Kepler::thesis(), kepler, STEPS)),
+                counted(|| midpoint(&Unflagged(Kepler::thesis()), kepler, STEPS)),
             ),
             (
                 henon,
-                midpoint(&HenonHeiles, henon, STEPS),
-                midpoint(&Unflagged(HenonHeiles), henon, STEPS),
+                counted(|| midpoint(&HenonHeiles, henon, STEPS)),
+                counted(|| midpoint(&Unflagged(HenonHeiles), henon, STEPS)),
             ),
         ] {
+            same_work_on_each_path(&format!("midpoint from {start}"), &n, &n_lu);
+            widen(&n);
             let tol = shear_tolerance(STEPS, schur.amax());
             assert!(
                 (schur - lu).amax() <= tol,
@@ -687,5 +896,10 @@ mod tests {
                 (schur - lu).amax()
             );
         }
+        // The figures of the module docs (measured: a = 0.256, b = 1.794, min = 0.211).
+        assert!(
+            largest.a <= 0.26 && largest.b <= 1.8 && largest.min_ab <= 0.22,
+            "{largest:?}"
+        );
     }
 }

@@ -20,9 +20,16 @@ use nalgebra::{DefaultAllocator, Dim, OMatrix, OVector, U1};
 /// Why a factorization failed (dense here, banded in [`crate::structured`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
 pub enum Pivot {
-    /// A pivot is at or below `m eps max|A_ij|` for an `m x m` matrix: the matrix is
-    /// numerically singular (a solve would carry no correct digits).
-    #[error("the matrix is numerically singular (a pivot at or below m eps max|A_ij|)")]
+    /// A pivot is at or below `m eps` times the size of the entries it was formed from: the
+    /// matrix is numerically singular (a solve would carry no correct digits). For the pivoted
+    /// LU of an `m x m` matrix `A` (dense or banded) that size is `max|A_ij|`; for a separable
+    /// Newton matrix factored through its `m x m` Schur complement `S = I + P Q` it is
+    /// `1 + |P|_inf |Q|_inf`, `S`'s pivots being tested, not `A`'s (the two rules differ near
+    /// the threshold; see the dense Newton module's docs).
+    #[error(
+        "the matrix is numerically singular (a pivot at or below m eps times the size of the \
+         entries it was formed from)"
+    )]
     Singular,
     /// A pivot was NaN or infinite.
     #[error("a pivot is not finite")]

@@ -7,7 +7,6 @@ use super::kept::Kept;
 use super::newton::{self, NewtonOptions, Step, Structured};
 use super::OneStepMethod;
 use crate::dense_newton::DenseNewton;
-use crate::linalg::Lu;
 use crate::structured::NewtonMatrix;
 use crate::{j_times_into, zeros, zeros_matrix, Error, Hamiltonian};
 
@@ -288,17 +287,17 @@ where
 
 /// The dense path's storage: `B11 = I - a11 dt J Hess H(Y1)` with its Hessian and
 /// factorization (a one-stage Newton matrix: through its Schur complement for a separable `H`,
-/// see [`crate::dense_newton`]), `K_i = dt J Hess H(Y_i)`, `X = B11^-1 B12` (the Hessian at
-/// `Y2` before it), the LU of the `2D x 2D` system's Schur complement (a general matrix) and
-/// three vectors.
+/// see [`crate::dense_newton`]; every solve with it precedes the factorization of the `2D x 2D`
+/// system's Schur complement, a general matrix, which reuses its storage),
+/// `K2 = dt J Hess H(Y2)`, `X = B11^-1 B12` (the Hessian at `Y2` before it) and three vectors:
+/// four `D x D` matrices.
 struct Dense<D: Dim>
 where
     DefaultAllocator: Alloc<D>,
 {
     b11: DenseNewton<D>,
-    k: [OMatrix<f64, D, D>; 2],
+    k2: OMatrix<f64, D, D>,
     x: OMatrix<f64, D, D>,
-    lu: Lu<D>,
     v: [OVector<f64, D>; 3],
 }
 
@@ -309,9 +308,8 @@ where
     fn new(d: D) -> Self {
         Dense {
             b11: DenseNewton::new(d),
-            k: [zeros_matrix(d), zeros_matrix(d)],
+            k2: zeros_matrix(d),
             x: zeros_matrix(d),
-            lu: Lu::empty(d),
             v: [zeros(d), zeros(d), zeros(d)],
         }
     }
@@ -334,24 +332,25 @@ where
         p: &Points<D>,
         delta: &mut OMatrix<f64, D, U2>,
     ) -> bool {
-        let Dense { b11, k, x, lu, v } = self;
+        let Dense { b11, k2, x, v } = self;
         let n = p.g.len();
         let half = n / 2;
+        // (J Hess)_ij.
+        let jh = |hessian: &OMatrix<f64, D, D>, i: usize, j: usize| {
+            if i < half {
+                hessian[(i + half, j)]
+            } else {
+                -hessian[(i - half, j)]
+            }
+        };
         b11.hessian_at(h, &p.y[0]);
         h.hessian_into(&p.y[1], x);
-        for (k, hessian) in k.iter_mut().zip([&b11.derivatives().hessian, &*x]) {
-            for j in 0..n {
-                for i in 0..n {
-                    let jh = if i < half {
-                        hessian[(i + half, j)]
-                    } else {
-                        -hessian[(i - half, j)]
-                    };
-                    k[(i, j)] = jh * dt;
-                }
+        for j in 0..n {
+            for i in 0..n {
+                k2[(i, j)] = jh(x, i, j) * dt;
             }
         }
-        let [k1, k2] = &*k;
+        let k2 = &*k2;
         let identity = |i: usize, j: usize| if i == j { 1.0 } else { 0.0 };
         if b11.factor(A[0][0] * dt).is_err() {
             return false;
@@ -365,8 +364,10 @@ where
             x.set_column(j, s);
         }
         b11.solve_into(&p.r[0], y);
-        // B21 = -a21 K1.
-        let b21 = |i: usize, l: usize| -k1[(i, l)] * A[1][0];
+        // The last solve with B11: its factorization's storage takes the Schur complement's.
+        let (hessian1, lu) = b11.hessian_and_spare_lu();
+        // B21 = -a21 K1, K1 = dt J Hess H(Y1).
+        let b21 = |i: usize, l: usize| -(jh(hessian1, i, l) * dt) * A[1][0];
         let schur = |i: usize, j: usize| {
             let b21_x = (0..n).fold(0.0, |acc, l| acc + b21(i, l) * x[(l, j)]);
             (identity(i, j) - k2[(i, j)] * A[1][1]) - b21_x
