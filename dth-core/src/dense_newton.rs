@@ -501,43 +501,30 @@ mod tests {
         prop::collection::vec(-1.0..1.0f64, 2 * m * m + 2 * m)
     }
 
-    proptest! {
-        #![proptest_config(ProptestConfig::with_cases(64))]
+    /// One proptest per dimension: random separable Hessians (`raw(m)`), a stiffness scale and
+    /// `c` (see `agrees_with_the_lu`).
+    macro_rules! agrees_at {
+        ($($name:ident: $dim:expr, $m:expr;)*) => {
+            proptest! {
+                #![proptest_config(ProptestConfig::with_cases(64))]
+                $(
+                    #[test]
+                    fn $name(
+                        r in raw($m), stiff in -3.0..3.0f64, which: bool, u in 1e-3..1.0f64
+                    ) {
+                        agrees_with_the_lu($dim, &r, 10f64.powf(stiff), which, u)?;
+                    }
+                )*
+            }
+        };
+    }
 
-        #[test]
-        fn schur_agrees_with_the_lu_at_d_2(
-            r in raw(1), stiff in -3.0..3.0f64, which: bool, u in 1e-3..1.0f64
-        ) {
-            agrees_with_the_lu(Const::<2>, &r, 10f64.powf(stiff), which, u)?;
-        }
-
-        #[test]
-        fn schur_agrees_with_the_lu_at_d_4(
-            r in raw(2), stiff in -3.0..3.0f64, which: bool, u in 1e-3..1.0f64
-        ) {
-            agrees_with_the_lu(Const::<4>, &r, 10f64.powf(stiff), which, u)?;
-        }
-
-        #[test]
-        fn schur_agrees_with_the_lu_at_d_6(
-            r in raw(3), stiff in -3.0..3.0f64, which: bool, u in 1e-3..1.0f64
-        ) {
-            agrees_with_the_lu(Const::<6>, &r, 10f64.powf(stiff), which, u)?;
-        }
-
-        #[test]
-        fn schur_agrees_with_the_lu_at_d_12(
-            r in raw(6), stiff in -3.0..3.0f64, which: bool, u in 1e-3..1.0f64
-        ) {
-            agrees_with_the_lu(Const::<12>, &r, 10f64.powf(stiff), which, u)?;
-        }
-
-        #[test]
-        fn schur_agrees_with_the_lu_at_dyn(
-            r in raw(5), stiff in -3.0..3.0f64, which: bool, u in 1e-3..1.0f64
-        ) {
-            agrees_with_the_lu(Dyn(10), &r, 10f64.powf(stiff), which, u)?;
-        }
+    agrees_at! {
+        schur_agrees_with_the_lu_at_d_2: Const::<2>, 1;
+        schur_agrees_with_the_lu_at_d_4: Const::<4>, 2;
+        schur_agrees_with_the_lu_at_d_6: Const::<6>, 3;
+        schur_agrees_with_the_lu_at_d_12: Const::<12>, 6;
+        schur_agrees_with_the_lu_at_dyn: Dyn(10), 5;
     }
 
     /// `H_qq = [[0.9, -0.4], [-0.4, 1.1]] s`, `H_pp = [[1, 0.3], [0.3, 0.7]] t` at `c = 1`.
