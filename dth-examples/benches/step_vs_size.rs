@@ -8,7 +8,9 @@
 //! - `structured`: the banded Newton of `dth_core::structured` (the generated type's
 //!   pattern and fused nonzeros, forced on even below the generated crossover);
 //! - `dense`: the fixed-size `D x D` LU (the same Hamiltonian with its structure hidden), up to
-//!   `N = 128` (at `N = 512` the dense Newton matrix alone is 8 MB of stack).
+//!   `N = 128` (at `N = 512` the dense Newton matrix alone is 8 MB of stack);
+//! - `dense_schur`, up to `N = 32`: the dense path with the type's flags and fused evaluation,
+//!   so a separable chain is factored through its `N x N` Schur complement.
 //!
 //! Groups `dth/<chain>_<N>`, `N = 8, 32, 128, 512`: one DTH step (joint Newton,
 //! cancellation-free, `dtau = 0.1`, `lambda_0 = 1`, so `dt ~ 0.1` as for the midpoint) of a
@@ -67,6 +69,33 @@ impl<const D: usize, H: Hamiltonian<Const<D>>> Hamiltonian<Const<D>> for Dense<H
     }
     fn hessian_into(&self, z: &SVector<f64, D>, out: &mut SMatrix<f64, D, D>) {
         self.0.hessian_into(z, out)
+    }
+}
+
+/// The generated type on the dense path with everything else it declares: its flags
+/// (`separable`, so the Schur-complement factorization of `dth_core`'s dense Newton matrix)
+/// and its fused `derivatives_into`, the structured path switched off.
+#[derive(Clone, Copy)]
+struct DenseSchur<H>(H);
+
+impl<const D: usize, H: Hamiltonian<Const<D>>> Hamiltonian<Const<D>> for DenseSchur<H> {
+    fn dim(&self) -> Const<D> {
+        Const
+    }
+    fn flags(&self) -> Flags {
+        self.0.flags().with_structured_newton(false)
+    }
+    fn value(&self, z: &SVector<f64, D>) -> f64 {
+        self.0.value(z)
+    }
+    fn gradient_into(&self, z: &SVector<f64, D>, out: &mut SVector<f64, D>) {
+        self.0.gradient_into(z, out)
+    }
+    fn hessian_into(&self, z: &SVector<f64, D>, out: &mut SMatrix<f64, D, D>) {
+        self.0.hessian_into(z, out)
+    }
+    fn derivatives_into(&self, z: &SVector<f64, D>, out: &mut dth::Derivatives<Const<D>>) {
+        self.0.derivatives_into(z, out)
     }
 }
 
@@ -149,6 +178,9 @@ fn chain<const D: usize, H: Hamiltonian<Const<D>> + Copy>(
     bench_one(&mut g, "structured", &Structured(h), &zs);
     if dense {
         bench_one(&mut g, "dense", &Dense(h), &zs);
+    }
+    if D <= 64 {
+        bench_one(&mut g, "dense_schur", &DenseSchur(h), &zs);
     }
     g.finish();
 }
@@ -244,6 +276,7 @@ fn kepler(c: &mut Criterion) {
     let mut g = c.benchmark_group("midpoint/kepler");
     bench_one(&mut g, "structured", &Structured(Kepler), &zs);
     bench_one(&mut g, "dense", &Dense(Kepler), &zs);
+    bench_one(&mut g, "dense_schur", &DenseSchur(Kepler), &zs);
     g.finish();
 }
 
