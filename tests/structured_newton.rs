@@ -20,6 +20,7 @@ use dth::Flags;
 use dth::{Derivatives, Hamiltonian};
 
 include!("chains/fput_alpha_2.rs");
+include!("chains/fput_alpha_4.rs");
 include!("chains/fput_alpha_8.rs");
 include!("chains/fput_alpha_32.rs");
 include!("chains/toda_32.rs");
@@ -159,9 +160,11 @@ fn generated_pattern_and_nonzeros_match_the_dense_hessian() {
     pattern_matches_the_hessian(&FputAlpha8, &state::<16>(1));
     pattern_matches_the_hessian(&FputAlpha32, &state::<64>(2));
     pattern_matches_the_hessian(&Toda32, &state::<64>(3));
-    // The crossover (D = 8): below it the dense path, from it the structured one.
+    // The crossover of a separable type (D = 16): below it the dense path, from it the
+    // structured one.
     {
         assert!(!Hamiltonian::<Const<4>>::flags(&FputAlpha2).structured_newton);
+        assert!(!Hamiltonian::<Const<8>>::flags(&FputAlpha4).structured_newton);
         assert!(Hamiltonian::<Const<16>>::flags(&FputAlpha8).structured_newton);
         assert!(Hamiltonian::<Const<64>>::flags(&FputAlpha32).structured_newton);
         assert!(Hamiltonian::<Const<1024>>::flags(&FputAlpha512).structured_newton);
@@ -395,15 +398,17 @@ fn dth_keeps_the_energy_of_the_512_particle_chain_on_a_2mb_stack() {
 }
 
 dth::hamiltonian! {
-    /// Two uncoupled Kepler problems of the thesis (`m = 1/2`, `k = 1`; `D = 8`, beyond the
-    /// crossover: structured Newton), each of eccentricity 0.9 from the start below, where
-    /// `Psi` changes sign along the orbit.
+    /// Four uncoupled Kepler problems of the thesis (`m = 1/2`, `k = 1`; `D = 16`, the
+    /// separable types' crossover: structured Newton), each of eccentricity 0.9 from the start
+    /// below, where `Psi` changes sign along the orbit.
     #[derive(Clone, Copy, Debug, Default)]
-    pub struct TwoKeplers = p1^2 + p2^2 + p3^2 + p4^2 - (q1^2 + q2^2)^(-1/2) - (q3^2 + q4^2)^(-1/2)
+    pub struct FourKeplers = p1^2 + p2^2 + p3^2 + p4^2 + p5^2 + p6^2 + p7^2 + p8^2
+        - (q1^2 + q2^2)^(-1/2) - (q3^2 + q4^2)^(-1/2) - (q5^2 + q6^2)^(-1/2) - (q7^2 + q8^2)^(-1/2)
 }
 
-/// The robust mode on both paths: two Kepler problems of eccentricity 0.9 (the second rotated
-/// by a right angle, so the two `Psi` agree and their sum changes sign as each alone does)
+/// The robust mode on both paths: four Kepler problems of eccentricity 0.9 (two copies of a
+/// pair whose second is rotated by a right angle, so all four `Psi` agree and their sum changes
+/// sign as each alone does)
 /// break DTH down near every pericentre; the fallback steps (the discrete-gradient peer, itself
 /// structured here) carry the run through, at order 2 and composed at order 4. Both paths take
 /// the same decisions (the same steps fall back), and the trajectories agree to the roundoff
@@ -412,10 +417,12 @@ dth::hamiltonian! {
 /// passages) `1e-11` relative, a factor ~10 over the `8e-13` measured at order 2.
 #[test]
 fn robust_mode_and_composition_work_on_the_structured_path() {
-    assert!(Hamiltonian::<Const<8>>::flags(&TwoKeplers).structured_newton);
+    assert!(Hamiltonian::<Const<16>>::flags(&FourKeplers).structured_newton);
     let v = 1.9f64.sqrt();
-    let z0 = SVector::<f64, 8>::from_column_slice(&[0.5, 0.0, 0.0, 0.5, 0.0, v, -v, 0.0]);
-    let e0 = TwoKeplers.value(&z0);
+    let z0 = SVector::<f64, 16>::from_column_slice(&[
+        0.5, 0.0, 0.0, 0.5, 0.5, 0.0, 0.0, 0.5, 0.0, v, -v, 0.0, 0.0, v, -v, 0.0,
+    ]);
+    let e0 = FourKeplers.value(&z0);
     let base = DthOptions::default()
         .with_dtau(0.0157)
         .expect("dtau")
@@ -424,8 +431,8 @@ fn robust_mode_and_composition_work_on_the_structured_path() {
         ("order 2", base, 600),
         ("order 4", base.with_order(4).expect("order"), 150),
     ] {
-        let mut a = Dth::new(TwoKeplers, z0, options).expect("structured start");
-        let mut b = Dth::new(Dense(TwoKeplers), z0, options).expect("dense start");
+        let mut a = Dth::new(FourKeplers, z0, options).expect("structured start");
+        let mut b = Dth::new(Dense(FourKeplers), z0, options).expect("dense start");
         let (mut fallbacks, mut dz, mut energy) = (0, 0.0f64, 0.0f64);
         for _ in 0..steps {
             let ra = a.step().expect("structured robust step");
@@ -433,7 +440,7 @@ fn robust_mode_and_composition_work_on_the_structured_path() {
             assert_eq!(ra.kind, rb.kind, "{name}: the paths took different steps");
             fallbacks += usize::from(ra.kind == dth::observer::StepKind::Fallback);
             dz = dz.max((a.zbar() - b.zbar()).amax() / a.zbar().amax());
-            energy = energy.max((TwoKeplers.value(a.zbar()) - e0).abs());
+            energy = energy.max((FourKeplers.value(a.zbar()) - e0).abs());
         }
         eprintln!("robust {name}: {fallbacks} fallback steps, paths differ by {dz:e}, energy error {energy:e}");
         assert!(fallbacks > 0, "{name}: no breakdown was crossed");

@@ -104,7 +104,7 @@ pub fn hamiltonian_impl(system: &System, name: &Ident, params: &[Ident]) -> Toke
     let nnz = pattern.len();
     let pattern_rows = pattern.iter().map(|(i, j)| quote!((#i, #j)));
     let diagonal = pattern.iter().filter(|(i, j)| i == j).count();
-    let structured = structured_newton(d, nnz, diagonal);
+    let structured = structured_newton(d, nnz, diagonal, sep);
     let source = system_source(system);
     quote! {
         #[doc = #source]
@@ -240,20 +240,32 @@ const LITERAL_MAX_DIM: usize = 8;
 const CHUNK_OPS: usize = 1000;
 
 /// The smallest dimension from which generated types take the structured Newton path
-/// (`Flags::structured_newton`): below it the dense fixed-size LU is faster. Measured
-/// side by side (`dth-examples/benches/step_vs_size.rs`, `docs/benchmarks.md`): one
-/// implicit-midpoint step on `D = 4` (Kepler, FPUT and Toda with 2 particles) is 1.4-1.6x
-/// faster dense, on `D = 8` the two are within 10% (structured ahead), from `D = 16` the
-/// structured step is 2.7x faster and the gap grows like `D^2`.
+/// (`Flags::structured_newton`): below it the dense fixed-size path is faster. Measured side by
+/// side (`dth-examples/benches/step_vs_size.rs`, `docs/benchmarks.md`, "Step cost against
+/// size"), one implicit-midpoint step, FPUT and Toda chains: a non-separable type's dense path
+/// is the `D x D` LU, 1.4-1.6x faster than the structured one at `D = 4`, within 10-15% at
+/// `D = 8` (structured ahead), 2.7x slower at `D = 16`; a separable type's dense path factors
+/// the `D/2 x D/2` Schur complement (`dth_core`'s dense Newton matrix), 1.6-1.8x faster than
+/// the structured one at `D = 8` and within 5% at `D = 16` (structured ahead), 2.5x slower at
+/// `D = 32`.
 const STRUCTURED_MIN_DIM: usize = 8;
+
+/// [`STRUCTURED_MIN_DIM`] for separable types.
+const STRUCTURED_MIN_DIM_SEPARABLE: usize = 16;
 
 /// Whether a generated type of dimension `d` whose Hessian's upper triangle has `nnz` nonzero
 /// entries, `diagonal` of them on the diagonal, takes the structured Newton path: from
-/// [`STRUCTURED_MIN_DIM`] on, unless more than a quarter of the full Hessian is nonzero (all
-/// pairs coupled, as in N-body gravity: after any ordering the band is then nearly the whole
-/// matrix, and the banded LU does the dense LU's work with more indexing).
-fn structured_newton(d: usize, nnz: usize, diagonal: usize) -> bool {
-    d >= STRUCTURED_MIN_DIM && 4 * (2 * nnz - diagonal) <= d * d
+/// [`STRUCTURED_MIN_DIM`] on ([`STRUCTURED_MIN_DIM_SEPARABLE`] for a `separable` one), unless
+/// more than a quarter of the full Hessian is nonzero (all pairs coupled, as in N-body gravity:
+/// after any ordering the band is then nearly the whole matrix, and the banded LU does the
+/// dense LU's work with more indexing).
+fn structured_newton(d: usize, nnz: usize, diagonal: usize, separable: bool) -> bool {
+    let min_dim = if separable {
+        STRUCTURED_MIN_DIM_SEPARABLE
+    } else {
+        STRUCTURED_MIN_DIM
+    };
+    d >= min_dim && 4 * (2 * nnz - diagonal) <= d * d
 }
 
 impl Values {

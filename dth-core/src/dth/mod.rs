@@ -30,7 +30,7 @@
 //!   their Hessian pattern) that is the dense fixed-size LU, `O(D^3)` (for a separable `H`
 //!   the LU of the `D/2 x D/2` Schur complement `I + c^2 H_pp H_qq`, half the operations of
 //!   the full factorization, where it is as stable: `dense_newton`); generated types beyond
-//!   the crossover (`Flags::structured_newton`: from `D = 8` unless more than a quarter
+//!   the crossover (`Flags::structured_newton`: from `D = 8`, `D = 16` if separable, unless more than a quarter
 //!   of the Hessian is nonzero) take the banded LU of [`crate::structured`] on the Hessian's
 //!   nonzeros, analysed once in [`Dth::new`], and never form a `D x D` matrix: a step of a
 //!   chain (FPUT, Toda) costs time linear in the number of particles and a few vectors of

@@ -46,7 +46,7 @@ pub fn looped_impl(looped: &Looped, name: &Ident, params: &[Ident]) -> Option<To
     let (separable, psi0) = looped.flags();
     let layout = layout(looped);
     let nnz = layout.nnz;
-    let structured = super::structured_newton(d, nnz, layout.diagonal);
+    let structured = super::structured_newton(d, nnz, layout.diagonal, separable);
 
     // Where letter[k] lives: the lattice, or a boundary (periodic: a site; fixed: a value).
     let arms = looped.boundaries.iter().map(|&(letter, k, site)| {
