@@ -56,11 +56,13 @@ where
     }
 }
 
-/// `max |x_i|` over `entries`, NaN when one is not finite.
-fn largest<'a>(entries: impl IntoIterator<Item = &'a f64>) -> f64 {
+/// `max |x_i|` over `entries`: infinite when one is infinite, NaN when one is NaN (so not
+/// finite exactly when an entry is not). The Hessian's size at an evaluation, and the sizes
+/// the DTH Newton loop measures its iterates, residuals and updates by.
+pub(crate) fn largest<'a>(entries: impl IntoIterator<Item = &'a f64>) -> f64 {
     let mut max = 0.0f64;
     for x in entries {
-        if !x.is_finite() {
+        if x.is_nan() {
             return f64::NAN;
         }
         max = max.max(x.abs());

@@ -33,7 +33,7 @@
 //! `Eval::stall`). A gated stop that fails after an update of at most `4 eps`, or the iteration
 //! limit, is [`Error::NewtonDiverged`].
 
-use super::linear::{self, Dense, Linear, Path, Point};
+use super::linear::{self, largest, Dense, Linear, Path, Point};
 use super::options::{DthOptions, Solver};
 use crate::hamiltonian::Alloc;
 use crate::linalg::Pivot;
@@ -312,19 +312,6 @@ fn pivot_error(p: Pivot, step: usize) -> Error {
     }
 }
 
-/// `max |v_i|` as a fold without early exit or branches (nalgebra's `amax` compares with
-/// branches, and this runs five times per Newton iterate: 2.4% of a thesis Kepler step). It
-/// drops a NaN entry (`f64::max`), and needs none: every call site's vector is made of finite
-/// numbers (an iterate and a vertex checked finite, `f` and `dz` built from them and from a
-/// gradient checked finite), where an overflow gives an infinity, not a NaN. (A NaN-keeping
-/// fold, with a compare per entry, measured as slow as `amax`.)
-fn amax<D: Dim>(v: &OVector<f64, D>) -> f64
-where
-    DefaultAllocator: Alloc<D>,
-{
-    v.iter().fold(0.0, |m, x| m.max(x.abs()))
-}
-
 pub(crate) fn all_finite<D: Dim>(v: &OVector<f64, D>) -> bool
 where
     DefaultAllocator: Alloc<D>,
@@ -398,7 +385,10 @@ where
         move_max = move_max.max(m.abs());
     }
     // Roundoff scales: the magnitudes of the terms each residual is a difference of.
-    let scale_f = amax(z).max(amax(v)).max(move_max).max(f64::MIN_POSITIVE);
+    let scale_f = largest(z.iter())
+        .max(largest(v.iter()))
+        .max(move_max)
+        .max(f64::MIN_POSITIVE);
     let r_plain = d.value - energy;
     let scale_r = energy
         .abs()
@@ -406,7 +396,7 @@ where
         .max(roundoff_scale(z, &d.gradient))
         .max(f64::MIN_POSITIVE);
     e.plain_residual = r_plain.abs() / scale_r;
-    e.f_residual = amax(&e.f) / scale_f;
+    e.f_residual = largest(e.f.iter()) / scale_f;
     e.scale_f = scale_f;
     e.r = r_plain;
     e.scale_r = scale_r;
@@ -475,7 +465,7 @@ where
     } else {
         e.scale_r
     };
-    e.f_residual = amax(&e.f) / e.scale_f;
+    e.f_residual = largest(e.f.iter()) / e.scale_f;
     e.cf = true;
     e.r_cf = r_cf;
     e.cf_scale = scale;
@@ -555,7 +545,8 @@ fn relative_update<D: Dim>(dz: &OVector<f64, D>, z: &OVector<f64, D>, dl: f64, l
 where
     DefaultAllocator: Alloc<D>,
 {
-    (amax(dz) / amax(z).max(f64::MIN_POSITIVE)).max(dl.abs() / lambda.abs().max(f64::MIN_POSITIVE))
+    (largest(dz.iter()) / largest(z.iter()).max(f64::MIN_POSITIVE))
+        .max(dl.abs() / lambda.abs().max(f64::MIN_POSITIVE))
 }
 
 /// Solve one segment of signed step `h` in `tau` from `anchor` (left vertex, energy, previous
