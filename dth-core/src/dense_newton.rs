@@ -613,17 +613,22 @@ mod tests {
 
     #[test]
     fn pivots_at_half_and_twice_the_threshold() {
+        // What a factorization must return for a matrix below (`singular`) or above the
+        // threshold.
+        let verdict = |singular: bool| {
+            if singular {
+                Err(Pivot::Singular)
+            } else {
+                Ok(())
+            }
+        };
         // D = 2, c = 1, P = 1 - delta, Q = -1: S = delta exactly, a b = 1 - delta, threshold
         // eps (2 - delta) ~ 2 eps. The LU on A = [[1, -P], [-1, 1]] meets the same pivot
         // (delta, exactly) against its own 2 eps max|A_ij| = 2 eps: the rules agree here.
         for (k, singular) in [(0.5, true), (2.0, false)] {
             let delta = k * 2.0 * EPS;
             let mut dense = separable(Const::<2>, &[-1.0], &[1.0 - delta]);
-            let want = if singular {
-                Err(Pivot::Singular)
-            } else {
-                Ok(())
-            };
+            let want = verdict(singular);
             assert_eq!(dense.factor(1.0), want, "{k} x the threshold");
             assert!(dense.is_schur());
             assert_eq!(dense.factor_lu(1.0), want, "LU, {k} x the threshold");
@@ -645,11 +650,7 @@ mod tests {
             let scale = 1024.0;
             let h_qq = [512.0, y, y, 512.0].map(|x| x * scale);
             let mut dense = separable(Const::<4>, &h_qq, &[1.0 / scale, 0.0, 0.0, 1.0 / scale]);
-            let want = if singular {
-                Err(Pivot::Singular)
-            } else {
-                Ok(())
-            };
+            let want = verdict(singular);
             assert_eq!(dense.factor(1.0), want, "{k} x the threshold");
             assert!(dense.is_schur());
             // The LU tests A's own pivots against 4 eps max|A_ij| ~ 4 eps 5e5 and reports
