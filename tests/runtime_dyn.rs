@@ -14,7 +14,7 @@
 #[path = "../dth-core/tests/alloc_counter/mod.rs"]
 mod alloc_counter;
 
-use dth::dth::{lift, set_momentum_of_time, Dth, DthOptions, Solver};
+use dth::dth::{lift, segment_from_vertex, set_momentum_of_time, Dth, DthOptions, Solver};
 use dth::methods::{
     run, DiscreteGradient, GaussLegendre2, ImplicitMidpoint, OneStepMethod, Rk4, StormerVerlet,
     Trapezoidal,
@@ -127,8 +127,8 @@ fn time_dependent_text_runs_in_the_extended_phase_space() {
     assert!(Hamiltonian::flags(&text).time_dependent);
     let fixed = ForcedDuffing { f, w };
     let x0 = SVector::<f64, 2>::new(0.8, 0.0);
-    let z0 = set_momentum_of_time(&fixed, lift(&x0, 0.25));
-    let z0_dyn = set_momentum_of_time(&text, DVector::from_column_slice(z0.as_slice()));
+    let z0 = set_momentum_of_time(&fixed, lift(&x0, 0.25)).unwrap();
+    let z0_dyn = set_momentum_of_time(&text, DVector::from_column_slice(z0.as_slice())).unwrap();
     assert_eq!(z0_dyn.as_slice(), z0.as_slice());
     let options = DthOptions::default().with_dtau(0.05).unwrap();
     let mut a = Dth::new(fixed, z0, options).unwrap();
@@ -293,6 +293,62 @@ fn explicit_peers_report_a_non_finite_state() {
         ),
         "{e:?}"
     );
+}
+
+/// The extended phase space's helpers and the segment solver check what they are given: a
+/// `z` of another length (`set_momentum_of_time` panicked on an empty one and returned NaN
+/// for a short one; `segment_from_vertex` failed with a misleading `NonFinite`), an autonomous
+/// `H` (whose last coordinate `set_momentum_of_time` overwrote), a NaN energy.
+#[test]
+fn extended_helpers_and_segments_check_their_input() {
+    let text = RuntimeHamiltonian::new(FORCED_DUFFING, &[("f", 0.1), ("w", 1.3)]).unwrap();
+    for len in [0, 2, 5] {
+        let e = set_momentum_of_time(&text, DVector::zeros(len));
+        assert!(
+            matches!(e, Err(Error::WrongStateLength { what: "z", expected: 4, found }) if found == len),
+            "{e:?}"
+        );
+    }
+    let z = set_momentum_of_time(&text, DVector::from_column_slice(&[1.0, 0.0, 0.0, 7.0])).unwrap();
+    assert_eq!(Hamiltonian::value(&text, &z), 0.0);
+    let autonomous = kepler_text();
+    let e = set_momentum_of_time(&autonomous, DVector::from_element(4, 0.5));
+    assert!(matches!(e, Err(Error::NotTimeDependent)), "{e:?}");
+    let options = DthOptions::default();
+    let e = segment_from_vertex(
+        &autonomous,
+        &DVector::from_element(3, 0.5),
+        -0.5,
+        1.0,
+        &options,
+    );
+    assert!(
+        matches!(
+            e,
+            Err(Error::WrongStateLength {
+                what: "vertex",
+                expected: 4,
+                found: 3
+            })
+        ),
+        "{e:?}"
+    );
+    let vertex = DVector::from_column_slice(&[0.5, 0.0, 0.0, 1.2]);
+    let e = segment_from_vertex(&autonomous, &vertex, f64::NAN, 1.0, &options);
+    assert!(
+        matches!(e, Err(Error::InvalidOption { name: "energy", .. })),
+        "{e:?}"
+    );
+    // The same call with a DTH run's vertex and level solves its segment.
+    let mut dth = Dth::new(autonomous, vertex, options).unwrap();
+    let step = dth.step().unwrap().dth.unwrap();
+    let h = dth.hamiltonian();
+    let (segment, _) =
+        segment_from_vertex(h, &step.vertex, dth.energy(), step.lambda, &options).unwrap();
+    // The same root by two energy residuals (the stepper's cancellation-free one, the
+    // segment's plain one: lambda noise ~ eps / (h lambda)^2 ~ 1e-14 relative at h = 0.06277),
+    // |zbar| ~ 1: measured 3.6e-16, allowed 1e-14.
+    assert!((segment.zbar - dth.zbar()).amax() <= 1e-14);
 }
 
 /// Every peer keeps a `Dyn` dimension's buffers from its first step (the implicit ones their

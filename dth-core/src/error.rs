@@ -55,6 +55,14 @@ pub enum Error {
         /// The vector's length.
         found: usize,
     },
+    /// A function for the extended phase space (time-dependent `H`, `z = (q, t, p, p_t)`) was
+    /// given a Hamiltonian whose [`Flags::time_dependent`](crate::Flags::time_dependent) is
+    /// false: its last coordinate is a momentum `p_n`, not `p_t`.
+    #[error(
+        "the Hamiltonian is autonomous (flags().time_dependent is false): its z has no momentum \
+         of time p_t to set; lift it with dth::Extended first"
+    )]
+    NotTimeDependent,
     /// An initial state component (or parameter) is NaN or infinite.
     #[error("initial state component {index} is not finite ({value})")]
     NonFiniteInitialState {
