@@ -311,6 +311,12 @@ fn extended_helpers_and_segments_check_their_input() {
     }
     let z = set_momentum_of_time(&text, DVector::from_column_slice(&[1.0, 0.0, 0.0, 7.0])).unwrap();
     assert_eq!(Hamiltonian::value(&text, &z), 0.0);
+    // Its clock is the t coordinate: another start time would disagree with it.
+    let dth = Dth::new(text, z, DthOptions::default()).unwrap();
+    assert!(matches!(
+        dth.with_tbar0(1.0),
+        Err(Error::InvalidOption { name: "tbar0", .. })
+    ));
     let autonomous = kepler_text();
     let e = set_momentum_of_time(&autonomous, DVector::from_element(4, 0.5));
     assert!(matches!(e, Err(Error::NotTimeDependent)), "{e:?}");

@@ -344,16 +344,25 @@ where
         fill_record(&self.s, &mut self.work.record);
     }
 
-    /// Start the clock at `tbar_0` instead of 0 (autonomous `H`).
+    /// Start the clock at `tbar_0` instead of 0 (autonomous `H`; a time-dependent one reads
+    /// its clock from the `t` coordinate of `zbar_0`).
     ///
     /// # Errors
-    /// [`Error::InvalidOption`] (`tbar0`) when not finite.
+    /// [`Error::InvalidOption`] (`tbar0`) when not finite, or when `H` is time-dependent (the
+    /// clock would disagree with the `t` coordinate: set `t` in `zbar_0` instead).
     pub fn with_tbar0(mut self, tbar0: f64) -> Result<Self, Error> {
-        if !tbar0.is_finite() {
+        let reason = if !tbar0.is_finite() {
+            Some("must be finite")
+        } else if self.flags.time_dependent {
+            Some("a time-dependent H takes its clock from the t coordinate of zbar_0: set t there")
+        } else {
+            None
+        };
+        if let Some(reason) = reason {
             return Err(Error::InvalidOption {
                 name: "tbar0",
                 value: tbar0,
-                reason: "must be finite",
+                reason,
             });
         }
         self.s.tbar = tbar0;
