@@ -14,7 +14,7 @@
 #[path = "../dth-core/tests/alloc_counter/mod.rs"]
 mod alloc_counter;
 
-use dth::dth::{lift, set_momentum_of_time, Dth, DthOptions, Solver};
+use dth::dth::{lift, segment_from_vertex, set_momentum_of_time, Dth, DthOptions, Solver};
 use dth::methods::{
     run, DiscreteGradient, GaussLegendre2, ImplicitMidpoint, OneStepMethod, Rk4, StormerVerlet,
     Trapezoidal,
@@ -127,8 +127,8 @@ fn time_dependent_text_runs_in_the_extended_phase_space() {
     assert!(Hamiltonian::flags(&text).time_dependent);
     let fixed = ForcedDuffing { f, w };
     let x0 = SVector::<f64, 2>::new(0.8, 0.0);
-    let z0 = set_momentum_of_time(&fixed, lift(&x0, 0.25));
-    let z0_dyn = set_momentum_of_time(&text, DVector::from_column_slice(z0.as_slice()));
+    let z0 = set_momentum_of_time(&fixed, lift(&x0, 0.25)).unwrap();
+    let z0_dyn = set_momentum_of_time(&text, DVector::from_column_slice(z0.as_slice())).unwrap();
     assert_eq!(z0_dyn.as_slice(), z0.as_slice());
     let options = DthOptions::default().with_dtau(0.05).unwrap();
     let mut a = Dth::new(fixed, z0, options).unwrap();
@@ -184,13 +184,177 @@ fn construction_errors_are_typed() {
         .err()
         .unwrap();
     assert!(
-        matches!(err, Error::InvalidOption { name: "zbar0", .. }),
+        matches!(
+            err,
+            Error::WrongStateLength {
+                what: "zbar0",
+                expected: 4,
+                found: 6
+            }
+        ),
         "{err:?}"
     );
     // The right one runs.
     let z = DVector::from_element(4, 0.5);
     let mut dth = Dth::new(Quadratic(4), z, DthOptions::default()).unwrap();
     dth.advance(10).unwrap();
+}
+
+/// A `Dyn` state of another length than the Hamiltonian's dimension, a Hamiltonian of odd
+/// dimension, a zero or NaN `dt` given straight to a peer's `step_into` (not through `run`):
+/// typed errors that name the argument, for every peer (Gauss-Legendre panicked on an odd
+/// dimension, RK4 and Stormer-Verlet returned `Ok` with a state of the wrong length or NaN).
+/// `run` names a wrong-length `z0` too (it said "non-finite state at step 1").
+#[test]
+fn peers_refuse_states_of_another_dimension() {
+    fn refuses<M: OneStepMethod<Dyn, Quadratic> + Default>(mut method: M) {
+        let name = M::NAME;
+        let h = Quadratic(4);
+        let (z4, z3) = (DVector::from_element(4, 0.5), DVector::from_element(3, 0.5));
+        let wrong = |e: Result<(), Error>, what: &str, found: usize| {
+            assert!(
+                matches!(e, Err(Error::WrongStateLength { what: w, expected: 4, found: f })
+                    if w == what && f == found),
+                "{name}: {e:?}"
+            );
+        };
+        wrong(method.step_into(&h, &z3, 0.1, &mut z3.clone()), "z", 3);
+        wrong(method.step_into(&h, &z4, 0.1, &mut z3.clone()), "z1", 3);
+        wrong(method.step(&h, &z3, 0.1).map(drop), "z", 3);
+        let e = run(&mut method, &h, &z3, 0.0, 0.1, 5, &mut ()).unwrap_err();
+        assert!(
+            matches!(
+                e.error,
+                Error::WrongStateLength {
+                    what: "z0",
+                    expected: 4,
+                    found: 3
+                }
+            ),
+            "{name}: {e}"
+        );
+        assert_eq!(e.partial.steps, 0);
+        for dt in [0.0, f64::NAN, f64::INFINITY] {
+            let e = method.step(&h, &z4, dt);
+            assert!(
+                matches!(e, Err(Error::InvalidOption { name: "dt", .. })),
+                "{name}: dt = {dt}: {e:?}"
+            );
+        }
+        let odd = Quadratic(5);
+        let z5 = DVector::from_element(5, 0.5);
+        let e = method.step(&odd, &z5, 0.1);
+        assert!(
+            matches!(e, Err(Error::OddDimension { dim: 5 })),
+            "{name}: {e:?}"
+        );
+        // After all that, the method steps as a fresh one.
+        assert_eq!(
+            method.step(&h, &z4, 0.1),
+            M::default().step(&h, &z4, 0.1),
+            "{name}"
+        );
+    }
+    refuses(ImplicitMidpoint::new());
+    refuses(Trapezoidal::new());
+    refuses(DiscreteGradient::new());
+    refuses(Rk4::new());
+    refuses(StormerVerlet::new());
+    refuses(GaussLegendre2::new());
+}
+
+/// The explicit peers stepped straight into a singularity of `H` (`1/q1` at `q1 = 0`): a typed
+/// error, not `Ok` with a NaN state.
+#[test]
+fn explicit_peers_report_a_non_finite_state() {
+    let h = RuntimeHamiltonian::new("p1^2/2 - 1/q1", &[]).unwrap();
+    let z = DVector::from_column_slice(&[0.0, 1.0]);
+    let e = Rk4::new().step(&h, &z, 0.1);
+    assert!(
+        matches!(
+            e,
+            Err(Error::MethodNonFinite {
+                method: "rk4",
+                what: "state",
+                ..
+            })
+        ),
+        "{e:?}"
+    );
+    let e = StormerVerlet::new().step(&h, &z, 0.1);
+    assert!(
+        matches!(
+            e,
+            Err(Error::MethodNonFinite {
+                method: "verlet",
+                what: "state",
+                ..
+            })
+        ),
+        "{e:?}"
+    );
+}
+
+/// The extended phase space's helpers and the segment solver check what they are given: a
+/// `z` of another length (`set_momentum_of_time` panicked on an empty one and returned NaN
+/// for a short one; `segment_from_vertex` failed with a misleading `NonFinite`), an autonomous
+/// `H` (whose last coordinate `set_momentum_of_time` overwrote), a NaN energy.
+#[test]
+fn extended_helpers_and_segments_check_their_input() {
+    let text = RuntimeHamiltonian::new(FORCED_DUFFING, &[("f", 0.1), ("w", 1.3)]).unwrap();
+    for len in [0, 2, 5] {
+        let e = set_momentum_of_time(&text, DVector::zeros(len));
+        assert!(
+            matches!(e, Err(Error::WrongStateLength { what: "z", expected: 4, found }) if found == len),
+            "{e:?}"
+        );
+    }
+    let z = set_momentum_of_time(&text, DVector::from_column_slice(&[1.0, 0.0, 0.0, 7.0])).unwrap();
+    assert_eq!(Hamiltonian::value(&text, &z), 0.0);
+    // Its clock is the t coordinate: another start time would disagree with it.
+    let dth = Dth::new(text, z, DthOptions::default()).unwrap();
+    assert!(matches!(
+        dth.with_tbar0(1.0),
+        Err(Error::InvalidOption { name: "tbar0", .. })
+    ));
+    let autonomous = kepler_text();
+    let e = set_momentum_of_time(&autonomous, DVector::from_element(4, 0.5));
+    assert!(matches!(e, Err(Error::NotTimeDependent)), "{e:?}");
+    let options = DthOptions::default();
+    let e = segment_from_vertex(
+        &autonomous,
+        &DVector::from_element(3, 0.5),
+        -0.5,
+        1.0,
+        &options,
+    );
+    assert!(
+        matches!(
+            e,
+            Err(Error::WrongStateLength {
+                what: "vertex",
+                expected: 4,
+                found: 3
+            })
+        ),
+        "{e:?}"
+    );
+    let vertex = DVector::from_column_slice(&[0.5, 0.0, 0.0, 1.2]);
+    let e = segment_from_vertex(&autonomous, &vertex, f64::NAN, 1.0, &options);
+    assert!(
+        matches!(e, Err(Error::InvalidOption { name: "energy", .. })),
+        "{e:?}"
+    );
+    // The same call with a DTH run's vertex and level solves its segment.
+    let mut dth = Dth::new(autonomous, vertex, options).unwrap();
+    let step = dth.step().unwrap().dth.unwrap();
+    let h = dth.hamiltonian();
+    let (segment, _) =
+        segment_from_vertex(h, &step.vertex, dth.energy(), step.lambda, &options).unwrap();
+    // The same root by two energy residuals (the stepper's cancellation-free one, the
+    // segment's plain one: lambda noise ~ eps / (h lambda)^2 ~ 1e-14 relative at h = 0.06277),
+    // |zbar| ~ 1: measured 3.6e-16, allowed 1e-14.
+    assert!((segment.zbar - dth.zbar()).amax() <= 1e-14);
 }
 
 /// Every peer keeps a `Dyn` dimension's buffers from its first step (the implicit ones their
@@ -272,5 +436,77 @@ fn dyn_dth_steps_allocate_nothing() {
                 "{name}: {fallbacks} fallback steps"
             );
         }
+        // One step at a time, each step's record read borrowed: nothing allocates either.
+        let mut stepped = dth.record();
+        let (lambdas, allocations) = alloc_counter::count(|| {
+            let mut lambdas = 0.0;
+            for _ in 0..100 {
+                dth.advance(1).unwrap();
+                let record = dth.record_ref();
+                lambdas += record.dth.as_ref().map_or(0.0, |d| d.lambda);
+                stepped.k = record.k;
+            }
+            lambdas
+        });
+        assert_eq!(allocations, 0, "{name}: allocations in 100 single steps");
+        assert!(lambdas > 0.0 && stepped.k == 401, "{name}");
+        assert_eq!(dth.record_ref(), &dth.record());
     }
+}
+
+/// Kepler `H = |p|^2 - 1/|q|` (`m = 1/2`), written by hand as a `Hamiltonian<Dyn>` that is
+/// `Clone` (a [`RuntimeHamiltonian`] owns its compiled code and is not).
+#[derive(Clone)]
+struct DynKepler;
+
+impl Hamiltonian<Dyn> for DynKepler {
+    fn dim(&self) -> Dyn {
+        Dyn(4)
+    }
+    fn flags(&self) -> dth::Flags {
+        dth::Flags::default().with_separable(true)
+    }
+    fn value(&self, z: &DVector<f64>) -> f64 {
+        z[2] * z[2] + z[3] * z[3] - 1.0 / z[0].hypot(z[1])
+    }
+    fn gradient_into(&self, z: &DVector<f64>, out: &mut DVector<f64>) {
+        let r3 = z[0].hypot(z[1]).powi(3);
+        out.copy_from_slice(&[z[0] / r3, z[1] / r3, 2.0 * z[2], 2.0 * z[3]]);
+    }
+    fn hessian_into(&self, z: &DVector<f64>, out: &mut DMatrix<f64>) {
+        let r2 = z[0] * z[0] + z[1] * z[1];
+        let r5 = r2 * r2 * r2.sqrt();
+        out.fill(0.0);
+        out[(0, 0)] = (r2 - 3.0 * z[0] * z[0]) / r5;
+        out[(1, 1)] = (r2 - 3.0 * z[1] * z[1]) / r5;
+        out[(0, 1)] = -3.0 * z[0] * z[1] / r5;
+        out[(1, 0)] = out[(0, 1)];
+        out[(2, 2)] = 2.0;
+        out[(3, 3)] = 2.0;
+    }
+}
+
+/// A clone of a `Dyn` DTH stepper in robust mode keeps its workspace, the fallback steps'
+/// Newton buffers included (the clone allocated them again on its first fallback step, where
+/// `Dth::new` had reserved them so that no step allocates), and steps as the original, bit
+/// for bit (Kepler at e = 0.9: fallback steps from step 5 on). `DynKepler` takes the trait's
+/// default discrete gradient, which allocates its temporaries for `Dyn`: the clone must
+/// allocate exactly what the original does over the same steps.
+#[test]
+fn cloned_dyn_stepper_keeps_its_workspace() {
+    let zbar0 = DVector::from_column_slice(&[0.5, 0.0, 0.0, 1.9f64.sqrt()]);
+    let options = DthOptions::default().with_robust(true);
+    let mut dth = Dth::new(DynKepler, zbar0, options).unwrap();
+    dth.advance(1).unwrap();
+    let mut clone = dth.clone();
+    let ((), original) = alloc_counter::count(|| dth.advance(20).unwrap());
+    let mut fallbacks = 0;
+    let mut count = |r: &StepRecord<Dyn>| fallbacks += usize::from(r.kind == StepKind::Fallback);
+    let ((), cloned) = alloc_counter::count(|| clone.run(20, &mut count).unwrap());
+    assert!(fallbacks > 0);
+    assert_eq!(
+        cloned, original,
+        "allocations of the clone and the original in 20 steps"
+    );
+    assert_eq!(clone.record_ref(), dth.record_ref());
 }

@@ -42,6 +42,27 @@ pub enum Error {
         /// The dimension the Hamiltonian reported.
         dim: usize,
     },
+    /// A state passed to a stepper or method does not have the Hamiltonian's dimension (a
+    /// `Dyn` vector of another length).
+    #[error(
+        "`{what}` has length {found}, but the Hamiltonian's phase space has dimension {expected}"
+    )]
+    WrongStateLength {
+        /// Which argument: `"zbar0"` (DTH), `"z0"` (a run), `"z"` or `"z1"` (a step).
+        what: &'static str,
+        /// The Hamiltonian's dimension `D`.
+        expected: usize,
+        /// The vector's length.
+        found: usize,
+    },
+    /// A function for the extended phase space (time-dependent `H`, `z = (q, t, p, p_t)`) was
+    /// given a Hamiltonian whose [`Flags::time_dependent`](crate::Flags::time_dependent) is
+    /// false: its last coordinate is a momentum `p_n`, not `p_t`.
+    #[error(
+        "the Hamiltonian is autonomous (flags().time_dependent is false): its z has no momentum \
+         of time p_t to set; lift it with dth::Extended first"
+    )]
+    NotTimeDependent,
     /// An initial state component (or parameter) is NaN or infinite.
     #[error("initial state component {index} is not finite ({value})")]
     NonFiniteInitialState {
@@ -186,6 +207,21 @@ pub enum Error {
 }
 
 /// A failed run (DTH or a peer method): the error and everything computed before it.
+///
+/// It displays as its error (which names the step), so `{}` and `?` into a
+/// `Box<dyn Error>` say why the run stopped; [`RunError::error`] is the typed error to match.
+///
+/// ```
+/// use dth_core::{dth::{integrate, DthOptions}, nalgebra::Vector4, systems::Kepler, Error};
+/// // One Newton iteration is too few to solve a step to roundoff: the first step fails.
+/// let options = DthOptions::default().with_max_iterations(1)?;
+/// let err = integrate(Kepler::thesis(), Vector4::new(0.5, 0.0, 0.0, 1.2), options, 100)
+///     .unwrap_err();
+/// assert!(matches!(err.error, Error::NewtonDiverged { step: 1, .. }));
+/// assert!(err.to_string().starts_with("newton did not converge at step 1"));
+/// assert_eq!(err.partial.len(), 1); // zbar_0, the last accepted midpoint
+/// # Ok::<(), Error>(())
+/// ```
 #[derive(Clone, Debug, PartialEq)]
 pub struct RunError<T> {
     /// Why the run stopped.
@@ -198,13 +234,16 @@ impl<T> std::fmt::Display for RunError<T> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(
             f,
-            "run stopped; what was computed up to the last accepted step is kept"
+            "{}; the run up to the last accepted step is kept",
+            self.error
         )
     }
 }
 
+/// The message includes the error's, so the error is not also its source (a report that
+/// walks the chain would print it twice).
 impl<T: std::fmt::Debug> std::error::Error for RunError<T> {
     fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
-        Some(&self.error)
+        std::error::Error::source(&self.error)
     }
 }

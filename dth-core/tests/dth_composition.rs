@@ -188,6 +188,8 @@ fn runs_end_exactly_at_the_requested_time() {
         let mut kinds = Vec::new();
         loop {
             let (r, done) = dth.step_toward(t_end).expect("step");
+            // The borrowed record is the one returned (the shortened step's too).
+            assert_eq!(dth.record_ref(), &r);
             kinds.push(r.kind);
             if done {
                 break;

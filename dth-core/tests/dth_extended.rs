@@ -16,7 +16,7 @@ fn extended_kepler_agrees_with_reduced_corollary_1() {
     let x0 = Vector4::new(0.5, 0.0, 0.0, 1.2);
     let ext: Extended<Kepler, Const<4>> = Extended::new(kepler);
     let t0 = 0.25;
-    let z0: Vector6<f64> = set_momentum_of_time(&ext, lift(&x0, t0));
+    let z0: Vector6<f64> = set_momentum_of_time(&ext, lift(&x0, t0)).expect("calH = 0");
     assert!(ext.value(&z0).abs() <= EPS, "calH(zbar_0) = 0");
     let steps = 500;
     let options = DthOptions::default();
@@ -128,7 +128,7 @@ impl Hamiltonian<Const<4>> for Forced {
 fn forced_errors(dtau: f64) -> (f64, f64) {
     let forced = Forced { f: 0.1, w: 0.5 };
     let (q0, p0) = (1.0, 0.0);
-    let z0 = set_momentum_of_time(&forced, Vector4::new(q0, 0.0, p0, 0.0));
+    let z0 = set_momentum_of_time(&forced, Vector4::new(q0, 0.0, p0, 0.0)).expect("calH = 0");
     let steps = (10.0 / dtau).ceil() as usize;
     let t = integrate(
         forced,

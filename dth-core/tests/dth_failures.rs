@@ -75,15 +75,20 @@ fn iteration_limit_gives_newton_diverged_with_data() {
     for solver in [Solver::Joint, Solver::Nested] {
         let mut dth = Dth::new(Kepler::thesis(), kepler_z0(), options.with_solver(solver))
             .expect("valid start");
+        let before = *dth.record_ref();
+        assert_eq!((before.k, before.z, before.t), (0, kepler_z0(), 0.0));
         let r = dth.step();
         let diverged = matches!(
             r,
             Err(Error::NewtonDiverged { step: 1, iterations: 1, residual }) if residual > 0.0
         );
         assert!(diverged, "{solver:?}: {r:?}");
-        // The state is unchanged.
+        // The state is unchanged, and so is the record of it.
         assert_eq!(dth.k(), 0);
         assert_eq!(dth.zbar(), &kepler_z0());
+        assert_eq!(dth.record_ref(), &before);
+        // Stepping again fails the same way: a failed step leaves nothing behind.
+        assert_eq!(dth.step(), r);
     }
 }
 

@@ -285,3 +285,73 @@ fn newton_failure_names_the_step_and_keeps_the_states() {
     }
     assert_eq!(seen, err.partial.steps + 1);
 }
+
+/// `H = p^2/2 + k q^2/2` that counts its gradient evaluations.
+struct CountingOscillator {
+    k: f64,
+    gradients: std::cell::Cell<usize>,
+}
+
+impl Hamiltonian<Const<2>> for CountingOscillator {
+    fn dim(&self) -> Const<2> {
+        Const
+    }
+    fn flags(&self) -> Flags {
+        Flags::default().with_separable(true)
+    }
+    fn value(&self, z: &dth_core::nalgebra::Vector2<f64>) -> f64 {
+        0.5 * (z[1] * z[1] + self.k * z[0] * z[0])
+    }
+    fn gradient_into(
+        &self,
+        z: &dth_core::nalgebra::Vector2<f64>,
+        out: &mut dth_core::nalgebra::Vector2<f64>,
+    ) {
+        self.gradients.set(self.gradients.get() + 1);
+        *out = dth_core::nalgebra::Vector2::new(self.k * z[0], z[1]);
+    }
+    fn hessian_into(
+        &self,
+        _: &dth_core::nalgebra::Vector2<f64>,
+        out: &mut dth_core::nalgebra::Matrix2<f64>,
+    ) {
+        *out = dth_core::nalgebra::Matrix2::new(self.k, 0.0, 0.0, 1.0);
+    }
+}
+
+/// One Stormer-Verlet value stepping a Hamiltonian whose parameter changes between steps
+/// (a parameter sweep or schedule, each step from where the last ended): each step is the
+/// step a fresh integrator takes, not one with the force of the previous parameter (which it
+/// reused when the step started from the last step's end); within a run on one `H` the last
+/// force is still reused (two gradient evaluations per step).
+#[test]
+fn verlet_does_not_reuse_the_force_of_another_hamiltonian() {
+    let oscillator = |k| CountingOscillator {
+        k,
+        gradients: std::cell::Cell::new(0),
+    };
+    let mut verlet = StormerVerlet::new();
+    let mut z = dth_core::nalgebra::Vector2::new(1.0, 0.0);
+    for k in [1.0, 4.0, 0.25, 9.0] {
+        let h = oscillator(k);
+        let next = verlet.step(&h, &z, 0.1).expect("step");
+        assert_eq!(
+            next,
+            StormerVerlet::new().step(&h, &z, 0.1).expect("step"),
+            "k = {k}"
+        );
+        z = next;
+    }
+    // Two runs from where the last ended, with another parameter: the second starts afresh.
+    let (a, b) = (oscillator(1.0), oscillator(4.0));
+    let end = run(&mut verlet, &a, &z, 0.0, 0.1, 10, &mut ()).expect("run");
+    let fresh = run(&mut StormerVerlet::new(), &b, &end.z, 0.0, 0.1, 10, &mut ()).expect("run");
+    let b_gradients = b.gradients.get();
+    assert_eq!(
+        run(&mut verlet, &b, &end.z, 0.0, 0.1, 10, &mut ()),
+        Ok(fresh)
+    );
+    // First-same-as-last within a run: 3 evaluations for the first step, 2 for each other.
+    assert_eq!(a.gradients.get(), 3 + 2 * 9);
+    assert_eq!(b.gradients.get() - b_gradients, 3 + 2 * 9);
+}

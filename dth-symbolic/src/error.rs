@@ -521,6 +521,9 @@ fn greek_name(ch: char) -> Option<&'static str> {
 }
 
 /// All the independent errors found in one source, in source order.
+///
+/// Displayed one after the other, each with where it is: the bytes of the source, or, for
+/// a bad parameter name, the parameter list (which is not part of the source).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Errors(pub Vec<Error>);
 
@@ -530,7 +533,10 @@ impl fmt::Display for Errors {
             if i > 0 {
                 f.write_str("; ")?;
             }
-            write!(f, "{e} (bytes {}..{})", e.span.start, e.span.end)?;
+            match e.kind {
+                ErrorKind::BadParameter { .. } => write!(f, "{e} (in the parameter list)")?,
+                _ => write!(f, "{e} (bytes {}..{})", e.span.start, e.span.end)?,
+            }
         }
         Ok(())
     }

@@ -232,6 +232,26 @@ fn errors_state_the_rule_and_accumulate() {
     assert_eq!((e[0].span.range(), e[1].span.range()), (0..2, 12..13));
 }
 
+/// A bad parameter name is not in the source: its error says so instead of pointing at
+/// bytes `0..0` of the source.
+#[test]
+fn parameter_errors_point_at_the_parameter_list() {
+    let e = compile("p1^2/(2*m) + q1^2", &["m", "m"]).unwrap_err();
+    assert_eq!(
+        e.to_string(),
+        "parameter `m` is declared twice (in the parameter list)"
+    );
+    let e = compile("p1^2 + x1", &["q1"]).unwrap_err();
+    assert!(
+        e.to_string().starts_with(
+            "parameter `q1` is a phase-space variable (q1..qN, p1..pN, t): parameters need their \
+             own names (in the parameter list); unknown variable `x1`"
+        ),
+        "{e}"
+    );
+    assert!(e.to_string().ends_with("(bytes 7..9)"), "{e}");
+}
+
 #[test]
 fn structural_errors() {
     assert!(matches!(kinds("q1^2 + q2")[..], [ErrorKind::NoMomentum]));

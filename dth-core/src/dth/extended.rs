@@ -5,7 +5,8 @@ use std::marker::PhantomData;
 use nalgebra::{DefaultAllocator, Dim, DimAdd, DimSum, OMatrix, OVector, U1, U2};
 
 use crate::hamiltonian::Alloc;
-use crate::{Flags, Hamiltonian};
+use crate::methods::check_state;
+use crate::{Error, Flags, Hamiltonian};
 
 /// An autonomous `H: Hamiltonian<D>` lifted to the extended phase space
 /// `z = (q1..qn, t, p1..pn, p_t)` of dimension `D + 2` (`DimSum<D, U2>`: `Const<N + 2>` for a
@@ -19,7 +20,7 @@ use crate::{Flags, Hamiltonian};
 /// use dth_core::dth::{lift, set_momentum_of_time, Dth, DthOptions, Extended};
 /// use dth_core::{nalgebra::{U4, Vector4}, systems::Kepler};
 /// let ext: Extended<Kepler, U4> = Extended::new(Kepler::thesis());
-/// let z = set_momentum_of_time(&ext, lift(&Vector4::new(0.5, 0.0, 0.0, 1.2), 0.0));
+/// let z = set_momentum_of_time(&ext, lift(&Vector4::new(0.5, 0.0, 0.0, 1.2), 0.0))?;
 /// assert_eq!(z[5], 0.56); // p_t = -H
 /// let mut dth = Dth::new(ext, z, DthOptions::default())?;
 /// dth.advance(10)?;
@@ -98,17 +99,33 @@ where
 /// Set the momentum of time `p_t = z[E - 1]` so that `calH(z) = p_t + H(t, q, p) = 0`
 /// (Theorem 1 requires it at `zbar_0`). For any extended-phase-space Hamiltonian, generated
 /// or [`Extended`].
+///
+/// # Errors
+/// [`Error::NotTimeDependent`] for an autonomous `H` (its last coordinate is `p_n`);
+/// [`Error::WrongStateLength`] (`z`) for a `z` not of `H`'s dimension;
+/// [`Error::NonFinite`] (step 0) when `H` is not finite at `z`.
 pub fn set_momentum_of_time<H: Hamiltonian<E>, E: Dim>(
     hamiltonian: &H,
     mut z: OVector<f64, E>,
-) -> OVector<f64, E>
+) -> Result<OVector<f64, E>, Error>
 where
     DefaultAllocator: Alloc<E>,
 {
+    if !hamiltonian.flags().time_dependent {
+        return Err(Error::NotTimeDependent);
+    }
+    check_state(hamiltonian, &z, "z")?;
     let last = z.len() - 1;
     z[last] = 0.0;
-    z[last] = -hamiltonian.value(&z);
-    z
+    let h = hamiltonian.value(&z);
+    if !h.is_finite() {
+        return Err(Error::NonFinite {
+            step: 0,
+            what: "H(t, q, p) at the point whose p_t is set",
+        });
+    }
+    z[last] = -h;
+    Ok(z)
 }
 
 impl<H: Hamiltonian<D>, D: Dim + DimAdd<U2>> Hamiltonian<DimSum<D, U2>> for Extended<H, D>

@@ -37,7 +37,7 @@ use super::linear::{self, largest, Dense, Linear, Path, Point};
 use super::options::{DthOptions, Solver};
 use crate::hamiltonian::Alloc;
 use crate::linalg::Pivot;
-use crate::methods::Structured;
+use crate::methods::{check_state, Structured};
 use crate::newton::{self, Convergence, Status, DTH};
 use crate::{zeros, Error, Hamiltonian};
 use nalgebra::{DefaultAllocator, Dim, OVector};
@@ -987,9 +987,10 @@ pub(crate) fn predict_into<H: Hamiltonian<D>, D: Dim>(
 /// `lambda_guess` (positive) starts Newton.
 ///
 /// # Errors
-/// [`Error::InvalidOption`] for a non-positive or non-finite `lambda_guess`,
-/// [`Error::NonFiniteInitialState`] for a non-finite vertex, and the Newton failures of a step
-/// (labelled step 0).
+/// [`Error::InvalidOption`] for a non-positive or non-finite `lambda_guess` or a non-finite
+/// `energy`, [`Error::WrongStateLength`] (`vertex`) for a vertex not of `H`'s (even)
+/// dimension, [`Error::NonFiniteInitialState`] for a non-finite vertex, and the Newton
+/// failures of a step (labelled step 0).
 ///
 /// # References
 /// Shibberu (1998) eqs. 28-30 and Theorem 3; thesis eqs. 2.3.5-2.3.7.
@@ -1010,6 +1011,14 @@ where
             reason: "must be positive and finite",
         });
     }
+    if !energy.is_finite() {
+        return Err(Error::InvalidOption {
+            name: "energy",
+            value: energy,
+            reason: "must be finite",
+        });
+    }
+    check_state(hamiltonian, vertex, "vertex")?;
     if let Some((index, &value)) = vertex.iter().enumerate().find(|(_, x)| !x.is_finite()) {
         return Err(Error::NonFiniteInitialState { index, value });
     }

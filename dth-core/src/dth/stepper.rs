@@ -11,7 +11,7 @@ use super::options::EnergyResidual;
 use super::robust::{fallback_step, FallbackWork};
 use super::trajectory::Trajectory;
 use crate::error::RunError;
-use crate::methods::Structured;
+use crate::methods::{check_state, Structured};
 use crate::observer::{DthRecord, Observer, StepKind, StepRecord};
 use crate::{j_times, zeros, Error, Flags, Hamiltonian};
 
@@ -21,7 +21,9 @@ use crate::{j_times, zeros, Error, Flags, Hamiltonian};
 /// allocated in [`Dth::new`], the dense linear algebra on the first step; after that,
 /// [`Dth::run`] and [`Dth::advance`] allocate nothing, for a `Dyn` dimension too (the records
 /// they report are borrowed; [`Dth::step`] returns an owned copy, two heap allocations for
-/// `Dyn`: the state and the vertex).
+/// `Dyn`: the state and the vertex). To step one at a time without allocating, call
+/// `advance(1)` and read the step's record with [`Dth::record_ref`]. A clone keeps the
+/// workspace (it steps without allocating too).
 ///
 /// State: midpoint `zbar_k`, multiplier `lambda_k`, midpoint time `tbar_k`. A step finds
 /// `zbar_{k+1}` and `lambda_{k+1} > 0` with
@@ -238,7 +240,7 @@ where
     ///
     /// # Errors
     /// [`Error::PsiIdenticallyZero`] as above; [`Error::OddDimension`] for a phase space of
-    /// odd dimension; [`Error::InvalidOption`] (`zbar0`) when `zbar_0`'s length is not
+    /// odd dimension; [`Error::WrongStateLength`] (`zbar0`) when `zbar_0`'s length is not
     /// `H`'s dimension; [`Error::NonFiniteInitialState`] for a NaN or infinite component of
     /// `zbar_0`;
     /// [`Error::NonFinite`] (step 0) when `H`, its gradient or Hessian is not finite there;
@@ -248,7 +250,7 @@ where
         if flags.psi_identically_zero {
             return Err(Error::PsiIdenticallyZero);
         }
-        check_dimension(&hamiltonian, &zbar0)?;
+        check_state(&hamiltonian, &zbar0, "zbar0")?;
         if let Some((index, &value)) = zbar0.iter().enumerate().find(|(_, x)| !x.is_finite()) {
             return Err(Error::NonFiniteInitialState { index, value });
         }
@@ -323,7 +325,7 @@ where
             fallback: FallbackWork::new(&hamiltonian, options.robust()),
             walk: zeros(dim),
         });
-        Ok(Dth {
+        let mut dth = Dth {
             hamiltonian,
             flags,
             options,
@@ -331,22 +333,40 @@ where
             s,
             newton,
             work,
-        })
+        };
+        dth.refresh_record();
+        Ok(dth)
     }
 
-    /// Start the clock at `tbar_0` instead of 0 (autonomous `H`).
+    /// The workspace's record made that of the current state again (after the state was set
+    /// other than by a step, which writes its own): [`Dth::record_ref`] reads it.
+    fn refresh_record(&mut self) {
+        fill_record(&self.s, &mut self.work.record);
+    }
+
+    /// Start the clock at `tbar_0` instead of 0 (autonomous `H`; a time-dependent one reads
+    /// its clock from the `t` coordinate of `zbar_0`).
     ///
     /// # Errors
-    /// [`Error::InvalidOption`] (`tbar0`) when not finite.
+    /// [`Error::InvalidOption`] (`tbar0`) when not finite, or when `H` is time-dependent (the
+    /// clock would disagree with the `t` coordinate: set `t` in `zbar_0` instead).
     pub fn with_tbar0(mut self, tbar0: f64) -> Result<Self, Error> {
-        if !tbar0.is_finite() {
+        let reason = if !tbar0.is_finite() {
+            Some("must be finite")
+        } else if self.flags.time_dependent {
+            Some("a time-dependent H takes its clock from the t coordinate of zbar_0: set t there")
+        } else {
+            None
+        };
+        if let Some(reason) = reason {
             return Err(Error::InvalidOption {
                 name: "tbar0",
                 value: tbar0,
-                reason: "must be finite",
+                reason,
             });
         }
         self.s.tbar = tbar0;
+        self.refresh_record();
         Ok(self)
     }
 
@@ -420,11 +440,33 @@ where
     pub fn in_fallback(&self) -> bool {
         self.s.fallback.is_some()
     }
-    /// The record of the current midpoint.
+    /// The record of the current midpoint (an owned copy: two heap allocations for `Dyn`; see
+    /// [`Dth::record_ref`]).
     pub fn record(&self) -> StepRecord<D> {
-        let mut record = self.work.record.clone();
-        fill_record(&self.s, &mut record);
-        record
+        self.work.record.clone()
+    }
+
+    /// The record of the current midpoint, borrowed: what [`Dth::step`] returned for it (or,
+    /// before any step, the initial midpoint's). With [`Dth::advance`]`(1)` it steps one
+    /// step at a time and reads each step without allocating, for a `Dyn` dimension too.
+    ///
+    /// ```
+    /// use dth_core::dth::{Dth, DthOptions};
+    /// use dth_core::{nalgebra::Vector4, systems::Kepler};
+    /// let zbar0 = Vector4::new(0.5, 0.0, 0.0, 1.2);
+    /// let mut dth = Dth::new(Kepler::thesis(), zbar0, DthOptions::default())?;
+    /// let mut longest = 0.0_f64;
+    /// while dth.tbar() < 10.0 {
+    ///     dth.advance(1)?;
+    ///     let record = dth.record_ref(); // borrowed: no copy of the state or the vertex
+    ///     longest = longest.max(record.dth.as_ref().map_or(0.0, |d| d.lambda));
+    /// }
+    /// assert_eq!(dth.record_ref(), &dth.record());
+    /// assert!(longest > 1.0);
+    /// # Ok::<(), dth_core::Error>(())
+    /// ```
+    pub fn record_ref(&self) -> &StepRecord<D> {
+        &self.work.record
     }
 
     /// Advance one step: solve for `zbar_{k+1}`, `lambda_{k+1}` (in robust mode, possibly a
@@ -445,6 +487,9 @@ where
     /// [`Error::SpuriousRoot`] when it converges to `lambda_{k+1} <= 0`;
     /// [`Error::EnergyCheckFailed`] (cancellation-free residual, robust fallback).
     /// In robust mode only the last three stop a run.
+    ///
+    /// The record is an owned copy (for `Dyn`, two heap allocations);
+    /// [`Dth::record_ref`] borrows it.
     pub fn step(&mut self) -> Result<StepRecord<D>, Error> {
         self.composed_step(
             self.options.composition().coefficients(),
@@ -572,6 +617,7 @@ where
             r.kind = StepKind::Shortened;
             self.s.step_kind = StepKind::Shortened;
         }
+        self.refresh_record();
         Ok((r, true))
     }
 
@@ -594,6 +640,7 @@ where
                 }
                 Err(e) => {
                     self.s.assign(&self.work.saved);
+                    self.refresh_record();
                     return Err(e);
                 }
             }
@@ -970,7 +1017,6 @@ where
     /// The first failing step's error (see [`Dth::step`]).
     pub fn run<O: Observer<D>>(&mut self, steps: usize, observer: &mut O) -> Result<(), Error> {
         if !self.s.reported {
-            fill_record(&self.s, &mut self.work.record);
             observer.on_step(&self.work.record);
             self.s.reported = true;
         }
@@ -1142,27 +1188,4 @@ where
             });
         }
     }
-}
-
-/// The checks of a phase space every stepper makes once: an even dimension, and a state of
-/// the Hamiltonian's dimension.
-pub(crate) fn check_dimension<H: Hamiltonian<D>, D: Dim>(
-    hamiltonian: &H,
-    z: &OVector<f64, D>,
-) -> Result<(), Error>
-where
-    DefaultAllocator: Alloc<D>,
-{
-    let dim = hamiltonian.dim().value();
-    if dim % 2 != 0 {
-        return Err(Error::OddDimension { dim });
-    }
-    if z.len() != dim {
-        return Err(Error::InvalidOption {
-            name: "zbar0",
-            value: z.len() as f64,
-            reason: "its length must be the Hamiltonian's dimension",
-        });
-    }
-    Ok(())
 }

@@ -5,7 +5,7 @@ use nalgebra::{DefaultAllocator, Dim, Dyn, OMatrix, OVector, U2};
 
 use super::kept::Kept;
 use super::newton::{self, NewtonOptions, Step, Structured};
-use super::OneStepMethod;
+use super::{check_step, OneStepMethod};
 use crate::dense_newton::DenseNewton;
 use crate::structured::NewtonMatrix;
 use crate::{j_times_into, zeros, zeros_matrix, Error, Hamiltonian};
@@ -76,6 +76,7 @@ where
         dt: f64,
         z1: &mut OVector<f64, D>,
     ) -> Result<(), Error> {
+        check_step(h, z0, dt, z1)?;
         let (d, _) = z0.shape_generic();
         let n = d.value();
         let GaussLegendre2 {

@@ -85,6 +85,17 @@ where
     /// calls. Every method here does it without allocating (for a `Dyn` dimension after its
     /// first step, buffers kept in the method value). Errors report `step: 0`; [`run`] fills
     /// in the step index. On error `z1` holds no meaningful value.
+    ///
+    /// Each call is a step on its own: `h` may differ from the last call's (another value of
+    /// a parameter, say), and nothing a method keeps between calls depends on it.
+    ///
+    /// # Errors
+    /// Every method here: [`Error::WrongStateLength`] when `z` or `z1` is not of the
+    /// Hamiltonian's dimension (a `Dyn` vector), [`Error::OddDimension`] for a Hamiltonian of
+    /// odd dimension, [`Error::InvalidOption`] (`dt`) for a zero or non-finite `dt`; then the
+    /// method's own failures ([`Error::MethodNonFinite`] for a state that is not finite,
+    /// [`Error::MethodNotConverged`] and [`Error::MethodSingularMatrix`] for the implicit
+    /// ones, [`Error::NotSeparable`]).
     fn step_into(
         &mut self,
         h: &H,
@@ -92,6 +103,24 @@ where
         dt: f64,
         z1: &mut OVector<f64, D>,
     ) -> Result<(), Error>;
+
+    /// The next step of a run: [`step_into`](Self::step_into), where the caller vouches that
+    /// `h` is the Hamiltonian of this method value's last step, unchanged since (the same
+    /// value, no parameter set in between), so that the method may reuse what it computed
+    /// there ([`StormerVerlet`] its last force, when `z` is that step's result). What [`run`]
+    /// calls after its first step. The default is `step_into`.
+    ///
+    /// # Errors
+    /// As [`step_into`](Self::step_into).
+    fn continue_into(
+        &mut self,
+        h: &H,
+        z: &OVector<f64, D>,
+        dt: f64,
+        z1: &mut OVector<f64, D>,
+    ) -> Result<(), Error> {
+        self.step_into(h, z, dt, z1)
+    }
 
     /// [`step_into`](Self::step_into) returning the new state (allocates it for a `Dyn`
     /// dimension).
@@ -104,6 +133,78 @@ where
     /// Newton iterations spent by this method value so far (0 for explicit methods).
     fn newton_iterations(&self) -> usize {
         0
+    }
+}
+
+/// The checks of a phase space every integrator makes before it steps: an even dimension
+/// (`z = (q1..qn, p1..pn)`), and a state `z` (named `what` in the error) of the Hamiltonian's
+/// dimension. Both hold by construction for a fixed dimension `Const<N>` with `N` even; a
+/// `Dyn` vector may have any length.
+pub(crate) fn check_state<H: Hamiltonian<D>, D: Dim>(
+    hamiltonian: &H,
+    z: &OVector<f64, D>,
+    what: &'static str,
+) -> Result<(), Error>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    let dim = hamiltonian.dim().value();
+    if dim % 2 != 0 {
+        return Err(Error::OddDimension { dim });
+    }
+    if z.len() != dim {
+        return Err(Error::WrongStateLength {
+            what,
+            expected: dim,
+            found: z.len(),
+        });
+    }
+    Ok(())
+}
+
+/// What every method's [`OneStepMethod::step_into`] checks first (`O(1)`): `z` and `z1` of the
+/// Hamiltonian's (even) dimension, and `dt` finite and non-zero, as [`run`] requires.
+pub(crate) fn check_step<H: Hamiltonian<D>, D: Dim>(
+    hamiltonian: &H,
+    z: &OVector<f64, D>,
+    dt: f64,
+    z1: &OVector<f64, D>,
+) -> Result<(), Error>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    check_state(hamiltonian, z, "z")?;
+    check_state(hamiltonian, z1, "z1")?;
+    check_dt(dt)
+}
+
+/// `dt` finite and non-zero (negative integrates backwards).
+fn check_dt(dt: f64) -> Result<(), Error> {
+    if dt.is_finite() && dt != 0.0 {
+        Ok(())
+    } else {
+        Err(Error::InvalidOption {
+            name: "dt",
+            value: dt,
+            reason: "must be finite and non-zero",
+        })
+    }
+}
+
+/// An explicit method's new state, checked: NaN or infinite components (the state ran into a
+/// singularity of `H`, or `dt` is far too large) are [`Error::MethodNonFinite`], not a result.
+pub(crate) fn check_finite<D: Dim>(method: &'static str, z1: &OVector<f64, D>) -> Result<(), Error>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    if z1.iter().all(|v| v.is_finite()) {
+        Ok(())
+    } else {
+        Err(Error::MethodNonFinite {
+            method,
+            step: 0,
+            what: "state",
+        })
     }
 }
 
@@ -156,15 +257,8 @@ where
             partial: end,
         })
     };
-    if !dt.is_finite() || dt == 0.0 {
-        return fail(
-            end,
-            Error::InvalidOption {
-                name: "dt",
-                value: dt,
-                reason: "must be finite and non-zero",
-            },
-        );
+    if let Err(error) = check_dt(dt).and_then(|()| check_state(h, z0, "z0")) {
+        return fail(end, error);
     }
     if let Some((index, &value)) = z0.iter().enumerate().find(|(_, v)| !v.is_finite()) {
         return fail(end, Error::NonFiniteInitialState { index, value });
@@ -193,7 +287,14 @@ where
     // The next state, written by the method and swapped with `end.z` once accepted.
     let mut next = z0.clone();
     for k in 1..=steps {
-        match method.step_into(h, &end.z, dt, &mut next) {
+        // The first step on its own (`h` may differ from the method's last), then a run on
+        // one `h`.
+        let stepped = if k == 1 {
+            method.step_into(h, &end.z, dt, &mut next)
+        } else {
+            method.continue_into(h, &end.z, dt, &mut next)
+        };
+        match stepped {
             Ok(()) if next.iter().all(|v| v.is_finite()) => {}
             Ok(_) => {
                 return fail(

@@ -30,7 +30,10 @@ use crate::{j_times_into, zeros, Error, Hamiltonian};
 /// first structured step (the only allocation, with a copy of the pattern) and reused while
 /// the pattern (compared entry by entry: `O(nonzeros)`, less than evaluating them), the
 /// dimension and the number of stages stay the same. A cache, not
-/// part of the method's value: two methods compare equal whatever their storage holds.
+/// part of the method's value: two methods compare equal whatever their storage holds. A
+/// clone copies it, so that it steps without allocating as the original does (the DTH
+/// stepper's robust mode reserves its fallback buffers in `Dth::new` and must not allocate
+/// them on a clone's first fallback step).
 #[derive(Default)]
 pub(crate) struct Structured {
     matrix: Option<(Vec<(usize, usize)>, NewtonMatrix)>,
@@ -39,11 +42,11 @@ pub(crate) struct Structured {
 }
 
 impl Clone for Structured {
-    /// The analysed matrix; the buffers are rebuilt on the clone's first step.
+    /// The analysed matrix and the buffers.
     fn clone(&self) -> Self {
         Structured {
             matrix: self.matrix.clone(),
-            buffers: None,
+            buffers: self.buffers.clone(),
         }
     }
 }
@@ -273,6 +276,7 @@ where
 /// The buffers of one Newton iterate of a one-stage method, which its equation fills:
 /// `residual = F(z1)`, the point `y` where the Newton matrix's Hessian is taken, and a
 /// scratch vector for the equation's own use (a gradient).
+#[derive(Clone)]
 pub(crate) struct Residual<D: Dim>
 where
     DefaultAllocator: Alloc<D>,
@@ -297,6 +301,7 @@ where
 
 /// Everything a one-stage step writes besides the Hessian: `grad H(z0)`, the iterate's
 /// [`Residual`] and the Newton update.
+#[derive(Clone)]
 struct OneStage<D: Dim>
 where
     DefaultAllocator: Alloc<D>,
@@ -320,6 +325,7 @@ where
 }
 
 /// A dynamic dimension's buffers, kept in the method's [`Structured`] storage between steps.
+#[derive(Clone)]
 struct Kept<D: Dim>
 where
     DefaultAllocator: Alloc<D>,
@@ -353,6 +359,7 @@ pub(crate) fn one_stage<H: Hamiltonian<D>, D: Dim>(
 where
     DefaultAllocator: Alloc<D>,
 {
+    super::check_step(h, z0, dt, z1)?;
     let (d, _) = z0.shape_generic();
     let solve = Solve {
         step: Step {

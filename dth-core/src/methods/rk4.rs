@@ -4,7 +4,7 @@ use crate::hamiltonian::Alloc;
 use nalgebra::{DefaultAllocator, Dim, OVector};
 
 use super::kept::Kept;
-use super::OneStepMethod;
+use super::{check_finite, check_step, OneStepMethod};
 use crate::{j_times_into, Error, Hamiltonian};
 
 /// Classical RK4 on `z' = J grad H(z)`: explicit, order 4, neither symplectic nor
@@ -39,6 +39,7 @@ where
         dt: f64,
         z1: &mut OVector<f64, D>,
     ) -> Result<(), Error> {
+        check_step(h, z0, dt, z1)?;
         let (d, _) = z0.shape_generic();
         // The four slopes, a stage point and a gradient.
         self.kept
@@ -57,6 +58,6 @@ where
                     z1[i] = z0[i] + (k1[i] + (k2[i] + k3[i]) * 2.0 + k4[i]) * (dt / 6.0);
                 }
             });
-        Ok(())
+        check_finite(<Self as OneStepMethod<D, H>>::NAME, z1)
     }
 }

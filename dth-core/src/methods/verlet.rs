@@ -3,7 +3,7 @@
 use crate::hamiltonian::Alloc;
 use nalgebra::{DefaultAllocator, Dim, OVector};
 
-use super::OneStepMethod;
+use super::{check_finite, check_step, OneStepMethod};
 use crate::{Error, Hamiltonian};
 
 /// Stormer-Verlet (velocity Verlet, kick-drift-kick) for `H = T(p) + V(q)`:
@@ -13,8 +13,12 @@ use crate::{Error, Hamiltonian};
 /// Explicit, second order, symmetric and symplectic. The partial gradients are read from
 /// [`Hamiltonian::gradient`], which is exact for separable `H` (the `q` part depends on `q`
 /// only, the `p` part on `p` only). A Hamiltonian without [`Flags::separable`](crate::Flags::separable) is refused with
-/// [`Error::NotSeparable`]. The last force `grad V(q1)` is kept and reused by the next step when
-/// it starts from `z1` (first-same-as-last): two gradient evaluations per step in a run.
+/// [`Error::NotSeparable`]. The last force `grad V(q1)` is kept and reused by the next step of a
+/// run when it starts from `z1` (first-same-as-last): two gradient evaluations per step in
+/// [`run`](super::run) and through [`OneStepMethod::continue_into`]. A call of
+/// [`OneStepMethod::step_into`] (or `step`) evaluates it afresh (three evaluations): its `H`
+/// may not be the last step's (a parameter set in between), and a force of another `H` would
+/// be a silently wrong step.
 ///
 /// # References
 /// E. Hairer, C. Lubich, G. Wanner, *Geometric numerical integration illustrated by the
@@ -75,6 +79,35 @@ where
         dt: f64,
         z1: &mut OVector<f64, D>,
     ) -> Result<(), Error> {
+        self.kick_drift_kick(h, z0, dt, z1, false)
+    }
+
+    fn continue_into(
+        &mut self,
+        h: &H,
+        z0: &OVector<f64, D>,
+        dt: f64,
+        z1: &mut OVector<f64, D>,
+    ) -> Result<(), Error> {
+        self.kick_drift_kick(h, z0, dt, z1, true)
+    }
+}
+
+impl<D: Dim> StormerVerlet<D>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    /// One step; with `reuse`, the last step's force when it ended at `z0` (the caller vouches
+    /// that `h` is that step's Hamiltonian).
+    fn kick_drift_kick<H: Hamiltonian<D>>(
+        &mut self,
+        h: &H,
+        z0: &OVector<f64, D>,
+        dt: f64,
+        z1: &mut OVector<f64, D>,
+        reuse: bool,
+    ) -> Result<(), Error> {
+        check_step(h, z0, dt, z1)?;
         if !h.flags().separable {
             return Err(Error::NotSeparable {
                 method: <Self as OneStepMethod<D, H>>::NAME,
@@ -89,7 +122,7 @@ where
             g_half: z0.clone(),
             last: false,
         });
-        if !(f.last && f.z == *z0) {
+        if !(reuse && f.last && f.z == *z0) {
             h.gradient_into(z0, &mut f.g);
         }
         f.last = false;
@@ -106,6 +139,7 @@ where
         for i in 0..n {
             z1[n + i] -= 0.5 * dt * f.g[i];
         }
+        check_finite(<Self as OneStepMethod<D, H>>::NAME, z1)?;
         // grad V(q1) is the q part of g at the new z: valid there whatever p is.
         f.z.copy_from(z1);
         f.last = true;
