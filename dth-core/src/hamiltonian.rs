@@ -330,6 +330,99 @@ where
     }
 }
 
+/// A shared reference is the Hamiltonian it points to: one `H` (a text compiled at run time
+/// once, a large generated type) can drive several steppers or methods without being cloned or
+/// compiled again. Every method forwards to `H`'s own, so its overrides (fused evaluation,
+/// exact divided differences, Hessian pattern) are the ones used, and a stepper on `&H`
+/// computes what one on `H` does, bit for bit.
+///
+/// ```
+/// use dth_core::dth::{Dth, DthOptions};
+/// use dth_core::{nalgebra::Vector4, systems::Kepler};
+/// let kepler = Kepler::thesis(); // one Hamiltonian, two steppers
+/// let z0 = Vector4::new(0.5, 0.0, 0.0, 1.2);
+/// let mut coarse = Dth::new(&kepler, z0, DthOptions::default())?;
+/// let mut fine = Dth::new(&kepler, z0, DthOptions::default().with_dtau(0.01)?)?;
+/// coarse.advance(10)?;
+/// fine.advance(10)?;
+/// let mut owned = Dth::new(Kepler::thesis(), z0, DthOptions::default())?;
+/// owned.advance(10)?;
+/// assert_eq!(coarse.zbar(), owned.zbar());
+/// # Ok::<(), dth_core::Error>(())
+/// ```
+impl<D: Dim, H: Hamiltonian<D> + ?Sized> Hamiltonian<D> for &H
+where
+    DefaultAllocator: Alloc<D>,
+{
+    fn dim(&self) -> D {
+        (**self).dim()
+    }
+    fn flags(&self) -> Flags {
+        (**self).flags()
+    }
+    fn hessian_pattern(&self) -> Option<&[(usize, usize)]> {
+        (**self).hessian_pattern()
+    }
+    fn value(&self, z: &OVector<f64, D>) -> f64 {
+        (**self).value(z)
+    }
+    fn gradient_into(&self, z: &OVector<f64, D>, out: &mut OVector<f64, D>) {
+        (**self).gradient_into(z, out);
+    }
+    fn hessian_into(&self, z: &OVector<f64, D>, out: &mut OMatrix<f64, D, D>) {
+        (**self).hessian_into(z, out);
+    }
+    fn gradient(&self, z: &OVector<f64, D>) -> OVector<f64, D> {
+        (**self).gradient(z)
+    }
+    fn hessian(&self, z: &OVector<f64, D>) -> OMatrix<f64, D, D> {
+        (**self).hessian(z)
+    }
+    fn hessian_nonzeros(&self, z: &OVector<f64, D>, values: &mut [f64]) {
+        (**self).hessian_nonzeros(z, values);
+    }
+    fn psi(&self, z: &OVector<f64, D>) -> f64 {
+        (**self).psi(z)
+    }
+    fn derivatives_into(&self, z: &OVector<f64, D>, out: &mut Derivatives<D>) {
+        (**self).derivatives_into(z, out);
+    }
+    fn derivatives(&self, z: &OVector<f64, D>) -> Derivatives<D> {
+        (**self).derivatives(z)
+    }
+    fn discrete_gradient_into(
+        &self,
+        z0: &OVector<f64, D>,
+        z1: &OVector<f64, D>,
+        out: &mut OVector<f64, D>,
+    ) {
+        (**self).discrete_gradient_into(z0, z1, out);
+    }
+    fn discrete_gradient(&self, z0: &OVector<f64, D>, z1: &OVector<f64, D>) -> OVector<f64, D> {
+        (**self).discrete_gradient(z0, z1)
+    }
+    fn discrete_gradient_defect_into(
+        &self,
+        z0: &OVector<f64, D>,
+        z1: &OVector<f64, D>,
+        gbar: &OVector<f64, D>,
+        out: &mut OVector<f64, D>,
+    ) {
+        (**self).discrete_gradient_defect_into(z0, z1, gbar, out);
+    }
+    fn discrete_gradient_defect(
+        &self,
+        z0: &OVector<f64, D>,
+        z1: &OVector<f64, D>,
+        gbar: &OVector<f64, D>,
+    ) -> OVector<f64, D> {
+        (**self).discrete_gradient_defect(z0, z1, gbar)
+    }
+    fn energy_difference(&self, z0: &OVector<f64, D>, z1: &OVector<f64, D>) -> f64 {
+        (**self).energy_difference(z0, z1)
+    }
+}
+
 /// `J v` for `J = [[0, I], [-I, 0]]`: `(v_p, -v_q)` (`v` of even length).
 ///
 /// ```
