@@ -162,7 +162,8 @@ where
 {
     let e = estimate(system, scene, stop);
     let total = e.bytes();
-    if total <= limit {
+    // A saturated estimate is more than any limit can allow (`u64::MAX` itself included).
+    if total <= limit && total < u64::MAX {
         return Ok(e);
     }
     let largest = e

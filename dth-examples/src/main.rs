@@ -78,7 +78,15 @@ fn parse_size(s: &str) -> Result<u64, String> {
     if !(value.is_finite() && value > 0.0) {
         return Err(format!("`{s}`: expected a positive size"));
     }
-    Ok((value * factor as f64) as u64)
+    let bytes = value * factor as f64;
+    // `as u64` saturates: `1e30T` would become 18 EB, a limit that passes every estimate
+    // (saturated ones included) and lets a run allocate until the system aborts it.
+    if bytes >= u64::MAX as f64 {
+        return Err(format!(
+            "`{s}` is more bytes than a 64-bit count holds: expected at most 18000000T"
+        ));
+    }
+    Ok(bytes as u64)
 }
 
 #[derive(Subcommand)]
@@ -130,7 +138,7 @@ enum Command {
         /// The Hamiltonian, e.g. "p1^2/(2*m) + k*q1^2/2" (quote it for the shell).
         expr: String,
         /// A parameter name the expression uses (repeat, or separate with commas).
-        #[arg(long = "param", short = 'p', value_delimiter = ',')]
+        #[arg(long = "param", short = 'p', value_delimiter = ',', value_parser = dth_examples::derive::param_name)]
         params: Vec<String>,
         /// Print the code `hamiltonian!` emits (the struct `GeneratedHamiltonian` with one
         /// `f64` field per parameter, and its `impl Hamiltonian<D>`), formatted.

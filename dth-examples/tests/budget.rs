@@ -112,3 +112,50 @@ fn an_ensemble_too_large_for_memory_is_refused() {
         }
     }
 }
+
+/// `--max-memory 1e30T` became `u64::MAX` bytes (`as u64` saturates), a limit every estimate
+/// passed, saturated ones included, and `run` panicked in `Vec::with_capacity` (exit 101, its
+/// temporary folder left behind). Such a size is now a clap error naming the option; a
+/// saturated estimate is refused under any limit; and members the allocator refuses (a limit
+/// above what the machine has) are an error, not an abort.
+#[test]
+fn an_absurd_memory_limit_is_an_error_not_a_panic() {
+    let dir = tempfile::tempdir().unwrap();
+    let members = |samples: &str| {
+        format!(
+            "[system]\nname = \"kepler\"\n[initial]\nq = [0.5, 0.0]\np = [0.0, 1.2]\n\
+             [[method]]\nkind = \"midpoint\"\ndt = 0.1\n[duration]\nsteps = 10\n\
+             [ensemble]\nkind = \"random\"\nx = \"q1\"\nx_range = [0.4, 0.6]\nsamples = {samples}\n"
+        )
+    };
+    std::fs::write(dir.path().join("many.toml"), members("100000000000")).unwrap();
+    for size in ["1e30T", "18446744073709551615"] {
+        let o = dth(&["run", "many.toml", "--max-memory", size], dir.path());
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{err}");
+        assert!(err.contains("'--max-memory <MAX_MEMORY>'"), "{err}");
+        assert!(err.contains("more bytes than a 64-bit count holds"), "{err}");
+    }
+    // 10^16 members: an estimate of about 9 EB, within a limit of 18 EB, but far more than
+    // the address space.
+    std::fs::write(dir.path().join("many.toml"), members("10000000000000000")).unwrap();
+    let o = dth(
+        &["run", "many.toml", "--out", "out", "--max-memory", "18000000T"],
+        dir.path(),
+    );
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("cannot allocate the 10000000000000000 members of the ensemble"),
+        "{err}"
+    );
+    assert_eq!(entries(dir.path()), ["many.toml"], "output left behind");
+    // The largest step count saturates the estimate: refused even under the largest limit.
+    let scene = scene(&i64::MAX.to_string());
+    let scene = dth_examples::check_scene(&scene, "max.toml", &Catalogue::builtin()).unwrap();
+    let stop = Stop::Steps(usize::MAX);
+    assert!(matches!(
+        dth_examples::budget::check(&Kepler::thesis(), &scene, stop, u64::MAX),
+        Err(dth_examples::Error::MemoryLimit { .. })
+    ));
+}

@@ -102,7 +102,7 @@ where
     } else {
         Some(Staging::new(out)?)
     };
-    let candidates = sample::draw(members, scene);
+    let candidates = sample::draw(members, scene)?;
     let bar = progress(candidates.len(), options);
     let results = schedule::run_members(candidates.len(), options.threads, &bar, |i| {
         member::run_member(build, scene, members, &candidates[i], options)
