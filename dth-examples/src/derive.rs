@@ -75,6 +75,38 @@ pub fn derive(source: &str, params: &[&str]) -> Result<String, Error> {
     }
 }
 
+/// A parameter name as `dth derive --param` takes it (a clap value parser): an identifier as
+/// the grammar reads one (an ASCII letter or `_`, then ASCII letters, digits or `_`) that is
+/// not a name of the grammar itself (`q1`, `t`, `pi`, `sin`, ...). A malformed name would
+/// otherwise be declared but never match the expression, and the error would name the
+/// expression's variable instead of the option.
+///
+/// ```
+/// use dth_examples::derive::param_name;
+/// assert_eq!(param_name("omega_0").as_deref(), Ok("omega_0"));
+/// assert!(param_name("1x").unwrap_err().contains("not a parameter name"));
+/// assert!(param_name("q1").unwrap_err().contains("phase-space variable"));
+/// ```
+pub fn param_name(name: &str) -> Result<String, String> {
+    let mut chars = name.chars();
+    let identifier = matches!(chars.next(), Some(c) if c.is_ascii_alphabetic() || c == '_')
+        && chars.all(|c| c.is_ascii_alphanumeric() || c == '_');
+    if name.is_empty() {
+        return Err(
+            "an empty parameter name (a stray comma?): expected a name such as `m` or `k2`".into(),
+        );
+    }
+    if !identifier {
+        return Err(format!(
+            "`{name}` is not a parameter name: expected an ASCII letter or `_` followed by letters, digits or `_` (e.g. `m`, `k2`, `omega_0`)"
+        ));
+    }
+    if let Some(why) = dth_symbolic::reserved_name(name) {
+        return Err(format!("`{name}` {why}: a parameter needs a name of its own"));
+    }
+    Ok(name.to_string())
+}
+
 /// The name of the type [`rust`] declares: the one the macro's expression form declares.
 pub const TYPE_NAME: &str = "GeneratedHamiltonian";
 

@@ -198,3 +198,26 @@ fn derive_a_lattice_beyond_what_is_written_out() {
         "{err}"
     );
 }
+
+/// `-p 1x` was accepted and never matched (the error named the expression's `k`, not the
+/// option), `-p ""` and `-p k,` declared an empty name silently, and `-p q1` was reported at
+/// column 1 of the expression. Each is now clap's error naming `--param` and the value.
+#[test]
+fn a_malformed_parameter_name_is_an_error_naming_the_option() {
+    let dir = tempfile::tempdir().unwrap();
+    for (value, why) in [
+        ("1x", "`1x` is not a parameter name"),
+        ("k x", "`k x` is not a parameter name"),
+        ("k,", "an empty parameter name"),
+        ("", "an empty parameter name"),
+        ("q1", "`q1` is a phase-space variable"),
+        ("sin", "`sin` is a function of the grammar"),
+    ] {
+        let o = dth(&["derive", "p1^2/2 + k*q1^2", "-p", value], dir.path());
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{value:?}: {err}");
+        assert!(err.contains("'--param <PARAMS>'"), "{value:?}: {err}");
+        assert!(err.contains(why), "{value:?}: {err}");
+        assert!(stdout(&o).is_empty());
+    }
+}
