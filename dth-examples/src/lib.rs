@@ -13,7 +13,8 @@
 //! Each module imports only from the ones listed before it:
 //!
 //! 1. [`error`] (the error type, how a method run fails), [`plot`] (figure primitives),
-//!    [`output`] (the staged output folder);
+//!    [`output`] (the staged output folder), [`json`] (JSON with non-finite numbers as
+//!    strings);
 //! 2. [`scene`]: its schema (the validated types), the serde form, and validation against a
 //!    [`scene::SystemLookup`];
 //! 3. [`driver`]: when runs stop, the fixed-step and DTH drivers, one observer protocol
@@ -46,6 +47,7 @@
 use std::path::Path;
 
 pub mod error;
+pub mod json;
 pub mod output;
 pub mod plot;
 

@@ -538,3 +538,26 @@ fn a_square_member_a_method_cannot_run_from_is_its_row() {
     let failed: Vec<&&str> = rows.iter().filter(|r| r.contains("cannot run")).collect();
     assert_eq!(failed, [&"5.2e-1,1.42e0,,,,,,step 0: method `exact` cannot run: this system has no exact solution for this initial state (Kepler: an elliptic orbit is needed)"]);
 }
+
+/// RK4 at `dt` = 10 on `H = (p^2 + q^2)/2` from `q = 1e150` grows the state about 400-fold a
+/// step: `q^2` overflows at step 2 while the state stays finite, so the energy deviation is
+/// infinite. `summary.json` wrote it as `null`, the same as a missing value (`"vertices":
+/// null`); every JSON the command writes now spells a non-finite number as a string.
+#[test]
+fn an_infinite_deviation_is_not_null_in_summary_json() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = "[system]\nhamiltonian = \"(p1^2 + q1^2)/2\"\n[initial]\nq = [1e150]\np = [0.0]\n\
+                 [[method]]\nkind = \"rk4\"\ndt = 10.0\n[duration]\nsteps = 3\n\
+                 [[effect]]\nkind = \"energy_deviation\"\n";
+    std::fs::write(dir.path().join("inf.toml"), scene).unwrap();
+    let o = dth(&["run", "inf.toml", "--out", "out"], dir.path());
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let text = std::fs::read_to_string(dir.path().join("out/summary.json")).unwrap();
+    let summary: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let energy = &summary["methods"][0]["energy"];
+    assert_eq!(energy["points"]["max"], "Infinity", "{text}");
+    assert_eq!(energy["points"]["mean"], "Infinity", "{text}");
+    assert_eq!(energy["points"]["count"], 3, "{text}");
+    // A value that is absent is still `null`.
+    assert!(energy["vertices"].is_null(), "{text}");
+}

@@ -118,9 +118,10 @@ pub fn write_file(path: &Path, contents: impl AsRef<[u8]>) -> Result<(), Error> 
     })
 }
 
-/// Writes `value` as pretty JSON to `path`.
+/// Writes `value` as pretty JSON to `path`, a non-finite number as a string (see
+/// [`crate::json`]).
 pub fn write_json(path: &Path, value: &impl Serialize) -> Result<(), Error> {
-    let json = serde_json::to_string_pretty(value).map_err(|e| Error::Io {
+    let json = crate::json::to_string_pretty(value).map_err(|e| Error::Io {
         what: "cannot serialize",
         path: path.to_path_buf(),
         source: std::io::Error::other(e),
