@@ -102,7 +102,9 @@ pub fn param_name(name: &str) -> Result<String, String> {
         ));
     }
     if let Some(why) = dth_symbolic::reserved_name(name) {
-        return Err(format!("`{name}` {why}: a parameter needs a name of its own"));
+        return Err(format!(
+            "`{name}` {why}: a parameter needs a name of its own"
+        ));
     }
     Ok(name.to_string())
 }

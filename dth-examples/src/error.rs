@@ -203,6 +203,10 @@ pub enum FailureCause {
         /// The end time asked for.
         t_end: f64,
     },
+    /// The run was interrupted (the `dth` command: SIGINT or SIGTERM) before this step: what
+    /// it computed up to there is kept.
+    #[error("interrupted (SIGINT or SIGTERM) before this step")]
+    Interrupted,
     /// The sampled exact solution could not be computed at this time.
     #[error("the exact solution is not available at t = {t}")]
     NoExactSolution {

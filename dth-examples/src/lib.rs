@@ -104,7 +104,8 @@ pub fn check_scene(
 /// # Errors
 /// [`RunError::NotRun`] when the scene is invalid or cannot run (nothing is written), and
 /// [`RunError::MethodsFailed`] when a method failed mid-run: the outputs are written and the
-/// error carries their report, so a caller cannot mistake a partial run for a complete one.
+/// error carries their report, so a caller cannot mistake a partial run for a complete one;
+/// [`RunError::Interrupted`] likewise for a run stopped through `RunOptions::interrupt`.
 pub fn run_scene(
     text: &str,
     file: &str,

@@ -2,6 +2,7 @@
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use clap::{Parser, Subcommand};
 use dth_examples::budget;
@@ -98,7 +99,9 @@ enum Command {
     /// is empty or is a dth output folder (it holds a .dth-output marker); otherwise the run is
     /// refused. Exit codes: 0 success, 2 bad input (scene errors, refused output folder),
     /// 1 run failures (a method failed mid-run: what it computed is still written), 130
-    /// interrupted by SIGINT or SIGTERM (nothing written, no temporary folder left).
+    /// interrupted by SIGINT or SIGTERM (Ctrl-C): the run stops at the next step and writes
+    /// what it computed, `summary.json`'s `interrupted` saying where; a second signal quits
+    /// at once, with nothing written and no temporary folder left.
     Run {
         /// The scene file (TOML).
         scene: PathBuf,
@@ -162,8 +165,13 @@ fn run(
     thesis_table: bool,
     options: &RunOptions,
 ) -> Result<ExitCode, CliError> {
-    // A run that lost a method still wrote its outputs: report them, then exit 1.
-    let report = match dth_examples::run_scene(text, file, &Catalogue::builtin(), out, options) {
+    // A run that lost a method still wrote its outputs: report them, then exit 1 (130 when
+    // it was interrupted).
+    let options = options.clone().with_interrupt(&INTERRUPT);
+    GRACEFUL.store(true, Ordering::SeqCst);
+    let report = dth_examples::run_scene(text, file, &Catalogue::builtin(), out, &options);
+    GRACEFUL.store(false, Ordering::SeqCst);
+    let report = match report {
         Ok(report) => report,
         Err(e) => e.partial_report()?,
     };
@@ -203,6 +211,10 @@ fn run(
         report.out.display()
     );
     println!("open {}", report.out.join("index.html").display());
+    if report.interrupted.is_some() {
+        eprintln!("{}", dth_examples::pipeline::interrupted_message(&report));
+        return Ok(ExitCode::from(INTERRUPTED as u8));
+    }
     let failed = !report.complete();
     if let Some(why) = &report.thesis_figures_failure {
         eprintln!(
@@ -375,14 +387,32 @@ fn main_inner(cli: Cli) -> Result<ExitCode, CliError> {
 /// Exit code of a run stopped by SIGINT or SIGTERM (128 + SIGINT, the shell's convention).
 const INTERRUPTED: i32 = 130;
 
+/// Set by the first SIGINT or SIGTERM during a scene's run: the run stops at the next step
+/// and writes what it computed (`RunOptions::interrupt`).
+static INTERRUPT: AtomicBool = AtomicBool::new(false);
+
+/// `true` while a scene runs (`dth run`, the default scene): a signal then sets
+/// [`INTERRUPT`] instead of ending the process.
+static GRACEFUL: AtomicBool = AtomicBool::new(false);
+
+/// On SIGINT or SIGTERM: during a scene's run, the first signal stops it at the next step
+/// (what it computed is written, exit 130); a second signal, or one outside a run (`table41`,
+/// `workprecision`, ...), exits at once with nothing written: the staging folder is removed
+/// and the previous output folder is untouched (see `output::remove_live_staging`).
+fn on_signal() {
+    if GRACEFUL.load(Ordering::SeqCst) && !INTERRUPT.swap(true, Ordering::SeqCst) {
+        eprintln!(
+            "interrupted: stopping at the next step to write what was computed (again to quit without writing)"
+        );
+        return;
+    }
+    dth_examples::output::remove_live_staging();
+    eprintln!("interrupted: nothing was written");
+    std::process::exit(INTERRUPTED);
+}
+
 fn main() -> ExitCode {
-    // An interrupted run leaves nothing behind: its staging folder is removed, the previous
-    // output folder is untouched (see `output::remove_live_staging`).
-    if let Err(e) = ctrlc::set_handler(|| {
-        dth_examples::output::remove_live_staging();
-        eprintln!("interrupted: nothing was written");
-        std::process::exit(INTERRUPTED);
-    }) {
+    if let Err(e) = ctrlc::set_handler(on_signal) {
         eprintln!("warning: cannot install the SIGINT/SIGTERM handler ({e}): an interrupted run may leave a temporary folder behind");
     }
     let cli = Cli::parse();

@@ -8,9 +8,11 @@
 //!   folder); otherwise the run is refused before it starts ([`Error::OutputRefused`]);
 //! - the old folder is swapped out only after the new one is complete: on any failure the old
 //!   folder is untouched and the temporary folder is removed;
-//! - an interrupted run (SIGINT, SIGTERM) leaves nothing behind: the `dth` command's signal
-//!   handler calls [`remove_live_staging`] before exiting, so the old folder is untouched and
-//!   no temporary folder is left.
+//! - a run interrupted by SIGINT or SIGTERM stops at the next step and is written and moved
+//!   into place like a complete one (`crate::pipeline::RunError::Interrupted`); a process that
+//!   must exit at once instead (a second signal, or a signal outside a run) leaves nothing
+//!   behind: the `dth` command's signal handler calls [`remove_live_staging`] before exiting,
+//!   so the old folder is untouched and no temporary folder is left.
 
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;

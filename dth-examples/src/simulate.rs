@@ -5,13 +5,14 @@
 use dth::nalgebra::{DefaultAllocator, Dim, OVector};
 use dth::Alloc;
 use std::collections::BTreeMap;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use dth::observer::{Observer, StepRecord};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
 
 use crate::budget;
-use crate::driver::{MethodFailure, Stop};
+use crate::driver::{FailureCause, Limit, MethodFailure, Stop};
 use crate::effects::{DeviationStats, EffectOutputs, Effects, FinalState};
 use crate::error::Error;
 use crate::method::{run_method, unavailable};
@@ -35,6 +36,11 @@ pub struct RunOptions {
     /// Threads an ensemble scene runs its members on (`crate::ensemble`); `None`, the
     /// default: one per core. The results do not depend on it.
     pub threads: Option<usize>,
+    /// A flag that interrupts the run at the next step once set (the `dth` command's SIGINT
+    /// and SIGTERM handler sets it): the method running stops with
+    /// [`FailureCause::Interrupted`](crate::error::FailureCause::Interrupted), the methods
+    /// after it do not run, and what was computed is written. Default `None`.
+    pub interrupt: Option<&'static AtomicBool>,
 }
 
 impl Default for RunOptions {
@@ -44,6 +50,7 @@ impl Default for RunOptions {
             max_steps: 100_000_000,
             memory_limit: None,
             threads: None,
+            interrupt: None,
         }
     }
 }
@@ -65,6 +72,27 @@ impl RunOptions {
     pub fn with_threads(mut self, threads: usize) -> Self {
         self.threads = Some(threads);
         self
+    }
+
+    /// Sets [`RunOptions::interrupt`].
+    ///
+    /// ```
+    /// use std::sync::atomic::{AtomicBool, Ordering};
+    /// use dth_examples::simulate::RunOptions;
+    /// static STOP: AtomicBool = AtomicBool::new(false);
+    /// let options = RunOptions::default().with_interrupt(&STOP);
+    /// assert!(!options.interrupted());
+    /// STOP.store(true, Ordering::Relaxed);
+    /// assert!(options.interrupted());
+    /// ```
+    pub fn with_interrupt(mut self, flag: &'static AtomicBool) -> Self {
+        self.interrupt = Some(flag);
+        self
+    }
+
+    /// `true` once [`RunOptions::interrupt`] is set.
+    pub fn interrupted(&self) -> bool {
+        self.interrupt.is_some_and(|f| f.load(Ordering::Relaxed))
     }
 
     /// The memory limit in force: the one set, or the default.
@@ -204,7 +232,7 @@ where
             });
             continue;
         }
-        let end = run_method(m, system, z, t0, Stop::Steps(e.steps), &mut ())?;
+        let end = run_method(m, system, z, t0, Stop::steps(e.steps), &mut ())?;
         members.push(EnsembleMember {
             x0,
             y0,
@@ -277,12 +305,9 @@ pub fn stop_for<D: Dim, S: SceneSystem<D>>(
 where
     DefaultAllocator: Alloc<D>,
 {
-    Ok(match scene.duration {
-        Duration::Steps(n) => Stop::Steps(n),
-        Duration::Time(t) => Stop::Time {
-            t_end: scene.t0 + t,
-            max_steps: options.max_steps,
-        },
+    let stop = match scene.duration {
+        Duration::Steps(n) => Stop::steps(n),
+        Duration::Time(t) => Stop::time(scene.t0 + t, options.max_steps),
         Duration::Orbits(k) => {
             let period = system.period(z0).ok_or_else(|| Error::NotAvailable {
                 what: "duration in orbits for system",
@@ -291,12 +316,10 @@ where
                     "the initial state has no orbit period (e.g. unbound): use `steps` or `time`"
                         .into(),
             })?;
-            Stop::Time {
-                t_end: scene.t0 + k * period,
-                max_steps: options.max_steps,
-            }
+            Stop::time(scene.t0 + k * period, options.max_steps)
         }
-    })
+    };
+    Ok(stop.with_interrupt(options.interrupt))
 }
 
 /// Refuses, before any method runs, what would otherwise stop the run after some methods
@@ -341,7 +364,7 @@ where
                 reason: reason.to_string(),
             });
         }
-        if let (StepSpec::Fixed { dt }, Stop::Time { t_end, max_steps }) = (m.step, stop) {
+        if let (StepSpec::Fixed { dt }, Limit::Time { t_end, max_steps }) = (m.step, stop.limit) {
             let steps = stop.fixed_steps(scene.t0, dt);
             if stop
                 .cut_short(steps, scene.t0 + steps as f64 * dt)
@@ -405,9 +428,9 @@ pub fn progress_bar(m: &MethodSpec, t0: f64, stop: Stop, options: &RunOptions) -
     if !options.progress {
         return ProgressBar::hidden();
     }
-    let len = match (stop, m.step) {
-        (Stop::Steps(n), _) => Some(n as u64),
-        (Stop::Time { .. }, StepSpec::Fixed { dt }) => Some(stop.fixed_steps(t0, dt) as u64),
+    let len = match (stop.limit, m.step) {
+        (Limit::Steps(n), _) => Some(n as u64),
+        (Limit::Time { .. }, StepSpec::Fixed { dt }) => Some(stop.fixed_steps(t0, dt) as u64),
         _ => None,
     };
     let bar = match len {
@@ -450,7 +473,9 @@ fn step_summary(step: StepSpec) -> BTreeMap<String, serde_json::Value> {
 }
 
 /// Runs every method of `scene` on `system` and keeps the results in memory (no files).
-/// Effects not requested are not constructed.
+/// Effects not requested are not constructed. A run interrupted through
+/// [`RunOptions::interrupt`] returns the methods up to the interrupted one (its failure is
+/// [`FailureCause::Interrupted`]); the ones after it are missing.
 pub fn compute<D: Dim, S: SceneSystem<D>>(
     system: &S,
     scene: &Scene,
@@ -503,9 +528,10 @@ where
                 .unwrap_or_default(),
             final_state: outputs.final_state.clone(),
         };
+        let interrupted = matches!(&end, Err(f) if f.cause == FailureCause::Interrupted);
         let ensemble = match &scene.ensemble {
-            Some(e) => Some(run_ensemble(system, m, e, &z0, scene.t0)?),
-            None => None,
+            Some(e) if !interrupted => Some(run_ensemble(system, m, e, &z0, scene.t0)?),
+            _ => None,
         };
         results.push(MethodResult {
             summary,
@@ -513,6 +539,10 @@ where
             ensemble,
             failure: end.err(),
         });
+        if interrupted {
+            // The methods after it do not run: the caller writes what was computed.
+            break;
+        }
     }
     Ok(results)
 }

@@ -36,7 +36,7 @@ fn the_estimate_is_what_the_effects_store() {
         &RunOptions::default().with_progress(false),
     )
     .unwrap();
-    let e = estimate(&Kepler::thesis(), &scene, Stop::Steps(1000));
+    let e = estimate(&Kepler::thesis(), &scene, Stop::steps(1000));
     for (r, (label, steps, bytes)) in results.iter().zip(&e.methods) {
         assert_eq!(&r.summary.label, label);
         assert_eq!(*steps, 1000);
@@ -134,13 +134,23 @@ fn an_absurd_memory_limit_is_an_error_not_a_panic() {
         let err = stderr(&o);
         assert_eq!(o.status.code(), Some(2), "{err}");
         assert!(err.contains("'--max-memory <MAX_MEMORY>'"), "{err}");
-        assert!(err.contains("more bytes than a 64-bit count holds"), "{err}");
+        assert!(
+            err.contains("more bytes than a 64-bit count holds"),
+            "{err}"
+        );
     }
     // 10^16 members: an estimate of about 9 EB, within a limit of 18 EB, but far more than
     // the address space.
     std::fs::write(dir.path().join("many.toml"), members("10000000000000000")).unwrap();
     let o = dth(
-        &["run", "many.toml", "--out", "out", "--max-memory", "18000000T"],
+        &[
+            "run",
+            "many.toml",
+            "--out",
+            "out",
+            "--max-memory",
+            "18000000T",
+        ],
         dir.path(),
     );
     let err = stderr(&o);
@@ -153,7 +163,7 @@ fn an_absurd_memory_limit_is_an_error_not_a_panic() {
     // The largest step count saturates the estimate: refused even under the largest limit.
     let scene = scene(&i64::MAX.to_string());
     let scene = dth_examples::check_scene(&scene, "max.toml", &Catalogue::builtin()).unwrap();
-    let stop = Stop::Steps(usize::MAX);
+    let stop = Stop::steps(usize::MAX);
     assert!(matches!(
         dth_examples::budget::check(&Kepler::thesis(), &scene, stop, u64::MAX),
         Err(dth_examples::Error::MemoryLimit { .. })

@@ -49,6 +49,25 @@ pub struct RunReport {
     /// What an ensemble scene ran (`crate::ensemble`), counted; `None` for a single run.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub ensemble: Option<EnsembleCounts>,
+    /// Where the run was interrupted (SIGINT or SIGTERM; `RunOptions::interrupt`), when it
+    /// was: what it computed up to there is written.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub interrupted: Option<Interrupted>,
+}
+
+/// Where a run was interrupted (`summary.json`'s `interrupted`).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Interrupted {
+    /// The method that was running, by label; `None` when none was (the interruption came
+    /// during the thesis's figures, or during an ensemble: its table marks the members that
+    /// were interrupted or not run).
+    pub method: Option<String>,
+    /// The step the method stopped before (every state before it is in the output).
+    pub step: Option<usize>,
+    /// The time of the last state the method reached.
+    pub t: Option<f64>,
+    /// The scene's methods that did not run, by label.
+    pub not_run: Vec<String>,
 }
 
 /// What an ensemble scene ran (`crate::ensemble`), counted (in `summary.json` and
@@ -93,10 +112,12 @@ impl RunReport {
         self.methods.iter().filter(|m| m.failure.is_some())
     }
 
-    /// `true` when the run computed everything the scene asked for: no method failed and the
-    /// thesis's figures (if asked for) were drawn.
+    /// `true` when the run computed everything the scene asked for: no method failed, the
+    /// thesis's figures (if asked for) were drawn, and it was not interrupted.
     pub fn complete(&self) -> bool {
-        self.failures().next().is_none() && self.thesis_figures_failure.is_none()
+        self.failures().next().is_none()
+            && self.thesis_figures_failure.is_none()
+            && self.interrupted.is_none()
     }
 }
 
