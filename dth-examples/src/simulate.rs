@@ -175,19 +175,24 @@ pub struct MethodResult {
 /// The initial states of the ensemble `e` around `z0`, row by row: `z0` shifted by
 /// `(-w + i s, -w + j s)` in the plane of its two coordinates (`w` the half width, `s` the
 /// spacing), with `calH = 0` restored for a time-dependent system.
+///
+/// # Errors
+/// [`Error::Allocation`] when the square's `per_side^2` states cannot be allocated.
 pub fn ensemble_starts<D: Dim, S: SceneSystem<D>>(
     system: &S,
     e: &Ensemble,
     z0: &OVector<f64, D>,
-) -> Vec<OVector<f64, D>>
+) -> Result<Vec<OVector<f64, D>>, Error>
 where
     DefaultAllocator: Alloc<D>,
 {
     let (Some(ix), Some(iy)) = (e.x.index(z0.len()), e.y.index(z0.len())) else {
-        return Vec::new();
+        return Ok(Vec::new());
     };
     let h = 2.0 * e.half_width / (e.per_side - 1) as f64;
-    let mut starts = Vec::with_capacity(e.per_side * e.per_side);
+    let mut starts = budget::vec_with_capacity(e.per_side.saturating_mul(e.per_side), || {
+        "the square of initial states".into()
+    })?;
     for i in 0..e.per_side {
         for j in 0..e.per_side {
             let mut z = z0.clone();
@@ -200,7 +205,7 @@ where
             starts.push(z);
         }
     }
-    starts
+    Ok(starts)
 }
 
 fn run_ensemble<D: Dim, S: SceneSystem<D>>(
@@ -216,8 +221,9 @@ where
     let (Some(ix), Some(iy)) = (e.x.index(z0.len()), e.y.index(z0.len())) else {
         return Ok(Vec::new());
     };
-    let mut members = Vec::with_capacity(e.per_side * e.per_side);
-    for z in ensemble_starts(system, e, z0) {
+    let starts = ensemble_starts(system, e, z0)?;
+    let mut members = Vec::with_capacity(starts.len());
+    for z in starts {
         let (x0, y0) = (z[ix], z[iy]);
         if let Some(reason) = unavailable(m, system, &z) {
             // A method that cannot run from this member (e.g. `exact` past the escape

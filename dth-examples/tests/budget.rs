@@ -156,10 +156,51 @@ fn an_absurd_memory_limit_is_an_error_not_a_panic() {
     let err = stderr(&o);
     assert_eq!(o.status.code(), Some(2), "{err}");
     assert!(
-        err.contains("cannot allocate the 10000000000000000 members of the ensemble"),
+        err.contains("cannot allocate the members of the ensemble (10000000000000000 of"),
         "{err}"
     );
     assert_eq!(entries(dir.path()), ["many.toml"], "output left behind");
+    // The thesis's square of initial states with 5e9 per side: its square overflowed
+    // `usize` in the estimate (a panic); now saturated, and refused.
+    let square = "[system]\nname = \"kepler\"\n[initial]\nq = [0.5, 0.0]\np = [0.0, 1.2]\n\
+                  [[method]]\nkind = \"midpoint\"\ndt = 0.1\n[duration]\nsteps = 10\n\
+                  [ensemble]\nx = \"q1\"\ny = \"p1\"\nhalf_width = 0.01\nsteps = 5\n";
+    std::fs::write(
+        dir.path().join("square.toml"),
+        format!("{square}per_side = 5000000000\n"),
+    )
+    .unwrap();
+    let o = dth(&["check", "square.toml"], dir.path());
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("would keep more than a 64-bit count of bytes"),
+        "{err}"
+    );
+    // 10^8 per side: 10^16 states, within a limit of 18 EB, not within the address space.
+    std::fs::write(
+        dir.path().join("square.toml"),
+        format!("{square}per_side = 100000000\n"),
+    )
+    .unwrap();
+    let o = dth(
+        &[
+            "run",
+            "square.toml",
+            "--out",
+            "out",
+            "--max-memory",
+            "18000000T",
+        ],
+        dir.path(),
+    );
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("cannot allocate the square of initial states"),
+        "{err}"
+    );
+    assert_eq!(entries(dir.path()), ["many.toml", "square.toml"]);
     // The largest step count saturates the estimate: refused even under the largest limit.
     let scene = scene(&i64::MAX.to_string());
     let scene = dth_examples::check_scene(&scene, "max.toml", &Catalogue::builtin()).unwrap();

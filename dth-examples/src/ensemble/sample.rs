@@ -7,6 +7,7 @@ use std::collections::BTreeMap;
 
 use dth::Hamiltonian;
 
+use crate::budget::vec_with_capacity;
 use crate::error::Error;
 use crate::scene::{Axis, Coord, EnergyShell, Members, Sampler, Scene};
 
@@ -102,16 +103,7 @@ pub fn draw(m: &Members, scene: &Scene) -> Result<Vec<Candidate>, Error> {
         p: scene.p.clone(),
         params: scene.params.clone(),
     };
-    let mut out = Vec::new();
-    out.try_reserve_exact(m.candidates())
-        .map_err(|e| Error::Allocation {
-            what: format!(
-                "the {} members of the ensemble ({} bytes each)",
-                m.candidates(),
-                std::mem::size_of::<Candidate>()
-            ),
-            reason: e.to_string(),
-        })?;
+    let mut out = vec_with_capacity(m.candidates(), || "the members of the ensemble".into())?;
     let mut push = |mut c: Candidate| {
         c.index = out.len();
         out.push(c);

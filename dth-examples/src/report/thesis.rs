@@ -441,7 +441,7 @@ where
             let mut initial = Vec::new();
             let mut last = Vec::new();
             let mut crossing = Vec::new();
-            for z in ensemble_starts(system, e, z0) {
+            for z in ensemble_starts(system, e, z0)? {
                 let mut record = Record(Vec::new());
                 run_method(
                     spec,
