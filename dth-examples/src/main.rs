@@ -49,8 +49,9 @@ struct Cli {
     /// memory). A scene estimated above it is refused, by `check` and `run`, before it runs.
     #[arg(long, global = true, value_parser = parse_size)]
     max_memory: Option<u64>,
-    /// Threads an ensemble scene runs its members on (default: one per core). The files are
-    /// the same for any number. Under `mpirun` (the `mpi` feature) this is per rank.
+    /// Threads an ensemble scene runs its members on (default: one per core; at most one per
+    /// member). The files are the same for any number. Under `mpirun` (the `mpi` feature)
+    /// this is per rank.
     #[arg(long, global = true, value_parser = clap::value_parser!(u16).range(1..))]
     threads: Option<u16>,
 }
