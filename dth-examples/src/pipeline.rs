@@ -90,18 +90,8 @@ pub fn interrupted_message(report: &RunReport) -> String {
     let Some(i) = &report.interrupted else {
         return failures_message(report);
     };
-    let mut s = String::from("interrupted");
-    if let (Some(method), Some(step)) = (&i.method, i.step) {
-        s.push_str(&format!(" before step {step} of method `{method}`"));
-        if let Some(t) = i.t {
-            s.push_str(&format!(" (last state at t = {t})"));
-        }
-    }
-    if !i.not_run.is_empty() {
-        s.push_str(&format!("; not run: {}", i.not_run.join(", ")));
-    }
     format!(
-        "{s} (what was computed up to there is in `{}`)",
+        "{i} (what was computed up to there is in `{}`)",
         report.out.display()
     )
 }

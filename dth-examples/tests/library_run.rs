@@ -176,6 +176,12 @@ fn an_interrupted_run_writes_what_it_computed_and_says_where_it_stopped() {
     // The initial state is the trajectory's one row.
     let rows = std::fs::read_to_string(out.join("midpoint_trajectory.csv")).unwrap();
     assert_eq!(rows.lines().count(), 2, "{rows}");
+    // The page says so too.
+    let page = std::fs::read_to_string(out.join("index.html")).unwrap();
+    assert!(
+        page.contains("The run was interrupted before step 1 of method `midpoint` (last state at t = 0); not run: dth (SIGINT or SIGTERM)"),
+        "{page}"
+    );
 }
 
 /// An ensemble interrupted before its members ran writes its table, every member marked as

@@ -70,6 +70,23 @@ pub struct Interrupted {
     pub not_run: Vec<String>,
 }
 
+/// "interrupted before step 3 of method `a` (last state at t = 0.3); not run: b".
+impl std::fmt::Display for Interrupted {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("interrupted")?;
+        if let (Some(method), Some(step)) = (&self.method, self.step) {
+            write!(f, " before step {step} of method `{method}`")?;
+            if let Some(t) = self.t {
+                write!(f, " (last state at t = {t})")?;
+            }
+        }
+        if !self.not_run.is_empty() {
+            write!(f, "; not run: {}", self.not_run.join(", "))?;
+        }
+        Ok(())
+    }
+}
+
 /// What an ensemble scene ran (`crate::ensemble`), counted (in `summary.json` and
 /// `ensemble.json`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
