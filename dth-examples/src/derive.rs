@@ -343,22 +343,46 @@ fn report_looped(source: &str, l: &Looped) -> String {
 
 /// Each error of `errors` as `error: MESSAGE (column C)` (with the line for a multi-line
 /// source), then the source line and a caret line under the offending characters.
+///
+/// At most [`MAX_SHOWN`] errors are shown, then how many more there are: an expression with
+/// thousands of the same mistake (`p1^2 + ... + p3000^2`, every index past the limit) printed
+/// every one of them, each under the whole expression.
 pub fn render_errors(source: &str, errors: &Errors) -> String {
-    errors
+    let mut text: String = errors
         .0
         .iter()
+        .take(MAX_SHOWN)
         .map(|e| render("error", source, &e.to_string(), e.span.range()))
-        .collect()
+        .collect();
+    if errors.0.len() > MAX_SHOWN {
+        let _ = writeln!(
+            text,
+            "... and {} more errors (the first {MAX_SHOWN} are shown)",
+            errors.0.len() - MAX_SHOWN
+        );
+    }
+    text
 }
 
+/// The most errors [`render_errors`] shows.
+pub const MAX_SHOWN: usize = 20;
+
+/// The characters of a long source line shown on each side of a diagnostic's span.
+const CONTEXT: usize = 40;
+
+/// A source line longer than this many characters is shown cut around the span.
+const LONG: usize = 120;
+
 /// One diagnostic: `LABEL: MESSAGE (column C)`, the source line, and carets under `range`.
+/// A line longer than [`LONG`] characters is cut to the span and [`CONTEXT`] characters on
+/// each side, with `...` where it was cut.
 fn render(label: &str, source: &str, message: &str, range: std::ops::Range<usize>) -> String {
     let start = range.start.min(source.len());
     let line_start = source[..start].rfind('\n').map_or(0, |i| i + 1);
     let line_end = source[start..]
         .find('\n')
         .map_or(source.len(), |i| start + i);
-    let line = &source[line_start..line_end];
+    let line: Vec<char> = source[line_start..line_end].chars().collect();
     let column = source[line_start..start].chars().count();
     let width = source
         .get(start..range.end.min(line_end))
@@ -369,9 +393,22 @@ fn render(label: &str, source: &str, message: &str, range: std::ops::Range<usize
     } else {
         format!("line {line_no}, column {}", column + 1)
     };
+    let (from, to) = if line.len() <= LONG {
+        (0, line.len())
+    } else {
+        (
+            column.saturating_sub(CONTEXT),
+            (column + width + CONTEXT).min(line.len()),
+        )
+    };
+    let (before, after) = (
+        if from > 0 { "..." } else { "" },
+        if to < line.len() { "..." } else { "" },
+    );
+    let shown: String = line[from..to].iter().collect();
     format!(
-        "{label}: {message} ({at})\n  {line}\n  {}{}\n",
-        " ".repeat(column),
+        "{label}: {message} ({at})\n  {before}{shown}{after}\n  {}{}\n",
+        " ".repeat(column - from + before.len()),
         "^".repeat(width)
     )
 }

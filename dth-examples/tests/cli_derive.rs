@@ -221,3 +221,29 @@ fn a_malformed_parameter_name_is_an_error_naming_the_option() {
         assert!(stdout(&o).is_empty());
     }
 }
+
+/// `p1^2 + ... + p599^2` has 87 indices past the limit of 512: each was printed under the
+/// whole 4,000-character expression (350 kB of output). Now the first 20 are shown, each under
+/// a window of the line around it, then how many more there are.
+#[test]
+fn many_errors_in_a_long_expression_are_shown_briefly() {
+    let dir = tempfile::tempdir().unwrap();
+    let expr: Vec<String> = (1..600).map(|i| format!("p{i}^2")).collect();
+    let o = dth(&["derive", &expr.join("+")], dir.path());
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert_eq!(err.matches("error: index in `p").count(), 20, "{err}");
+    assert!(
+        err.contains("... and 67 more errors (the first 20 are shown)"),
+        "{err}"
+    );
+    // The first: `p513` at column 3477, in a window of 40 characters on each side.
+    assert!(
+        err.contains(
+            "(column 3477)\n  ...07^2+p508^2+p509^2+p510^2+p511^2+p512^2+p513^2+p514^2+p515^2+p516^2+p517^2+p518^2+p5...\n\
+             \x20                                            ^^^^\n"
+        ),
+        "{err}"
+    );
+    assert!(err.len() < 5_000, "{} bytes", err.len());
+}
