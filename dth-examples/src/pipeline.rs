@@ -102,6 +102,7 @@ fn interruption(scene: &Scene, results: &[MethodResult]) -> Option<Interrupted> 
     let last = results.last()?;
     let f = last.failure.as_ref()?;
     (f.cause == FailureCause::Interrupted).then(|| Interrupted {
+        during: None,
         method: Some(last.summary.label.clone()),
         step: Some(f.step),
         t: Some(last.summary.t_end),
@@ -181,6 +182,7 @@ where
                         step: None,
                         t: None,
                         not_run: Vec::new(),
+                        during: Some("the thesis's figures (they are not drawn)".into()),
                     });
                     "the run was interrupted while they were computed".to_string()
                 } else {

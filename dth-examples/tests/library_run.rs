@@ -205,4 +205,9 @@ fn an_interrupted_ensemble_writes_its_table_with_the_members_not_run() {
     assert_eq!(report.ensemble.map(|c| (c.drawn, c.not_run)), Some((3, 3)));
     let table = std::fs::read_to_string(out.join("ensemble.csv")).unwrap();
     assert_eq!(table.matches("interrupted").count(), 3, "{table}");
+    let summary = std::fs::read_to_string(out.join("summary.json")).unwrap();
+    assert!(
+        summary.contains("\"during\": \"the ensemble's members (ensemble.csv marks"),
+        "{summary}"
+    );
 }

@@ -134,6 +134,10 @@ where
             step: None,
             t: None,
             not_run: Vec::new(),
+            during: Some(
+                "the ensemble's members (ensemble.csv marks the ones interrupted or not run)"
+                    .into(),
+            ),
         });
     }
     // `summary.json` has the same form as a single run's: no methods of its own (they are

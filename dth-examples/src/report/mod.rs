@@ -68,12 +68,19 @@ pub struct Interrupted {
     pub t: Option<f64>,
     /// The scene's methods that did not run, by label.
     pub not_run: Vec<String>,
+    /// What was being computed when no method was running: "the thesis's figures" (not
+    /// drawn), "the ensemble's members" (the table marks the ones interrupted or not run).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub during: Option<String>,
 }
 
 /// "interrupted before step 3 of method `a` (last state at t = 0.3); not run: b".
 impl std::fmt::Display for Interrupted {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str("interrupted")?;
+        if let Some(during) = &self.during {
+            write!(f, " during {during}")?;
+        }
         if let (Some(method), Some(step)) = (&self.method, self.step) {
             write!(f, " before step {step} of method `{method}`")?;
             if let Some(t) = self.t {
