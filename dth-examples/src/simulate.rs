@@ -38,8 +38,8 @@ pub struct RunOptions {
     pub threads: Option<usize>,
     /// A flag that interrupts the run at the next step once set (the `dth` command's SIGINT
     /// and SIGTERM handler sets it): the method running stops with
-    /// [`FailureCause::Interrupted`](crate::error::FailureCause::Interrupted), the methods
-    /// after it do not run, and what was computed is written. Default `None`.
+    /// [`FailureCause::Interrupted`], the methods after it do not run, and what was computed
+    /// is written. Default `None`.
     pub interrupt: Option<&'static AtomicBool>,
 }
 
