@@ -45,8 +45,9 @@ struct Cli {
     /// Output folder for the default run (default: dth-out/thesis-kepler).
     #[arg(long, global = false)]
     out: Option<PathBuf>,
-    /// The most memory a run's effects may keep, e.g. 4G, 512M (default: half the available
-    /// memory). A scene estimated above it is refused, by `check` and `run`, before it runs.
+    /// The most memory a run's effects may keep, e.g. 4G, 4GB, 4GiB, 512M (default: half the
+    /// available memory). A scene estimated above it is refused, by `check` and `run`, before
+    /// it runs.
     #[arg(long, global = true, value_parser = parse_size)]
     max_memory: Option<u64>,
     /// Threads an ensemble scene runs its members on (default: one per core; at most one per
@@ -56,31 +57,40 @@ struct Cli {
     threads: Option<u16>,
 }
 
-/// A size in bytes: a number with an optional `k`, `M`, `G` or `T` (powers of 1000).
+/// A size in bytes: a number with an optional `k`, `M`, `G` or `T` (powers of 1000), or
+/// `Ki`, `Mi`, `Gi`, `Ti` (powers of 1024), and an optional `B`: `4G`, `4GB`, `4GiB`, `512M`,
+/// `1000000`.
 fn parse_size(s: &str) -> Result<u64, String> {
     let s = s.trim();
-    let not_a_size = || format!("`{s}` is not a size: expected e.g. 4G, 512M or 1000000");
-    let (digits, unit) = match s.char_indices().last() {
-        Some((i, c)) if c.is_ascii_alphabetic() => (&s[..i], Some(c)),
-        _ => (s, None),
+    let not_a_size =
+        || format!("`{s}` is not a size: expected e.g. 4G, 4GB, 4GiB, 512M or 1000000");
+    let rest = s.strip_suffix(['B', 'b']).unwrap_or(s);
+    let (rest, binary) = match rest.strip_suffix('i') {
+        Some(r) => (r, true),
+        None => (rest, false),
+    };
+    let (digits, prefix) = match rest.char_indices().last() {
+        Some((i, c)) if c.is_ascii_alphabetic() => (&rest[..i], Some(c)),
+        _ => (rest, None),
     };
     let value: f64 = digits.trim().parse().map_err(|_| not_a_size())?;
-    let factor: u64 = match unit.map(|c| c.to_ascii_uppercase()) {
-        None => 1,
-        Some('K') => 1_000,
-        Some('M') => 1_000_000,
-        Some('G') => 1_000_000_000,
-        Some('T') => 1_000_000_000_000,
-        Some(c) => {
+    let power = match prefix.map(|c| c.to_ascii_uppercase()) {
+        None if !binary => 0,
+        Some('K') => 1,
+        Some('M') => 2,
+        Some('G') => 3,
+        Some('T') => 4,
+        _ => {
             return Err(format!(
-                "unknown unit `{c}` in `{s}`: expected k, M, G or T"
+                "unknown unit in `{s}`: expected k, M, G or T (powers of 1000) or Ki, Mi, Gi, Ti (powers of 1024), optionally followed by B"
             ))
         }
     };
+    let factor = if binary { 1024f64 } else { 1000f64 }.powi(power);
     if !(value.is_finite() && value > 0.0) {
         return Err(format!("`{s}`: expected a positive size"));
     }
-    let bytes = value * factor as f64;
+    let bytes = value * factor;
     // `as u64` saturates: `1e30T` would become 18 EB, a limit that passes every estimate
     // (saturated ones included) and lets a run allocate until the system aborts it.
     if bytes >= u64::MAX as f64 {

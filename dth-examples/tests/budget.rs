@@ -77,6 +77,26 @@ fn a_scene_above_the_limit_is_refused_by_check_and_run() {
     let o = dth(&["check", "small.toml", "--max-memory", "lots"], dir.path());
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("is not a size"), "{}", stderr(&o));
+    // Sizes as people write them: `4GB` was "unknown unit `B`"; `GiB` is 1024^3.
+    for (size, limit) in [
+        ("4G", "limit 4.0 GB"),
+        ("4GB", "limit 4.0 GB"),
+        ("4gb", "limit 4.0 GB"),
+        ("4GiB", "limit 4.3 GB"),
+        ("512MiB", "limit 536.9 MB"),
+        ("200000B", "limit 200.0 kB"),
+    ] {
+        let o = dth(&["check", "small.toml", "--max-memory", size], dir.path());
+        assert_eq!(o.status.code(), Some(0), "{size}: {}", stderr(&o));
+        assert!(stdout(&o).contains(limit), "{size}: {}", stdout(&o));
+    }
+    let o = dth(&["check", "small.toml", "--max-memory", "4X"], dir.path());
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("unknown unit in `4X`"),
+        "{}",
+        stderr(&o)
+    );
 }
 
 /// An ensemble of 10^11 random members with no effect was estimated at 0 bytes: `check`
