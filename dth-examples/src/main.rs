@@ -327,6 +327,7 @@ fn main_inner(cli: Cli) -> Result<ExitCode, CliError> {
         Some(Command::Run { scene, out }) => {
             let text = dth_examples::read_scene(&scene)?;
             let out = out.unwrap_or_else(|| default_out(&scene));
+            dth_examples::output::check_outside(&scene, &out)?;
             run(&text, &scene.display().to_string(), &out, false, &options)
         }
         Some(Command::Check { scene }) => {

@@ -135,6 +135,28 @@ fn a_foreign_folder_is_never_replaced() {
     assert_eq!(entries(dir.path()), ["mine"]);
 }
 
+/// A scene kept in its own output folder (`dth run out/scene.toml --out out`) was deleted when
+/// the run replaced the folder. Such a run is now refused before it starts.
+#[test]
+fn an_output_folder_holding_the_scene_is_not_replaced() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = std::fs::read(manifest_dir().join("tests/scenes/pipeline-kepler.toml")).unwrap();
+    std::fs::write(dir.path().join("s.toml"), &scene).unwrap();
+    let o = dth(&["run", "s.toml", "--out", "out"], dir.path());
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    std::fs::write(dir.path().join("out/s.toml"), &scene).unwrap();
+    let before = files(&dir.path().join("out"));
+    let o = dth(&["run", "out/s.toml", "--out", "out"], dir.path());
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("refusing to write to `out`: it holds the scene"),
+        "{err}"
+    );
+    assert_eq!(files(&dir.path().join("out")), before);
+    assert_eq!(entries(dir.path()), ["out", "s.toml"]);
+}
+
 #[test]
 fn a_method_failing_mid_run_keeps_its_trajectory_and_exits_1() {
     let dir = tempfile::tempdir().unwrap();
