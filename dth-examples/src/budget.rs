@@ -95,7 +95,9 @@ where
                 })
                 .fold(0u64, u64::saturating_add);
             if let Some(e) = &scene.ensemble {
-                values = values.saturating_add((e.per_side * e.per_side) as u64 * (d + 1));
+                // Saturating: `per_side` may be up to 2^63 (its square overflowed).
+                let square = (e.per_side as u64).saturating_mul(e.per_side as u64);
+                values = values.saturating_add(square.saturating_mul(d + 1));
             }
             let mut table = 0u64;
             if let Some(members) = &scene.members {
@@ -138,6 +140,18 @@ pub fn default_limit() -> u64 {
     available.map_or(8 << 30, |bytes| bytes / 2)
 }
 
+/// An empty vector with room for `n` items, or [`Error::Allocation`] naming `what` when the
+/// allocator refuses (more items than memory: reachable with a limit above what the machine
+/// has, as the estimate counts them), where `Vec::with_capacity` would panic or abort.
+pub fn vec_with_capacity<T>(n: usize, what: impl FnOnce() -> String) -> Result<Vec<T>, Error> {
+    let mut v = Vec::new();
+    v.try_reserve_exact(n).map_err(|e| Error::Allocation {
+        what: format!("{} ({n} of {} bytes)", what(), std::mem::size_of::<T>()),
+        reason: e.to_string(),
+    })?;
+    Ok(v)
+}
+
 /// `bytes` for people: `"3.7 GB"`, `"512.0 MB"`, `"12 bytes"`.
 pub fn human(bytes: u64) -> String {
     const UNITS: [(&str, f64); 3] = [("GB", 1e9), ("MB", 1e6), ("kB", 1e3)];
@@ -147,6 +161,16 @@ pub fn human(bytes: u64) -> String {
         }
     }
     format!("{bytes} bytes")
+}
+
+/// "about 3.7 GB", or for a saturated estimate "more than a 64-bit count of bytes" (no
+/// limit can allow it).
+fn about(bytes: u64) -> String {
+    if bytes == u64::MAX {
+        "more than a 64-bit count of bytes (over 18 EB)".into()
+    } else {
+        format!("about {}", human(bytes))
+    }
 }
 
 /// Refuses a run whose effects would keep more than `limit` bytes, naming the estimate and the
@@ -162,7 +186,8 @@ where
 {
     let e = estimate(system, scene, stop);
     let total = e.bytes();
-    if total <= limit {
+    // A saturated estimate is more than any limit can allow (`u64::MAX` itself included).
+    if total <= limit && total < u64::MAX {
         return Ok(e);
     }
     let largest = e
@@ -170,7 +195,7 @@ where
         .iter()
         .max_by_key(|m| m.2)
         .map_or(String::new(), |(label, n, bytes)| {
-            format!("; the largest: `{label}`, {n} steps, {}", human(*bytes))
+            format!("; the largest: `{label}`, {n} steps, {}", about(*bytes))
         });
     let (what, fewer) = match &scene.members {
         Some(m) => (
@@ -183,10 +208,10 @@ where
         estimate: total,
         limit,
         detail: format!(
-            "{what} would keep about {} for {} method(s){largest}, above the limit of {}: \
+            "{what} would keep {} for {} method(s){largest}, above the limit of {}: \
              {fewer}sample less often (`every`), shorten the duration, drop effects, or raise \
              the limit (--max-memory)",
-            human(total),
+            about(total),
             e.methods.len(),
             human(limit)
         ),

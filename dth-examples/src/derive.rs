@@ -75,6 +75,40 @@ pub fn derive(source: &str, params: &[&str]) -> Result<String, Error> {
     }
 }
 
+/// A parameter name as `dth derive --param` takes it (a clap value parser): an identifier as
+/// the grammar reads one (an ASCII letter or `_`, then ASCII letters, digits or `_`) that is
+/// not a name of the grammar itself (`q1`, `t`, `pi`, `sin`, ...). A malformed name would
+/// otherwise be declared but never match the expression, and the error would name the
+/// expression's variable instead of the option.
+///
+/// ```
+/// use dth_examples::derive::param_name;
+/// assert_eq!(param_name("omega_0").as_deref(), Ok("omega_0"));
+/// assert!(param_name("1x").unwrap_err().contains("not a parameter name"));
+/// assert!(param_name("q1").unwrap_err().contains("phase-space variable"));
+/// ```
+pub fn param_name(name: &str) -> Result<String, String> {
+    let mut chars = name.chars();
+    let identifier = matches!(chars.next(), Some(c) if c.is_ascii_alphabetic() || c == '_')
+        && chars.all(|c| c.is_ascii_alphanumeric() || c == '_');
+    if name.is_empty() {
+        return Err(
+            "an empty parameter name (a stray comma?): expected a name such as `m` or `k2`".into(),
+        );
+    }
+    if !identifier {
+        return Err(format!(
+            "`{name}` is not a parameter name: expected an ASCII letter or `_` followed by letters, digits or `_` (e.g. `m`, `k2`, `omega_0`)"
+        ));
+    }
+    if let Some(why) = dth_symbolic::reserved_name(name) {
+        return Err(format!(
+            "`{name}` {why}: a parameter needs a name of its own"
+        ));
+    }
+    Ok(name.to_string())
+}
+
 /// The name of the type [`rust`] declares: the one the macro's expression form declares.
 pub const TYPE_NAME: &str = "GeneratedHamiltonian";
 
@@ -309,22 +343,46 @@ fn report_looped(source: &str, l: &Looped) -> String {
 
 /// Each error of `errors` as `error: MESSAGE (column C)` (with the line for a multi-line
 /// source), then the source line and a caret line under the offending characters.
+///
+/// At most [`MAX_SHOWN`] errors are shown, then how many more there are: an expression with
+/// thousands of the same mistake (`p1^2 + ... + p3000^2`, every index past the limit) printed
+/// every one of them, each under the whole expression.
 pub fn render_errors(source: &str, errors: &Errors) -> String {
-    errors
+    let mut text: String = errors
         .0
         .iter()
+        .take(MAX_SHOWN)
         .map(|e| render("error", source, &e.to_string(), e.span.range()))
-        .collect()
+        .collect();
+    if errors.0.len() > MAX_SHOWN {
+        let _ = writeln!(
+            text,
+            "... and {} more errors (the first {MAX_SHOWN} are shown)",
+            errors.0.len() - MAX_SHOWN
+        );
+    }
+    text
 }
 
+/// The most errors [`render_errors`] shows.
+pub const MAX_SHOWN: usize = 20;
+
+/// The characters of a long source line shown on each side of a diagnostic's span.
+const CONTEXT: usize = 40;
+
+/// A source line longer than this many characters is shown cut around the span.
+const LONG: usize = 120;
+
 /// One diagnostic: `LABEL: MESSAGE (column C)`, the source line, and carets under `range`.
+/// A line longer than [`LONG`] characters is cut to the span and [`CONTEXT`] characters on
+/// each side, with `...` where it was cut.
 fn render(label: &str, source: &str, message: &str, range: std::ops::Range<usize>) -> String {
     let start = range.start.min(source.len());
     let line_start = source[..start].rfind('\n').map_or(0, |i| i + 1);
     let line_end = source[start..]
         .find('\n')
         .map_or(source.len(), |i| start + i);
-    let line = &source[line_start..line_end];
+    let line: Vec<char> = source[line_start..line_end].chars().collect();
     let column = source[line_start..start].chars().count();
     let width = source
         .get(start..range.end.min(line_end))
@@ -335,9 +393,22 @@ fn render(label: &str, source: &str, message: &str, range: std::ops::Range<usize
     } else {
         format!("line {line_no}, column {}", column + 1)
     };
+    let (from, to) = if line.len() <= LONG {
+        (0, line.len())
+    } else {
+        (
+            column.saturating_sub(CONTEXT),
+            (column + width + CONTEXT).min(line.len()),
+        )
+    };
+    let (before, after) = (
+        if from > 0 { "..." } else { "" },
+        if to < line.len() { "..." } else { "" },
+    );
+    let shown: String = line[from..to].iter().collect();
     format!(
-        "{label}: {message} ({at})\n  {line}\n  {}{}\n",
-        " ".repeat(column),
+        "{label}: {message} ({at})\n  {before}{shown}{after}\n  {}{}\n",
+        " ".repeat(column - from + before.len()),
         "^".repeat(width)
     )
 }

@@ -1,4 +1,4 @@
-//! The run driver: how long a run lasts ([`Stop`]), how it fails ([`MethodFailure`]), and the
+//! The run driver: how long a run lasts and when it is interrupted ([`Stop`]), how it fails ([`MethodFailure`]), and the
 //! two integrator drivers every method of a scene goes through, the fixed-step peers
 //! ([`run_peer`]) and the DTH stepper ([`DthRunner`]). Both report every state to one
 //! `dth::observer::Observer` and end with a `dth::methods::RunEnd`, or with a typed
@@ -12,12 +12,13 @@ use dth::nalgebra::{DefaultAllocator, Dim, OVector};
 use dth::observer::Observer;
 use dth::Alloc;
 use dth::Hamiltonian;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 pub use crate::error::{FailureCause, MethodFailure};
 
-/// When a run stops.
+/// How long a run lasts.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Stop {
+pub enum Limit {
     /// After this many steps.
     Steps(usize),
     /// At the first state with `t >= t_end`, or after `max_steps` steps, whichever is first.
@@ -29,28 +30,98 @@ pub enum Stop {
     },
 }
 
+/// When a run stops: at its [`Limit`], or at the next step boundary once its interrupt flag
+/// is set (the `dth` command sets it on SIGINT or SIGTERM; a library caller through
+/// `RunOptions::with_interrupt`). An interrupted run ends with
+/// [`FailureCause::Interrupted`]: what it computed up to there is kept, as for a failure.
+///
+/// ```
+/// use std::sync::atomic::{AtomicBool, Ordering};
+/// use dth_examples::driver::{Limit, Stop};
+/// static FLAG: AtomicBool = AtomicBool::new(false);
+/// let stop = Stop::steps(10).with_interrupt(Some(&FLAG));
+/// assert_eq!(stop.limit, Limit::Steps(10));
+/// assert!(stop.interruption(3).is_none());
+/// FLAG.store(true, Ordering::Relaxed);
+/// assert_eq!(stop.interruption(3).map(|f| f.step), Some(4));
+/// ```
+#[derive(Debug, Clone, Copy)]
+pub struct Stop {
+    /// How long the run lasts.
+    pub limit: Limit,
+    /// Set: stop before the next step.
+    interrupt: Option<&'static AtomicBool>,
+}
+
+impl From<Limit> for Stop {
+    fn from(limit: Limit) -> Self {
+        Stop {
+            limit,
+            interrupt: None,
+        }
+    }
+}
+
 impl Stop {
+    /// After `n` steps ([`Limit::Steps`]), not interruptible.
+    pub fn steps(n: usize) -> Self {
+        Limit::Steps(n).into()
+    }
+
+    /// At `t_end` or after `max_steps` steps ([`Limit::Time`]), not interruptible.
+    pub fn time(t_end: f64, max_steps: usize) -> Self {
+        Limit::Time { t_end, max_steps }.into()
+    }
+
+    /// The same stop, interrupted once `flag` is set (`None`: never).
+    pub fn with_interrupt(mut self, flag: Option<&'static AtomicBool>) -> Self {
+        self.interrupt = flag;
+        self
+    }
+
+    /// The same interrupt flag with another limit.
+    pub fn with_limit(mut self, limit: Limit) -> Self {
+        self.limit = limit;
+        self
+    }
+
+    /// `true` once the interrupt flag is set.
+    pub fn interrupted(&self) -> bool {
+        self.interrupt.is_some_and(|f| f.load(Ordering::Relaxed))
+    }
+
+    /// The failure of a run interrupted after step `k` (it stops before step `k + 1`), or
+    /// `None` while the flag is not set. Drivers ask it at every step boundary.
+    pub fn interruption(&self, k: usize) -> Option<MethodFailure> {
+        self.interrupted().then_some(MethodFailure {
+            step: k + 1,
+            cause: FailureCause::Interrupted,
+        })
+    }
+
     /// `true` once step `k` at time `t` ends the run.
     pub fn done(&self, k: usize, t: f64) -> bool {
-        match *self {
-            Stop::Steps(n) => k >= n,
-            Stop::Time { t_end, max_steps } => t >= t_end || k >= max_steps,
+        match self.limit {
+            Limit::Steps(n) => k >= n,
+            Limit::Time { t_end, max_steps } => t >= t_end || k >= max_steps,
         }
     }
 
     /// The failure of a run that is done at step `k` and time `t` only because the cap
-    /// `max_steps` of a [`Stop::Time`] stopped it short of `t_end` (`None` when it reached its
+    /// `max_steps` of a [`Limit::Time`] stopped it short of `t_end` (`None` when it reached its
     /// end): the run did not compute what it was asked for, so it failed at step `k + 1`.
     pub fn cut_short(&self, k: usize, t: f64) -> Option<MethodFailure> {
-        match *self {
-            Stop::Time { t_end, max_steps } if k >= max_steps && t < t_end => Some(MethodFailure {
-                step: k + 1,
-                cause: FailureCause::StepCap {
-                    max_steps,
-                    t,
-                    t_end,
-                },
-            }),
+        match self.limit {
+            Limit::Time { t_end, max_steps } if k >= max_steps && t < t_end => {
+                Some(MethodFailure {
+                    step: k + 1,
+                    cause: FailureCause::StepCap {
+                        max_steps,
+                        t,
+                        t_end,
+                    },
+                })
+            }
             _ => None,
         }
     }
@@ -59,9 +130,9 @@ impl Stop {
     /// `k` with `t0 + k dt >= t_end` (the clock is `t0 + k dt`, as `dth::methods::run`
     /// computes it), capped at `max_steps`.
     pub fn fixed_steps(&self, t0: f64, dt: f64) -> usize {
-        match *self {
-            Stop::Steps(n) => n,
-            Stop::Time { t_end, max_steps } => {
+        match self.limit {
+            Limit::Steps(n) => n,
+            Limit::Time { t_end, max_steps } => {
                 let guess = ((t_end - t0) / dt).ceil().max(0.0);
                 let mut k = if guess < max_steps as f64 {
                     guess as usize
@@ -78,6 +149,46 @@ impl Stop {
                 k
             }
         }
+    }
+}
+
+/// A fixed-step method that refuses its next step once `interrupt` is set: `dth::methods::run`
+/// then ends as for a failed step, and [`run_peer`] reports the interruption (`refused`).
+struct Interruptible<'a, M> {
+    method: &'a mut M,
+    interrupt: &'static AtomicBool,
+    refused: bool,
+}
+
+impl<D: Dim, H: Hamiltonian<D>, M: OneStepMethod<D, H>> OneStepMethod<D, H> for Interruptible<'_, M>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    const NAME: &'static str = M::NAME;
+    const ORDER: u32 = M::ORDER;
+
+    #[inline]
+    fn step_into(
+        &mut self,
+        h: &H,
+        z: &OVector<f64, D>,
+        dt: f64,
+        z1: &mut OVector<f64, D>,
+    ) -> Result<(), dth::Error> {
+        if self.interrupt.load(Ordering::Relaxed) {
+            self.refused = true;
+            // Never shown: `run_peer` reports `FailureCause::Interrupted` instead.
+            return Err(dth::Error::InvalidOption {
+                name: "interrupt",
+                value: f64::NAN,
+                reason: "the run was interrupted",
+            });
+        }
+        self.method.step_into(h, z, dt, z1)
+    }
+
+    fn newton_iterations(&self) -> usize {
+        self.method.newton_iterations()
     }
 }
 
@@ -100,8 +211,25 @@ where
     O: Observer<D>,
 {
     let steps = stop.fixed_steps(t0, dt);
-    let end = methods::run(method, system, &z0, t0, dt, steps, observer)
-        .map_err(|e| MethodFailure::integrator(e.partial.steps + 1, e.error))?;
+    let end = match stop.interrupt {
+        None => methods::run(method, system, &z0, t0, dt, steps, observer),
+        Some(interrupt) => {
+            let mut method = Interruptible {
+                method,
+                interrupt,
+                refused: false,
+            };
+            let end = methods::run(&mut method, system, &z0, t0, dt, steps, observer);
+            if let (Err(e), true) = (&end, method.refused) {
+                return Err(MethodFailure {
+                    step: e.partial.steps + 1,
+                    cause: FailureCause::Interrupted,
+                });
+            }
+            end
+        }
+    }
+    .map_err(|e| MethodFailure::integrator(e.partial.steps + 1, e.error))?;
     match stop.cut_short(end.steps, end.t) {
         Some(failure) => Err(failure),
         None => Ok(end),
@@ -175,9 +303,12 @@ impl DthRunner {
                     steps: record.k,
                 });
             }
+            if let Some(interrupted) = stop.interruption(record.k) {
+                return Err(interrupted);
+            }
             let failed = |e| MethodFailure::integrator(record.k + 1, e);
-            record = match stop {
-                Stop::Time { t_end, .. } => {
+            record = match stop.limit {
+                Limit::Time { t_end, .. } => {
                     let (r, reached) = dth.step_toward(t_end).map_err(failed)?;
                     if reached {
                         observer.on_step(&r);
@@ -189,7 +320,7 @@ impl DthRunner {
                     }
                     r
                 }
-                Stop::Steps(_) => dth.step().map_err(failed)?,
+                Limit::Steps(_) => dth.step().map_err(failed)?,
             };
         }
     }

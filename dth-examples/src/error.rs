@@ -148,6 +148,15 @@ pub enum Error {
         /// The cap.
         max_steps: usize,
     },
+    /// Memory the scene asks for that the system refused (exit code 2: too much was asked),
+    /// although its estimate was within the limit (a limit set above what the machine has).
+    #[error("cannot allocate {what}: {reason}: ask for less (e.g. fewer members), or a --max-memory the machine has")]
+    Allocation {
+        /// What was being allocated, with its size.
+        what: String,
+        /// The allocator's reason.
+        reason: String,
+    },
     /// A system registration is invalid (e.g. a duplicate name).
     #[error("invalid system registration `{name}`: {reason}")]
     Registration {
@@ -168,7 +177,8 @@ impl Error {
             | Error::Hamiltonian { .. }
             | Error::MemoryLimit { .. }
             | Error::InitialState { .. }
-            | Error::TooManySteps { .. } => 2,
+            | Error::TooManySteps { .. }
+            | Error::Allocation { .. } => 2,
             _ => 1,
         }
     }
@@ -193,6 +203,10 @@ pub enum FailureCause {
         /// The end time asked for.
         t_end: f64,
     },
+    /// The run was interrupted (the `dth` command: SIGINT or SIGTERM) before this step: what
+    /// it computed up to there is kept.
+    #[error("interrupted (SIGINT or SIGTERM) before this step")]
+    Interrupted,
     /// The sampled exact solution could not be computed at this time.
     #[error("the exact solution is not available at t = {t}")]
     NoExactSolution {

@@ -13,7 +13,8 @@
 //! Each module imports only from the ones listed before it:
 //!
 //! 1. [`error`] (the error type, how a method run fails), [`plot`] (figure primitives),
-//!    [`output`] (the staged output folder);
+//!    [`output`] (the staged output folder), [`json`] (JSON with non-finite numbers as
+//!    strings);
 //! 2. [`scene`]: its schema (the validated types), the serde form, and validation against a
 //!    [`scene::SystemLookup`];
 //! 3. [`driver`]: when runs stop, the fixed-step and DTH drivers, one observer protocol
@@ -46,6 +47,7 @@
 use std::path::Path;
 
 pub mod error;
+pub mod json;
 pub mod output;
 pub mod plot;
 
@@ -102,7 +104,8 @@ pub fn check_scene(
 /// # Errors
 /// [`RunError::NotRun`] when the scene is invalid or cannot run (nothing is written), and
 /// [`RunError::MethodsFailed`] when a method failed mid-run: the outputs are written and the
-/// error carries their report, so a caller cannot mistake a partial run for a complete one.
+/// error carries their report, so a caller cannot mistake a partial run for a complete one;
+/// [`RunError::Interrupted`] likewise for a run stopped through `RunOptions::interrupt`.
 pub fn run_scene(
     text: &str,
     file: &str,

@@ -2,6 +2,7 @@
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use clap::{Parser, Subcommand};
 use dth_examples::budget;
@@ -44,41 +45,60 @@ struct Cli {
     /// Output folder for the default run (default: dth-out/thesis-kepler).
     #[arg(long, global = false)]
     out: Option<PathBuf>,
-    /// The most memory a run's effects may keep, e.g. 4G, 512M (default: half the available
-    /// memory). A scene estimated above it is refused, by `check` and `run`, before it runs.
+    /// The most memory a run's effects may keep, e.g. 4G, 4GB, 4GiB, 512M (default: half the
+    /// available memory). A scene estimated above it is refused, by `check` and `run`, before
+    /// it runs.
     #[arg(long, global = true, value_parser = parse_size)]
     max_memory: Option<u64>,
-    /// Threads an ensemble scene runs its members on (default: one per core). The files are
-    /// the same for any number. Under `mpirun` (the `mpi` feature) this is per rank.
+    /// Threads an ensemble scene runs its members on (default: one per core; at most one per
+    /// member). The files are the same for any number. Under `mpirun` (the `mpi` feature)
+    /// this is per rank.
     #[arg(long, global = true, value_parser = clap::value_parser!(u16).range(1..))]
     threads: Option<u16>,
 }
 
-/// A size in bytes: a number with an optional `k`, `M`, `G` or `T` (powers of 1000).
+/// A size in bytes: a number with an optional `k`, `M`, `G` or `T` (powers of 1000), or
+/// `Ki`, `Mi`, `Gi`, `Ti` (powers of 1024), and an optional `B`: `4G`, `4GB`, `4GiB`, `512M`,
+/// `1000000`.
 fn parse_size(s: &str) -> Result<u64, String> {
     let s = s.trim();
-    let not_a_size = || format!("`{s}` is not a size: expected e.g. 4G, 512M or 1000000");
-    let (digits, unit) = match s.char_indices().last() {
-        Some((i, c)) if c.is_ascii_alphabetic() => (&s[..i], Some(c)),
-        _ => (s, None),
+    let not_a_size =
+        || format!("`{s}` is not a size: expected e.g. 4G, 4GB, 4GiB, 512M or 1000000");
+    let rest = s.strip_suffix(['B', 'b']).unwrap_or(s);
+    let (rest, binary) = match rest.strip_suffix('i') {
+        Some(r) => (r, true),
+        None => (rest, false),
+    };
+    let (digits, prefix) = match rest.char_indices().last() {
+        Some((i, c)) if c.is_ascii_alphabetic() => (&rest[..i], Some(c)),
+        _ => (rest, None),
     };
     let value: f64 = digits.trim().parse().map_err(|_| not_a_size())?;
-    let factor: u64 = match unit.map(|c| c.to_ascii_uppercase()) {
-        None => 1,
-        Some('K') => 1_000,
-        Some('M') => 1_000_000,
-        Some('G') => 1_000_000_000,
-        Some('T') => 1_000_000_000_000,
-        Some(c) => {
+    let power = match prefix.map(|c| c.to_ascii_uppercase()) {
+        None if !binary => 0,
+        Some('K') => 1,
+        Some('M') => 2,
+        Some('G') => 3,
+        Some('T') => 4,
+        _ => {
             return Err(format!(
-                "unknown unit `{c}` in `{s}`: expected k, M, G or T"
+                "unknown unit in `{s}`: expected k, M, G or T (powers of 1000) or Ki, Mi, Gi, Ti (powers of 1024), optionally followed by B"
             ))
         }
     };
+    let factor = if binary { 1024f64 } else { 1000f64 }.powi(power);
     if !(value.is_finite() && value > 0.0) {
         return Err(format!("`{s}`: expected a positive size"));
     }
-    Ok((value * factor as f64) as u64)
+    let bytes = value * factor;
+    // `as u64` saturates: `1e30T` would become 18 EB, a limit that passes every estimate
+    // (saturated ones included) and lets a run allocate until the system aborts it.
+    if bytes >= u64::MAX as f64 {
+        return Err(format!(
+            "`{s}` is more bytes than a 64-bit count holds: expected at most 18000000T"
+        ));
+    }
+    Ok(bytes as u64)
 }
 
 #[derive(Subcommand)]
@@ -90,7 +110,9 @@ enum Command {
     /// is empty or is a dth output folder (it holds a .dth-output marker); otherwise the run is
     /// refused. Exit codes: 0 success, 2 bad input (scene errors, refused output folder),
     /// 1 run failures (a method failed mid-run: what it computed is still written), 130
-    /// interrupted by SIGINT or SIGTERM (nothing written, no temporary folder left).
+    /// interrupted by SIGINT or SIGTERM (Ctrl-C): the run stops at the next step and writes
+    /// what it computed, `summary.json`'s `interrupted` saying where; a second signal quits
+    /// at once, with nothing written and no temporary folder left.
     Run {
         /// The scene file (TOML).
         scene: PathBuf,
@@ -130,7 +152,7 @@ enum Command {
         /// The Hamiltonian, e.g. "p1^2/(2*m) + k*q1^2/2" (quote it for the shell).
         expr: String,
         /// A parameter name the expression uses (repeat, or separate with commas).
-        #[arg(long = "param", short = 'p', value_delimiter = ',')]
+        #[arg(long = "param", short = 'p', value_delimiter = ',', value_parser = dth_examples::derive::param_name)]
         params: Vec<String>,
         /// Print the code `hamiltonian!` emits (the struct `GeneratedHamiltonian` with one
         /// `f64` field per parameter, and its `impl Hamiltonian<D>`), formatted.
@@ -154,8 +176,13 @@ fn run(
     thesis_table: bool,
     options: &RunOptions,
 ) -> Result<ExitCode, CliError> {
-    // A run that lost a method still wrote its outputs: report them, then exit 1.
-    let report = match dth_examples::run_scene(text, file, &Catalogue::builtin(), out, options) {
+    // A run that lost a method still wrote its outputs: report them, then exit 1 (130 when
+    // it was interrupted).
+    let options = options.clone().with_interrupt(&INTERRUPT);
+    GRACEFUL.store(true, Ordering::SeqCst);
+    let report = dth_examples::run_scene(text, file, &Catalogue::builtin(), out, &options);
+    GRACEFUL.store(false, Ordering::SeqCst);
+    let report = match report {
         Ok(report) => report,
         Err(e) => e.partial_report()?,
     };
@@ -195,6 +222,10 @@ fn run(
         report.out.display()
     );
     println!("open {}", report.out.join("index.html").display());
+    if report.interrupted.is_some() {
+        eprintln!("{}", dth_examples::pipeline::interrupted_message(&report));
+        return Ok(ExitCode::from(INTERRUPTED as u8));
+    }
     let failed = !report.complete();
     if let Some(why) = &report.thesis_figures_failure {
         eprintln!(
@@ -296,6 +327,7 @@ fn main_inner(cli: Cli) -> Result<ExitCode, CliError> {
         Some(Command::Run { scene, out }) => {
             let text = dth_examples::read_scene(&scene)?;
             let out = out.unwrap_or_else(|| default_out(&scene));
+            dth_examples::output::check_outside(&scene, &out)?;
             run(&text, &scene.display().to_string(), &out, false, &options)
         }
         Some(Command::Check { scene }) => {
@@ -367,14 +399,32 @@ fn main_inner(cli: Cli) -> Result<ExitCode, CliError> {
 /// Exit code of a run stopped by SIGINT or SIGTERM (128 + SIGINT, the shell's convention).
 const INTERRUPTED: i32 = 130;
 
+/// Set by the first SIGINT or SIGTERM during a scene's run: the run stops at the next step
+/// and writes what it computed (`RunOptions::interrupt`).
+static INTERRUPT: AtomicBool = AtomicBool::new(false);
+
+/// `true` while a scene runs (`dth run`, the default scene): a signal then sets
+/// [`INTERRUPT`] instead of ending the process.
+static GRACEFUL: AtomicBool = AtomicBool::new(false);
+
+/// On SIGINT or SIGTERM: during a scene's run, the first signal stops it at the next step
+/// (what it computed is written, exit 130); a second signal, or one outside a run (`table41`,
+/// `workprecision`, ...), exits at once with nothing written: the staging folder is removed
+/// and the previous output folder is untouched (see `output::remove_live_staging`).
+fn on_signal() {
+    if GRACEFUL.load(Ordering::SeqCst) && !INTERRUPT.swap(true, Ordering::SeqCst) {
+        eprintln!(
+            "interrupted: stopping at the next step to write what was computed (again to quit without writing)"
+        );
+        return;
+    }
+    dth_examples::output::remove_live_staging();
+    eprintln!("interrupted: nothing was written");
+    std::process::exit(INTERRUPTED);
+}
+
 fn main() -> ExitCode {
-    // An interrupted run leaves nothing behind: its staging folder is removed, the previous
-    // output folder is untouched (see `output::remove_live_staging`).
-    if let Err(e) = ctrlc::set_handler(|| {
-        dth_examples::output::remove_live_staging();
-        eprintln!("interrupted: nothing was written");
-        std::process::exit(INTERRUPTED);
-    }) {
+    if let Err(e) = ctrlc::set_handler(on_signal) {
         eprintln!("warning: cannot install the SIGINT/SIGTERM handler ({e}): an interrupted run may leave a temporary folder behind");
     }
     let cli = Cli::parse();

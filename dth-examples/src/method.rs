@@ -43,6 +43,9 @@ where
     };
     observer.on_step(&record);
     while !stop.done(record.k, record.t) {
+        if let Some(interrupted) = stop.interruption(record.k) {
+            return Err(interrupted);
+        }
         let k = record.k + 1;
         let t = t0 + k as f64 * dt;
         record.z = system.exact_solution(&z0, t - t0).ok_or(MethodFailure {

@@ -5,12 +5,16 @@
 //! - the target's parent folders are created if missing;
 //! - a target that exists is replaced only if it is empty or holds the marker file
 //!   [`MARKER`] that every dth output folder contains (so `--out ~` cannot wipe a home
-//!   folder); otherwise the run is refused before it starts ([`Error::OutputRefused`]);
+//!   folder); otherwise the run is refused before it starts ([`Error::OutputRefused`]); so
+//!   is one that holds the scene being run ([`check_outside`]), which replacing it would
+//!   delete;
 //! - the old folder is swapped out only after the new one is complete: on any failure the old
 //!   folder is untouched and the temporary folder is removed;
-//! - an interrupted run (SIGINT, SIGTERM) leaves nothing behind: the `dth` command's signal
-//!   handler calls [`remove_live_staging`] before exiting, so the old folder is untouched and
-//!   no temporary folder is left.
+//! - a run interrupted by SIGINT or SIGTERM stops at the next step and is written and moved
+//!   into place like a complete one (`crate::pipeline::RunError::Interrupted`); a process that
+//!   must exit at once instead (a second signal, or a signal outside a run) leaves nothing
+//!   behind: the `dth` command's signal handler calls [`remove_live_staging`] before exiting,
+//!   so the old folder is untouched and no temporary folder is left.
 
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
@@ -114,6 +118,35 @@ pub fn check_target(target: &Path) -> Result<(), Error> {
             }
         }
     }
+}
+
+/// Refuses a `target` that holds `file` (the scene being run): replacing the target, an old
+/// output folder, would delete it. A target that does not exist holds nothing.
+///
+/// ```
+/// let dir = tempfile::tempdir()?;
+/// let scene = dir.path().join("out/scene.toml");
+/// std::fs::create_dir(dir.path().join("out"))?;
+/// std::fs::write(&scene, "")?;
+/// let refused = dth_examples::output::check_outside(&scene, &dir.path().join("out"));
+/// assert!(matches!(refused, Err(dth_examples::Error::OutputRefused { .. })));
+/// assert!(dth_examples::output::check_outside(&scene, &dir.path().join("other")).is_ok());
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn check_outside(file: &Path, target: &Path) -> Result<(), Error> {
+    let (Ok(file), Ok(folder)) = (file.canonicalize(), target.canonicalize()) else {
+        return Ok(());
+    };
+    if file.starts_with(&folder) {
+        return Err(Error::OutputRefused {
+            path: target.to_path_buf(),
+            reason: format!(
+                "it holds the scene `{}`, which replacing the folder would delete: choose another --out or move the scene out of it",
+                file.display()
+            ),
+        });
+    }
+    Ok(())
 }
 
 impl Staging {

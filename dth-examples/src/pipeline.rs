@@ -1,17 +1,20 @@
 //! The pipeline of `dth run`: simulate a validated scene on a concrete system, report the
 //! results into a staged folder, and move the folder into place only when everything
-//! succeeded ([`run_system`]). A run that lost a method is an error ([`RunError`]) that
-//! still carries everything written.
+//! succeeded ([`run_system`]). A run that lost a method, or was interrupted, is an error
+//! ([`RunError`]) that still carries everything written.
 
 use dth::nalgebra::{DefaultAllocator, Dim};
 use dth::Alloc;
 use std::path::Path;
 
 use crate::error::Error;
+use crate::error::FailureCause;
 use crate::output::Staging;
-use crate::report::{csv, figures, html, table41, thesis, write_file, write_json, RunReport};
+use crate::report::{
+    csv, figures, html, table41, thesis, write_file, write_json, Interrupted, RunReport,
+};
 use crate::scene::Scene;
-use crate::simulate::{compute, initial_state, MethodSummary, RunOptions};
+use crate::simulate::{compute, initial_state, MethodResult, MethodSummary, RunOptions};
 use crate::system::SceneSystem;
 
 /// Why a run did not complete: it did not run, or it ran and lost methods.
@@ -34,25 +37,80 @@ pub enum RunError {
         /// What the run wrote; [`RunReport::failures`] lists the failed methods.
         report: Box<RunReport>,
     },
+    /// The run was interrupted (`RunOptions::interrupt`; the `dth` command's SIGINT and
+    /// SIGTERM): it stopped at the next step and wrote what it had computed;
+    /// [`RunReport::interrupted`] says where.
+    #[error("{}", interrupted_message(report))]
+    Interrupted {
+        /// What the run wrote.
+        report: Box<RunReport>,
+    },
 }
 
 impl RunError {
-    /// The process exit code: the error's ([`Error::exit_code`]), or 1 for failed methods.
+    /// The process exit code: the error's ([`Error::exit_code`]), 1 for failed methods, 130
+    /// (128 + SIGINT, the shell's convention) for an interrupted run.
     pub fn exit_code(&self) -> i32 {
         match self {
             RunError::NotRun(e) => e.exit_code(),
             RunError::MethodsFailed { .. } => 1,
+            RunError::Interrupted { .. } => 130,
         }
     }
 
-    /// The report of a run that lost methods (its outputs are written); the error itself
-    /// when nothing ran.
+    /// The report of a run that lost methods or was interrupted (its outputs are written);
+    /// the error itself when nothing ran.
     pub fn partial_report(self) -> Result<RunReport, Error> {
         match self {
             RunError::NotRun(e) => Err(e),
-            RunError::MethodsFailed { report } => Ok(*report),
+            RunError::MethodsFailed { report } | RunError::Interrupted { report } => Ok(*report),
         }
     }
+
+    /// The error for a written `report` that is not complete: interrupted, or with failures.
+    /// `None` for a complete report.
+    pub fn incomplete(report: RunReport) -> Result<RunReport, RunError> {
+        if report.interrupted.is_some() {
+            Err(RunError::Interrupted {
+                report: Box::new(report),
+            })
+        } else if !report.complete() {
+            Err(RunError::MethodsFailed {
+                report: Box::new(report),
+            })
+        } else {
+            Ok(report)
+        }
+    }
+}
+
+/// "interrupted at step 3 of method `a` (t = 0.3); not run: b (what was computed up to there
+/// is in OUT)".
+pub fn interrupted_message(report: &RunReport) -> String {
+    let Some(i) = &report.interrupted else {
+        return failures_message(report);
+    };
+    format!(
+        "{i} (what was computed up to there is in `{}`)",
+        report.out.display()
+    )
+}
+
+/// Where `results` (of `scene`) were interrupted, if they were: the method whose failure is
+/// [`FailureCause::Interrupted`] and the methods after it, which did not run.
+fn interruption(scene: &Scene, results: &[MethodResult]) -> Option<Interrupted> {
+    let last = results.last()?;
+    let f = last.failure.as_ref()?;
+    (f.cause == FailureCause::Interrupted).then(|| Interrupted {
+        during: None,
+        method: Some(last.summary.label.clone()),
+        step: Some(f.step),
+        t: Some(last.summary.t_end),
+        not_run: scene.methods[results.len()..]
+            .iter()
+            .map(|m| m.label.clone())
+            .collect(),
+    })
 }
 
 /// "method `a` failed at step 3: why; method `b` ... (what they computed is in OUT)".
@@ -87,6 +145,8 @@ fn failures_message(report: &RunReport) -> String {
 /// A method that fails mid-run does not abort the run: its results up to the failing step
 /// are written, the folder is moved into place, and the run returns
 /// [`RunError::MethodsFailed`] with the report (the `dth` command then exits with code 1).
+/// An interrupted run ([`RunOptions::interrupt`]) likewise writes what it computed and returns
+/// [`RunError::Interrupted`] (exit code 130); the thesis's figures are then not drawn.
 pub fn run_system<D: Dim, S: SceneSystem<D>>(
     system: &S,
     scene: &Scene,
@@ -98,6 +158,7 @@ where
 {
     let staging = Staging::new(out)?;
     let results = compute(system, scene, options)?;
+    let mut interrupted = interruption(scene, &results);
     let dir = staging.path().to_path_buf();
     let mut files = csv::write(&dir, scene, &results)?;
     files.extend(figures::write(
@@ -111,9 +172,27 @@ where
         let z0 = initial_state(system, scene)?;
         // The figures run the methods again (and at finer steps): one that fails there costs
         // the figures, not the rest of the output, which is written as for a failed method.
-        let (figures, failure) = match thesis::figures(system, scene, &z0, &dir, options) {
+        // An interrupted run does not start them; one interrupted during them loses them.
+        let drawn = match interrupted {
+            Some(_) => Err("the run was interrupted before them".to_string()),
+            None => thesis::figures(system, scene, &z0, &dir, options).map_err(|e| {
+                if options.interrupted() {
+                    interrupted = Some(Interrupted {
+                        method: None,
+                        step: None,
+                        t: None,
+                        not_run: Vec::new(),
+                        during: Some("the thesis's figures (they are not drawn)".into()),
+                    });
+                    "the run was interrupted while they were computed".to_string()
+                } else {
+                    e.to_string()
+                }
+            }),
+        };
+        let (figures, failure) = match drawn {
             Ok(figures) => (figures, None),
-            Err(e) => (Vec::new(), Some(e.to_string())),
+            Err(why) => (Vec::new(), Some(why)),
         };
         for f in &figures {
             files.push(format!("{}.png", f.stem));
@@ -139,14 +218,10 @@ where
         thesis_figures,
         thesis_figures_failure,
         ensemble: None,
+        interrupted,
     };
     write_file(&dir.join("index.html"), html::index(scene, &report))?;
     write_json(&dir.join("summary.json"), &report)?;
     report.out = staging.commit()?;
-    if !report.complete() {
-        return Err(RunError::MethodsFailed {
-            report: Box::new(report),
-        });
-    }
-    Ok(report)
+    RunError::incomplete(report)
 }

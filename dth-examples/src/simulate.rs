@@ -5,13 +5,14 @@
 use dth::nalgebra::{DefaultAllocator, Dim, OVector};
 use dth::Alloc;
 use std::collections::BTreeMap;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use dth::observer::{Observer, StepRecord};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
 
 use crate::budget;
-use crate::driver::{MethodFailure, Stop};
+use crate::driver::{FailureCause, Limit, MethodFailure, Stop};
 use crate::effects::{DeviationStats, EffectOutputs, Effects, FinalState};
 use crate::error::Error;
 use crate::method::{run_method, unavailable};
@@ -35,6 +36,11 @@ pub struct RunOptions {
     /// Threads an ensemble scene runs its members on (`crate::ensemble`); `None`, the
     /// default: one per core. The results do not depend on it.
     pub threads: Option<usize>,
+    /// A flag that interrupts the run at the next step once set (the `dth` command's SIGINT
+    /// and SIGTERM handler sets it): the method running stops with
+    /// [`FailureCause::Interrupted`], the methods after it do not run, and what was computed
+    /// is written. Default `None`.
+    pub interrupt: Option<&'static AtomicBool>,
 }
 
 impl Default for RunOptions {
@@ -44,6 +50,7 @@ impl Default for RunOptions {
             max_steps: 100_000_000,
             memory_limit: None,
             threads: None,
+            interrupt: None,
         }
     }
 }
@@ -65,6 +72,27 @@ impl RunOptions {
     pub fn with_threads(mut self, threads: usize) -> Self {
         self.threads = Some(threads);
         self
+    }
+
+    /// Sets [`RunOptions::interrupt`].
+    ///
+    /// ```
+    /// use std::sync::atomic::{AtomicBool, Ordering};
+    /// use dth_examples::simulate::RunOptions;
+    /// static STOP: AtomicBool = AtomicBool::new(false);
+    /// let options = RunOptions::default().with_interrupt(&STOP);
+    /// assert!(!options.interrupted());
+    /// STOP.store(true, Ordering::Relaxed);
+    /// assert!(options.interrupted());
+    /// ```
+    pub fn with_interrupt(mut self, flag: &'static AtomicBool) -> Self {
+        self.interrupt = Some(flag);
+        self
+    }
+
+    /// `true` once [`RunOptions::interrupt`] is set.
+    pub fn interrupted(&self) -> bool {
+        self.interrupt.is_some_and(|f| f.load(Ordering::Relaxed))
     }
 
     /// The memory limit in force: the one set, or the default.
@@ -147,19 +175,24 @@ pub struct MethodResult {
 /// The initial states of the ensemble `e` around `z0`, row by row: `z0` shifted by
 /// `(-w + i s, -w + j s)` in the plane of its two coordinates (`w` the half width, `s` the
 /// spacing), with `calH = 0` restored for a time-dependent system.
+///
+/// # Errors
+/// [`Error::Allocation`] when the square's `per_side^2` states cannot be allocated.
 pub fn ensemble_starts<D: Dim, S: SceneSystem<D>>(
     system: &S,
     e: &Ensemble,
     z0: &OVector<f64, D>,
-) -> Vec<OVector<f64, D>>
+) -> Result<Vec<OVector<f64, D>>, Error>
 where
     DefaultAllocator: Alloc<D>,
 {
     let (Some(ix), Some(iy)) = (e.x.index(z0.len()), e.y.index(z0.len())) else {
-        return Vec::new();
+        return Ok(Vec::new());
     };
     let h = 2.0 * e.half_width / (e.per_side - 1) as f64;
-    let mut starts = Vec::with_capacity(e.per_side * e.per_side);
+    let mut starts = budget::vec_with_capacity(e.per_side.saturating_mul(e.per_side), || {
+        "the square of initial states".into()
+    })?;
     for i in 0..e.per_side {
         for j in 0..e.per_side {
             let mut z = z0.clone();
@@ -172,7 +205,7 @@ where
             starts.push(z);
         }
     }
-    starts
+    Ok(starts)
 }
 
 fn run_ensemble<D: Dim, S: SceneSystem<D>>(
@@ -188,8 +221,9 @@ where
     let (Some(ix), Some(iy)) = (e.x.index(z0.len()), e.y.index(z0.len())) else {
         return Ok(Vec::new());
     };
-    let mut members = Vec::with_capacity(e.per_side * e.per_side);
-    for z in ensemble_starts(system, e, z0) {
+    let starts = ensemble_starts(system, e, z0)?;
+    let mut members = Vec::with_capacity(starts.len());
+    for z in starts {
         let (x0, y0) = (z[ix], z[iy]);
         if let Some(reason) = unavailable(m, system, &z) {
             // A method that cannot run from this member (e.g. `exact` past the escape
@@ -204,7 +238,7 @@ where
             });
             continue;
         }
-        let end = run_method(m, system, z, t0, Stop::Steps(e.steps), &mut ())?;
+        let end = run_method(m, system, z, t0, Stop::steps(e.steps), &mut ())?;
         members.push(EnsembleMember {
             x0,
             y0,
@@ -277,12 +311,9 @@ pub fn stop_for<D: Dim, S: SceneSystem<D>>(
 where
     DefaultAllocator: Alloc<D>,
 {
-    Ok(match scene.duration {
-        Duration::Steps(n) => Stop::Steps(n),
-        Duration::Time(t) => Stop::Time {
-            t_end: scene.t0 + t,
-            max_steps: options.max_steps,
-        },
+    let stop = match scene.duration {
+        Duration::Steps(n) => Stop::steps(n),
+        Duration::Time(t) => Stop::time(scene.t0 + t, options.max_steps),
         Duration::Orbits(k) => {
             let period = system.period(z0).ok_or_else(|| Error::NotAvailable {
                 what: "duration in orbits for system",
@@ -291,12 +322,10 @@ where
                     "the initial state has no orbit period (e.g. unbound): use `steps` or `time`"
                         .into(),
             })?;
-            Stop::Time {
-                t_end: scene.t0 + k * period,
-                max_steps: options.max_steps,
-            }
+            Stop::time(scene.t0 + k * period, options.max_steps)
         }
-    })
+    };
+    Ok(stop.with_interrupt(options.interrupt))
 }
 
 /// Refuses, before any method runs, what would otherwise stop the run after some methods
@@ -341,7 +370,7 @@ where
                 reason: reason.to_string(),
             });
         }
-        if let (StepSpec::Fixed { dt }, Stop::Time { t_end, max_steps }) = (m.step, stop) {
+        if let (StepSpec::Fixed { dt }, Limit::Time { t_end, max_steps }) = (m.step, stop.limit) {
             let steps = stop.fixed_steps(scene.t0, dt);
             if stop
                 .cut_short(steps, scene.t0 + steps as f64 * dt)
@@ -405,9 +434,9 @@ pub fn progress_bar(m: &MethodSpec, t0: f64, stop: Stop, options: &RunOptions) -
     if !options.progress {
         return ProgressBar::hidden();
     }
-    let len = match (stop, m.step) {
-        (Stop::Steps(n), _) => Some(n as u64),
-        (Stop::Time { .. }, StepSpec::Fixed { dt }) => Some(stop.fixed_steps(t0, dt) as u64),
+    let len = match (stop.limit, m.step) {
+        (Limit::Steps(n), _) => Some(n as u64),
+        (Limit::Time { .. }, StepSpec::Fixed { dt }) => Some(stop.fixed_steps(t0, dt) as u64),
         _ => None,
     };
     let bar = match len {
@@ -450,7 +479,9 @@ fn step_summary(step: StepSpec) -> BTreeMap<String, serde_json::Value> {
 }
 
 /// Runs every method of `scene` on `system` and keeps the results in memory (no files).
-/// Effects not requested are not constructed.
+/// Effects not requested are not constructed. A run interrupted through
+/// [`RunOptions::interrupt`] returns the methods up to the interrupted one (its failure is
+/// [`FailureCause::Interrupted`]); the ones after it are missing.
 pub fn compute<D: Dim, S: SceneSystem<D>>(
     system: &S,
     scene: &Scene,
@@ -503,9 +534,10 @@ where
                 .unwrap_or_default(),
             final_state: outputs.final_state.clone(),
         };
+        let interrupted = matches!(&end, Err(f) if f.cause == FailureCause::Interrupted);
         let ensemble = match &scene.ensemble {
-            Some(e) => Some(run_ensemble(system, m, e, &z0, scene.t0)?),
-            None => None,
+            Some(e) if !interrupted => Some(run_ensemble(system, m, e, &z0, scene.t0)?),
+            _ => None,
         };
         results.push(MethodResult {
             summary,
@@ -513,6 +545,10 @@ where
             ensemble,
             failure: end.err(),
         });
+        if interrupted {
+            // The methods after it do not run: the caller writes what was computed.
+            break;
+        }
     }
     Ok(results)
 }

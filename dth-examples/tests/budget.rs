@@ -36,7 +36,7 @@ fn the_estimate_is_what_the_effects_store() {
         &RunOptions::default().with_progress(false),
     )
     .unwrap();
-    let e = estimate(&Kepler::thesis(), &scene, Stop::Steps(1000));
+    let e = estimate(&Kepler::thesis(), &scene, Stop::steps(1000));
     for (r, (label, steps, bytes)) in results.iter().zip(&e.methods) {
         assert_eq!(&r.summary.label, label);
         assert_eq!(*steps, 1000);
@@ -77,6 +77,26 @@ fn a_scene_above_the_limit_is_refused_by_check_and_run() {
     let o = dth(&["check", "small.toml", "--max-memory", "lots"], dir.path());
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("is not a size"), "{}", stderr(&o));
+    // Sizes as people write them: `4GB` was "unknown unit `B`"; `GiB` is 1024^3.
+    for (size, limit) in [
+        ("4G", "limit 4.0 GB"),
+        ("4GB", "limit 4.0 GB"),
+        ("4gb", "limit 4.0 GB"),
+        ("4GiB", "limit 4.3 GB"),
+        ("512MiB", "limit 536.9 MB"),
+        ("200000B", "limit 200.0 kB"),
+    ] {
+        let o = dth(&["check", "small.toml", "--max-memory", size], dir.path());
+        assert_eq!(o.status.code(), Some(0), "{size}: {}", stderr(&o));
+        assert!(stdout(&o).contains(limit), "{size}: {}", stdout(&o));
+    }
+    let o = dth(&["check", "small.toml", "--max-memory", "4X"], dir.path());
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("unknown unit in `4X`"),
+        "{}",
+        stderr(&o)
+    );
 }
 
 /// An ensemble of 10^11 random members with no effect was estimated at 0 bytes: `check`
@@ -111,4 +131,102 @@ fn an_ensemble_too_large_for_memory_is_refused() {
             assert_eq!(entries(dir.path()), ["many.toml"], "output left behind");
         }
     }
+}
+
+/// `--max-memory 1e30T` became `u64::MAX` bytes (`as u64` saturates), a limit every estimate
+/// passed, saturated ones included, and `run` panicked in `Vec::with_capacity` (exit 101, its
+/// temporary folder left behind). Such a size is now a clap error naming the option; a
+/// saturated estimate is refused under any limit; and members the allocator refuses (a limit
+/// above what the machine has) are an error, not an abort.
+#[test]
+fn an_absurd_memory_limit_is_an_error_not_a_panic() {
+    let dir = tempfile::tempdir().unwrap();
+    let members = |samples: &str| {
+        format!(
+            "[system]\nname = \"kepler\"\n[initial]\nq = [0.5, 0.0]\np = [0.0, 1.2]\n\
+             [[method]]\nkind = \"midpoint\"\ndt = 0.1\n[duration]\nsteps = 10\n\
+             [ensemble]\nkind = \"random\"\nx = \"q1\"\nx_range = [0.4, 0.6]\nsamples = {samples}\n"
+        )
+    };
+    std::fs::write(dir.path().join("many.toml"), members("100000000000")).unwrap();
+    for size in ["1e30T", "18446744073709551615"] {
+        let o = dth(&["run", "many.toml", "--max-memory", size], dir.path());
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{err}");
+        assert!(err.contains("'--max-memory <MAX_MEMORY>'"), "{err}");
+        assert!(
+            err.contains("more bytes than a 64-bit count holds"),
+            "{err}"
+        );
+    }
+    // 10^16 members: an estimate of about 9 EB, within a limit of 18 EB, but far more than
+    // the address space.
+    std::fs::write(dir.path().join("many.toml"), members("10000000000000000")).unwrap();
+    let o = dth(
+        &[
+            "run",
+            "many.toml",
+            "--out",
+            "out",
+            "--max-memory",
+            "18000000T",
+        ],
+        dir.path(),
+    );
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("cannot allocate the members of the ensemble (10000000000000000 of"),
+        "{err}"
+    );
+    assert_eq!(entries(dir.path()), ["many.toml"], "output left behind");
+    // The thesis's square of initial states with 5e9 per side: its square overflowed
+    // `usize` in the estimate (a panic); now saturated, and refused.
+    let square = "[system]\nname = \"kepler\"\n[initial]\nq = [0.5, 0.0]\np = [0.0, 1.2]\n\
+                  [[method]]\nkind = \"midpoint\"\ndt = 0.1\n[duration]\nsteps = 10\n\
+                  [ensemble]\nx = \"q1\"\ny = \"p1\"\nhalf_width = 0.01\nsteps = 5\n";
+    std::fs::write(
+        dir.path().join("square.toml"),
+        format!("{square}per_side = 5000000000\n"),
+    )
+    .unwrap();
+    let o = dth(&["check", "square.toml"], dir.path());
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("would keep more than a 64-bit count of bytes"),
+        "{err}"
+    );
+    // 10^8 per side: 10^16 states, within a limit of 18 EB, not within the address space.
+    std::fs::write(
+        dir.path().join("square.toml"),
+        format!("{square}per_side = 100000000\n"),
+    )
+    .unwrap();
+    let o = dth(
+        &[
+            "run",
+            "square.toml",
+            "--out",
+            "out",
+            "--max-memory",
+            "18000000T",
+        ],
+        dir.path(),
+    );
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("cannot allocate the square of initial states"),
+        "{err}"
+    );
+    assert_eq!(entries(dir.path()), ["many.toml", "square.toml"]);
+    // The largest step count saturates the estimate: refused even under the largest limit.
+    let scene = scene(&i64::MAX.to_string());
+    let scene = dth_examples::check_scene(&scene, "max.toml", &Catalogue::builtin()).unwrap();
+    let stop = Stop::steps(usize::MAX);
+    assert!(matches!(
+        dth_examples::budget::check(&Kepler::thesis(), &scene, stop, u64::MAX),
+        Err(dth_examples::Error::MemoryLimit { .. })
+    ));
 }

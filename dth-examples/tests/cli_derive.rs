@@ -198,3 +198,52 @@ fn derive_a_lattice_beyond_what_is_written_out() {
         "{err}"
     );
 }
+
+/// `-p 1x` was accepted and never matched (the error named the expression's `k`, not the
+/// option), `-p ""` and `-p k,` declared an empty name silently, and `-p q1` was reported at
+/// column 1 of the expression. Each is now clap's error naming `--param` and the value.
+#[test]
+fn a_malformed_parameter_name_is_an_error_naming_the_option() {
+    let dir = tempfile::tempdir().unwrap();
+    for (value, why) in [
+        ("1x", "`1x` is not a parameter name"),
+        ("k x", "`k x` is not a parameter name"),
+        ("k,", "an empty parameter name"),
+        ("", "an empty parameter name"),
+        ("q1", "`q1` is a phase-space variable"),
+        ("sin", "`sin` is a function of the grammar"),
+    ] {
+        let o = dth(&["derive", "p1^2/2 + k*q1^2", "-p", value], dir.path());
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{value:?}: {err}");
+        assert!(err.contains("'--param <PARAMS>'"), "{value:?}: {err}");
+        assert!(err.contains(why), "{value:?}: {err}");
+        assert!(stdout(&o).is_empty());
+    }
+}
+
+/// `p1^2 + ... + p599^2` has 87 indices past the limit of 512: each was printed under the
+/// whole 4,000-character expression (350 kB of output). Now the first 20 are shown, each under
+/// a window of the line around it, then how many more there are.
+#[test]
+fn many_errors_in_a_long_expression_are_shown_briefly() {
+    let dir = tempfile::tempdir().unwrap();
+    let expr: Vec<String> = (1..600).map(|i| format!("p{i}^2")).collect();
+    let o = dth(&["derive", &expr.join("+")], dir.path());
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert_eq!(err.matches("error: index in `p").count(), 20, "{err}");
+    assert!(
+        err.contains("... and 67 more errors (the first 20 are shown)"),
+        "{err}"
+    );
+    // The first: `p513` at column 3477, in a window of 40 characters on each side.
+    assert!(
+        err.contains(
+            "(column 3477)\n  ...07^2+p508^2+p509^2+p510^2+p511^2+p512^2+p513^2+p514^2+p515^2+p516^2+p517^2+p518^2+p5...\n\
+             \x20                                            ^^^^\n"
+        ),
+        "{err}"
+    );
+    assert!(err.len() < 5_000, "{} bytes", err.len());
+}

@@ -85,6 +85,12 @@ fn wrong_type() {
         "8:6",
         "invalid type: string \"0.01\", expected a number",
     );
+    // An integer beyond 64 bits was "invalid type: integer `N` as i128, expected an integer".
+    rejects(
+        &BASE.replace("steps = 100", "steps = 100000000000000000000"),
+        "10:9",
+        "integer `100000000000000000000` is out of range: TOML integers are 64-bit, from -9223372036854775808 to 9223372036854775807",
+    );
 }
 
 /// `[method]` for `[[method]]`, or `[[initial]]` for `[initial]`: serde's messages named
@@ -158,12 +164,14 @@ fn negative_or_zero_step() {
     );
 }
 
+/// A misspelled name is followed by the known name closest to it (none when nothing is
+/// close: `leapfrog`, `energy` below).
 #[test]
 fn unknown_system() {
     rejects(
         &BASE.replace("\"kepler\"", "\"keplr\""),
         "2:8",
-        "unknown system `keplr`: expected one of kepler,",
+        "unknown system `keplr` (did you mean `kepler`?): expected one of kepler,",
     );
 }
 
@@ -173,6 +181,11 @@ fn unknown_effect() {
         &format!("{BASE}[[effect]]\nkind = \"energy\"\n"),
         "12:8",
         "unknown effect `energy`: expected one of final_state,",
+    );
+    rejects(
+        &format!("{BASE}[[effect]]\nkind = \"energy_deviaton\"\n"),
+        "12:8",
+        "unknown effect `energy_deviaton` (did you mean `energy_deviation`?)",
     );
     rejects(
         &format!("{BASE}[[effect]]\nkind = \"phase_plot\"\nx = \"q3\"\ny = \"p1\"\n"),
@@ -187,6 +200,11 @@ fn unknown_method() {
         &BASE.replace("midpoint", "leapfrog"),
         "7:8",
         "unknown method `leapfrog`: expected one of exact, dth,",
+    );
+    rejects(
+        &BASE.replace("midpoint", "midpiont"),
+        "7:8",
+        "unknown method `midpiont` (did you mean `midpoint`?): expected one of exact,",
     );
     rejects(
         &BASE.replace("dt = 0.001", "dtau = 0.001"),
@@ -233,6 +251,14 @@ fn unknown_parameter() {
         ),
         "3:12",
         "unknown parameter `mas` of system `kepler`: expected one of m, k",
+    );
+    rejects(
+        &BASE.replace(
+            "name = \"kepler\"",
+            "name = \"kepler\"\nparams = { K = 1.0 }",
+        ),
+        "3:12",
+        "unknown parameter `K` (did you mean `k`?) of system `kepler`",
     );
 }
 

@@ -135,6 +135,28 @@ fn a_foreign_folder_is_never_replaced() {
     assert_eq!(entries(dir.path()), ["mine"]);
 }
 
+/// A scene kept in its own output folder (`dth run out/scene.toml --out out`) was deleted when
+/// the run replaced the folder. Such a run is now refused before it starts.
+#[test]
+fn an_output_folder_holding_the_scene_is_not_replaced() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = std::fs::read(manifest_dir().join("tests/scenes/pipeline-kepler.toml")).unwrap();
+    std::fs::write(dir.path().join("s.toml"), &scene).unwrap();
+    let o = dth(&["run", "s.toml", "--out", "out"], dir.path());
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    std::fs::write(dir.path().join("out/s.toml"), &scene).unwrap();
+    let before = files(&dir.path().join("out"));
+    let o = dth(&["run", "out/s.toml", "--out", "out"], dir.path());
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("refusing to write to `out`: it holds the scene"),
+        "{err}"
+    );
+    assert_eq!(files(&dir.path().join("out")), before);
+    assert_eq!(entries(dir.path()), ["out", "s.toml"]);
+}
+
 #[test]
 fn a_method_failing_mid_run_keeps_its_trajectory_and_exits_1() {
     let dir = tempfile::tempdir().unwrap();
@@ -537,4 +559,27 @@ fn a_square_member_a_method_cannot_run_from_is_its_row() {
     // p2 = 1.42 at q1 = 0.52 is past the escape speed (E = p^2 - 1/r > 0): that member only.
     let failed: Vec<&&str> = rows.iter().filter(|r| r.contains("cannot run")).collect();
     assert_eq!(failed, [&"5.2e-1,1.42e0,,,,,,step 0: method `exact` cannot run: this system has no exact solution for this initial state (Kepler: an elliptic orbit is needed)"]);
+}
+
+/// RK4 at `dt` = 10 on `H = (p^2 + q^2)/2` from `q = 1e150` grows the state about 400-fold a
+/// step: `q^2` overflows at step 2 while the state stays finite, so the energy deviation is
+/// infinite. `summary.json` wrote it as `null`, the same as a missing value (`"vertices":
+/// null`); every JSON the command writes now spells a non-finite number as a string.
+#[test]
+fn an_infinite_deviation_is_not_null_in_summary_json() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = "[system]\nhamiltonian = \"(p1^2 + q1^2)/2\"\n[initial]\nq = [1e150]\np = [0.0]\n\
+                 [[method]]\nkind = \"rk4\"\ndt = 10.0\n[duration]\nsteps = 3\n\
+                 [[effect]]\nkind = \"energy_deviation\"\n";
+    std::fs::write(dir.path().join("inf.toml"), scene).unwrap();
+    let o = dth(&["run", "inf.toml", "--out", "out"], dir.path());
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let text = std::fs::read_to_string(dir.path().join("out/summary.json")).unwrap();
+    let summary: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let energy = &summary["methods"][0]["energy"];
+    assert_eq!(energy["points"]["max"], "Infinity", "{text}");
+    assert_eq!(energy["points"]["mean"], "Infinity", "{text}");
+    assert_eq!(energy["points"]["count"], 3, "{text}");
+    // A value that is absent is still `null`.
+    assert!(energy["vertices"].is_null(), "{text}");
 }

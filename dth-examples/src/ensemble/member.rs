@@ -178,6 +178,10 @@ where
         skipped: false,
         runs: Vec::new(),
     };
+    if options.interrupted() {
+        result.not_run = Some("the run was interrupted before this member".into());
+        return Ok(result);
+    }
     let system = match build(&c.params) {
         Ok(s) => s,
         Err(e) => {

@@ -30,7 +30,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use crate::error::Error;
 use crate::output::Staging;
 use crate::pipeline::RunError;
-use crate::report::{write_file, write_json, RunReport};
+use crate::report::{write_file, write_json, Interrupted, RunReport};
 use crate::scene::Scene;
 use crate::simulate::RunOptions;
 use crate::system::SceneSystem;
@@ -66,6 +66,7 @@ pub fn idle_report(scene: &Scene) -> RunReport {
         thesis_figures: Vec::new(),
         thesis_figures_failure: None,
         ensemble: None,
+        interrupted: None,
     }
 }
 
@@ -74,7 +75,9 @@ pub fn idle_report(scene: &Scene) -> RunReport {
 /// On an MPI rank other than 0 it computes its share and writes nothing (the report it
 /// returns lists no files).
 ///
-/// Members that fail or cannot run are rows of the table, not errors.
+/// Members that fail or cannot run are rows of the table, not errors. An interrupted run
+/// ([`RunOptions::interrupt`]) writes its table (members interrupted mid-run and members not
+/// run are rows saying so) and returns [`RunError::Interrupted`].
 ///
 /// # Errors
 /// [`RunError::NotRun`] for a scene without an ensemble, an output folder that is refused,
@@ -102,7 +105,7 @@ where
     } else {
         Some(Staging::new(out)?)
     };
-    let candidates = sample::draw(members, scene);
+    let candidates = sample::draw(members, scene)?;
     let bar = progress(candidates.len(), options);
     let results = schedule::run_members(candidates.len(), options.threads, &bar, |i| {
         member::run_member(build, scene, members, &candidates[i], options)
@@ -124,9 +127,27 @@ where
     )?;
     report.files = files;
     report.ensemble = Some(counts);
+    if options.interrupted() {
+        // The table marks the members interrupted mid-run and the ones not run.
+        report.interrupted = Some(Interrupted {
+            method: None,
+            step: None,
+            t: None,
+            not_run: Vec::new(),
+            during: Some(
+                "the ensemble's members (ensemble.csv marks the ones interrupted or not run)"
+                    .into(),
+            ),
+        });
+    }
     // `summary.json` has the same form as a single run's: no methods of its own (they are
     // the table's), the counts under `ensemble`.
     write_json(&dir.join("summary.json"), &report)?;
     report.out = staging.commit()?;
+    if report.interrupted.is_some() {
+        return Err(RunError::Interrupted {
+            report: Box::new(report),
+        });
+    }
     Ok(report)
 }

@@ -7,6 +7,8 @@ use std::collections::BTreeMap;
 
 use dth::Hamiltonian;
 
+use crate::budget::vec_with_capacity;
+use crate::error::Error;
 use crate::scene::{Axis, Coord, EnergyShell, Members, Sampler, Scene};
 
 /// One member as drawn: its number (its position in the sampler's order, kept when the
@@ -84,19 +86,24 @@ fn spaced(from: f64, to: f64, count: usize, i: usize) -> f64 {
 ///     "grid.toml",
 ///     &Catalogue::builtin(),
 /// )?;
-/// let members = draw(scene.members.as_ref().unwrap(), &scene);
+/// let members = draw(scene.members.as_ref().unwrap(), &scene)?;
 /// let q: Vec<f64> = members.iter().map(|m| m.q[0]).collect();
 /// assert_eq!(q, [0.0, 0.5, 1.0]);
 /// # Ok::<(), dth_examples::Error>(())
 /// ```
-pub fn draw(m: &Members, scene: &Scene) -> Vec<Candidate> {
+///
+/// # Errors
+/// [`Error::Allocation`] when the list of members cannot be allocated (more members than
+/// memory: reachable only with a `--max-memory` above what the machine has, as the memory
+/// estimate counts them).
+pub fn draw(m: &Members, scene: &Scene) -> Result<Vec<Candidate>, Error> {
     let base = Candidate {
         index: 0,
         q: scene.q.clone(),
         p: scene.p.clone(),
         params: scene.params.clone(),
     };
-    let mut out = Vec::with_capacity(m.candidates());
+    let mut out = vec_with_capacity(m.candidates(), || "the members of the ensemble".into())?;
     let mut push = |mut c: Candidate| {
         c.index = out.len();
         out.push(c);
@@ -144,7 +151,7 @@ pub fn draw(m: &Members, scene: &Scene) -> Vec<Candidate> {
             }
         }
     }
-    out
+    Ok(out)
 }
 
 /// Where the energy shell leaves a state.

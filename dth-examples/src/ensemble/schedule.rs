@@ -51,9 +51,11 @@ where
     })
 }
 
-/// Runs members `0..count` with `work`, on `threads` threads (`None`: all cores) and, under
-/// MPI with more than one rank, across the ranks. Returns the results in member order, or
-/// `None` on an MPI rank other than 0 (rank 0 has them).
+/// Runs members `0..count` with `work`, on `threads` threads (`None`: all cores; never more
+/// than `count`, as a thread beyond one per member would have nothing to do and starting
+/// thousands of them takes seconds to minutes) and, under MPI with more than one rank, across
+/// the ranks. Returns the results in member order, or `None` on an MPI rank other than 0
+/// (rank 0 has them).
 pub fn run_members<F>(
     count: usize,
     threads: Option<usize>,
@@ -63,7 +65,7 @@ pub fn run_members<F>(
 where
     F: Fn(usize) -> Result<MemberResult, Error> + Sync,
 {
-    let pool = pool(threads)?;
+    let pool = pool(threads.map(|t| t.min(count).max(1)))?;
     #[cfg(feature = "mpi")]
     if let Some(world) = mpi_ranks::world() {
         return mpi_ranks::run(&world, &pool, count, bar, &work);
@@ -244,5 +246,40 @@ mod mpi_ranks {
             Some(i) => Err(failed(0, format!("member {i} never came back"))),
             None => Ok(Some(slots.into_iter().flatten().collect())),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `--threads 65535` on a three-member ensemble started 65535 threads (minutes of thread
+    /// creation before the first member ran): the pool now has one thread per member at most.
+    #[test]
+    fn no_more_threads_than_members() {
+        let bar = ProgressBar::hidden();
+        let seen = std::sync::Mutex::new(Vec::new());
+        let results = run_members(3, Some(65_535), &bar, |index| {
+            if let Ok(mut s) = seen.lock() {
+                s.push(rayon::current_num_threads());
+            }
+            Ok(MemberResult {
+                index,
+                params: Default::default(),
+                start: None,
+                not_run: None,
+                skipped: false,
+                runs: Vec::new(),
+            })
+        });
+        let indices: Vec<usize> = results
+            .ok()
+            .flatten()
+            .unwrap_or_default()
+            .iter()
+            .map(|r| r.index)
+            .collect();
+        assert_eq!(indices, [0, 1, 2]);
+        assert_eq!(seen.into_inner().ok(), Some(vec![3, 3, 3]));
     }
 }

@@ -85,6 +85,13 @@ pub fn index(scene: &Scene, report: &RunReport) -> String {
         );
     }
     h.push_str("</table>\n");
+    if let Some(i) = &report.interrupted {
+        let _ = writeln!(
+            h,
+            "<p class=\"fail\">The run was {} (SIGINT or SIGTERM): what it computed up to there is shown.</p>",
+            escape(&i.to_string())
+        );
+    }
 
     if let Some(t) = &report.table41 {
         h.push_str("<h2>Table 4.1</h2>\n<p>Average absolute deviation in energy and angular momentum of the Kepler problem over each method's run (its steps are in the table above), ours beside the thesis's (whose runs were 10,000 steps: 400 orbits at 25 points per orbit). Reference values: the initial condition (fixed-step methods), zbar_0 (DTH midpoints), the first vertex z^(0) (DTH vertices); mean over k = 1..N.</p>\n<table><tr><th>method</th><th>energy (ours)</th><th>energy (thesis)</th><th>angular momentum (ours)</th><th>angular momentum (thesis)</th></tr>\n");

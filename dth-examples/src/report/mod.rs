@@ -49,6 +49,49 @@ pub struct RunReport {
     /// What an ensemble scene ran (`crate::ensemble`), counted; `None` for a single run.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub ensemble: Option<EnsembleCounts>,
+    /// Where the run was interrupted (SIGINT or SIGTERM; `RunOptions::interrupt`), when it
+    /// was: what it computed up to there is written.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub interrupted: Option<Interrupted>,
+}
+
+/// Where a run was interrupted (`summary.json`'s `interrupted`).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Interrupted {
+    /// The method that was running, by label; `None` when none was (the interruption came
+    /// during the thesis's figures, or during an ensemble: its table marks the members that
+    /// were interrupted or not run).
+    pub method: Option<String>,
+    /// The step the method stopped before (every state before it is in the output).
+    pub step: Option<usize>,
+    /// The time of the last state the method reached.
+    pub t: Option<f64>,
+    /// The scene's methods that did not run, by label.
+    pub not_run: Vec<String>,
+    /// What was being computed when no method was running: "the thesis's figures" (not
+    /// drawn), "the ensemble's members" (the table marks the ones interrupted or not run).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub during: Option<String>,
+}
+
+/// "interrupted before step 3 of method `a` (last state at t = 0.3); not run: b".
+impl std::fmt::Display for Interrupted {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("interrupted")?;
+        if let Some(during) = &self.during {
+            write!(f, " during {during}")?;
+        }
+        if let (Some(method), Some(step)) = (&self.method, self.step) {
+            write!(f, " before step {step} of method `{method}`")?;
+            if let Some(t) = self.t {
+                write!(f, " (last state at t = {t})")?;
+            }
+        }
+        if !self.not_run.is_empty() {
+            write!(f, "; not run: {}", self.not_run.join(", "))?;
+        }
+        Ok(())
+    }
 }
 
 /// What an ensemble scene ran (`crate::ensemble`), counted (in `summary.json` and
@@ -93,10 +136,12 @@ impl RunReport {
         self.methods.iter().filter(|m| m.failure.is_some())
     }
 
-    /// `true` when the run computed everything the scene asked for: no method failed and the
-    /// thesis's figures (if asked for) were drawn.
+    /// `true` when the run computed everything the scene asked for: no method failed, the
+    /// thesis's figures (if asked for) were drawn, and it was not interrupted.
     pub fn complete(&self) -> bool {
-        self.failures().next().is_none() && self.thesis_figures_failure.is_none()
+        self.failures().next().is_none()
+            && self.thesis_figures_failure.is_none()
+            && self.interrupted.is_none()
     }
 }
 
@@ -118,9 +163,10 @@ pub fn write_file(path: &Path, contents: impl AsRef<[u8]>) -> Result<(), Error> 
     })
 }
 
-/// Writes `value` as pretty JSON to `path`.
+/// Writes `value` as pretty JSON to `path`, a non-finite number as a string (see
+/// [`crate::json`]).
 pub fn write_json(path: &Path, value: &impl Serialize) -> Result<(), Error> {
-    let json = serde_json::to_string_pretty(value).map_err(|e| Error::Io {
+    let json = crate::json::to_string_pretty(value).map_err(|e| Error::Io {
         what: "cannot serialize",
         path: path.to_path_buf(),
         source: std::io::Error::other(e),

@@ -441,10 +441,17 @@ where
             let mut initial = Vec::new();
             let mut last = Vec::new();
             let mut crossing = Vec::new();
-            for z in ensemble_starts(system, e, z0) {
+            for z in ensemble_starts(system, e, z0)? {
                 let mut record = Record(Vec::new());
-                run_method(spec, system, z, scene.t0, Stop::Steps(e.steps), &mut record)?
-                    .map_err(|f| failed(spec, "thesis Figures 4.10-4.13", f))?;
+                run_method(
+                    spec,
+                    system,
+                    z,
+                    scene.t0,
+                    Stop::steps(e.steps).with_interrupt(options.interrupt),
+                    &mut record,
+                )?
+                .map_err(|f| failed(spec, "thesis Figures 4.10-4.13", f))?;
                 if let (Some(a), Some(b)) = (record.0.first(), record.0.last()) {
                     initial.push(a.1);
                     last.push(b.1);
@@ -532,10 +539,8 @@ where
     if let Some((spec, label, color, fine, dtau)) = dth {
         let ppo_fine = ppo * FIG_4_14_REFINEMENT;
         let mut record = Record(Vec::new());
-        let stop = Stop::Time {
-            t_end: scene.t0 + period,
-            max_steps: options.max_steps,
-        };
+        let stop =
+            Stop::time(scene.t0 + period, options.max_steps).with_interrupt(options.interrupt);
         run_method(&fine, system, z0.clone(), scene.t0, stop, &mut record)?
             .map_err(|f| failed(spec, "thesis Figure 4.14", f))?;
         let pts: Vec<(f64, f64)> = record
@@ -583,10 +588,8 @@ where
     // Figure 4.15: q2 = 0 sections at a refined step over many orbits.
     let mut panels = Vec::new();
     let mut counts = Vec::new();
-    let stop = Stop::Time {
-        t_end: scene.t0 + FIG_4_15_ORBITS * period,
-        max_steps: options.max_steps,
-    };
+    let stop = Stop::time(scene.t0 + FIG_4_15_ORBITS * period, options.max_steps)
+        .with_interrupt(options.interrupt);
     let factor = FIG_4_15_REFINEMENT;
     let (ppo_fine, orbits_fine) = (ppo * factor, thousands(FIG_4_15_ORBITS));
     let mut sections = Vec::new();

@@ -4,7 +4,8 @@
 //! Layers, imports pointing down: `validate` (the rules) -> `members` (ensemble scenes) and
 //! `expression` (a Hamiltonian given as text, read by the symbolic engine) -> `toml_string`
 //! (where each byte of a TOML string comes from in the file) -> `raw` (the serde types, as
-//! written) and `schema` (the validated types the rest of the crate works with).
+//! written), `schema` (the validated types the rest of the crate works with) and `suggest`
+//! (the known name closest to a misspelled one).
 //!
 //! A scene declares a system and its parameters, the initial state, the methods with their
 //! steps, the duration and the effects wanted:
@@ -44,6 +45,7 @@ mod expression;
 mod members;
 mod raw;
 mod schema;
+mod suggest;
 mod toml_string;
 mod validate;
 

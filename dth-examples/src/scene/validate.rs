@@ -8,6 +8,7 @@ use std::ops::Range;
 use toml::Spanned;
 
 use super::raw::{RawEffect, RawMethod, RawScene};
+use super::suggest::did_you_mean;
 use super::{expression, members};
 use dth::dth::{Composition, Solver};
 use dth::runtime::{Backend, RuntimeHamiltonian};
@@ -665,7 +666,8 @@ fn catalogue_system<'s>(
             cx.error(
                 system_name.span(),
                 format!(
-                    "unknown system `{name}`: expected one of {}",
+                    "unknown system `{name}`{}: expected one of {}",
+                    did_you_mean(&name, systems.names().iter().copied()),
                     systems.names().join(", ")
                 ),
             );
@@ -680,8 +682,9 @@ fn catalogue_system<'s>(
                 cx.error(
                     k.span(),
                     format!(
-                        "unknown parameter `{}` of system `{name}`: expected {}",
+                        "unknown parameter `{}`{} of system `{name}`: expected {}",
                         k.get_ref(),
+                        did_you_mean(k.get_ref(), expected.iter().copied()),
                         if expected.is_empty() {
                             "no parameters".to_string()
                         } else {
@@ -878,8 +881,9 @@ fn validate_method(m: Spanned<RawMethod>, cx: &mut Ctxt<'_>) -> Option<MethodSpe
         cx.error(
             m.kind.span(),
             format!(
-                "unknown method `{}`: expected one of {}",
+                "unknown method `{}`{}: expected one of {}",
                 m.kind.get_ref(),
+                did_you_mean(m.kind.get_ref(), names.iter().copied()),
                 names.join(", ")
             ),
         );
@@ -1027,8 +1031,9 @@ fn validate_effect(
         cx.error(
             e.kind.span(),
             format!(
-                "unknown effect `{}`: expected one of {}",
+                "unknown effect `{}`{}: expected one of {}",
                 e.kind.get_ref(),
+                did_you_mean(e.kind.get_ref(), names.iter().copied()),
                 names.join(", ")
             ),
         );
@@ -1188,9 +1193,20 @@ fn validate_effect(
 }
 
 /// A TOML or serde message in the scene's words: TOML's types where serde names Rust's
-/// (`expected i64` is `expected an integer`, `map` a table, `sequence` an array).
+/// (`expected i64` is `expected an integer`, `map` a table, `sequence` an array), and an
+/// integer beyond TOML's 64 bits said to be one (serde called it "invalid type: integer
+/// `N` as i128").
 fn plain_types(message: &str) -> String {
     let mut m = message.to_string();
+    if let Some(rest) = m.strip_prefix("invalid type: integer `") {
+        if let Some((digits, _)) = rest.split_once("` as i128") {
+            return format!(
+                "integer `{digits}` is out of range: TOML integers are 64-bit, from {} to {}",
+                i64::MIN,
+                i64::MAX
+            );
+        }
+    }
     for (rust, toml) in [
         ("expected i64", "expected an integer"),
         ("expected f64", "expected a number"),

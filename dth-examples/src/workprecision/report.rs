@@ -90,7 +90,8 @@ fn opt(x: Option<f64>) -> String {
 
 /// Write `workprecision.json`, `workprecision.csv` and `summary.md` into `out`.
 pub(crate) fn write_all(summary: &Summary, out: &Path) -> Result<Vec<PathBuf>, Error> {
-    let json = serde_json::to_string_pretty(summary)?;
+    // Non-finite numbers (an error that overflowed) as strings, not `null` (`crate::json`).
+    let json = crate::json::to_string_pretty(summary)?;
     let mut csv = String::from(
         "system,method,parameter_kind,parameter,steps,mean_dt,time,time_min,timed_runs,global_error,\
          vertex_error,energy_error,vertex_energy_error,invariant_error,vertex_invariant_error,\
