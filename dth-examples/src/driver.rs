@@ -160,6 +160,23 @@ struct Interruptible<'a, M> {
     refused: bool,
 }
 
+impl<M> Interruptible<'_, M> {
+    /// An error (and `refused`) once `interrupt` is set.
+    #[inline]
+    fn check(&mut self) -> Result<(), dth::Error> {
+        if self.interrupt.load(Ordering::Relaxed) {
+            self.refused = true;
+            // Never shown: `run_peer` reports `FailureCause::Interrupted` instead.
+            return Err(dth::Error::InvalidOption {
+                name: "interrupt",
+                value: f64::NAN,
+                reason: "the run was interrupted",
+            });
+        }
+        Ok(())
+    }
+}
+
 impl<D: Dim, H: Hamiltonian<D>, M: OneStepMethod<D, H>> OneStepMethod<D, H> for Interruptible<'_, M>
 where
     DefaultAllocator: Alloc<D>,
@@ -175,16 +192,22 @@ where
         dt: f64,
         z1: &mut OVector<f64, D>,
     ) -> Result<(), dth::Error> {
-        if self.interrupt.load(Ordering::Relaxed) {
-            self.refused = true;
-            // Never shown: `run_peer` reports `FailureCause::Interrupted` instead.
-            return Err(dth::Error::InvalidOption {
-                name: "interrupt",
-                value: f64::NAN,
-                reason: "the run was interrupted",
-            });
-        }
+        self.check()?;
         self.method.step_into(h, z, dt, z1)
+    }
+
+    /// Forwarded as such: `run` continues a run on the same `H` through it, which lets a
+    /// method reuse what the last step left (Stormer-Verlet its last force).
+    #[inline]
+    fn continue_into(
+        &mut self,
+        h: &H,
+        z: &OVector<f64, D>,
+        dt: f64,
+        z1: &mut OVector<f64, D>,
+    ) -> Result<(), dth::Error> {
+        self.check()?;
+        self.method.continue_into(h, z, dt, z1)
     }
 
     fn newton_iterations(&self) -> usize {

@@ -211,3 +211,52 @@ fn an_interrupted_ensemble_writes_its_table_with_the_members_not_run() {
         "{summary}"
     );
 }
+
+/// The interruptible driver is transparent to a run's cost: Stormer-Verlet reuses its last
+/// force inside a run (`OneStepMethod::continue_into`), so a run of `n` steps evaluates the
+/// gradient `3 + 2 (n - 1)` times (the first step has no force yet), with or without an
+/// interrupt flag; a wrapper that dropped `continue_into` would make it `3 n`.
+#[test]
+fn an_interruptible_run_keeps_verlets_reused_force() {
+    use dth::methods::StormerVerlet;
+    use dth::nalgebra::{Const, Matrix2, Vector2};
+    use dth::{Flags, Hamiltonian};
+    use dth_examples::driver::{run_peer, Stop};
+    use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+
+    /// `H = (p^2 + q^2) / 2`, counting its gradient evaluations.
+    struct Counted(AtomicUsize);
+    impl Hamiltonian<Const<2>> for Counted {
+        fn dim(&self) -> Const<2> {
+            Const
+        }
+        fn flags(&self) -> Flags {
+            Flags::default().with_separable(true)
+        }
+        fn value(&self, z: &Vector2<f64>) -> f64 {
+            0.5 * z.norm_squared()
+        }
+        fn gradient_into(&self, z: &Vector2<f64>, out: &mut Vector2<f64>) {
+            self.0.fetch_add(1, Ordering::Relaxed);
+            *out = *z;
+        }
+        fn hessian_into(&self, _: &Vector2<f64>, out: &mut Matrix2<f64>) {
+            *out = Matrix2::identity();
+        }
+    }
+    static FLAG: AtomicBool = AtomicBool::new(false);
+    let n = 10;
+    for flag in [None, Some(&FLAG)] {
+        let h = Counted(AtomicUsize::new(0));
+        let stop = Stop::steps(n).with_interrupt(flag);
+        let z0 = Vector2::new(1.0, 0.0);
+        let end = run_peer(&mut StormerVerlet::new(), &h, 0.1, z0, 0.0, stop, &mut ()).unwrap();
+        assert_eq!(end.steps, n);
+        assert_eq!(
+            h.0.load(Ordering::Relaxed),
+            3 + 2 * (n - 1),
+            "flag {:?}",
+            flag.is_some()
+        );
+    }
+}
