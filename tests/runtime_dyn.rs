@@ -450,7 +450,18 @@ fn dyn_dth_steps_allocate_nothing() {
         });
         assert_eq!(allocations, 0, "{name}: allocations in 100 single steps");
         assert!(lambdas > 0.0 && stepped.k == 401, "{name}");
-        assert_eq!(dth.record_ref(), &dth.record());
+        // The borrowed record is the current state's.
+        let r = dth.record_ref();
+        assert_eq!(
+            (r.k, &r.z, r.t),
+            (dth.k(), dth.zbar(), dth.tbar()),
+            "{name}"
+        );
+        assert_eq!(
+            r.dth.as_ref().map(|d| d.lambda),
+            Some(dth.lambda()),
+            "{name}"
+        );
     }
 }
 

@@ -302,6 +302,9 @@ fn breakdown_and_robust_mode_at_every_order() {
         let (mut fallback, mut worst) = (0, 0.0_f64);
         for _ in 0..1000 {
             let r = dth.step().unwrap_or_else(|e| panic!("order {order}: {e}"));
+            // The borrowed record is the returned one, also after a fallback step that
+            // resumed DTH (the resume changes the state's lambda after the record is made).
+            assert_eq!(dth.record_ref(), &r, "order {order}, step {}", r.k);
             fallback += usize::from(r.kind == StepKind::Fallback);
             worst = worst.max((kepler.value(&r.z) - e0).abs());
             assert!(r.dth.is_some_and(|d| d.lambda > 0.0));
@@ -313,5 +316,48 @@ fn breakdown_and_robust_mode_at_every_order() {
         assert!(fallback > 0 && fallback < 1000, "order {order}: {fallback}");
         // |H| = 0.05, terms of size 4: a few eps of those.
         assert!(worst <= 1e-14, "order {order}: {worst:e}");
+        // And after the steps of a run that ends at a given time, through the fallbacks.
+        let t_end = dth.tbar() + 20.0;
+        let mut fallback = 0;
+        loop {
+            let (r, done) = dth
+                .step_toward(t_end)
+                .unwrap_or_else(|e| panic!("order {order}: {e}"));
+            assert_eq!(dth.record_ref(), &r, "order {order}, step {}", r.k);
+            fallback += usize::from(r.kind == StepKind::Fallback);
+            if done {
+                break;
+            }
+        }
+        assert!(
+            fallback > 0,
+            "order {order}: no fallback on the way to t_end"
+        );
+    }
+}
+
+/// A run that ends at a given time on a fallback step which resumes DTH: the borrowed record
+/// is the one `step_toward` returned. (The resume sets the state's `lambda` to the law of
+/// time's after the step's record is made, so the record cannot be rebuilt from the state.)
+#[test]
+fn a_run_ending_on_a_resuming_fallback_step_keeps_its_record() {
+    let kepler = Kepler::thesis();
+    let z0 = Vector4::new(0.5, 0.0, 0.0, 1.9f64.sqrt());
+    for order in [2, 4] {
+        let o = options(0.0157, order).with_robust(true);
+        let mut dth = Dth::new(kepler, z0, o).expect("valid start");
+        // The first step that falls back and resumes DTH, and the state before it.
+        let (before, t_end) = (0..1000)
+            .find_map(|_| {
+                let before = dth.clone();
+                let r = dth.step().unwrap_or_else(|e| panic!("order {order}: {e}"));
+                (r.kind == StepKind::Fallback && !dth.in_fallback()).then_some((before, r.t))
+            })
+            .unwrap_or_else(|| panic!("order {order}: no fallback step resumed DTH"));
+        // Ending exactly where that step ends takes the same step as the last one.
+        let mut again = before;
+        let (r, done) = again.step_toward(t_end).expect("the same step");
+        assert!(done && r.kind == StepKind::Fallback, "order {order}: {r:?}");
+        assert_eq!(again.record_ref(), &r, "order {order}");
     }
 }

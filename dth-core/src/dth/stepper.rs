@@ -109,6 +109,10 @@ where
     saved: State<D>,
     /// The record of the current midpoint, as reported.
     record: StepRecord<D>,
+    /// The record at the start of a composed step, restored with `saved` (a step's record is
+    /// written when the step is made: a fallback step's before the robust mode's resume
+    /// changes the state's `lambda` and kind, so it cannot be rebuilt from the state).
+    saved_record: StepRecord<D>,
     /// The robust mode's fallback steps, and the walk of [`Dth::diagnose`].
     fallback: FallbackWork<D>,
     walk: OVector<f64, D>,
@@ -308,20 +312,8 @@ where
             z1: zeros(dim),
             point: Point::zeros(dim),
             saved: s.clone(),
-            record: StepRecord {
-                k: 0,
-                t: 0.0,
-                z: zeros(dim),
-                kind: StepKind::Dth,
-                iterations: 0,
-                factorizations: 0,
-                dth: Some(DthRecord {
-                    lambda: 0.0,
-                    vertex: zeros(dim),
-                    vertex_time: 0.0,
-                    psi: 0.0,
-                }),
-            },
+            record: empty_record(dim),
+            saved_record: empty_record(dim),
             fallback: FallbackWork::new(&hamiltonian, options.robust()),
             walk: zeros(dim),
         });
@@ -461,7 +453,7 @@ where
     ///     let record = dth.record_ref(); // borrowed: no copy of the state or the vertex
     ///     longest = longest.max(record.dth.as_ref().map_or(0.0, |d| d.lambda));
     /// }
-    /// assert_eq!(dth.record_ref(), &dth.record());
+    /// assert_eq!(dth.record_ref().z, *dth.zbar());
     /// assert!(longest > 1.0);
     /// # Ok::<(), dth_core::Error>(())
     /// ```
@@ -577,6 +569,7 @@ where
             });
         }
         let saved = self.s.clone();
+        let saved_record = self.work.record.clone();
         let dtau = self.options.dtau();
         self.composed_step(self.options.composition().coefficients(), dtau)?;
         let full = self.work.record.clone();
@@ -595,7 +588,9 @@ where
                 break;
             }
             let scale = (s_b - f_b * (s_b - s_a) / (f_b - f_a)).clamp(1e-3, 4.0);
+            // Back at the start (its record too, which a failure of this try restores).
             self.s = saved.clone();
+            copy_record(&saved_record, &mut self.work.record);
             self.composed_step(self.options.composition().coefficients(), scale * dtau)?;
             let r = self.work.record.clone();
             let f = r.t - t_end;
@@ -617,7 +612,7 @@ where
             r.kind = StepKind::Shortened;
             self.s.step_kind = StepKind::Shortened;
         }
-        self.refresh_record();
+        copy_record(&r, &mut self.work.record);
         Ok((r, true))
     }
 
@@ -628,6 +623,7 @@ where
     /// restored to the start of the step.
     fn composed_step(&mut self, gammas: &[f64], dtau: f64) -> Result<(), Error> {
         self.work.saved.assign(&self.s);
+        copy_record(&self.work.record, &mut self.work.saved_record);
         let step = self.s.k + 1;
         let (mut iterations, mut factorizations, mut fallback) = (0u32, 0u32, false);
         for (i, &gamma) in gammas.iter().enumerate() {
@@ -640,7 +636,7 @@ where
                 }
                 Err(e) => {
                     self.s.assign(&self.work.saved);
-                    self.refresh_record();
+                    copy_record(&self.work.saved_record, &mut self.work.record);
                     return Err(e);
                 }
             }
@@ -1154,6 +1150,50 @@ where
 }
 
 /// The record of the state's midpoint, written into `record` (its `dth` part is `Some`).
+/// A DTH record of dimension `d` with every field zero: storage for [`fill_record`].
+fn empty_record<D: Dim>(d: D) -> StepRecord<D>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    StepRecord {
+        k: 0,
+        t: 0.0,
+        z: zeros(d),
+        kind: StepKind::Dth,
+        iterations: 0,
+        factorizations: 0,
+        dth: Some(DthRecord {
+            lambda: 0.0,
+            vertex: zeros(d),
+            vertex_time: 0.0,
+            psi: 0.0,
+        }),
+    }
+}
+
+/// `to = from`, into `to`'s storage (no allocation when both carry a DTH part, as the
+/// stepper's records always do).
+fn copy_record<D: Dim>(from: &StepRecord<D>, to: &mut StepRecord<D>)
+where
+    DefaultAllocator: Alloc<D>,
+{
+    to.k = from.k;
+    to.t = from.t;
+    to.z.copy_from(&from.z);
+    to.kind = from.kind;
+    to.iterations = from.iterations;
+    to.factorizations = from.factorizations;
+    match (&mut to.dth, &from.dth) {
+        (Some(t), Some(f)) => {
+            t.lambda = f.lambda;
+            t.vertex.copy_from(&f.vertex);
+            t.vertex_time = f.vertex_time;
+            t.psi = f.psi;
+        }
+        (t, f) => t.clone_from(f),
+    }
+}
+
 fn fill_record<D: Dim>(s: &State<D>, record: &mut StepRecord<D>)
 where
     DefaultAllocator: Alloc<D>,
