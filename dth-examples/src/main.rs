@@ -179,9 +179,10 @@ fn run(
     // A run that lost a method still wrote its outputs: report them, then exit 1 (130 when
     // it was interrupted).
     let options = options.clone().with_interrupt(&INTERRUPT);
+    // Graceful until the process ends: a signal after the last step (while the output is
+    // committed, or after) is no reason to exit without a word; it is reported below.
     GRACEFUL.store(true, Ordering::SeqCst);
     let report = dth_examples::run_scene(text, file, &Catalogue::builtin(), out, &options);
-    GRACEFUL.store(false, Ordering::SeqCst);
     let report = match report {
         Ok(report) => report,
         Err(e) => e.partial_report()?,
@@ -224,6 +225,10 @@ fn run(
     println!("open {}", report.out.join("index.html").display());
     if report.interrupted.is_some() {
         eprintln!("{}", dth_examples::pipeline::interrupted_message(&report));
+        return Ok(ExitCode::from(INTERRUPTED as u8));
+    }
+    if INTERRUPT.load(Ordering::SeqCst) {
+        eprintln!("interrupted after the last step: the output above is complete");
         return Ok(ExitCode::from(INTERRUPTED as u8));
     }
     let failed = !report.complete();
@@ -403,8 +408,9 @@ const INTERRUPTED: i32 = 130;
 /// and writes what it computed (`RunOptions::interrupt`).
 static INTERRUPT: AtomicBool = AtomicBool::new(false);
 
-/// `true` while a scene runs (`dth run`, the default scene): a signal then sets
-/// [`INTERRUPT`] instead of ending the process.
+/// `true` from the start of a scene's run (`dth run`, the default scene) to the end of the
+/// process: a first signal then sets [`INTERRUPT`] instead of ending the process (after the
+/// last step, the run reports it and exits 130 with its output complete).
 static GRACEFUL: AtomicBool = AtomicBool::new(false);
 
 /// On SIGINT or SIGTERM: during a scene's run, the first signal stops it at the next step

@@ -98,18 +98,34 @@ pub fn interrupted_message(report: &RunReport) -> String {
 
 /// Where `results` (of `scene`) were interrupted, if they were: the method whose failure is
 /// [`FailureCause::Interrupted`] and the methods after it, which did not run.
+/// Or the method whose ensemble of initial states was interrupted (its own run completed).
 fn interruption(scene: &Scene, results: &[MethodResult]) -> Option<Interrupted> {
     let last = results.last()?;
+    let not_run = || {
+        scene.methods[results.len()..]
+            .iter()
+            .map(|m| m.label.clone())
+            .collect()
+    };
+    if last.ensemble_interrupted {
+        return Some(Interrupted {
+            during: Some(format!(
+                "the ensemble of method `{}` (its members from the interrupted one on are not in it)",
+                last.summary.label
+            )),
+            method: None,
+            step: None,
+            t: None,
+            not_run: not_run(),
+        });
+    }
     let f = last.failure.as_ref()?;
     (f.cause == FailureCause::Interrupted).then(|| Interrupted {
         during: None,
         method: Some(last.summary.label.clone()),
         step: Some(f.step),
         t: Some(last.summary.t_end),
-        not_run: scene.methods[results.len()..]
-            .iter()
-            .map(|m| m.label.clone())
-            .collect(),
+        not_run: not_run(),
     })
 }
 

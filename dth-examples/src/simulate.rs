@@ -166,8 +166,11 @@ pub struct MethodResult {
     pub summary: MethodSummary,
     /// Everything the effects produced.
     pub outputs: EffectOutputs,
-    /// The scene's ensemble (thesis Figures 4.10-4.13), when it has one.
+    /// The scene's ensemble (thesis Figures 4.10-4.13), when it has one: every member, or,
+    /// when the run was interrupted during it, the members before the interrupted one.
     pub ensemble: Option<Vec<EnsembleMember>>,
+    /// Whether the run was interrupted during the ensemble (the method's own run completed).
+    pub ensemble_interrupted: bool,
     /// Why the method stopped early, if it did (the summary holds it as text).
     pub failure: Option<MethodFailure>,
 }
@@ -208,21 +211,26 @@ where
     Ok(starts)
 }
 
+/// The ensemble's members run with `m`, each for `e.steps` steps and interruptible by
+/// `stop`'s flag; with `true` when the run was interrupted (the members from the interrupted
+/// one on are missing).
 fn run_ensemble<D: Dim, S: SceneSystem<D>>(
     system: &S,
     m: &MethodSpec,
     e: &Ensemble,
     z0: &OVector<f64, D>,
-    t0: f64,
-) -> Result<Vec<EnsembleMember>, Error>
+    (t0, stop): (f64, Stop),
+) -> Result<(Vec<EnsembleMember>, bool), Error>
 where
     DefaultAllocator: Alloc<D>,
 {
     let (Some(ix), Some(iy)) = (e.x.index(z0.len()), e.y.index(z0.len())) else {
-        return Ok(Vec::new());
+        return Ok((Vec::new(), false));
     };
     let starts = ensemble_starts(system, e, z0)?;
-    let mut members = Vec::with_capacity(starts.len());
+    let mut members =
+        budget::vec_with_capacity(starts.len(), || "the square's ensemble members".to_string())?;
+    let stop = stop.with_limit(Limit::Steps(e.steps));
     for z in starts {
         let (x0, y0) = (z[ix], z[iy]);
         if let Some(reason) = unavailable(m, system, &z) {
@@ -238,7 +246,10 @@ where
             });
             continue;
         }
-        let end = run_method(m, system, z, t0, Stop::steps(e.steps), &mut ())?;
+        let end = run_method(m, system, z, t0, stop, &mut ())?;
+        if matches!(&end, Err(f) if f.cause == FailureCause::Interrupted) {
+            return Ok((members, true));
+        }
         members.push(EnsembleMember {
             x0,
             y0,
@@ -247,7 +258,7 @@ where
                 .map_err(|f| Failure::from(&f)),
         });
     }
-    Ok(members)
+    Ok((members, false))
 }
 
 /// The initial phase-space point: `(q, p)`, or `(q, t0, p, p_t)` with `calH(z0) = 0` for a
@@ -534,15 +545,20 @@ where
                 .unwrap_or_default(),
             final_state: outputs.final_state.clone(),
         };
-        let interrupted = matches!(&end, Err(f) if f.cause == FailureCause::Interrupted);
-        let ensemble = match &scene.ensemble {
-            Some(e) if !interrupted => Some(run_ensemble(system, m, e, &z0, scene.t0)?),
-            _ => None,
+        let mut interrupted = matches!(&end, Err(f) if f.cause == FailureCause::Interrupted);
+        let (ensemble, ensemble_interrupted) = match &scene.ensemble {
+            Some(e) if !interrupted => {
+                let (members, stopped) = run_ensemble(system, m, e, &z0, (scene.t0, stop))?;
+                (Some(members), stopped)
+            }
+            _ => (None, false),
         };
+        interrupted |= ensemble_interrupted;
         results.push(MethodResult {
             summary,
             outputs,
             ensemble,
+            ensemble_interrupted,
             failure: end.err(),
         });
         if interrupted {
@@ -566,5 +582,32 @@ mod tests {
         for known in [true, false] {
             assert!(ProgressStyle::with_template(progress_template(known)).is_ok());
         }
+    }
+
+    /// The thesis's square of initial states stops at an interruption (the members from the
+    /// interrupted one on are not run) and says so; without one, every member runs.
+    #[test]
+    fn an_interrupted_ensemble_stops_and_says_so() {
+        static FLAG: AtomicBool = AtomicBool::new(true);
+        let text = "[system]\nname = \"kepler\"\n[initial]\nq = [0.5, 0.0]\np = [0.0, 1.2]\n\
+                    [[method]]\nkind = \"midpoint\"\ndt = 0.1\n[duration]\nsteps = 10\n\
+                    [ensemble]\nx = \"q1\"\ny = \"p1\"\nhalf_width = 0.01\nsteps = 5\nper_side = 3\n";
+        let scene =
+            crate::check_scene(text, "square.toml", &crate::catalogue::Catalogue::builtin())
+                .unwrap();
+        let system = crate::systems::Kepler::thesis();
+        let z0 = initial_state(&system, &scene).unwrap();
+        let (m, e) = (&scene.methods[0], scene.ensemble.as_ref().unwrap());
+        let interruptible = Stop::steps(10).with_interrupt(Some(&FLAG));
+        let (members, stopped) = run_ensemble(&system, m, e, &z0, (0.0, interruptible)).unwrap();
+        assert!(stopped && members.is_empty(), "{stopped} {}", members.len());
+        FLAG.store(false, Ordering::SeqCst);
+        let (members, stopped) = run_ensemble(&system, m, e, &z0, (0.0, interruptible)).unwrap();
+        assert!(
+            !stopped && members.len() == 9,
+            "{stopped} {}",
+            members.len()
+        );
+        assert!(members.iter().all(|m| m.end.is_ok()));
     }
 }
