@@ -67,8 +67,8 @@ impl RunError {
         }
     }
 
-    /// The error for a written `report` that is not complete: interrupted, or with failures.
-    /// `None` for a complete report.
+    /// The error for a written `report` that is not complete: interrupted, or with failures;
+    /// `Ok(report)` for a complete one.
     pub fn incomplete(report: RunReport) -> Result<RunReport, RunError> {
         if report.interrupted.is_some() {
             Err(RunError::Interrupted {
@@ -84,8 +84,8 @@ impl RunError {
     }
 }
 
-/// "interrupted at step 3 of method `a` (t = 0.3); not run: b (what was computed up to there
-/// is in OUT)".
+/// "interrupted before step 3 of method `a` (last state at t = 0.3); not run: b" and where
+/// what was computed up to there is.
 pub fn interrupted_message(report: &RunReport) -> String {
     let Some(i) = &report.interrupted else {
         return failures_message(report);
