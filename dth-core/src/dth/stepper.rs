@@ -568,9 +568,8 @@ where
                 reason: "must be finite and after the current midpoint time",
             });
         }
-        let saved = self.s.clone();
-        let saved_record = self.work.record.clone();
         let dtau = self.options.dtau();
+        // (It keeps the start, state and record, in `work.saved`, `work.saved_record`.)
         self.composed_step(self.options.composition().coefficients(), dtau)?;
         let full = self.work.record.clone();
         let advance = full.t - t0;
@@ -588,9 +587,10 @@ where
                 break;
             }
             let scale = (s_b - f_b * (s_b - s_a) / (f_b - f_a)).clamp(1e-3, 4.0);
-            // Back at the start (its record too, which a failure of this try restores).
-            self.s = saved.clone();
-            copy_record(&saved_record, &mut self.work.record);
+            // Back at the start that the last try saved (its record too, which a failure of
+            // this try restores).
+            self.s.assign(&self.work.saved);
+            copy_record(&self.work.saved_record, &mut self.work.record);
             self.composed_step(self.options.composition().coefficients(), scale * dtau)?;
             let r = self.work.record.clone();
             let f = r.t - t_end;
