@@ -162,22 +162,20 @@ fn an_absurd_memory_limit_is_an_error_not_a_panic() {
     // 10^16 members: an estimate of about 9 EB, within a limit of 18 EB, but far more than
     // the address space.
     std::fs::write(dir.path().join("many.toml"), members("10000000000000000")).unwrap();
-    let o = dth(
-        &[
-            "run",
-            "many.toml",
-            "--out",
-            "out",
-            "--max-memory",
-            "18000000T",
-        ],
-        dir.path(),
-    );
-    let err = stderr(&o);
-    assert_eq!(o.status.code(), Some(2), "{err}");
-    assert!(
-        err.contains("cannot allocate the members of the ensemble (10000000000000000 of"),
-        "{err}"
+    // `dth run SCENE` under a limit of 18 EB (above any machine's memory): exit 2 and its
+    // error, which must say `what`.
+    let refused_allocation = |scene: &str, what: &str| {
+        let o = dth(
+            &["run", scene, "--out", "out", "--max-memory", "18000000T"],
+            dir.path(),
+        );
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{err}");
+        assert!(err.contains(what), "{err}");
+    };
+    refused_allocation(
+        "many.toml",
+        "cannot allocate the members of the ensemble (10000000000000000 of",
     );
     assert_eq!(entries(dir.path()), ["many.toml"], "output left behind");
     // The thesis's square of initial states with 5e9 per side: its square overflowed
@@ -203,22 +201,9 @@ fn an_absurd_memory_limit_is_an_error_not_a_panic() {
         format!("{square}per_side = 100000000\n"),
     )
     .unwrap();
-    let o = dth(
-        &[
-            "run",
-            "square.toml",
-            "--out",
-            "out",
-            "--max-memory",
-            "18000000T",
-        ],
-        dir.path(),
-    );
-    let err = stderr(&o);
-    assert_eq!(o.status.code(), Some(2), "{err}");
-    assert!(
-        err.contains("cannot allocate the square of initial states"),
-        "{err}"
+    refused_allocation(
+        "square.toml",
+        "cannot allocate the square of initial states",
     );
     assert_eq!(entries(dir.path()), ["many.toml", "square.toml"]);
     // The largest step count saturates the estimate: refused even under the largest limit.
