@@ -153,6 +153,20 @@ pub enum Error {
         /// the root's `lambda`).
         lambda_predicted: f64,
     },
+    /// A run that was to end at a time could not land its last step there (the robust mode's
+    /// fallback steps included): nothing after the last accepted step is kept, and the run is
+    /// a failure, not a shorter success.
+    #[error(
+        "step {step} could not end the run at t = {t_end}: the closest try ended at t = {reached}"
+    )]
+    EndNotReached {
+        /// Index `k + 1` of the last step.
+        step: usize,
+        /// The time asked for.
+        t_end: f64,
+        /// Where the closest try of the last step ended.
+        reached: f64,
+    },
     /// A peer method's Newton iteration did not reach roundoff within the iteration limit (or
     /// diverged); `residual` is the infinity norm of the nonlinear residual at the last iterate.
     #[error("{method}: Newton did not converge at step {step} after {iterations} iterations (residual {residual:e})")]

@@ -41,8 +41,9 @@ pub enum StepKind {
     /// `H(zbar) = H(zbar_0)`, [`DthRecord::vertex`] the left vertex of its segment.
     Dth,
     /// A fallback step of the DTH robust mode (`DthOptions::with_robust`): an
-    /// energy-conserving discrete-gradient step in `(q, p)` of physical size
-    /// `dt = lambda * dtau`, taken where DTH has no positive root. `z` and
+    /// energy-conserving discrete-gradient step in `(q, p)` (at order 4-8 a composition of
+    /// them) of physical size `dt = lambda * dtau`, taken where `Psi` changes sign and DTH has
+    /// no positive root, or where a DTH step failed. `z` and
     /// [`DthRecord::vertex`] are both the node reached, with `H(z) = H(zbar_0)`; there is no
     /// DTH segment (its vertex-based invariants, such as quadratic invariants exact at
     /// vertices, do not hold across such steps).

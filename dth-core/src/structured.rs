@@ -465,6 +465,25 @@ impl NewtonMatrix {
         }
     }
 
+    /// `sum_ij |x_i H_ij x_j|` with the Hessian of term `t`: the size of the terms of the
+    /// quadratic form `x^T H x`, which it equals where none of them cancel.
+    pub fn hessian_abs_form(&self, t: usize, x: &[f64]) -> f64 {
+        assert!(x.len() == self.d, "a vector of length d");
+        let values = &self.hessian[t * self.nonzeros..(t + 1) * self.nonzeros];
+        self.pattern
+            .iter()
+            .zip(values)
+            .map(|(&(i, j), &v)| {
+                let term = (x[i] * v * x[j]).abs();
+                if i == j {
+                    term
+                } else {
+                    2.0 * term
+                }
+            })
+            .sum()
+    }
+
     /// The banded LU (its bandwidths).
     pub fn lu(&self) -> &BandedLu {
         &self.lu

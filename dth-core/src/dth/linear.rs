@@ -100,6 +100,8 @@ where
     fn solve_into(&mut self, b: &OVector<f64, D>, x: &mut OVector<f64, D>);
     /// `out = Hess x` with the Hessian last evaluated.
     fn hessian_times_into(&self, x: &OVector<f64, D>, out: &mut OVector<f64, D>);
+    /// `sum_ij |x_i Hess_ij x_j|` with the Hessian last evaluated.
+    fn hessian_abs_form(&self, x: &OVector<f64, D>) -> f64;
 }
 
 /// The dense path: the fused evaluation's derivatives and the factorization of `A` (through
@@ -128,6 +130,17 @@ where
 
     fn hessian_times_into(&self, x: &OVector<f64, D>, out: &mut OVector<f64, D>) {
         self.derivatives().hessian.mul_to(x, out);
+    }
+
+    fn hessian_abs_form(&self, x: &OVector<f64, D>) -> f64 {
+        let hessian = &self.derivatives().hessian;
+        let mut sum = 0.0;
+        for j in 0..x.len() {
+            for i in 0..x.len() {
+                sum += (x[i] * hessian[(i, j)] * x[j]).abs();
+            }
+        }
+        sum
     }
 }
 
@@ -161,6 +174,10 @@ where
     fn hessian_times_into(&self, x: &OVector<f64, D>, out: &mut OVector<f64, D>) {
         self.matrix
             .hessian_times(0, x.as_slice(), out.as_mut_slice());
+    }
+
+    fn hessian_abs_form(&self, x: &OVector<f64, D>) -> f64 {
+        self.matrix.hessian_abs_form(0, x.as_slice())
     }
 }
 
@@ -232,6 +249,13 @@ where
         match self {
             Path::Dense(d) => d.hessian_times_into(x, out),
             Path::Sparse(s) => s.hessian_times_into(x, out),
+        }
+    }
+
+    fn hessian_abs_form(&self, x: &OVector<f64, D>) -> f64 {
+        match self {
+            Path::Dense(d) => d.hessian_abs_form(x),
+            Path::Sparse(s) => s.hessian_abs_form(x),
         }
     }
 }

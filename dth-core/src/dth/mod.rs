@@ -18,9 +18,11 @@
 //!   from `Psi` at the predicted midpoint and from the law of time before Newton runs (and
 //!   diagnoses Newton failures along the orbit), and stops with the step, time, `Psi` and
 //!   `lambda`, keeping the trajectory.
-//! - **Robust mode** ([`DthOptions::with_robust`], opt-in). Breakdowns and Newton failures are
-//!   carried through with energy-conserving discrete-gradient steps of the last DTH step's
-//!   physical size, marked [`StepKind::Fallback`](crate::observer::StepKind::Fallback); DTH resumes where `Psi` allows.
+//! - **Robust mode** ([`DthOptions::with_robust`], opt-in). The bands where `Psi` changes sign,
+//!   and steps whose Newton fails, are carried through with energy-conserving
+//!   discrete-gradient steps sized by the state and `dtau` alone, marked
+//!   [`StepKind::Fallback`](crate::observer::StepKind::Fallback); DTH runs on both sides of each
+//!   sign change, and the run converges at the order of its steps and ends where asked.
 //! - **No retry**: a failed DTH step is not retried with a smaller `dtau` (see [`Dth::step`]).
 //! - **Order 4, 6, 8** ([`DthOptions::with_order`], [`Composition`]): each step is a symmetric
 //!   composition of DTH steps in `tau` (5, 9 or 17 sub-steps, some negative), energy exact at

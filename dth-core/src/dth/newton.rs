@@ -116,6 +116,8 @@ where
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Solved {
     pub(crate) lambda: f64,
+    /// The relative roundoff noise of `lambda` (see [`Eval::lambda_noise`]).
+    pub(crate) noise: f64,
     pub(crate) iterations: u32,
     pub(crate) factorizations: u32,
 }
@@ -232,6 +234,19 @@ where
                 .max(8.0 * f64::EPSILON * noise / (lin.g_lambda * lambda).abs())
                 .min(0.5),
             _ => options.stall_tolerance(),
+        }
+    }
+
+    /// The relative noise the plain energy residual's roundoff puts into `lambda`,
+    /// `8 eps |terms of H| / |g_lambda lambda|` (the floor [`Eval::stall`] raises the stall
+    /// tolerance to); 0 where the cancellation-free form with exact divided differences is
+    /// solved (`lambda` is then exact to about one eps, below every other rounding).
+    fn lambda_noise(&self, last: Option<&Linearization<D>>, lambda: f64) -> f64 {
+        match last {
+            Some(lin) if self.noise > 0.0 => {
+                8.0 * f64::EPSILON * self.noise / (lin.g_lambda * lambda).abs()
+            }
+            _ => 0.0,
         }
     }
 
@@ -789,6 +804,7 @@ where
             Status::Converged => {
                 return Ok(Solved {
                     lambda,
+                    noise: w.e.lambda_noise(last, lambda),
                     iterations,
                     factorizations,
                 })
@@ -914,6 +930,7 @@ where
             Status::Converged => {
                 return Ok(Solved {
                     lambda,
+                    noise: w.e.lambda_noise(last, lambda),
                     iterations: factorizations,
                     factorizations,
                 })

@@ -243,25 +243,39 @@ impl DthOptions {
         Ok(self)
     }
 
-    /// Robust mode (opt-in, default off). Where a DTH step breaks down ([`Error::Breakdown`],
-    /// or Newton fails: [`Error::NewtonDiverged`], [`Error::SpuriousRoot`],
-    /// [`Error::SingularMatrix`], [`Error::NonFinite`] at a Newton iterate), take instead an
-    /// energy-conserving discrete-gradient step in `(q, p)` from the current midpoint
-    /// ([`methods::DiscreteGradient`](crate::methods::DiscreteGradient), with the
-    /// Hamiltonian's exact divided differences where it has them), with energy checked and
-    /// projected against `H(zbar_0)`. Its physical size: the first one `dt = lambda_k dtau` of
-    /// the last DTH step; then what DTH's law of time gives at the node,
-    /// `dtau (lambda_0^3 Psi_0 / |Psi|)^(1/3)`, capped by the largest DTH step of the run (the
-    /// law blows up as `Psi -> 0`) and growing at most 2x per step; halved where its Newton
-    /// fails, down to `2^-20` of that size. DTH resumes at a node where `Psi` has its initial
-    /// sign again, moves away from zero, and the law of time gives `lambda` within the
-    /// breakdown ratio of the fallback's; it resumes with that `lambda`. Fallback steps are
-    /// marked [`StepKind::Fallback`](crate::observer::StepKind::Fallback). A fallback step that fails
-    /// (its Newton at the smallest size, a non-finite `H`, its energy check) stops the run
-    /// with that error. Where no step breaks down the run is bit-identical to one without
-    /// robust mode. At order 4-8 ([`with_order`](Self::with_order)) each fallback sub-step
-    /// takes `gamma_i` times that size (the negative ones run backwards in time), so a stretch
-    /// of fallback steps is composed like the DTH steps it replaces.
+    /// Robust mode (opt-in, default off): the run goes through the places where DTH itself
+    /// has no positive root, where `Psi = (J grad H)^T Hess H (J grad H)` changes sign (Kepler
+    /// above e ~ 0.79, the pendulum in rotation, driven systems, close encounters).
+    ///
+    /// - **Where DTH runs.** DTH's step has a root wherever `Psi` does not vanish, of either
+    ///   sign; near a sign change the law of time `lambda^3 |Psi| = const` (paper Theorem 5)
+    ///   sends the physical step to infinity. So the robust mode measures how much the terms
+    ///   of `Psi = sum_ij v_i H_ij v_j` (`v = J grad H`, `H_ij` the Hessian) cancel,
+    ///   `|Psi| / sum_ij |v_i H_ij v_j|` (independent of the units of `q` and `p`),
+    ///   and leaves DTH where that ratio falls below 5%, resuming where it is back above 10%,
+    ///   on either side of the sign change, with the `lambda` of the run's law of time. A DTH
+    ///   step that breaks down or whose Newton fails ([`Error::Breakdown`],
+    ///   [`Error::NewtonDiverged`], [`Error::SpuriousRoot`], [`Error::SingularMatrix`],
+    ///   [`Error::NonFinite`] at a Newton iterate) is redone as a fallback step too.
+    /// - **Fallback steps** are energy-conserving discrete-gradient steps in `(q, p)`
+    ///   ([`methods::DiscreteGradient`](crate::methods::DiscreteGradient), with the Hamiltonian's
+    ///   exact divided differences where it has them), with energy checked and projected
+    ///   against `H(zbar_0)`, marked [`StepKind::Fallback`](crate::observer::StepKind::Fallback).
+    ///   Their physical size is a function of the state and `dtau` only,
+    ///   `dtau (law / max(|Psi|, 0.05 sum))^(1/3)` with `law = lambda_0^3 max(|Psi_0|,
+    ///   0.05 sum_0)`: DTH's own law of time at the band's edge, bounded inside it, so both
+    ///   kinds of step shrink with `dtau` and the run converges at second order. Where a
+    ///   fallback step's Newton fails, the step is halved, down to `2^-20` of that size; below
+    ///   that (or on a non-finite `H`, or a failed energy check) the run stops with that error.
+    /// - **Order 4-8** ([`with_order`](Self::with_order)): a composed step is all DTH steps or
+    ///   all fallback steps, composed with the same coefficients (the discrete-gradient step is
+    ///   symmetric, so the composition has the order asked for); a composed DTH step that
+    ///   fails, or whose midpoints reach deep into a band, is redone from its start as fallback
+    ///   steps.
+    ///
+    /// Where the ratio stays above 5% and no step fails, the run is bit-identical to one
+    /// without robust mode. The vertex invariants of DTH (paper Theorem 7) do not hold across
+    /// fallback steps (a fallback node is its own vertex).
     pub fn with_robust(mut self, robust: bool) -> Self {
         self.robust = robust;
         self

@@ -8,7 +8,7 @@ use super::newton::{add_j_times, all_finite, Work};
 use super::newton::{predict_into, project, roundoff_scale, solve_segment, Anchor, Previous};
 use super::options::DthOptions;
 use super::options::EnergyResidual;
-use super::robust::{fallback_step, FallbackWork};
+use super::robust::{self, fallback_step, FallbackWork, Mode, ScaleWork};
 use super::trajectory::Trajectory;
 use crate::error::RunError;
 use crate::methods::{check_state, Structured};
@@ -116,6 +116,8 @@ where
     /// The robust mode's fallback steps, and the walk of [`Dth::diagnose`].
     fallback: FallbackWork<D>,
     walk: OVector<f64, D>,
+    /// Scratch of `Psi_scale` (robust mode).
+    scale: ScaleWork<D>,
 }
 
 /// The state of a [`Dth`] stepper that steps change.
@@ -133,23 +135,25 @@ where
     iterations: u32,
     factorizations: u32,
     reported: bool,
-    /// `Some` while the robust mode is taking fallback steps.
-    fallback: Option<Fallback>,
-    /// What produced the current midpoint: the last sub-step (drives the robust mode).
-    kind: StepKind,
-    /// What the last step reports: [`StepKind::Fallback`] if any of its sub-steps was one.
+    /// `Psi_scale` at `zbar` (robust mode; 0 otherwise): see `dth::robust`.
+    psi_scale: f64,
+    /// What the next step is (always [`Mode::Dth`] without the robust mode).
+    mode: Mode,
+    /// What produced the current midpoint, as its record says: [`StepKind::Fallback`] if any
+    /// sub-step of the last step was one.
     step_kind: StepKind,
-    /// The law-of-time constant `lambda^3 Psi` of the run (paper Theorem 5), set at the first
-    /// midpoint with `Psi != 0`; the robust mode resumes DTH with `lambda = (law / Psi)^(1/3)`
-    /// so that the resolution the user chose with `lambda_0` is kept across excursions.
+    /// The robust mode's law of time `lambda^3 max(|Psi|, LEAVE_BELOW Psi_scale)` (see
+    /// `dth::robust`), set at the first midpoint where it is positive (0 before). It sizes the
+    /// fallback steps and gives DTH its `lambda` where it resumes, so that the resolution the
+    /// user chose with `lambda_0` is kept across fallback stretches.
     law: f64,
-    /// Largest `lambda` of an accepted DTH step (at least `lambda_0`): caps the size of
-    /// robust-mode fallback steps where the law of time would let them blow up (`Psi -> 0`).
-    lambda_max: f64,
     /// Signed step in `tau` of the segment of the current midpoint: both its halves
     /// (`gamma_1 dtau` for a composed step, `gamma_1 = gamma_s`; `dtau` at order 2). The
     /// vertices of the current segment are `zbar -+ (h_edge/2) zbar'`.
     h_edge: f64,
+    /// The roundoff noise of the last step's time advance from the noise of its `lambda`s
+    /// (plain energy residual: `sum |h_i| lambda_i noise_i` over its DTH sub-steps).
+    time_noise: f64,
 }
 
 impl<D: Dim> State<D>
@@ -168,20 +172,20 @@ where
             iterations,
             factorizations,
             reported,
-            fallback,
-            kind,
+            psi_scale,
+            mode,
             step_kind,
             law,
-            lambda_max,
             h_edge,
+            time_noise,
         } = other;
         self.zbar.copy_from(zbar);
         self.gradient.copy_from(gradient);
         (self.k, self.lambda, self.tbar, self.psi) = (*k, *lambda, *tbar, *psi);
         (self.iterations, self.factorizations) = (*iterations, *factorizations);
-        (self.reported, self.fallback, self.kind, self.step_kind) =
-            (*reported, *fallback, *kind, *step_kind);
-        (self.law, self.lambda_max, self.h_edge) = (*law, *lambda_max, *h_edge);
+        (self.reported, self.psi_scale, self.mode, self.step_kind) =
+            (*reported, *psi_scale, *mode, *step_kind);
+        (self.law, self.h_edge, self.time_noise) = (*law, *h_edge, *time_noise);
     }
 }
 
@@ -197,22 +201,93 @@ const PREDICTOR_TRUST: f64 = 1e-2;
 /// How many orbit steps [`Dth::diagnose`] looks ahead for a sign change of `Psi`.
 const DIAGNOSE_STEPS: usize = 3;
 
-/// A robust-mode fallback step halves its `dt` down to `2^-MAX_FALLBACK_HALVINGS` of the last
-/// DTH step's before giving up.
+/// A robust-mode fallback step halves its `dt` (from the size the law of time gives) down to
+/// `2^-MAX_FALLBACK_HALVINGS` of it before giving up: where its Newton fails (a step too large
+/// near a close approach).
 const MAX_FALLBACK_HALVINGS: u32 = 20;
 
 /// Secant iterations of [`Dth::step_toward`] at most (it converges in three or four: the
 /// midpoint time is nearly linear in the step).
 const MAX_END_ITERATIONS: usize = 16;
 
-/// State of a robust-mode excursion.
+/// [`Dth::step_toward`] lands its last midpoint within `END_TOLERANCE eps max(|t_end|, |t_0|)`
+/// of `t_end`: the time sum `tbar_k + h (lambda_k + lambda_{k+1})/2` rounds by about
+/// `eps |t|` per addition, and the secant's last iterate carries that of its two brackets.
+const END_TOLERANCE: f64 = 4.0;
+
+/// What [`Dth::step_toward`]'s last step scales to land on `t_end`.
 #[derive(Clone, Copy, Debug)]
-struct Fallback {
-    /// Physical step of the last fallback step (at entry: `lambda_k dtau` of the last DTH
-    /// segment).
-    dt: f64,
-    /// `Psi` at the previous fallback node, to see it move away from zero.
-    psi_last: f64,
+enum End {
+    /// The run's composed step, by its `dtau`.
+    Step,
+    /// Fallback steps (robust mode), by their physical size.
+    Fallback,
+}
+
+/// Where [`Dth::step_toward`]'s last step must land.
+#[derive(Clone, Copy, Debug)]
+struct Landing {
+    t0: f64,
+    t_end: f64,
+    tolerance: f64,
+}
+
+/// The try of [`Dth::step_toward`]'s last step closest to `t_end` so far.
+struct Best<D: Dim>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    /// `|tbar - t_end|`.
+    gap: f64,
+    state: State<D>,
+    record: StepRecord<D>,
+}
+
+impl<D: Dim> Best<D>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    /// Keep the try that ended `f = tbar - t_end` away if it is closer.
+    fn offer(&mut self, f: f64, state: &State<D>, record: &StepRecord<D>) {
+        if f.abs() < self.gap {
+            self.gap = f.abs();
+            self.state.assign(state);
+            copy_record(record, &mut self.record);
+        }
+    }
+}
+
+/// The Newton work of one composed step, over all its tries, and the physical size of its
+/// fallback steps (when it is one).
+#[derive(Clone, Copy, Debug, Default)]
+struct Spent {
+    iterations: u32,
+    factorizations: u32,
+    fallback_dt: f64,
+    /// See `State::time_noise`.
+    time_noise: f64,
+}
+
+impl Spent {
+    fn add(&mut self, iterations: u32, factorizations: u32) {
+        self.iterations = self.iterations.saturating_add(iterations);
+        self.factorizations = self.factorizations.saturating_add(factorizations);
+    }
+}
+
+/// The failures of a DTH step that the robust mode carries through with fallback steps: the
+/// method's breakdown, and Newton failures (a non-finite value inside Newton means it wandered,
+/// into a singularity of `H`, say: the fallback step re-evaluates from the accepted midpoint and
+/// stops the run if `H` itself is the problem).
+fn recoverable(error: &Error) -> bool {
+    matches!(
+        error,
+        Error::Breakdown { .. }
+            | Error::NewtonDiverged { .. }
+            | Error::SpuriousRoot { .. }
+            | Error::SingularMatrix { .. }
+            | Error::NonFinite { .. }
+    )
 }
 
 impl<H: Hamiltonian<D>, D: Dim> Dth<H, D>
@@ -262,7 +337,14 @@ where
         let dim = hamiltonian.dim();
         let mut dense = None;
         let mut d = Point::zeros(dim);
-        linear::path(&hamiltonian, &mut newton, &mut dense).evaluate(&hamiltonian, &zbar0, &mut d);
+        let mut scale = ScaleWork::new(dim);
+        let mut path = linear::path(&hamiltonian, &mut newton, &mut dense);
+        path.evaluate(&hamiltonian, &zbar0, &mut d);
+        let psi_scale = if options.robust() {
+            robust::psi_scale(&path, &d.gradient, &mut scale)
+        } else {
+            0.0
+        };
         if !d.finite() || !d.hessian_finite() {
             return Err(Error::NonFinite {
                 step: 0,
@@ -296,12 +378,17 @@ where
             iterations: 0,
             factorizations: 0,
             reported: false,
-            fallback: None,
-            kind: StepKind::Dth,
+            psi_scale,
+            // A start inside a band where Psi cancels starts with fallback steps.
+            mode: if robust::cancellation_ratio(d.psi, psi_scale) < robust::LEAVE_BELOW {
+                Mode::Fallback
+            } else {
+                Mode::Dth
+            },
             step_kind: StepKind::Dth,
-            law: options.lambda0().powi(3) * d.psi,
-            lambda_max: options.lambda0(),
+            law: robust::law_through(options.lambda0(), d.psi, psi_scale).unwrap_or(0.0),
             h_edge: options.dtau() * options.composition().coefficients()[0],
+            time_noise: 0.0,
         };
         let work = Box::new(Workspace {
             newton: Work::new(dim),
@@ -316,6 +403,7 @@ where
             saved_record: empty_record(dim),
             fallback: FallbackWork::new(&hamiltonian, options.robust()),
             walk: zeros(dim),
+            scale,
         });
         let mut dth = Dth {
             hamiltonian,
@@ -411,12 +499,12 @@ where
     /// composed step's end midpoint has the half-length of its last (and first) sub-step,
     /// `h = gamma_1 dtau` ([`Composition`](super::Composition)).
     pub fn left_vertex(&self) -> OVector<f64, D> {
-        self.vertex(self.s.kind, -self.s.h_edge)
+        self.vertex(self.s.step_kind, -self.s.h_edge)
     }
     /// Right vertex `z^(k+1) = zbar_k + (h/2) zbar'_k` of the current segment (the node itself
     /// after a robust-mode fallback step); `h` as for [`Dth::left_vertex`].
     pub fn right_vertex(&self) -> OVector<f64, D> {
-        self.vertex(self.s.kind, self.s.h_edge)
+        self.vertex(self.s.step_kind, self.s.h_edge)
     }
     /// `zbar + (h/2) zbar'`, or the node itself after a fallback step.
     fn vertex(&self, kind: StepKind, h: f64) -> OVector<f64, D> {
@@ -424,13 +512,13 @@ where
         vertex_into(&self.s, kind, h, &mut out);
         out
     }
-    /// What produced the current midpoint.
+    /// What produced the current midpoint: the kind its record has.
     pub fn kind(&self) -> StepKind {
-        self.s.kind
+        self.s.step_kind
     }
-    /// `true` while the robust mode is taking fallback steps.
+    /// `true` when the robust mode's next step is a fallback step.
     pub fn in_fallback(&self) -> bool {
-        self.s.fallback.is_some()
+        self.s.mode == Mode::Fallback
     }
     /// The record of the current midpoint (an owned copy: two heap allocations for `Dyn`; see
     /// [`Dth::record_ref`]).
@@ -478,7 +566,9 @@ where
     /// [`Error::NewtonDiverged`], [`Error::SingularMatrix`], [`Error::NonFinite`] from Newton;
     /// [`Error::SpuriousRoot`] when it converges to `lambda_{k+1} <= 0`;
     /// [`Error::EnergyCheckFailed`] (cancellation-free residual, robust fallback).
-    /// In robust mode only the last three stop a run.
+    /// In robust mode these are carried through with fallback steps; what stops a run is a
+    /// fallback step that fails (the discrete-gradient peer's `Method*` errors at the smallest
+    /// size, [`Error::NonFinite`] where `H` itself is not finite, [`Error::EnergyCheckFailed`]).
     ///
     /// The record is an owned copy (for `Dyn`, two heap allocations);
     /// [`Dth::record_ref`] borrows it.
@@ -555,10 +645,16 @@ where
     /// # Ok::<(), dth_core::Error>(())
     /// ```
     ///
+    /// In robust mode, a last step that cannot be scaled onto `t_end` this way (it changes
+    /// kind with its size, or fails) is taken as fallback steps of exactly the time left.
+    /// `true` is returned only when the midpoint landed on `t_end`: within `4 eps |t_end|`,
+    /// or, with the plain energy residual, within twice the noise its `lambda`s put into the
+    /// time.
+    ///
     /// # Errors
     /// [`Error::InvalidOption`] (`t_end`) when `t_end` is not finite or not after the current
-    /// midpoint time; otherwise as [`Dth::step`] (the state is then that of the last accepted
-    /// step).
+    /// midpoint time; [`Error::EndNotReached`] when no try of the last step landed on
+    /// `t_end`; otherwise as [`Dth::step`]. The state is then that of the last accepted step.
     pub fn step_toward(&mut self, t_end: f64) -> Result<(StepRecord<D>, bool), Error> {
         let t0 = self.s.tbar;
         if !(t_end.is_finite() && t_end > t0) {
@@ -578,26 +674,94 @@ where
         }
         // The last step: secant iteration on the scale s of dtau, F(s) = tbar(s) - t_end, from
         // F(0) = t0 - t_end < 0 and F(1) (just computed).
-        let tolerance = 4.0 * f64::EPSILON * t_end.abs().max(t0.abs());
+        let tolerance = END_TOLERANCE * f64::EPSILON * t_end.abs().max(t0.abs());
+        let landing = Landing {
+            t0,
+            t_end,
+            tolerance,
+        };
+        let mut best = Best {
+            gap: (full.t - t_end).abs(),
+            state: self.s.clone(),
+            record: full,
+        };
+        let start = (1.0, best.record.t - t_end);
+        let landed = self.land(&landing, End::Step, start, &mut best);
+        if self.options.robust() && (landed.is_err() || best.gap > tolerance) {
+            // DTH's last step could not be scaled onto t_end (a step that changes kind with its
+            // size, or a failure): fallback steps of exactly the time left (their time is
+            // linear in their size; for a time-dependent H the t coordinate nearly so), then
+            // the secant on their size.
+            self.restore();
+            if self.end_fallback(t_end - t0).is_ok() {
+                let f = self.work.record.t - t_end;
+                best.offer(f, &self.s, &self.work.record);
+                // A failure here leaves the best try so far.
+                let _ = self.land(&landing, End::Fallback, (1.0, f), &mut best);
+            }
+        } else {
+            landed?;
+        }
+        let Best {
+            gap,
+            state,
+            record: mut best_record,
+        } = best;
+        // The time sum's rounding, and twice the noise of the closest try's time (the secant
+        // stops there: its tries differ by that much for the same scale).
+        if gap > tolerance + 2.0 * state.time_noise {
+            self.restore();
+            return Err(Error::EndNotReached {
+                step: self.s.k + 1,
+                t_end,
+                reached: best_record.t,
+            });
+        }
+        self.s.assign(&state);
+        // Report it as shortened (a fallback inside it says more, and stays).
+        if best_record.kind == StepKind::Dth {
+            best_record.kind = StepKind::Shortened;
+            self.s.step_kind = StepKind::Shortened;
+        }
+        copy_record(&best_record, &mut self.work.record);
+        Ok((best_record, true))
+    }
+
+    /// The secant iteration of [`Dth::step_toward`]'s last step on the scale `s` of its size
+    /// (`dtau` for [`End::Step`], the time left for [`End::Fallback`]), from `s = 0` (the
+    /// saved start) and `start = (s, F(s))`, `F(s) = tbar(s) - t_end`; every try is offered to
+    /// `best`. It stops within the tolerance, or when a try does not halve the distance to
+    /// `t_end` (the noise of `tbar(s)` itself).
+    fn land(
+        &mut self,
+        landing: &Landing,
+        how: End,
+        start: (f64, f64),
+        best: &mut Best<D>,
+    ) -> Result<(), Error> {
+        let Landing {
+            t0,
+            t_end,
+            tolerance,
+        } = *landing;
         let (mut s_a, mut f_a) = (0.0, t0 - t_end);
-        let (mut s_b, mut f_b) = (1.0, full.t - t_end);
-        let mut best = (f_b.abs(), self.s.clone(), full);
+        let (mut s_b, mut f_b) = start;
         for _ in 0..MAX_END_ITERATIONS {
-            if best.0 <= tolerance || f_b == f_a {
+            if best.gap <= tolerance || f_b == f_a {
                 break;
             }
             let scale = (s_b - f_b * (s_b - s_a) / (f_b - f_a)).clamp(1e-3, 4.0);
-            // Back at the start that the last try saved (its record too, which a failure of
-            // this try restores).
-            self.s.assign(&self.work.saved);
-            copy_record(&self.work.saved_record, &mut self.work.record);
-            self.composed_step(self.options.composition().coefficients(), scale * dtau)?;
-            let r = self.work.record.clone();
-            let f = r.t - t_end;
-            let improved = f.abs() <= 0.5 * best.0;
-            if f.abs() < best.0 {
-                best = (f.abs(), self.s.clone(), r);
+            self.restore();
+            match how {
+                End::Step => self.composed_step(
+                    self.options.composition().coefficients(),
+                    scale * self.options.dtau(),
+                )?,
+                End::Fallback => self.end_fallback(scale * (t_end - t0))?,
             }
+            let f = self.work.record.t - t_end;
+            let improved = f.abs() <= 0.5 * best.gap;
+            best.offer(f, &self.s, &self.work.record);
             if !improved {
                 // At the noise of tbar(s): converged as far as it can.
                 break;
@@ -605,184 +769,223 @@ where
             (s_a, f_a) = (s_b, f_b);
             (s_b, f_b) = (scale, f);
         }
-        self.s = best.1;
-        // Report it as shortened (a fallback inside it says more, and stays).
-        let mut r = best.2;
-        if r.kind == StepKind::Dth {
-            r.kind = StepKind::Shortened;
-            self.s.step_kind = StepKind::Shortened;
-        }
-        copy_record(&r, &mut self.work.record);
-        Ok((r, true))
+        Ok(())
+    }
+
+    /// Back at the start of the last composed step (state and record), which
+    /// [`Dth::composed_step`] saved.
+    fn restore(&mut self) {
+        self.s.assign(&self.work.saved);
+        copy_record(&self.work.saved_record, &mut self.work.record);
     }
 
     /// One composed step of size `dtau`: the sub-steps `gamma_i dtau` in turn (`gammas` is
-    /// the composition's coefficients, `[1.0]` for a single DTH step). Its record (in the
-    /// workspace) is the last sub-step's, with the iterations summed and
-    /// [`StepKind::Fallback`] if any sub-step was a fallback step. On error the state is
-    /// restored to the start of the step.
+    /// the composition's coefficients, `[1.0]` for a single DTH step), all DTH steps or (robust
+    /// mode) all fallback steps, so that each composed step is a method of the composition's
+    /// order. In robust mode a composed DTH step that fails in a recoverable way (a breakdown,
+    /// a Newton failure) is redone from its start as fallback steps, and the next step's kind
+    /// is chosen at its end (see `dth::robust`). Its record (in the workspace) is the last
+    /// sub-step's, with the iterations of every try summed. On error the state is restored to
+    /// the start of the step.
     fn composed_step(&mut self, gammas: &[f64], dtau: f64) -> Result<(), Error> {
         self.work.saved.assign(&self.s);
         copy_record(&self.work.record, &mut self.work.saved_record);
         let step = self.s.k + 1;
-        let (mut iterations, mut factorizations, mut fallback) = (0u32, 0u32, false);
-        for (i, &gamma) in gammas.iter().enumerate() {
-            match self.sub_step(gamma * dtau, dtau.abs(), step, i == 0) {
-                Ok(()) => {
-                    let r = &self.work.record;
-                    iterations = iterations.saturating_add(r.iterations);
-                    factorizations = factorizations.saturating_add(r.factorizations);
-                    fallback |= r.kind == StepKind::Fallback;
-                }
-                Err(e) => {
+        let mut spent = Spent::default();
+        let result = match self.s.mode {
+            Mode::Dth => match self.dth_composed(gammas, dtau, step, &mut spent) {
+                Err(e) if self.options.robust() && recoverable(&e) => {
                     self.s.assign(&self.work.saved);
-                    copy_record(&self.work.saved_record, &mut self.work.record);
-                    return Err(e);
+                    self.fallback_composed(gammas, dtau * self.fallback_lambda(), step, &mut spent)
                 }
+                r => r,
+            },
+            Mode::Fallback => {
+                self.fallback_composed(gammas, dtau * self.fallback_lambda(), step, &mut spent)
             }
-        }
-        let kind = if fallback {
-            StepKind::Fallback
-        } else {
-            StepKind::Dth
         };
-        self.s.k = step;
-        self.s.iterations = iterations;
-        self.s.factorizations = factorizations;
-        self.s.step_kind = kind;
-        let r = &mut self.work.record;
-        r.k = step;
-        r.iterations = iterations;
-        r.factorizations = factorizations;
-        r.kind = kind;
+        if let Err(e) = result {
+            self.restore();
+            return Err(e);
+        }
+        self.finish_step(step, dtau, spent);
         Ok(())
     }
 
-    /// One DTH step of signed size `h` (or, in robust mode, a fallback step instead), labelled
-    /// `step` in errors. `h_base` (positive) is the size of the composed step it belongs to:
-    /// fallback steps are sized from it and scaled by `h / h_base`, so that a run of fallback
-    /// steps is composed like the DTH steps it replaces; `first` marks the first sub-step of
-    /// the composed step, the only one where that size may grow. Its record goes into the
-    /// workspace. On error the state may have changed (the callers restore it).
-    fn sub_step(&mut self, h: f64, h_base: f64, step: usize, first: bool) -> Result<(), Error> {
-        if let Some(fb) = self.s.fallback {
-            return self.fallback_step(fb, h, h_base, step, first);
+    /// The last step of [`Dth::step_toward`] as fallback steps of total physical size `dt`
+    /// (composed like the run's steps), from the saved start.
+    fn end_fallback(&mut self, dt: f64) -> Result<(), Error> {
+        let step = self.s.k + 1;
+        let mut spent = Spent::default();
+        let gammas = self.options.composition().coefficients();
+        let result = self.fallback_sub_steps(gammas, dt, step, &mut spent);
+        if let Err(e) = result {
+            self.restore();
+            return Err(e);
         }
-        match self.dth_step(h, step) {
-            Ok(r) => Ok(r),
-            // A non-finite value inside Newton means it wandered (into a singularity of H, say);
-            // the fallback step re-evaluates from the accepted midpoint and stops the run if H
-            // itself is the problem.
-            Err(
-                Error::Breakdown { .. }
-                | Error::NewtonDiverged { .. }
-                | Error::SpuriousRoot { .. }
-                | Error::SingularMatrix { .. }
-                | Error::NonFinite { .. },
-            ) if self.options.robust() => {
-                let fb = Fallback {
-                    dt: self.s.lambda * h_base,
-                    psi_last: self.s.psi,
-                };
-                self.fallback_step(fb, h, h_base, step, first)
+        self.finish_step(step, self.options.dtau(), spent);
+        Ok(())
+    }
+
+    /// Write the record of a composed step that ended at the current state (the last
+    /// sub-step's midpoint or node), and choose the robust mode's next step there.
+    fn finish_step(&mut self, step: usize, dtau: f64, spent: Spent) {
+        self.s.k = step;
+        self.s.iterations = spent.iterations;
+        self.s.factorizations = spent.factorizations;
+        self.s.time_noise = spent.time_noise;
+        self.s.reported = false;
+        if self.s.step_kind == StepKind::Fallback {
+            // A fallback node carries lambda = dt / dtau of its step.
+            self.s.lambda = spent.fallback_dt / dtau;
+        }
+        fill_record(&self.s, &mut self.work.record);
+        if !self.options.robust() {
+            return;
+        }
+        if self.s.law == 0.0 {
+            self.s.law =
+                robust::law_through(self.s.lambda, self.s.psi, self.s.psi_scale).unwrap_or(0.0);
+        }
+        let ratio = robust::cancellation_ratio(self.s.psi, self.s.psi_scale);
+        match self.s.mode {
+            Mode::Dth if ratio < robust::LEAVE_BELOW => self.s.mode = Mode::Fallback,
+            Mode::Fallback if ratio >= robust::RESUME_ABOVE => {
+                // Resume DTH at this node, with the lambda of the run's law of time (the
+                // record keeps the fallback step's).
+                if let Some(lambda) = robust::lambda_of(self.s.law, self.s.psi, self.s.psi_scale) {
+                    self.s.mode = Mode::Dth;
+                    self.s.lambda = lambda;
+                }
             }
-            Err(e) => Err(e),
+            _ => {}
         }
     }
 
-    /// One fallback step of the robust mode from the current midpoint; resume DTH at the node
-    /// reached when `Psi` allows.
-    fn fallback_step(
+    /// The multiplier of a fallback step from the current state: the robust mode's law of time
+    /// (`dth::robust`), or the current `lambda` where that is not defined (`Psi` and its scale
+    /// zero at a point, or no law yet).
+    fn fallback_lambda(&self) -> f64 {
+        robust::lambda_of(self.s.law, self.s.psi, self.s.psi_scale).unwrap_or(self.s.lambda)
+    }
+
+    /// The DTH sub-steps of a composed step; in robust mode each midpoint's `Psi_scale` is
+    /// evaluated, and a midpoint deep inside a band where `Psi` cancels
+    /// ([`robust::REJECT_BELOW`]) fails the step as a breakdown.
+    fn dth_composed(
         &mut self,
-        mut fb: Fallback,
-        h: f64,
-        h_base: f64,
+        gammas: &[f64],
+        dtau: f64,
         step: usize,
-        first: bool,
+        spent: &mut Spent,
     ) -> Result<(), Error> {
-        // Size: what DTH's law of time would give here, lambda = (law / |Psi|)^(1/3), capped
-        // by the largest DTH lambda of the run (the law blows up as Psi -> 0) and growing at
-        // most 2x per (composed) step, at its first sub-step, so that the sub-steps of one
-        // composed step share one size; the first fallback step has the last DTH step's size. The fallback
-        // is not bound to a tau grid: where its Newton fails (a step too large near a close
-        // approach), halve dt, down to 2^-20 of that size; below that the run stops with the
-        // fallback's error (the orbit cannot be followed, e.g. into a region where H is not
-        // finite). `fb.dt` is the size for the whole composed step (`h_base`); this sub-step
-        // takes `gamma = h / h_base` of it (exactly `fb.dt` at order 2).
-        let gamma = h / h_base;
-        let law = (self.s.law / self.s.psi).abs().cbrt();
-        let target = h_base
-            * if law.is_finite() && law > 0.0 {
-                law.min(self.s.lambda_max)
-            } else {
-                self.s.lambda_max
-            };
-        if first && self.s.kind == StepKind::Fallback {
-            fb.dt = target.min(2.0 * fb.dt);
+        for &gamma in gammas {
+            let solved = self.dth_step(gamma * dtau, step);
+            match &solved {
+                Ok(()) => {
+                    spent.add(self.s.iterations, self.s.factorizations);
+                    spent.time_noise += self.s.time_noise;
+                }
+                Err(Error::NewtonDiverged { iterations, .. }) => {
+                    spent.add(*iterations, *iterations)
+                }
+                Err(_) => {}
+            }
+            solved?;
+            if self.options.robust() {
+                let ratio = robust::cancellation_ratio(self.s.psi, self.s.psi_scale);
+                if gammas.len() > 1 && ratio < robust::REJECT_BELOW {
+                    return Err(Error::Breakdown {
+                        step,
+                        time: self.work.saved.tbar,
+                        psi: self.s.psi,
+                        psi_previous: self.work.saved.psi,
+                        lambda: self.work.saved.lambda,
+                        lambda_predicted: self.s.lambda,
+                    });
+                }
+            }
         }
-        let dt_min = target * 0.5f64.powi(MAX_FALLBACK_HALVINGS as i32);
-        let w = &mut *self.work;
-        let iterations = loop {
-            match fallback_step(
-                &self.hamiltonian,
-                &self.s.zbar,
-                fb.dt * gamma,
-                self.energy,
-                &self.options,
-                step,
-                &mut linear::path(&self.hamiltonian, &mut self.newton, &mut w.dense),
-                &mut w.fallback,
-            ) {
-                Ok(iterations) => break iterations,
+        self.s.step_kind = StepKind::Dth;
+        Ok(())
+    }
+
+    /// The fallback sub-steps of a composed step of total physical size `dt` (signed), from
+    /// the current state; where one fails in a way a smaller step can cure (its Newton, a
+    /// non-finite value), all are redone from the start at half the size, down to
+    /// `2^-MAX_FALLBACK_HALVINGS`; below that the run stops with the fallback's error (the
+    /// orbit cannot be followed, e.g. into a region where `H` is not finite).
+    fn fallback_composed(
+        &mut self,
+        gammas: &[f64],
+        mut dt: f64,
+        step: usize,
+        spent: &mut Spent,
+    ) -> Result<(), Error> {
+        let mut halvings = 0;
+        loop {
+            match self.fallback_sub_steps(gammas, dt, step, spent) {
+                Ok(()) => return Ok(()),
                 Err(
                     Error::MethodNotConverged { .. }
                     | Error::MethodSingularMatrix { .. }
                     | Error::MethodNonFinite { .. }
                     | Error::NonFinite { .. },
-                ) if 0.5 * fb.dt >= dt_min => {
-                    fb.dt *= 0.5;
+                ) if halvings < MAX_FALLBACK_HALVINGS => {
+                    self.s.assign(&self.work.saved);
+                    dt *= 0.5;
+                    halvings += 1;
                 }
                 Err(e) => return Err(e),
             }
-        };
-        let psi = w.fallback.point.psi;
-        std::mem::swap(&mut self.s.zbar, &mut w.fallback.z);
-        std::mem::swap(&mut self.s.gradient, &mut w.fallback.point.gradient);
-        self.s.psi = psi;
-        // Extended phase space: time is the t coordinate (Gonzalez's discrete gradient moves it
-        // by dt (1 + O(dt^2)), not exactly dt).
-        self.s.tbar = if self.flags.time_dependent {
-            self.s.zbar[self.s.zbar.len() / 2 - 1]
-        } else {
-            self.s.tbar + fb.dt * gamma
-        };
-        self.s.lambda = fb.dt / h_base;
-        self.s.iterations = iterations;
-        self.s.factorizations = iterations;
-        self.s.k = step;
-        self.s.kind = StepKind::Fallback;
-        self.s.step_kind = StepKind::Fallback;
-        self.s.h_edge = h;
-        self.s.reported = false;
-        fill_record(&self.s, &mut self.work.record);
-        // Resume DTH when Psi has the sign of the run's law of time again, moves away from zero,
-        // and the law gives a lambda within the breakdown ratio of the fallback's.
-        let ratio = self.s.law / psi;
-        let lambda = ratio.cbrt();
-        let resume = ratio > 0.0
-            && psi.abs() > fb.psi_last.abs()
-            && lambda.is_finite()
-            && lambda <= self.options.max_lambda_ratio() * self.s.lambda;
-        if resume {
-            self.s.fallback = None;
-            self.s.lambda = lambda;
-            self.s.kind = StepKind::Dth;
-        } else {
-            self.s.fallback = Some(Fallback {
-                psi_last: psi,
-                ..fb
-            });
         }
+    }
+
+    /// Fallback steps `gamma_i dt` in turn from the current state (a symmetric composition of
+    /// the symmetric discrete-gradient step, of the composition's order), each checked and
+    /// projected onto the energy level. The time of the last node is `t_0 + dt` in one
+    /// rounding (autonomous `H`), the `t` coordinate for a time-dependent one.
+    fn fallback_sub_steps(
+        &mut self,
+        gammas: &[f64],
+        dt: f64,
+        step: usize,
+        spent: &mut Spent,
+    ) -> Result<(), Error> {
+        let t0 = self.s.tbar;
+        let mut elapsed = 0.0;
+        for (i, &gamma) in gammas.iter().enumerate() {
+            let w = &mut *self.work;
+            let mut path = linear::path(&self.hamiltonian, &mut self.newton, &mut w.dense);
+            let iterations = fallback_step(
+                &self.hamiltonian,
+                &self.s.zbar,
+                gamma * dt,
+                self.energy,
+                &self.options,
+                step,
+                &mut path,
+                &mut w.fallback,
+            )?;
+            spent.add(iterations, iterations);
+            std::mem::swap(&mut self.s.zbar, &mut w.fallback.z);
+            std::mem::swap(&mut self.s.gradient, &mut w.fallback.point.gradient);
+            self.s.psi = w.fallback.point.psi;
+            self.s.psi_scale = robust::psi_scale(&path, &self.s.gradient, &mut w.scale);
+            elapsed += gamma;
+            // Extended phase space: time is the t coordinate (Gonzalez's discrete gradient moves
+            // it by dt (1 + O(dt^2)), not exactly dt).
+            self.s.tbar = if self.flags.time_dependent {
+                self.s.zbar[self.s.zbar.len() / 2 - 1]
+            } else if i + 1 == gammas.len() {
+                t0 + dt
+            } else {
+                t0 + elapsed * dt
+            };
+            self.s.h_edge = gamma * self.options.dtau();
+        }
+        spent.fallback_dt = dt;
+        self.s.step_kind = StepKind::Fallback;
         Ok(())
     }
 
@@ -839,7 +1042,8 @@ where
         let cancellation_free = self.cancellation_free();
         let ham = &self.hamiltonian;
         let w = &mut *self.work;
-        vertex_into(&self.s, self.s.kind, h, &mut w.v);
+        // The current point is a midpoint (or, where DTH resumes, a fallback node taken as one).
+        vertex_into(&self.s, StepKind::Dth, h, &mut w.v);
         // Predict lambda from the asymptotic law of time (paper Theorem 5):
         // lambda psi^(1/3) ~ const, with psi at an explicit predictor of zbar_{k+1}; fall back
         // to lambda_k where psi vanishes. A sign change of psi, or a predicted lambda that blows
@@ -991,16 +1195,14 @@ where
         self.s.psi = w.newton.e.d.psi;
         self.s.iterations = s.iterations;
         self.s.factorizations = s.factorizations;
-        self.s.k = step;
-        self.s.kind = StepKind::Dth;
-        self.s.step_kind = StepKind::Dth;
         self.s.h_edge = h;
-        self.s.reported = false;
-        self.s.lambda_max = self.s.lambda_max.max(self.s.lambda);
-        if self.s.law == 0.0 {
-            self.s.law = self.s.lambda.powi(3) * self.s.psi;
+        self.s.time_noise = (h * s.lambda).abs() * s.noise;
+        if self.options.robust() {
+            // The solver holds the Hessian at the solution (or at its projection onto the
+            // energy level, a roundoff away).
+            let path = linear::path(&self.hamiltonian, &mut self.newton, &mut w.dense);
+            self.s.psi_scale = robust::psi_scale(&path, &self.s.gradient, &mut w.scale);
         }
-        fill_record(&self.s, &mut w.record);
         Ok(())
     }
 
@@ -1032,7 +1234,7 @@ where
         }
         let t_end = self.s.tbar + 0.5 * self.s.h_edge * self.s.lambda;
         let w = &mut *self.work;
-        vertex_into(&self.s, self.s.kind, self.s.h_edge, &mut w.walk);
+        vertex_into(&self.s, self.s.step_kind, self.s.h_edge, &mut w.walk);
         observer.on_finish(&w.walk, t_end);
         result
     }
