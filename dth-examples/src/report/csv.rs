@@ -6,6 +6,7 @@ use std::path::Path;
 use super::write_file;
 use crate::effects::Series;
 use crate::error::Error;
+use crate::fallback::kind_name;
 use crate::scene::{component_names, EffectKind, EffectSpec, Scene};
 use crate::simulate::MethodResult;
 
@@ -23,7 +24,7 @@ pub fn write(dir: &Path, scene: &Scene, results: &[MethodResult]) -> Result<Vec<
         if let Some(rows) = &o.trajectory {
             let d = rows.first().map_or(0, |r| r.z.len());
             let mut s = format!(
-                "step,t,{},lambda\n",
+                "step,t,{},lambda,step_kind\n",
                 component_names(scene.q.len(), d).join(",")
             );
             for r in rows {
@@ -33,8 +34,9 @@ pub fn write(dir: &Path, scene: &Scene, results: &[MethodResult]) -> Result<Vec<
                 }
                 let _ = writeln!(
                     s,
-                    ",{}",
-                    r.lambda.map_or(String::new(), |v| format!("{v:e}"))
+                    ",{},{}",
+                    r.lambda.map_or(String::new(), |v| format!("{v:e}")),
+                    kind_name(r.kind)
                 );
             }
             put(format!("{l}_trajectory.csv"), s, &mut files)?;

@@ -131,6 +131,27 @@ impl RunReport {
         s
     }
 
+    /// "fallback steps: dth 1517 of 1621 steps (93.6%), 97.2% of the physical time" for the
+    /// methods that can fall back or did (`MethodSummary::reports_fallback`), for the
+    /// command's summary line; `None` when there is none.
+    pub fn fallback_summary(&self) -> Option<String> {
+        let parts: Vec<String> = self
+            .methods
+            .iter()
+            .filter(|m| m.reports_fallback())
+            .map(|m| format!("{} {}", m.label, m.fallback))
+            .collect();
+        (!parts.is_empty()).then(|| format!("fallback steps: {}", parts.join("; ")))
+    }
+
+    /// The warnings about methods with more than `fallback::WARN_ABOVE` of their steps
+    /// fallen back (`Fallback::warning`).
+    pub fn fallback_warnings(&self) -> impl Iterator<Item = String> + '_ {
+        self.methods
+            .iter()
+            .filter_map(|m| m.fallback.warning(&m.label))
+    }
+
     /// The methods that failed mid-run.
     pub fn failures(&self) -> impl Iterator<Item = &MethodSummary> {
         self.methods.iter().filter(|m| m.failure.is_some())
