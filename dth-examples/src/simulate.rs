@@ -174,6 +174,8 @@ pub struct EnsembleMember {
     pub y0: f64,
     /// Final time and state, or why the member failed.
     pub end: Result<(f64, Vec<f64>), Failure>,
+    /// Steps robust DTH took as fallback steps (0 for every other method).
+    pub fallback_steps: usize,
 }
 
 /// One method's results in memory.
@@ -260,10 +262,13 @@ where
                     step: 0,
                     reason: format!("method `{}` cannot run: {reason}", m.label),
                 }),
+                fallback_steps: 0,
             });
             continue;
         }
-        let end = run_method(m, system, z, t0, stop, &mut ())?;
+        // Only its count is kept: no position to name (0 coordinates).
+        let mut watch = FallbackWatch::new(0);
+        let end = run_method(m, system, z, t0, stop, &mut watch)?;
         if matches!(&end, Err(f) if f.cause == FailureCause::Interrupted) {
             return Ok((members, true));
         }
@@ -273,6 +278,7 @@ where
             end: end
                 .map(|end| (end.t, end.z.iter().copied().collect()))
                 .map_err(|f| Failure::from(&f)),
+            fallback_steps: watch.finish().steps,
         });
     }
     Ok((members, false))

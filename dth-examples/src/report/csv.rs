@@ -111,7 +111,7 @@ pub fn write(dir: &Path, scene: &Scene, results: &[MethodResult]) -> Result<Vec<
                 .find_map(|m| m.end.as_ref().ok().map(|e| e.1.len()))
                 .unwrap_or(0);
             let mut s = format!(
-                "x0,y0,t,{},failure\n",
+                "x0,y0,t,{},failure,fallback_steps\n",
                 component_names(scene.q.len(), d).join(",")
             );
             for m in members {
@@ -122,10 +122,10 @@ pub fn write(dir: &Path, scene: &Scene, results: &[MethodResult]) -> Result<Vec<
                         for x in z {
                             let _ = write!(s, ",{x:e}");
                         }
-                        s.push_str(",\n");
+                        s.push(',');
                     }
                     Err(f) => {
-                        let _ = writeln!(
+                        let _ = write!(
                             s,
                             ",{}step {}: {}",
                             ",".repeat(d + 1),
@@ -134,6 +134,7 @@ pub fn write(dir: &Path, scene: &Scene, results: &[MethodResult]) -> Result<Vec<
                         );
                     }
                 }
+                let _ = writeln!(s, ",{}", m.fallback_steps);
             }
             put(format!("{l}_ensemble.csv"), s, &mut files)?;
         }

@@ -106,6 +106,19 @@ pub struct EnsembleCounts {
     pub not_run: usize,
     /// Member runs (member and method) that failed mid-run.
     pub failed_runs: usize,
+    /// Member runs that took fallback steps (robust DTH; `fallback_steps` in the table).
+    pub fallback_runs: usize,
+}
+
+impl EnsembleCounts {
+    /// ", 3 method runs took fallback steps (robust mode)" when any did, for the command's
+    /// line and `index.html`; empty otherwise.
+    pub fn fallback_note(&self) -> String {
+        match self.fallback_runs {
+            0 => String::new(),
+            n => format!(", {n} method runs took fallback steps (robust mode)"),
+        }
+    }
 }
 
 impl RunReport {
