@@ -268,13 +268,14 @@ where
             self.t0.get_or_insert(r.t);
             return;
         };
-        let Some(_) = self.t0 else {
+        if self.t0.is_none() {
             // The initial midpoint: the reference sign of Psi.
             self.t0 = Some(r.t);
             self.psi0 = Some(d.psi);
             return;
-        };
-        let psi0 = self.psi0.unwrap_or(f64::NAN);
+        }
+        // No reference sign (Psi(zbar_0) zero or not finite): no sign change to find.
+        let psi0 = self.psi0.filter(|p| *p != 0.0).unwrap_or(f64::NAN);
         if self.first_opposite.is_none() && d.psi * psi0 <= 0.0 {
             self.first_opposite = Some(self.at(r));
         }
@@ -338,6 +339,19 @@ mod tests {
         assert!(cause.starts_with("not a sign change of Psi"), "{cause}");
         assert!(cause.contains("2.5e-1"), "{cause}");
         assert!(cause.contains("q = (1.0000, 2.0000)"), "{cause}");
+    }
+
+    /// Psi(zbar_0) = 0 gives no sign to change from: every later Psi times it is zero, which
+    /// must not read as a sign change.
+    #[test]
+    fn a_zero_initial_psi_is_no_sign_change() {
+        let mut w = FallbackWatch::new(2);
+        w.on_step(&record(0, 0.0, StepKind::Dth, 0.0));
+        w.on_step(&record(1, 1.0, StepKind::Fallback, 1.0));
+        let cause = w.finish().cause.unwrap_or_default();
+        assert!(cause.starts_with("not a sign change of Psi"), "{cause}");
+        // No ratio to Psi(zbar_0) = 0 is named.
+        assert!(!cause.contains("smallest"), "{cause}");
     }
 
     /// The warning is given above 1% of the steps, not at it.
