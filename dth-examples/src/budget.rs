@@ -105,10 +105,11 @@ where
                 let candidates = members.candidates() as u64;
                 values = values.saturating_mul(candidates);
                 // And its table: per member and method a row (parameters, start and end
-                // states, steps, times, energy error, failure, MEGNO, Lyapunov); the members
-                // themselves (state and parameters) are counted with the first method.
+                // states, steps, times, energy error, fallback steps, failure, MEGNO,
+                // Lyapunov); the members themselves (state and parameters) are counted with
+                // the first method.
                 let params = scene.params.len() as u64;
-                let mut row = (2 * d + params + 8) * TABLE_BYTES;
+                let mut row = (2 * d + params + 9) * TABLE_BYTES;
                 if i == 0 {
                     row += (d + params) * BYTES;
                 }

@@ -6,7 +6,7 @@
 //! tests can prove it.
 
 use dth::nalgebra::{DefaultAllocator, Dim, OVector};
-use dth::observer::{Observer, StepRecord};
+use dth::observer::{Observer, StepKind, StepRecord};
 use dth::Alloc;
 use serde::Serialize;
 
@@ -177,6 +177,9 @@ pub struct TrajectoryRow {
     pub z: Vec<f64>,
     /// `lambda` (DTH).
     pub lambda: Option<f64>,
+    /// What produced the step (a DTH step, a fallback step of the robust mode, DTH's last
+    /// step shortened to end on time, or a fixed-step method's).
+    pub kind: StepKind,
 }
 
 /// One row of the `time_law` effect: step, `t` and `lambda` (`None` for fixed-step methods,
@@ -413,7 +416,7 @@ where
         let vertex = r
             .dth
             .as_ref()
-            .filter(|_| r.kind != dth::observer::StepKind::Shortened)
+            .filter(|_| r.kind != StepKind::Shortened)
             .map(|d| (d.vertex_time, &d.vertex));
         let at = |c: Coord, t: f64, z: &OVector<f64, D>| c.value(t, z.as_slice());
         if let Some(f) = &mut self.final_state {
@@ -431,6 +434,7 @@ where
                     t,
                     z: z.iter().copied().collect(),
                     lambda,
+                    kind: r.kind,
                 });
             }
         }
@@ -531,7 +535,7 @@ mod tests {
                 k,
                 t,
                 z,
-                kind: dth::observer::StepKind::Fixed,
+                kind: StepKind::Fixed,
                 iterations: 0,
                 factorizations: 0,
                 dth: None,

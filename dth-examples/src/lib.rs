@@ -21,7 +21,8 @@
 //!    (`dth::observer`);
 //! 4. [`system`] (what a scene needs of a system) and [`systems`] (the built-in ones);
 //! 5. [`method`] (a scene's method name to an integrator), [`normal_modes`] (a chain's linear
-//!    normal modes and their energies) and [`effects`] (observers for the requested effects);
+//!    normal modes and their energies), [`effects`] (observers for the requested effects) and
+//!    [`fallback`] (what robust DTH's fallback steps were and why, from the step records);
 //! 6. [`budget`] (the memory a run's effects will keep, checked before it runs), then
 //!    [`simulate`]: every method of a scene on a system, results in memory;
 //! 7. [`report`]: CSV, figures, Table 4.1, the thesis's figures, `index.html`;
@@ -59,6 +60,7 @@ pub mod system;
 pub mod systems;
 
 pub mod effects;
+pub mod fallback;
 pub mod method;
 pub mod normal_modes;
 

@@ -193,8 +193,12 @@ fn run(
     }
     if let Some(c) = &report.ensemble {
         println!(
-            "{} members: {} skipped (no real solution on the energy shell), {} not run, {} method runs failed (see ensemble.csv)",
-            c.drawn, c.skipped, c.not_run, c.failed_runs
+            "{} members: {} skipped (no real solution on the energy shell), {} not run, {} method runs failed{} (see ensemble.csv)",
+            c.drawn,
+            c.skipped,
+            c.not_run,
+            c.failed_runs,
+            c.fallback_note()
         );
     }
     let deviations = report.deviation_markdown();
@@ -216,13 +220,19 @@ fn run(
             println!("{}", table41::markdown(&table));
         }
     }
+    let fallback = report
+        .fallback_summary()
+        .map_or(String::new(), |f| format!(" ({f})"));
     println!(
-        "{}: wrote {} files to {}",
+        "{}: wrote {} files to {}{fallback}",
         report.title,
         report.files.len(),
         report.out.display()
     );
     println!("open {}", report.out.join("index.html").display());
+    for warning in report.fallback_warnings() {
+        eprintln!("warning: {warning}");
+    }
     if report.interrupted.is_some() {
         eprintln!("{}", dth_examples::pipeline::interrupted_message(&report));
         return Ok(ExitCode::from(INTERRUPTED as u8));

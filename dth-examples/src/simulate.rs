@@ -15,6 +15,7 @@ use crate::budget;
 use crate::driver::{FailureCause, Limit, MethodFailure, Stop};
 use crate::effects::{DeviationStats, EffectOutputs, Effects, FinalState};
 use crate::error::Error;
+use crate::fallback::{Fallback, FallbackWatch};
 use crate::method::{run_method, unavailable};
 use crate::scene::{Duration, Ensemble, MethodSpec, Scene, StepSpec};
 use crate::system::SceneSystem;
@@ -146,6 +147,22 @@ pub struct MethodSummary {
     pub invariants: Vec<DeviationStats>,
     /// `final_state`.
     pub final_state: Option<FinalState>,
+    /// The steps that fell back to discrete-gradient steps (DTH's robust mode), their share of
+    /// the steps and of the physical time, and why; zero for every other method.
+    pub fallback: Fallback,
+}
+
+impl MethodSummary {
+    /// `true` for a method that can fall back (DTH in robust mode) or did: its fallback
+    /// steps are reported in the summary line and `index.html` even when there are none.
+    pub fn reports_fallback(&self) -> bool {
+        self.fallback.steps > 0
+            || self
+                .step
+                .get("robust")
+                .and_then(serde_json::Value::as_bool)
+                .unwrap_or(false)
+    }
 }
 
 /// One member of an ensemble after its run.
@@ -157,6 +174,8 @@ pub struct EnsembleMember {
     pub y0: f64,
     /// Final time and state, or why the member failed.
     pub end: Result<(f64, Vec<f64>), Failure>,
+    /// Steps robust DTH took as fallback steps (0 for every other method).
+    pub fallback_steps: usize,
 }
 
 /// One method's results in memory.
@@ -243,10 +262,13 @@ where
                     step: 0,
                     reason: format!("method `{}` cannot run: {reason}", m.label),
                 }),
+                fallback_steps: 0,
             });
             continue;
         }
-        let end = run_method(m, system, z, t0, stop, &mut ())?;
+        // Only its count is kept: no position to name (0 coordinates).
+        let mut watch = FallbackWatch::new(0);
+        let end = run_method(m, system, z, t0, stop, &mut watch)?;
         if matches!(&end, Err(f) if f.cause == FailureCause::Interrupted) {
             return Ok((members, true));
         }
@@ -256,6 +278,7 @@ where
             end: end
                 .map(|end| (end.t, end.z.iter().copied().collect()))
                 .map_err(|f| Failure::from(&f)),
+            fallback_steps: watch.finish().steps,
         });
     }
     Ok((members, false))
@@ -415,20 +438,6 @@ where
     }
 }
 
-/// The time of the last state a run reached (the trajectory's last row): where a method that
-/// failed stopped.
-struct LastTime(f64);
-
-impl<D: Dim> Observer<D> for LastTime
-where
-    DefaultAllocator: Alloc<D>,
-{
-    #[inline(always)]
-    fn on_step(&mut self, record: &StepRecord<D>) {
-        self.0 = record.t;
-    }
-}
-
 /// The progress bar's template: with an ETA when the number of steps is known in advance
 /// (`known_length`), a spinner otherwise.
 pub fn progress_template(known_length: bool) -> &'static str {
@@ -508,25 +517,30 @@ where
     let mut results = Vec::new();
     for m in &scene.methods {
         let bar = progress_bar(m, scene.t0, stop, options);
-        let progress = (Progress(bar.clone()), LastTime(scene.t0));
-        let (end, outputs, calls, stored, last_t) = match Effects::new(system, &scene.effects) {
+        let progress = (Progress(bar.clone()), FallbackWatch::new(scene.q.len()));
+        let (end, outputs, calls, stored, watch) = match Effects::new(system, &scene.effects) {
             Some(effects) => {
                 let mut observers = (progress, effects);
                 let end = run_method(m, system, z0.clone(), scene.t0, stop, &mut observers)?;
-                let ((_, last), effects) = observers;
+                let ((_, watch), effects) = observers;
                 let (calls, stored) = (effects.observer_calls(), effects.stored_values());
-                (end, effects.finish(), calls, stored, last.0)
+                (end, effects.finish(), calls, stored, watch)
             }
             None => {
                 let mut observers = progress;
                 let end = run_method(m, system, z0.clone(), scene.t0, stop, &mut observers)?;
-                (end, EffectOutputs::default(), 0, 0, observers.1 .0)
+                (end, EffectOutputs::default(), 0, 0, observers.1)
             }
         };
         bar.finish_and_clear();
         let (steps, t_end, failure) = match &end {
             Ok(e) => (e.steps, e.t, None),
-            Err(f) => (f.step.saturating_sub(1), last_t, Some(Failure::from(f))),
+            // Where a method that failed stopped: the last state it reached.
+            Err(f) => (
+                f.step.saturating_sub(1),
+                watch.last_time().unwrap_or(scene.t0),
+                Some(Failure::from(f)),
+            ),
         };
         let summary = MethodSummary {
             label: m.label.clone(),
@@ -544,6 +558,7 @@ where
                 .map(|v| v.iter().map(|i| i.0.clone()).collect())
                 .unwrap_or_default(),
             final_state: outputs.final_state.clone(),
+            fallback: watch.finish(),
         };
         let mut interrupted = matches!(&end, Err(f) if f.cause == FailureCause::Interrupted);
         let (ensemble, ensemble_interrupted) = match &scene.ensemble {

@@ -233,3 +233,61 @@ fn a_method_that_cannot_run_from_one_member_is_that_members_row() {
         .count();
     assert_eq!(full, 4);
 }
+
+/// The last column of a CSV file's rows, as numbers (the `fallback_steps` of both ensemble
+/// tables).
+fn last_column(csv: &str) -> Vec<u64> {
+    let mut lines = csv.lines();
+    assert!(lines.next().unwrap().ends_with(",fallback_steps"), "{csv}");
+    lines
+        .map(|l| l.rsplit(',').next().unwrap().parse().unwrap())
+        .collect()
+}
+
+/// Robust DTH on Kepler at e = 0.9 (Psi < 0 on a band of radii the orbit crosses) falls back
+/// and at e = 0.44 does not: each member's fallback steps are in its row of both tables, the
+/// counts say how many runs took any, and the peer beside it has none. The same for the
+/// thesis's square of initial states around the e = 0.9 orbit.
+#[test]
+fn each_members_fallback_steps_are_in_its_row() {
+    let scene = "[system]\nname = \"kepler\"\n[initial]\nq = [0.5, 0.0]\np = [0.0, 1.2]\n\
+                 [ensemble]\nkind = \"list\"\nmembers = \"\"\"\np2\n1.378404875209022\n1.2\n\"\"\"\n\
+                 [[method]]\nkind = \"dth\"\ndtau = 0.0157\nrobust = true\n\
+                 [[method]]\nkind = \"rk4\"\ndt = 0.01\n[duration]\norbits = 1\n";
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let report = run(scene, &out, 1);
+    let v = json(&out);
+    let rows = v["rows"].as_array().unwrap();
+    let fallback: Vec<u64> = rows
+        .iter()
+        .map(|r| r["fallback_steps"].as_u64().unwrap())
+        .collect();
+    // Rows: (e = 0.9, dth), (e = 0.9, rk4), (e = 0.44, dth), (e = 0.44, rk4).
+    assert!(fallback[0] > 0, "{fallback:?}");
+    assert_eq!(fallback[1..], [0, 0, 0], "{fallback:?}");
+    let csv = std::fs::read_to_string(out.join("ensemble.csv")).unwrap();
+    assert_eq!(last_column(&csv), fallback);
+    let counts = report.ensemble.unwrap();
+    assert_eq!(counts.fallback_runs, 1);
+    assert_eq!(v["counts"]["fallback_runs"], 1);
+    let page = std::fs::read_to_string(out.join("index.html")).unwrap();
+    assert!(
+        page.contains("1 method runs took fallback steps (robust mode)"),
+        "{page}"
+    );
+
+    // The square: every member near the e = 0.9 orbit falls back within its 100 steps (plain
+    // DTH breaks down at step 19 on the orbit itself); the peer does not.
+    let square = "[system]\nname = \"kepler\"\n[initial]\nq = [0.5, 0.0]\np = [0.0, 1.378404875209022]\n\
+                  [ensemble]\nx = \"q1\"\ny = \"p2\"\nhalf_width = 0.001\nper_side = 2\nsteps = 100\n\
+                  [[method]]\nkind = \"dth\"\ndtau = 0.0157\nrobust = true\n\
+                  [[method]]\nkind = \"midpoint\"\ndt = 0.01\n[duration]\nsteps = 10\n";
+    let out = dir.path().join("square");
+    let options = RunOptions::default().with_progress(false);
+    dth_examples::run_scene(square, "square.toml", &Catalogue::builtin(), &out, &options).unwrap();
+    let read = |f: &str| std::fs::read_to_string(out.join(f)).unwrap();
+    let dth = last_column(&read("dth_ensemble.csv"));
+    assert!(dth.len() == 4 && dth.iter().all(|&n| n > 0), "{dth:?}");
+    assert_eq!(last_column(&read("midpoint_ensemble.csv")), [0; 4]);
+}

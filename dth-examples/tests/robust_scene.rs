@@ -38,6 +38,7 @@ fn robust_mode_runs_through_a_breakdown_that_stops_plain_dth() {
         "{failure}"
     );
     assert!(!plain.summary.step.contains_key("robust"));
+    assert_eq!(plain.summary.fallback.steps, 0);
 
     let robust = run("robust = true");
     assert!(robust.failure.is_none(), "{:?}", robust.failure);
@@ -51,6 +52,14 @@ fn robust_mode_runs_through_a_breakdown_that_stops_plain_dth() {
         .energy
         .expect("comparison_table was asked for");
     assert!(energy.points.max <= 1e-14, "{:e}", energy.points.max);
+    // Psi < 0 on a band of radii the orbit crosses: robust mode fell back there, and says why.
+    let fallback = &robust.summary.fallback;
+    assert!(fallback.steps > 0 && fallback.time > 0.0, "{fallback:?}");
+    let cause = fallback.cause.as_deref().unwrap_or_default();
+    assert!(
+        cause.starts_with("Psi changes sign along the orbit"),
+        "{cause}"
+    );
 }
 
 #[test]
@@ -67,4 +76,167 @@ fn robust_is_a_key_of_dth_only() {
         ),
         "{err}"
     );
+}
+
+mod common;
+
+use common::{dth, manifest_dir, stderr, stdout};
+
+/// What `dth run` wrote into `out`.
+struct Written {
+    stdout: String,
+    stderr: String,
+    summary: serde_json::Value,
+    html: String,
+    out: std::path::PathBuf,
+}
+
+/// `dth run` of `scene` (a scene's text) into a fresh folder; it must succeed.
+fn dth_run(scene: &str, dir: &std::path::Path) -> Written {
+    std::fs::write(dir.join("scene.toml"), scene).unwrap();
+    let o = dth(&["run", "scene.toml", "--out", "out"], dir);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let out = dir.join("out");
+    let read = |f: &str| std::fs::read_to_string(out.join(f)).unwrap();
+    Written {
+        stdout: stdout(&o),
+        stderr: stderr(&o),
+        summary: serde_json::from_str(&read("summary.json")).unwrap(),
+        html: read("index.html"),
+        out,
+    }
+}
+
+/// The `step_kind` column of a trajectory CSV with each row's time: `(t, kind)`.
+fn step_kinds(csv: &str) -> Vec<(f64, String)> {
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let t = header.iter().position(|c| *c == "t").unwrap();
+    let kind = header.iter().position(|c| *c == "step_kind").unwrap();
+    lines
+        .map(|l| {
+            let cells: Vec<&str> = l.split(',').collect();
+            (cells[t].parse().unwrap(), cells[kind].to_string())
+        })
+        .collect()
+}
+
+/// The shipped e = 0.9 scene (Psi < 0 on a band of radii that the orbit crosses twice per
+/// period, so robust mode must fall back there) with every step in the trajectory: the fallback
+/// steps and their time reported in `summary.json` are the trajectory's `fallback` rows, the
+/// summary line and `index.html` give them, and stderr warns (more than 1% fell back) naming
+/// Psi's sign change. The counts themselves are the stepper's business and are not pinned.
+#[test]
+fn the_fallback_steps_reported_are_the_ones_in_the_trajectory() {
+    let scene = std::fs::read_to_string(manifest_dir().join("scenes/kepler-e09-robust.toml"))
+        .unwrap()
+        + "\n[[effect]]\nkind = \"trajectory\"\nevery = 1\n";
+    let dir = tempfile::tempdir().unwrap();
+    let w = dth_run(&scene, dir.path());
+    let methods = w.summary["methods"].as_array().unwrap();
+    let (robust, midpoint) = (&methods[0], &methods[1]);
+    let reported = &robust["fallback"];
+    let fallback_steps = reported["steps"].as_u64().unwrap() as usize;
+    let steps = robust["steps"].as_u64().unwrap() as usize;
+
+    let rows = step_kinds(&std::fs::read_to_string(w.out.join("dth_trajectory.csv")).unwrap());
+    assert_eq!(rows.len(), steps + 1);
+    let mut counted = (0, 0.0);
+    for pair in rows.windows(2) {
+        if pair[1].1 == "fallback" {
+            counted = (counted.0 + 1, counted.1 + (pair[1].0 - pair[0].0));
+        } else {
+            assert!(
+                ["dth", "shortened"].contains(&pair[1].1.as_str()),
+                "{pair:?}"
+            );
+        }
+    }
+    assert_eq!(counted.0, fallback_steps, "{reported}");
+    let time = reported["time"].as_f64().unwrap();
+    assert!(
+        (counted.1 - time).abs() <= 1e-12 * time,
+        "{counted:?} {reported}"
+    );
+    let share = reported["share_of_steps"].as_f64().unwrap();
+    assert_eq!(share, fallback_steps as f64 / steps as f64);
+    let t_end = robust["t_end"].as_f64().unwrap();
+    let share_of_time = reported["share_of_time"].as_f64().unwrap();
+    assert!((share_of_time - time / t_end).abs() <= 1e-12, "{reported}");
+    // Physics, not the policy: the orbit spends a sizeable part of its time where Psi < 0.
+    assert!(share > 0.01 && share_of_time > 0.01, "{reported}");
+
+    // Stdout's summary line, the warning, the page.
+    let line = format!("fallback steps: dth {fallback_steps} of {steps} steps (");
+    assert!(w.stdout.contains(&line), "{}", w.stdout);
+    let warning = format!("warning: method `dth`: {fallback_steps} of {steps} steps (");
+    assert!(w.stderr.contains(&warning), "{}", w.stderr);
+    assert!(
+        w.stderr.contains("cause: Psi changes sign along the orbit"),
+        "{}",
+        w.stderr
+    );
+    assert!(
+        w.html
+            .contains(&format!("<td>{fallback_steps} of {steps} steps (")),
+        "{}",
+        w.html
+    );
+    assert!(w.html.contains("Warning: method `dth`"), "{}", w.html);
+    assert!(
+        w.html.contains("so the invariants DTH conserves at its vertices (angular_momentum) do not hold across them"),
+        "{}",
+        w.html
+    );
+
+    // The peer beside it: no fallback, and every row a fixed step.
+    assert_eq!(midpoint["fallback"]["steps"], 0);
+    assert!(midpoint["fallback"]["cause"].is_null());
+    let peer = std::fs::read_to_string(w.out.join("midpoint_trajectory.csv")).unwrap();
+    assert!(step_kinds(&peer).iter().all(|(_, k)| k == "fixed"));
+}
+
+/// A robust run that never falls back (the thesis orbit, e = 0.44: Psi > 0 everywhere) and a
+/// run without robust mode report zero fallback steps and warn about nothing; only the robust
+/// one mentions fallback in its summary line and in the page's methods table.
+#[test]
+fn a_run_without_fallback_steps_reports_zero_and_no_warning() {
+    let scene = |robust: &str| {
+        format!(
+            "[system]\nname = \"kepler\"\n[initial]\nq = [0.5, 0.0]\np = [0.0, 1.2]\n\
+             [[method]]\nkind = \"dth\"\ndtau = 0.05\n{robust}\n[[method]]\nkind = \"rk4\"\ndt = 0.05\n\
+             [duration]\norbits = 1\n[[effect]]\nkind = \"trajectory\"\nevery = 1\n\
+             [[effect]]\nkind = \"invariants\"\n"
+        )
+    };
+    for robust in ["robust = true", ""] {
+        let dir = tempfile::tempdir().unwrap();
+        let w = dth_run(&scene(robust), dir.path());
+        for m in w.summary["methods"].as_array().unwrap() {
+            assert_eq!(m["fallback"]["steps"], 0, "{robust}: {m}");
+            assert_eq!(m["fallback"]["time"], 0.0, "{robust}: {m}");
+            assert!(m["fallback"]["cause"].is_null(), "{robust}: {m}");
+        }
+        let rows = step_kinds(&std::fs::read_to_string(w.out.join("dth_trajectory.csv")).unwrap());
+        assert!(rows.iter().all(|(_, k)| k != "fallback"), "{robust}");
+        assert!(!w.stderr.contains("warning"), "{robust}: {}", w.stderr);
+        assert!(
+            !w.html.contains("Warning") && !w.html.contains("Note:"),
+            "{robust}"
+        );
+        let steps = w.summary["methods"][0]["steps"].as_u64().unwrap();
+        let line =
+            format!("(fallback steps: dth 0 of {steps} steps (0.0%), 0.0% of the physical time)");
+        assert_eq!(
+            w.stdout.contains(&line),
+            !robust.is_empty(),
+            "{robust}: {}",
+            w.stdout
+        );
+        assert_eq!(
+            w.html.contains("<th>fallback steps</th>"),
+            !robust.is_empty(),
+            "{robust}"
+        );
+    }
 }

@@ -12,6 +12,7 @@ use super::sample::{on_shell, Candidate, Shell};
 use crate::driver::Stop;
 use crate::effects::{Crossings, Effects};
 use crate::error::Error;
+use crate::fallback::FallbackWatch;
 use crate::method::{run_method, unavailable};
 use crate::scene::{ChaosIndicator, EffectSpec, Members, MethodSpec, Scene};
 use crate::simulate::{initial_state, stop_for, Failure, RunOptions};
@@ -33,6 +34,8 @@ pub struct MemberRun {
     pub end: Vec<f64>,
     /// `max_k |H(z_k) - H(z_0)|` over the states reached.
     pub energy_error: f64,
+    /// Steps robust DTH took as fallback steps (`crate::fallback`; 0 for every other method).
+    pub fallback_steps: usize,
     /// Why the run stopped early, if it did.
     pub failure: Option<Failure>,
     /// MEGNO `<Y>` (when the ensemble asks for it and the run lasted).
@@ -71,6 +74,7 @@ where
     energy_error: f64,
     last: Option<(usize, f64, OVector<f64, D>)>,
     megno: Option<Megno<'s, D, S>>,
+    fallback: FallbackWatch,
 }
 
 impl<D: Dim, S: SceneSystem<D>> Observer<D> for Watch<'_, D, S>
@@ -99,6 +103,7 @@ where
         if let Some(m) = &mut self.megno {
             m.on_step(record);
         }
+        self.fallback.on_step(record);
     }
 }
 
@@ -120,6 +125,7 @@ where
         energy_error: 0.0,
         last: None,
         megno: chaos.map(|ChaosIndicator::Megno| Megno::new(system)),
+        fallback: FallbackWatch::new(scene.q.len()),
     };
     let (end, watch, crossings) = match Effects::new(system, &scene.effects) {
         Some(effects) => {
@@ -142,6 +148,7 @@ where
         t_end: t,
         end: z.iter().copied().collect(),
         energy_error: watch.energy_error,
+        fallback_steps: watch.fallback.finish().steps,
         failure,
         megno: indicators.map(|i| i.megno),
         lyapunov: indicators.map(|i| i.lyapunov),
@@ -247,6 +254,7 @@ where
                 t_end: scene.t0,
                 end: z0.iter().copied().collect(),
                 energy_error: 0.0,
+                fallback_steps: 0,
                 failure: Some(Failure {
                     step: 0,
                     reason: format!("method `{}` cannot run: {reason}", m.label),

@@ -35,6 +35,8 @@ pub struct Row {
     pub end: Vec<f64>,
     /// `max |H - H0|` over the run (`null` in JSON when not finite).
     pub energy_error: f64,
+    /// Steps robust DTH took as fallback steps (0 for every other method).
+    pub fallback_steps: usize,
     /// Why the run stopped early, or why the member did not run (step 0).
     pub failure: Option<Failure>,
     /// MEGNO `<Y>` (ensembles with `chaos = "megno"`).
@@ -62,6 +64,7 @@ pub fn table(scene: &Scene, results: &[MemberResult]) -> Table {
         skipped: 0,
         not_run: 0,
         failed_runs: 0,
+        fallback_runs: 0,
     };
     let mut skipped = Vec::new();
     for r in results {
@@ -82,6 +85,7 @@ pub fn table(scene: &Scene, results: &[MemberResult]) -> Table {
                     t_end: scene.t0,
                     end: Vec::new(),
                     energy_error: 0.0,
+                    fallback_steps: 0,
                     failure: Some(Failure {
                         step: 0,
                         reason: format!("not run: {why}"),
@@ -94,6 +98,7 @@ pub fn table(scene: &Scene, results: &[MemberResult]) -> Table {
         }
         for run in &r.runs {
             counts.failed_runs += usize::from(run.failure.is_some());
+            counts.fallback_runs += usize::from(run.fallback_steps > 0);
             rows.push(Row {
                 member: r.index,
                 method: run.method.clone(),
@@ -103,6 +108,7 @@ pub fn table(scene: &Scene, results: &[MemberResult]) -> Table {
                 t_end: run.t_end,
                 end: run.end.clone(),
                 energy_error: run.energy_error,
+                fallback_steps: run.fallback_steps,
                 failure: run.failure.clone(),
                 megno: run.megno,
                 lyapunov: run.lyapunov,
@@ -143,7 +149,7 @@ pub fn csv(scene: &Scene, d: usize, t: &Table) -> String {
     for n in &names {
         let _ = write!(s, ",end_{n}");
     }
-    s.push_str(",energy_error,failure_step,failure,megno,lyapunov\n");
+    s.push_str(",energy_error,failure_step,failure,megno,lyapunov,fallback_steps\n");
     for r in &t.rows {
         let _ = write!(s, "{},{}", r.member, field(&r.method));
         for k in scene.params.keys() {
@@ -158,14 +164,15 @@ pub fn csv(scene: &Scene, d: usize, t: &Table) -> String {
         }
         let _ = writeln!(
             s,
-            ",{:e},{},{},{},{}",
+            ",{:e},{},{},{},{},{}",
             r.energy_error,
             r.failure
                 .as_ref()
                 .map_or(String::new(), |f| f.step.to_string()),
             field(r.failure.as_ref().map_or("", |f| f.reason.as_str())),
             opt(r.megno),
-            opt(r.lyapunov)
+            opt(r.lyapunov),
+            r.fallback_steps
         );
     }
     s
@@ -391,12 +398,13 @@ pub fn index(scene: &Scene, counts: &Counts, files: &[String]) -> String {
     let methods: Vec<&str> = scene.methods.iter().map(|m| m.label.as_str()).collect();
     let _ = writeln!(
         h,
-        "<p>System <b>{}</b>; {} members drawn, {} skipped (no real solution on the energy shell), {} not run, {} method runs failed; methods {}; duration {} each.</p>",
+        "<p>System <b>{}</b>; {} members drawn, {} skipped (no real solution on the energy shell), {} not run, {} method runs failed{}; methods {}; duration {} each.</p>",
         escape(&scene.system),
         counts.drawn,
         counts.skipped,
         counts.not_run,
         counts.failed_runs,
+        counts.fallback_note(),
         escape(&methods.join(", ")),
         scene.duration
     );

@@ -100,6 +100,7 @@ pub fn encode(results: &[MemberResult], out: &mut Vec<u8>) {
             w.f64(run.t_end);
             w.f64s(&run.end);
             w.f64(run.energy_error);
+            w.u64(run.fallback_steps as u64);
             w.u64(u64::from(run.failure.is_some()));
             w.u64(run.failure.as_ref().map_or(0, |f| f.step as u64));
             w.str(run.failure.as_ref().map_or("", |f| f.reason.as_str()));
@@ -142,6 +143,7 @@ pub fn decode(bytes: &[u8]) -> Option<Vec<MemberResult>> {
             let t_end = r.f64()?;
             let end = r.f64s()?;
             let energy_error = r.f64()?;
+            let fallback_steps = r.usize()?;
             let failed = r.u64()? == 1;
             let step = r.usize()?;
             let reason = r.str()?;
@@ -161,6 +163,7 @@ pub fn decode(bytes: &[u8]) -> Option<Vec<MemberResult>> {
                 t_end,
                 end,
                 energy_error,
+                fallback_steps,
                 failure: failed.then_some(Failure { step, reason }),
                 megno,
                 lyapunov,
@@ -198,6 +201,7 @@ mod tests {
                     t_end: std::f64::consts::PI,
                     end: vec![f64::NAN, 2.0e-300],
                     energy_error: 1.1e-16,
+                    fallback_steps: 5,
                     failure: Some(Failure {
                         step: 8,
                         reason: "Newton did not converge".into(),
@@ -236,6 +240,7 @@ mod tests {
                                 r.end.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
                                 r.megno.map(f64::to_bits),
                                 r.failure.clone(),
+                                r.fallback_steps,
                                 r.crossings.clone()
                             ))
                             .collect::<Vec<_>>(),

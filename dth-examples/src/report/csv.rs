@@ -6,6 +6,7 @@ use std::path::Path;
 use super::write_file;
 use crate::effects::Series;
 use crate::error::Error;
+use crate::fallback::kind_name;
 use crate::scene::{component_names, EffectKind, EffectSpec, Scene};
 use crate::simulate::MethodResult;
 
@@ -23,7 +24,7 @@ pub fn write(dir: &Path, scene: &Scene, results: &[MethodResult]) -> Result<Vec<
         if let Some(rows) = &o.trajectory {
             let d = rows.first().map_or(0, |r| r.z.len());
             let mut s = format!(
-                "step,t,{},lambda\n",
+                "step,t,{},lambda,step_kind\n",
                 component_names(scene.q.len(), d).join(",")
             );
             for r in rows {
@@ -33,8 +34,9 @@ pub fn write(dir: &Path, scene: &Scene, results: &[MethodResult]) -> Result<Vec<
                 }
                 let _ = writeln!(
                     s,
-                    ",{}",
-                    r.lambda.map_or(String::new(), |v| format!("{v:e}"))
+                    ",{},{}",
+                    r.lambda.map_or(String::new(), |v| format!("{v:e}")),
+                    kind_name(r.kind)
                 );
             }
             put(format!("{l}_trajectory.csv"), s, &mut files)?;
@@ -109,7 +111,7 @@ pub fn write(dir: &Path, scene: &Scene, results: &[MethodResult]) -> Result<Vec<
                 .find_map(|m| m.end.as_ref().ok().map(|e| e.1.len()))
                 .unwrap_or(0);
             let mut s = format!(
-                "x0,y0,t,{},failure\n",
+                "x0,y0,t,{},failure,fallback_steps\n",
                 component_names(scene.q.len(), d).join(",")
             );
             for m in members {
@@ -120,10 +122,10 @@ pub fn write(dir: &Path, scene: &Scene, results: &[MethodResult]) -> Result<Vec<
                         for x in z {
                             let _ = write!(s, ",{x:e}");
                         }
-                        s.push_str(",\n");
+                        s.push(',');
                     }
                     Err(f) => {
-                        let _ = writeln!(
+                        let _ = write!(
                             s,
                             ",{}step {}: {}",
                             ",".repeat(d + 1),
@@ -132,6 +134,7 @@ pub fn write(dir: &Path, scene: &Scene, results: &[MethodResult]) -> Result<Vec<
                         );
                     }
                 }
+                let _ = writeln!(s, ",{}", m.fallback_steps);
             }
             put(format!("{l}_ensemble.csv"), s, &mut files)?;
         }

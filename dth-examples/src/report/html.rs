@@ -32,7 +32,7 @@ pub fn index(scene: &Scene, report: &RunReport) -> String {
          <style>body{{font-family:sans-serif;max-width:1000px;margin:2em auto;padding:0 1em}}\
          table{{border-collapse:collapse;margin:1em 0}}td,th{{border:1px solid #999;padding:.25em .6em;text-align:right}}\
          th{{background:#eee}}td:first-child{{text-align:left}}img{{max-width:100%;border:1px solid #ddd}}\
-         .fail{{color:#b00}}</style></head><body>\n<h1>{t}</h1>\n",
+         .fail{{color:#b00}}.warn{{color:#a60}}</style></head><body>\n<h1>{t}</h1>\n",
         t = escape(&report.title)
     );
     if !scene.description.is_empty() {
@@ -57,7 +57,13 @@ pub fn index(scene: &Scene, report: &RunReport) -> String {
             _ => "",
         }
     );
-    h.push_str("<h2>Methods</h2>\n<table><tr><th>method</th><th>kind</th><th>step</th><th>steps</th><th>t end</th><th>status</th></tr>\n");
+    // The fallback column only where a method can fall back (DTH in robust mode) or did.
+    let fallback = report.methods.iter().any(|m| m.reports_fallback());
+    let _ = writeln!(
+        h,
+        "<h2>Methods</h2>\n<table><tr><th>method</th><th>kind</th><th>step</th><th>steps</th>{}<th>t end</th><th>status</th></tr>",
+        if fallback { "<th>fallback steps</th>" } else { "" }
+    );
     for m in &report.methods {
         let step: Vec<String> = m.step.iter().map(|(k, v)| format!("{k} = {v}")).collect();
         let status = match &m.failure {
@@ -73,9 +79,14 @@ pub fn index(scene: &Scene, report: &RunReport) -> String {
             None => num(m.t_end),
             Some(_) => format!("<span class=\"fail\">{} (stopped)</span>", num(m.t_end)),
         };
+        let fallback_cell = match (fallback, m.fallback.steps) {
+            (false, _) => String::new(),
+            (true, 0) => "<td>0</td>".to_string(),
+            (true, _) => format!("<td>{}</td>", escape(&m.fallback.to_string())),
+        };
         let _ = writeln!(
             h,
-            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td>{fallback_cell}<td>{}</td><td>{}</td></tr>",
             escape(&m.label),
             escape(&m.kind),
             escape(&step.join(", ")),
@@ -85,6 +96,9 @@ pub fn index(scene: &Scene, report: &RunReport) -> String {
         );
     }
     h.push_str("</table>\n");
+    for warning in report.fallback_warnings() {
+        let _ = writeln!(h, "<p class=\"warn\">Warning: {}.</p>", escape(&warning));
+    }
     if let Some(i) = &report.interrupted {
         let _ = writeln!(
             h,
@@ -146,6 +160,26 @@ pub fn index(scene: &Scene, report: &RunReport) -> String {
             }
         }
         h.push_str("</table>\n");
+        for m in &report.methods {
+            // The quadratic invariants DTH conserves at its vertices (not the energy, which a
+            // fallback node keeps too) do not hold across a fallback step.
+            let at_vertices: Vec<&str> = m
+                .invariants
+                .iter()
+                .filter(|s| s.vertices.is_some())
+                .map(|s| s.name.as_str())
+                .collect();
+            if m.fallback.steps > 0 && !at_vertices.is_empty() {
+                let _ = writeln!(
+                    h,
+                    "<p class=\"warn\">Note: {} of the {} steps of <b>{}</b> are fallback steps of the robust mode: discrete-gradient steps, whose nodes are not vertices of DTH segments, so the invariants DTH conserves at its vertices ({}) do not hold across them, and its vertex deviations above are not DTH's.</p>",
+                    m.fallback.steps,
+                    m.steps,
+                    escape(&m.label),
+                    escape(&at_vertices.join(", "))
+                );
+            }
+        }
     }
 
     let finals: Vec<_> = report

@@ -106,6 +106,19 @@ pub struct EnsembleCounts {
     pub not_run: usize,
     /// Member runs (member and method) that failed mid-run.
     pub failed_runs: usize,
+    /// Member runs that took fallback steps (robust DTH; `fallback_steps` in the table).
+    pub fallback_runs: usize,
+}
+
+impl EnsembleCounts {
+    /// ", 3 method runs took fallback steps (robust mode)" when any did, for the command's
+    /// line and `index.html`; empty otherwise.
+    pub fn fallback_note(&self) -> String {
+        match self.fallback_runs {
+            0 => String::new(),
+            n => format!(", {n} method runs took fallback steps (robust mode)"),
+        }
+    }
 }
 
 impl RunReport {
@@ -129,6 +142,27 @@ impl RunReport {
             }
         }
         s
+    }
+
+    /// "fallback steps: dth 1517 of 1621 steps (93.6%), 97.2% of the physical time" for the
+    /// methods that can fall back or did (`MethodSummary::reports_fallback`), for the
+    /// command's summary line; `None` when there is none.
+    pub fn fallback_summary(&self) -> Option<String> {
+        let parts: Vec<String> = self
+            .methods
+            .iter()
+            .filter(|m| m.reports_fallback())
+            .map(|m| format!("{} {}", m.label, m.fallback))
+            .collect();
+        (!parts.is_empty()).then(|| format!("fallback steps: {}", parts.join("; ")))
+    }
+
+    /// The warnings about methods with more than `fallback::WARN_ABOVE` of their steps
+    /// fallen back (`Fallback::warning`).
+    pub fn fallback_warnings(&self) -> impl Iterator<Item = String> + '_ {
+        self.methods
+            .iter()
+            .filter_map(|m| m.fallback.warning(&m.label))
     }
 
     /// The methods that failed mid-run.
