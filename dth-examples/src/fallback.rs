@@ -208,16 +208,16 @@ impl FallbackWatch {
     }
 
     /// Why DTH fell back, from the records: `Psi` taking the sign opposite to `Psi(zbar_0)`
-    /// somewhere on the orbit (DTH's law of time `lambda^3 Psi = const` has no positive
-    /// `lambda` across a sign change), or else a failure of DTH's step where `Psi` kept its
-    /// sign, which the records cannot tell apart further.
+    /// somewhere on the orbit (DTH's law of time `lambda^3 |Psi| = const` sends `lambda` to
+    /// infinity at a sign change), or else a near-cancellation of `Psi` or a failure of DTH's
+    /// step where `Psi` kept its sign, which the records cannot tell apart further.
     fn cause(&self) -> String {
         let first = self.first_fallback.map_or(String::new(), |at| {
             format!("; the first fallback step at {at}")
         });
         match (self.psi0, self.first_opposite) {
             (Some(psi0), Some(at)) => format!(
-                "Psi changes sign along the orbit: it first has the sign opposite to Psi(zbar_0) = {psi0:.3e} at {at}, and past its zero DTH's law of time lambda^3 Psi = c has no positive lambda{first}"
+                "Psi changes sign along the orbit: it first has the sign opposite to Psi(zbar_0) = {psi0:.3e} at {at}, and near its zeros DTH's law of time lambda^3 |Psi| = c sends lambda to infinity, so the robust mode bridges them with discrete-gradient steps{first}"
             ),
             (Some(_), None) => {
                 let smallest = if self.smallest_psi.is_finite() {
@@ -229,7 +229,7 @@ impl FallbackWatch {
                     String::new()
                 };
                 format!(
-                    "not a sign change of Psi (it keeps the sign of Psi(zbar_0) at every reported point{smallest}): DTH's step had no acceptable root there (Newton did not converge, or its lambda was not positive or grew too fast), e.g. a step too large{first}"
+                    "not a sign change of Psi (it keeps the sign of Psi(zbar_0) at every reported point{smallest}): the robust mode falls back where the terms of Psi nearly cancel (to within 5%), or where a DTH step failed (Newton did not converge, or its lambda was not positive or grew too fast), e.g. a step too large{first}"
                 )
             }
             (None, _) => format!("the records carry no Psi to tell{first}"),
