@@ -971,7 +971,10 @@ where
             std::mem::swap(&mut self.s.zbar, &mut w.fallback.z);
             std::mem::swap(&mut self.s.gradient, &mut w.fallback.point.gradient);
             self.s.psi = w.fallback.point.psi;
-            self.s.psi_scale = robust::psi_scale(&path, &self.s.gradient, &mut w.scale);
+            if i + 1 == gammas.len() {
+                // Only the composed step's end decides the next step and sizes it.
+                self.s.psi_scale = robust::psi_scale(&path, &self.s.gradient, &mut w.scale);
+            }
             elapsed += gamma;
             // Extended phase space: time is the t coordinate (Gonzalez's discrete gradient moves
             // it by dt (1 + O(dt^2)), not exactly dt).
