@@ -477,7 +477,9 @@ where
     pub fn zbar(&self) -> &OVector<f64, D> {
         &self.s.zbar
     }
-    /// Current multiplier `lambda_k`.
+    /// Current multiplier `lambda_k`: the one the next step starts from. After a robust-mode
+    /// fallback step it can differ from the step's record, which keeps that step's `dt / dtau`
+    /// while the stepper holds the multiplier DTH resumes with (the law of time's).
     pub fn lambda(&self) -> f64 {
         self.s.lambda
     }
