@@ -320,3 +320,31 @@ fn kepler_at_e09_keeps_orders_4_and_8_through_the_fallback_stretches() {
     println!("order 8: observed {eight:.3}");
     assert!(eight >= 6.0, "{coarse:e} {fine:e}");
 }
+
+/// At coarse steps the last step toward `T` meets the pericentre passage: neither DTH scaled
+/// nor one fallback step of all the time left (1.3 time units, where the law of time's
+/// fallback step is a few tenths) converges there. The run still ends at `T`, with fallback
+/// steps of at most the law's size toward it. The `dtau` values are ones at which the last
+/// step fell short before (order 2: 0.0665 reached 49.560 of 49.673; order 8: 0.108 stopped at
+/// 48.70), and their neighbours over ten orbits.
+#[test]
+fn kepler_at_e09_ends_at_t_at_coarse_steps() {
+    let kepler = Kepler::thesis();
+    let z0 = Vector4::new(0.5, 0.0, 0.0, 1.9f64.sqrt());
+    let orbit = KeplerOrbit::new(&kepler, &z0).expect("elliptic");
+    let period = orbit.elements().period;
+    let cases = [
+        (2, 0.066_461_801_051_765_23, 1.0),
+        (2, 0.0665, 1.0),
+        (8, 0.108, 1.0),
+        (8, 0.2157, 10.0),
+        (8, 0.1079, 10.0),
+        (8, 0.0763, 10.0),
+    ];
+    for (order, dtau, orbits) in cases {
+        let t_end = orbits * period;
+        let end = robust_to(&kepler, z0, dtau, order, t_end);
+        let name = format!("kepler e 0.9, order {order}, {orbits} orbits");
+        checked(&name, dtau, &end, t_end, &orbit.state_at(t_end));
+    }
+}

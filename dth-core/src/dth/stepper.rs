@@ -693,13 +693,29 @@ where
             // DTH's last step could not be scaled onto t_end (a step that changes kind with its
             // size, or a failure): fallback steps of exactly the time left (their time is
             // linear in their size; for a time-dependent H the t coordinate nearly so), then
-            // the secant on their size.
+            // the secant on their size; if the time left is more than the law of time's
+            // fallback step here, or that step fails, fallback steps of at most that size
+            // toward t_end until it is near enough.
             self.restore();
-            if self.end_fallback(t_end - t0).is_ok() {
+            let left = t_end - t0;
+            let pieces = (left / (dtau * self.fallback_lambda())).ceil();
+            if pieces <= 1.0 && self.fallback_from_start(left, false).is_ok() {
                 let f = self.work.record.t - t_end;
                 best.offer(f, &self.s, &self.work.record);
                 // A failure here leaves the best try so far.
                 let _ = self.land(&landing, End::Fallback, (1.0, f), &mut best);
+            }
+            if best.gap > tolerance + 2.0 * best.state.time_noise {
+                // Not there in one step: one fallback step toward t_end (an equal share of
+                // the time left, halved while it fails), and the next call goes on from it.
+                self.restore();
+                let share = if pieces.is_finite() {
+                    pieces.max(2.0)
+                } else {
+                    2.0
+                };
+                self.fallback_from_start(left / share, true)?;
+                return Ok((self.work.record.clone(), false));
             }
         } else {
             landed?;
@@ -759,7 +775,7 @@ where
                     self.options.composition().coefficients(),
                     scale * self.options.dtau(),
                 )?,
-                End::Fallback => self.end_fallback(scale * (t_end - t0))?,
+                End::Fallback => self.fallback_from_start(scale * (t_end - t0), false)?,
             }
             let f = self.work.record.t - t_end;
             let improved = f.abs() <= 0.5 * best.gap;
@@ -814,13 +830,18 @@ where
         Ok(())
     }
 
-    /// The last step of [`Dth::step_toward`] as fallback steps of total physical size `dt`
-    /// (composed like the run's steps), from the saved start.
-    fn end_fallback(&mut self, dt: f64) -> Result<(), Error> {
+    /// A step of [`Dth::step_toward`] as fallback steps of total physical size `dt` (composed
+    /// like the run's steps), from the saved start; with `halve`, a try that fails is redone
+    /// at half the size (see [`Dth::fallback_composed`]), so the step may end short of `dt`.
+    fn fallback_from_start(&mut self, dt: f64, halve: bool) -> Result<(), Error> {
         let step = self.s.k + 1;
         let mut spent = Spent::default();
         let gammas = self.options.composition().coefficients();
-        let result = self.fallback_sub_steps(gammas, dt, step, &mut spent);
+        let result = if halve {
+            self.fallback_composed(gammas, dt, step, &mut spent)
+        } else {
+            self.fallback_sub_steps(gammas, dt, step, &mut spent)
+        };
         if let Err(e) = result {
             self.restore();
             return Err(e);
