@@ -4,10 +4,11 @@
 
 use dth_core::nalgebra::Const;
 mod alloc_counter;
+mod hard_support;
 
 use dth_core::dth::{Dth, DthOptions};
 use dth_core::nalgebra::Vector4;
-use dth_core::observer::StepRecord;
+use dth_core::observer::{StepKind, StepRecord};
 use dth_core::systems::Kepler;
 
 #[test]
@@ -26,9 +27,7 @@ fn robust_mode_and_cancellation_free_steps_do_not_allocate() {
     .expect("start");
     assert!(dth.cancellation_free());
     let mut kinds = [0usize; 2];
-    let mut count = |r: &StepRecord<Const<4>>| {
-        kinds[usize::from(r.kind != dth_core::observer::StepKind::Dth)] += 1
-    };
+    let mut count = |r: &StepRecord<Const<4>>| kinds[usize::from(r.kind != StepKind::Dth)] += 1;
     let (ok, allocations) = alloc_counter::count(|| dth.run(3_000, &mut count).is_ok());
     assert!(ok);
     assert!(
@@ -40,4 +39,26 @@ fn robust_mode_and_cancellation_free_steps_do_not_allocate() {
     let (stored, allocations) = alloc_counter::count(|| dth.trajectory(10).is_ok());
     assert!(stored && allocations > 0);
     dth.run(1, &mut ()).expect("step");
+}
+
+#[test]
+fn fallback_steps_through_a_close_encounter_do_not_allocate() {
+    // A close pair far from the origin (hard_support::pair): the fallback's residual check
+    // meets residuals amplified by (dt/2) Hess H and takes its Newton correction, and the
+    // projection moves the momenta.
+    use hard_support::pair::Pair;
+    let options = DthOptions::default()
+        .with_dtau(0.002)
+        .expect("valid")
+        .with_lambda0(1e-5)
+        .expect("valid")
+        .with_robust(true);
+    let mut dth = Dth::new(Pair, Pair::at_pericentre(1e-3, 0.99), options).expect("start");
+    let mut fallback = 0usize;
+    let mut count =
+        |r: &StepRecord<Const<8>>| fallback += usize::from(r.kind == StepKind::Fallback);
+    let (ok, allocations) = alloc_counter::count(|| dth.run(400, &mut count).is_ok());
+    assert!(ok);
+    assert!(fallback > 0, "fallback steps ran");
+    assert_eq!(allocations, 0, "heap allocations during 400 robust steps");
 }

@@ -260,7 +260,12 @@ impl DthOptions {
     /// - **Fallback steps** are energy-conserving discrete-gradient steps in `(q, p)`
     ///   ([`methods::DiscreteGradient`](crate::methods::DiscreteGradient), with the Hamiltonian's
     ///   exact divided differences where it has them), with energy checked and projected
-    ///   against `H(zbar_0)`, marked [`StepKind::Fallback`](crate::observer::StepKind::Fallback).
+    ///   against `H(zbar_0)` (along `grad H`, then, where the positions' rounding leaves more,
+    ///   as at a close encounter, along the momenta alone: `H` stays at the roundoff of its
+    ///   terms), marked [`StepKind::Fallback`](crate::observer::StepKind::Fallback). A solve
+    ///   whose residual fails the plain check is kept when the Newton correction it implies is
+    ///   below the tolerance (the residual of a converged step near a collision is the
+    ///   positions' rounding amplified by `dt |Hess H|`).
     ///   Their physical size is a function of the state and `dtau` only,
     ///   `dtau (law / max(|Psi|, 0.05 sum))^(1/3)` with `law = lambda_0^3 max(|Psi_0|,
     ///   0.05 sum_0)`: DTH's own law of time at the band's edge, bounded inside it, so both

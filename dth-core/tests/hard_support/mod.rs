@@ -1,8 +1,9 @@
-//! Shared helpers of the `hard_*` tests: double-double arithmetic and a high-precision
-//! reference solve of one DTH step on Kepler.
+//! Shared helpers of the `hard_*` tests: double-double arithmetic, a high-precision
+//! reference solve of one DTH step on Kepler, and a close gravitating pair far from the origin.
 #![allow(dead_code)]
 
 pub mod dd;
+pub mod pair;
 
 use dd::Dd;
 use dth_core::nalgebra::{Matrix4, Vector4};
