@@ -60,6 +60,8 @@ fn quick_sweep_runs_and_writes_its_files() {
         {
             assert!(r.energy_error < 1e-13, "{r:?}");
             assert!(r.vertex_error.is_some() && r.newton_per_step.is_some());
+            // Without robust mode DTH never falls back (it fails instead).
+            assert_eq!(r.fallback_steps, Some(0), "{r:?}");
             // Its vertices conserve the angular momentum (a quadratic invariant; thesis
             // Table 4.1: 2.2e-15 over 10^4 steps), measured against the first vertex: a few
             // eps per step at most, over at most ~130 steps here. Plain DTH only: a composed

@@ -95,12 +95,12 @@ pub(crate) fn write_all(summary: &Summary, out: &Path) -> Result<Vec<PathBuf>, E
     let mut csv = String::from(
         "system,method,parameter_kind,parameter,steps,mean_dt,time,time_min,timed_runs,global_error,\
          vertex_error,energy_error,vertex_energy_error,invariant_error,vertex_invariant_error,\
-         newton_per_step,evaluations_per_step,failure\n",
+         newton_per_step,evaluations_per_step,fallback_steps,failure\n",
     );
     for r in &summary.records {
         let _ = writeln!(
             csv,
-            "{},{},{},{:e},{},{:e},{:e},{:e},{},{:e},{},{:e},{},{},{},{},{},\"{}\"",
+            "{},{},{},{:e},{},{:e},{:e},{:e},{},{:e},{},{:e},{},{},{},{},{},{},\"{}\"",
             r.system,
             r.method,
             r.parameter_kind,
@@ -118,6 +118,7 @@ pub(crate) fn write_all(summary: &Summary, out: &Path) -> Result<Vec<PathBuf>, E
             opt(r.vertex_invariant_error),
             opt(r.newton_per_step),
             opt(r.evaluations_per_step),
+            r.fallback_steps.map_or(String::new(), |n| n.to_string()),
             r.failure.as_deref().unwrap_or("").replace('"', "'"),
         );
     }
@@ -278,6 +279,32 @@ fn high_order_table(s: &mut String, records: &[Record], info: &ProblemInfo, refe
     }
 }
 
+/// Markdown: the share of fallback steps of each DTH method that took any (robust mode), over
+/// its successful runs: nothing where no method fell back.
+fn fallback_line(s: &mut String, records: &[Record], system: &str, methods: &[&str]) {
+    let mut parts = Vec::new();
+    for m in methods {
+        let shares: Vec<f64> = records
+            .iter()
+            .filter(|r| r.system == system && r.method == *m && r.failure.is_none())
+            .filter_map(|r| Some(r.fallback_steps? as f64 / r.steps.max(1) as f64))
+            .collect();
+        if shares.iter().any(|x| *x > 0.0) {
+            let lo = shares.iter().copied().fold(f64::INFINITY, f64::min);
+            let hi = shares.iter().copied().fold(0.0, f64::max);
+            parts.push(format!("`{m}` {:.1}-{:.1}%", 100.0 * lo, 100.0 * hi));
+        }
+    }
+    if !parts.is_empty() {
+        let _ = writeln!(
+            s,
+            "\nRobust mode: share of steps taken as fallback steps (energy-conserving \
+             discrete-gradient steps where DTH has no positive root), over the sweep: {}.",
+            parts.join(", ")
+        );
+    }
+}
+
 /// Markdown: per problem, the headline table (cheapest method per target, DTH relative to it)
 /// and the matrix of every method's cheapest time per target with its Newton iterations.
 pub(crate) fn tables(
@@ -397,6 +424,7 @@ pub(crate) fn tables(
             let _ = writeln!(row, " {newton} | {failures} |");
             s.push_str(&row);
         }
+        fallback_line(&mut s, records, system, &methods);
         high_order_table(&mut s, records, info, reference);
         s.push('\n');
     }
@@ -406,6 +434,25 @@ pub(crate) fn tables(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    use crate::workprecision::runners::blank;
+
+    /// The fallback line appears where a method fell back, with its share of steps.
+    #[test]
+    fn fallback_share_is_reported_where_there_is_one() {
+        let mut robust = blank("robust", "dth_robust", "dtau", 0.1);
+        (robust.steps, robust.fallback_steps) = (200, Some(15));
+        let mut plain = blank("robust", "dth_joint", "dtau", 0.1);
+        (plain.steps, plain.fallback_steps) = (200, Some(0));
+        let records = [robust, plain];
+        let mut s = String::new();
+        fallback_line(&mut s, &records, "robust", &["dth_joint", "dth_robust"]);
+        assert!(s.contains("`dth_robust` 7.5-7.5%"), "{s}");
+        assert!(!s.contains("dth_joint"), "{s}");
+        let mut none = String::new();
+        fallback_line(&mut none, &records[1..], "robust", &["dth_joint"]);
+        assert!(none.is_empty(), "{none}");
+    }
 
     #[test]
     fn utc_date_is_well_formed() {

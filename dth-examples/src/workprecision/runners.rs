@@ -11,7 +11,7 @@ use std::time::Instant;
 use dth::dth::{Dth, DthOptions};
 use dth::methods::{run, OneStepMethod};
 use dth::nalgebra::SVector;
-use dth::observer::StepRecord;
+use dth::observer::{StepKind, StepRecord};
 use dth::{Error as CoreError, Hamiltonian};
 
 use super::problem::Problem;
@@ -102,6 +102,7 @@ pub(crate) fn blank(
         vertex_invariant_error: None,
         newton_per_step: None,
         evaluations_per_step: None,
+        fallback_steps: None,
         failure: None,
     }
 }
@@ -290,6 +291,7 @@ pub(crate) fn sweep_dth<H: Hamiltonian<Const<D>> + Clone, const D: usize>(
         let mut vertex_invariant: Option<MaxDeviation> = None;
         let mut factorizations = 0u64;
         let mut steps = 0usize;
+        let mut fallback_steps = 0usize;
         // The left vertex of the current segment and its time.
         let mut last_vertex = (*z0, 0.0);
         let result = dth_to_time(h, z0, dth_options, t_end, |dth, last| {
@@ -299,6 +301,7 @@ pub(crate) fn sweep_dth<H: Hamiltonian<Const<D>> + Clone, const D: usize>(
             energy.push(h.value(&r.z));
             factorizations += u64::from(r.factorizations);
             steps = r.k;
+            fallback_steps += usize::from(r.kind == StepKind::Fallback);
             if last {
                 // The last step is shortened in tau to land on T: an exact DTH step (its
                 // midpoint energy is measured above), but its segment has its own
@@ -332,6 +335,7 @@ pub(crate) fn sweep_dth<H: Hamiltonian<Const<D>> + Clone, const D: usize>(
                 record.invariant_error = invariant.map(|d| d.max);
                 record.vertex_invariant_error = vertex_invariant.map(|d| d.max);
                 record.newton_per_step = Some(factorizations as f64 / steps.max(1) as f64);
+                record.fallback_steps = Some(fallback_steps);
                 median_time(options, || {
                     black_box(dth_to_time(h, z0, dth_options, t_end, |_, _| ())).is_ok()
                 })
