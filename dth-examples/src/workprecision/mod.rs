@@ -1,7 +1,7 @@
 //! Work-precision benchmark: what each accuracy costs in wall time, for DTH and every peer.
 //!
 //! [`run`] sweeps the step size of every method (the tolerance of the outside reference,
-//! DOP853 from the `differential-equations` crate) over more than two decades on five
+//! DOP853 from the `differential-equations` crate) over more than two decades on six
 //! problems ([`problems`]) and measures, for each point:
 //!
 //! - **wall time**: median of repeated runs in this process (no diagnostics inside the timed
