@@ -5,7 +5,7 @@
 //! |---|---|---|---|---|
 //! | `kepler_e044` | thesis Kepler `H = p1^2 + p2^2 - 1/r` | `q = (0.5, 0)`, `p = (0, 1.2)` (e = 0.44) | 10 periods | exact |
 //! | `kepler_e07` | same `H` | `q = (0.5, 0)`, `p = (0, 1.30384..)` at pericenter (e = 0.7) | 10 periods | exact |
-//! | `kepler_e09` | same `H`, DTH in robust mode ([`Variants::Robust`]) | `q = (0.5, 0)`, `p = (0, sqrt(1.9))` at pericenter (e = 0.9) | 10 periods | exact |
+//! | `kepler_e09` | same `H`, DTH in robust mode (`DthOptions::with_robust`; plain DTH breaks down) | `q = (0.5, 0)`, `p = (0, sqrt(1.9))` at pericenter (e = 0.9) | 10 periods | exact |
 //! | `henon_heiles` | Henon-Heiles | `q = (0, 0.1)`, `p2 = 0`, `p1 > 0` with `H = 1/8` | 10 x 2 pi | Gauss-Legendre 2 |
 //! | `pendulum` | `H = p^2/2 - cos q` | `q = 2`, `p = 0` (libration, amplitude 2 rad) | 10 periods | Gauss-Legendre 2 |
 //! | `forced_oscillator` | `H = p^2/2 + 1.69 q^2/2 - 0.4 q cos(0.7 t)`, extended phase space | `q = 1`, `p = 0`, `t = 0` | 10 x 2 pi / 1.3 | exact |
