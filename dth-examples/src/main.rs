@@ -133,7 +133,7 @@ enum Command {
         #[arg(long)]
         json: Option<PathBuf>,
     },
-    /// Work-precision diagrams for every method: error against wall time on five problems
+    /// Work-precision diagrams for every method: error against wall time on six problems
     /// (docs/benchmarks.md has the tables).
     Workprecision {
         /// Output folder (default: dth-out/workprecision).

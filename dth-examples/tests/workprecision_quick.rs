@@ -2,7 +2,7 @@
 //! problem and writes its results and diagrams. It asserts what was computed and written,
 //! never how fast.
 
-use dth_examples::workprecision::{run, WorkPrecisionOptions};
+use dth_examples::workprecision::{run, Record, WorkPrecisionOptions};
 
 #[test]
 fn quick_sweep_runs_and_writes_its_files() {
@@ -60,6 +60,8 @@ fn quick_sweep_runs_and_writes_its_files() {
         {
             assert!(r.energy_error < 1e-13, "{r:?}");
             assert!(r.vertex_error.is_some() && r.newton_per_step.is_some());
+            // Without robust mode DTH never falls back (it fails instead).
+            assert_eq!(r.fallback_steps, Some(0), "{r:?}");
             // Its vertices conserve the angular momentum (a quadratic invariant; thesis
             // Table 4.1: 2.2e-15 over 10^4 steps), measured against the first vertex: a few
             // eps per step at most, over at most ~130 steps here. Plain DTH only: a composed
@@ -85,6 +87,8 @@ fn quick_sweep_runs_and_writes_its_files() {
         );
     }
 
+    robust_orbit_is_swept(&summary.records);
+
     for name in ["workprecision.json", "workprecision.csv", "summary.md"] {
         let path = dir.path().join(name);
         let len = std::fs::metadata(&path).map(|m| m.len()).unwrap_or(0);
@@ -102,8 +106,8 @@ fn quick_sweep_runs_and_writes_its_files() {
     assert_eq!(csv.lines().count(), summary.records.len() + 1);
 
     // One PNG and one SVG per problem and error kind: global and energy everywhere, the
-    // angular momentum on the two Kepler orbits.
-    for system in systems {
+    // angular momentum on the three Kepler orbits.
+    for system in systems.into_iter().chain(["kepler_e09"]) {
         let mut kinds = vec!["global", "energy"];
         if system.starts_with("kepler") {
             kinds.push("invariant");
@@ -126,8 +130,51 @@ fn quick_sweep_runs_and_writes_its_files() {
             .join(format!("kepler_e044_derivatives_global.{ext}"));
         assert!(path.is_file(), "{} missing", path.display());
     }
-    // 3 data files + PNG and SVG of (2 Kepler x 3 kinds + 3 others x 2 kinds + 1 derivatives).
-    assert_eq!(summary.files.len(), 3 + 2 * (2 * 3 + 3 * 2 + 1));
+    // 3 data files + PNG and SVG of (3 Kepler x 3 kinds + 3 others x 2 kinds + 1 derivatives).
+    assert_eq!(summary.files.len(), 3 + 2 * (3 * 3 + 3 * 2 + 1));
+}
+
+/// Kepler e = 0.9, where `Psi` changes sign near pericenter: robust DTH of orders 2 and 8 runs
+/// through it with fallback steps and energy at roundoff; plain DTH's breakdown is recorded as
+/// a failure at every point; every peer is recorded at every point.
+fn robust_orbit_is_swept(records: &[Record]) {
+    let runs = |method: &str| -> Vec<&Record> {
+        records
+            .iter()
+            .filter(|r| r.system == "kepler_e09" && r.method == method)
+            .collect()
+    };
+    for method in ["dth_robust", "dth8_robust"] {
+        let runs = runs(method);
+        assert_eq!(runs.len(), 3, "{method}: three points");
+        assert!(runs.iter().any(|r| r.failure.is_none()), "{method}");
+        for r in runs.iter().filter(|r| r.failure.is_none()) {
+            assert!(r.global_error.is_finite() && r.time > 0.0, "{r:?}");
+            // Fallback steps conserve the energy to roundoff too (terms of size ~2 at
+            // pericenter).
+            assert!(r.energy_error < 1e-13, "{r:?}");
+            // It did fall back, and not at every step (DTH resumes where Psi > 0).
+            let fallback = r.fallback_steps.expect("DTH counts its fallback steps");
+            assert!(fallback > 0 && fallback < r.steps, "{r:?}");
+        }
+    }
+    for method in ["dth_joint", "dth8"] {
+        let runs = runs(method);
+        assert_eq!(runs.len(), 3, "{method}: three points");
+        assert!(runs.iter().all(|r| r.failure.is_some()), "{runs:?}");
+    }
+    for method in [
+        "midpoint",
+        "trapezoidal",
+        "discrete_gradient",
+        "verlet",
+        "rk4",
+        "gauss_legendre2",
+        "dop853",
+        "discrete_mechanics",
+    ] {
+        assert_eq!(runs(method).len(), 3, "{method}: three points");
+    }
 }
 
 /// The command CI runs: `dth workprecision --quick --out DIR` succeeds and stages its output
@@ -150,6 +197,7 @@ fn dth_workprecision_quick_command_writes_its_folder() {
         "summary.md",
         "kepler_e044_global.png",
         "kepler_e044_invariant.svg",
+        "kepler_e09_global.png",
         "forced_oscillator_energy.png",
     ] {
         assert!(out.join(name).is_file(), "{name} missing");

@@ -1,7 +1,7 @@
 //! Work-precision benchmark: what each accuracy costs in wall time, for DTH and every peer.
 //!
 //! [`run`] sweeps the step size of every method (the tolerance of the outside reference,
-//! DOP853 from the `differential-equations` crate) over more than two decades on five
+//! DOP853 from the `differential-equations` crate) over more than two decades on six
 //! problems ([`problems`]) and measures, for each point:
 //!
 //! - **wall time**: median of repeated runs in this process (no diagnostics inside the timed
@@ -206,6 +206,10 @@ pub struct Record {
     pub newton_per_step: Option<f64>,
     /// Right-hand-side evaluations per step (DOP853 only).
     pub evaluations_per_step: Option<f64>,
+    /// DTH only: steps the robust mode took as fallback steps instead of DTH steps
+    /// (`StepKind::Fallback`; above order 2, composed steps with a fallback step inside), out
+    /// of [`Record::steps`]. 0 without robust mode.
+    pub fallback_steps: Option<usize>,
     /// Why the run failed (then the error fields are NaN and the point is not plotted).
     pub failure: Option<String>,
 }

@@ -188,23 +188,44 @@ mod tests {
         "dth8",
     ];
 
+    /// Every method of the robust sweep (Kepler e = 0.9; plain DTH fails there, but counts
+    /// here).
+    const KEPLER_ROBUST: [&str; 12] = [
+        "dth_joint",
+        "dth8",
+        "dth_robust",
+        "dth8_robust",
+        "midpoint",
+        "trapezoidal",
+        "discrete_gradient",
+        "verlet",
+        "rk4",
+        "gauss_legendre2",
+        "dop853",
+        "discrete_mechanics",
+    ];
+
     #[test]
     fn the_default_solver_has_a_curve_in_every_main_figure() {
         for kind in ["global", "energy", "invariant"] {
             assert!(shown("dth_joint", kind, Selection::Main), "{kind}");
-            // Within the palette: DTH draws midpoints and vertices on energy and invariants.
-            let curves: usize = KEPLER
-                .iter()
-                .filter(|m| shown(m, kind, Selection::Main))
-                .map(|m| {
-                    if m.starts_with("dth_") && kind != "global" {
-                        2
-                    } else {
-                        1
-                    }
-                })
-                .sum();
-            assert!(curves <= PALETTE_SIZE, "{kind}: {curves} curves");
+            assert!(shown("dth_robust", kind, Selection::Main), "{kind}");
+            // Within the palette: DTH of order 2 draws midpoints and vertices on energy and
+            // invariants.
+            for methods in [&KEPLER[..], &KEPLER_ROBUST[..]] {
+                let curves: usize = methods
+                    .iter()
+                    .filter(|m| shown(m, kind, Selection::Main))
+                    .map(|m| {
+                        if dth_order(m) == Some(2) && kind != "global" {
+                            2
+                        } else {
+                            1
+                        }
+                    })
+                    .sum();
+                assert!(curves <= PALETTE_SIZE, "{kind}: {curves} curves");
+            }
         }
     }
 

@@ -1,10 +1,11 @@
-//! The five work-precision problems, each with its final time, reference solution and
+//! The six work-precision problems, each with its final time, reference solution and
 //! invariant.
 //!
 //! | name | system | initial state | `T` | reference |
 //! |---|---|---|---|---|
 //! | `kepler_e044` | thesis Kepler `H = p1^2 + p2^2 - 1/r` | `q = (0.5, 0)`, `p = (0, 1.2)` (e = 0.44) | 10 periods | exact |
 //! | `kepler_e07` | same `H` | `q = (0.5, 0)`, `p = (0, 1.30384..)` at pericenter (e = 0.7) | 10 periods | exact |
+//! | `kepler_e09` | same `H`, DTH in robust mode (`DthOptions::with_robust`; plain DTH breaks down) | `q = (0.5, 0)`, `p = (0, sqrt(1.9))` at pericenter (e = 0.9) | 10 periods | exact |
 //! | `henon_heiles` | Henon-Heiles | `q = (0, 0.1)`, `p2 = 0`, `p1 > 0` with `H = 1/8` | 10 x 2 pi | Gauss-Legendre 2 |
 //! | `pendulum` | `H = p^2/2 - cos q` | `q = 2`, `p = 0` (libration, amplitude 2 rad) | 10 periods | Gauss-Legendre 2 |
 //! | `forced_oscillator` | `H = p^2/2 + 1.69 q^2/2 - 0.4 q cos(0.7 t)`, extended phase space | `q = 1`, `p = 0`, `t = 0` | 10 x 2 pi / 1.3 | exact |
@@ -122,6 +123,25 @@ pub(crate) fn dth_order(method: &str) -> Option<u32> {
     })
 }
 
+/// Finest point of robust DTH-8's ladder on Kepler e = 0.9 (composed steps per period): its
+/// error over 10 periods falls from 2e-9 at ~500 to its floor of about 1e-11 near 700
+/// (measured), so 1024 shows the floor without spending the sweep on it.
+const ROBUST_FINEST: f64 = 1024.0;
+
+/// Which DTH variants a problem runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Variants {
+    /// Where plain DTH runs through: the joint and nested solvers, the scaled stall rule and
+    /// the orders of [`ORDERS`].
+    Plain,
+    /// Where `Psi` changes sign on the orbit and plain DTH breaks down (Kepler e = 0.9, near
+    /// pericenter): robust mode (`DthOptions::with_robust`) of order 2 (`dth_robust`, the
+    /// peers' ladder) and order 8 (`dth8_robust`, up to [`ROBUST_FINEST`]), and plain DTH of
+    /// the same orders (`dth_joint`, `dth8`) on the same ladders, whose breakdowns are recorded
+    /// as failures like any other.
+    Robust,
+}
+
 /// Steps for DTH of higher order: `8 * 2^(i/2)` composed steps per period up to `finest`
 /// (quick: 16, 32, 64).
 fn order_ladder(options: &WorkPrecisionOptions, info: &ProblemInfo, finest: f64) -> Ladder {
@@ -144,42 +164,17 @@ impl<H, const D: usize> Problem<H, D>
 where
     H: Hamiltonian<Const<D>> + Clone,
 {
-    /// Every method that applies to any Hamiltonian.
-    fn sweep_common(&self, options: &WorkPrecisionOptions, records: &mut Vec<Record>) {
+    /// Every method that applies to any Hamiltonian, with the DTH variants `variants`.
+    fn sweep_common(
+        &self,
+        options: &WorkPrecisionOptions,
+        variants: Variants,
+        records: &mut Vec<Record>,
+    ) {
         let ladder = ladder(options, &self.info);
-        let base = DthOptions::default();
-        sweep_dth(
-            self,
-            options,
-            &ladder,
-            "dth_joint",
-            base,
-            Stall::Default,
-            records,
-        );
-        sweep_dth(
-            self,
-            options,
-            &ladder,
-            "dth_nested",
-            base.with_solver(dth::dth::Solver::Nested),
-            Stall::Default,
-            records,
-        );
-        sweep_dth(
-            self,
-            options,
-            &ladder,
-            "dth_joint_scaled_stall",
-            base,
-            Stall::Scaled,
-            records,
-        );
-        for (order, name, finest) in ORDERS {
-            if let Ok(base) = base.with_order(order) {
-                let ladder = order_ladder(options, &self.info, finest);
-                sweep_dth(self, options, &ladder, name, base, Stall::Default, records);
-            }
+        match variants {
+            Variants::Plain => self.sweep_plain_dth(options, &ladder, records),
+            Variants::Robust => self.sweep_robust_dth(options, &ladder, records),
         }
         sweep_peer(self, options, &ladder, ImplicitMidpoint::new, records);
         sweep_peer(self, options, &ladder, Trapezoidal::new, records);
@@ -194,6 +189,71 @@ where
         sweep_peer(self, options, &ladder, Rk4::new, records);
         sweep_peer(self, options, &ladder, GaussLegendre2::new, records);
         sweep_dop853(self, options, &ladder, records);
+    }
+
+    /// [`Variants::Robust`]: plain and robust DTH of orders 2 and 8.
+    fn sweep_robust_dth(
+        &self,
+        options: &WorkPrecisionOptions,
+        ladder: &Ladder,
+        records: &mut Vec<Record>,
+    ) {
+        let high = order_ladder(options, &self.info, ROBUST_FINEST);
+        for robust in [false, true] {
+            let base = DthOptions::default().with_robust(robust);
+            let (name, name8) = if robust {
+                ("dth_robust", "dth8_robust")
+            } else {
+                ("dth_joint", "dth8")
+            };
+            sweep_dth(self, options, ladder, name, base, Stall::Default, records);
+            if let Ok(base) = base.with_order(8) {
+                sweep_dth(self, options, &high, name8, base, Stall::Default, records);
+            }
+        }
+    }
+
+    /// [`Variants::Plain`]: the joint and nested solvers, the scaled stall rule, orders 4-8.
+    fn sweep_plain_dth(
+        &self,
+        options: &WorkPrecisionOptions,
+        ladder: &Ladder,
+        records: &mut Vec<Record>,
+    ) {
+        let base = DthOptions::default();
+        sweep_dth(
+            self,
+            options,
+            ladder,
+            "dth_joint",
+            base,
+            Stall::Default,
+            records,
+        );
+        sweep_dth(
+            self,
+            options,
+            ladder,
+            "dth_nested",
+            base.with_solver(dth::dth::Solver::Nested),
+            Stall::Default,
+            records,
+        );
+        sweep_dth(
+            self,
+            options,
+            ladder,
+            "dth_joint_scaled_stall",
+            base,
+            Stall::Scaled,
+            records,
+        );
+        for (order, name, finest) in ORDERS {
+            if let Ok(base) = base.with_order(order) {
+                let ladder = order_ladder(options, &self.info, finest);
+                sweep_dth(self, options, &ladder, name, base, Stall::Default, records);
+            }
+        }
     }
 
     fn push_info(&self, references: &mut Vec<ReferenceCheck>, infos: &mut Vec<ProblemInfo>) {
@@ -214,14 +274,15 @@ impl<H: Hamiltonian<Const<D>> + Clone, const D: usize> Sweep for Generic<H, D> {
         references: &mut Vec<ReferenceCheck>,
         infos: &mut Vec<ProblemInfo>,
     ) -> Result<(), Error> {
-        self.0.sweep_common(options, records);
+        self.0.sweep_common(options, Variants::Plain, records);
         self.0.push_info(references, infos);
         Ok(())
     }
 }
 
-/// Kepler: every method plus Greenspan's discrete mechanics (central forces only).
-struct KeplerProblem(Problem<Kepler, 4>);
+/// Kepler: every method plus Greenspan's discrete mechanics (central forces only), with the
+/// DTH variants that run through the orbit.
+struct KeplerProblem(Problem<Kepler, 4>, Variants);
 
 impl Sweep for KeplerProblem {
     fn sweep(
@@ -231,7 +292,7 @@ impl Sweep for KeplerProblem {
         references: &mut Vec<ReferenceCheck>,
         infos: &mut Vec<ProblemInfo>,
     ) -> Result<(), Error> {
-        self.0.sweep_common(options, records);
+        self.0.sweep_common(options, self.1, records);
         let ladder = ladder(options, &self.0.info);
         sweep_peer(&self.0, options, &ladder, DiscreteMechanics::new, records);
         if self.0.info.name == "kepler_e044" {
@@ -282,6 +343,7 @@ fn kepler(
     name: &'static str,
     title: &'static str,
     z0: Vector4<f64>,
+    variants: Variants,
 ) -> Result<KeplerProblem, Error> {
     let hamiltonian = Kepler::thesis();
     let orbit = KeplerOrbit::new(&hamiltonian, &z0).map_err(|e| Error::Reference {
@@ -289,21 +351,24 @@ fn kepler(
         message: e.to_string(),
     })?;
     let period = orbit.elements().period;
-    Ok(KeplerProblem(Problem {
-        info: ProblemInfo {
-            name,
-            title,
-            t_end: periods(options) * period,
-            period,
-            invariant: Some("angular momentum"),
+    Ok(KeplerProblem(
+        Problem {
+            info: ProblemInfo {
+                name,
+                title,
+                t_end: periods(options) * period,
+                period,
+                invariant: Some("angular momentum"),
+            },
+            hamiltonian,
+            z0,
+            reference: Reference::exact(name, move |t| orbit.state_at(t)),
+            invariant: Some(Kepler::angular_momentum),
+            error: full_norm,
+            rename: same,
         },
-        hamiltonian,
-        z0,
-        reference: Reference::exact(name, move |t| orbit.state_at(t)),
-        invariant: Some(Kepler::angular_momentum),
-        error: full_norm,
-        rename: same,
-    }))
+        variants,
+    ))
 }
 
 /// Pericenter state at `r = 0.5` of the thesis Kepler problem (`m = 1/2`, `k = 1`) with
@@ -322,7 +387,7 @@ fn elliptic_k(k: f64) -> f64 {
     std::f64::consts::FRAC_PI_2 / a
 }
 
-/// All five problems.
+/// All six problems.
 pub(crate) fn all(options: &WorkPrecisionOptions) -> Result<Vec<Box<dyn Sweep>>, Error> {
     let n = periods(options);
     let tau = std::f64::consts::TAU;
@@ -332,12 +397,22 @@ pub(crate) fn all(options: &WorkPrecisionOptions) -> Result<Vec<Box<dyn Sweep>>,
             "kepler_e044",
             "Kepler, e = 0.44 (thesis orbit)",
             Vector4::new(0.5, 0.0, 0.0, 1.2),
+            Variants::Plain,
         )?),
         Box::new(kepler(
             options,
             "kepler_e07",
             "Kepler, e = 0.7",
             pericenter(0.7),
+            Variants::Plain,
+        )?),
+        // Psi changes sign near pericenter: plain DTH breaks down there, robust mode goes on.
+        Box::new(kepler(
+            options,
+            "kepler_e09",
+            "Kepler, e = 0.9 (robust DTH)",
+            pericenter(0.9),
+            Variants::Robust,
         )?),
     ];
 
@@ -429,10 +504,12 @@ mod tests {
         for (order, name, _) in ORDERS {
             assert_eq!(dth_order(name), Some(order), "{name}");
         }
+        assert_eq!(dth_order("dth8_robust"), Some(8));
         for name in [
             "dth_joint",
             "dth_nested_generated",
             "dth_joint_scaled_stall_generated",
+            "dth_robust",
         ] {
             assert_eq!(dth_order(name), Some(2), "{name}");
         }
@@ -453,6 +530,22 @@ mod tests {
         assert!((orbit.elements().eccentricity - 0.7).abs() < 1e-14);
         let thesis = KeplerOrbit::new(&Kepler::thesis(), &pericenter(0.44)).unwrap();
         assert!((thesis.elements().eccentricity - 0.44).abs() < 1e-14);
+    }
+
+    /// The e = 0.9 orbit: `p = (0, sqrt(1.9))`, `H = -k / (2 a) = -0.1` with
+    /// `a = r / (1 - e) = 5`, period `2 pi sqrt(m a^3 / k)` (Kepler's third law).
+    #[test]
+    fn pericenter_state_of_the_robust_orbit() {
+        let (m, k, r, e) = (0.5, 1.0, 0.5, 0.9);
+        let z0 = pericenter(e);
+        assert!((z0[3] - 1.9f64.sqrt()).abs() < 1e-15);
+        let a = r / (1.0 - e);
+        let h = Kepler::thesis();
+        assert!((h.value(&z0) + k / (2.0 * a)).abs() < 1e-14);
+        let orbit = KeplerOrbit::new(&h, &z0).unwrap();
+        let third_law = std::f64::consts::TAU * (m * a * a * a / k).sqrt();
+        assert!((orbit.elements().period - third_law).abs() < 1e-12 * third_law);
+        assert!((orbit.elements().eccentricity - e).abs() < 1e-14);
     }
 
     #[test]

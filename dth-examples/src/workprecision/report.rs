@@ -95,12 +95,12 @@ pub(crate) fn write_all(summary: &Summary, out: &Path) -> Result<Vec<PathBuf>, E
     let mut csv = String::from(
         "system,method,parameter_kind,parameter,steps,mean_dt,time,time_min,timed_runs,global_error,\
          vertex_error,energy_error,vertex_energy_error,invariant_error,vertex_invariant_error,\
-         newton_per_step,evaluations_per_step,failure\n",
+         newton_per_step,evaluations_per_step,fallback_steps,failure\n",
     );
     for r in &summary.records {
         let _ = writeln!(
             csv,
-            "{},{},{},{:e},{},{:e},{:e},{:e},{},{:e},{},{:e},{},{},{},{},{},\"{}\"",
+            "{},{},{},{:e},{},{:e},{:e},{:e},{},{:e},{},{:e},{},{},{},{},{},{},\"{}\"",
             r.system,
             r.method,
             r.parameter_kind,
@@ -118,6 +118,7 @@ pub(crate) fn write_all(summary: &Summary, out: &Path) -> Result<Vec<PathBuf>, E
             opt(r.vertex_invariant_error),
             opt(r.newton_per_step),
             opt(r.evaluations_per_step),
+            r.fallback_steps.map_or(String::new(), |n| n.to_string()),
             r.failure.as_deref().unwrap_or("").replace('"', "'"),
         );
     }
@@ -221,23 +222,36 @@ pub(crate) const TARGETS: [(&str, f64); 5] = [
 /// The global-error targets of the high-order table.
 const HIGH_ORDER_TARGETS: [f64; 3] = [1e-6, 1e-9, 1e-12];
 
-/// The methods of the high-order table: DTH of every order, then the fourth- and eighth-order
-/// references.
-const HIGH_ORDER_METHODS: [&str; 6] = [
-    "dth_joint",
-    "dth4",
-    "dth6",
-    "dth8",
-    "gauss_legendre2",
-    "dop853",
-];
+/// The fourth- and eighth-order references of the high-order table.
+const HIGH_ORDER_PEERS: [&str; 2] = ["gauss_legendre2", "dop853"];
+
+/// The DTH methods of the high-order table on `system`: of each order 2, 4, 6, 8, the first
+/// recorded method of that order with a successful run (`dth_joint`, `dth4`, `dth6`, `dth8`
+/// where plain DTH runs through; `dth_robust`, `dth8_robust` where it breaks down).
+fn high_order_dth<'a>(records: &'a [Record], system: &str) -> Vec<&'a str> {
+    [2, 4, 6, 8]
+        .into_iter()
+        .filter_map(|order| {
+            records
+                .iter()
+                .filter(|r| r.system == system && r.failure.is_none())
+                .find(|r| dth_order(r.method) == Some(order))
+                .map(|r| r.method)
+        })
+        .collect()
+}
 
 /// Markdown: per problem, the cost of each DTH order, Gauss-Legendre 2 and DOP853 at global
-/// errors 1e-6, 1e-9, 1e-12 (with the energy error of that run), and DTH-8's time relative to
-/// the other two. A target below 100 times the reference solution's own estimated error is
-/// not measurable there and is left out.
+/// errors 1e-6, 1e-9, 1e-12 (with the energy error of that run), and the highest DTH order's
+/// time relative to the other two. A target below 100 times the reference solution's own
+/// estimated error is not measurable there and is left out.
 fn high_order_table(s: &mut String, records: &[Record], info: &ProblemInfo, reference: f64) {
     let system = info.name;
+    let dth = high_order_dth(records, system);
+    let Some(&top) = dth.last() else {
+        return;
+    };
+    let methods: Vec<&str> = dth.iter().copied().chain(HIGH_ORDER_PEERS).collect();
     let _ = writeln!(
         s,
         "\nDTH of order 2-8 against Gauss-Legendre 2 and DOP853: cheapest time to each global \
@@ -245,13 +259,13 @@ fn high_order_table(s: &mut String, records: &[Record], info: &ProblemInfo, refe
     );
     let mut header = "| target |".to_string();
     let mut rule = "|---|".to_string();
-    for m in HIGH_ORDER_METHODS {
+    for m in &methods {
         let _ = write!(header, " {m} |");
         rule.push_str("---|");
     }
     let _ = writeln!(
         s,
-        "{header} dth8 / dop853 | dth8 / gauss_legendre2 |\n{rule}---|---|"
+        "{header} {top} / dop853 | {top} / gauss_legendre2 |\n{rule}---|---|"
     );
     for target in HIGH_ORDER_TARGETS {
         if !measurable("global", target, reference) {
@@ -263,18 +277,44 @@ fn high_order_table(s: &mut String, records: &[Record], info: &ProblemInfo, refe
         }
         let best = |m: &str| cheapest(records, system, m, "global", target);
         let mut row = format!("| global <= {target:.0e} |");
-        for m in HIGH_ORDER_METHODS {
+        for m in &methods {
             let cell = best(m).map_or("-".to_string(), |r| {
                 format!("{} (E {:.0e})", seconds(r.time), r.energy_error)
             });
             let _ = write!(row, " {cell} |");
         }
-        let ratio = |other: &str| match (best("dth8"), best(other)) {
+        let ratio = |other: &str| match (best(top), best(other)) {
             (Some(a), Some(b)) => format!("{:.2}", a.time / b.time),
             _ => "-".to_string(),
         };
         let _ = writeln!(row, " {} | {} |", ratio("dop853"), ratio("gauss_legendre2"));
         s.push_str(&row);
+    }
+}
+
+/// Markdown: the share of fallback steps of each DTH method that took any (robust mode), over
+/// its successful runs: nothing where no method fell back.
+fn fallback_line(s: &mut String, records: &[Record], system: &str, methods: &[&str]) {
+    let mut parts = Vec::new();
+    for m in methods {
+        let shares: Vec<f64> = records
+            .iter()
+            .filter(|r| r.system == system && r.method == *m && r.failure.is_none())
+            .filter_map(|r| Some(r.fallback_steps? as f64 / r.steps.max(1) as f64))
+            .collect();
+        if shares.iter().any(|x| *x > 0.0) {
+            let lo = shares.iter().copied().fold(f64::INFINITY, f64::min);
+            let hi = shares.iter().copied().fold(0.0, f64::max);
+            parts.push(format!("`{m}` {:.1}-{:.1}%", 100.0 * lo, 100.0 * hi));
+        }
+    }
+    if !parts.is_empty() {
+        let _ = writeln!(
+            s,
+            "\nRobust mode: share of steps taken as fallback steps (energy-conserving \
+             discrete-gradient steps where DTH has no positive root), over the sweep: {}.",
+            parts.join(", ")
+        );
     }
 }
 
@@ -397,6 +437,7 @@ pub(crate) fn tables(
             let _ = writeln!(row, " {newton} | {failures} |");
             s.push_str(&row);
         }
+        fallback_line(&mut s, records, system, &methods);
         high_order_table(&mut s, records, info, reference);
         s.push('\n');
     }
@@ -406,6 +447,59 @@ pub(crate) fn tables(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    use crate::workprecision::runners::blank;
+
+    /// The high-order table takes, of each order, the first DTH method with a successful run:
+    /// the robust variants where plain DTH failed everywhere.
+    #[test]
+    fn high_order_table_takes_the_dth_methods_that_ran() {
+        let record = |system, method, failed: bool| {
+            let mut r = blank(system, method, "dtau", 0.1);
+            if failed {
+                r.failure = Some("breakdown".to_string());
+            }
+            r
+        };
+        let records = [
+            record("plain", "dth_joint", false),
+            record("plain", "dth_nested", false),
+            record("plain", "dth4", true),
+            record("plain", "dth4", false),
+            record("plain", "dth6", false),
+            record("plain", "dth8", false),
+            record("robust", "dth_joint", true),
+            record("robust", "dth8", true),
+            record("robust", "dth_robust", false),
+            record("robust", "dth8_robust", false),
+            record("robust", "dop853", false),
+        ];
+        assert_eq!(
+            high_order_dth(&records, "plain"),
+            ["dth_joint", "dth4", "dth6", "dth8"]
+        );
+        assert_eq!(
+            high_order_dth(&records, "robust"),
+            ["dth_robust", "dth8_robust"]
+        );
+    }
+
+    /// The fallback line appears where a method fell back, with its share of steps.
+    #[test]
+    fn fallback_share_is_reported_where_there_is_one() {
+        let mut robust = blank("robust", "dth_robust", "dtau", 0.1);
+        (robust.steps, robust.fallback_steps) = (200, Some(15));
+        let mut plain = blank("robust", "dth_joint", "dtau", 0.1);
+        (plain.steps, plain.fallback_steps) = (200, Some(0));
+        let records = [robust, plain];
+        let mut s = String::new();
+        fallback_line(&mut s, &records, "robust", &["dth_joint", "dth_robust"]);
+        assert!(s.contains("`dth_robust` 7.5-7.5%"), "{s}");
+        assert!(!s.contains("dth_joint"), "{s}");
+        let mut none = String::new();
+        fallback_line(&mut none, &records[1..], "robust", &["dth_joint"]);
+        assert!(none.is_empty(), "{none}");
+    }
 
     #[test]
     fn utc_date_is_well_formed() {
