@@ -275,8 +275,8 @@ impl DthOptions {
     /// - **Order 4-8** ([`with_order`](Self::with_order)): a composed step is all DTH steps or
     ///   all fallback steps, composed with the same coefficients (the discrete-gradient step is
     ///   symmetric, so the composition has the order asked for); a composed DTH step that
-    ///   fails, or whose midpoints reach deep into a band, is redone from its start as fallback
-    ///   steps.
+    ///   fails, or any of whose midpoints reaches into a band (ratio below 5%), is redone from
+    ///   its start as fallback steps.
     ///
     /// Where the ratio stays above 5% and no step fails, the run is bit-identical to one
     /// without robust mode. The vertex invariants of DTH (paper Theorem 7) do not hold across

@@ -893,8 +893,8 @@ where
     }
 
     /// The DTH sub-steps of a composed step; in robust mode each midpoint's `Psi_scale` is
-    /// evaluated, and a midpoint deep inside a band where `Psi` cancels
-    /// ([`robust::REJECT_BELOW`]) fails the step as a breakdown.
+    /// evaluated, and at order 4-8 a midpoint inside a band where `Psi` cancels
+    /// ([`robust::LEAVE_BELOW`]) fails the step as a breakdown.
     fn dth_composed(
         &mut self,
         gammas: &[f64],
@@ -917,7 +917,7 @@ where
             solved?;
             if self.options.robust() {
                 let ratio = robust::cancellation_ratio(self.s.psi, self.s.psi_scale);
-                if gammas.len() > 1 && ratio < robust::REJECT_BELOW {
+                if gammas.len() > 1 && ratio < robust::LEAVE_BELOW {
                     return Err(Error::Breakdown {
                         step,
                         time: self.work.saved.tbar,
