@@ -55,7 +55,7 @@
 //! assert!(matches!(stopped.error, Error::Breakdown { psi, .. } if psi < 0.0));
 //! assert_eq!(stopped.partial.len(), 19); // zbar_0 .. zbar_18 kept
 //!
-//! let t = integrate(kepler, z0, options.with_robust(true), 1_000).map_err(|e| e.error)?;
+//! let t = integrate(kepler, z0, options.with_robust(true), 1_000)?;
 //! assert!(t.fallback_steps() > 0);
 //! assert_eq!(t.kinds()[0], StepKind::Dth);
 //! let e0 = kepler.value(&z0);

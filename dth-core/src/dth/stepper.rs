@@ -49,7 +49,7 @@ use crate::{j_times, zeros, Error, Flags, Hamiltonian};
 /// let kepler = Kepler::thesis();
 /// let zbar0 = Vector4::new(0.5, 0.0, 0.0, 1.2);
 /// let mut dth = Dth::new(kepler, zbar0, DthOptions::default())?;
-/// let trajectory = dth.trajectory(100).map_err(|e| e.error)?;
+/// let trajectory = dth.trajectory(100)?;
 /// assert_eq!(trajectory.len(), 101); // zbar_0 .. zbar_100
 /// assert_eq!(trajectory.vertices().len(), 102);
 /// // Energy at the midpoints is exact to roundoff (Theorem 4).
@@ -1298,8 +1298,7 @@ where
 /// ```
 /// use dth_core::{dth::{integrate, DthOptions}, nalgebra::Vector4, systems::Kepler};
 /// let options = DthOptions::default().with_dtau(0.06277)?.with_lambda0(1.0)?;
-/// let t = integrate(Kepler::thesis(), Vector4::new(0.5, 0.0, 0.0, 1.2), options, 1000)
-///     .map_err(|e| e.error)?;
+/// let t = integrate(Kepler::thesis(), Vector4::new(0.5, 0.0, 0.0, 1.2), options, 1000)?;
 /// let mean_lambda = t.lambdas().iter().sum::<f64>() / t.len() as f64;
 /// assert!((mean_lambda - 2.39).abs() < 0.05); // thesis: 25 points per orbit
 /// # Ok::<(), dth_core::Error>(())
@@ -1307,7 +1306,8 @@ where
 ///
 /// # Errors
 /// [`RunError`] with the construction error and an empty trajectory, or the first failing
-/// step's error and the trajectory up to the last accepted step.
+/// step's error and the trajectory up to the last accepted step. `?` converts it into
+/// [`Error`] (dropping the partial trajectory).
 #[allow(clippy::result_large_err)] // see `Dth::trajectory`
 pub fn integrate<H: Hamiltonian<D>, D: Dim>(
     hamiltonian: H,
