@@ -185,7 +185,7 @@ fn runtime_errors_convert_too() {
     // The wrong view of a right text, and an evaluation at a point of the wrong length.
     let view = || -> Result<(), Error> {
         let h = RuntimeHamiltonian::new("(p1^2 + q1^2)/2", &[])?;
-        h.value(&[1.0, 0.0])?;
+        h.value_slice(&[1.0, 0.0])?;
         Typed::<4>::new(h)?;
         Ok(())
     };
@@ -202,7 +202,7 @@ fn runtime_errors_convert_too() {
     ));
     let evaluate = || -> anyhow::Result<f64> {
         let h = RuntimeHamiltonian::new("(p1^2 + q1^2)/2", &[])?;
-        Ok(h.value(&[1.0, 0.0, 0.0])?)
+        Ok(h.value_slice(&[1.0, 0.0, 0.0])?)
     };
     let err = evaluate().unwrap_err();
     assert!(matches!(
