@@ -1,9 +1,18 @@
 //! The traps a new user fell into (issue 30, "no traps"), one test each: what the API does
 //! now where it surprised before.
 
-use dth::nalgebra::DVector;
+use dth::kepler::KeplerOrbit;
+use dth::methods::{run, ImplicitMidpoint, OneStepMethod, Rk4};
+use dth::nalgebra::{DVector, Vector4};
+use dth::observer::StepKind;
 use dth::runtime::RuntimeHamiltonian;
-use dth::Hamiltonian;
+use dth::systems::Kepler;
+use dth::{integrate, Dth, DthOptions, Error, Hamiltonian};
+
+/// Kepler at eccentricity `e` from the thesis's pericentre `q = (0.5, 0)`.
+fn kepler_start(e: f64) -> Vector4<f64> {
+    Vector4::new(0.5, 0.0, 0.0, (1.0 + e).sqrt())
+}
 
 /// `RuntimeHamiltonian`'s slice evaluations are named apart (`value_slice`, ...), so with the
 /// trait in scope `h.value(&z)` on a `DVector` is the trait's (it was E0308: an inherent
@@ -33,4 +42,86 @@ fn runtime_trait_methods_are_not_shadowed_by_slice_methods() {
         h.energy_difference_slice(z.as_slice(), z1.as_slice())
             .unwrap()
     );
+}
+
+/// A `Dyn` state of another length than a text Hamiltonian's dimension: every entry point that
+/// takes a state refuses it with `WrongStateLength`, naming the argument, the expected and the
+/// given length (through the trait it was NaN, which nothing reported).
+#[test]
+fn wrong_length_states_are_typed_errors_at_every_entry_point() {
+    let text = "(p1^2 + p2^2)/2 - (q1^2 + q2^2)^(-1/2)";
+    let h = RuntimeHamiltonian::new(text, &[]).unwrap();
+    let short = DVector::from_element(3, 0.5);
+    let wrong = |e: &Error, what: &str| {
+        assert!(
+            matches!(e, Error::WrongStateLength { what: w, expected: 4, found: 3 } if *w == what),
+            "{e:?}"
+        );
+    };
+    let err = Dth::new(&h, short.clone(), DthOptions::default())
+        .err()
+        .unwrap();
+    wrong(&err, "zbar0");
+    let err = integrate(&h, short.clone(), DthOptions::default(), 10).unwrap_err();
+    wrong(&err.error, "zbar0");
+    assert!(err.partial.is_empty());
+    let err = run(&mut Rk4::new(), &h, &short, 0.0, 0.1, 10, &mut ()).unwrap_err();
+    wrong(&err.error, "z0");
+    assert_eq!(err.partial.steps, 0);
+    let err = ImplicitMidpoint::new().step(&h, &short, 0.1).unwrap_err();
+    wrong(&err, "z");
+    // The message says what to fix.
+    assert_eq!(
+        Error::from(integrate(&h, short, DthOptions::default(), 10).unwrap_err()).to_string(),
+        "`zbar0` has length 3, but the Hamiltonian's phase space has dimension 4"
+    );
+    // The right length runs.
+    let z0 = DVector::from_column_slice(kepler_start(0.44).as_slice());
+    assert_eq!(
+        integrate(&h, z0, DthOptions::default(), 10).unwrap().len(),
+        11
+    );
+}
+
+/// `Dth::kind()` is the kind of the current record, whatever made it: a plain DTH step, a
+/// robust-mode fallback step (also the one after which DTH resumes), and the last step of
+/// `step_toward`, shortened to land on its time (it said `Dth` where the record said
+/// `Shortened` or `Fallback`).
+#[test]
+fn kind_is_the_kind_of_the_record() {
+    let kepler = Kepler::thesis();
+    let z0 = kepler_start(0.9);
+    let period = KeplerOrbit::new(&kepler, &z0).unwrap().elements().period;
+    let options = DthOptions::default()
+        .with_dtau(0.0157)
+        .unwrap()
+        .with_robust(true);
+    let mut dth = Dth::new(kepler, z0, options).unwrap();
+    assert_eq!(dth.kind(), StepKind::Dth);
+    let mut seen = Vec::new();
+    // Ends at 24 times over an orbit: each is a landing, some inside the fallback band.
+    for i in 1..=24 {
+        let t_end = period * f64::from(i) / 24.0;
+        loop {
+            let (record, done) = dth.step_toward(t_end).unwrap();
+            assert_eq!(dth.kind(), record.kind, "t = {}", record.t);
+            assert_eq!(dth.kind(), dth.record_ref().kind);
+            seen.push(record.kind);
+            if done {
+                break;
+            }
+        }
+        let record = dth.step().unwrap();
+        assert_eq!(dth.kind(), record.kind);
+        seen.push(record.kind);
+    }
+    assert!(seen.len() > 2 * 24, "{} steps", seen.len()); // more than the landings
+    for kind in [StepKind::Dth, StepKind::Fallback, StepKind::Shortened] {
+        assert!(seen.contains(&kind), "{kind:?} never seen: {seen:?}");
+    }
+    // After a fallback step from which DTH resumes, the record (and kind) is the fallback's.
+    let resumed = seen
+        .windows(2)
+        .any(|w| w == [StepKind::Fallback, StepKind::Dth]);
+    assert!(resumed, "{seen:?}");
 }

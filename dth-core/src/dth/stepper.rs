@@ -514,9 +514,11 @@ where
         vertex_into(&self.s, kind, h, &mut out);
         out
     }
-    /// What produced the current midpoint: the kind its record has.
+    /// What produced the current midpoint: the kind of its record ([`Dth::record_ref`], what
+    /// the last step returned), [`StepKind::Shortened`] after [`Dth::step_toward`]'s last step
+    /// and [`StepKind::Fallback`] after a robust-mode fallback step included.
     pub fn kind(&self) -> StepKind {
-        self.s.step_kind
+        self.work.record.kind
     }
     /// `true` when the robust mode's next step is a fallback step.
     pub fn in_fallback(&self) -> bool {
