@@ -1,6 +1,7 @@
 //! The traps a new user fell into (issue 30, "no traps"), one test each: what the API does
 //! now where it surprised before.
 
+use dth::dth::EnergyResidual;
 use dth::kepler::KeplerOrbit;
 use dth::methods::{run, ImplicitMidpoint, OneStepMethod, Rk4};
 use dth::nalgebra::{DVector, Vector4};
@@ -124,4 +125,42 @@ fn kind_is_the_kind_of_the_record() {
         .windows(2)
         .any(|w| w == [StepKind::Fallback, StepKind::Dth]);
     assert!(resumed, "{seen:?}");
+}
+
+/// `step_toward(t_end)` once at `t_end` takes no step: it returns the current record and
+/// `true` (it was an error), for a composed run and for the plain energy residual, whose
+/// landing tolerance includes the noise of its time; a time before the current one is still
+/// an error.
+#[test]
+fn step_toward_is_idempotent_at_its_end() {
+    let plain = DthOptions::default().with_energy_residual(EnergyResidual::Plain);
+    for options in [DthOptions::default().with_order(4).unwrap(), plain] {
+        let mut dth = Dth::new(Kepler::thesis(), kepler_start(0.44), options).unwrap();
+        // At the start: already there.
+        assert_eq!(dth.step_toward(0.0).unwrap(), (dth.record(), true));
+        assert_eq!(dth.k(), 0);
+        let t_end = 7.3;
+        let mut steps = 0;
+        while !dth.step_toward(t_end).unwrap().1 {
+            steps += 1;
+        }
+        assert!(steps > 10);
+        let (k, zbar, record) = (dth.k(), *dth.zbar(), dth.record());
+        assert_eq!(record.kind, StepKind::Shortened);
+        for _ in 0..3 {
+            assert_eq!(dth.step_toward(t_end).unwrap(), (record, true));
+            assert_eq!((dth.k(), *dth.zbar()), (k, zbar));
+        }
+        assert!(matches!(
+            dth.step_toward(t_end - 0.5),
+            Err(Error::InvalidOption { name: "t_end", .. })
+        ));
+        assert!(matches!(
+            dth.step_toward(f64::NAN),
+            Err(Error::InvalidOption { name: "t_end", .. })
+        ));
+        // And on to a later time.
+        let (next, done) = dth.step_toward(t_end + 1.0).unwrap();
+        assert!(!done && next.k == k + 1 && next.t > t_end);
+    }
 }

@@ -655,17 +655,34 @@ where
     /// or, with the plain energy residual, within twice the noise its `lambda`s put into the
     /// time.
     ///
+    /// Once there, it stays: a call at `t_end` (the current midpoint time within that same
+    /// tolerance) takes no step and returns the current record and `true`, so a loop
+    /// `while !dth.step_toward(t_end)?.1 {}` may be entered at `t_end` or run again.
+    ///
     /// # Errors
-    /// [`Error::InvalidOption`] (`t_end`) when `t_end` is not finite or not after the current
+    /// [`Error::InvalidOption`] (`t_end`) when `t_end` is not finite or before the current
     /// midpoint time; [`Error::EndNotReached`] when no try of the last step landed on
     /// `t_end`; otherwise as [`Dth::step`]. The state is then that of the last accepted step.
     pub fn step_toward(&mut self, t_end: f64) -> Result<(StepRecord<D>, bool), Error> {
         let t0 = self.s.tbar;
-        if !(t_end.is_finite() && t_end > t0) {
+        if !t_end.is_finite() {
             return Err(Error::InvalidOption {
                 name: "t_end",
                 value: t_end,
-                reason: "must be finite and after the current midpoint time",
+                reason: "must be finite",
+            });
+        }
+        // Already there, as a landing would accept it: the same tolerance.
+        let there =
+            END_TOLERANCE * f64::EPSILON * t_end.abs().max(t0.abs()) + 2.0 * self.s.time_noise;
+        if (t0 - t_end).abs() <= there {
+            return Ok((self.work.record.clone(), true));
+        }
+        if t_end < t0 {
+            return Err(Error::InvalidOption {
+                name: "t_end",
+                value: t_end,
+                reason: "must not be before the current midpoint time",
             });
         }
         let dtau = self.options.dtau();
