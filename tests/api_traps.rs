@@ -1,9 +1,9 @@
 //! The traps a new user fell into (issue 30, "no traps"), one test each: what the API does
 //! now where it surprised before.
 
-use dth::dth::EnergyResidual;
+use dth::dth::{Composition, EnergyResidual, Solver};
 use dth::kepler::KeplerOrbit;
-use dth::methods::{run, ImplicitMidpoint, OneStepMethod, Rk4};
+use dth::methods::{run, ImplicitMidpoint, NewtonOptions, OneStepMethod, Rk4};
 use dth::nalgebra::{DVector, Vector4};
 use dth::observer::StepKind;
 use dth::runtime::RuntimeHamiltonian;
@@ -162,5 +162,72 @@ fn step_toward_is_idempotent_at_its_end() {
         // And on to a later time.
         let (next, done) = dth.step_toward(t_end + 1.0).unwrap();
         assert!(!done && next.k == k + 1 && next.t > t_end);
+    }
+}
+
+/// The options' setters follow one rule (documented on `DthOptions`): a setter that takes a
+/// number checks it and returns `Result` (an `InvalidOption` named after the option); one that
+/// takes an enum or a `bool`, whose every value is valid, returns the options themselves.
+#[test]
+fn setters_that_take_a_number_check_it_and_the_others_cannot_fail() {
+    let o = DthOptions::default();
+    let numbers = [
+        ("dtau", o.with_dtau(f64::NAN)),
+        ("lambda0", o.with_lambda0(-1.0)),
+        ("max_iterations", o.with_max_iterations(0)),
+        (
+            "residual_tolerance",
+            o.with_residual_tolerance(f64::INFINITY),
+        ),
+        ("stall_tolerance", o.with_stall_tolerance(2.0)),
+        ("max_lambda_ratio", o.with_max_lambda_ratio(1.0)),
+        ("order", o.with_order(3)),
+    ];
+    for (name, result) in numbers {
+        assert!(
+            matches!(result, Err(Error::InvalidOption { name: n, .. }) if n == name),
+            "{name}: {result:?}"
+        );
+    }
+    let newton = NewtonOptions::default();
+    assert!(matches!(
+        newton.with_max_iterations(0),
+        Err(Error::InvalidOption {
+            name: "max_iterations",
+            ..
+        })
+    ));
+    assert!(matches!(
+        newton.with_stall_tolerance(f64::NAN),
+        Err(Error::InvalidOption {
+            name: "stall_tolerance",
+            ..
+        })
+    ));
+    let dth = Dth::new(Kepler::thesis(), kepler_start(0.44), o).unwrap();
+    assert!(matches!(
+        dth.with_tbar0(f64::NAN),
+        Err(Error::InvalidOption { name: "tbar0", .. })
+    ));
+    // The others: no `?`, the type says so (this does not compile if one returns `Result`).
+    type Set = fn(DthOptions) -> DthOptions;
+    type IsSet = fn(&DthOptions) -> bool;
+    let infallible: [(Set, IsSet); 4] = [
+        (
+            |o| o.with_solver(Solver::Nested),
+            |o| o.solver() == Solver::Nested,
+        ),
+        (
+            |o| o.with_energy_residual(EnergyResidual::Plain),
+            |o| o.energy_residual() == EnergyResidual::Plain,
+        ),
+        (|o| o.with_robust(true), |o| o.robust()),
+        (
+            |o| o.with_composition(Composition::KahanLi6),
+            |o| o.order() == 6,
+        ),
+    ];
+    for (set, is_set) in infallible {
+        assert!(!is_set(&o) && is_set(&set(o)));
     }
 }
