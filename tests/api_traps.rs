@@ -231,3 +231,22 @@ fn setters_that_take_a_number_check_it_and_the_others_cannot_fail() {
         assert!(!is_set(&o) && is_set(&set(o)));
     }
 }
+
+/// The entry points have flat paths (`dth::Dth`, not only `dth::dth::Dth`), the same items.
+#[test]
+fn entry_points_have_flat_paths() {
+    let flat: fn(Kepler, Vector4<f64>, DthOptions, usize) -> _ = dth::integrate;
+    let nested: fn(Kepler, Vector4<f64>, dth::dth::DthOptions, usize) -> _ = dth::dth::integrate;
+    let z0 = kepler_start(0.44);
+    let run: dth::Trajectory<_> = flat(Kepler::thesis(), z0, DthOptions::default(), 5).unwrap();
+    let again: dth::dth::Trajectory<_> =
+        nested(Kepler::thesis(), z0, DthOptions::default(), 5).unwrap();
+    assert_eq!(run.midpoints(), again.midpoints());
+    let stepper: dth::dth::Dth<Kepler, _> = Dth::new(Kepler::thesis(), z0, o()).unwrap();
+    assert_eq!(stepper.k(), 0);
+    let _: Option<dth::RunError<()>> = None::<dth::dth::RunError<()>>;
+
+    fn o() -> dth::dth::DthOptions {
+        DthOptions::default()
+    }
+}

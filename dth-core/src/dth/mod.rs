@@ -1,7 +1,8 @@
 //! Discrete-Time Hamiltonian dynamics: the stepper, its Newton solvers, trajectories, and the
 //! extended phase space for time-dependent Hamiltonians.
 //!
-//! Entry points: [`integrate`] (one call, returns a [`Trajectory`]) and [`Dth`] (step by step,
+//! Entry points (also at the crate root: `dth::integrate`, `dth::Dth`, `dth::DthOptions`):
+//! [`integrate`] (one call, returns a [`Trajectory`]) and [`Dth`] (step by step,
 //! with an [`Observer`](crate::observer::Observer), the protocol every integrator reports to). Options in [`DthOptions`]; failures are [`crate::Error`] variants, and
 //! a failed run keeps what it computed ([`RunError`]).
 //!
