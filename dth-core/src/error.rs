@@ -1,6 +1,6 @@
-//! The crate's one error type, [`Error`], and [`RunError`], a failed run with what it computed.
+//! The crate's one error type, [`Error`](enum@Error), and [`RunError`], a failed run with what it computed.
 //!
-//! Every fallible call of the `dth` crates converts into [`Error`] with `?`: a [`RunError`]
+//! Every fallible call of the `dth` crates converts into [`Error`](enum@Error) with `?`: a [`RunError`]
 //! (from `integrate`, `Dth::trajectory`, `methods::run`) gives up its partial result and
 //! becomes its [`RunError::error`]; the errors of other crates become [`Error::Hamiltonian`]
 //! (a Hamiltonian read from text: `dth_runtime::RuntimeError`) or [`Error::Io`] (writing a
@@ -249,8 +249,8 @@ pub enum Error {
     },
 }
 
-/// An error of another crate kept whole inside an [`Error`] ([`Error::Hamiltonian`],
-/// [`Error::Io`]), so that [`Error`] stays `Clone` and `PartialEq`: clones share it, and it is
+/// An error of another crate kept whole inside an [`Error`](enum@Error) ([`Error::Hamiltonian`],
+/// [`Error::Io`]), so that [`Error`](enum@Error) stays `Clone` and `PartialEq`: clones share it, and it is
 /// equal only to its clones (two errors built apart are not equal, whatever they say).
 ///
 /// It displays as the error it holds, and its [`source`](std::error::Error::source) is that
@@ -318,7 +318,7 @@ impl From<std::io::Error> for Error {
 
 /// A failed run (DTH or a peer method): the error and everything computed before it.
 ///
-/// `?` converts it into [`Error`] (its [`RunError::error`]; the partial result is dropped),
+/// `?` converts it into [`Error`](enum@Error) (its [`RunError::error`]; the partial result is dropped),
 /// so a function returning `Result<_, dth::Error>` calls `integrate(..)?` directly; match on
 /// the `RunError` first to keep [`RunError::partial`]. As a [`std::error::Error`] it says the
 /// run stopped, and its [`source`](std::error::Error::source) is the typed error (a report
@@ -365,7 +365,7 @@ impl<T: std::fmt::Debug> std::error::Error for RunError<T> {
     }
 }
 
-/// `?` from a failed run into [`Error`]: the error, without the partial result.
+/// `?` from a failed run into [`Error`](enum@Error): the error, without the partial result.
 impl<T> From<RunError<T>> for Error {
     fn from(run: RunError<T>) -> Self {
         run.error

@@ -1,6 +1,6 @@
 //! The engine's warnings as compiler warnings. Stable Rust has no warning API for proc
 //! macros, so each is the use of a `#[deprecated]` constant, spanned on the user's token. rustc
-//! words it `warning: use of deprecated constant `_::<name>`: <note>`; the name says what
+//! words it ``warning: use of deprecated constant `_::NAME`: NOTE``; the name says what
 //! looks wrong (`position_without_momentum`, `misnumbered_index`) and the note starts with
 //! [`NOTE`], which says it is the macro's warning and how to silence it, then the message:
 //!
