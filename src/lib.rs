@@ -12,15 +12,14 @@ pub use dth_macros::hamiltonian;
 /// ```
 /// use dth::nalgebra::Vector4;
 /// use dth::runtime::{RuntimeHamiltonian, Typed};
-/// use dth::dth::{integrate, DthOptions};
-/// use dth::Hamiltonian;
+/// use dth::{integrate, DthOptions, Hamiltonian};
 ///
 /// // Kepler, read from text with its parameters, as the thesis's orbit.
 /// let text = "(p1^2 + p2^2)/(2*m) - k*(q1^2 + q2^2)^(-1/2)";
 /// let kepler = Typed::<4>::new(RuntimeHamiltonian::new(text, &[("m", 0.5), ("k", 1.0)])?)?;
 /// let zbar0 = Vector4::new(0.5, 0.0, 0.0, 1.2); // H = 1.44 - 2
 /// let options = DthOptions::default().with_dtau(0.06277)?.with_lambda0(1.0)?;
-/// let run = integrate(kepler.clone(), zbar0, options, 1_000).map_err(|e| e.error)?;
+/// let run = integrate(kepler.clone(), zbar0, options, 1_000)?;
 /// let e0 = kepler.value(&zbar0);
 /// // DTH conserves the energy at its midpoints to roundoff (|H| = 0.56: a few eps).
 /// assert!(run.midpoints().iter().all(|z| (kepler.value(z) - e0).abs() < 1e-15));
@@ -28,7 +27,7 @@ pub use dth_macros::hamiltonian;
 /// // The dimension is checked when the view is built: a typed error, not a panic.
 /// let h = RuntimeHamiltonian::new(text, &[("m", 0.5), ("k", 1.0)])?;
 /// assert!(Typed::<6>::new(h).is_err());
-/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// # Ok::<(), dth::Error>(())
 /// ```
 #[cfg(feature = "runtime")]
 pub mod runtime {

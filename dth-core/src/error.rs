@@ -1,4 +1,24 @@
-//! The crate's one error type.
+//! The crate's one error type, [`Error`](enum@Error), and [`RunError`], a failed run with what it computed.
+//!
+//! Every fallible call of the `dth` crates converts into [`Error`](enum@Error) with `?`: a [`RunError`]
+//! (from `integrate`, `Dth::trajectory`, `methods::run`) gives up its partial result and
+//! becomes its [`RunError::error`]; the errors of other crates become [`Error::Hamiltonian`]
+//! (a Hamiltonian read from text: `dth_runtime::RuntimeError`) or [`Error::Io`] (writing a
+//! trajectory), kept whole.
+//!
+//! ```
+//! use dth_core::{dth::{integrate, DthOptions}, nalgebra::Vector4, systems::Kepler, Error};
+//!
+//! fn orbit() -> Result<f64, Error> {
+//!     let options = DthOptions::default().with_dtau(0.06277)?;
+//!     let run = integrate(Kepler::thesis(), Vector4::new(0.5, 0.0, 0.0, 1.2), options, 100)?;
+//!     Ok(run.midpoint_times()[100])
+//! }
+//! assert!(orbit()? > 0.0);
+//! # Ok::<(), Error>(())
+//! ```
+
+use std::sync::Arc;
 
 use thiserror::Error;
 
@@ -210,6 +230,15 @@ pub enum Error {
         /// The method's name.
         method: &'static str,
     },
+    /// The Hamiltonian failed outside this crate: a Hamiltonian read from text that does not
+    /// compile, names an unknown parameter or does not fit the type asked for
+    /// (`dth_runtime::RuntimeError`, which converts into this variant with `?`). It displays
+    /// as that error, and [`SharedError::downcast_ref`] gives it back typed.
+    #[error(transparent)]
+    Hamiltonian(SharedError),
+    /// Writing results failed (`Trajectory::write_csv`): the [`std::io::Error`], kept whole.
+    #[error(transparent)]
+    Io(SharedError),
     /// The exact Kepler solution was asked for an orbit that is not elliptic.
     #[error("Kepler orbit is not elliptic: energy {energy:e}, eccentricity {eccentricity}")]
     KeplerNotElliptic {
@@ -220,20 +249,98 @@ pub enum Error {
     },
 }
 
+/// An error of another crate kept whole inside an [`Error`](enum@Error) ([`Error::Hamiltonian`],
+/// [`Error::Io`]), so that [`Error`](enum@Error) stays `Clone` and `PartialEq`: clones share it, and it is
+/// equal only to its clones (two errors built apart are not equal, whatever they say).
+///
+/// It displays as the error it holds, and its [`source`](std::error::Error::source) is that
+/// error's source (the error itself is not repeated in a chain of causes).
+///
+/// ```
+/// use dth_core::error::{Error, SharedError};
+///
+/// let io = std::io::Error::new(std::io::ErrorKind::NotFound, "no such directory");
+/// let error = Error::from(io);
+/// assert!(matches!(&error, Error::Io(e) if e.downcast_ref::<std::io::Error>().is_some()));
+/// assert_eq!(error.to_string(), "no such directory");
+/// assert_eq!(error, error.clone());
+/// ```
+#[derive(Clone)]
+pub struct SharedError(Arc<dyn std::error::Error + Send + Sync + 'static>);
+
+impl SharedError {
+    /// Keeps `error`.
+    pub fn new<E: std::error::Error + Send + Sync + 'static>(error: E) -> Self {
+        SharedError(Arc::new(error))
+    }
+
+    /// The error held.
+    pub fn get(&self) -> &(dyn std::error::Error + Send + Sync + 'static) {
+        &*self.0
+    }
+
+    /// The error held, if it is an `E`.
+    pub fn downcast_ref<E: std::error::Error + 'static>(&self) -> Option<&E> {
+        self.0.downcast_ref::<E>()
+    }
+}
+
+impl std::fmt::Debug for SharedError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        std::fmt::Debug::fmt(&*self.0, f)
+    }
+}
+
+impl std::fmt::Display for SharedError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        std::fmt::Display::fmt(&*self.0, f)
+    }
+}
+
+impl std::error::Error for SharedError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        self.0.source()
+    }
+}
+
+/// The same error: one of the clones of one [`SharedError::new`].
+impl PartialEq for SharedError {
+    fn eq(&self, other: &Self) -> bool {
+        Arc::ptr_eq(&self.0, &other.0)
+    }
+}
+
+impl From<std::io::Error> for Error {
+    fn from(error: std::io::Error) -> Self {
+        Error::Io(SharedError::new(error))
+    }
+}
+
 /// A failed run (DTH or a peer method): the error and everything computed before it.
 ///
-/// It displays as its error (which names the step), so `{}` and `?` into a
-/// `Box<dyn Error>` say why the run stopped; [`RunError::error`] is the typed error to match.
+/// `?` converts it into [`Error`](enum@Error) (its [`RunError::error`]; the partial result is dropped),
+/// so a function returning `Result<_, dth::Error>` calls `integrate(..)?` directly; match on
+/// the `RunError` first to keep [`RunError::partial`]. As a [`std::error::Error`] it says the
+/// run stopped, and its [`source`](std::error::Error::source) is the typed error (a report
+/// that walks the chain, as `anyhow`'s `{:#}` or its `Caused by:`, prints each once; find it
+/// with `chain().find_map(|e| e.downcast_ref::<dth::Error>())`).
 ///
 /// ```
 /// use dth_core::{dth::{integrate, DthOptions}, nalgebra::Vector4, systems::Kepler, Error};
+/// use std::error::Error as _;
 /// // One Newton iteration is too few to solve a step to roundoff: the first step fails.
 /// let options = DthOptions::default().with_max_iterations(1)?;
 /// let err = integrate(Kepler::thesis(), Vector4::new(0.5, 0.0, 0.0, 1.2), options, 100)
 ///     .unwrap_err();
 /// assert!(matches!(err.error, Error::NewtonDiverged { step: 1, .. }));
-/// assert!(err.to_string().starts_with("newton did not converge at step 1"));
 /// assert_eq!(err.partial.len(), 1); // zbar_0, the last accepted midpoint
+/// let cause = err.source().and_then(|e| e.downcast_ref::<Error>());
+/// assert_eq!(cause, Some(&err.error));
+/// assert!(cause.unwrap().to_string().starts_with("newton did not converge at step 1"));
+///
+/// // `?` into `Error` keeps the error, not the partial run.
+/// let error: Error = err.into();
+/// assert!(matches!(error, Error::NewtonDiverged { step: 1, .. }));
 /// # Ok::<(), Error>(())
 /// ```
 #[derive(Clone, Debug, PartialEq)]
@@ -244,20 +351,23 @@ pub struct RunError<T> {
     pub partial: T,
 }
 
+/// The message does not repeat the error's: the error is the [`source`](std::error::Error::source),
+/// and a report that walks the chain prints it next.
 impl<T> std::fmt::Display for RunError<T> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(
-            f,
-            "{}; the run up to the last accepted step is kept",
-            self.error
-        )
+        f.write_str("the run stopped before its end (what it computed up to the last accepted step is kept)")
     }
 }
 
-/// The message includes the error's, so the error is not also its source (a report that
-/// walks the chain would print it twice).
 impl<T: std::fmt::Debug> std::error::Error for RunError<T> {
     fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
-        std::error::Error::source(&self.error)
+        Some(&self.error)
+    }
+}
+
+/// `?` from a failed run into [`Error`](enum@Error): the error, without the partial result.
+impl<T> From<RunError<T>> for Error {
+    fn from(run: RunError<T>) -> Self {
+        run.error
     }
 }

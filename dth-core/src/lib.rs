@@ -32,7 +32,9 @@ pub mod observer;
 pub mod structured;
 pub mod systems;
 
-pub use error::Error;
+pub use error::{Error, RunError};
+// The flat paths of the entry points: `dth::Dth`, not only `dth::dth::Dth`.
+pub use dth::{integrate, Dth, DthOptions, Trajectory};
 pub use hamiltonian::{
     j_times, j_times_into, psi_from, zeros, zeros_matrix, Alloc, ConstFlags, Derivatives, Flags,
     Hamiltonian,

@@ -198,12 +198,14 @@ fn runs_end_exactly_at_the_requested_time() {
         assert_eq!(kinds.pop(), Some(StepKind::Shortened));
         assert!(kinds.iter().all(|k| *k == StepKind::Dth));
     }
-    // Not after the current time: a typed error.
+    // Before the current time: a typed error; at it, nothing to do.
     let mut dth = Dth::new(kepler, thesis_z0(), options(0.1, 4)).expect("valid start");
     assert!(matches!(
-        dth.step_toward(0.0),
+        dth.step_toward(-0.1),
         Err(Error::InvalidOption { name: "t_end", .. })
     ));
+    assert_eq!(dth.step_toward(0.0), Ok((dth.record(), true)));
+    assert_eq!(dth.k(), 0);
     assert!(matches!(
         dth.step_with(0.0),
         Err(Error::InvalidOption { name: "dtau", .. })

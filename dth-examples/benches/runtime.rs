@@ -3,7 +3,7 @@
 //! three ways, and the JIT's compile time against the size of the expression.
 //!
 //! Groups `runtime/<system>`, functions `macro` (the catalogue type's
-//! `Hamiltonian::derivatives`), `jit` (`RuntimeHamiltonian::derivatives` into a reused buffer)
+//! `Hamiltonian::derivatives`), `jit` (`RuntimeHamiltonian::derivatives_slice` into a reused buffer)
 //! and `interpreter` (the same with `Backend::Interpreter`); each iteration evaluates the same
 //! 16 seeded points. Before timing, the JIT's results are checked equal to the macro's, bit
 //! for bit. Group `runtime_compile/toda_<N>`: `RuntimeHamiltonian::new` on the engine's Toda
@@ -54,7 +54,8 @@ fn group<const D: usize>(c: &mut Criterion, name: &str, typed: &impl Hamiltonian
     for z in &zs {
         // A benchmark of different arithmetic would mean nothing: same bits first.
         let d = typed.derivatives(z);
-        jit.derivatives(z.as_slice(), &mut buffer).expect("finite");
+        jit.derivatives_slice(z.as_slice(), &mut buffer)
+            .expect("finite");
         assert_eq!(d.value.to_bits(), buffer.value().to_bits(), "{name} at {z}");
         assert_eq!(d.psi.to_bits(), buffer.psi().to_bits(), "{name} at {z}");
         assert_eq!(d.gradient.as_slice(), buffer.gradient(), "{name} at {z}");
@@ -74,7 +75,7 @@ fn group<const D: usize>(c: &mut Criterion, name: &str, typed: &impl Hamiltonian
             b.iter(|| {
                 let mut acc = 0.0;
                 for z in &zs {
-                    h.derivatives(black_box(z.as_slice()), &mut buffer)
+                    h.derivatives_slice(black_box(z.as_slice()), &mut buffer)
                         .expect("finite");
                     acc += black_box(&buffer).psi();
                 }

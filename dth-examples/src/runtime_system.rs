@@ -52,7 +52,7 @@ impl TextSystem {
     ///     &Catalogue::builtin(),
     /// )?;
     /// let h = TextSystem::build(&scene)?;
-    /// assert_eq!(h.0.value(&[1.0, 0.0]).unwrap(), 2.0);
+    /// assert_eq!(h.0.value_slice(&[1.0, 0.0]).unwrap(), 2.0);
     /// # Ok::<(), dth_examples::Error>(())
     /// ```
     pub fn build(scene: &Scene) -> Result<Self, Error> {

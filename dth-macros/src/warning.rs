@@ -1,14 +1,41 @@
 //! The engine's warnings as compiler warnings. Stable Rust has no warning API for proc
-//! macros, so each is the use of a `#[deprecated]` constant whose note is the message, spanned
-//! on the user's token: `warning: use of deprecated constant ...: <message>`. The user's
-//! `#[allow(deprecated)]` silences it: on the enclosing function for the expression form, on
-//! the declared struct for the item form (its `allow` attributes are copied here).
+//! macros, so each is the use of a `#[deprecated]` constant, spanned on the user's token. rustc
+//! words it ``warning: use of deprecated constant `_::NAME`: NOTE``; the name says what
+//! looks wrong (`position_without_momentum`, `misnumbered_index`) and the note starts with
+//! [`NOTE`], which says it is the macro's warning and how to silence it, then the message:
+//!
+//! ```text
+//! warning: use of deprecated constant `_::position_without_momentum`: a warning from
+//! `hamiltonian!`, not a deprecation (`#[allow(deprecated)]` silences it): `q2` appears
+//! without `p2`: ...
+//! ```
+//!
+//! The user's `#[allow(deprecated)]` silences it: on the enclosing function for the expression
+//! form, on the declared struct for the item form (its `allow` attributes are copied here).
 
-use dth_symbolic::Warning;
-use proc_macro2::TokenStream;
+use dth_symbolic::{Warning, WarningKind};
+use proc_macro2::{Ident, TokenStream};
 use quote::{quote, quote_spanned};
 
 use crate::parse::Input;
+
+/// What each warning's note says before the engine's message (tests find the message after
+/// it).
+pub const NOTE: &str =
+    "a warning from `hamiltonian!`, not a deprecation (`#[allow(deprecated)]` silences it): ";
+
+/// The constant's name, which rustc prints: what looks wrong.
+fn name(kind: &WarningKind) -> &'static str {
+    match kind {
+        WarningKind::FrozenCoordinate { .. } | WarningKind::FrozenCoordinates { .. } => {
+            "position_without_momentum"
+        }
+        WarningKind::Misnumbered { .. } | WarningKind::MisnumberedMomenta { .. } => {
+            "misnumbered_index"
+        }
+        _ => "suspicious_hamiltonian",
+    }
+}
 
 /// One `const _` per warning (of the written-out system, or of the lattice compiled to
 /// loops), empty when there are none. rustc underlines the constant's use, one token: the
@@ -24,15 +51,16 @@ pub fn warnings(input: &Input, warnings: &[Warning]) -> TokenStream {
     warnings
         .iter()
         .map(|w| {
-            let note = w.to_string();
+            let note = format!("{NOTE}{w}");
             let (at, _) = input.body.spans(w.span.range());
-            let usage = quote_spanned!(at=> hamiltonian_warning);
+            let constant = Ident::new(name(&w.kind), at);
+            let usage = quote_spanned!(at=> #constant);
             quote! {
                 #(#allows)*
                 const _: () = {
                     #[deprecated(note = #note)]
                     #[allow(non_upper_case_globals)]
-                    const hamiltonian_warning: () = ();
+                    const #constant: () = ();
                     #usage
                 };
             }

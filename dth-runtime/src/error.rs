@@ -131,3 +131,32 @@ pub enum RuntimeError {
         value: f64,
     },
 }
+
+/// `?` from the run-time path into `dth_core::Error` (the one error type of the `dth` crates):
+/// [`dth_core::Error::Hamiltonian`], which displays as this error and gives it back with
+/// `downcast_ref`.
+///
+/// ```
+/// use dth_core::Error;
+/// use dth_runtime::{RuntimeError, RuntimeHamiltonian};
+///
+/// fn build(text: &str) -> Result<RuntimeHamiltonian, Error> {
+///     Ok(RuntimeHamiltonian::new(text, &[])?)
+/// }
+/// let err = build("p1^2 + x1").unwrap_err();
+/// let Error::Hamiltonian(shared) = &err else { panic!("{err:?}") };
+/// assert!(matches!(shared.downcast_ref::<RuntimeError>(), Some(RuntimeError::Expression(_))));
+/// assert!(err.to_string().starts_with("unknown variable `x1`"));
+/// ```
+impl From<RuntimeError> for dth_core::Error {
+    fn from(error: RuntimeError) -> Self {
+        dth_core::Error::Hamiltonian(dth_core::error::SharedError::new(error))
+    }
+}
+
+/// `?` from the JIT into `dth_core::Error`: as the [`RuntimeError::Jit`] it is.
+impl From<JitError> for dth_core::Error {
+    fn from(error: JitError) -> Self {
+        RuntimeError::Jit(error).into()
+    }
+}

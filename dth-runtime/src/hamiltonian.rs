@@ -12,8 +12,11 @@ use crate::layout::Function;
 /// engine derives its gradient, Hessian, Psi and discrete gradients, and every method runs
 /// as machine code compiled when it is built ([`Backend::Jit`]).
 ///
-/// Evaluations take `&[f64]` points and write into `&mut [f64]` buffers the caller owns: with
-/// the JIT, nothing is allocated per call, and each call is one call of compiled code. The
+/// Its own evaluations take `&[f64]` points and write into `&mut [f64]` buffers the caller
+/// owns, and check the lengths (`value_slice`, `gradient_slice`, ...: named apart from the
+/// [`Hamiltonian`](dth_core::Hamiltonian) trait's `value`, `gradient`, ..., which take
+/// nalgebra vectors, so that with the trait in scope `h.value(&z)` is the trait's). With the
+/// JIT, nothing is allocated per call, and each call is one call of compiled code. The
 /// layout of `z` is the macro's: `(q1..qn, p1..pn)`, or `(q1..qn, t, p1..pn, p_t)` with
 /// `value = p_t + H` when `H` uses `t`.
 ///
@@ -26,9 +29,9 @@ use crate::layout::Function;
 /// )?;
 /// assert_eq!((kepler.dim(), kepler.separable()), (4, true));
 /// let z = [0.5, 0.0, 0.0, 1.2];
-/// assert!((kepler.value(&z)? - (1.44 - 2.0)).abs() < 1e-15);
+/// assert!((kepler.value_slice(&z)? - (1.44 - 2.0)).abs() < 1e-15);
 /// let mut g = [0.0; 4];
-/// kepler.gradient(&z, &mut g)?;
+/// kepler.gradient_slice(&z, &mut g)?;
 /// assert_eq!(g, [4.0, 0.0, 0.0, 2.4]); // (q/|q|^3, p/m)
 ///
 /// // A parameter the expression does not use, a mistake in the text: typed errors.
@@ -59,7 +62,7 @@ const _: fn() = || {
     shareable::<RuntimeHamiltonian>();
 };
 
-/// The value, gradient, Hessian and Psi of one [`RuntimeHamiltonian::derivatives`] call, in
+/// The value, gradient, Hessian and Psi of one [`RuntimeHamiltonian::derivatives_slice`] call, in
 /// one buffer reused from call to call.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Derivatives {
@@ -240,43 +243,43 @@ impl RuntimeHamiltonian {
     }
 
     /// `H(z)` (`p_t + H` when time-dependent).
-    pub fn value(&self, z: &[f64]) -> Result<f64, RuntimeError> {
+    pub fn value_slice(&self, z: &[f64]) -> Result<f64, RuntimeError> {
         let mut out = [0.0];
         self.run(Function::Value, z, z, &mut out)?;
         Ok(out[0])
     }
 
     /// `grad H(z)` into `out` (length `D`).
-    pub fn gradient(&self, z: &[f64], out: &mut [f64]) -> Result<(), RuntimeError> {
+    pub fn gradient_slice(&self, z: &[f64], out: &mut [f64]) -> Result<(), RuntimeError> {
         self.run(Function::Gradient, z, z, out)
     }
 
     /// `Hess H(z)` into `out` (`D x D`, row-major, both triangles).
-    pub fn hessian(&self, z: &[f64], out: &mut [f64]) -> Result<(), RuntimeError> {
+    pub fn hessian_slice(&self, z: &[f64], out: &mut [f64]) -> Result<(), RuntimeError> {
         self.run(Function::Hessian, z, z, out)
     }
 
     /// `Psi(z) = (J grad H)^T Hess H (J grad H)`.
-    pub fn psi(&self, z: &[f64]) -> Result<f64, RuntimeError> {
+    pub fn psi_slice(&self, z: &[f64]) -> Result<f64, RuntimeError> {
         let mut out = [0.0];
         self.run(Function::Psi, z, z, &mut out)?;
         Ok(out[0])
     }
 
-    /// A buffer for [`RuntimeHamiltonian::derivatives`].
+    /// A buffer for [`RuntimeHamiltonian::derivatives_slice`].
     pub fn derivatives_buffer(&self) -> Derivatives {
         Derivatives::new(self.dim())
     }
 
     /// Value, gradient, Hessian and Psi from one fused program (every common subexpression
     /// computed once) into `out`, a buffer of this dimension.
-    pub fn derivatives(&self, z: &[f64], out: &mut Derivatives) -> Result<(), RuntimeError> {
+    pub fn derivatives_slice(&self, z: &[f64], out: &mut Derivatives) -> Result<(), RuntimeError> {
         self.run(Function::Derivatives, z, z, &mut out.buffer)
     }
 
     /// The exact discrete gradient `gbar(z0, z1)` into `out` (length `D`): divided
     /// differences without cancellation, `gbar . (z1 - z0) = H(z1) - H(z0)`.
-    pub fn discrete_gradient(
+    pub fn discrete_gradient_slice(
         &self,
         z0: &[f64],
         z1: &[f64],
@@ -286,7 +289,7 @@ impl RuntimeHamiltonian {
     }
 
     /// `H(z1) - H(z0)`, computed without cancellation.
-    pub fn energy_difference(&self, z0: &[f64], z1: &[f64]) -> Result<f64, RuntimeError> {
+    pub fn energy_difference_slice(&self, z0: &[f64], z1: &[f64]) -> Result<f64, RuntimeError> {
         let mut out = [0.0];
         self.run(Function::EnergyDifference, z0, z1, &mut out)?;
         Ok(out[0])
@@ -294,7 +297,7 @@ impl RuntimeHamiltonian {
 
     /// The defect `grad H(z0) + grad H(z1) - 2 gbar(z0, z1)` into `out` (length `D`),
     /// computed without cancellation.
-    pub fn discrete_gradient_defect(
+    pub fn discrete_gradient_defect_slice(
         &self,
         z0: &[f64],
         z1: &[f64],

@@ -16,7 +16,7 @@
 //! )?;
 //! let z = [0.3, 0.1];
 //! let mut d = pendulum.derivatives_buffer();
-//! pendulum.derivatives(&z, &mut d)?;
+//! pendulum.derivatives_slice(&z, &mut d)?;
 //! assert!((d.gradient()[0] - 9.81 * 2.0 * 0.3f64.sin()).abs() < 1e-14);
 //!
 //! // The interpreter is the reference: compiled code returns its bits.
@@ -26,7 +26,7 @@
 //!     Backend::Interpreter,
 //! )?;
 //! let mut e = reference.derivatives_buffer();
-//! reference.derivatives(&z, &mut e)?;
+//! reference.derivatives_slice(&z, &mut e)?;
 //! assert_eq!(d, e);
 //! # Ok::<(), dth_runtime::RuntimeError>(())
 //! ```

@@ -17,10 +17,11 @@
 //! implementation. A point of the wrong length (a `Dyn` vector not of the text's dimension)
 //! gives NaN outputs, which the same checks report.
 //!
-//! Inherent methods of [`RuntimeHamiltonian`] (`value(&[f64])`, `gradient(&[f64], &mut
-//! [f64])`, ...) take precedence over the trait's of the same name in method-call syntax;
-//! call the trait's as `Hamiltonian::value(&h, &z)` (generic code, such as the stepper, sees
-//! only the trait).
+//! [`RuntimeHamiltonian`]'s own evaluations on slices are named apart (`value_slice`,
+//! `gradient_slice`, ...), so with the trait in scope `h.value(&z)` on a `DVector` is the
+//! trait's (before, an inherent `value(&[f64])` of the same name took precedence and
+//! `h.value(&z)` did not compile). Its inherent `dim()` still returns the `usize`
+//! (`Hamiltonian::dim(&h)` is `Dyn` of it).
 //!
 //! ```
 //! use dth_core::dth::{Dth, DthOptions};
@@ -33,8 +34,8 @@
 //! let zbar0 = DVector::from_column_slice(&[0.5, 0.0, 0.0, 1.2]); // D = 4, from the text
 //! let mut dth = Dth::new(kepler, zbar0.clone(), DthOptions::default())?;
 //! dth.advance(100)?;
-//! let e0 = Hamiltonian::value(dth.hamiltonian(), &zbar0);
-//! assert!((Hamiltonian::value(dth.hamiltonian(), dth.zbar()) - e0).abs() < 1e-15);
+//! let e0 = dth.hamiltonian().value(&zbar0);
+//! assert!((dth.hamiltonian().value(dth.zbar()) - e0).abs() < 1e-15);
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 

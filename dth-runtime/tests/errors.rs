@@ -46,7 +46,7 @@ fn parameter_values_must_be_finite() {
     assert!(matches!(&r, Err(RuntimeError::UnknownParameter { name }) if name == "c"));
     // A new value is read by the next call, without recompiling.
     h.set_parameter("k", 4.0).unwrap();
-    assert_eq!(h.value(&[1.0, 0.0]).unwrap(), 2.0);
+    assert_eq!(h.value_slice(&[1.0, 0.0]).unwrap(), 2.0);
     let values: Vec<(&str, f64)> = h.parameters().collect();
     assert_eq!(values, vec![("m", 1.0), ("k", 4.0)]);
 }
@@ -54,7 +54,7 @@ fn parameter_values_must_be_finite() {
 #[test]
 fn slices_of_the_wrong_length_are_refused() {
     let h = RuntimeHamiltonian::new(SPRING, &[("m", 1.0), ("k", 2.0)]).unwrap();
-    let r = h.value(&[1.0, 2.0, 3.0]);
+    let r = h.value_slice(&[1.0, 2.0, 3.0]);
     assert!(matches!(
         r,
         Err(RuntimeError::WrongLength {
@@ -63,7 +63,7 @@ fn slices_of_the_wrong_length_are_refused() {
             found: 3
         })
     ));
-    let r = h.hessian(&[1.0, 2.0], &mut [0.0; 3]);
+    let r = h.hessian_slice(&[1.0, 2.0], &mut [0.0; 3]);
     assert!(matches!(
         r,
         Err(RuntimeError::WrongLength {
@@ -72,7 +72,7 @@ fn slices_of_the_wrong_length_are_refused() {
             found: 3
         })
     ));
-    let r = h.discrete_gradient(&[1.0, 2.0], &[1.0], &mut [0.0; 2]);
+    let r = h.discrete_gradient_slice(&[1.0, 2.0], &[1.0], &mut [0.0; 2]);
     assert!(matches!(
         r,
         Err(RuntimeError::WrongLength { what: "z1", .. })
@@ -80,7 +80,7 @@ fn slices_of_the_wrong_length_are_refused() {
     let mut other = RuntimeHamiltonian::new("p1^2 + p2^2 + q1*q2", &[])
         .unwrap()
         .derivatives_buffer();
-    let r = h.derivatives(&[1.0, 2.0], &mut other);
+    let r = h.derivatives_slice(&[1.0, 2.0], &mut other);
     assert!(matches!(
         r,
         Err(RuntimeError::WrongLength { what: "out", .. })
@@ -90,13 +90,13 @@ fn slices_of_the_wrong_length_are_refused() {
 #[test]
 fn a_non_finite_value_names_the_method_and_output() {
     let h = RuntimeHamiltonian::new("p1^2/2 + ln(q1)", &[]).unwrap();
-    let r = h.value(&[-1.0, 0.0]);
+    let r = h.value_slice(&[-1.0, 0.0]);
     assert!(
         matches!(r, Err(RuntimeError::NonFinite { what: "value", value, .. }) if value.is_nan()),
         "{r:?}"
     );
     let mut g = [0.0; 2];
-    let r = h.gradient(&[0.0, 1.0], &mut g);
+    let r = h.gradient_slice(&[0.0, 1.0], &mut g);
     assert!(
         matches!(
             r,

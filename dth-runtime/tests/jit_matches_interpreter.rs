@@ -31,21 +31,23 @@ fn run_all(h: &RuntimeHamiltonian, z0: &[f64], z1: &[f64]) -> Vec<Result<Vec<u64
         f(&mut out).map(|()| bits(&out)).map_err(err)
     };
     let mut d_buf = h.derivatives_buffer();
-    let derivatives = h.derivatives(z0, &mut d_buf).map_err(err).map(|()| {
+    let derivatives = h.derivatives_slice(z0, &mut d_buf).map_err(err).map(|()| {
         let mut all = vec![d_buf.value(), d_buf.psi()];
         all.extend(d_buf.gradient());
         all.extend(d_buf.hessian());
         bits(&all)
     });
     vec![
-        h.value(z0).map(|v| bits(&[v])).map_err(err),
-        vector(&|o| h.gradient(z0, o), d),
-        vector(&|o| h.hessian(z0, o), d * d),
-        h.psi(z0).map(|v| bits(&[v])).map_err(err),
+        h.value_slice(z0).map(|v| bits(&[v])).map_err(err),
+        vector(&|o| h.gradient_slice(z0, o), d),
+        vector(&|o| h.hessian_slice(z0, o), d * d),
+        h.psi_slice(z0).map(|v| bits(&[v])).map_err(err),
         derivatives,
-        vector(&|o| h.discrete_gradient(z0, z1, o), d),
-        h.energy_difference(z0, z1).map(|v| bits(&[v])).map_err(err),
-        vector(&|o| h.discrete_gradient_defect(z0, z1, o), d),
+        vector(&|o| h.discrete_gradient_slice(z0, z1, o), d),
+        h.energy_difference_slice(z0, z1)
+            .map(|v| bits(&[v]))
+            .map_err(err),
+        vector(&|o| h.discrete_gradient_defect_slice(z0, z1, o), d),
     ]
 }
 
@@ -104,7 +106,7 @@ fn every_function_and_non_finite_values() {
     let mut rng = Rng(0x5eed_0003);
     same_bits(src, &[("a", 0.7), ("b", 1.3)], &mut rng, 30);
     let jit = RuntimeHamiltonian::new(src, &[("a", 0.7), ("b", 1.3)]).unwrap();
-    let err = jit.value(&[0.5, -1.0, 0.5, 0.5]).unwrap_err();
+    let err = jit.value_slice(&[0.5, -1.0, 0.5, 0.5]).unwrap_err();
     assert!(
         matches!(err, RuntimeError::NonFinite { what: "value", .. }),
         "{err}"

@@ -39,9 +39,11 @@ pub fn macro_only(case: &str, message: &str) -> Option<usize> {
         .position(|&(c, m, _)| c == case && message.starts_with(m))
 }
 
-/// The prefix of rustc's message for an engine warning (a use of a deprecated constant whose
-/// note is the warning): what follows it is the engine's message.
-pub const WARNING: &str = "hamiltonian_warning`: ";
+/// The end of the prefix of rustc's message for an engine warning (a use of a deprecated
+/// constant whose note is `dth-macros`' `warning::NOTE`, then the warning): what follows it is
+/// the engine's message.
+pub const WARNING: &str =
+    "a warning from `hamiltonian!`, not a deprecation (`#[allow(deprecated)]` silences it): ";
 
 /// Errors only the macro reports, with the reason: `(case, start of the message)`.
 pub const MACRO_ONLY: [(&str, &str, &str); 9] = [

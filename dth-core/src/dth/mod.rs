@@ -1,7 +1,8 @@
 //! Discrete-Time Hamiltonian dynamics: the stepper, its Newton solvers, trajectories, and the
 //! extended phase space for time-dependent Hamiltonians.
 //!
-//! Entry points: [`integrate`] (one call, returns a [`Trajectory`]) and [`Dth`] (step by step,
+//! Entry points (also at the crate root: `dth::integrate`, `dth::Dth`, `dth::DthOptions`):
+//! [`integrate`] (one call, returns a [`Trajectory`]) and [`Dth`] (step by step,
 //! with an [`Observer`](crate::observer::Observer), the protocol every integrator reports to). Options in [`DthOptions`]; failures are [`crate::Error`] variants, and
 //! a failed run keeps what it computed ([`RunError`]).
 //!
@@ -55,7 +56,7 @@
 //! assert!(matches!(stopped.error, Error::Breakdown { psi, .. } if psi < 0.0));
 //! assert_eq!(stopped.partial.len(), 19); // zbar_0 .. zbar_18 kept
 //!
-//! let t = integrate(kepler, z0, options.with_robust(true), 1_000).map_err(|e| e.error)?;
+//! let t = integrate(kepler, z0, options.with_robust(true), 1_000)?;
 //! assert!(t.fallback_steps() > 0);
 //! assert_eq!(t.kinds()[0], StepKind::Dth);
 //! let e0 = kepler.value(&z0);

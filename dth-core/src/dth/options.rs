@@ -86,15 +86,25 @@ pub enum EnergyResidual {
     CancellationFree,
 }
 
-/// Options of the DTH stepper. Build with [`Default`] and the `with_*` methods, each of which
-/// validates its argument.
+/// Options of the DTH stepper. Build with [`Default`] and the `with_*` methods.
+///
+/// **Which setters need `?`.** A setter that takes a number (`with_dtau`, `with_lambda0`,
+/// `with_max_iterations`, `with_residual_tolerance`, `with_stall_tolerance`,
+/// `with_max_lambda_ratio`, `with_order`) checks it and returns `Result<Self, Error>`
+/// ([`Error::InvalidOption`] named after the option): follow it with `?`. A setter that takes
+/// a type whose every value is valid (`with_solver`, `with_energy_residual`, `with_robust`,
+/// `with_composition`: an enum or a `bool`) cannot fail and returns `Self`. The same rule
+/// holds for the peers' [`NewtonOptions`](crate::methods::NewtonOptions) and
+/// [`Dth::with_tbar0`](super::Dth::with_tbar0).
 ///
 /// ```
 /// use dth_core::dth::{DthOptions, Solver};
 /// let options = DthOptions::default()
 ///     .with_dtau(0.06277)?
 ///     .with_lambda0(1.0)?
-///     .with_solver(Solver::Nested);
+///     .with_solver(Solver::Nested)
+///     .with_robust(true)
+///     .with_order(4)?;
 /// assert_eq!(options.dtau(), 0.06277);
 /// assert!(DthOptions::default().with_dtau(-1.0).is_err());
 /// # Ok::<(), dth_core::Error>(())

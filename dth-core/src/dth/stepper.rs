@@ -49,7 +49,7 @@ use crate::{j_times, zeros, Error, Flags, Hamiltonian};
 /// let kepler = Kepler::thesis();
 /// let zbar0 = Vector4::new(0.5, 0.0, 0.0, 1.2);
 /// let mut dth = Dth::new(kepler, zbar0, DthOptions::default())?;
-/// let trajectory = dth.trajectory(100).map_err(|e| e.error)?;
+/// let trajectory = dth.trajectory(100)?;
 /// assert_eq!(trajectory.len(), 101); // zbar_0 .. zbar_100
 /// assert_eq!(trajectory.vertices().len(), 102);
 /// // Energy at the midpoints is exact to roundoff (Theorem 4).
@@ -514,9 +514,11 @@ where
         vertex_into(&self.s, kind, h, &mut out);
         out
     }
-    /// What produced the current midpoint: the kind its record has.
+    /// What produced the current midpoint: the kind of its record ([`Dth::record_ref`], what
+    /// the last step returned), [`StepKind::Shortened`] after [`Dth::step_toward`]'s last step
+    /// and [`StepKind::Fallback`] after a robust-mode fallback step included.
     pub fn kind(&self) -> StepKind {
-        self.s.step_kind
+        self.work.record.kind
     }
     /// `true` when the robust mode's next step is a fallback step.
     pub fn in_fallback(&self) -> bool {
@@ -653,17 +655,34 @@ where
     /// or, with the plain energy residual, within twice the noise its `lambda`s put into the
     /// time.
     ///
+    /// Once there, it stays: a call at `t_end` (the current midpoint time within that same
+    /// tolerance) takes no step and returns the current record and `true`, so a loop
+    /// `while !dth.step_toward(t_end)?.1 {}` may be entered at `t_end` or run again.
+    ///
     /// # Errors
-    /// [`Error::InvalidOption`] (`t_end`) when `t_end` is not finite or not after the current
+    /// [`Error::InvalidOption`] (`t_end`) when `t_end` is not finite or before the current
     /// midpoint time; [`Error::EndNotReached`] when no try of the last step landed on
     /// `t_end`; otherwise as [`Dth::step`]. The state is then that of the last accepted step.
     pub fn step_toward(&mut self, t_end: f64) -> Result<(StepRecord<D>, bool), Error> {
         let t0 = self.s.tbar;
-        if !(t_end.is_finite() && t_end > t0) {
+        if !t_end.is_finite() {
             return Err(Error::InvalidOption {
                 name: "t_end",
                 value: t_end,
-                reason: "must be finite and after the current midpoint time",
+                reason: "must be finite",
+            });
+        }
+        // Already there, as a landing would accept it: the same tolerance.
+        let there =
+            END_TOLERANCE * f64::EPSILON * t_end.abs().max(t0.abs()) + 2.0 * self.s.time_noise;
+        if (t0 - t_end).abs() <= there {
+            return Ok((self.work.record.clone(), true));
+        }
+        if t_end < t0 {
+            return Err(Error::InvalidOption {
+                name: "t_end",
+                value: t_end,
+                reason: "must not be before the current midpoint time",
             });
         }
         let dtau = self.options.dtau();
@@ -1298,8 +1317,7 @@ where
 /// ```
 /// use dth_core::{dth::{integrate, DthOptions}, nalgebra::Vector4, systems::Kepler};
 /// let options = DthOptions::default().with_dtau(0.06277)?.with_lambda0(1.0)?;
-/// let t = integrate(Kepler::thesis(), Vector4::new(0.5, 0.0, 0.0, 1.2), options, 1000)
-///     .map_err(|e| e.error)?;
+/// let t = integrate(Kepler::thesis(), Vector4::new(0.5, 0.0, 0.0, 1.2), options, 1000)?;
 /// let mean_lambda = t.lambdas().iter().sum::<f64>() / t.len() as f64;
 /// assert!((mean_lambda - 2.39).abs() < 0.05); // thesis: 25 points per orbit
 /// # Ok::<(), dth_core::Error>(())
@@ -1307,7 +1325,8 @@ where
 ///
 /// # Errors
 /// [`RunError`] with the construction error and an empty trajectory, or the first failing
-/// step's error and the trajectory up to the last accepted step.
+/// step's error and the trajectory up to the last accepted step. `?` converts it into
+/// [`Error`] (dropping the partial trajectory).
 #[allow(clippy::result_large_err)] // see `Dth::trajectory`
 pub fn integrate<H: Hamiltonian<D>, D: Dim>(
     hamiltonian: H,

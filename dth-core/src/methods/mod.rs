@@ -40,7 +40,7 @@
 //! assert_eq!(recorder.z.len(), 101); // the initial state and one per step
 //! let l = Kepler::angular_momentum(&end.z);
 //! assert!((l - 0.6).abs() < 1e-14); // midpoint keeps quadratic invariants
-//! # Ok::<(), dth_core::methods::RunError<dth_core::methods::RunEnd<dth_core::nalgebra::U4>>>(())
+//! # Ok::<(), dth_core::Error>(())
 //! ```
 
 use crate::hamiltonian::Alloc;
@@ -231,6 +231,11 @@ impl<const N: usize> Copy for RunEnd<nalgebra::Const<N>> {}
 /// `dt` must be finite and non-zero (negative integrates backwards) and `z0` finite; a state
 /// that becomes non-finite is [`Error::MethodNonFinite`]. On failure the states already
 /// computed are kept: the observer has seen them and [`RunError::partial`] holds the last.
+///
+/// # Errors
+/// [`RunError`] with the first error (of the input checks, or of the failing step, with its
+/// index) and the last good [`RunEnd`]; `?` converts it into [`Error`] (dropping the
+/// [`RunEnd`]).
 pub fn run<D: Dim, H, M, O>(
     method: &mut M,
     h: &H,

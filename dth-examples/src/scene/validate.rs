@@ -767,8 +767,8 @@ fn text_chain_mismatch(h: &TextHamiltonian, params: &BTreeMap<String, f64>) -> O
         .and_then(|rt| {
             let z = vec![0.0; h.dim];
             let (mut g, mut hess) = (vec![0.0; h.dim], vec![0.0; h.dim * h.dim]);
-            rt.gradient(&z, &mut g)?;
-            rt.hessian(&z, &mut hess)?;
+            rt.gradient_slice(&z, &mut g)?;
+            rt.hessian_slice(&z, &mut hess)?;
             Ok((g, hess))
         });
     match at_rest {
