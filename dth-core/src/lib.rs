@@ -19,6 +19,10 @@
 //! 4. [`diagnostics`] (invariants and errors of computed trajectories).
 #![warn(missing_docs)]
 
+// Test modules shared with the integration tests name this crate `dth_core`.
+#[cfg(test)]
+extern crate self as dth_core;
+
 mod dense_newton;
 pub mod diagnostics;
 pub mod dth;

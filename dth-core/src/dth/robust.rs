@@ -441,62 +441,24 @@ pub(crate) fn cancellation_ratio(psi: f64, scale: f64) -> f64 {
     }
 }
 
+/// Two gravitating bodies as a cluster writes them (a close pair far from the origin), shared
+/// with the integration tests.
+#[cfg(test)]
+#[path = "../../tests/hard_support/pair.rs"]
+mod test_pair;
+
 #[cfg(test)]
 mod tests {
+    use super::test_pair::{Pair, V8};
     use super::*;
     use crate::dth::linear::Dense;
-    use nalgebra::{Const, SMatrix, SVector};
-
-    type V8 = SVector<f64, 8>;
-
-    /// Two unit masses in the plane, `H = (|p1|^2 + |p2|^2)/2 - 1/|q1 - q2|`,
-    /// `z = (x1, y1, x2, y2, px1, py1, px2, py2)`: a close pair at absolute positions of order 1,
-    /// as in a cluster (the rounding of the positions is relative to 1, not to the separation).
-    struct Pair;
-
-    impl Hamiltonian<Const<8>> for Pair {
-        fn dim(&self) -> Const<8> {
-            Const
-        }
-        fn value(&self, z: &V8) -> f64 {
-            let (dx, dy) = (z[0] - z[2], z[1] - z[3]);
-            0.5 * (4..8).map(|i| z[i] * z[i]).sum::<f64>() - 1.0 / dx.hypot(dy)
-        }
-        fn gradient_into(&self, z: &V8, out: &mut V8) {
-            let (dx, dy) = (z[0] - z[2], z[1] - z[3]);
-            let r3 = dx.hypot(dy).powi(3);
-            let (fx, fy) = (dx / r3, dy / r3);
-            out.copy_from_slice(&[fx, fy, -fx, -fy, z[4], z[5], z[6], z[7]]);
-        }
-        fn hessian_into(&self, z: &V8, out: &mut SMatrix<f64, 8, 8>) {
-            let (dx, dy) = (z[0] - z[2], z[1] - z[3]);
-            let r = dx.hypot(dy);
-            let (r3, r5) = (r.powi(3), r.powi(5));
-            let k = [
-                [1.0 / r3 - 3.0 * dx * dx / r5, -3.0 * dx * dy / r5],
-                [-3.0 * dx * dy / r5, 1.0 / r3 - 3.0 * dy * dy / r5],
-            ];
-            out.fill(0.0);
-            for a in 0..2 {
-                for b in 0..2 {
-                    out[(a, b)] = k[a][b];
-                    out[(a + 2, b + 2)] = k[a][b];
-                    out[(a, b + 2)] = -k[a][b];
-                    out[(a + 2, b)] = -k[a][b];
-                }
-            }
-            for i in 4..8 {
-                out[(i, i)] = 1.0;
-            }
-        }
-    }
+    use nalgebra::Const;
 
     /// The pair at separation `r` on a circular relative orbit about `(1, 0.5)`, drifting at
     /// `(0.3, 0)`; and its relative period.
     fn pair(r: f64) -> (V8, f64) {
-        let v = (2.0 / r).sqrt() / 2.0;
-        let z = V8::from_column_slice(&[1.0 + r / 2.0, 0.5, 1.0 - r / 2.0, 0.5, 0.3, v, 0.3, -v]);
-        (z, 2.0 * std::f64::consts::PI * (r.powi(3) / 2.0).sqrt())
+        let period = 2.0 * std::f64::consts::PI * (r.powi(3) / 2.0).sqrt();
+        (Pair::at_pericentre(r, 0.0), period)
     }
 
     /// `f = (z - z0) - dt J gbar(z0, z)` into `w.f`, as [`fallback_step`] computes it.
