@@ -672,10 +672,13 @@ where
                 reason: "must be finite",
             });
         }
-        // Already there, as a landing would accept it: the same tolerance.
-        let there =
-            END_TOLERANCE * f64::EPSILON * t_end.abs().max(t0.abs()) + 2.0 * self.s.time_noise;
-        if (t0 - t_end).abs() <= there {
+        // The time sum's rounding; a landing is accepted within it plus twice the noise of the
+        // landed try's time (the secant stops there: its tries differ by that much for the
+        // same scale).
+        let tolerance = END_TOLERANCE * f64::EPSILON * t_end.abs().max(t0.abs());
+        let accepted = |gap: f64, time_noise: f64| gap <= tolerance + 2.0 * time_noise;
+        // Already there, as a landing would accept it.
+        if accepted((t0 - t_end).abs(), self.s.time_noise) {
             return Ok((self.work.record.clone(), true));
         }
         if t_end < t0 {
@@ -695,7 +698,6 @@ where
         }
         // The last step: secant iteration on the scale s of dtau, F(s) = tbar(s) - t_end, from
         // F(0) = t0 - t_end < 0 and F(1) (just computed).
-        let tolerance = END_TOLERANCE * f64::EPSILON * t_end.abs().max(t0.abs());
         let landing = Landing {
             t0,
             t_end,
@@ -724,7 +726,7 @@ where
                 // A failure here leaves the best try so far.
                 let _ = self.land(&landing, End::Fallback, (1.0, f), &mut best);
             }
-            if best.gap > tolerance + 2.0 * best.state.time_noise {
+            if !accepted(best.gap, best.state.time_noise) {
                 // Not there in one step: one fallback step toward t_end (an equal share of
                 // the time left, halved while it fails), and the next call goes on from it.
                 self.restore();
@@ -744,9 +746,7 @@ where
             state,
             record: mut best_record,
         } = best;
-        // The time sum's rounding, and twice the noise of the closest try's time (the secant
-        // stops there: its tries differ by that much for the same scale).
-        if gap > tolerance + 2.0 * state.time_noise {
+        if !accepted(gap, state.time_noise) {
             self.restore();
             return Err(Error::EndNotReached {
                 step: self.s.k + 1,
