@@ -186,7 +186,17 @@ where
             residual,
         });
     }
-    let explained = w.gbar.dot(&w.f);
+    // The energy error the solve leaves: `gbar . f` for a residual that passed the plain
+    // check; for one judged by its Newton correction, `z` is `delta` away from the solution,
+    // so `gbar . delta` (the residual itself then carries the amplified rounding of `z`, and
+    // `gbar . f` would excuse any deviation: seen on a near-collision Kepler orbit, a node
+    // 139 off `H = E` at a roundoff scale of 6e3 passed). A deviation beyond it is a step
+    // that did not converge: redone smaller, like the peer's own failures.
+    let explained = if corrected {
+        w.gbar.dot(&w.delta)
+    } else {
+        w.gbar.dot(&w.f)
+    };
     project_onto_energy(
         ham,
         energy,
@@ -197,7 +207,16 @@ where
         options,
         step,
         solver,
-    )?;
+    )
+    .map_err(|e| match e {
+        Error::EnergyCheckFailed { .. } if corrected => Error::MethodNotConverged {
+            method: "discrete_gradient",
+            step,
+            iterations,
+            residual,
+        },
+        e => e,
+    })?;
     project_momenta(ham, energy, solver, w);
     if corrected {
         // The caller reads the node's Hessian from the solver (the robust mode's `Psi_scale`),
