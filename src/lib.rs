@@ -18,7 +18,7 @@ pub use dth_macros::hamiltonian;
 /// let text = "(p1^2 + p2^2)/(2*m) - k*(q1^2 + q2^2)^(-1/2)";
 /// let kepler = Typed::<4>::new(RuntimeHamiltonian::new(text, &[("m", 0.5), ("k", 1.0)])?)?;
 /// let zbar0 = Vector4::new(0.5, 0.0, 0.0, 1.2); // H = 1.44 - 2
-/// let options = DthOptions::default().with_dtau(0.06277)?.with_lambda0(1.0)?;
+/// let options = DthOptions::new(0.06277)?.with_lambda0(1.0)?;
 /// let run = integrate(kepler.clone(), zbar0, options, 1_000)?;
 /// let e0 = kepler.value(&zbar0);
 /// // DTH conserves the energy at its midpoints to roundoff (|H| = 0.56: a few eps).

@@ -59,11 +59,11 @@ fn wrong_length_states_are_typed_errors_at_every_entry_point() {
             "{e:?}"
         );
     };
-    let err = Dth::new(&h, short.clone(), DthOptions::default())
+    let err = Dth::new(&h, short.clone(), DthOptions::thesis_kepler())
         .err()
         .unwrap();
     wrong(&err, "zbar0");
-    let err = integrate(&h, short.clone(), DthOptions::default(), 10).unwrap_err();
+    let err = integrate(&h, short.clone(), DthOptions::thesis_kepler(), 10).unwrap_err();
     wrong(&err.error, "zbar0");
     assert!(err.partial.is_empty());
     let err = run(&mut Rk4::new(), &h, &short, 0.0, 0.1, 10, &mut ()).unwrap_err();
@@ -73,13 +73,15 @@ fn wrong_length_states_are_typed_errors_at_every_entry_point() {
     wrong(&err, "z");
     // The message says what to fix.
     assert_eq!(
-        Error::from(integrate(&h, short, DthOptions::default(), 10).unwrap_err()).to_string(),
+        Error::from(integrate(&h, short, DthOptions::thesis_kepler(), 10).unwrap_err()).to_string(),
         "`zbar0` has length 3, but the Hamiltonian's phase space has dimension 4"
     );
     // The right length runs.
     let z0 = DVector::from_column_slice(kepler_start(0.44).as_slice());
     assert_eq!(
-        integrate(&h, z0, DthOptions::default(), 10).unwrap().len(),
+        integrate(&h, z0, DthOptions::thesis_kepler(), 10)
+            .unwrap()
+            .len(),
         11
     );
 }
@@ -93,10 +95,7 @@ fn kind_is_the_kind_of_the_record() {
     let kepler = Kepler::thesis();
     let z0 = kepler_start(0.9);
     let period = KeplerOrbit::new(&kepler, &z0).unwrap().elements().period;
-    let options = DthOptions::default()
-        .with_dtau(0.0157)
-        .unwrap()
-        .with_robust(true);
+    let options = DthOptions::new(0.0157).unwrap().with_robust(true);
     let mut dth = Dth::new(kepler, z0, options).unwrap();
     assert_eq!(dth.kind(), StepKind::Dth);
     let mut seen = Vec::new();
@@ -133,8 +132,8 @@ fn kind_is_the_kind_of_the_record() {
 /// an error.
 #[test]
 fn step_toward_is_idempotent_at_its_end() {
-    let plain = DthOptions::default().with_energy_residual(EnergyResidual::Plain);
-    for options in [DthOptions::default().with_order(4).unwrap(), plain] {
+    let plain = DthOptions::thesis_kepler().with_energy_residual(EnergyResidual::Plain);
+    for options in [DthOptions::thesis_kepler().with_order(4).unwrap(), plain] {
         let mut dth = Dth::new(Kepler::thesis(), kepler_start(0.44), options).unwrap();
         // At the start: already there.
         assert_eq!(dth.step_toward(0.0).unwrap(), (dth.record(), true));
@@ -170,7 +169,7 @@ fn step_toward_is_idempotent_at_its_end() {
 /// takes an enum or a `bool`, whose every value is valid, returns the options themselves.
 #[test]
 fn setters_that_take_a_number_check_it_and_the_others_cannot_fail() {
-    let o = DthOptions::default();
+    let o = DthOptions::thesis_kepler();
     let numbers = [
         ("dtau", o.with_dtau(f64::NAN)),
         ("lambda0", o.with_lambda0(-1.0)),
@@ -238,15 +237,16 @@ fn entry_points_have_flat_paths() {
     let flat: fn(Kepler, Vector4<f64>, DthOptions, usize) -> _ = dth::integrate;
     let nested: fn(Kepler, Vector4<f64>, dth::dth::DthOptions, usize) -> _ = dth::dth::integrate;
     let z0 = kepler_start(0.44);
-    let run: dth::Trajectory<_> = flat(Kepler::thesis(), z0, DthOptions::default(), 5).unwrap();
+    let run: dth::Trajectory<_> =
+        flat(Kepler::thesis(), z0, DthOptions::thesis_kepler(), 5).unwrap();
     let again: dth::dth::Trajectory<_> =
-        nested(Kepler::thesis(), z0, DthOptions::default(), 5).unwrap();
+        nested(Kepler::thesis(), z0, DthOptions::thesis_kepler(), 5).unwrap();
     assert_eq!(run.midpoints(), again.midpoints());
     let stepper: dth::dth::Dth<Kepler, _> = Dth::new(Kepler::thesis(), z0, o()).unwrap();
     assert_eq!(stepper.k(), 0);
     let _: Option<dth::RunError<()>> = None::<dth::dth::RunError<()>>;
 
     fn o() -> dth::dth::DthOptions {
-        DthOptions::default()
+        DthOptions::thesis_kepler()
     }
 }

@@ -14,7 +14,7 @@ use dth::{integrate, Dth, DthOptions, Error, RunError, Trajectory};
 /// Kepler at e = 0.9: Psi changes sign between pericentre and apocentre, and plain DTH breaks
 /// down at step 19 (`dth::dth`'s module example).
 fn eccentric() -> (Kepler, Vector4<f64>, DthOptions) {
-    let options = DthOptions::default().with_dtau(0.0157).unwrap();
+    let options = DthOptions::new(0.0157).unwrap();
     (
         Kepler::thesis(),
         Vector4::new(0.5, 0.0, 0.0, 1.9f64.sqrt()),
@@ -39,7 +39,7 @@ impl io::Write for Refuses {
 /// typed view, writing the trajectory.
 fn every_call_with_question_mark(out: impl io::Write) -> Result<f64, Error> {
     let z0 = Vector4::new(0.5, 0.0, 0.0, 1.2);
-    let options = DthOptions::default().with_dtau(0.06277)?.with_order(4)?;
+    let options = DthOptions::new(0.06277)?.with_order(4)?;
     let mut dth = Dth::new(Kepler::thesis(), z0, options)?;
     dth.advance(5)?;
     dth.run(5, &mut ())?;
@@ -216,7 +216,11 @@ fn runtime_errors_convert_too() {
     // The stepper refuses a `Dyn` state of another length than the text's, by `?` too.
     let start = || -> Result<(), Error> {
         let h = RuntimeHamiltonian::new("(p1^2 + q1^2)/2", &[])?;
-        Dth::new(h, DVector::from_element(4, 0.5), DthOptions::default())?;
+        Dth::new(
+            h,
+            DVector::from_element(4, 0.5),
+            DthOptions::thesis_kepler(),
+        )?;
         Ok(())
     };
     assert!(matches!(

@@ -172,8 +172,7 @@ fn lambdas<H: Hamiltonian<Const<D>>, const D: usize>(
     residual: EnergyResidual,
     steps: usize,
 ) -> (bool, Vec<f64>) {
-    let options = DthOptions::default()
-        .with_dtau(dtau)
+    let options = DthOptions::new(dtau)
         .unwrap()
         .with_energy_residual(residual);
     let mut dth = Dth::new(h, zbar0, options).unwrap();

@@ -277,9 +277,7 @@ fn dth_keeps_the_energy_of_the_looped_1024_particle_chain() {
             0.1 * (3.0 * i).cos()
         }
     });
-    let options = dth::dth::DthOptions::default()
-        .with_dtau(0.1)
-        .expect("dtau");
+    let options = dth::dth::DthOptions::new(0.1).expect("dtau");
     let mut dth = dth::dth::Dth::new(h, z0, options).expect("start");
     let e0 = h.value(&z0);
     let scale = e0.abs().max(z0.component_mul(&h.gradient(&z0)).abs().sum());

@@ -43,8 +43,7 @@ fn robust_to<H: Hamiltonian<Const<D>> + Clone, const D: usize>(
     order: u32,
     t_end: f64,
 ) -> End<D> {
-    let options = DthOptions::default()
-        .with_dtau(dtau)
+    let options = DthOptions::new(dtau)
         .and_then(|o| o.with_order(order))
         .expect("valid options")
         .with_robust(true);
@@ -163,10 +162,7 @@ fn kepler_at_e09_runs_dth_wherever_psi_keeps_its_sign() {
         .expect("elliptic")
         .elements()
         .period;
-    let options = DthOptions::default()
-        .with_dtau(0.002)
-        .expect("valid")
-        .with_robust(true);
+    let options = DthOptions::new(0.002).expect("valid").with_robust(true);
     let mut dth = Dth::new(kepler, z0, options).expect("valid start");
     let (mut apocentre_dth, mut apocentre_fallback, mut negative_dth) = (0, 0, 0);
     let (mut dth_min, mut fallback_max, mut arc_min) = (f64::INFINITY, 0.0f64, f64::INFINITY);

@@ -103,8 +103,7 @@ where
     DefaultAllocator: Alloc<D>,
 {
     let e0 = h.value(&z0);
-    let options = DthOptions::default()
-        .with_dtau(dtau)
+    let options = DthOptions::new(dtau)
         .expect("dtau > 0")
         .with_lambda0(lambda0)
         .expect("lambda0 > 0")

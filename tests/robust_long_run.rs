@@ -37,10 +37,7 @@ fn deviations<H: Hamiltonian<Const<4>> + Clone>(
     dtau: f64,
 ) -> (Vec<f64>, usize) {
     let e0 = h.value(&z0);
-    let options = DthOptions::default()
-        .with_dtau(dtau)
-        .expect("dtau > 0")
-        .with_robust(true);
+    let options = DthOptions::new(dtau).expect("dtau > 0").with_robust(true);
     let mut dth = Dth::new(h.clone(), z0, options).expect("start");
     let (mut tenths, mut worst, mut fallback) = (Vec::new(), 0.0f64, 0usize);
     for k in 1..=STEPS {

@@ -70,10 +70,7 @@ fn dyn_kepler_from_text_steps_as_the_macros_fixed_size_kepler() {
     let z0 = SVector::<f64, 4>::new(0.5, 0.0, 0.0, 1.2);
     let z0_dyn = DVector::from_column_slice(z0.as_slice());
     for solver in [Solver::Joint, Solver::Nested] {
-        let options = DthOptions::default()
-            .with_dtau(0.06277)
-            .unwrap()
-            .with_solver(solver);
+        let options = DthOptions::new(0.06277).unwrap().with_solver(solver);
         let mut a = Dth::new(fixed, z0, options).unwrap();
         let mut b = Dth::new(kepler_text(), z0_dyn.clone(), options).unwrap();
         let ta = a.trajectory(STEPS).unwrap();
@@ -130,7 +127,7 @@ fn time_dependent_text_runs_in_the_extended_phase_space() {
     let z0 = set_momentum_of_time(&fixed, lift(&x0, 0.25)).unwrap();
     let z0_dyn = set_momentum_of_time(&text, DVector::from_column_slice(z0.as_slice())).unwrap();
     assert_eq!(z0_dyn.as_slice(), z0.as_slice());
-    let options = DthOptions::default().with_dtau(0.05).unwrap();
+    let options = DthOptions::new(0.05).unwrap();
     let mut a = Dth::new(fixed, z0, options).unwrap();
     let mut b = Dth::new(text, z0_dyn, options).unwrap();
     // Time starts at the t coordinate; calH = p_t + H stays 0 at the midpoints (Theorem 1).
@@ -170,19 +167,29 @@ fn construction_errors_are_typed() {
     let free = RuntimeHamiltonian::new("p1^2/(2*m)", &[("m", 1.0)]).unwrap();
     assert!(Hamiltonian::flags(&free).psi_identically_zero);
     let z = DVector::from_column_slice(&[0.0, 1.0]);
-    let err = Dth::new(free, z, DthOptions::default()).err().unwrap();
+    let err = Dth::new(free, z, DthOptions::new(0.06277).expect("valid dtau"))
+        .err()
+        .unwrap();
     assert!(matches!(err, Error::PsiIdenticallyZero), "{err:?}");
     // An odd dimension has no (q, p) split.
     let z = DVector::from_element(3, 0.5);
-    let err = Dth::new(Quadratic(3), z, DthOptions::default())
-        .err()
-        .unwrap();
+    let err = Dth::new(
+        Quadratic(3),
+        z,
+        DthOptions::new(0.06277).expect("valid dtau"),
+    )
+    .err()
+    .unwrap();
     assert!(matches!(err, Error::OddDimension { dim: 3 }), "{err:?}");
     // A state whose length is not the Hamiltonian's dimension.
     let z = DVector::from_element(6, 0.5);
-    let err = Dth::new(Quadratic(4), z, DthOptions::default())
-        .err()
-        .unwrap();
+    let err = Dth::new(
+        Quadratic(4),
+        z,
+        DthOptions::new(0.06277).expect("valid dtau"),
+    )
+    .err()
+    .unwrap();
     assert!(
         matches!(
             err,
@@ -196,7 +203,12 @@ fn construction_errors_are_typed() {
     );
     // The right one runs.
     let z = DVector::from_element(4, 0.5);
-    let mut dth = Dth::new(Quadratic(4), z, DthOptions::default()).unwrap();
+    let mut dth = Dth::new(
+        Quadratic(4),
+        z,
+        DthOptions::new(0.06277).expect("valid dtau"),
+    )
+    .unwrap();
     dth.advance(10).unwrap();
 }
 
@@ -298,7 +310,7 @@ fn extended_helpers_and_segments_check_their_input() {
     let z = set_momentum_of_time(&text, DVector::from_column_slice(&[1.0, 0.0, 0.0, 7.0])).unwrap();
     assert_eq!(Hamiltonian::value(&text, &z), 0.0);
     // Its clock is the t coordinate: another start time would disagree with it.
-    let dth = Dth::new(text, z, DthOptions::default()).unwrap();
+    let dth = Dth::new(text, z, DthOptions::thesis_kepler()).unwrap();
     assert!(matches!(
         dth.with_tbar0(1.0),
         Err(Error::InvalidOption { name: "tbar0", .. })
@@ -306,7 +318,7 @@ fn extended_helpers_and_segments_check_their_input() {
     let autonomous = kepler_text();
     let e = set_momentum_of_time(&autonomous, DVector::from_element(4, 0.5));
     assert!(matches!(e, Err(Error::NotTimeDependent)), "{e:?}");
-    let options = DthOptions::default();
+    let options = DthOptions::thesis_kepler();
     let e = segment_from_vertex(
         &autonomous,
         &DVector::from_element(3, 0.5),
@@ -392,7 +404,7 @@ fn dyn_peer_steps_allocate_nothing() {
 fn dyn_dth_steps_allocate_nothing() {
     let thesis = DVector::from_column_slice(&[0.5, 0.0, 0.0, 1.2]);
     let eccentric = DVector::from_column_slice(&[0.5, 0.0, 0.0, 1.9f64.sqrt()]);
-    let default = DthOptions::default();
+    let default = DthOptions::thesis_kepler();
     let cases = [
         ("joint", default, &thesis),
         ("nested", default.with_solver(Solver::Nested), &thesis),
@@ -497,7 +509,7 @@ impl Hamiltonian<Dyn> for DynKepler {
 #[test]
 fn cloned_dyn_stepper_keeps_its_workspace() {
     let zbar0 = DVector::from_column_slice(&[0.5, 0.0, 0.0, 1.9f64.sqrt()]);
-    let options = DthOptions::default().with_robust(true);
+    let options = DthOptions::thesis_kepler().with_robust(true);
     let mut dth = Dth::new(DynKepler, zbar0, options).unwrap();
     dth.advance(1).unwrap();
     let mut clone = dth.clone();
@@ -520,7 +532,7 @@ fn cloned_dyn_stepper_keeps_its_workspace() {
 fn one_compiled_text_drives_two_steppers_by_reference() {
     let shared = kepler_text();
     let z0 = DVector::from_column_slice(&[0.5, 0.0, 0.0, 1.2]);
-    let options = DthOptions::default();
+    let options = DthOptions::thesis_kepler();
     let mut a = Dth::new(&shared, z0.clone(), options).unwrap();
     let mut b = Dth::new(&shared, z0.clone(), options.with_dtau(0.03).unwrap()).unwrap();
     a.advance(50).unwrap();

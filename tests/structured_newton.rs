@@ -325,7 +325,7 @@ where
 #[test]
 fn dth_structured_and_dense_paths_agree_to_roundoff() {
     let z = state::<64>(17);
-    let base = DthOptions::default().with_dtau(0.1).expect("dtau");
+    let base = DthOptions::new(0.1).expect("dtau");
     for (name, options) in [
         ("joint", base),
         ("nested", base.with_solver(Solver::Nested)),
@@ -372,7 +372,7 @@ fn dth_keeps_the_energy_of_the_512_particle_chain_on_a_2mb_stack() {
     let run = || {
         let h = FputAlpha512;
         let z0 = state::<1024>(5);
-        let options = DthOptions::default().with_dtau(0.1).expect("dtau");
+        let options = DthOptions::new(0.1).expect("dtau");
         let mut dth = Dth::new(h, z0, options).expect("start");
         let e0 = h.value(&z0);
         let scale = e0.abs().max(z0.component_mul(&h.gradient(&z0)).abs().sum());
@@ -424,10 +424,7 @@ fn robust_mode_and_composition_work_on_the_structured_path() {
         0.5, 0.0, 0.0, 0.5, 0.5, 0.0, 0.0, 0.5, 0.0, v, -v, 0.0, 0.0, v, -v, 0.0,
     ]);
     let e0 = FourKeplers.value(&z0);
-    let base = DthOptions::default()
-        .with_dtau(0.0157)
-        .expect("dtau")
-        .with_robust(true);
+    let base = DthOptions::new(0.0157).expect("dtau").with_robust(true);
     for (name, options, steps) in [
         ("order 2", base, 240),
         ("order 4", base.with_order(4).expect("order"), 60),

@@ -67,7 +67,7 @@ fn structured_peers_allocate_nothing_per_step() {
 fn structured_dth_allocates_nothing_per_step() {
     let h = FputAlpha32;
     let z0 = SVector::<f64, 64>::from_fn(|i, _| if i < 32 { 0.1 * (i as f64).sin() } else { 0.2 });
-    let base = DthOptions::default().with_dtau(0.05).expect("dtau");
+    let base = DthOptions::new(0.05).expect("dtau");
     for (name, options) in [
         ("joint", base),
         ("nested", base.with_solver(Solver::Nested)),

@@ -62,11 +62,7 @@ fn same_dth<const D: usize>(
     dtau: f64,
     steps: usize,
 ) {
-    let options = DthOptions::default()
-        .with_dtau(dtau)
-        .unwrap()
-        .with_lambda0(1.0)
-        .unwrap();
+    let options = DthOptions::new(dtau).unwrap().with_lambda0(1.0).unwrap();
     let ra = integrate(a, zbar0, options, steps).unwrap();
     let rb = integrate(b, zbar0, options, steps).unwrap();
     assert_eq!(ra.midpoints().len(), steps + 1);
@@ -194,11 +190,7 @@ fn a_non_finite_value_is_the_steppers_typed_error() {
     let zbar0 = SVector::<f64, 2>::new(0.0, 1.0);
     assert!(h.value(&zbar0).is_finite());
     assert!(!h.gradient(&zbar0)[0].is_finite());
-    let options = DthOptions::default()
-        .with_dtau(0.05)
-        .unwrap()
-        .with_lambda0(1.0)
-        .unwrap();
+    let options = DthOptions::new(0.05).unwrap().with_lambda0(1.0).unwrap();
     let err = integrate(h, zbar0, options, 10).unwrap_err();
     assert!(
         matches!(err.error, Error::NonFinite { step: 0, .. }),

@@ -14,7 +14,7 @@ fn residuals(c: &mut Criterion) {
         ("plain", EnergyResidual::Plain),
         ("cancellation_free", EnergyResidual::CancellationFree),
     ] {
-        let options = DthOptions::default().with_energy_residual(residual);
+        let options = DthOptions::thesis_kepler().with_energy_residual(residual);
         g.bench_function(name, |b| {
             b.iter_batched(
                 || {
@@ -35,10 +35,7 @@ fn residuals(c: &mut Criterion) {
 fn robust(c: &mut Criterion) {
     let mut g = c.benchmark_group("dth_1000_steps/kepler_e09_robust");
     let z0 = Vector4::new(0.5, 0.0, 0.0, 1.9f64.sqrt());
-    let options = DthOptions::default()
-        .with_dtau(0.0157)
-        .expect("valid")
-        .with_robust(true);
+    let options = DthOptions::new(0.0157).expect("valid").with_robust(true);
     g.bench_function("robust", |b| {
         b.iter_batched(
             || Dth::new(Kepler::thesis(), z0, options).expect("start"),

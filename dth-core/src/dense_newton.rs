@@ -786,7 +786,7 @@ mod tests {
 
     /// DTH with `steps` steps from `z0`: the final midpoint and lambda.
     fn dth<H: Hamiltonian<Const<4>>>(h: H, z0: Vector4<f64>, steps: usize) -> (Vector4<f64>, f64) {
-        let mut dth = Dth::new(h, z0, DthOptions::default()).expect("start");
+        let mut dth = Dth::new(h, z0, DthOptions::thesis_kepler()).expect("start");
         dth.advance(steps).expect("steps");
         (*dth.zbar(), dth.lambda())
     }

@@ -10,7 +10,7 @@
 //! use dth_core::{dth::{integrate, DthOptions}, nalgebra::Vector4, systems::Kepler, Error};
 //!
 //! fn orbit() -> Result<f64, Error> {
-//!     let options = DthOptions::default().with_dtau(0.06277)?;
+//!     let options = DthOptions::new(0.06277)?;
 //!     let run = integrate(Kepler::thesis(), Vector4::new(0.5, 0.0, 0.0, 1.2), options, 100)?;
 //!     Ok(run.midpoint_times()[100])
 //! }
@@ -329,7 +329,7 @@ impl From<std::io::Error> for Error {
 /// use dth_core::{dth::{integrate, DthOptions}, nalgebra::Vector4, systems::Kepler, Error};
 /// use std::error::Error as _;
 /// // One Newton iteration is too few to solve a step to roundoff: the first step fails.
-/// let options = DthOptions::default().with_max_iterations(1)?;
+/// let options = DthOptions::thesis_kepler().with_max_iterations(1)?;
 /// let err = integrate(Kepler::thesis(), Vector4::new(0.5, 0.0, 0.0, 1.2), options, 100)
 ///     .unwrap_err();
 /// assert!(matches!(err.error, Error::NewtonDiverged { step: 1, .. }));

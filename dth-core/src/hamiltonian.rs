@@ -341,11 +341,11 @@ where
 /// use dth_core::{nalgebra::Vector4, systems::Kepler};
 /// let kepler = Kepler::thesis(); // one Hamiltonian, two steppers
 /// let z0 = Vector4::new(0.5, 0.0, 0.0, 1.2);
-/// let mut coarse = Dth::new(&kepler, z0, DthOptions::default())?;
-/// let mut fine = Dth::new(&kepler, z0, DthOptions::default().with_dtau(0.01)?)?;
+/// let mut coarse = Dth::new(&kepler, z0, DthOptions::thesis_kepler())?;
+/// let mut fine = Dth::new(&kepler, z0, DthOptions::new(0.01)?)?;
 /// coarse.advance(10)?;
 /// fine.advance(10)?;
-/// let mut owned = Dth::new(Kepler::thesis(), z0, DthOptions::default())?;
+/// let mut owned = Dth::new(Kepler::thesis(), z0, DthOptions::thesis_kepler())?;
 /// owned.advance(10)?;
 /// assert_eq!(coarse.zbar(), owned.zbar());
 /// # Ok::<(), dth_core::Error>(())

@@ -21,7 +21,7 @@
 //! let mut worst = 0.0_f64;
 //! let mut energy = |r: &StepRecord<Const<4>>| worst = worst.max((h.value(&r.z) - e0).abs());
 //! run(&mut ImplicitMidpoint::new(), &h, &z0, 0.0, 0.15, 100, &mut energy)?; // a peer
-//! let options = DthOptions::default().with_dtau(0.06277)?;
+//! let options = DthOptions::new(0.06277)?;
 //! Dth::new(h, z0, options)?.run(100, &mut energy)?; // DTH: the same observer, at midpoints
 //! assert!(worst > 1e-3); // the midpoint rule does not conserve energy; DTH does
 //! # Ok::<(), Box<dyn std::error::Error>>(())

@@ -18,8 +18,7 @@ fn thesis_z0() -> Vector4<f64> {
 }
 
 fn options(dtau: f64, order: u32) -> DthOptions {
-    DthOptions::default()
-        .with_dtau(dtau)
+    DthOptions::new(dtau)
         .and_then(|o| o.with_order(order))
         .expect("valid options")
 }

@@ -19,7 +19,7 @@ fn extended_kepler_agrees_with_reduced_corollary_1() {
     let z0: Vector6<f64> = set_momentum_of_time(&ext, lift(&x0, t0)).expect("calH = 0");
     assert!(ext.value(&z0).abs() <= EPS, "calH(zbar_0) = 0");
     let steps = 500;
-    let options = DthOptions::default();
+    let options = DthOptions::thesis_kepler();
     let reduced = integrate(kepler, x0, options, steps).expect("reduced run");
     let extended = integrate(ext, z0, options, steps).expect("extended run");
 
@@ -64,7 +64,7 @@ fn extended_kepler_agrees_with_reduced_corollary_1() {
 fn extended_start_must_have_zero_calh() {
     let ext: Extended<Kepler, Const<4>> = Extended::new(Kepler::thesis());
     let z: Vector6<f64> = lift(&Vector4::new(0.5, 0.0, 0.0, 1.2), 0.0); // p_t = 0: calH = -0.56
-    let r = Dth::new(ext, z, DthOptions::default());
+    let r = Dth::new(ext, z, DthOptions::thesis_kepler());
     assert!(
         matches!(r, Err(Error::ExtendedEnergyNotZero { value }) if (value + 0.56).abs() < 1e-15)
     );
@@ -130,13 +130,8 @@ fn forced_errors(dtau: f64) -> (f64, f64) {
     let (q0, p0) = (1.0, 0.0);
     let z0 = set_momentum_of_time(&forced, Vector4::new(q0, 0.0, p0, 0.0)).expect("calH = 0");
     let steps = (10.0 / dtau).ceil() as usize;
-    let t = integrate(
-        forced,
-        z0,
-        DthOptions::default().with_dtau(dtau).expect("dtau"),
-        steps,
-    )
-    .unwrap_or_else(|e| panic!("forced run: {}", e.error));
+    let t = integrate(forced, z0, DthOptions::new(dtau).expect("dtau"), steps)
+        .unwrap_or_else(|e| panic!("forced run: {}", e.error));
     let forced = Forced { f: 0.1, w: 0.5 };
     let mut err: f64 = 0.0;
     let mut calh: f64 = 0.0;

@@ -19,13 +19,13 @@ fn kepler_z0() -> Vector4<f64> {
 fn non_finite_initial_state_is_rejected_with_its_index() {
     let mut z = kepler_z0();
     z[2] = f64::NAN;
-    let r = Dth::new(Kepler::thesis(), z, DthOptions::default());
+    let r = Dth::new(Kepler::thesis(), z, DthOptions::thesis_kepler());
     assert!(matches!(
         r,
         Err(Error::NonFiniteInitialState { index: 2, .. })
     ));
     z[2] = f64::INFINITY;
-    let r = integrate(Kepler::thesis(), z, DthOptions::default(), 10);
+    let r = integrate(Kepler::thesis(), z, DthOptions::thesis_kepler(), 10);
     let e = r.expect_err("infinite component");
     assert!(matches!(
         e.error,
@@ -37,7 +37,11 @@ fn non_finite_initial_state_is_rejected_with_its_index() {
 #[test]
 fn non_finite_hamiltonian_at_zbar0_is_rejected() {
     // Kepler at the origin: H = -inf.
-    let r = Dth::new(Kepler::thesis(), Vector4::zeros(), DthOptions::default());
+    let r = Dth::new(
+        Kepler::thesis(),
+        Vector4::zeros(),
+        DthOptions::thesis_kepler(),
+    );
     assert!(matches!(r, Err(Error::NonFinite { step: 0, .. })));
 }
 
@@ -48,13 +52,13 @@ fn an_equilibrium_start_is_refused_as_one() {
     let r = Dth::new(
         Pendulum::normalized(),
         Vector2::new(0.0, 0.0),
-        DthOptions::default(),
+        DthOptions::thesis_kepler(),
     );
     assert!(matches!(r, Err(Error::Equilibrium)), "{r:?}");
     let e = integrate(
         Pendulum::normalized(),
         Vector2::zeros(),
-        DthOptions::default(),
+        DthOptions::thesis_kepler(),
         10,
     )
     .expect_err("equilibrium");
@@ -63,7 +67,7 @@ fn an_equilibrium_start_is_refused_as_one() {
     let mut dth = Dth::new(
         Pendulum::normalized(),
         Vector2::new(0.0, 1e-3),
-        DthOptions::default(),
+        DthOptions::thesis_kepler(),
     )
     .expect("a small oscillation");
     dth.advance(10).expect("steps");
@@ -71,7 +75,9 @@ fn an_equilibrium_start_is_refused_as_one() {
 
 #[test]
 fn iteration_limit_gives_newton_diverged_with_data() {
-    let options = DthOptions::default().with_max_iterations(1).expect("valid");
+    let options = DthOptions::thesis_kepler()
+        .with_max_iterations(1)
+        .expect("valid");
     for solver in [Solver::Joint, Solver::Nested] {
         let mut dth = Dth::new(Kepler::thesis(), kepler_z0(), options.with_solver(solver))
             .expect("valid start");
@@ -98,7 +104,7 @@ fn singular_newton_matrix_is_reported() {
     // predictor lands on q = -3, p = 3 where Psi = 0, so the law-of-time lambda predictor
     // falls back to lambda = 1, and A = I - (h lambda / 2) J Hess = [[1, 1], [1, 1]] is
     // exactly singular.
-    let options = DthOptions::default().with_dtau(2.0).expect("valid");
+    let options = DthOptions::new(2.0).expect("valid");
     for solver in [Solver::Joint, Solver::Nested] {
         let mut dth =
             Dth::new(Saddle, Vector2::new(0.0, 1.0), options.with_solver(solver)).expect("start");
@@ -113,7 +119,7 @@ fn singular_newton_matrix_is_reported() {
 #[test]
 fn non_finite_value_mid_run_stops_and_keeps_the_partial_trajectory() {
     // Amplitude 1.2 > 1: the orbit reaches the wall after about a quarter period.
-    let options = DthOptions::default().with_dtau(0.1).expect("valid");
+    let options = DthOptions::new(0.1).expect("valid");
     let z0 = Vector2::new(0.0, 1.2);
     let e = integrate(Walled, z0, options, 1_000).expect_err("must hit the wall");
     let Error::NonFinite { step, .. } = e.error else {
@@ -144,7 +150,7 @@ fn non_finite_value_mid_run_stops_and_keeps_the_partial_trajectory() {
 
 #[test]
 fn runs_resume_and_a_no_op_observer_stores_nothing() {
-    let options = DthOptions::default();
+    let options = DthOptions::thesis_kepler();
     let mut dth = Dth::new(Kepler::thesis(), kepler_z0(), options).expect("start");
     let mut t = Trajectory::new();
     dth.run(10, &mut t).expect("run");
@@ -169,7 +175,7 @@ fn no_positive_root_beyond_e_0_79_is_a_breakdown_before_newton() {
     // sign along the orbit, and dtau = 0.2: the step has no positive root near lambda_0
     // (Newton used to converge to a negative one). The sign change of Psi at the predicted
     // midpoint is caught before Newton runs.
-    let options = DthOptions::default().with_dtau(0.2).expect("valid");
+    let options = DthOptions::new(0.2).expect("valid");
     let z0 = Vector4::new(0.5, 0.0, 0.0, 1.38);
     let e = integrate(Kepler::thesis(), z0, options, 100).expect_err("no positive root");
     assert!(
@@ -188,8 +194,7 @@ fn negative_lambda_root_is_rejected_as_spurious() {
     // surface (no breakdown verdict from it), Newton converges to a root with lambda < 0, and
     // three orbit steps ahead Psi keeps its sign, so this is the solver's spurious root, not a
     // breakdown of the method. It must not be accepted.
-    let options = DthOptions::default()
-        .with_dtau(1.0)
+    let options = DthOptions::new(1.0)
         .and_then(|o| o.with_lambda0(3.0))
         .expect("valid");
     let z0 = Vector2::new(0.3, 1.0);

@@ -15,8 +15,7 @@ fn z0() -> Vector4<f64> {
 }
 
 fn run(solver: Solver, steps: usize) -> Trajectory<Const<4>> {
-    let options = DthOptions::default()
-        .with_dtau(0.06277)
+    let options = DthOptions::new(0.06277)
         .and_then(|o| o.with_lambda0(1.0))
         .expect("valid options")
         .with_solver(solver);
@@ -164,7 +163,7 @@ fn nested_and_joint_newton_agree() {
     // Psi = 1.14 there is ~67 eps per solve (seen: 66 eps between the two solvers at a vertex
     // near apocentre), and two independent solves differ by up to twice that: bound 160 eps.
     // (`segment_from_vertex` solves with the plain residual.)
-    let options = DthOptions::default();
+    let options = DthOptions::thesis_kepler();
     let kepler = Kepler::thesis();
     let e0 = kepler.value(&z0());
     let (mut worst_z, mut worst_l) = (0.0f64, 0.0f64);

@@ -10,7 +10,7 @@ use dth_core::systems::Kepler;
 #[test]
 fn steps_do_not_allocate() {
     for solver in [Solver::Joint, Solver::Nested] {
-        let options = DthOptions::default().with_solver(solver);
+        let options = DthOptions::thesis_kepler().with_solver(solver);
         let mut dth =
             Dth::new(Kepler::thesis(), Vector4::new(0.5, 0.0, 0.0, 1.2), options).expect("start");
         let (ok, allocations) = alloc_counter::count(|| dth.run(1_000, &mut ()).is_ok());

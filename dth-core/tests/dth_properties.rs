@@ -13,7 +13,7 @@ fn kepler_z0() -> Vector4<f64> {
 }
 
 fn options(dtau: f64) -> DthOptions {
-    DthOptions::default().with_dtau(dtau).expect("valid dtau")
+    DthOptions::new(dtau).expect("valid dtau")
 }
 
 fn run<H: Hamiltonian<Const<D>>, const D: usize>(

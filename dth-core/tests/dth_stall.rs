@@ -59,8 +59,7 @@ fn thesis_orbit_at_dtau_0_004_and_1e_minus_3_converges_with_both_residuals_and_s
     for (dtau, steps) in [(0.004, 1_000), (1e-3, 300)] {
         for form in FORMS {
             for solver in SOLVERS {
-                let options = DthOptions::default()
-                    .with_dtau(dtau)
+                let options = DthOptions::new(dtau)
                     .expect("positive")
                     .with_energy_residual(form)
                     .with_solver(solver);
@@ -95,8 +94,7 @@ fn forced_oscillator_at_dtau_0_01_converges_with_both_residuals_and_solvers() {
     let z0 = fo.initial_state(1.0, 0.0, 0.0);
     for form in FORMS {
         for solver in SOLVERS {
-            let options = DthOptions::default()
-                .with_dtau(0.01)
+            let options = DthOptions::new(0.01)
                 .expect("positive")
                 .with_energy_residual(form)
                 .with_solver(solver);

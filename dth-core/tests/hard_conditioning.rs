@@ -33,12 +33,11 @@ fn worst_lambda_error_of<H: dth_core::Hamiltonian<Const<4>> + Copy>(
     let orbit = integrate(
         kepler,
         Vector4::new(0.5, 0.0, 0.0, 1.2),
-        DthOptions::default(),
+        DthOptions::thesis_kepler(),
         25,
     )
     .expect("thesis orbit");
-    let options = DthOptions::default()
-        .with_dtau(dtau)
+    let options = DthOptions::new(dtau)
         .expect("valid dtau")
         .with_energy_residual(residual)
         .with_solver(solver);
@@ -87,7 +86,7 @@ const DTAUS: [f64; 6] = [0.06277, 1e-2, 1e-3, 1e-4, 1e-5, 1e-6];
 #[test]
 fn lambda_is_machine_precision_from_thesis_dtau_down_to_1e_minus_6() {
     // Kepler has exact divided differences, so the default residual is cancellation-free.
-    let options = DthOptions::default();
+    let options = DthOptions::thesis_kepler();
     let dth = Dth::new(Kepler::thesis(), Vector4::new(0.5, 0.0, 0.0, 1.2), options).expect("start");
     assert!(dth.cancellation_free());
     let mut errors = Vec::new();
@@ -123,8 +122,7 @@ fn lambda_roughness<H: dth_core::Hamiltonian<Const<D>> + Copy, const D: usize>(
     dtau: f64,
     residual: EnergyResidual,
 ) -> f64 {
-    let options = DthOptions::default()
-        .with_dtau(dtau)
+    let options = DthOptions::new(dtau)
         .expect("valid")
         .with_energy_residual(residual);
     let t = integrate(h, z0, options, 300).unwrap_or_else(|e| panic!("{}", e.error));

@@ -21,7 +21,7 @@ fn thesis_z0() -> Vector4<f64> {
 
 #[test]
 fn invalid_options_are_rejected_with_name_and_value() {
-    let o = DthOptions::default();
+    let o = DthOptions::thesis_kepler();
     for bad in [0.0, -0.1, f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
         assert!(matches!(
             o.with_dtau(bad),
@@ -87,7 +87,7 @@ fn non_finite_initial_state_is_rejected_before_the_first_step_for_every_componen
         for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
             let mut z = thesis_z0();
             z[index] = bad;
-            let e = integrate(Kepler::thesis(), z, DthOptions::default(), 10)
+            let e = integrate(Kepler::thesis(), z, DthOptions::thesis_kepler(), 10)
                 .expect_err("non-finite start");
             assert!(
                 matches!(e.error, Error::NonFiniteInitialState { index: i, .. } if i == index),
@@ -114,7 +114,7 @@ fn non_finite_parameters_are_rejected_before_the_first_step() {
         },
         Kepler { mass: 0.0, k: 1.0 },
     ] {
-        let r = Dth::new(kepler, thesis_z0(), DthOptions::default());
+        let r = Dth::new(kepler, thesis_z0(), DthOptions::thesis_kepler());
         assert!(
             matches!(r, Err(Error::NonFinite { step: 0, .. })),
             "{kepler:?}: {r:?}"
@@ -131,7 +131,7 @@ fn near_collision_makes_the_newton_matrix_singular() {
     // step 4x smaller on the r = 0.1 orbit the run is fine (control).
     let kepler = Kepler::thesis();
     let start = |r: f64| Vector4::new(r, 0.0, 0.0, 1.2 * (0.5 / r).sqrt());
-    let options = DthOptions::default().with_dtau(0.02).expect("valid");
+    let options = DthOptions::new(0.02).expect("valid");
     let e = integrate(kepler, start(0.03), options, 200).expect_err("near collision");
     assert!(
         matches!(e.error, Error::SingularMatrix { step: 1 }),
@@ -139,7 +139,7 @@ fn near_collision_makes_the_newton_matrix_singular() {
         e.error
     );
     assert_eq!(e.partial.len(), 1);
-    let fine = DthOptions::default().with_dtau(0.005).expect("valid");
+    let fine = DthOptions::new(0.005).expect("valid");
     assert!(integrate(kepler, start(0.1), fine, 200).is_ok());
 }
 
@@ -149,8 +149,7 @@ fn a_step_far_too_large_does_not_converge_and_is_not_retried() {
     // residual above tolerance at step 3. The step is not retried with a smaller dtau (see
     // Dth::step): the run stops with NewtonDiverged and keeps midpoints 0..2, and the stepper
     // stays at k = 2.
-    let options = DthOptions::default()
-        .with_dtau(2.0)
+    let options = DthOptions::new(2.0)
         .and_then(|o| o.with_lambda0(3.0))
         .expect("valid");
     let z0 = Vector2::new(0.3, 1.0);
@@ -213,7 +212,7 @@ fn inconsistent_discrete_gradient_fails_the_energy_check() {
     let e = integrate(
         WrongDiscreteGradient(Kepler::thesis()),
         thesis_z0(),
-        DthOptions::default(),
+        DthOptions::thesis_kepler(),
         10,
     )
     .expect_err("inconsistent override");
@@ -232,7 +231,12 @@ fn start_where_psi_is_exactly_zero_on_the_whole_orbit_is_singular() {
     // exactly, and stays there: H(z(lambda)) = 0 for every lambda, so the energy equation does
     // not determine lambda (g_lambda = 0). The Schur complement is exactly zero: a singular
     // Newton matrix, reported at step 1, nothing else computed.
-    let mut dth = Dth::new(Saddle, Vector2::new(1.0, 1.0), DthOptions::default()).expect("start");
+    let mut dth = Dth::new(
+        Saddle,
+        Vector2::new(1.0, 1.0),
+        DthOptions::new(0.06277).expect("valid dtau"),
+    )
+    .expect("start");
     assert_eq!(dth.record().dth.map(|d| d.psi), Some(0.0));
     let r = dth.step();
     assert!(matches!(r, Err(Error::SingularMatrix { step: 1 })), "{r:?}");
@@ -267,7 +271,7 @@ fn start_where_psi_is_exactly_zero_then_changes_sign() {
     // q = 0, where Psi changes sign: a breakdown, reported with its data; in robust mode the
     // run goes through with fallback steps (and on to q -> -infinity, where this orbit
     // escapes), energy exact at every point.
-    let options = DthOptions::default().with_dtau(0.05).expect("valid");
+    let options = DthOptions::new(0.05).expect("valid");
     let z0 = Vector2::new(0.0, 1.0);
     assert_eq!(Cubic.psi(&z0), 0.0);
     let e = integrate(Cubic, z0, options, 2_000).expect_err("Psi changes sign at q = 0");
@@ -301,10 +305,7 @@ fn robust_mode_stops_with_the_fallback_error_where_the_orbit_cannot_be_followed(
     // The orbit of amplitude 1.2 runs into q > 1 where H is NaN. The robust mode turns the DTH
     // failure into fallback steps, halves them towards the wall down to 2^-20 of their size,
     // then stops with the fallback's typed error; everything before is kept and marked.
-    let options = DthOptions::default()
-        .with_dtau(0.1)
-        .expect("valid")
-        .with_robust(true);
+    let options = DthOptions::new(0.1).expect("valid").with_robust(true);
     let e = integrate(Walled, Vector2::new(0.0, 1.2), options, 1_000).expect_err("wall");
     assert!(
         matches!(e.error, Error::MethodNonFinite { method: "discrete_gradient", step, .. } if step == e.partial.len()),

@@ -56,7 +56,7 @@ fn kepler_e044_and_e07_at_25_100_1000_points_per_orbit() {
         for points in [25usize, 100, 1000] {
             // Steps per orbit scale like 1/dtau at fixed lambda_0 (law of time).
             let dtau = THESIS_DTAU * 25.0 / points as f64;
-            let options = DthOptions::default().with_dtau(dtau).expect("valid");
+            let options = DthOptions::new(dtau).expect("valid");
             let t = integrate(kepler, start(e), options, 3 * points)
                 .unwrap_or_else(|err| panic!("e {e}, {points} points: {:?}", err.error));
             let per_orbit = t.midpoint_times().iter().filter(|&&x| x < period).count();
@@ -108,7 +108,7 @@ fn kepler_dtau_from_0_2_down_to_1e_minus_6() {
     // reaches sqrt(m r^3 / (2k)), where I - (h lambda/2) J Hess H is singular (J Hess H has the
     // real eigenvalues +-sqrt(2k / (m r^3)) of the radial instability): a typed failure, and
     // the robust mode carries the run through those steps.
-    let options = DthOptions::default().with_dtau(0.2).expect("valid");
+    let options = DthOptions::new(0.2).expect("valid");
     let err = integrate(kepler, start(0.44), options, 400).expect_err("dtau 0.2");
     assert!(
         matches!(err.error, Error::SingularMatrix { step: 14 }),
@@ -123,7 +123,7 @@ fn kepler_dtau_from_0_2_down_to_1e_minus_6() {
     assert!(t.fallback_steps() > 0 && worst_energy(&t, e0) <= 8.0 * EPS);
     for dtau in [0.15, 0.1, THESIS_DTAU, 1e-2, 1e-3, 1e-4, 1e-5, 1e-6] {
         let steps = ((2.0 / dtau) as usize).clamp(20, 2_000);
-        let options = DthOptions::default().with_dtau(dtau).expect("valid");
+        let options = DthOptions::new(dtau).expect("valid");
         let t = integrate(kepler, start(0.44), options, steps)
             .unwrap_or_else(|err| panic!("dtau {dtau}: {:?}", err.error));
         let de = worst_energy(&t, e0);
@@ -149,10 +149,7 @@ fn kepler_dtau_from_0_2_down_to_1e_minus_6() {
 /// are marked and that DTH is resumed.
 fn robust_run(e: f64, dtau: f64, steps: usize) -> Trajectory<Const<4>> {
     let kepler = Kepler::thesis();
-    let options = DthOptions::default()
-        .with_dtau(dtau)
-        .expect("valid")
-        .with_robust(true);
+    let options = DthOptions::new(dtau).expect("valid").with_robust(true);
     let t = integrate(kepler, start(e), options, steps)
         .unwrap_or_else(|err| panic!("robust e {e}: {:?}", err.error));
     let e0 = kepler.value(&start(e));
@@ -204,7 +201,7 @@ fn kepler_e09_e099_e0999_break_down_then_run_through_in_robust_mode() {
         let err = integrate(
             kepler,
             start(e),
-            DthOptions::default().with_dtau(dtau).expect("ok"),
+            DthOptions::new(dtau).expect("ok"),
             100_000,
         )
         .expect_err("Psi changes sign along the orbit");
@@ -237,10 +234,7 @@ fn kepler_e09_e099_e0999_break_down_then_run_through_in_robust_mode() {
     let mut dth = Dth::new(
         kepler,
         start(0.9),
-        DthOptions::default()
-            .with_dtau(dtau)
-            .expect("ok")
-            .with_robust(true),
+        DthOptions::new(dtau).expect("ok").with_robust(true),
     )
     .expect("start");
     let mut resumed = 0usize;
@@ -268,7 +262,7 @@ fn kepler_e09_e099_e0999_break_down_then_run_through_in_robust_mode() {
 #[test]
 fn robust_mode_changes_nothing_where_dth_works() {
     // Zero cost where no step breaks down: the same steps, bit for bit, all marked DTH.
-    let options = DthOptions::default();
+    let options = DthOptions::thesis_kepler();
     let plain = integrate(Kepler::thesis(), start(0.44), options, 2_000).expect("thesis orbit");
     let robust = integrate(
         Kepler::thesis(),
@@ -297,10 +291,7 @@ fn near_collision_orbit_e_0999_through_pericentre_in_robust_mode() {
     let e0 = kepler.value(&z0);
     let mut errors = Vec::new();
     for dtau in [0.01, 0.001] {
-        let options = DthOptions::default()
-            .with_dtau(dtau)
-            .expect("ok")
-            .with_robust(true);
+        let options = DthOptions::new(dtau).expect("ok").with_robust(true);
         let mut dth = Dth::new(kepler, z0, options).expect("start");
         let (mut r_min, mut worst, mut steps, mut fallback) = (f64::MAX, 0.0f64, 0usize, 0usize);
         while dth.tbar() < period {

@@ -24,8 +24,7 @@ struct Drift {
 
 fn long_run(residual: EnergyResidual, dtau: f64) -> Drift {
     let kepler = Kepler::thesis();
-    let options = DthOptions::default()
-        .with_dtau(dtau)
+    let options = DthOptions::new(dtau)
         .expect("valid dtau")
         .with_energy_residual(residual);
     let mut dth = Dth::new(kepler, Vector4::new(0.5, 0.0, 0.0, 1.2), options).expect("start");
@@ -117,8 +116,7 @@ fn energy_drift_per_dtau_both_residuals() {
     for dtau in [0.06277, 1e-2, 1e-3, 1e-4, 1e-5, 1e-6] {
         let mut row = Vec::new();
         for residual in [EnergyResidual::CancellationFree, EnergyResidual::Plain] {
-            let options = DthOptions::default()
-                .with_dtau(dtau)
+            let options = DthOptions::new(dtau)
                 .expect("valid")
                 .with_energy_residual(residual);
             let mut dth =

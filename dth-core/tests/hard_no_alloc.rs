@@ -15,10 +15,7 @@ use dth_core::systems::Kepler;
 fn robust_mode_and_cancellation_free_steps_do_not_allocate() {
     // Kepler e = 0.9: DTH steps (cancellation-free residual), breakdowns, fallback steps and
     // resumptions all happen within 3,000 steps.
-    let options = DthOptions::default()
-        .with_dtau(0.0157)
-        .expect("valid")
-        .with_robust(true);
+    let options = DthOptions::new(0.0157).expect("valid").with_robust(true);
     let mut dth = Dth::new(
         Kepler::thesis(),
         Vector4::new(0.5, 0.0, 0.0, 1.9f64.sqrt()),
@@ -47,8 +44,7 @@ fn fallback_steps_through_a_close_encounter_do_not_allocate() {
     // meets residuals amplified by (dt/2) Hess H and takes its Newton correction, and the
     // projection moves the momenta.
     use hard_support::pair::Pair;
-    let options = DthOptions::default()
-        .with_dtau(0.002)
+    let options = DthOptions::new(0.002)
         .expect("valid")
         .with_lambda0(1e-5)
         .expect("valid")

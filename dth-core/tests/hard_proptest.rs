@@ -59,8 +59,7 @@ fn run_case<H: Hamiltonian<Const<D>> + Copy, const D: usize>(
     robust: bool,
     steps: usize,
 ) -> Result<(), TestCaseError> {
-    let options = DthOptions::default()
-        .with_dtau(dtau)
+    let options = DthOptions::new(dtau)
         .and_then(|o| o.with_lambda0(lambda0))
         .expect("valid by construction")
         .with_robust(robust);

@@ -33,10 +33,7 @@ fn robust_until<H: Hamiltonian<Const<D>> + Copy, const D: usize>(
     dtau: f64,
     t_end: f64,
 ) -> RobustRun<D> {
-    let options = DthOptions::default()
-        .with_dtau(dtau)
-        .expect("valid")
-        .with_robust(true);
+    let options = DthOptions::new(dtau).expect("valid").with_robust(true);
     let mut dth = Dth::new(h, z0, options).expect("start");
     let e0 = h.value(&z0);
     let (mut iterations, mut steps, mut fallback, mut worst) = (0usize, 0usize, 0usize, 0.0f64);

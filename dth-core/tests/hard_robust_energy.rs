@@ -21,8 +21,7 @@ use hard_support::pair::{Pair, V8};
 /// fallback steps taken.
 fn worst(z0: V8, (dtau, lambda0): (f64, f64), steps: usize) -> (f64, f64, usize) {
     let e0 = Pair.value(&z0);
-    let options = DthOptions::default()
-        .with_dtau(dtau)
+    let options = DthOptions::new(dtau)
         .expect("dtau > 0")
         .with_lambda0(lambda0)
         .expect("lambda0 > 0")

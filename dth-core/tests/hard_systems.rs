@@ -47,7 +47,7 @@ fn pendulum_libration_just_below_the_separatrix() {
         let t = integrate(
             pendulum,
             pendulum_start(h),
-            DthOptions::default().with_dtau(dtau).expect("ok"),
+            DthOptions::new(dtau).expect("ok"),
             5_000,
         )
         .unwrap_or_else(|e| panic!("H {h}: {:?}", e.error));
@@ -70,7 +70,7 @@ fn pendulum_rotation_just_above_the_separatrix_breaks_down_then_robust_mode_rota
     // the top with discrete-gradient steps and resumes DTH below.
     let pendulum = Pendulum::normalized();
     for h in [1.001, 1.2] {
-        let options = DthOptions::default().with_dtau(0.03).expect("ok");
+        let options = DthOptions::new(0.03).expect("ok");
         let err = integrate(pendulum, pendulum_start(h), options, 5_000).expect_err("over the top");
         assert!(
             matches!(err.error, Error::Breakdown { psi, psi_previous, lambda_predicted, .. }
@@ -153,13 +153,8 @@ fn henon_heiles_at_e_1_8_and_1_6() {
         for (q2, s1) in [(0.1, 0.3), (-0.15, 0.5), (0.0, 0.8)] {
             let z0 = henon_heiles_start(e, q2, s1);
             let e0 = hh.value(&z0);
-            let t = integrate(
-                hh,
-                z0,
-                DthOptions::default().with_dtau(0.03).expect("ok"),
-                5_000,
-            )
-            .unwrap_or_else(|err| panic!("E {e} start {z0:?}: {:?}", err.error));
+            let t = integrate(hh, z0, DthOptions::new(0.03).expect("ok"), 5_000)
+                .unwrap_or_else(|err| panic!("E {e} start {z0:?}: {:?}", err.error));
             let de = worst_energy(&hh, &t, e0, henon_heiles_terms);
             println!("Henon-Heiles E {e:.4}, q2 {q2}, share {s1}: t {:.1}, |dH| {:.1} eps, min Psi {:.2e}", t.midpoint_times()[t.len() - 1], de / EPS, t.psis().iter().copied().fold(f64::MAX, f64::min));
             assert!(de <= 8.0 * EPS, "{de:e}");
@@ -170,7 +165,7 @@ fn henon_heiles_at_e_1_8_and_1_6() {
     // energy, an equilibrium, where Psi -> 0: DTH breaks down there; the robust mode continues
     // with energy exact.
     let z0 = henon_heiles_start(1.0 / 6.0, 0.0, 0.0);
-    let options = DthOptions::default().with_dtau(0.03).expect("ok");
+    let options = DthOptions::new(0.03).expect("ok");
     let err = integrate(hh, z0, options, 5_000).expect_err("saddle");
     assert!(
         matches!(err.error, Error::Breakdown { .. }),
@@ -200,10 +195,7 @@ fn henon_heiles_saddle_approaches_from_nearby_starts_robust_mode() {
     // 10 of 60 such starts stopped with MethodNotConverged after all step halvings).
     let hh = HenonHeiles;
     let base = henon_heiles_start(1.0 / 6.0, 0.0, 0.0);
-    let options = DthOptions::default()
-        .with_dtau(0.03)
-        .expect("ok")
-        .with_robust(true);
+    let options = DthOptions::new(0.03).expect("ok").with_robust(true);
     let mut closest = f64::MAX;
     for ulps in -40i64..40 {
         let mut z0 = base;
@@ -266,7 +258,7 @@ fn forced_oscillator_through_resonance() {
         };
         let mut errors = Vec::new();
         for dtau in [0.02, 0.01] {
-            let options = DthOptions::default().with_dtau(dtau).expect("ok");
+            let options = DthOptions::new(dtau).expect("ok");
             let mut steps = 0;
             let t = loop {
                 steps += 2_000;
@@ -305,7 +297,7 @@ fn forced_oscillator_breakdown_and_robust_mode_in_the_extended_phase_space() {
         omega: 0.9,
     };
     let z0 = fo.initial_state(1.0, 0.0, 0.0);
-    let options = DthOptions::default().with_dtau(0.1).expect("ok");
+    let options = DthOptions::new(0.1).expect("ok");
     let err = integrate(fo, z0, options, 3_000).expect_err("breakdown");
     assert!(
         matches!(err.error, Error::Breakdown { step: 222, .. }),
@@ -344,10 +336,7 @@ fn forced_oscillator_breakdown_and_robust_mode_in_the_extended_phase_space() {
             .fold(0.0, f64::max)
     };
     let finer = |dtau: f64| {
-        let o = DthOptions::default()
-            .with_dtau(dtau)
-            .expect("ok")
-            .with_robust(true);
+        let o = DthOptions::new(dtau).expect("ok").with_robust(true);
         let steps = (300.0 / dtau) as usize;
         integrate(fo, z0, o, steps).unwrap_or_else(|e| panic!("{}", e.error))
     };

@@ -128,7 +128,7 @@ impl Naive {
 }
 
 fn counts() {
-    let mut dth = Dth::new(Kepler::thesis(), z0(), DthOptions::default()).expect("start");
+    let mut dth = Dth::new(Kepler::thesis(), z0(), DthOptions::thesis_kepler()).expect("start");
     let (mut it, mut lu) = (0u64, 0u64);
     let mut worst = 0.0f64;
     let e0 = Kepler::thesis().value(&z0());
@@ -138,7 +138,7 @@ fn counts() {
         lu += u64::from(r.factorizations);
         worst = worst.max((Kepler::thesis().value(dth.zbar()) - e0).abs());
     }
-    let mut naive = Naive::new(z0(), DthOptions::default().dtau());
+    let mut naive = Naive::new(z0(), DthOptions::thesis_kepler().dtau());
     let mut naive_worst = 0.0f64;
     for _ in 0..STEPS {
         naive.step().expect("naive step");
@@ -168,7 +168,7 @@ fn counts() {
 
 fn kepler(c: &mut Criterion) {
     counts();
-    let start = Dth::new(Kepler::thesis(), z0(), DthOptions::default()).expect("start");
+    let start = Dth::new(Kepler::thesis(), z0(), DthOptions::thesis_kepler()).expect("start");
     let mut g = c.benchmark_group("kepler_newton/thesis");
     g.bench_function("dth", |b| {
         b.iter_batched(
@@ -192,7 +192,7 @@ fn kepler(c: &mut Criterion) {
             black_box(z[0])
         })
     });
-    let dtau = DthOptions::default().dtau();
+    let dtau = DthOptions::thesis_kepler().dtau();
     g.bench_function("naive_dth", |b| {
         b.iter(|| {
             let mut n = Naive::new(black_box(z0()), dtau);

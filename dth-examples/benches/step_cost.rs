@@ -178,7 +178,7 @@ fn kepler(c: &mut Criterion) {
     let (states, dt) = states(
         &Kepler::thesis(),
         Vector4::new(0.5, 0.0, 0.0, 1.2),
-        DthOptions::default(),
+        DthOptions::thesis_kepler(),
         100,
         0x5EED_0001,
     );
@@ -196,9 +196,7 @@ fn toda(c: &mut Criterion) {
             2.0 * rng.unit() - 1.0
         }
     });
-    let options = DthOptions::default()
-        .with_dtau(0.05)
-        .expect("positive step");
+    let options = DthOptions::new(0.05).expect("positive step");
     let (states, dt) = states(&toda, z0, options, 400, 0x5EED_0003);
     group(c, "toda10", &states, dt);
 }

@@ -188,7 +188,7 @@ fn chain<const D: usize, H: Hamiltonian<Const<D>> + Copy>(
 /// One DTH step, `dtau = 0.1`, of a stepper running from `z0`.
 fn dth_step<const D: usize, H: Hamiltonian<Const<D>> + Copy>(c: &mut Criterion, name: &str, h: H) {
     let z0 = states::<D>()[0];
-    let options = DthOptions::default().with_dtau(DT).expect("dtau");
+    let options = DthOptions::new(DT).expect("dtau");
     let mut dth = Dth::new(h, z0, options).expect("start");
     let mut g = c.benchmark_group(format!("dth/{name}"));
     if D >= 256 {
@@ -206,7 +206,7 @@ fn dth_long_run() {
     const STEPS: u32 = 10_000;
     let h = FputAlpha512;
     let z0 = states::<1024>()[0];
-    let options = DthOptions::default().with_dtau(DT).expect("dtau");
+    let options = DthOptions::new(DT).expect("dtau");
     let mut dth = Dth::new(h, z0, options).expect("start");
     let e0 = h.value(&z0);
     let scale = e0.abs().max(z0.component_mul(&h.gradient(&z0)).abs().sum());

@@ -93,7 +93,7 @@ fn joint(
 fn main() {
     let kepler = Kepler::thesis();
     let z0 = Vector4::new(0.5, 0.0, 0.0, 1.2);
-    let options = DthOptions::default();
+    let options = DthOptions::thesis_kepler();
     let dtau = options.dtau();
     let steps = 2000;
     let t = integrate(kepler, z0, options, steps).expect("thesis run");

@@ -281,8 +281,7 @@ impl DthRunner {
         order: u32,
     ) -> Result<Self, dth::Error> {
         Ok(DthRunner {
-            options: DthOptions::default()
-                .with_dtau(dtau)?
+            options: DthOptions::new(dtau)?
                 .with_lambda0(lambda0)?
                 .with_order(order)?
                 .with_solver(solver)

@@ -15,7 +15,8 @@ use dth_examples::ensemble::chaos::Megno;
 fn megno_steps_do_not_allocate() {
     let system = HenonHeiles;
     let z0 = Vector4::new(0.0, 0.1, 0.35, 0.1);
-    let mut dth = Dth::new(system, z0, DthOptions::default()).expect("start");
+    let mut dth =
+        Dth::new(system, z0, DthOptions::new(0.06277).expect("valid dtau")).expect("start");
     let mut megno = Megno::new(&system);
     // The first step seeds the observer; every later one solves a variational step.
     dth.run(2, &mut megno).expect("warm-up");

@@ -50,8 +50,7 @@ fn robust(
     dtau: f64,
     t_end: f64,
 ) -> (DVector<f64>, usize) {
-    let options = DthOptions::default()
-        .with_dtau(dtau)
+    let options = DthOptions::new(dtau)
         .and_then(|o| o.with_lambda0(1e-5))
         .expect("valid options")
         .with_robust(true);

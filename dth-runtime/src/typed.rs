@@ -32,7 +32,7 @@
 //! let text = "(p1^2 + p2^2)/(2*m) - k*(q1^2 + q2^2)^(-1/2)";
 //! let kepler = RuntimeHamiltonian::new(text, &[("m", 0.5), ("k", 1.0)])?;
 //! let zbar0 = DVector::from_column_slice(&[0.5, 0.0, 0.0, 1.2]); // D = 4, from the text
-//! let mut dth = Dth::new(kepler, zbar0.clone(), DthOptions::default())?;
+//! let mut dth = Dth::new(kepler, zbar0.clone(), DthOptions::thesis_kepler())?;
 //! dth.advance(100)?;
 //! let e0 = dth.hamiltonian().value(&zbar0);
 //! assert!((dth.hamiltonian().value(dth.zbar()) - e0).abs() < 1e-15);

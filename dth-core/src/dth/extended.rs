@@ -22,7 +22,7 @@ use crate::{Error, Flags, Hamiltonian};
 /// let ext: Extended<Kepler, U4> = Extended::new(Kepler::thesis());
 /// let z = set_momentum_of_time(&ext, lift(&Vector4::new(0.5, 0.0, 0.0, 1.2), 0.0))?;
 /// assert_eq!(z[5], 0.56); // p_t = -H
-/// let mut dth = Dth::new(ext, z, DthOptions::default())?;
+/// let mut dth = Dth::new(ext, z, DthOptions::thesis_kepler())?;
 /// dth.advance(10)?;
 /// # Ok::<(), dth_core::Error>(())
 /// ```

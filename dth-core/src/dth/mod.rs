@@ -51,7 +51,7 @@
 //! // Kepler with e = 0.9: Psi changes sign between pericentre and apocentre.
 //! let kepler = Kepler::thesis();
 //! let z0 = Vector4::new(0.5, 0.0, 0.0, 1.9f64.sqrt());
-//! let options = DthOptions::default().with_dtau(0.0157)?;
+//! let options = DthOptions::new(0.0157)?;
 //! let stopped = integrate(kepler, z0, options, 1_000).unwrap_err();
 //! assert!(matches!(stopped.error, Error::Breakdown { psi, .. } if psi < 0.0));
 //! assert_eq!(stopped.partial.len(), 19); // zbar_0 .. zbar_18 kept

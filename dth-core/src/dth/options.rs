@@ -86,7 +86,8 @@ pub enum EnergyResidual {
     CancellationFree,
 }
 
-/// Options of the DTH stepper. Build with [`Default`] and the `with_*` methods.
+/// Options of the DTH stepper. Build with [`DthOptions::new`] (the step `dtau`, which has no
+/// default) and the `with_*` methods.
 ///
 /// **Which setters need `?`.** A setter that takes a number (`with_dtau`, `with_lambda0`,
 /// `with_max_iterations`, `with_residual_tolerance`, `with_stall_tolerance`,
@@ -99,14 +100,14 @@ pub enum EnergyResidual {
 ///
 /// ```
 /// use dth_core::dth::{DthOptions, Solver};
-/// let options = DthOptions::default()
+/// let options = DthOptions::thesis_kepler()
 ///     .with_dtau(0.06277)?
 ///     .with_lambda0(1.0)?
 ///     .with_solver(Solver::Nested)
 ///     .with_robust(true)
 ///     .with_order(4)?;
 /// assert_eq!(options.dtau(), 0.06277);
-/// assert!(DthOptions::default().with_dtau(-1.0).is_err());
+/// assert!(DthOptions::new(-1.0).is_err());
 /// # Ok::<(), dth_core::Error>(())
 /// ```
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -124,12 +125,32 @@ pub struct DthOptions {
     composition: Composition,
 }
 
-impl Default for DthOptions {
-    /// The thesis's Kepler settings (`dtau = 0.06277`, `lambda0 = 1`), joint Newton,
-    /// at most 50 iterations, residual tolerance `64 eps`, stall tolerance `2^-40`,
-    /// [`EnergyResidual::Auto`], breakdown at a predicted `lambda` ratio of 8, robust mode off,
-    /// order 2 ([`Composition::Order2`]).
-    fn default() -> Self {
+impl DthOptions {
+    /// Options with the step `dtau` in the parameter `tau` (`h`; positive and finite) and the
+    /// defaults for the rest: `lambda0 = 1` (the thesis's choice), joint Newton, at most 50
+    /// iterations, residual tolerance `64 eps`, stall tolerance `2^-40`,
+    /// [`EnergyResidual::Auto`], breakdown at a predicted `lambda` ratio of 8, robust mode
+    /// off, order 2 ([`Composition::Order2`]).
+    ///
+    /// There is no default `dtau`: the right one depends on the system's time scale (the
+    /// physical step is `dt = lambda dtau`, and `lambda_0 = 1`). A step of about a twentieth
+    /// of the shortest period the run should resolve is a start; the run's energy is exact
+    /// at every `dtau`, its orbit error is `O(dtau^2)` (order 2).
+    ///
+    /// # Errors
+    /// [`Error::InvalidOption`] (`dtau`) when `dtau` is not positive and finite.
+    pub fn new(dtau: f64) -> Result<Self, Error> {
+        Ok(DthOptions {
+            dtau: positive_finite("dtau", dtau)?,
+            ..Self::thesis_kepler()
+        })
+    }
+
+    /// The thesis's settings for its Kepler problem (Table 4.1: `dtau = 0.06277`, 25 points
+    /// per orbit of the `e = 0.44` orbit of [`Kepler::thesis`](crate::systems::Kepler::thesis)
+    /// from `(0.5, 0, 0, 1.2)`), the rest as [`DthOptions::new`]. A preset for that system,
+    /// not a default for others.
+    pub fn thesis_kepler() -> Self {
         DthOptions {
             dtau: 0.06277,
             lambda0: 1.0,
@@ -158,8 +179,8 @@ fn positive_finite(name: &'static str, value: f64) -> Result<f64, Error> {
 }
 
 impl DthOptions {
-    /// The fixed step `dtau` (`h`) in the parameter `tau`. Default `0.06277` (thesis Table 4.1:
-    /// 25 points per orbit of its Kepler problem). Must be positive and finite.
+    /// The fixed step `dtau` (`h`) in the parameter `tau` (set first by [`DthOptions::new`]).
+    /// Must be positive and finite.
     pub fn with_dtau(mut self, dtau: f64) -> Result<Self, Error> {
         self.dtau = positive_finite("dtau", dtau)?;
         Ok(self)
@@ -306,9 +327,9 @@ impl DthOptions {
     ///
     /// ```
     /// use dth_core::dth::{Composition, DthOptions};
-    /// let options = DthOptions::default().with_order(8)?;
+    /// let options = DthOptions::thesis_kepler().with_order(8)?;
     /// assert_eq!(options.composition(), Composition::KahanLi8);
-    /// assert!(DthOptions::default().with_order(3).is_err());
+    /// assert!(DthOptions::thesis_kepler().with_order(3).is_err());
     /// # Ok::<(), dth_core::Error>(())
     /// ```
     ///
@@ -381,7 +402,7 @@ mod tests {
 
     #[test]
     fn rejects_non_positive_and_non_finite() {
-        let o = DthOptions::default();
+        let o = DthOptions::thesis_kepler();
         for bad in [0.0, -1.0, f64::NAN, f64::INFINITY] {
             assert!(matches!(
                 o.with_dtau(bad),

@@ -513,7 +513,7 @@ mod tests {
     /// correction is below an ulp: it is converged.
     #[test]
     fn a_converged_step_at_a_close_encounter_is_accepted() {
-        let options = DthOptions::default();
+        let options = DthOptions::thesis_kepler();
         let mut work = FallbackWork::new(&Pair, true);
         let mut dense = Dense::new(Const::<8>);
         let (z0, dt) = solved(&mut work);
@@ -531,7 +531,7 @@ mod tests {
     /// The same solution moved by `1e-9` relative: the correction sees it.
     #[test]
     fn an_unconverged_step_is_rejected() {
-        let options = DthOptions::default();
+        let options = DthOptions::thesis_kepler();
         let mut work = FallbackWork::new(&Pair, true);
         let mut dense = Dense::new(Const::<8>);
         let (z0, dt) = solved(&mut work);

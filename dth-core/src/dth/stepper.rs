@@ -48,7 +48,7 @@ use crate::{j_times, zeros, Error, Flags, Hamiltonian};
 ///
 /// let kepler = Kepler::thesis();
 /// let zbar0 = Vector4::new(0.5, 0.0, 0.0, 1.2);
-/// let mut dth = Dth::new(kepler, zbar0, DthOptions::default())?;
+/// let mut dth = Dth::new(kepler, zbar0, DthOptions::thesis_kepler())?;
 /// let trajectory = dth.trajectory(100)?;
 /// assert_eq!(trajectory.len(), 101); // zbar_0 .. zbar_100
 /// assert_eq!(trajectory.vertices().len(), 102);
@@ -313,8 +313,9 @@ where
     ///     }
     ///     fn hessian_into(&self, _: &Vector2<f64>, out: &mut Matrix2<f64>) { out.fill(0.0) }
     /// }
-    /// let err = Dth::new(Linear, Vector2::new(0.0, 1.0), DthOptions::default()).err().unwrap();
+    /// let err = Dth::new(Linear, Vector2::new(0.0, 1.0), DthOptions::new(0.1)?).err().unwrap();
     /// assert!(matches!(err, Error::PsiIdenticallyZero));
+    /// # Ok::<(), Error>(())
     /// ```
     ///
     /// # Errors
@@ -538,7 +539,7 @@ where
     /// use dth_core::dth::{Dth, DthOptions};
     /// use dth_core::{nalgebra::Vector4, systems::Kepler};
     /// let zbar0 = Vector4::new(0.5, 0.0, 0.0, 1.2);
-    /// let mut dth = Dth::new(Kepler::thesis(), zbar0, DthOptions::default())?;
+    /// let mut dth = Dth::new(Kepler::thesis(), zbar0, DthOptions::thesis_kepler())?;
     /// let mut longest = 0.0_f64;
     /// while dth.tbar() < 10.0 {
     ///     dth.advance(1)?;
@@ -595,7 +596,7 @@ where
     /// ```
     /// use dth_core::dth::{Dth, DthOptions};
     /// use dth_core::{nalgebra::Vector4, systems::Kepler};
-    /// let mut dth = Dth::new(Kepler::thesis(), Vector4::new(0.5, 0.0, 0.0, 1.2), DthOptions::default())?;
+    /// let mut dth = Dth::new(Kepler::thesis(), Vector4::new(0.5, 0.0, 0.0, 1.2), DthOptions::thesis_kepler())?;
     /// dth.step_with(0.05)?;
     /// dth.step_with(-0.05)?;
     /// assert!((dth.zbar() - Vector4::new(0.5, 0.0, 0.0, 1.2)).amax() < 1e-14);
@@ -641,7 +642,7 @@ where
     /// ```
     /// use dth_core::dth::{Dth, DthOptions};
     /// use dth_core::{nalgebra::Vector4, systems::Kepler};
-    /// let options = DthOptions::default().with_order(4)?;
+    /// let options = DthOptions::thesis_kepler().with_order(4)?;
     /// let mut dth = Dth::new(Kepler::thesis(), Vector4::new(0.5, 0.0, 0.0, 1.2), options)?;
     /// let t_end = 11.245;
     /// while !dth.step_toward(t_end)?.1 {}
@@ -1316,7 +1317,7 @@ where
 ///
 /// ```
 /// use dth_core::{dth::{integrate, DthOptions}, nalgebra::Vector4, systems::Kepler};
-/// let options = DthOptions::default().with_dtau(0.06277)?.with_lambda0(1.0)?;
+/// let options = DthOptions::new(0.06277)?.with_lambda0(1.0)?;
 /// let t = integrate(Kepler::thesis(), Vector4::new(0.5, 0.0, 0.0, 1.2), options, 1000)?;
 /// let mean_lambda = t.lambdas().iter().sum::<f64>() / t.len() as f64;
 /// assert!((mean_lambda - 2.39).abs() < 0.05); // thesis: 25 points per orbit

@@ -200,7 +200,7 @@ where
     ) {
         let high = order_ladder(options, &self.info, ROBUST_FINEST);
         for robust in [false, true] {
-            let base = DthOptions::default().with_robust(robust);
+            let base = DthOptions::thesis_kepler().with_robust(robust);
             let (name, name8) = if robust {
                 ("dth_robust", "dth8_robust")
             } else {
@@ -220,7 +220,7 @@ where
         ladder: &Ladder,
         records: &mut Vec<Record>,
     ) {
-        let base = DthOptions::default();
+        let base = DthOptions::thesis_kepler();
         sweep_dth(
             self,
             options,
@@ -312,7 +312,7 @@ impl Sweep for KeplerProblem {
                 error: self.0.error,
                 rename: generated,
             };
-            let base = DthOptions::default();
+            let base = DthOptions::thesis_kepler();
             sweep_dth(
                 &g,
                 options,

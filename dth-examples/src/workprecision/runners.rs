@@ -415,7 +415,7 @@ mod tests {
         // An end time that is not a vertex time of either run.
         let t_end = 0.77 * orbit.elements().period;
         let error = |dtau: f64| {
-            let options = DthOptions::default().with_dtau(dtau).unwrap();
+            let options = DthOptions::new(dtau).unwrap();
             let (z, t) = dth_to_time(&kepler, &z0, options, t_end, |_, _| ()).unwrap();
             assert!((t - t_end).abs() <= 4.0 * f64::EPSILON * t_end);
             (z - orbit.state_at(t_end)).norm()
@@ -460,7 +460,7 @@ mod tests {
         let problem = eccentric_kepler();
         let period = problem.info.period;
         for order in [2, 8] {
-            let base = DthOptions::default()
+            let base = DthOptions::thesis_kepler()
                 .with_robust(true)
                 .with_order(order)
                 .unwrap();
@@ -491,13 +491,11 @@ mod tests {
     #[test]
     fn a_plain_dth_that_breaks_down_is_probed_in_robust_mode() {
         let problem = eccentric_kepler();
-        let plain = mean_lambda(&problem, DthOptions::default());
-        let robust = mean_lambda(&problem, DthOptions::default().with_robust(true));
+        let plain = mean_lambda(&problem, DthOptions::thesis_kepler());
+        let robust = mean_lambda(&problem, DthOptions::thesis_kepler().with_robust(true));
         assert_eq!(plain, robust);
         assert!(robust > 10.0, "{robust}");
-        let options = DthOptions::default()
-            .with_dtau(problem.info.period / (64.0 * plain))
-            .unwrap();
+        let options = DthOptions::new(problem.info.period / (64.0 * plain)).unwrap();
         let run = dth_to_time(
             &problem.hamiltonian,
             &problem.z0,
