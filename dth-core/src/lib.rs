@@ -16,7 +16,8 @@
 //! 2. [`systems`] (concrete Hamiltonians), then [`kepler`] (the exact Kepler solution);
 //! 3. [`methods`] (the peer integrators), then [`dth`] (the DTH stepper, whose robust mode
 //!    steps with a peer);
-//! 4. [`diagnostics`] (invariants and errors of computed trajectories).
+//! 4. [`solve`] (one driver for DTH and every peer, one [`Solution`]), [`diagnostics`]
+//!    (invariants and errors of computed trajectories).
 #![warn(missing_docs)]
 
 // Test modules shared with the integration tests name this crate `dth_core`.
@@ -33,6 +34,7 @@ pub mod linalg;
 pub mod methods;
 mod newton;
 pub mod observer;
+pub mod solve;
 pub mod structured;
 pub mod systems;
 
@@ -44,3 +46,4 @@ pub use hamiltonian::{
     Hamiltonian,
 };
 pub use nalgebra;
+pub use solve::{solve, Method, Solution};

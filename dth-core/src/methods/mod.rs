@@ -231,6 +231,8 @@ impl<const N: usize> Copy for RunEnd<nalgebra::Const<N>> {}
 /// `dt` must be finite and non-zero (negative integrates backwards) and `z0` finite; a state
 /// that becomes non-finite is [`Error::MethodNonFinite`]. On failure the states already
 /// computed are kept: the observer has seen them and [`RunError::partial`] holds the last.
+/// (To end at a time, exactly, and for one driver of every method, DTH included:
+/// [`crate::solve`].)
 ///
 /// # Errors
 /// [`RunError`] with the first error (of the input checks, or of the failing step, with its
@@ -251,85 +253,196 @@ where
     M: OneStepMethod<D, H>,
     O: Observer<D>,
 {
-    let mut end = RunEnd {
-        z: z0.clone(),
-        t: t0,
-        steps: 0,
-    };
-    let fail = |end: RunEnd<D>, error| {
-        Err(RunError {
+    let mut run = FixedRun::start(method, h, z0, t0, dt, observer)?;
+    match run.advance(method, h, dt, Span::Steps(steps), &mut |_| Ok(()), observer) {
+        Ok(()) => Ok(run.end),
+        Err(error) => Err(RunError {
             error,
-            partial: end,
-        })
-    };
-    if let Err(error) = check_dt(dt).and_then(|()| check_state(h, z0, "z0")) {
-        return fail(end, error);
+            partial: run.end,
+        }),
     }
-    if let Some((index, &value)) = z0.iter().enumerate().find(|(_, v)| !v.is_finite()) {
-        return fail(end, Error::NonFiniteInitialState { index, value });
-    }
-    if !t0.is_finite() {
-        return fail(
-            end,
-            Error::InvalidOption {
-                name: "t0",
-                value: t0,
-                reason: "must be finite",
-            },
-        );
-    }
-    let mut record = StepRecord {
-        k: 0,
-        t: t0,
-        z: z0.clone(),
-        kind: StepKind::Fixed,
-        iterations: 0,
-        factorizations: 0,
-        dth: None,
-    };
-    observer.on_step(&record);
-    let mut iterations = method.newton_iterations();
-    // The next state, written by the method and swapped with `end.z` once accepted.
-    let mut next = z0.clone();
-    for k in 1..=steps {
-        // The first step on its own (`h` may differ from the method's last), then a run on
-        // one `h`.
-        let stepped = if k == 1 {
-            method.step_into(h, &end.z, dt, &mut next)
-        } else {
-            method.continue_into(h, &end.z, dt, &mut next)
+}
+
+/// How far [`FixedRun::advance`] steps.
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum Span {
+    /// This many steps of `dt`.
+    Steps(usize),
+    /// Steps of `dt` (`dt > 0`) until this time, the last one shortened to land on it exactly.
+    Until(f64),
+}
+
+/// A fixed-step run between calls of [`FixedRun::advance`]: the last state (its time and step
+/// count), and the storage the steps reuse.
+pub(crate) struct FixedRun<D: Dim>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    /// The last accepted state.
+    pub(crate) end: RunEnd<D>,
+    /// The next state, written by the method and swapped with `end.z` once accepted.
+    next: OVector<f64, D>,
+    /// The record shown to the observer.
+    record: StepRecord<D>,
+    /// The method's Newton iterations before the next step.
+    iterations: usize,
+}
+
+impl<D: Dim> FixedRun<D>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    /// Checks the input (`dt` finite and non-zero, `z0` of `h`'s dimension and finite, `t0`
+    /// finite) and shows the initial state to `observer`.
+    pub(crate) fn start<H, M, O>(
+        method: &M,
+        h: &H,
+        z0: &OVector<f64, D>,
+        t0: f64,
+        dt: f64,
+        observer: &mut O,
+    ) -> Result<Self, RunError<RunEnd<D>>>
+    where
+        H: Hamiltonian<D>,
+        M: OneStepMethod<D, H>,
+        O: Observer<D>,
+    {
+        let end = RunEnd {
+            z: z0.clone(),
+            t: t0,
+            steps: 0,
         };
-        match stepped {
-            Ok(()) if next.iter().all(|v| v.is_finite()) => {}
-            Ok(_) => {
-                return fail(
-                    end,
-                    Error::MethodNonFinite {
+        let checked = check_dt(dt)
+            .and_then(|()| check_state(h, z0, "z0"))
+            .and_then(
+                |()| match z0.iter().enumerate().find(|(_, v)| !v.is_finite()) {
+                    Some((index, &value)) => Err(Error::NonFiniteInitialState { index, value }),
+                    None => Ok(()),
+                },
+            )
+            .and_then(|()| {
+                if t0.is_finite() {
+                    Ok(())
+                } else {
+                    Err(Error::InvalidOption {
+                        name: "t0",
+                        value: t0,
+                        reason: "must be finite",
+                    })
+                }
+            });
+        if let Err(error) = checked {
+            return Err(RunError {
+                error,
+                partial: end,
+            });
+        }
+        let record = StepRecord {
+            k: 0,
+            t: t0,
+            z: z0.clone(),
+            kind: StepKind::Fixed,
+            iterations: 0,
+            factorizations: 0,
+            dth: None,
+        };
+        observer.on_step(&record);
+        Ok(FixedRun {
+            next: z0.clone(),
+            end,
+            record,
+            iterations: method.newton_iterations(),
+        })
+    }
+
+    /// Steps `span` on from the last state, showing each new state to `observer`; `check(k)`
+    /// is asked before step `k` and stops the run with its error. On error the run stays at
+    /// its last accepted state.
+    ///
+    /// The clock is `t_a + j dt` from the time `t_a` the call starts at (not a running sum:
+    /// no accumulated rounding); with [`Span::Until`] the last of the `m` steps is
+    /// `t_b - (t_a + (m - 1) dt)` and its time `t_b` itself, where `m` is the least number of
+    /// steps that reaches `t_b` (a last step that would only make up the rounding of
+    /// `(t_b - t_a) / dt` is merged into the one before).
+    pub(crate) fn advance<H, M, O>(
+        &mut self,
+        method: &mut M,
+        h: &H,
+        dt: f64,
+        span: Span,
+        check: &mut dyn FnMut(usize) -> Result<(), Error>,
+        observer: &mut O,
+    ) -> Result<(), Error>
+    where
+        H: Hamiltonian<D>,
+        M: OneStepMethod<D, H>,
+        O: Observer<D>,
+    {
+        let t_a = self.end.t;
+        let steps = match span {
+            Span::Steps(n) => n,
+            Span::Until(t_b) => steps_until(t_a, t_b, dt),
+        };
+        for j in 1..=steps {
+            let k = self.end.steps + 1;
+            check(k)?;
+            let (size, t) = match span {
+                Span::Until(t_b) if j == steps => (t_b - (t_a + (j - 1) as f64 * dt), t_b),
+                _ => (dt, t_a + j as f64 * dt),
+            };
+            // The run's first step on its own (`h` may differ from the method's last), then
+            // steps on one `h`.
+            let stepped = if k == 1 {
+                method.step_into(h, &self.end.z, size, &mut self.next)
+            } else {
+                method.continue_into(h, &self.end.z, size, &mut self.next)
+            };
+            match stepped {
+                Ok(()) if self.next.iter().all(|v| v.is_finite()) => {}
+                Ok(()) => {
+                    return Err(Error::MethodNonFinite {
                         method: M::NAME,
                         step: k,
                         what: "state",
-                    },
-                )
+                    })
+                }
+                Err(error) => return Err(at_step(error, k)),
             }
-            Err(error) => return fail(end, at_step(error, k)),
+            std::mem::swap(&mut self.end.z, &mut self.next);
+            self.end.t = t;
+            self.end.steps = k;
+            let total = method.newton_iterations();
+            self.record.k = k;
+            self.record.t = t;
+            self.record.z.copy_from(&self.end.z);
+            self.record.iterations =
+                u32::try_from(total.saturating_sub(self.iterations)).unwrap_or(u32::MAX);
+            self.iterations = total;
+            observer.on_step(&self.record);
         }
-        std::mem::swap(&mut end.z, &mut next);
-        // t0 + k dt, not a running sum: no accumulated rounding in the clock.
-        end.t = t0 + k as f64 * dt;
-        end.steps = k;
-        let total = method.newton_iterations();
-        record.k = k;
-        record.t = end.t;
-        record.z.copy_from(&end.z);
-        record.iterations = u32::try_from(total.saturating_sub(iterations)).unwrap_or(u32::MAX);
-        iterations = total;
-        observer.on_step(&record);
+        Ok(())
     }
-    Ok(end)
+}
+
+/// The least number `m` of steps of `dt > 0` from `t_a` that reaches `t_b` (0 when
+/// `t_b <= t_a`), where a last step that would only make up the rounding of `(t_b - t_a) / dt`
+/// (at most `4 eps` of it) is merged into the one before.
+pub(crate) fn steps_until(t_a: f64, t_b: f64, dt: f64) -> usize {
+    let x = (t_b - t_a) / dt;
+    if x.is_nan() || x <= 0.0 {
+        return 0;
+    }
+    // Saturates at usize::MAX for an astronomically long run (a step cap stops it).
+    let m = x.ceil() as usize;
+    if m > 1 && x - (m - 1) as f64 <= 4.0 * f64::EPSILON * x {
+        m - 1
+    } else {
+        m
+    }
 }
 
 /// Fills in the step index of a method error.
-fn at_step(error: Error, k: usize) -> Error {
+pub(crate) fn at_step(error: Error, k: usize) -> Error {
     match error {
         Error::MethodNotConverged {
             method,

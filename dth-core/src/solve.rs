@@ -1,0 +1,908 @@
+//! One driver for every integrator: [`solve`] a Hamiltonian from a state with a [`Method`]
+//! (DTH of any order, robust or not, or a peer), say where it ends ([`Solve::until`] a time,
+//! exactly, or [`Solve::steps`]), what it keeps ([`Solve::save_every`], [`Solve::save_at`])
+//! and who watches ([`Solve::observe`]), and [`Solve::run`] it into one [`Solution`]: times,
+//! states, step kinds, energy errors, DTH's multipliers and vertices, and the failure, if any.
+//!
+//! ```
+//! use dth_core::nalgebra::Vector4;
+//! use dth_core::solve::{solve, Method};
+//! use dth_core::{systems::Kepler, DthOptions};
+//!
+//! let kepler = Kepler::thesis(); // H = p1^2 + p2^2 - (q1^2 + q2^2)^(-1/2)
+//! let z0 = Vector4::new(0.5, 0.0, 0.0, 1.2);
+//! let methods = [
+//!     Method::Dth(DthOptions::new(0.02)?),
+//!     Method::Midpoint { dt: 0.01 },
+//!     Method::GaussLegendre2 { dt: 0.05 },
+//! ];
+//! for method in methods {
+//!     let run = solve(&kepler, z0, method).until(10.0).save_every(100).run()?;
+//!     // Every method ends at T: a peer's last time is T, DTH's last midpoint lands on it.
+//!     assert!((run.end_time().unwrap() - 10.0).abs() <= 4.0 * f64::EPSILON * 10.0);
+//!     println!("{:>15}: max |H - H0| = {:.1e}", run.method, run.max_energy_error());
+//! }
+//! # Ok::<(), dth_core::Error>(())
+//! ```
+//!
+//! A method that fails keeps what it computed: [`Solve::run`] returns a [`RunError`] whose
+//! `partial` is the [`Solution`] up to the last accepted step (its
+//! [`failure`](Solution::failure) is the error), and `?` converts it into [`Error`].
+//!
+//! # Ending at a time
+//! DTH lands its last midpoint on `T` by scaling the last step's `dtau`
+//! ([`Dth::step_toward`]; the step is marked [`StepKind::Shortened`]); a fixed-step method
+//! takes steps of `dt` and a last step of what is left (its record stays
+//! [`StepKind::Fixed`]; its time is `T` itself). [`Solve::save_at`] lands on each of its
+//! times the same way, so the saved states are the method's own states there, not
+//! interpolations.
+//!
+//! # Time-dependent Hamiltonians
+//! The clock of a time-dependent `H` (extended phase space `z = (q, t, p, p_t)`) is the `t`
+//! coordinate of `z0`; [`Solve::start_time`] sets the clock of an autonomous one (default 0).
+
+use std::sync::atomic::{AtomicBool, Ordering};
+
+use nalgebra::{DefaultAllocator, Dim, OVector};
+
+use crate::dth::{Dth, DthOptions};
+use crate::error::RunError;
+use crate::hamiltonian::Alloc;
+use crate::methods::{
+    DiscreteGradient, FixedRun, GaussLegendre2, ImplicitMidpoint, OneStepMethod, Rk4, Span,
+    StormerVerlet, Trapezoidal,
+};
+use crate::observer::{Observer, StepKind, StepRecord};
+use crate::{Error, Hamiltonian};
+
+/// An integrator and its step: what [`solve`] runs. Every variant applies to every
+/// [`Hamiltonian`] ([`Method::StormerVerlet`] needs a separable one and says so when it is
+/// not); a method for a narrower class (Greenspan's
+/// [`DiscreteMechanics`](crate::methods::DiscreteMechanics) for central forces) or one of
+/// your own runs through [`Peer`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[non_exhaustive]
+pub enum Method {
+    /// DTH with these options (step `dtau`, order, robust mode, ...).
+    Dth(DthOptions),
+    /// The trapezoidal rule with step `dt`.
+    Trapezoidal {
+        /// The step.
+        dt: f64,
+    },
+    /// The implicit midpoint rule with step `dt`.
+    Midpoint {
+        /// The step.
+        dt: f64,
+    },
+    /// The 2-stage Gauss-Legendre method (order 4) with step `dt`.
+    GaussLegendre2 {
+        /// The step.
+        dt: f64,
+    },
+    /// The classical Runge-Kutta method with step `dt`.
+    Rk4 {
+        /// The step.
+        dt: f64,
+    },
+    /// Stormer-Verlet (separable `H`) with step `dt`.
+    StormerVerlet {
+        /// The step.
+        dt: f64,
+    },
+    /// Gonzalez's midpoint discrete gradient (energy-conserving) with step `dt`.
+    DiscreteGradient {
+        /// The step.
+        dt: f64,
+    },
+}
+
+impl Method {
+    /// Its name in tables and errors (`"dth"`, `"midpoint"`, ...; a peer's is its
+    /// [`OneStepMethod::NAME`]).
+    pub fn name(&self) -> &'static str {
+        match self {
+            Method::Dth(_) => "dth",
+            Method::Trapezoidal { .. } => "trapezoidal",
+            Method::Midpoint { .. } => "midpoint",
+            Method::GaussLegendre2 { .. } => "gauss_legendre2",
+            Method::Rk4 { .. } => "rk4",
+            Method::StormerVerlet { .. } => "stormer_verlet",
+            Method::DiscreteGradient { .. } => "discrete_gradient",
+        }
+    }
+
+    /// Its classical order (DTH: the order of its composition, 2 to 8).
+    pub fn order(&self) -> u32 {
+        match self {
+            Method::Dth(options) => options.order(),
+            Method::GaussLegendre2 { .. } | Method::Rk4 { .. } => 4,
+            _ => 2,
+        }
+    }
+}
+
+impl From<DthOptions> for Method {
+    fn from(options: DthOptions) -> Self {
+        Method::Dth(options)
+    }
+}
+
+/// Any [`OneStepMethod`] with its step `dt`, for [`solve`]: the methods [`Method`] does not
+/// name (Greenspan's discrete mechanics, which needs a central force) and your own.
+///
+/// ```
+/// use dth_core::methods::DiscreteMechanics;
+/// use dth_core::nalgebra::Vector4;
+/// use dth_core::solve::{solve, Peer};
+/// use dth_core::systems::Kepler;
+///
+/// let z0 = Vector4::new(0.5, 0.0, 0.0, 1.2);
+/// let run = solve(&Kepler::thesis(), z0, Peer::new(DiscreteMechanics::new(), 0.15))
+///     .until(3.0)
+///     .run()?;
+/// assert_eq!(run.method, "discrete_mechanics");
+/// assert!(run.max_energy_error() < 1e-14); // Greenspan's method conserves energy
+/// # Ok::<(), dth_core::Error>(())
+/// ```
+#[derive(Clone, Debug)]
+pub struct Peer<M> {
+    /// The method.
+    pub method: M,
+    /// Its step.
+    pub dt: f64,
+}
+
+impl<M> Peer<M> {
+    /// `method` with step `dt` (checked when the run starts: finite and non-zero, positive
+    /// to end at a time).
+    pub fn new(method: M, dt: f64) -> Self {
+        Peer { method, dt }
+    }
+}
+
+/// What [`solve`] can run: a [`Method`] or a [`Peer`]. Implemented by this crate only.
+pub trait Integrator<D: Dim, H: Hamiltonian<D>>: sealed::Sealed
+where
+    DefaultAllocator: Alloc<D>,
+{
+    /// The method's name.
+    fn name(&self) -> &'static str;
+
+    /// Runs from `z0` at `t0` along `plan`, reporting to `sink`.
+    #[doc(hidden)]
+    fn drive<O: Observer<D>>(
+        self,
+        h: &H,
+        z0: &OVector<f64, D>,
+        t0: f64,
+        plan: &Plan<'_>,
+        sink: &mut Sink<'_, D, O>,
+    ) -> Result<(), Error>;
+}
+
+mod sealed {
+    pub trait Sealed {}
+    impl Sealed for super::Method {}
+    impl<M> Sealed for super::Peer<M> {}
+}
+
+/// Where a run ends and where it lands on the way.
+#[doc(hidden)]
+#[derive(Debug)]
+pub struct Plan<'a> {
+    end: End,
+    /// Ascending times to land on before the end (those after `t0`).
+    times: &'a [f64],
+    max_steps: usize,
+    interrupt: Option<&'a AtomicBool>,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum End {
+    Steps(usize),
+    Time(f64),
+}
+
+impl Plan<'_> {
+    /// Asked before step `k`: an error once the run must stop there.
+    fn check(&self, k: usize, t: f64) -> Result<(), Error> {
+        if self.interrupt.is_some_and(|f| f.load(Ordering::Relaxed)) {
+            return Err(Error::Interrupted { step: k });
+        }
+        if k > self.max_steps {
+            let t_end = match self.end {
+                End::Time(t_end) => t_end,
+                End::Steps(_) => f64::NAN,
+            };
+            return Err(Error::StepCap {
+                max_steps: self.max_steps,
+                t,
+                t_end,
+            });
+        }
+        Ok(())
+    }
+
+    /// The landing times in order, the end last (a time run).
+    fn landings(&self) -> impl Iterator<Item = f64> + '_ {
+        let end = match self.end {
+            End::Time(t) => Some(t),
+            End::Steps(_) => None,
+        };
+        self.times.iter().copied().chain(end)
+    }
+}
+
+impl<D: Dim, H: Hamiltonian<D>> Integrator<D, H> for Method
+where
+    DefaultAllocator: Alloc<D>,
+{
+    fn name(&self) -> &'static str {
+        Method::name(self)
+    }
+
+    fn drive<O: Observer<D>>(
+        self,
+        h: &H,
+        z0: &OVector<f64, D>,
+        t0: f64,
+        plan: &Plan<'_>,
+        sink: &mut Sink<'_, D, O>,
+    ) -> Result<(), Error> {
+        match self {
+            Method::Dth(options) => drive_dth(h, z0, t0, options, plan, sink),
+            Method::Trapezoidal { dt } => {
+                drive_fixed(Trapezoidal::new(), dt, h, z0, t0, plan, sink)
+            }
+            Method::Midpoint { dt } => {
+                drive_fixed(ImplicitMidpoint::new(), dt, h, z0, t0, plan, sink)
+            }
+            Method::GaussLegendre2 { dt } => {
+                drive_fixed(GaussLegendre2::new(), dt, h, z0, t0, plan, sink)
+            }
+            Method::Rk4 { dt } => drive_fixed(Rk4::new(), dt, h, z0, t0, plan, sink),
+            Method::StormerVerlet { dt } => {
+                drive_fixed(StormerVerlet::<D>::new(), dt, h, z0, t0, plan, sink)
+            }
+            Method::DiscreteGradient { dt } => {
+                drive_fixed(DiscreteGradient::new(), dt, h, z0, t0, plan, sink)
+            }
+        }
+    }
+}
+
+impl<D: Dim, H: Hamiltonian<D>, M: OneStepMethod<D, H>> Integrator<D, H> for Peer<M>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    fn name(&self) -> &'static str {
+        M::NAME
+    }
+
+    fn drive<O: Observer<D>>(
+        self,
+        h: &H,
+        z0: &OVector<f64, D>,
+        t0: f64,
+        plan: &Plan<'_>,
+        sink: &mut Sink<'_, D, O>,
+    ) -> Result<(), Error> {
+        drive_fixed(self.method, self.dt, h, z0, t0, plan, sink)
+    }
+}
+
+/// A fixed-step method along `plan`.
+fn drive_fixed<D: Dim, H: Hamiltonian<D>, M: OneStepMethod<D, H>, O: Observer<D>>(
+    mut method: M,
+    dt: f64,
+    h: &H,
+    z0: &OVector<f64, D>,
+    t0: f64,
+    plan: &Plan<'_>,
+    sink: &mut Sink<'_, D, O>,
+) -> Result<(), Error>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    if matches!(plan.end, End::Time(_)) && dt.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
+    {
+        return Err(Error::InvalidOption {
+            name: "dt",
+            value: dt,
+            reason: "must be positive to end at a time",
+        });
+    }
+    let mut run = FixedRun::start(&method, h, z0, t0, dt, sink).map_err(|e| e.error)?;
+    let mut check = |k: usize| plan.check(k, f64::NAN);
+    let result = match plan.end {
+        End::Steps(n) => run.advance(&mut method, h, dt, Span::Steps(n), &mut check, sink),
+        End::Time(_) => plan.landings().try_for_each(|target| {
+            run.advance(&mut method, h, dt, Span::Until(target), &mut check, sink)?;
+            sink.landed();
+            Ok(())
+        }),
+    };
+    result.map_err(|e| with_time(e, run.end.t))
+}
+
+/// DTH along `plan`.
+fn drive_dth<D: Dim, H: Hamiltonian<D>, O: Observer<D>>(
+    h: &H,
+    z0: &OVector<f64, D>,
+    t0: f64,
+    options: DthOptions,
+    plan: &Plan<'_>,
+    sink: &mut Sink<'_, D, O>,
+) -> Result<(), Error>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    let mut dth = Dth::new(h, z0.clone(), options)?;
+    if !h.flags().time_dependent {
+        dth = dth.with_tbar0(t0)?;
+    }
+    // `run(0, ..)` reports the current midpoint once and the right vertex of its segment.
+    dth.run(0, sink)?;
+    match plan.end {
+        End::Steps(n) => {
+            for _ in 0..n {
+                plan.check(dth.k() + 1, dth.tbar())
+                    .map_err(|e| with_time(e, dth.tbar()))?;
+                dth.run(1, sink)?;
+            }
+        }
+        End::Time(_) => {
+            for target in plan.landings() {
+                loop {
+                    plan.check(dth.k() + 1, dth.tbar())
+                        .map_err(|e| with_time(e, dth.tbar()))?;
+                    let (_, reached) = dth.step_toward(target)?;
+                    dth.run(0, sink)?;
+                    if reached {
+                        break;
+                    }
+                }
+                sink.landed();
+            }
+        }
+    }
+    Ok(())
+}
+
+/// A [`Error::StepCap`] with the time reached filled in.
+fn with_time(error: Error, t: f64) -> Error {
+    match error {
+        Error::StepCap {
+            max_steps, t_end, ..
+        } => Error::StepCap {
+            max_steps,
+            t,
+            t_end,
+        },
+        other => other,
+    }
+}
+
+/// A run being set up: [`solve`] starts it, the builder methods say where it ends, what it
+/// keeps and who watches, [`Solve::run`] runs it.
+#[must_use = "a Solve does nothing until .run()"]
+pub struct Solve<'a, H, D: Dim, I, O = ()>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    hamiltonian: &'a H,
+    z0: OVector<f64, D>,
+    method: I,
+    t0: Option<f64>,
+    end: Option<End>,
+    save: Save,
+    times: Vec<f64>,
+    max_steps: usize,
+    interrupt: Option<&'a AtomicBool>,
+    observer: O,
+}
+
+/// An observer lent to a run ([`Solve::observer`]).
+#[derive(Debug)]
+pub struct Lent<'a, P>(&'a mut P);
+
+impl<D: Dim, P: Observer<D>> Observer<D> for Lent<'_, P>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    #[inline(always)]
+    fn on_step(&mut self, record: &StepRecord<D>) {
+        self.0.on_step(record);
+    }
+    #[inline(always)]
+    fn on_finish(&mut self, last_vertex: &OVector<f64, D>, last_vertex_time: f64) {
+        self.0.on_finish(last_vertex, last_vertex_time);
+    }
+}
+
+/// Which states a [`Solution`] keeps.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Save {
+    /// Every `n`-th step (and the first and last states).
+    Every(usize),
+    /// The states landed on the chosen times.
+    At,
+}
+
+/// Integrates `hamiltonian` from `z0` with `method`: a run to set up with the [`Solve`]
+/// builder and start with [`Solve::run`]. See the [module docs](self).
+pub fn solve<'a, H, D: Dim, I>(
+    hamiltonian: &'a H,
+    z0: OVector<f64, D>,
+    method: I,
+) -> Solve<'a, H, D, I>
+where
+    DefaultAllocator: Alloc<D>,
+    H: Hamiltonian<D>,
+    I: Integrator<D, H>,
+{
+    Solve {
+        hamiltonian,
+        z0,
+        method,
+        t0: None,
+        end: None,
+        save: Save::Every(1),
+        times: Vec::new(),
+        max_steps: usize::MAX,
+        interrupt: None,
+        observer: (),
+    }
+}
+
+impl<'a, H, D: Dim, I, O> Solve<'a, H, D, I, O>
+where
+    DefaultAllocator: Alloc<D>,
+    H: Hamiltonian<D>,
+    I: Integrator<D, H>,
+    O: Observer<D>,
+{
+    /// End exactly at the time `t_end` (not before the start).
+    pub fn until(mut self, t_end: f64) -> Self {
+        self.end = Some(End::Time(t_end));
+        self
+    }
+
+    /// End after `n` steps (a DTH step of order 4-8 is one composed step).
+    pub fn steps(mut self, n: usize) -> Self {
+        self.end = Some(End::Steps(n));
+        self
+    }
+
+    /// Start the clock of an autonomous `H` at `t0` (default 0). A time-dependent `H` reads
+    /// its clock from the `t` coordinate of `z0`; setting another is an error at the start.
+    pub fn start_time(mut self, t0: f64) -> Self {
+        self.t0 = Some(t0);
+        self
+    }
+
+    /// Keep every `n`-th state (`k = 0, n, 2n, ...`) and the last (default: every state).
+    pub fn save_every(mut self, n: usize) -> Self {
+        self.save = Save::Every(n);
+        self
+    }
+
+    /// Keep only the states at these times (ascending, not before the start), landing on each
+    /// exactly as at the end. Without [`Solve::until`], the last time is the end.
+    pub fn save_at(mut self, times: impl IntoIterator<Item = f64>) -> Self {
+        self.save = Save::At;
+        self.times = times.into_iter().collect();
+        self
+    }
+
+    /// Stop with [`Error::StepCap`] (a failure that keeps what was computed) rather than take
+    /// more than `n` steps (default: no limit).
+    pub fn max_steps(mut self, n: usize) -> Self {
+        self.max_steps = n;
+        self
+    }
+
+    /// Stop with [`Error::Interrupted`] before the next step once `flag` is set (by a signal
+    /// handler, another thread, a user interface).
+    pub fn interrupt(mut self, flag: &'a AtomicBool) -> Self {
+        self.interrupt = Some(flag);
+        self
+    }
+
+    /// Call `f` with every state of the run as it is computed (the initial one first), saved
+    /// or not. The record type is inferred: `.observe(|r| println!("{} {}", r.t, r.z[0]))`.
+    pub fn observe<F: FnMut(&StepRecord<D>)>(self, f: F) -> Solve<'a, H, D, I, F> {
+        self.with_observer(f)
+    }
+
+    /// Show every state to `observer` (any [`Observer`]; it also gets DTH's last vertex),
+    /// lent for the run: read it afterwards.
+    pub fn observer<P: Observer<D>>(self, observer: &'a mut P) -> Solve<'a, H, D, I, Lent<'a, P>> {
+        self.with_observer(Lent(observer))
+    }
+
+    fn with_observer<P: Observer<D>>(self, observer: P) -> Solve<'a, H, D, I, P> {
+        Solve {
+            hamiltonian: self.hamiltonian,
+            z0: self.z0,
+            method: self.method,
+            t0: self.t0,
+            end: self.end,
+            save: self.save,
+            times: self.times,
+            max_steps: self.max_steps,
+            interrupt: self.interrupt,
+            observer,
+        }
+    }
+
+    /// Runs it.
+    ///
+    /// # Errors
+    /// [`RunError`] with the first error and the [`Solution`] up to the last accepted step
+    /// (its `failure` is that error): the method's own errors (see [`Dth::step`] and
+    /// [`OneStepMethod::step_into`]), [`Error::MissingEnd`] without an end,
+    /// [`Error::InvalidOption`] for an end, start or saving times that do not fit
+    /// (`t_end` before the start, times not ascending, `save_every(0)`), [`Error::StepCap`],
+    /// [`Error::Interrupted`].
+    #[allow(clippy::result_large_err)] // a run fails once; see `Dth::trajectory`
+    pub fn run(self) -> Result<Solution<D>, RunError<Solution<D>>> {
+        let Solve {
+            hamiltonian: h,
+            z0,
+            method,
+            t0,
+            end,
+            save,
+            times,
+            max_steps,
+            interrupt,
+            mut observer,
+        } = self;
+        let energy0 = h.value(&z0);
+        let energy_error = |z: &OVector<f64, D>| h.value(z) - energy0;
+        let mut sink = Sink {
+            user: &mut observer,
+            energy_error: &energy_error,
+            solution: Solution::empty(method.name(), energy0),
+            save,
+            save_start: true,
+            last: None,
+            vertex: None,
+        };
+        let planned = plan(h, &z0, t0, end, save, &times).map(|(t0, end, landings)| {
+            // A time at the start keeps the initial state.
+            sink.save_start = matches!(save, Save::Every(_)) || times.first() == Some(&t0);
+            (
+                t0,
+                Plan {
+                    end,
+                    times: &times[landings],
+                    max_steps,
+                    interrupt,
+                },
+            )
+        });
+        let result = planned.and_then(|(t0, plan)| method.drive(h, &z0, t0, &plan, &mut sink));
+        let mut solution = sink.finish();
+        match result {
+            Ok(()) => Ok(solution),
+            Err(error) => {
+                solution.failure = Some(error.clone());
+                Err(RunError {
+                    error,
+                    partial: solution,
+                })
+            }
+        }
+    }
+}
+
+/// The start time, the end and the range of `times` to land on before the end (after the
+/// start, before the end), checked.
+fn plan<H: Hamiltonian<D>, D: Dim>(
+    h: &H,
+    z0: &OVector<f64, D>,
+    t0: Option<f64>,
+    end: Option<End>,
+    save: Save,
+    times: &[f64],
+) -> Result<(f64, End, std::ops::Range<usize>), Error>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    let invalid = |name, value, reason| {
+        Err(Error::InvalidOption {
+            name,
+            value,
+            reason,
+        })
+    };
+    // The clock: a time-dependent H's is its t coordinate (z = (q, t, p, p_t)).
+    let clock = (h.flags().time_dependent && z0.len() >= 2).then(|| z0[z0.len() / 2 - 1]);
+    let t0 = match (clock, t0) {
+        (Some(clock), Some(t0)) if t0 != clock => {
+            return invalid(
+                "start_time",
+                t0,
+                "a time-dependent H takes its clock from the t coordinate of z0: set t there",
+            )
+        }
+        (Some(clock), _) => clock,
+        (None, t0) => t0.unwrap_or(0.0),
+    };
+    if !t0.is_finite() {
+        return invalid("start_time", t0, "must be finite");
+    }
+    if let Save::Every(0) = save {
+        return invalid("save_every", 0.0, "must be at least 1");
+    }
+    if let Some(w) = times
+        .windows(2)
+        .find(|w| w[0].partial_cmp(&w[1]) != Some(std::cmp::Ordering::Less))
+    {
+        return invalid("save_at", w[1], "times must be finite and ascending");
+    }
+    if let Some(&t) = times.iter().find(|t| !t.is_finite() || **t < t0) {
+        return invalid("save_at", t, "must be finite and not before the start");
+    }
+    let end = match (end, times.last()) {
+        (Some(end), _) => end,
+        (None, Some(&last)) => End::Time(last),
+        (None, None) => return Err(Error::MissingEnd),
+    };
+    match end {
+        End::Time(t_end) if !(t_end.is_finite() && t_end >= t0) => {
+            return invalid("until", t_end, "must be finite and not before the start")
+        }
+        End::Time(t_end) if times.last().is_some_and(|&t| t > t_end) => {
+            return invalid("save_at", t_end, "times must not lie after the end");
+        }
+        End::Steps(_) if !times.is_empty() => {
+            return invalid(
+                "save_at",
+                times[0],
+                "a run to a number of steps cannot land on times: end it with until",
+            );
+        }
+        _ => {}
+    }
+    // A time at the start is the initial state itself; one at the end is the end's landing.
+    let from = times.iter().take_while(|&&t| t == t0).count();
+    let to = match end {
+        End::Time(t_end) if times.last() == Some(&t_end) => times.len() - 1,
+        _ => times.len(),
+    };
+    Ok((t0, end, from.min(to)..to))
+}
+
+/// A run's result: the saved states with their times, step indices, kinds and energy errors
+/// (and DTH's own series), with what the whole run spent and how it ended.
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub struct Solution<D: Dim>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    /// The method's name ([`Method::name`], [`OneStepMethod::NAME`]).
+    pub method: &'static str,
+    /// Times of the saved states (DTH: midpoint times `tbar_k`).
+    pub t: Vec<f64>,
+    /// The saved states (DTH: the midpoints `zbar_k`).
+    pub z: Vec<OVector<f64, D>>,
+    /// Step index `k` of each saved state (0 for the initial one).
+    pub k: Vec<usize>,
+    /// What produced each saved state ([`StepKind::Fallback`]: a robust-mode fallback step).
+    pub kinds: Vec<StepKind>,
+    /// `H(z) - H(z0)` at each saved state (for a time-dependent `H`, of the extended `calH`).
+    pub energy_error: Vec<f64>,
+    /// `H(z0)`.
+    pub energy0: f64,
+    /// DTH's multipliers, vertices and `Psi` at the saved states; `None` for a fixed-step
+    /// method.
+    pub dth: Option<DthSeries<D>>,
+    /// Steps taken (all of them, saved or not).
+    pub steps: usize,
+    /// Robust-mode fallback steps among them.
+    pub fallback_steps: usize,
+    /// Newton iterations over all steps (0 for explicit methods).
+    pub newton_iterations: u64,
+    /// `None` for a run that reached its end; else what stopped it (the states are those up
+    /// to the last accepted step).
+    pub failure: Option<Error>,
+}
+
+/// DTH's own quantities at the saved midpoints of a [`Solution`].
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub struct DthSeries<D: Dim>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    /// `lambda_k = dt/dtau` of each saved midpoint's segment.
+    pub lambda: Vec<f64>,
+    /// Left vertex `z^(k)` of each saved midpoint's segment (a fallback step: the node).
+    pub vertex: Vec<OVector<f64, D>>,
+    /// Its time `t^(k)`.
+    pub vertex_time: Vec<f64>,
+    /// `Psi(zbar_k)`.
+    pub psi: Vec<f64>,
+    /// The right vertex of the last segment and its time: where the polygon of vertices
+    /// ends.
+    pub last_vertex: Option<(OVector<f64, D>, f64)>,
+}
+
+impl<D: Dim> Solution<D>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    fn empty(method: &'static str, energy0: f64) -> Self {
+        Solution {
+            method,
+            t: Vec::new(),
+            z: Vec::new(),
+            k: Vec::new(),
+            kinds: Vec::new(),
+            energy_error: Vec::new(),
+            energy0,
+            dth: None,
+            steps: 0,
+            fallback_steps: 0,
+            newton_iterations: 0,
+            failure: None,
+        }
+    }
+
+    /// Number of saved states.
+    pub fn len(&self) -> usize {
+        self.t.len()
+    }
+
+    /// `true` when no state was saved (a run that failed before its start).
+    pub fn is_empty(&self) -> bool {
+        self.t.is_empty()
+    }
+
+    /// The last saved state's time (the end time of a run that reached its end).
+    pub fn end_time(&self) -> Option<f64> {
+        self.t.last().copied()
+    }
+
+    /// The last saved state.
+    pub fn end_state(&self) -> Option<&OVector<f64, D>> {
+        self.z.last()
+    }
+
+    /// The largest `|H(z) - H(z0)|` over the saved states (0 when none).
+    pub fn max_energy_error(&self) -> f64 {
+        self.energy_error.iter().fold(0.0, |m, e| m.max(e.abs()))
+    }
+
+    /// `true` when the run reached its end.
+    pub fn completed(&self) -> bool {
+        self.failure.is_none()
+    }
+}
+
+/// The observer a run reports to: it saves what the [`Solution`] keeps and shows every state
+/// to the user's observer.
+#[doc(hidden)]
+pub struct Sink<'o, D: Dim, O>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    user: &'o mut O,
+    /// `H(z) - H(z0)`.
+    energy_error: &'o dyn Fn(&OVector<f64, D>) -> f64,
+    solution: Solution<D>,
+    save: Save,
+    /// Keep the initial state.
+    save_start: bool,
+    /// The last state reported (kept for a landing or the end), and whether it is saved.
+    last: Option<(StepRecord<D>, bool)>,
+    /// DTH's last right vertex and its time.
+    vertex: Option<(OVector<f64, D>, f64)>,
+}
+
+impl<D: Dim, O: Observer<D>> Sink<'_, D, O>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    fn keep(&mut self, r: &StepRecord<D>) {
+        let solution = &mut self.solution;
+        let h_minus_h0 = (self.energy_error)(&r.z);
+        solution.t.push(r.t);
+        solution.z.push(r.z.clone());
+        solution.k.push(r.k);
+        solution.kinds.push(r.kind);
+        solution.energy_error.push(h_minus_h0);
+        if let Some(d) = &r.dth {
+            let series = solution.dth.get_or_insert_with(|| DthSeries {
+                lambda: Vec::new(),
+                vertex: Vec::new(),
+                vertex_time: Vec::new(),
+                psi: Vec::new(),
+                last_vertex: None,
+            });
+            series.lambda.push(d.lambda);
+            series.vertex.push(d.vertex.clone());
+            series.vertex_time.push(d.vertex_time);
+            series.psi.push(d.psi);
+        }
+    }
+}
+
+impl<D: Dim, O: Observer<D>> Sink<'_, D, O>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    /// The last state reported landed on a chosen time (or the end).
+    fn landed(&mut self) {
+        if self.save == Save::At {
+            self.keep_last();
+        }
+    }
+
+    /// Saves the last state reported, once.
+    fn keep_last(&mut self) {
+        if let Some((record, saved)) = self.last.take() {
+            if !saved {
+                self.keep(&record);
+            }
+            self.last = Some((record, true));
+        }
+    }
+
+    /// The solution: the last state reached saved, DTH's last vertex shown to the user.
+    fn finish(mut self) -> Solution<D> {
+        self.keep_last();
+        if let Some((vertex, time)) = self.vertex.take() {
+            self.user.on_finish(&vertex, time);
+            if let Some(series) = &mut self.solution.dth {
+                series.last_vertex = Some((vertex, time));
+            }
+        }
+        self.solution
+    }
+}
+
+impl<D: Dim, O: Observer<D>> Observer<D> for Sink<'_, D, O>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    fn on_step(&mut self, r: &StepRecord<D>) {
+        self.user.on_step(r);
+        if r.k > 0 {
+            self.solution.steps = r.k;
+            self.solution.newton_iterations += u64::from(r.iterations);
+            if r.kind == StepKind::Fallback {
+                self.solution.fallback_steps += 1;
+            }
+        }
+        let saved = match self.save {
+            Save::Every(n) => r.k.is_multiple_of(n) && (r.k > 0 || self.save_start),
+            Save::At => r.k == 0 && self.save_start,
+        };
+        if saved {
+            self.keep(r);
+        }
+        match &mut self.last {
+            Some((last, was_saved)) => {
+                last.clone_from(r);
+                *was_saved = saved;
+            }
+            None => self.last = Some((r.clone(), saved)),
+        }
+    }
+
+    fn on_finish(&mut self, last_vertex: &OVector<f64, D>, last_vertex_time: f64) {
+        match &mut self.vertex {
+            Some((v, t)) => {
+                v.copy_from(last_vertex);
+                *t = last_vertex_time;
+            }
+            None => self.vertex = Some((last_vertex.clone(), last_vertex_time)),
+        }
+    }
+}
