@@ -156,6 +156,63 @@ where
     }
 }
 
+/// An observer that shows every `n`-th state (`k = 0, n, 2n, ...`) to `inner` (and DTH's last
+/// vertex); `n = 0` is taken as 1. Build it with [`every`] for a closure (its record type is
+/// inferred) or [`Every::new`] for any observer. (States at chosen times, and a run that ends
+/// at a time, are the driver's: [`crate::solve`].)
+#[derive(Clone, Debug)]
+pub struct Every<O> {
+    n: usize,
+    inner: O,
+}
+
+impl<O> Every<O> {
+    /// `inner`, shown every `n`-th state.
+    pub fn new(n: usize, inner: O) -> Self {
+        Every { n: n.max(1), inner }
+    }
+
+    /// The observer inside.
+    pub fn into_inner(self) -> O {
+        self.inner
+    }
+}
+
+/// The closure `f` called with every `n`-th state (`n = 0`: every state), its record type
+/// inferred:
+///
+/// ```
+/// use dth_core::observer::every;
+/// use dth_core::{nalgebra::Vector4, systems::Kepler, Dth, DthOptions};
+/// let mut dth = Dth::new(Kepler::thesis(), Vector4::new(0.5, 0.0, 0.0, 1.2), DthOptions::thesis_kepler())?;
+/// let mut times = Vec::new();
+/// dth.run(100, &mut every(25, |r| times.push(r.t)))?;
+/// assert_eq!(times.len(), 5); // k = 0, 25, 50, 75, 100
+/// # Ok::<(), dth_core::Error>(())
+/// ```
+pub fn every<D: Dim, F: FnMut(&StepRecord<D>)>(n: usize, f: F) -> Every<F>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    Every::new(n, f)
+}
+
+impl<D: Dim, O: Observer<D>> Observer<D> for Every<O>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    #[inline(always)]
+    fn on_step(&mut self, record: &StepRecord<D>) {
+        if record.k.is_multiple_of(self.n) {
+            self.inner.on_step(record);
+        }
+    }
+    #[inline(always)]
+    fn on_finish(&mut self, last_vertex: &OVector<f64, D>, last_vertex_time: f64) {
+        self.inner.on_finish(last_vertex, last_vertex_time);
+    }
+}
+
 /// An [`Observer`] that stores the time and state of every step (for DTH: the midpoints; a
 /// DTH run with its vertices, multipliers and Newton counts is `dth::Trajectory`).
 #[derive(Clone, Debug, PartialEq)]

@@ -1285,6 +1285,28 @@ where
         result
     }
 
+    /// [`Dth::run`] with a closure, whose record type is inferred (`run(n, &mut |r| ..)`
+    /// needs it spelled: `&StepRecord<Const<4>>`).
+    ///
+    /// ```
+    /// use dth_core::{nalgebra::Vector4, systems::Kepler, Dth, DthOptions};
+    /// let mut dth = Dth::new(Kepler::thesis(), Vector4::new(0.5, 0.0, 0.0, 1.2), DthOptions::thesis_kepler())?;
+    /// let mut largest_lambda = 0.0_f64;
+    /// dth.run_with(100, |r| largest_lambda = largest_lambda.max(r.dth.as_ref().map_or(0.0, |d| d.lambda)))?;
+    /// assert!(largest_lambda > 1.0);
+    /// # Ok::<(), dth_core::Error>(())
+    /// ```
+    ///
+    /// # Errors
+    /// As [`Dth::run`].
+    pub fn run_with<F: FnMut(&StepRecord<D>)>(
+        &mut self,
+        steps: usize,
+        mut f: F,
+    ) -> Result<(), Error> {
+        self.run(steps, &mut f)
+    }
+
     /// Take `steps` steps and return them as a [`Trajectory`] (starting with the current
     /// midpoint), or the error with the partial trajectory.
     ///
