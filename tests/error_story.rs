@@ -59,7 +59,10 @@ fn every_call_with_question_mark(out: impl io::Write) -> Result<f64, Error> {
     let typed = Typed::<4>::new(text)?;
     let on_text = integrate(typed, z0, options, 10)?;
     trajectory.write_csv(out)?;
-    Ok(again.midpoint_times()[10] + end.t + on_text.midpoint_times()[10])
+    let solved = dth::solve(&Kepler::thesis(), z0, dth::Method::Rk4 { dt: 0.05 })
+        .until(0.5)
+        .run()?;
+    Ok(again.midpoint_times()[10] + end.t + on_text.midpoint_times()[10] + solved.steps as f64)
 }
 
 #[test]
@@ -163,6 +166,30 @@ fn question_mark_into_anyhow_downcasts_to_dth_error() {
         err.downcast_ref::<Error>(),
         Some(Error::Breakdown { step: 19, .. })
     ));
+}
+
+/// The driver's failed run: `?` into `anyhow::Error` downcasts to the `dth::Error` and to the
+/// `RunError` with its partial `Solution`, whose `failure` is that error.
+#[test]
+fn a_failed_solve_into_anyhow_downcasts_too() {
+    let (kepler, z0, options) = eccentric();
+    let app = || -> anyhow::Result<usize> {
+        let run = dth::solve(&kepler, z0, dth::Method::Dth(options))
+            .steps(1_000)
+            .run()?;
+        Ok(run.len())
+    };
+    let err = app().unwrap_err();
+    let typed = err.chain().find_map(|e| e.downcast_ref::<Error>());
+    assert!(
+        matches!(typed, Some(Error::Breakdown { step: 19, .. })),
+        "{typed:?}"
+    );
+    let run = err
+        .downcast_ref::<RunError<dth::Solution<U4>>>()
+        .expect("the RunError with its partial solution");
+    assert_eq!(run.partial.len(), 19);
+    assert_eq!(run.partial.failure.as_ref(), typed);
 }
 
 /// A text Hamiltonian's errors: `?` into `dth::Error` (`Error::Hamiltonian`, which displays as
