@@ -400,6 +400,7 @@ where
     times: Vec<f64>,
     max_steps: usize,
     interrupt: Option<&'a AtomicBool>,
+    energy: bool,
     observer: O,
 }
 
@@ -452,6 +453,7 @@ where
         times: Vec::new(),
         max_steps: usize::MAX,
         interrupt: None,
+        energy: true,
         observer: (),
     }
 }
@@ -510,6 +512,14 @@ where
         self
     }
 
+    /// Do not compute [`Solution::energy_error`] (it stays empty, and `energy0` is NaN): the run
+    /// then evaluates `H` only where its method does, for a caller that computes only what it
+    /// is asked for.
+    pub fn without_energy_errors(mut self) -> Self {
+        self.energy = false;
+        self
+    }
+
     /// Call `f` with every state of the run as it is computed (the initial one first), saved
     /// or not. The record type is inferred: `.observe(|r| println!("{} {}", r.t, r.z[0]))`.
     pub fn observe<F: FnMut(&StepRecord<D>)>(self, f: F) -> Solve<'a, H, D, I, F> {
@@ -533,6 +543,7 @@ where
             times: self.times,
             max_steps: self.max_steps,
             interrupt: self.interrupt,
+            energy: self.energy,
             observer,
         }
     }
@@ -558,13 +569,15 @@ where
             times,
             max_steps,
             interrupt,
+            energy,
             mut observer,
         } = self;
-        let energy0 = h.value(&z0);
+        // H is evaluated only for the energy errors, and not at all without them.
+        let energy0 = if energy { h.value(&z0) } else { f64::NAN };
         let energy_error = |z: &OVector<f64, D>| h.value(z) - energy0;
         let mut sink = Sink {
             user: &mut observer,
-            energy_error: &energy_error,
+            energy_error: energy.then_some(&energy_error as &dyn Fn(&OVector<f64, D>) -> f64),
             solution: Solution::empty(method.name(), energy0),
             save,
             save_start: true,
@@ -695,9 +708,10 @@ where
     pub k: Vec<usize>,
     /// What produced each saved state ([`StepKind::Fallback`]: a robust-mode fallback step).
     pub kinds: Vec<StepKind>,
-    /// `H(z) - H(z0)` at each saved state (for a time-dependent `H`, of the extended `calH`).
+    /// `H(z) - H(z0)` at each saved state (for a time-dependent `H`, of the extended `calH`);
+    /// empty after [`Solve::without_energy_errors`].
     pub energy_error: Vec<f64>,
-    /// `H(z0)`.
+    /// `H(z0)` (NaN after [`Solve::without_energy_errors`]).
     pub energy0: f64,
     /// DTH's multipliers, vertices and `Psi` at the saved states; `None` for a fixed-step
     /// method.
@@ -794,7 +808,7 @@ where
 {
     user: &'o mut O,
     /// `H(z) - H(z0)`.
-    energy_error: &'o dyn Fn(&OVector<f64, D>) -> f64,
+    energy_error: Option<&'o dyn Fn(&OVector<f64, D>) -> f64>,
     solution: Solution<D>,
     save: Save,
     /// Keep the initial state.
@@ -811,12 +825,12 @@ where
 {
     fn keep(&mut self, r: &StepRecord<D>) {
         let solution = &mut self.solution;
-        let h_minus_h0 = (self.energy_error)(&r.z);
+        let h_minus_h0 = self.energy_error.map(|e| e(&r.z));
         solution.t.push(r.t);
         solution.z.push(r.z.clone());
         solution.k.push(r.k);
         solution.kinds.push(r.kind);
-        solution.energy_error.push(h_minus_h0);
+        solution.energy_error.extend(h_minus_h0);
         if let Some(d) = &r.dth {
             let series = solution.dth.get_or_insert_with(|| DthSeries {
                 lambda: Vec::new(),

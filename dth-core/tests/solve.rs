@@ -429,3 +429,41 @@ fn any_observer_gets_every_state_and_the_last_vertex() {
     assert_eq!(run.kinds.last(), Some(&StepKind::Shortened));
     let _: &StepRecord<Const<4>> = &trajectory.record(0).unwrap();
 }
+
+/// Without energy errors a run evaluates `H` only where its method does: RK4 and the implicit
+/// midpoint rule use the gradient and Hessian only, so not once here.
+#[test]
+fn without_energy_errors_h_is_not_evaluated() {
+    use std::cell::Cell;
+    struct Counting(Kepler, Cell<usize>);
+    impl Hamiltonian<Const<4>> for Counting {
+        fn dim(&self) -> Const<4> {
+            Const
+        }
+        fn value(&self, z: &Vector4<f64>) -> f64 {
+            self.1.set(self.1.get() + 1);
+            self.0.value(z)
+        }
+        fn gradient_into(&self, z: &Vector4<f64>, out: &mut Vector4<f64>) {
+            self.0.gradient_into(z, out)
+        }
+        fn hessian_into(&self, z: &Vector4<f64>, out: &mut dth_core::nalgebra::Matrix4<f64>) {
+            self.0.hessian_into(z, out)
+        }
+    }
+    let h = Counting(Kepler::thesis(), Cell::new(0));
+    for method in [Method::Rk4 { dt: 0.1 }, Method::Midpoint { dt: 0.1 }] {
+        h.1.set(0);
+        let run = solve(&h, thesis_z0(), method)
+            .until(2.0)
+            .without_energy_errors()
+            .run()
+            .unwrap();
+        assert_eq!(h.1.get(), 0, "{}", run.method);
+        assert!(run.energy_error.is_empty() && run.energy0.is_nan());
+        assert_eq!(run.len(), run.steps + 1);
+        h.1.set(0);
+        let run = solve(&h, thesis_z0(), method).until(2.0).run().unwrap();
+        assert_eq!(h.1.get(), 1 + run.len(), "H(z0) and one per saved state");
+    }
+}

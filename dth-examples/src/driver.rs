@@ -1,15 +1,17 @@
-//! The run driver: how long a run lasts and when it is interrupted ([`Stop`]), how it fails ([`MethodFailure`]), and the
-//! two integrator drivers every method of a scene goes through, the fixed-step peers
-//! ([`run_peer`]) and the DTH stepper ([`DthRunner`]). Both report every state to one
-//! `dth::observer::Observer` and end with a `dth::methods::RunEnd`, or with a typed
-//! [`MethodFailure`].
+//! How long a scene's run lasts and when it is interrupted ([`Stop`]), how it fails
+//! ([`MethodFailure`]), and the two ways every method of a scene is run, both through the
+//! library's one driver (`dth::solve`): the fixed-step peers ([`run_peer`]) and the DTH
+//! stepper ([`DthRunner`]). Both report every state to one `dth::observer::Observer` and end
+//! with a `dth::methods::RunEnd`, or with a typed [`MethodFailure`]; a run until a time ends
+//! exactly on it, whatever the method.
 //!
 //! Nothing here knows scenes or systems beyond `dth::Hamiltonian`.
 
-use dth::dth::{Dth, DthOptions, Solver};
-use dth::methods::{self, OneStepMethod, RunEnd};
+use dth::dth::{DthOptions, Solver};
+use dth::methods::{steps_until, OneStepMethod, RunEnd};
 use dth::nalgebra::{DefaultAllocator, Dim, OVector};
 use dth::observer::Observer;
+use dth::solve::{solve, Integrator, Method, Peer};
 use dth::Alloc;
 use dth::Hamiltonian;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -126,100 +128,94 @@ impl Stop {
         }
     }
 
-    /// The number of steps a fixed-step method with step `dt > 0` takes from `t0`: the first
-    /// `k` with `t0 + k dt >= t_end` (the clock is `t0 + k dt`, as `dth::methods::run`
-    /// computes it), capped at `max_steps`.
+    /// The number of steps a fixed-step method with step `dt > 0` takes from `t0`: to land
+    /// on `t_end` (`dth::methods::steps_until`, as `dth::solve` runs it), capped at
+    /// `max_steps`.
     pub fn fixed_steps(&self, t0: f64, dt: f64) -> usize {
         match self.limit {
             Limit::Steps(n) => n,
-            Limit::Time { t_end, max_steps } => {
-                let guess = ((t_end - t0) / dt).ceil().max(0.0);
-                let mut k = if guess < max_steps as f64 {
-                    guess as usize
-                } else {
-                    max_steps
-                };
-                // The division rounds: settle on the exact first k of the clock.
-                while k < max_steps && t0 + k as f64 * dt < t_end {
-                    k += 1;
-                }
-                while k > 0 && t0 + (k - 1) as f64 * dt >= t_end {
-                    k -= 1;
-                }
-                k
-            }
+            Limit::Time { t_end, max_steps } => steps_until(t0, t_end, dt).min(max_steps),
         }
     }
 }
 
-/// A fixed-step method that refuses its next step once `interrupt` is set: `dth::methods::run`
-/// then ends as for a failed step, and [`run_peer`] reports the interruption (`refused`).
-struct Interruptible<'a, M> {
-    method: &'a mut M,
-    interrupt: &'static AtomicBool,
-    refused: bool,
-}
-
-impl<M> Interruptible<'_, M> {
-    /// An error (and `refused`) once `interrupt` is set.
-    #[inline]
-    fn check(&mut self) -> Result<(), dth::Error> {
-        if self.interrupt.load(Ordering::Relaxed) {
-            self.refused = true;
-            // Never shown: `run_peer` reports `FailureCause::Interrupted` instead.
-            return Err(dth::Error::InvalidOption {
-                name: "interrupt",
-                value: f64::NAN,
-                reason: "the run was interrupted",
-            });
-        }
-        Ok(())
-    }
-}
-
-impl<D: Dim, H: Hamiltonian<D>, M: OneStepMethod<D, H>> OneStepMethod<D, H> for Interruptible<'_, M>
+/// Runs `integrator` on `system` from `z0` at `t0` until `stop` through `dth::solve`, every
+/// state shown to `observer`, only the first and last kept, and `H` evaluated only where the
+/// method needs it (what a scene computes beyond that is its effects').
+fn drive<D: Dim, H, I, O>(
+    integrator: I,
+    system: &H,
+    z0: OVector<f64, D>,
+    t0: f64,
+    stop: Stop,
+    observer: &mut O,
+) -> Result<RunEnd<D>, MethodFailure>
 where
     DefaultAllocator: Alloc<D>,
+    H: Hamiltonian<D>,
+    I: Integrator<D, H>,
+    O: Observer<D>,
 {
-    const NAME: &'static str = M::NAME;
-    const ORDER: u32 = M::ORDER;
-
-    #[inline]
-    fn step_into(
-        &mut self,
-        h: &H,
-        z: &OVector<f64, D>,
-        dt: f64,
-        z1: &mut OVector<f64, D>,
-    ) -> Result<(), dth::Error> {
-        self.check()?;
-        self.method.step_into(h, z, dt, z1)
+    let mut run = solve(system, z0, integrator)
+        .save_every(usize::MAX)
+        .without_energy_errors();
+    // A time-dependent H's clock is its t coordinate.
+    if !system.flags().time_dependent {
+        run = run.start_time(t0);
     }
-
-    /// Forwarded as such: `run` continues a run on the same `H` through it, which lets a
-    /// method reuse what the last step left (Stormer-Verlet its last force).
-    #[inline]
-    fn continue_into(
-        &mut self,
-        h: &H,
-        z: &OVector<f64, D>,
-        dt: f64,
-        z1: &mut OVector<f64, D>,
-    ) -> Result<(), dth::Error> {
-        self.check()?;
-        self.method.continue_into(h, z, dt, z1)
+    run = match stop.limit {
+        Limit::Steps(n) => run.steps(n),
+        Limit::Time { t_end, max_steps } => run.until(t_end).max_steps(max_steps),
+    };
+    if let Some(flag) = stop.interrupt {
+        run = run.interrupt(flag);
     }
-
-    fn newton_iterations(&self) -> usize {
-        self.method.newton_iterations()
+    match run.observer(observer).run() {
+        Ok(solution) => match (solution.end_state(), solution.end_time()) {
+            (Some(z), Some(t)) => Ok(RunEnd {
+                z: z.clone(),
+                t,
+                steps: solution.steps,
+            }),
+            // A solution that reached its end has its end state.
+            _ => Err(MethodFailure::integrator(0, dth::Error::MissingEnd)),
+        },
+        Err(failed) => {
+            // Nothing computed: the start failed (step 0); else the step after the last.
+            let step = if failed.partial.is_empty() {
+                0
+            } else {
+                failed.partial.steps + 1
+            };
+            Err(match failed.error {
+                dth::Error::StepCap {
+                    max_steps,
+                    t,
+                    t_end,
+                    ..
+                } => MethodFailure {
+                    step,
+                    cause: FailureCause::StepCap {
+                        max_steps,
+                        t,
+                        t_end,
+                    },
+                },
+                dth::Error::Interrupted { step } => MethodFailure {
+                    step,
+                    cause: FailureCause::Interrupted,
+                },
+                error => MethodFailure::integrator(step, error),
+            })
+        }
     }
 }
 
 /// Runs a fixed-step peer (`dth::methods`) with step `dt` from `z0` at `t0` until `stop`,
-/// showing every state to `observer`. On failure the observer has seen every state before the
-/// failing step.
+/// showing every state to `observer`; a run until a time lands on it (its last step is what
+/// is left). On failure the observer has seen every state before the failing step.
 pub fn run_peer<D: Dim, H, M, O>(
-    method: &mut M,
+    method: M,
     system: &H,
     dt: f64,
     z0: OVector<f64, D>,
@@ -233,30 +229,7 @@ where
     M: OneStepMethod<D, H>,
     O: Observer<D>,
 {
-    let steps = stop.fixed_steps(t0, dt);
-    let end = match stop.interrupt {
-        None => methods::run(method, system, &z0, t0, dt, steps, observer),
-        Some(interrupt) => {
-            let mut method = Interruptible {
-                method,
-                interrupt,
-                refused: false,
-            };
-            let end = methods::run(&mut method, system, &z0, t0, dt, steps, observer);
-            if let (Err(e), true) = (&end, method.refused) {
-                return Err(MethodFailure {
-                    step: e.partial.steps + 1,
-                    cause: FailureCause::Interrupted,
-                });
-            }
-            end
-        }
-    }
-    .map_err(|e| MethodFailure::integrator(e.partial.steps + 1, e.error))?;
-    match stop.cut_short(end.steps, end.t) {
-        Some(failure) => Err(failure),
-        None => Ok(end),
-    }
+    drive(Peer::new(method, dt), system, z0, t0, stop, observer)
 }
 
 /// The DTH stepper (`dth::dth::Dth`) driven until a [`Stop`]: every midpoint `zbar_k` is shown
@@ -296,7 +269,7 @@ impl DthRunner {
     /// last midpoint lands on `t_end` to roundoff (`dth::dth::Dth::step_toward`), and that
     /// midpoint and its time are the run's end (its segment has its own `dtau`, so the vertex
     /// invariants of plain DTH jump once at its vertex).
-    pub fn run<D: Dim, H: Hamiltonian<D> + Clone, O: Observer<D>>(
+    pub fn run<D: Dim, H: Hamiltonian<D>, O: Observer<D>>(
         &self,
         system: &H,
         z0: OVector<f64, D>,
@@ -307,43 +280,6 @@ impl DthRunner {
     where
         DefaultAllocator: Alloc<D>,
     {
-        let start = |e| MethodFailure::integrator(0, e);
-        let mut dth = Dth::new(system.clone(), z0, self.options).map_err(start)?;
-        if !system.flags().time_dependent {
-            dth = dth.with_tbar0(t0).map_err(start)?;
-        }
-        let mut record = dth.record();
-        loop {
-            observer.on_step(&record);
-            if let Some(failure) = stop.cut_short(record.k, record.t) {
-                return Err(failure);
-            }
-            if stop.done(record.k, record.t) {
-                return Ok(RunEnd {
-                    z: record.z,
-                    t: record.t,
-                    steps: record.k,
-                });
-            }
-            if let Some(interrupted) = stop.interruption(record.k) {
-                return Err(interrupted);
-            }
-            let failed = |e| MethodFailure::integrator(record.k + 1, e);
-            record = match stop.limit {
-                Limit::Time { t_end, .. } => {
-                    let (r, reached) = dth.step_toward(t_end).map_err(failed)?;
-                    if reached {
-                        observer.on_step(&r);
-                        return Ok(RunEnd {
-                            z: r.z,
-                            t: r.t,
-                            steps: r.k,
-                        });
-                    }
-                    r
-                }
-                Limit::Steps(_) => dth.step().map_err(failed)?,
-            };
-        }
+        drive(Method::Dth(self.options), system, z0, t0, stop, observer)
     }
 }

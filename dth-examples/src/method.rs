@@ -8,19 +8,21 @@
 //! only), and the system's exact solution sampled every `dt` ([`run_exact`]).
 
 use dth::methods::{
-    DiscreteGradient, GaussLegendre2, ImplicitMidpoint, Rk4, RunEnd, StormerVerlet, Trapezoidal,
+    steps_until, DiscreteGradient, GaussLegendre2, ImplicitMidpoint, Rk4, RunEnd, StormerVerlet,
+    Trapezoidal,
 };
 use dth::nalgebra::{DefaultAllocator, Dim, OVector};
 use dth::observer::{Observer, StepKind, StepRecord};
 use dth::Alloc;
 
-use crate::driver::{run_peer, DthRunner, FailureCause, MethodFailure, Stop};
+use crate::driver::{run_peer, DthRunner, FailureCause, Limit, MethodFailure, Stop};
 use crate::error::Error;
 use crate::scene::{MethodKind, MethodSpec, StepSpec};
 use crate::system::SceneSystem;
 
 /// The system's exact solution ([`SceneSystem::exact_solution`]) sampled at `t0 + k dt` from
-/// `z0` until `stop`, shown to `observer` like a fixed-step method's states.
+/// `z0` until `stop` (a run until a time: its last sample at that time), shown to `observer`
+/// like a fixed-step method's states.
 pub fn run_exact<D: Dim, S: SceneSystem<D>, O: Observer<D>>(
     system: &S,
     dt: f64,
@@ -42,12 +44,19 @@ where
         dth: None,
     };
     observer.on_step(&record);
-    while !stop.done(record.k, record.t) {
+    // Every `dt`, and a run until a time lands on it, as the integrators do.
+    let landing = match stop.limit {
+        Limit::Time { t_end, .. } => Some((steps_until(t0, t_end, dt), t_end)),
+        Limit::Steps(_) => None,
+    };
+    for k in 1..=stop.fixed_steps(t0, dt) {
         if let Some(interrupted) = stop.interruption(record.k) {
             return Err(interrupted);
         }
-        let k = record.k + 1;
-        let t = t0 + k as f64 * dt;
+        let t = match landing {
+            Some((last, t_end)) if k == last => t_end,
+            _ => t0 + k as f64 * dt,
+        };
         record.z = system.exact_solution(&z0, t - t0).ok_or(MethodFailure {
             step: k,
             cause: FailureCause::NoExactSolution { t },
@@ -145,7 +154,7 @@ where
     // generic over it).
     macro_rules! peer {
         ($method:expr) => {
-            Ok(run_peer(&mut $method, system, dt, z0, t0, stop, observer))
+            Ok(run_peer($method, system, dt, z0, t0, stop, observer))
         };
     }
     match spec.kind {

@@ -66,7 +66,7 @@ where
     /// Runs Greenspan's discrete mechanics (`dth::methods::DiscreteMechanics`, which needs
     /// `dth::systems::CentralForce`); `None` for systems that are not central forces. A
     /// central-force system implements it as
-    /// `Some(run_peer(&mut DiscreteMechanics::new(), self, dt, z0, t0, stop, observer))`.
+    /// `Some(run_peer(DiscreteMechanics::new(), self, dt, z0, t0, stop, observer))`.
     fn run_discrete_mechanics<O: Observer<D>>(
         &self,
         dt: f64,

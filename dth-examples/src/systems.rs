@@ -105,7 +105,7 @@ impl SceneSystem<Const<4>> for Kepler {
         observer: &mut O,
     ) -> Option<Result<RunEnd<Const<4>>, MethodFailure>> {
         Some(run_peer(
-            &mut DiscreteMechanics::new(),
+            DiscreteMechanics::new(),
             self,
             dt,
             z0,
@@ -450,7 +450,7 @@ impl SceneSystem<Const<4>> for FreeParticle {
         observer: &mut O,
     ) -> Option<Result<RunEnd<Const<4>>, MethodFailure>> {
         Some(run_peer(
-            &mut DiscreteMechanics::new(),
+            DiscreteMechanics::new(),
             self,
             dt,
             z0,

@@ -250,7 +250,7 @@ fn an_interruptible_run_keeps_verlets_reused_force() {
         let h = Counted(AtomicUsize::new(0));
         let stop = Stop::steps(n).with_interrupt(flag);
         let z0 = Vector2::new(1.0, 0.0);
-        let end = run_peer(&mut StormerVerlet::new(), &h, 0.1, z0, 0.0, stop, &mut ()).unwrap();
+        let end = run_peer(StormerVerlet::new(), &h, 0.1, z0, 0.0, stop, &mut ()).unwrap();
         assert_eq!(end.steps, n);
         assert_eq!(
             h.0.load(Ordering::Relaxed),

@@ -424,10 +424,18 @@ where
     }
 }
 
-/// The least number `m` of steps of `dt > 0` from `t_a` that reaches `t_b` (0 when
-/// `t_b <= t_a`), where a last step that would only make up the rounding of `(t_b - t_a) / dt`
-/// (at most `4 eps` of it) is merged into the one before.
-pub(crate) fn steps_until(t_a: f64, t_b: f64, dt: f64) -> usize {
+/// The number of steps a fixed-step run of step `dt > 0` takes from `t_a` to end at `t_b`
+/// ([`crate::solve`]): the least `m` that reaches `t_b` (0 when `t_b <= t_a`), where a last
+/// step that would only make up the rounding of `(t_b - t_a) / dt` (at most `4 eps` of it) is
+/// merged into the one before. Its steps are `m - 1` of `dt` and a last one of what is left.
+///
+/// ```
+/// use dth_core::methods::steps_until;
+/// assert_eq!(steps_until(0.0, 1.0, 0.3), 4); // 0.3, 0.6, 0.9, then 0.1
+/// assert_eq!(steps_until(0.0, 1.0, 0.1), 10); // ten steps, the last 1 - 9 * 0.1
+/// assert_eq!(steps_until(2.0, 1.0, 0.1), 0);
+/// ```
+pub fn steps_until(t_a: f64, t_b: f64, dt: f64) -> usize {
     let x = (t_b - t_a) / dt;
     if x.is_nan() || x <= 0.0 {
         return 0;
