@@ -23,7 +23,8 @@ pub use crate::error::{FailureCause, MethodFailure};
 pub enum Limit {
     /// After this many steps.
     Steps(usize),
-    /// At the first state with `t >= t_end`, or after `max_steps` steps, whichever is first.
+    /// At `t_end`, exactly (every method lands its last state on it), or after `max_steps`
+    /// steps, whichever is first (the latter a failure, `FailureCause::StepCap`).
     Time {
         /// End time.
         t_end: f64,
