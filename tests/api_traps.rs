@@ -45,6 +45,24 @@ fn runtime_trait_methods_are_not_shadowed_by_slice_methods() {
     );
 }
 
+/// `RuntimeHamiltonian`'s dimension as a `usize` is `dimension()`, and `h.dim()` is the trait's
+/// `Dyn` of it, as for every `Hamiltonian<Dyn>` (an inherent `dim() -> usize` shadowed the
+/// trait's). `tests/ui/api/runtime-dim-is-the-trait.rs` is the old form.
+#[test]
+fn runtime_dim_is_the_traits() {
+    use dth::nalgebra::Dyn;
+    let h = RuntimeHamiltonian::new("(p1^2 + p2^2)/2 + q1^2*q2^2", &[]).unwrap();
+    let n: usize = h.dimension();
+    assert_eq!(n, 4);
+    let d: Dyn = h.dim();
+    assert_eq!(d, Dyn(n));
+    assert_eq!(Hamiltonian::dim(&h), Dyn(n));
+    assert_eq!(<RuntimeHamiltonian as Hamiltonian<Dyn>>::dim(&h), Dyn(n));
+    // A time-dependent text: `(q, t, p, p_t)`.
+    let forced = RuntimeHamiltonian::new("p1^2/2 + q1^2/2 - q1*cos(t)", &[]).unwrap();
+    assert_eq!((forced.dimension(), forced.dim()), (4, Dyn(4)));
+}
+
 /// A `Dyn` state of another length than a text Hamiltonian's dimension: every entry point that
 /// takes a state refuses it with `WrongStateLength`, naming the argument, the expected and the
 /// given length (through the trait it was NaN, which nothing reported).

@@ -20,8 +20,8 @@
 //! [`RuntimeHamiltonian`]'s own evaluations on slices are named apart (`value_slice`,
 //! `gradient_slice`, ...), so with the trait in scope `h.value(&z)` on a `DVector` is the
 //! trait's (before, an inherent `value(&[f64])` of the same name took precedence and
-//! `h.value(&z)` did not compile). Its inherent `dim()` still returns the `usize`
-//! (`Hamiltonian::dim(&h)` is `Dyn` of it).
+//! `h.value(&z)` did not compile). Its dimension as a `usize` is likewise `dimension()`, so
+//! `h.dim()` is always the trait's, `Dyn` of it (an inherent `dim() -> usize` shadowed it).
 //!
 //! ```
 //! use dth_core::dth::{Dth, DthOptions};
@@ -99,10 +99,10 @@ impl<const D: usize, const TIME_DEPENDENT: bool, const SEPARABLE: bool>
     /// identically zero.
     pub fn new(runtime: impl Into<Arc<RuntimeHamiltonian>>) -> Result<Self, RuntimeError> {
         let runtime = runtime.into();
-        if runtime.dim() != D {
+        if runtime.dimension() != D {
             return Err(RuntimeError::DimensionMismatch {
                 expected: D,
-                found: runtime.dim(),
+                found: runtime.dimension(),
             });
         }
         let mismatch = |flag, declared, derived| {
@@ -164,10 +164,10 @@ impl<const D: usize> Fixed<D> {
     /// [`RuntimeError::DimensionMismatch`] when the text's `D` is not `D`.
     pub fn new(runtime: impl Into<Arc<RuntimeHamiltonian>>) -> Result<Self, RuntimeError> {
         let runtime = runtime.into();
-        if runtime.dim() != D {
+        if runtime.dimension() != D {
             return Err(RuntimeError::DimensionMismatch {
                 expected: D,
-                found: runtime.dim(),
+                found: runtime.dimension(),
             });
         }
         let flags = derived_flags(&runtime);
@@ -331,7 +331,7 @@ fn derived_flags(runtime: &RuntimeHamiltonian) -> Flags {
 /// The dimension and the flags are the text's.
 impl Hamiltonian<Dyn> for RuntimeHamiltonian {
     fn dim(&self) -> Dyn {
-        Dyn(RuntimeHamiltonian::dim(self))
+        Dyn(self.dimension())
     }
 
     fn flags(&self) -> Flags {
