@@ -3,8 +3,11 @@
 
 use dth::dth::{Composition, EnergyResidual, Solver};
 use dth::kepler::KeplerOrbit;
-use dth::methods::{run, ImplicitMidpoint, NewtonOptions, OneStepMethod, Rk4};
-use dth::nalgebra::{DVector, Vector4};
+use dth::methods::{
+    run, DiscreteGradient, GaussLegendre2, ImplicitMidpoint, NewtonOptions, OneStepMethod, Rk4,
+    StormerVerlet, Trapezoidal,
+};
+use dth::nalgebra::{DVector, Dyn, Vector4};
 use dth::observer::StepKind;
 use dth::runtime::RuntimeHamiltonian;
 use dth::systems::Kepler;
@@ -45,9 +48,28 @@ fn runtime_trait_methods_are_not_shadowed_by_slice_methods() {
     );
 }
 
+/// `RuntimeHamiltonian`'s dimension as a `usize` is `dimension()`, and `h.dim()` is the trait's
+/// `Dyn` of it, as for every `Hamiltonian<Dyn>` (an inherent `dim() -> usize` shadowed the
+/// trait's). `tests/ui/api/runtime-dim-is-the-trait.rs` is the old form.
+#[test]
+fn runtime_dim_is_the_traits() {
+    use dth::nalgebra::Dyn;
+    let h = RuntimeHamiltonian::new("(p1^2 + p2^2)/2 + q1^2*q2^2", &[]).unwrap();
+    let n: usize = h.dimension();
+    assert_eq!(n, 4);
+    let d: Dyn = h.dim();
+    assert_eq!(d, Dyn(n));
+    assert_eq!(Hamiltonian::dim(&h), Dyn(n));
+    assert_eq!(<RuntimeHamiltonian as Hamiltonian<Dyn>>::dim(&h), Dyn(n));
+    // A time-dependent text: `(q, t, p, p_t)`.
+    let forced = RuntimeHamiltonian::new("p1^2/2 + q1^2/2 - q1*cos(t)", &[]).unwrap();
+    assert_eq!((forced.dimension(), forced.dim()), (4, Dyn(4)));
+}
+
 /// A `Dyn` state of another length than a text Hamiltonian's dimension: every entry point that
 /// takes a state refuses it with `WrongStateLength`, naming the argument, the expected and the
-/// given length (through the trait it was NaN, which nothing reported).
+/// given length, before any evaluation (through the trait it was NaN, which nothing reported;
+/// it now panics, so an integrator that evaluated first would panic here).
 #[test]
 fn wrong_length_states_are_typed_errors_at_every_entry_point() {
     let text = "(p1^2 + p2^2)/2 - (q1^2 + q2^2)^(-1/2)";
@@ -71,6 +93,42 @@ fn wrong_length_states_are_typed_errors_at_every_entry_point() {
     assert_eq!(err.partial.steps, 0);
     let err = ImplicitMidpoint::new().step(&h, &short, 0.1).unwrap_err();
     wrong(&err, "z");
+    // Every peer, through `run` and straight.
+    fn refuses<M: OneStepMethod<Dyn, RuntimeHamiltonian> + Default>(h: &RuntimeHamiltonian) {
+        let short = DVector::from_element(3, 0.5);
+        let err = run(&mut M::default(), h, &short, 0.0, 0.1, 10, &mut ()).unwrap_err();
+        assert!(
+            matches!(
+                err.error,
+                Error::WrongStateLength {
+                    what: "z0",
+                    expected: 4,
+                    found: 3
+                }
+            ),
+            "{}: {err}",
+            M::NAME
+        );
+        let err = M::default().step(h, &short, 0.1).unwrap_err();
+        assert!(
+            matches!(
+                err,
+                Error::WrongStateLength {
+                    what: "z",
+                    expected: 4,
+                    found: 3
+                }
+            ),
+            "{}: {err}",
+            M::NAME
+        );
+    }
+    refuses::<ImplicitMidpoint>(&h);
+    refuses::<Trapezoidal>(&h);
+    refuses::<DiscreteGradient>(&h);
+    refuses::<Rk4>(&h);
+    refuses::<StormerVerlet<Dyn>>(&h);
+    refuses::<GaussLegendre2>(&h);
     // The message says what to fix.
     assert_eq!(
         Error::from(integrate(&h, short, DthOptions::thesis_kepler(), 10).unwrap_err()).to_string(),
@@ -84,6 +142,67 @@ fn wrong_length_states_are_typed_errors_at_every_entry_point() {
             .len(),
         11
     );
+}
+
+/// The four-dimensional Kepler text, for the panics of a wrong-length state below.
+fn kepler_text() -> RuntimeHamiltonian {
+    RuntimeHamiltonian::new("(p1^2 + p2^2)/2 - (q1^2 + q2^2)^(-1/2)", &[]).unwrap()
+}
+
+/// Through the trait, whose methods return an `f64` or write into `out`, a `Dyn` point of
+/// another length than the text's dimension panics with what to fix (it gave NaN, which a
+/// caller outside the integrators never saw reported); the slice methods return the error.
+#[test]
+#[should_panic(
+    expected = "RuntimeHamiltonian::value: z has 3 components, the Hamiltonian's \
+                           dimension is 4 (the checked RuntimeHamiltonian::value_slice returns \
+                           an error instead)"
+)]
+fn a_wrong_length_value_through_the_trait_panics() {
+    let h = kepler_text();
+    let short = DVector::from_element(3, 0.5);
+    assert!(h.value_slice(short.as_slice()).is_err());
+    let _ = h.value(&short);
+}
+
+/// As for `value`: a point of the wrong length given to `gradient_into`.
+#[test]
+#[should_panic(
+    expected = "RuntimeHamiltonian::gradient_into: z has 5 components, the \
+                           Hamiltonian's dimension is 4 (the checked \
+                           RuntimeHamiltonian::gradient_slice returns an error instead)"
+)]
+fn a_wrong_length_gradient_through_the_trait_panics() {
+    let h = kepler_text();
+    let long = DVector::from_element(5, 0.5);
+    h.gradient_into(&long, &mut DVector::zeros(4));
+}
+
+/// As for `value`: the fused `derivatives_into`, the stepper's evaluation.
+#[test]
+#[should_panic(
+    expected = "RuntimeHamiltonian::derivatives_into: z has 2 components, the \
+                           Hamiltonian's dimension is 4 (the checked \
+                           RuntimeHamiltonian::derivatives_slice returns an error instead)"
+)]
+fn a_wrong_length_derivatives_through_the_trait_panics() {
+    let h = kepler_text();
+    let short = DVector::from_element(2, 0.5);
+    h.derivatives_into(&short, &mut dth::Derivatives::zeros(Dyn(4)));
+}
+
+/// As for `value`: a two-point method, its second point of the wrong length, named `z1`.
+#[test]
+#[should_panic(
+    expected = "RuntimeHamiltonian::energy_difference: z1 has 3 components, the \
+                           Hamiltonian's dimension is 4 (the checked \
+                           RuntimeHamiltonian::energy_difference_slice returns an error \
+                           instead)"
+)]
+fn a_wrong_length_second_point_through_the_trait_panics() {
+    let h = kepler_text();
+    let z0 = DVector::from_column_slice(kepler_start(0.44).as_slice());
+    let _ = h.energy_difference(&z0, &DVector::from_element(3, 0.5));
 }
 
 /// `Dth::kind()` is the kind of the current record, whatever made it: a plain DTH step, a

@@ -207,7 +207,7 @@ pub fn dispatch<J: TextJob>(scene: &Scene, job: J) -> Result<J::Output, Error> {
             reason: e.to_string(),
         })
     }
-    Ok(match system.0.dim() {
+    Ok(match system.0.dimension() {
         4 => job.run::<Const<4>, Fixed<4>>(&|p| fixed(&system, scene, p)),
         _ => job.run::<Dyn, TextSystem>(&|p| system.with_params(scene, p)),
     })

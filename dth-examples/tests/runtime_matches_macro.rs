@@ -26,7 +26,7 @@ fn same<const D: usize>(name: &str, typed: &impl Hamiltonian<Const<D>>) {
     let e = CATALOGUE.iter().find(|e| e.name == name).unwrap();
     let h = RuntimeHamiltonian::new(e.src, e.params).unwrap();
     assert_eq!(h.backend(), Backend::Jit, "{:?}", h.fallback_reason());
-    assert_eq!(h.dim(), D, "{name}");
+    assert_eq!(h.dimension(), D, "{name}");
     fn flags<const D: usize, H: Hamiltonian<Const<D>>>(h: &H) -> (bool, bool, bool) {
         let f = h.flags();
         (f.separable, f.time_dependent, f.psi_identically_zero)

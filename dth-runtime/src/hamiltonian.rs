@@ -27,7 +27,7 @@ use crate::layout::Function;
 ///     "(p1^2 + p2^2)/(2*m) - k*(q1^2 + q2^2)^(-1/2)",
 ///     &[("m", 0.5), ("k", 1.0)],
 /// )?;
-/// assert_eq!((kepler.dim(), kepler.separable()), (4, true));
+/// assert_eq!((kepler.dimension(), kepler.separable()), (4, true));
 /// let z = [0.5, 0.0, 0.0, 1.2];
 /// assert!((kepler.value_slice(&z)? - (1.44 - 2.0)).abs() < 1e-15);
 /// let mut g = [0.0; 4];
@@ -165,8 +165,10 @@ impl RuntimeHamiltonian {
         self.functions[f as usize].run(z0, z1, &self.values, out)
     }
 
-    /// The phase-space dimension `D`: `2n`, or `2n + 2` when time-dependent.
-    pub fn dim(&self) -> usize {
+    /// The phase-space dimension `D`: `2n`, or `2n + 2` when time-dependent. (Named apart from
+    /// the [`Hamiltonian`](dth_core::Hamiltonian) trait's `dim()`, which is `Dyn` of it, so
+    /// that `h.dim()` means one thing whatever the receiver.)
+    pub fn dimension(&self) -> usize {
         self.system.dim()
     }
 
@@ -268,7 +270,7 @@ impl RuntimeHamiltonian {
 
     /// A buffer for [`RuntimeHamiltonian::derivatives_slice`].
     pub fn derivatives_buffer(&self) -> Derivatives {
-        Derivatives::new(self.dim())
+        Derivatives::new(self.dimension())
     }
 
     /// Value, gradient, Hessian and Psi from one fused program (every common subexpression

@@ -77,6 +77,10 @@
 //! flags, for code that chooses the size at run time. Either way every trait method is one call of the compiled
 //! function of the same name ([`Function`] is named after them), with the macro's bits
 //! (`tests/typed_matches_macro.rs` and `tests/runtime_dyn.rs` in the `dth` crate step both).
+//! The trait's methods cannot return an error: a `Dyn` vector of another length than the
+//! text's dimension panics there, naming the method and both sizes, as nalgebra does on a
+//! dimension mismatch (the integrators check a state's length first and return an error; the
+//! slice methods return [`RuntimeError::WrongLength`]).
 #![warn(missing_docs)]
 
 pub mod backend;

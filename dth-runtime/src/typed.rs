@@ -14,14 +14,22 @@
 //! The trait's methods cannot fail. A non-finite output (outside the domain of `ln`, an
 //! overflow) is returned as it is, so the stepper's own checks report it as a typed error
 //! (`dth::Error::NonFinite { step, what }`, or the peers' `MethodNonFinite`), as for any other
-//! implementation. A point of the wrong length (a `Dyn` vector not of the text's dimension)
-//! gives NaN outputs, which the same checks report.
+//! implementation. A point or an output of the wrong length (a `Dyn` vector not of the text's
+//! dimension) is a caller's mistake that no output could report, so it panics, as nalgebra
+//! does on a dimension mismatch, with a message that names the method, the length found and
+//! the dimension expected. The checked alternatives are [`RuntimeHamiltonian`]'s own
+//! `value_slice`, `gradient_slice`, ..., which return [`RuntimeError::WrongLength`] instead,
+//! and every integrator checks a state's length before its first evaluation
+//! (`dth::Error::WrongStateLength`), so a run never reaches the panic. The check is the
+//! comparison of lengths each evaluation made already (and of a Hessian's shape), the panic
+//! out of line; a `Const<D>` view ([`Typed`], [`Fixed`]) cannot reach it, its `D` checked
+//! once when it was built.
 //!
 //! [`RuntimeHamiltonian`]'s own evaluations on slices are named apart (`value_slice`,
 //! `gradient_slice`, ...), so with the trait in scope `h.value(&z)` on a `DVector` is the
 //! trait's (before, an inherent `value(&[f64])` of the same name took precedence and
-//! `h.value(&z)` did not compile). Its inherent `dim()` still returns the `usize`
-//! (`Hamiltonian::dim(&h)` is `Dyn` of it).
+//! `h.value(&z)` did not compile). Its dimension as a `usize` is likewise `dimension()`, so
+//! `h.dim()` is always the trait's, `Dyn` of it (an inherent `dim() -> usize` shadowed it).
 //!
 //! ```
 //! use dth_core::dth::{Dth, DthOptions};
@@ -42,6 +50,7 @@
 use std::sync::Arc;
 
 use std::cell::RefCell;
+use std::fmt;
 
 use dth_core::{Alloc, Derivatives, Flags, Hamiltonian};
 use nalgebra::{Const, DefaultAllocator, Dim, Dyn, OMatrix, OVector};
@@ -99,10 +108,10 @@ impl<const D: usize, const TIME_DEPENDENT: bool, const SEPARABLE: bool>
     /// identically zero.
     pub fn new(runtime: impl Into<Arc<RuntimeHamiltonian>>) -> Result<Self, RuntimeError> {
         let runtime = runtime.into();
-        if runtime.dim() != D {
+        if runtime.dimension() != D {
             return Err(RuntimeError::DimensionMismatch {
                 expected: D,
-                found: runtime.dim(),
+                found: runtime.dimension(),
             });
         }
         let mismatch = |flag, declared, derived| {
@@ -164,10 +173,10 @@ impl<const D: usize> Fixed<D> {
     /// [`RuntimeError::DimensionMismatch`] when the text's `D` is not `D`.
     pub fn new(runtime: impl Into<Arc<RuntimeHamiltonian>>) -> Result<Self, RuntimeError> {
         let runtime = runtime.into();
-        if runtime.dim() != D {
+        if runtime.dimension() != D {
             return Err(RuntimeError::DimensionMismatch {
                 expected: D,
-                found: runtime.dim(),
+                found: runtime.dimension(),
             });
         }
         let flags = derived_flags(&runtime);
@@ -180,21 +189,116 @@ impl<const D: usize> Fixed<D> {
     }
 }
 
-/// Runs `f` at `z0`, `z1` into `out`. The only error expected is a non-finite output, which is
-/// then in `out` for the caller's checks to report; any other (a point of the wrong length)
-/// fills `out` with NaN, which no caller takes for a value.
+/// Runs `f` at `z0`, `z1` into `out`. A non-finite output is left in `out` for the caller's
+/// checks to report (see the module docs).
+///
+/// # Panics
+/// When `z0`, `z1` or `out` is not of the Hamiltonian's dimension ([`wrong_length`]).
+#[track_caller]
 fn run(runtime: &RuntimeHamiltonian, f: Function, z0: &[f64], z1: &[f64], out: &mut [f64]) {
     match runtime.run(f, z0, z1, out) {
         Ok(()) | Err(RuntimeError::NonFinite { .. }) => {}
-        Err(_) => out.fill(f64::NAN),
+        Err(error) => refused(runtime, f, error),
     }
 }
 
 /// A one-value function.
+///
+/// # Panics
+/// As [`run`].
+#[track_caller]
 fn scalar(runtime: &RuntimeHamiltonian, f: Function, z0: &[f64], z1: &[f64]) -> f64 {
     let mut out = [0.0];
     run(runtime, f, z0, z1, &mut out);
     out[0]
+}
+
+/// The trait method that runs `f`, for the panic messages.
+fn trait_method(f: Function) -> &'static str {
+    match f {
+        Function::Value => "value",
+        Function::Gradient => "gradient_into",
+        Function::Hessian => "hessian_into",
+        Function::Psi => "psi",
+        Function::Derivatives => "derivatives_into",
+        Function::DiscreteGradient => "discrete_gradient_into",
+        Function::EnergyDifference => "energy_difference",
+        Function::DiscreteGradientDefect => "discrete_gradient_defect_into",
+    }
+}
+
+/// The size of an argument of the wrong dimension, for the panic message.
+#[derive(Clone, Copy, Debug)]
+enum Found {
+    /// A vector's length.
+    Components(usize),
+    /// A matrix's rows and columns.
+    Shape(usize, usize),
+}
+
+impl fmt::Display for Found {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Found::Components(1) => write!(f, "has 1 component"),
+            Found::Components(n) => write!(f, "has {n} components"),
+            Found::Shape(rows, columns) => write!(f, "is {rows} x {columns}"),
+        }
+    }
+}
+
+/// The panic of the trait method running `f` given `what` (a point, or the output) of
+/// another size than the Hamiltonian's dimension: the method, the two sizes, and the checked
+/// method that returns the error instead (`value_slice` for `value`, ...). Out of line and
+/// cold, so an evaluation pays only for the comparison that leads here.
+#[cold]
+#[inline(never)]
+#[track_caller]
+fn wrong_length(runtime: &RuntimeHamiltonian, f: Function, what: &str, found: Found) -> ! {
+    panic!(
+        "RuntimeHamiltonian::{}: {what} {found}, the Hamiltonian's dimension is {} (the checked \
+         RuntimeHamiltonian::{}_slice returns an error instead)",
+        trait_method(f),
+        runtime.dimension(),
+        f.name(),
+    )
+}
+
+/// The panic for an error of [`RuntimeHamiltonian::run`] other than a non-finite output.
+#[cold]
+#[inline(never)]
+#[track_caller]
+fn refused(runtime: &RuntimeHamiltonian, f: Function, error: RuntimeError) -> ! {
+    match error {
+        // The output of a matrix is checked before (`square`): here it is a vector's.
+        RuntimeError::WrongLength { what, found, .. } if what != "params" => {
+            wrong_length(runtime, f, what, Found::Components(found))
+        }
+        // The lengths of the points and the output are the only errors a caller can cause:
+        // the parameters are the Hamiltonian's own, and the interpreter checks only the
+        // lengths checked before it.
+        error => panic!(
+            "RuntimeHamiltonian::{}: {error} (not a caller's mistake: a bug in dth-runtime)",
+            trait_method(f)
+        ),
+    }
+}
+
+/// Panics unless `matrix` (a Hessian output) is `D x D`: [`run`] checks only its length, and a
+/// `2 x 8` matrix would take a `4 x 4` Hessian's entries in the wrong places.
+#[track_caller]
+fn square<D: Dim>(
+    runtime: &RuntimeHamiltonian,
+    f: Function,
+    what: &str,
+    matrix: &OMatrix<f64, D, D>,
+) where
+    DefaultAllocator: Alloc<D>,
+{
+    let d = runtime.dimension();
+    let (rows, columns) = matrix.shape();
+    if (rows, columns) != (d, d) {
+        wrong_length(runtime, f, what, Found::Shape(rows, columns));
+    }
 }
 
 thread_local! {
@@ -205,27 +309,35 @@ thread_local! {
 /// One call of the fused program, its pieces copied into `out`. The Hessian is written
 /// row-major with both triangles, which for a symmetric matrix is the same array as
 /// column-major (nalgebra's storage).
+///
+/// # Panics
+/// When `z` or a piece of `out` is not of the Hamiltonian's dimension, before anything is
+/// written.
+#[track_caller]
 fn fused<D: Dim>(runtime: &RuntimeHamiltonian, z: &[f64], out: &mut Derivatives<D>)
 where
     DefaultAllocator: Alloc<D>,
 {
-    // The output's dimension, not the point's: a point of the wrong length must give NaN (see
-    // the module docs), not a panic in the copies below.
-    let d = out.gradient.len();
+    let f = Function::Derivatives;
+    let d = runtime.dimension();
+    // Checked here, not by `run` inside the closure (which would report the closure's line,
+    // not the caller's); `out` first, so that the copies below, which take their sizes from
+    // `d`, cannot panic with a message of their own.
     if z.len() != d {
-        out.value = f64::NAN;
-        out.gradient.fill(f64::NAN);
-        out.hessian.fill(f64::NAN);
-        out.psi = f64::NAN;
-        return;
+        wrong_length(runtime, f, "z", Found::Components(z.len()));
     }
-    let len = Function::Derivatives.len(d);
+    if out.gradient.len() != d {
+        let found = Found::Components(out.gradient.len());
+        wrong_length(runtime, f, "out.gradient", found);
+    }
+    square(runtime, f, "out.hessian", &out.hessian);
+    let len = f.len(d);
     FUSED.with_borrow_mut(|buffer| {
         if buffer.len() < len {
             buffer.resize(len, 0.0);
         }
         let buffer = &mut buffer[..len];
-        run(runtime, Function::Derivatives, z, z, buffer);
+        run(runtime, f, z, z, buffer);
         out.value = buffer[0];
         out.gradient
             .as_mut_slice()
@@ -238,13 +350,22 @@ where
 }
 
 /// The trait's evaluation methods, each one call of compiled code into `out`, for a type whose
-/// runtime Hamiltonian is `self.$runtime()`.
+/// runtime Hamiltonian is `self.runtime()`. Each is `#[track_caller]`, so that a panic for a
+/// wrong length names the caller's line.
 macro_rules! evaluations {
     ($d:ty) => {
+        /// # Panics
+        /// When `z` is not of the Hamiltonian's dimension (only a `Dyn` vector can be);
+        /// [`RuntimeHamiltonian::value_slice`] returns the error instead.
+        #[track_caller]
         fn value(&self, z: &OVector<f64, $d>) -> f64 {
             scalar(self.runtime(), Function::Value, z.as_slice(), z.as_slice())
         }
 
+        /// # Panics
+        /// When `z` or `out` is not of the Hamiltonian's dimension (only a `Dyn` vector can
+        /// be); [`RuntimeHamiltonian::gradient_slice`] returns the error instead.
+        #[track_caller]
         fn gradient_into(&self, z: &OVector<f64, $d>, out: &mut OVector<f64, $d>) {
             run(
                 self.runtime(),
@@ -258,7 +379,14 @@ macro_rules! evaluations {
         /// Written row-major with both triangles, which for a symmetric matrix is the same
         /// array as column-major (nalgebra's storage): each entry and its mirror are one
         /// output.
+        ///
+        /// # Panics
+        /// When `z` is not of the Hamiltonian's dimension `D` or `out` is not `D x D` (only a
+        /// `Dyn` vector or matrix can be); [`RuntimeHamiltonian::hessian_slice`] returns the
+        /// error instead.
+        #[track_caller]
         fn hessian_into(&self, z: &OVector<f64, $d>, out: &mut OMatrix<f64, $d, $d>) {
+            square(self.runtime(), Function::Hessian, "out", out);
             run(
                 self.runtime(),
                 Function::Hessian,
@@ -268,14 +396,27 @@ macro_rules! evaluations {
             );
         }
 
+        /// # Panics
+        /// When `z` is not of the Hamiltonian's dimension (only a `Dyn` vector can be);
+        /// [`RuntimeHamiltonian::psi_slice`] returns the error instead.
+        #[track_caller]
         fn psi(&self, z: &OVector<f64, $d>) -> f64 {
             scalar(self.runtime(), Function::Psi, z.as_slice(), z.as_slice())
         }
 
+        /// # Panics
+        /// When `z`, `out.gradient` or `out.hessian` is not of the Hamiltonian's dimension
+        /// (only a `Dyn` one can be), before anything is written;
+        /// [`RuntimeHamiltonian::derivatives_slice`] returns the error instead.
+        #[track_caller]
         fn derivatives_into(&self, z: &OVector<f64, $d>, out: &mut Derivatives<$d>) {
             fused(self.runtime(), z.as_slice(), out);
         }
 
+        /// # Panics
+        /// When `z0`, `z1` or `out` is not of the Hamiltonian's dimension (only a `Dyn` vector
+        /// can be); [`RuntimeHamiltonian::discrete_gradient_slice`] returns the error instead.
+        #[track_caller]
         fn discrete_gradient_into(
             &self,
             z0: &OVector<f64, $d>,
@@ -292,6 +433,12 @@ macro_rules! evaluations {
         }
 
         /// Recomputes `gbar` inside, as the macro's types do (`gbar` is not read).
+        ///
+        /// # Panics
+        /// When `z0`, `z1` or `out` is not of the Hamiltonian's dimension (only a `Dyn` vector
+        /// can be); [`RuntimeHamiltonian::discrete_gradient_defect_slice`] returns the error
+        /// instead.
+        #[track_caller]
         fn discrete_gradient_defect_into(
             &self,
             z0: &OVector<f64, $d>,
@@ -308,6 +455,10 @@ macro_rules! evaluations {
             );
         }
 
+        /// # Panics
+        /// When `z0` or `z1` is not of the Hamiltonian's dimension (only a `Dyn` vector can
+        /// be); [`RuntimeHamiltonian::energy_difference_slice`] returns the error instead.
+        #[track_caller]
         fn energy_difference(&self, z0: &OVector<f64, $d>, z1: &OVector<f64, $d>) -> f64 {
             scalar(
                 self.runtime(),
@@ -331,7 +482,7 @@ fn derived_flags(runtime: &RuntimeHamiltonian) -> Flags {
 /// The dimension and the flags are the text's.
 impl Hamiltonian<Dyn> for RuntimeHamiltonian {
     fn dim(&self) -> Dyn {
-        Dyn(RuntimeHamiltonian::dim(self))
+        Dyn(self.dimension())
     }
 
     fn flags(&self) -> Flags {

@@ -20,7 +20,7 @@ use proptest::prelude::*;
 
 /// Every method at `(z0, z1)`, as bits, or the output an error names.
 fn run_all(h: &RuntimeHamiltonian, z0: &[f64], z1: &[f64]) -> Vec<Result<Vec<u64>, String>> {
-    let d = h.dim();
+    let d = h.dimension();
     let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<u64>>();
     let err = |e: RuntimeError| match e {
         RuntimeError::NonFinite { what, output, .. } => format!("{what} {output:?}"),
@@ -63,7 +63,7 @@ fn same_bits(src: &str, params: &[(&str, f64)], rng: &mut Rng, points: usize) {
     );
     let reference = RuntimeHamiltonian::with_backend(src, params, Backend::Interpreter).unwrap();
     assert_eq!(reference.backend(), Backend::Interpreter);
-    let d = jit.dim();
+    let d = jit.dimension();
     for _ in 0..points {
         let z0 = rng.point(d);
         let dir = rng.point(d);

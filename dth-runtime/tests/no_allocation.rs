@@ -19,7 +19,7 @@ fn compiled_evaluations_allocate_nothing() {
     )
     .unwrap();
     assert_eq!(h.backend(), Backend::Jit);
-    let d = h.dim();
+    let d = h.dimension();
     let (mut v, mut m, mut all) = (vec![0.0; d], vec![0.0; d * d], h.derivatives_buffer());
     let z0: Vec<f64> = (0..d).map(|i| 0.1 * i as f64 - 0.2).collect();
     let z1: Vec<f64> = z0.iter().map(|x| x + 0.01).collect();
@@ -88,7 +88,7 @@ fn dyn_trait_evaluations_allocate_nothing() {
         &[("m", 1.5)],
     )
     .unwrap();
-    let d = h.dim();
+    let d = h.dimension();
     let z0 = DVector::from_fn(d, |i, _| 0.1 * i as f64 - 0.2);
     let z1 = z0.add_scalar(0.01);
     let (mut v, mut w, mut m) = (DVector::zeros(d), DVector::zeros(d), DMatrix::zeros(d, d));
