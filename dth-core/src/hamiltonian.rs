@@ -205,6 +205,7 @@ where
     fn hessian_into(&self, z: &OVector<f64, D>, out: &mut OMatrix<f64, D, D>);
 
     /// `grad H(z)` by value (allocates for `Dyn`).
+    #[track_caller]
     fn gradient(&self, z: &OVector<f64, D>) -> OVector<f64, D> {
         let mut out = zeros(self.dim());
         self.gradient_into(z, &mut out);
@@ -212,6 +213,7 @@ where
     }
 
     /// `Hess H(z)` by value (allocates for `Dyn`).
+    #[track_caller]
     fn hessian(&self, z: &OVector<f64, D>) -> OMatrix<f64, D, D> {
         let mut out = zeros_matrix(self.dim());
         self.hessian_into(z, &mut out);
@@ -234,6 +236,7 @@ where
     }
 
     /// `Psi(z) = (J grad H)^T Hess H (J grad H)`.
+    #[track_caller]
     fn psi(&self, z: &OVector<f64, D>) -> f64 {
         psi_from(&self.gradient(z), &self.hessian(z))
     }
@@ -248,6 +251,7 @@ where
     }
 
     /// [`derivatives_into`](Self::derivatives_into) by value (allocates for `Dyn`).
+    #[track_caller]
     fn derivatives(&self, z: &OVector<f64, D>) -> Derivatives<D> {
         let mut out = Derivatives::zeros(self.dim());
         self.derivatives_into(z, &mut out);
@@ -279,6 +283,7 @@ where
     }
 
     /// [`discrete_gradient_into`](Self::discrete_gradient_into) by value.
+    #[track_caller]
     fn discrete_gradient(&self, z0: &OVector<f64, D>, z1: &OVector<f64, D>) -> OVector<f64, D> {
         let mut out = zeros(self.dim());
         self.discrete_gradient_into(z0, z1, &mut out);
@@ -308,6 +313,7 @@ where
     }
 
     /// [`discrete_gradient_defect_into`](Self::discrete_gradient_defect_into) by value.
+    #[track_caller]
     fn discrete_gradient_defect(
         &self,
         z0: &OVector<f64, D>,
