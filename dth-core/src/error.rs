@@ -187,7 +187,7 @@ pub enum Error {
         /// Where the closest try of the last step ended.
         reached: f64,
     },
-    /// A run ([`crate::solve`]) was to end at `t_end` but took its step limit
+    /// A run ([`crate::solve`](mod@crate::solve)) was to end at `t_end` but took its step limit
     /// ([`Solve::max_steps`](crate::solve::Solve::max_steps)) first: what it computed is kept,
     /// and the run is a failure, not a shorter success.
     #[error("stopped after {max_steps} steps at t = {t}, before the end t = {t_end} (raise max_steps or the step size)")]
@@ -199,7 +199,7 @@ pub enum Error {
         /// The time asked for.
         t_end: f64,
     },
-    /// A run ([`crate::solve`]) was interrupted through its flag
+    /// A run ([`crate::solve`](mod@crate::solve)) was interrupted through its flag
     /// ([`Solve::interrupt`](crate::solve::Solve::interrupt)) before step `step`: what it
     /// computed up to there is kept.
     #[error("interrupted before step {step}")]
@@ -207,7 +207,7 @@ pub enum Error {
         /// Index of the step not taken.
         step: usize,
     },
-    /// A run ([`crate::solve`]) was started without an end: say where it ends with
+    /// A run ([`crate::solve`](mod@crate::solve)) was started without an end: say where it ends with
     /// [`Solve::until`](crate::solve::Solve::until) (a time), [`Solve::steps`](crate::solve::Solve::steps)
     /// or [`Solve::save_at`](crate::solve::Solve::save_at) (its last time).
     #[error("the run has no end: call .until(t_end), .steps(n) or .save_at(times) before .run()")]

@@ -16,7 +16,7 @@
 //! 2. [`systems`] (concrete Hamiltonians), then [`kepler`] (the exact Kepler solution);
 //! 3. [`methods`] (the peer integrators), then [`dth`] (the DTH stepper, whose robust mode
 //!    steps with a peer);
-//! 4. [`solve`] (one driver for DTH and every peer, one [`Solution`]), [`diagnostics`]
+//! 4. [`solve`](mod@solve) (one driver for DTH and every peer, one [`Solution`]), [`diagnostics`]
 //!    (invariants and errors of computed trajectories).
 #![warn(missing_docs)]
 

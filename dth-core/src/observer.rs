@@ -159,7 +159,7 @@ where
 /// An observer that shows every `n`-th state (`k = 0, n, 2n, ...`) to `inner` (and DTH's last
 /// vertex); `n = 0` is taken as 1. Build it with [`every`] for a closure (its record type is
 /// inferred) or [`Every::new`] for any observer. (States at chosen times, and a run that ends
-/// at a time, are the driver's: [`crate::solve`].)
+/// at a time, are the driver's: [`crate::solve`](mod@crate::solve).)
 #[derive(Clone, Debug)]
 pub struct Every<O> {
     n: usize,

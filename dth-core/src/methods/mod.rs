@@ -232,7 +232,7 @@ impl<const N: usize> Copy for RunEnd<nalgebra::Const<N>> {}
 /// that becomes non-finite is [`Error::MethodNonFinite`]. On failure the states already
 /// computed are kept: the observer has seen them and [`RunError::partial`] holds the last.
 /// (To end at a time, exactly, and for one driver of every method, DTH included:
-/// [`crate::solve`].)
+/// [`crate::solve`](mod@crate::solve).)
 ///
 /// # Errors
 /// [`RunError`] with the first error (of the input checks, or of the failing step, with its
@@ -425,7 +425,7 @@ where
 }
 
 /// The number of steps a fixed-step run of step `dt > 0` takes from `t_a` to end at `t_b`
-/// ([`crate::solve`]): the least `m` that reaches `t_b` (0 when `t_b <= t_a`), where a last
+/// ([`crate::solve`](mod@crate::solve)): the least `m` that reaches `t_b` (0 when `t_b <= t_a`), where a last
 /// step that would only make up the rounding of `(t_b - t_a) / dt` (at most `4 eps` of it) is
 /// merged into the one before. Its steps are `m - 1` of `dt` and a last one of what is left.
 ///
