@@ -202,6 +202,13 @@ pub enum ErrorKind {
         /// Why (`"is declared twice"`, `"is a function of the grammar"`, ...).
         reason: &'static str,
     },
+    /// A regularization ([`crate::regularize`]) that does not apply to this Hamiltonian.
+    CannotRegularize {
+        /// The regularization (`"levi-civita"`).
+        name: &'static str,
+        /// Why, lowercase (`"needs exactly two degrees of freedom, q1, q2, p1, p2"`).
+        reason: &'static str,
+    },
     /// `H` uses no momentum `p1..pN`: the flow would not move `q`.
     NoMomentum,
     /// `H` uses no variable at all.
@@ -418,6 +425,9 @@ impl fmt::Display for Error {
                 "the derivatives of this Hamiltonian are too large: more than {limit} expression nodes and operands (value, gradient, Hessian and Psi); the bound keeps compile time and generated code in check"
             ),
             Fault(fault) => write!(f, "{fault}"),
+            CannotRegularize { name, reason } => {
+                write!(f, "cannot regularize with {name}: {reason}")
+            }
             // A repeated name is not a bad name: nothing to add.
             BadParameter { name, reason } if *reason == "is declared twice" => {
                 write!(f, "parameter `{name}` {reason}")

@@ -25,6 +25,9 @@
 //! 11. `emit` (feature `emit`): a compiled system as the Rust code `hamiltonian!` emits, so
 //!     the macro and other tools (`dth derive --rust`) produce the same tokens.
 //!
+//! 12. [`regularize`]: a Hamiltonian rewritten in regularizing coordinates (Levi-Civita), then
+//!     compiled as in 9.
+//!
 //! [`sources`] (Hamiltonians as text, for tests and benchmarks) stands apart and imports
 //! nothing.
 //!
@@ -67,6 +70,7 @@ pub mod looped;
 pub mod lower;
 pub mod number;
 pub mod parser;
+pub mod regularize;
 pub mod simplify;
 pub mod sources;
 pub mod span;

@@ -157,6 +157,42 @@ pub fn expression(src: &str, params: &[&str]) -> Result<(Arena, Id, Span), Error
 /// Builds `calH`, the gradient, the Hessian's upper triangle and Psi from `H`.
 pub(crate) fn derive(mut arena: Arena, h: Id, whole: Span) -> Result<System, Error> {
     let fault = |f: Fault, span: Span| Error::new(ErrorKind::Fault(f), span);
+    // The dimension and time dependence follow the source text, not what survives
+    // simplification: `p1^2 + 0*q2` is a 2-degree-of-freedom system, as written. Every
+    // variable node in the arena at this point was named in the source.
+    let vars: Vec<Var> = written(&arena).into_iter().map(|(v, _)| v).collect();
+    let n = vars
+        .iter()
+        .filter_map(|v| match v {
+            Var::Q(i) | Var::P(i) => Some(*i),
+            _ => None,
+        })
+        .max()
+        .unwrap_or(0);
+    let time_dependent = vars.contains(&Var::T);
+    let value = if time_dependent {
+        arena.span = arena.span(h);
+        let pt = arena.var(Var::Pt);
+        arena.add(&[h, pt]).map_err(|f| fault(f, arena.span(h)))?
+    } else {
+        h
+    };
+    derive_value(arena, value, n as usize, time_dependent, whole)
+}
+
+/// The gradient, the Hessian's upper triangle and Psi of `value`, a function of the `n`
+/// degrees of freedom (and of `t`, `p_t` in the extended phase space when `extended`): the
+/// compiled system whose value is `value` itself (what [`derive`] and the regularizations of
+/// [`crate::regularize`] build).
+pub(crate) fn derive_value(
+    mut arena: Arena,
+    value: Id,
+    n: usize,
+    time_dependent: bool,
+    whole: Span,
+) -> Result<System, Error> {
+    let h = value;
+    let fault = |f: Fault, span: Span| Error::new(ErrorKind::Fault(f), span);
     // The bound on the arena, checked after each derivative: one derivative is at most
     // quadratic in its operand, so the work stops soon after the bound is crossed.
     let bounded = |arena: &Arena| {
@@ -175,28 +211,8 @@ pub(crate) fn derive(mut arena: Arena, h: Id, whole: Span) -> Result<System, Err
     // `1e300 * (1e300 - 1) * q1^...`, which overflows): reported on the node whose derivative
     // failed, never hidden.
     let arena = &mut arena;
-    // The dimension and time dependence follow the source text, not what survives
-    // simplification: `p1^2 + 0*q2` is a 2-degree-of-freedom system, as written. Every
-    // variable node in the arena at this point was named in the source.
-    let vars: Vec<Var> = written(arena).into_iter().map(|(v, _)| v).collect();
-    let n = vars
-        .iter()
-        .filter_map(|v| match v {
-            Var::Q(i) | Var::P(i) => Some(*i),
-            _ => None,
-        })
-        .max()
-        .unwrap_or(0);
-    let time_dependent = vars.contains(&Var::T);
-    let coordinates = coordinates(n, time_dependent);
+    let coordinates = coordinates(n as u32, time_dependent);
     let d = coordinates.len();
-    let value = if time_dependent {
-        arena.span = arena.span(h);
-        let pt = arena.var(Var::Pt);
-        arena.add(&[h, pt]).map_err(|f| fault(f, arena.span(h)))?
-    } else {
-        h
-    };
     // Only coordinates a node depends on can give a nonzero derivative ([`Arena::deps`]):
     // the gradient skips absent variables, and row `i` of the Hessian visits only the `j >= i`
     // that `dH/dz_i` depends on, so the work follows the nonzeros, not `D^2`.
@@ -232,7 +248,7 @@ pub(crate) fn derive(mut arena: Arena, h: Id, whole: Span) -> Result<System, Err
     bounded(arena)?;
     let mut system = System {
         arena: arena.clone(),
-        n: n as usize,
+        n,
         time_dependent,
         coordinates,
         value,
