@@ -577,7 +577,7 @@ where
         let energy_error = |z: &OVector<f64, D>| h.value(z) - energy0;
         let mut sink = Sink {
             user: &mut observer,
-            energy_error: energy.then_some(&energy_error as &dyn Fn(&OVector<f64, D>) -> f64),
+            energy_error: energy.then_some(&energy_error as EnergyError<'_, D>),
             solution: Solution::empty(method.name(), energy0),
             save,
             save_start: true,
@@ -799,6 +799,9 @@ where
     }
 }
 
+/// `z -> H(z) - H(z0)`.
+type EnergyError<'o, D> = &'o dyn Fn(&OVector<f64, D>) -> f64;
+
 /// The observer a run reports to: it saves what the [`Solution`] keeps and shows every state
 /// to the user's observer.
 #[doc(hidden)]
@@ -808,7 +811,7 @@ where
 {
     user: &'o mut O,
     /// `H(z) - H(z0)`.
-    energy_error: Option<&'o dyn Fn(&OVector<f64, D>) -> f64>,
+    energy_error: Option<EnergyError<'o, D>>,
     solution: Solution<D>,
     save: Save,
     /// Keep the initial state.
