@@ -77,7 +77,9 @@ pub fn levi_civita(src: &str, params: &[&str]) -> Result<System, Errors> {
     let k = LeviCivita::new(&mut arena)
         .and_then(|mut lc| lc.regularized(&mut arena, h))
         .map_err(fault)?;
-    derive_value(arena, k, 2, true, whole).map_err(|e| Errors(vec![e]))
+    let mut system = derive_value(arena, k, 2, true, whole).map_err(|e| Errors(vec![e]))?;
+    system.regularized = true;
+    Ok(system)
 }
 
 /// The substitution of the [module docs](self), node by node over the original `H` (its
@@ -138,23 +140,18 @@ impl LeviCivita {
         })
     }
 
-    /// `K = |u|^2 (H' + p_t)`, `|u|^2` multiplied into each term of `H'` (the image of `H`).
+    /// `K = |u|^2 (H' + p_t)`, `|u|^2` multiplied into each term of `H'` (the image of `H`,
+    /// whose pairs of squares are found among all of `H`'s terms: `p1^2 + p2^2 - 1/r` has its
+    /// kinetic pair at the top).
     fn regularized(&mut self, a: &mut Arena, h: Id) -> Result<Id, Fault> {
-        let terms: Vec<Id> = match a.node(h) {
+        let image = self.image(a, h)?;
+        let terms: Vec<Id> = match a.node(image) {
             Node::Add(ch) => ch.to_vec(),
-            _ => vec![h],
+            _ => vec![image],
         };
         let mut out = Vec::with_capacity(terms.len() + 1);
         for t in terms {
-            let image = self.image(a, t)?;
-            // The image of a term may itself be a sum (a pair of squares, a substituted q1).
-            let parts: Vec<Id> = match a.node(image) {
-                Node::Add(ch) => ch.to_vec(),
-                _ => vec![image],
-            };
-            for part in parts {
-                out.push(a.mul(&[self.s, part])?);
-            }
+            out.push(a.mul(&[self.s, t])?);
         }
         let pt = a.var(Var::Pt);
         out.push(a.mul(&[self.s, pt])?);

@@ -51,6 +51,9 @@ pub struct System {
     /// rather than from its own node: decided once, on the fused program, so `Psi` and `All`
     /// use the same form and `psi()` and `derivatives().psi` agree to the bit.
     psi_assembled: bool,
+    /// A regularization's `K` ([`crate::regularize`]): the flow's parameter is a fictitious
+    /// time, the `t` coordinate the physical one.
+    pub(crate) regularized: bool,
 }
 
 /// [`crate::compile`] with every sum written out site by site (at most [`crate::MAX_INDEX`]
@@ -258,6 +261,7 @@ pub(crate) fn derive_value(
         psi,
         warnings: Vec::new(),
         psi_assembled: false,
+        regularized: false,
     };
     if !system.psi_identically_zero() {
         let symbolic = system.program(Method::All).ops.len();
@@ -315,6 +319,12 @@ impl System {
     /// The coordinates in `z` order.
     pub fn coordinates(&self) -> &[Var] {
         &self.coordinates
+    }
+
+    /// `true` for a regularization's `K` ([`crate::regularize`]): `z = (u, t, P, p_t)`, the
+    /// flow's parameter a fictitious time `s` and `t` the physical time (`dt/ds = dK/dp_t`).
+    pub fn regularized(&self) -> bool {
+        self.regularized
     }
 
     /// `true` when the block of the Hessian between the first and second halves of `z`

@@ -90,7 +90,11 @@ fn derivatives_match_finite_differences() {
         plus[i] += h;
         minus[i] -= h;
         let fd = (value(&plus) - value(&minus)) / (2.0 * h);
-        assert!((fd - e.gradient[i]).abs() < 1e-8, "dK/dz{i}: {fd} vs {}", e.gradient[i]);
+        assert!(
+            (fd - e.gradient[i]).abs() < 1e-8,
+            "dK/dz{i}: {fd} vs {}",
+            e.gradient[i]
+        );
         let (gp, gm) = (gradient(&plus), gradient(&minus));
         for j in 0..6 {
             let fd = (gp[j] - gm[j]) / (2.0 * h);
@@ -104,6 +108,9 @@ fn derivatives_match_finite_differences() {
 /// the momenta's `1/(2|u|^2)`, so `K` is a polynomial, defined at the collision `u = 0`.
 #[test]
 fn the_radius_cancels_symbolically() {
+    let thesis = levi_civita("p1^2 + p2^2 - (q1^2 + q2^2)^(-1/2)", &[]).unwrap();
+    let shown = thesis.expr(thesis.value()).to_string();
+    assert_eq!(shown, "-1 + (1/4)*(p1^2 + p2^2) + (q1^2 + q2^2)*p_t");
     let k = levi_civita(KEPLER, &["m", "k"]).unwrap();
     let arena = k.arena();
     let mut stack = vec![k.value()];
@@ -122,17 +129,78 @@ fn the_radius_cancels_symbolically() {
 #[test]
 fn what_does_not_apply_is_an_error() {
     for (src, needle) in [
-        ("p1^2/2 + p2^2/2 + p3^2/2 - (q1^2 + q2^2 + q3^2)^(-1/2)", "planar"),
+        (
+            "p1^2/2 + p2^2/2 + p3^2/2 - (q1^2 + q2^2 + q3^2)^(-1/2)",
+            "planar",
+        ),
         ("(p1^2 + p2^2)/2 - (q1^2 + q2^2)^(-1/2)*cos(t)", "uses t"),
     ] {
         let errors = levi_civita(src, &[]).unwrap_err();
         assert!(
-            matches!(errors.0[0].kind, ErrorKind::CannotRegularize { name: "levi-civita", .. }),
+            matches!(
+                errors.0[0].kind,
+                ErrorKind::CannotRegularize {
+                    name: "levi-civita",
+                    ..
+                }
+            ),
             "{src}: {errors}"
         );
         assert!(errors.to_string().contains(needle), "{errors}");
     }
     // The text's own errors come first, as compile gives them.
     let errors = levi_civita("p1^2 + x", &[]).unwrap_err();
-    assert!(errors.to_string().contains("unknown variable `x`"), "{errors}");
+    assert!(
+        errors.to_string().contains("unknown variable `x`"),
+        "{errors}"
+    );
+}
+
+/// The exact discrete gradient of the regularized Kepler problem near a collision (`u1`
+/// small, crossing toward 0): `gbar . (z1 - z0)` is `K(z1) - K(z0)`, and the defect is
+/// `g0 + g1 - 2 gbar`, each to roundoff.
+#[test]
+fn discrete_gradient_near_a_collision() {
+    let k = levi_civita("p1^2 + p2^2 - (q1^2 + q2^2)^(-1/2)", &[]).unwrap();
+    let z0 = [
+        0.07104879855279093,
+        0.0,
+        0.7854124768258854,
+        -1.9949456816908124,
+        0.0,
+        1.0,
+    ];
+    let z1 = [0.021, 0.0, 0.7857, -1.9985, 0.0, 1.0];
+    let pair = k
+        .program(Method::DiscreteGradient)
+        .eval_pair(&z0, &z1, &[])
+        .unwrap();
+    let defect = k
+        .program(Method::DiscreteGradientDefect)
+        .eval_pair(&z0, &z1, &[])
+        .unwrap();
+    let (e0, e1) = (eval(&k, &z0, &[]), eval(&k, &z1, &[]));
+    let dot: f64 = (0..6)
+        .map(|i| pair.discrete_gradient[i] * (z1[i] - z0[i]))
+        .sum();
+    // K = |P|^2/4 - 1 + p_t |u|^2 is a sum of squares and a product: its divided
+    // differences are the averages (P0 + P1)/4, p_t (u0 + u1), |u|^2's mean (p_t fixed here).
+    let want = [
+        z1[5] * (z0[0] + z1[0]),
+        z1[5] * (z0[1] + z1[1]),
+        0.0,
+        (z0[3] + z1[3]) / 4.0,
+        (z0[4] + z1[4]) / 4.0,
+        0.5 * (z0[0] * z0[0] + z0[1] * z0[1] + z1[0] * z1[0] + z1[1] * z1[1]),
+    ];
+    for (i, want) in want.into_iter().enumerate() {
+        let g = pair.discrete_gradient[i];
+        let bound = 4.0 * f64::EPSILON * want.abs();
+        assert!((g - want).abs() <= bound, "gbar {i}: {g} vs {want}");
+        let d = e0.gradient[i] + e1.gradient[i] - 2.0 * g;
+        let t = defect.discrete_gradient_defect[i];
+        let bound = 8.0 * f64::EPSILON * (e0.gradient[i].abs() + e1.gradient[i].abs());
+        assert!((t - d).abs() <= bound, "defect {i}: {t} vs {d}");
+    }
+    assert!((dot - (e1.value - e0.value)).abs() <= 4.0 * f64::EPSILON);
 }
