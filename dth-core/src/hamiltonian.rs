@@ -81,6 +81,12 @@ pub struct Flags {
     /// `hamiltonian!` sets it per generated type from the measured crossover (see
     /// `docs/benchmarks.md`).
     pub structured_newton: bool,
+    /// The implementation is a regularization `K = g(z) (H + p_t)` in the extended phase
+    /// space (with [`Flags::time_dependent`]): the flow's parameter is a fictitious time `s`
+    /// (`dt/ds = g`), and the physical time is the `t` coordinate of the state, which the
+    /// DTH stepper then reports as the time of each midpoint and vertex and ends a run on
+    /// (`dth_symbolic::regularize`).
+    pub regularized: bool,
 }
 
 impl Flags {
@@ -92,12 +98,18 @@ impl Flags {
             psi_identically_zero: false,
             exact_divided_differences: false,
             structured_newton: false,
+            regularized: false,
         }
     }
 
     /// With [`Flags::time_dependent`] set to `v`.
     pub const fn with_time_dependent(mut self, v: bool) -> Self {
         self.time_dependent = v;
+        self
+    }
+    /// With [`Flags::regularized`] set to `v`.
+    pub const fn with_regularized(mut self, v: bool) -> Self {
+        self.regularized = v;
         self
     }
     /// With [`Flags::separable`] set to `v`.

@@ -13,7 +13,8 @@
 //!    half-size Schur complement), [`structured`] (banded LU and the
 //!    sparse Newton matrices of large systems) and `newton` (the one Newton stopping rule and
 //!    loop);
-//! 2. [`systems`] (concrete Hamiltonians), then [`kepler`] (the exact Kepler solution);
+//! 2. [`systems`] (concrete Hamiltonians), then [`kepler`] (the exact Kepler solution) and
+//!    [`regularize`] (physical states in and out of a regularization);
 //! 3. [`methods`] (the peer integrators), then [`dth`] (the DTH stepper, whose robust mode
 //!    steps with a peer);
 //! 4. [`solve`](mod@solve) (one driver for DTH and every peer, one [`Solution`]), [`diagnostics`]
@@ -34,6 +35,7 @@ pub mod linalg;
 pub mod methods;
 mod newton;
 pub mod observer;
+pub mod regularize;
 pub mod solve;
 pub mod structured;
 pub mod systems;

@@ -701,11 +701,27 @@ where
             scaled,
         });
     }
-    let gg = d.gradient.norm_squared();
+    // A regularization's `t` and `p_t` stay out of the move: `p_t = -E` is the physical
+    // energy, constant along the flow (`dp_t/ds = -dK/dt = 0`), and the projection's ulps
+    // would random-walk it.
+    let fixed = ham
+        .flags()
+        .regularized
+        .then(|| (z.len() / 2 - 1, z.len() - 1));
+    let direction = |i: usize, g: f64| match fixed {
+        Some((t, pt)) if i == t || i == pt => 0.0,
+        _ => g,
+    };
+    let gg: f64 = d
+        .gradient
+        .iter()
+        .enumerate()
+        .map(|(i, &g)| direction(i, g).powi(2))
+        .sum();
     if deviation != 0.0 && gg > 0.0 {
         let c = deviation / gg;
-        for ((p, x), g) in zp.iter_mut().zip(z.iter()).zip(d.gradient.iter()) {
-            *p = x - g * c;
+        for (i, (p, x)) in zp.iter_mut().zip(z.iter()).enumerate() {
+            *p = x - direction(i, d.gradient[i]) * c;
         }
         solver.evaluate(ham, zp, dp);
         // Keep the projection only if it does not make things worse (it cannot, beyond

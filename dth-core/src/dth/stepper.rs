@@ -154,6 +154,10 @@ where
     /// The roundoff noise of the last step's time advance from the noise of its `lambda`s
     /// (plain energy residual: `sum |h_i| lambda_i noise_i` over its DTH sub-steps).
     time_noise: f64,
+    /// The index of the `t` coordinate when it is the physical time and the flow's parameter
+    /// a fictitious one (`Flags::regularized`): midpoint and vertex times are then read from
+    /// it. `None`: the time is the sum of the steps' `h lambda`.
+    clock: Option<usize>,
 }
 
 impl<D: Dim> State<D>
@@ -178,6 +182,7 @@ where
             law,
             h_edge,
             time_noise,
+            clock,
         } = other;
         self.zbar.copy_from(zbar);
         self.gradient.copy_from(gradient);
@@ -186,6 +191,7 @@ where
         (self.reported, self.psi_scale, self.mode, self.step_kind) =
             (*reported, *psi_scale, *mode, *step_kind);
         (self.law, self.h_edge, self.time_noise) = (*law, *h_edge, *time_noise);
+        self.clock = *clock;
     }
 }
 
@@ -390,6 +396,7 @@ where
             law: robust::law_through(options.lambda0(), d.psi, psi_scale).unwrap_or(0.0),
             h_edge: options.dtau() * options.composition().coefficients()[0],
             time_noise: 0.0,
+            clock: (flags.regularized && flags.time_dependent).then(|| dim.value() / 2 - 1),
         };
         let work = Box::new(Workspace {
             newton: Work::new(dim),
@@ -1237,6 +1244,9 @@ where
         self.s.tbar += 0.5 * h * (self.s.lambda + s.lambda);
         self.s.lambda = s.lambda;
         std::mem::swap(&mut self.s.zbar, &mut w.newton.z);
+        if let Some(i) = self.s.clock {
+            self.s.tbar = self.s.zbar[i];
+        }
         std::mem::swap(&mut self.s.gradient, &mut w.newton.e.d.gradient);
         self.s.psi = w.newton.e.d.psi;
         self.s.iterations = s.iterations;
@@ -1278,9 +1288,12 @@ where
                 }
             }
         }
-        let t_end = self.s.tbar + 0.5 * self.s.h_edge * self.s.lambda;
         let w = &mut *self.work;
         vertex_into(&self.s, self.s.step_kind, self.s.h_edge, &mut w.walk);
+        let t_end = match self.s.clock {
+            Some(i) => w.walk[i],
+            None => self.s.tbar + 0.5 * self.s.h_edge * self.s.lambda,
+        };
         observer.on_finish(&w.walk, t_end);
         result
     }
@@ -1484,7 +1497,7 @@ where
         Some(d) => {
             vertex_into(s, kind, -h, &mut d.vertex);
             d.lambda = s.lambda;
-            d.vertex_time = vertex_time;
+            d.vertex_time = s.clock.map_or(vertex_time, |i| d.vertex[i]);
             d.psi = s.psi;
         }
         None => {
@@ -1492,8 +1505,8 @@ where
             vertex_into(s, kind, -h, &mut vertex);
             record.dth = Some(DthRecord {
                 lambda: s.lambda,
+                vertex_time: s.clock.map_or(vertex_time, |i| vertex[i]),
                 vertex,
-                vertex_time,
                 psi: s.psi,
             });
         }
