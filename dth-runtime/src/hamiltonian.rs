@@ -120,6 +120,34 @@ impl RuntimeHamiltonian {
     ) -> Result<Self, RuntimeError> {
         let names: Vec<&str> = params.iter().map(|&(n, _)| n).collect();
         let system = dth_symbolic::compile(src, &names).map_err(RuntimeError::Expression)?;
+        Self::from_system(system, src, params, backend)
+    }
+
+    /// The Levi-Civita regularization of the planar Hamiltonian `src`
+    /// (`dth_symbolic::regularize`): `K = |u|^2 (H + p_t)` on `z = (u1, u2, t, P1, P2, p_t)`,
+    /// compiled as [`RuntimeHamiltonian::new`] compiles `H`. Its flags say `regularized`: the
+    /// DTH stepper reports the `t` coordinate as each midpoint's time. Map a physical state to
+    /// its start with `dth::regularize::LeviCivita`.
+    ///
+    /// # Errors
+    /// As [`RuntimeHamiltonian::new`], and [`RuntimeError::Expression`] with
+    /// `ErrorKind::CannotRegularize` for a Hamiltonian that is not planar or uses `t`.
+    pub fn levi_civita(src: &str, params: &[(&str, f64)]) -> Result<Self, RuntimeError> {
+        let names: Vec<&str> = params.iter().map(|&(n, _)| n).collect();
+        let system =
+            dth_symbolic::regularize::levi_civita(src, &names).map_err(RuntimeError::Expression)?;
+        Self::from_system(system, src, params, Backend::Jit)
+    }
+
+    /// The compiled `system` of the text `src`, with the parameters `params` checked against
+    /// the text.
+    fn from_system(
+        system: System,
+        src: &str,
+        params: &[(&str, f64)],
+        backend: Backend,
+    ) -> Result<Self, RuntimeError> {
+        let names: Vec<&str> = params.iter().map(|&(n, _)| n).collect();
         let (tokens, _) = lex(src);
         for &(name, value) in params {
             let named = tokens
@@ -185,6 +213,11 @@ impl RuntimeHamiltonian {
     /// `true` when `H` uses `t`: `z` is extended with `t` and `p_t`.
     pub fn time_dependent(&self) -> bool {
         self.system.time_dependent()
+    }
+
+    /// `true` for a regularization's `K` ([`RuntimeHamiltonian::levi_civita`]).
+    pub fn regularized(&self) -> bool {
+        self.system.regularized()
     }
 
     /// `true` when Psi simplifies to 0 (DTH's energy condition then does not determine the

@@ -474,6 +474,7 @@ macro_rules! evaluations {
 fn derived_flags(runtime: &RuntimeHamiltonian) -> Flags {
     Flags::default()
         .with_time_dependent(runtime.time_dependent())
+        .with_regularized(runtime.regularized())
         .with_separable(runtime.separable())
         .with_psi_identically_zero(runtime.psi_identically_zero())
         .with_exact_divided_differences(true)
@@ -516,6 +517,8 @@ impl<const D: usize, const TIME_DEPENDENT: bool, const SEPARABLE: bool> Hamilton
             .with_time_dependent(TIME_DEPENDENT)
             .with_separable(SEPARABLE)
             .with_exact_divided_differences(true)
+            // Not a type parameter: what the text is (a regularization's time is its `t`).
+            .with_regularized(self.runtime().regularized())
     }
 
     evaluations!(Const<D>);
