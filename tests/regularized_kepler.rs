@@ -255,3 +255,42 @@ fn the_orbit_does_not_precess_over_1000_orbits() {
         );
     }
 }
+
+dth::hamiltonian! {
+    /// The thesis's Kepler problem regularized at compile time.
+    #[regularize(levi_civita)]
+    #[derive(Clone, Copy, Debug)]
+    struct KeplerLc = p1^2 + p2^2 - (q1^2 + q2^2)^(-1/2)
+}
+
+/// `#[regularize(levi_civita)]` in `hamiltonian!` gives the same `K` as the run-time text,
+/// bit for bit, and a run of it the same states.
+#[test]
+fn the_macro_regularizes_as_the_runtime_does() {
+    use dth::nalgebra::Const;
+    let k = regularized();
+    assert!(KeplerLc.flags().regularized && KeplerLc.flags().time_dependent);
+    assert_eq!(KeplerLc.dim(), Const::<6>);
+    let z0 = pericentre(0.99);
+    let w0 = LeviCivita::start(&z0, 0.0, Kepler::thesis().value(&z0)).unwrap();
+    let dyn_w0 = start(&z0);
+    assert_eq!(KeplerLc.value(&w0), Hamiltonian::value(&k, &dyn_w0));
+    assert_eq!(
+        KeplerLc.gradient(&w0).as_slice(),
+        k.gradient(&dyn_w0).as_slice()
+    );
+    let options = Method::Dth(DthOptions::new(0.3).unwrap());
+    let typed = solve(&KeplerLc, w0, options)
+        .until(2.0 * period(&z0))
+        .run()
+        .unwrap();
+    let text = solve(&k, dyn_w0, options)
+        .until(2.0 * period(&z0))
+        .run()
+        .unwrap();
+    assert_eq!(typed.steps, text.steps);
+    assert_eq!(
+        typed.end_state().unwrap().as_slice(),
+        text.end_state().unwrap().as_slice()
+    );
+}

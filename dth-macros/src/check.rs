@@ -4,7 +4,7 @@
 use dth_symbolic::System;
 use syn::{Ident, Type};
 
-use crate::parse::Input;
+use crate::parse::{Input, Regularize};
 
 /// The declared parameters that passed their checks (each name once).
 pub fn params(input: &Input, errors: &mut Vec<syn::Error>) -> Vec<Ident> {
@@ -47,7 +47,12 @@ pub fn system(input: &Input, params: &[Ident], errors: &mut Vec<syn::Error>) -> 
     let names: Vec<String> = params.iter().map(|p| p.to_string()).collect();
     let names: Vec<&str> = names.iter().map(String::as_str).collect();
     let body = &input.body;
-    match dth_symbolic::compile(&body.source, &names) {
+    let regularize = input.item.as_ref().and_then(|h| h.regularize);
+    let compiled = match regularize {
+        Some(Regularize::LeviCivita) => dth_symbolic::regularize::levi_civita(&body.source, &names),
+        None => dth_symbolic::compile(&body.source, &names),
+    };
+    match compiled {
         Ok(system) => Some(system),
         Err(engine) => {
             errors.extend(engine.0.iter().map(|e| body.error(e.span.range(), e)));

@@ -22,8 +22,10 @@ pub fn expand(input: Input) -> TokenStream {
     }
     let mut errors = input.body.errors.clone();
     let params = check::params(&input, &mut errors);
-    // A lattice of sums is emitted as loops, its code independent of the number of sites.
-    if errors.is_empty() {
+    // A lattice of sums is emitted as loops, its code independent of the number of sites (a
+    // regularized Hamiltonian is planar: never a lattice).
+    let regularized = input.item.as_ref().is_some_and(|h| h.regularize.is_some());
+    if errors.is_empty() && !regularized {
         let (decl, name) = fallback::declaration(&input, &params);
         if let Some(imp) = looped_source_impl(&input.body.source, &name, &params) {
             let warnings = warnings(&input, &looped_warnings(&input, &params));

@@ -18,7 +18,10 @@ pub struct Input {
 
 /// `#[attrs] vis struct Name { params }`.
 pub struct Header {
+    /// The attributes passed to the struct (without `#[regularize(..)]`).
     pub attrs: Vec<Attribute>,
+    /// `#[regularize(levi_civita)]`: the type is the regularized `K` of the expression.
+    pub regularize: Option<Regularize>,
     pub vis: Visibility,
     pub ident: Ident,
     pub params: Vec<Param>,
@@ -32,6 +35,13 @@ pub struct Header {
     /// The fields of a tuple struct `Name(..)` (an error): the fallback declares them as
     /// written, so code constructing the type adds no error.
     pub tuple: Option<syn::FieldsUnnamed>,
+}
+
+/// A regularization the item form asks for with `#[regularize(..)]`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Regularize {
+    /// Levi-Civita (`dth_symbolic::regularize::levi_civita`).
+    LeviCivita,
 }
 
 /// One declared parameter `vis name: ty`.
@@ -83,7 +93,28 @@ impl Parse for Input {
 /// after the name, mistakes are collected in [`Header::errors`] and reading goes on where it
 /// can, the rest of the input becoming the body.
 fn header(input: ParseStream) -> syn::Result<Header> {
-    let attrs = input.call(Attribute::parse_outer)?;
+    let mut attrs = input.call(Attribute::parse_outer)?;
+    let mut errors = Vec::new();
+    let mut regularize = None;
+    attrs.retain(|a| {
+        if !a.path().is_ident("regularize") {
+            return true;
+        }
+        match a.parse_args::<Ident>() {
+            Ok(name) if name == "levi_civita" => regularize = Some(Regularize::LeviCivita),
+            Ok(name) => errors.push(syn::Error::new(
+                name.span(),
+                format!(
+                    "unknown regularization `{name}`: the one there is, `levi_civita` (planar)"
+                ),
+            )),
+            Err(_) => errors.push(syn::Error::new_spanned(
+                a,
+                "expected `#[regularize(levi_civita)]`",
+            )),
+        }
+        false
+    });
     let vis: Visibility = input.parse()?;
     input.parse::<Token![struct]>()?;
     let ident: Ident = input
@@ -91,11 +122,12 @@ fn header(input: ParseStream) -> syn::Result<Header> {
         .map_err(|e| syn::Error::new(e.span(), "expected the type's name after `struct`"))?;
     let mut header = Header {
         attrs,
+        regularize,
         vis,
         ident,
         params: Vec::new(),
         braced: false,
-        errors: Vec::new(),
+        errors,
         unparsed: Vec::new(),
         tuple: None,
     };

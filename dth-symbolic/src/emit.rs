@@ -106,6 +106,7 @@ pub fn hamiltonian_impl(system: &System, name: &Ident, params: &[Ident]) -> Toke
     let diagonal = pattern.iter().filter(|(i, j)| i == j).count();
     let structured = structured_newton(d, nnz, diagonal, sep);
     let source = system_source(system);
+    let regularized = system.regularized();
     quote! {
         #[doc = #source]
         #[automatically_derived]
@@ -116,7 +117,8 @@ pub fn hamiltonian_impl(system: &System, name: &Ident, params: &[Ident]) -> Toke
                 .with_separable(#sep)
                 .with_psi_identically_zero(#psi0)
                 .with_exact_divided_differences(true)
-                .with_structured_newton(#structured);
+                .with_structured_newton(#structured)
+                .with_regularized(#regularized);
         }
 
         #[automatically_derived]

@@ -206,7 +206,7 @@ pub enum ErrorKind {
     CannotRegularize {
         /// The regularization (`"levi-civita"`).
         name: &'static str,
-        /// Why, lowercase (`"needs exactly two degrees of freedom, q1, q2, p1, p2"`).
+        /// Why, lowercase (`"the Hamiltonian is not planar (...)"`).
         reason: &'static str,
     },
     /// `H` uses no momentum `p1..pN`: the flow would not move `q`.

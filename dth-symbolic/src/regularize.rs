@@ -70,7 +70,7 @@ pub fn levi_civita(src: &str, params: &[&str]) -> Result<System, Errors> {
         .any(|v| matches!(v, Var::Q(i) | Var::P(i) if *i > 2))
     {
         return Err(cannot(
-            "it is planar: it needs exactly two degrees of freedom, q1, q2, p1, p2",
+            "the Hamiltonian is not planar (Levi-Civita needs exactly two degrees of freedom, q1, q2, p1, p2)",
         ));
     }
     let fault = |f: Fault| Errors(vec![Error::new(ErrorKind::Fault(f), whole)]);
