@@ -1,7 +1,9 @@
-//! Physical states in and out of a regularization: the Levi-Civita map between the plane
-//! `(q, p)` at time `t` and the regularized state `(u, t, P, p_t)` of
-//! `K = |u|^2 (H + p_t)` (the Hamiltonian itself is compiled by the symbolic engine:
-//! `dth_symbolic::regularize`, `dth::runtime::RuntimeHamiltonian::levi_civita`).
+//! Physical states in and out of a regularization: the Levi-Civita map ([`LeviCivita`]) between
+//! the plane `(q, p)` at time `t` and the regularized state `(u, t, P, p_t)` of
+//! `K = |u|^2 (H + p_t)`, and the Kustaanheimo-Stiefel map ([`KustaanheimoStiefel`]) for space
+//! (the Hamiltonian itself is compiled by the symbolic engine: `dth_symbolic::regularize`,
+//! `hamiltonian!`'s `#[regularize(..)]`, `dth::runtime::RuntimeHamiltonian::levi_civita` and
+//! `::kustaanheimo_stiefel`).
 //!
 //! `q = (u1^2 - u2^2, 2 u1 u2)` and `p = A(u) P / (2 |u|^2)` with `A(u) = [[u1, -u2], [u2, u1]]`;
 //! back, `u` is a square root of `q` read as a complex number (`u` and `-u` give the same
@@ -19,7 +21,7 @@
 //! # Ok::<(), dth_core::Error>(())
 //! ```
 
-use nalgebra::{Vector4, Vector6};
+use nalgebra::{SVector, Vector4, Vector6};
 
 use crate::Error;
 
@@ -81,5 +83,102 @@ impl LeviCivita {
             (u2 * pp1 + u1 * pp2) / (2.0 * s),
         );
         (z, w[2])
+    }
+}
+
+/// The Kustaanheimo-Stiefel map of space: `q = (L(u) u)_{1..3}`, `p = (L(u) P)_{1..3} / (2 |u|^2)`
+/// with the KS matrix `L(u)` (`dth_symbolic::regularize`), on the manifold where the bilinear
+/// invariant ([`KustaanheimoStiefel::bilinear`]) is zero.
+///
+/// ```
+/// use dth_core::nalgebra::Vector6;
+/// use dth_core::regularize::KustaanheimoStiefel;
+/// let z = Vector6::new(-0.3, 0.4, 0.2, 0.7, -1.1, 0.5); // (q1, q2, q3, p1, p2, p3)
+/// let w = KustaanheimoStiefel::start(&z, 0.0, -0.25)?; // (u1..u4, t, P1..P4, p_t)
+/// assert_eq!(KustaanheimoStiefel::bilinear(&w), 0.0);
+/// let (back, _) = KustaanheimoStiefel::physical(&w);
+/// assert!((back - z).amax() < 1e-15);
+/// # Ok::<(), dth_core::Error>(())
+/// ```
+#[derive(Clone, Copy, Debug)]
+pub struct KustaanheimoStiefel;
+
+/// `L(u) y` (all four rows).
+fn ks_apply(u: &[f64; 4], y: &[f64; 4]) -> [f64; 4] {
+    let [u1, u2, u3, u4] = *u;
+    let [y1, y2, y3, y4] = *y;
+    [
+        u1 * y1 - u2 * y2 - u3 * y3 + u4 * y4,
+        u2 * y1 + u1 * y2 - u4 * y3 - u3 * y4,
+        u3 * y1 + u4 * y2 + u1 * y3 + u2 * y4,
+        u4 * y1 - u3 * y2 + u2 * y3 - u1 * y4,
+    ]
+}
+
+impl KustaanheimoStiefel {
+    /// The regularized start `(u1..u4, t, P1..P4, p_t)` of the physical state
+    /// `z = (q1, q2, q3, p1, p2, p3)` at time `t` with `energy = H(z)`: the point of the fibre
+    /// with `u4 = 0` (or `u3 = 0` for `q1 < 0`, without cancellation), `P = 2 L(u)^T (p, 0)`
+    /// (so the bilinear invariant is zero), `p_t = -energy`.
+    ///
+    /// # Errors
+    /// As [`LeviCivita::start`].
+    pub fn start(z: &Vector6<f64>, t: f64, energy: f64) -> Result<SVector<f64, 10>, Error> {
+        let all = [z[0], z[1], z[2], z[3], z[4], z[5], t, energy];
+        if let Some((index, &value)) = all.iter().enumerate().find(|(_, v)| !v.is_finite()) {
+            return Err(Error::NonFiniteInitialState { index, value });
+        }
+        let (q1, q2, q3) = (z[0], z[1], z[2]);
+        let r = q1.hypot(q2).hypot(q3);
+        if r == 0.0 {
+            return Err(Error::InvalidOption {
+                name: "q",
+                value: 0.0,
+                reason: "a regularized start needs q away from the centre (q = 0 is the collision)",
+            });
+        }
+        let u = if q1 >= 0.0 {
+            let u1 = (0.5 * (r + q1)).sqrt();
+            [u1, q2 / (2.0 * u1), q3 / (2.0 * u1), 0.0]
+        } else {
+            let u2 = (0.5 * (r - q1)).sqrt();
+            [q2 / (2.0 * u2), u2, 0.0, q3 / (2.0 * u2)]
+        };
+        // P = 2 L(u)^T (p, 0): L^T has the rows of L's columns.
+        let p = [z[3], z[4], z[5], 0.0];
+        let [u1, u2, u3, u4] = u;
+        let pp = [
+            2.0 * (u1 * p[0] + u2 * p[1] + u3 * p[2] + u4 * p[3]),
+            2.0 * (-u2 * p[0] + u1 * p[1] + u4 * p[2] - u3 * p[3]),
+            2.0 * (-u3 * p[0] - u4 * p[1] + u1 * p[2] + u2 * p[3]),
+            2.0 * (u4 * p[0] - u3 * p[1] + u2 * p[2] - u1 * p[3]),
+        ];
+        Ok(SVector::<f64, 10>::from_column_slice(&[
+            u[0], u[1], u[2], u[3], t, pp[0], pp[1], pp[2], pp[3], -energy,
+        ]))
+    }
+
+    /// The physical state `(q1, q2, q3, p1, p2, p3)` and time `t` of a regularized state.
+    pub fn physical(w: &SVector<f64, 10>) -> (Vector6<f64>, f64) {
+        let u = [w[0], w[1], w[2], w[3]];
+        let pp = [w[5], w[6], w[7], w[8]];
+        let s = u.iter().map(|x| x * x).sum::<f64>();
+        let q = ks_apply(&u, &u);
+        let lp = ks_apply(&u, &pp);
+        let z = Vector6::new(
+            q[0],
+            q[1],
+            q[2],
+            lp[0] / (2.0 * s),
+            lp[1] / (2.0 * s),
+            lp[2] / (2.0 * s),
+        );
+        (z, w[4])
+    }
+
+    /// The bilinear invariant `u4 P1 - u3 P2 + u2 P3 - u1 P4` (the fourth row of `L(u) P`):
+    /// zero on the manifold the regularized flow lives on.
+    pub fn bilinear(w: &SVector<f64, 10>) -> f64 {
+        ks_apply(&[w[0], w[1], w[2], w[3]], &[w[5], w[6], w[7], w[8]])[3]
     }
 }

@@ -50,6 +50,9 @@ pub fn system(input: &Input, params: &[Ident], errors: &mut Vec<syn::Error>) -> 
     let regularize = input.item.as_ref().and_then(|h| h.regularize);
     let compiled = match regularize {
         Some(Regularize::LeviCivita) => dth_symbolic::regularize::levi_civita(&body.source, &names),
+        Some(Regularize::KustaanheimoStiefel) => {
+            dth_symbolic::regularize::kustaanheimo_stiefel(&body.source, &names)
+        }
         None => dth_symbolic::compile(&body.source, &names),
     };
     match compiled {

@@ -20,7 +20,8 @@ pub struct Input {
 pub struct Header {
     /// The attributes passed to the struct (without `#[regularize(..)]`).
     pub attrs: Vec<Attribute>,
-    /// `#[regularize(levi_civita)]`: the type is the regularized `K` of the expression.
+    /// `#[regularize(levi_civita)]` or `#[regularize(kustaanheimo_stiefel)]`: the type is the
+    /// regularized `K` of the expression.
     pub regularize: Option<Regularize>,
     pub vis: Visibility,
     pub ident: Ident,
@@ -42,6 +43,8 @@ pub struct Header {
 pub enum Regularize {
     /// Levi-Civita (`dth_symbolic::regularize::levi_civita`).
     LeviCivita,
+    /// Kustaanheimo-Stiefel (`dth_symbolic::regularize::kustaanheimo_stiefel`).
+    KustaanheimoStiefel,
 }
 
 /// One declared parameter `vis name: ty`.
@@ -102,15 +105,18 @@ fn header(input: ParseStream) -> syn::Result<Header> {
         }
         match a.parse_args::<Ident>() {
             Ok(name) if name == "levi_civita" => regularize = Some(Regularize::LeviCivita),
+            Ok(name) if name == "kustaanheimo_stiefel" => {
+                regularize = Some(Regularize::KustaanheimoStiefel)
+            }
             Ok(name) => errors.push(syn::Error::new(
                 name.span(),
                 format!(
-                    "unknown regularization `{name}`: the one there is, `levi_civita` (planar)"
+                    "unknown regularization `{name}`: the ones there are, `levi_civita` (planar) and `kustaanheimo_stiefel` (spatial)"
                 ),
             )),
             Err(_) => errors.push(syn::Error::new_spanned(
                 a,
-                "expected `#[regularize(levi_civita)]`",
+                "expected `#[regularize(levi_civita)]` or `#[regularize(kustaanheimo_stiefel)]`",
             )),
         }
         false

@@ -133,9 +133,28 @@ impl RuntimeHamiltonian {
     /// As [`RuntimeHamiltonian::new`], and [`RuntimeError::Expression`] with
     /// `ErrorKind::CannotRegularize` for a Hamiltonian that is not planar or uses `t`.
     pub fn levi_civita(src: &str, params: &[(&str, f64)]) -> Result<Self, RuntimeError> {
+        Self::compile_regularized(src, params, dth_symbolic::regularize::levi_civita)
+    }
+
+    /// The Kustaanheimo-Stiefel regularization of the spatial Hamiltonian `src`:
+    /// `K = |u|^2 (H + p_t)` on `z = (u1..u4, t, P1..P4, p_t)`, as
+    /// [`RuntimeHamiltonian::levi_civita`] (states through
+    /// `dth::regularize::KustaanheimoStiefel`).
+    ///
+    /// # Errors
+    /// As [`RuntimeHamiltonian::levi_civita`], for more than three degrees of freedom.
+    pub fn kustaanheimo_stiefel(src: &str, params: &[(&str, f64)]) -> Result<Self, RuntimeError> {
+        Self::compile_regularized(src, params, dth_symbolic::regularize::kustaanheimo_stiefel)
+    }
+
+    /// `src` regularized by `regularize` (an engine function of `dth_symbolic::regularize`).
+    fn compile_regularized(
+        src: &str,
+        params: &[(&str, f64)],
+        regularize: fn(&str, &[&str]) -> Result<System, dth_symbolic::Errors>,
+    ) -> Result<Self, RuntimeError> {
         let names: Vec<&str> = params.iter().map(|&(n, _)| n).collect();
-        let system =
-            dth_symbolic::regularize::levi_civita(src, &names).map_err(RuntimeError::Expression)?;
+        let system = regularize(src, &names).map_err(RuntimeError::Expression)?;
         Self::from_system(system, src, params, Backend::Jit)
     }
 

@@ -23,8 +23,24 @@
 //! `|u|^2 (q1^2 + q2^2)^(-1/2)` is `1`. Other terms are substituted as they stand (`F q1`
 //! becomes `F (u1^2 - u2^2)`).
 //!
+//! **Kustaanheimo-Stiefel** ([`kustaanheimo_stiefel`]) does the same in space with four `u`:
+//! `q = (L(u) u)_{1..3}` and `p = (L(u) P)_{1..3} / (2 |u|^2)` with the KS matrix
+//!
+//! ```text
+//! L(u) = [[u1, -u2, -u3,  u4],
+//!         [u2,  u1, -u4, -u3],
+//!         [u3,  u4,  u1,  u2],
+//!         [u4, -u3,  u2, -u1]],   L^T L = |u|^2 I,
+//! ```
+//!
+//! on the manifold where the bilinear invariant `u4 P1 - u3 P2 + u2 P3 - u1 P4` (the fourth
+//! row of `L(u) P`) is zero: there `|p|^2 = |P|^2 / (4 |u|^2)`, which `K` uses, and off it `K`
+//! differs by a multiple of the invariant's square, so the flow on the manifold is the same and
+//! keeps it (a quadratic invariant: DTH keeps it at its vertices).
+//!
 //! In the compiled system the regularized coordinates take the grammar's names: `q1`, `q2`
-//! are `u1`, `u2`, and `p1`, `p2` are `P1`, `P2`; the state is `z = (u1, u2, t, P1, P2, p_t)`.
+//! (`.. q4`) are `u1`, `u2` (`.. u4`), and `p1`, `p2` (`.. p4`) are `P1`, `P2` (`.. P4`); the
+//! state is `z = (u, t, P, p_t)`.
 //!
 //! ```
 //! use dth_symbolic::regularize::levi_civita;
@@ -40,6 +56,42 @@ use crate::number::{Fault, Num};
 use crate::system::{derive_value, expression, System};
 use std::collections::HashMap;
 
+/// A regularizing point transformation `q = (L(u) u)_i`, `p = (L(u) P)_i / (2 |u|^2)` for
+/// `i = 1..physical`, by the rows of its matrix `L(u)`: entry `(sign, k)` is `sign * u_k`.
+struct Map {
+    /// Its name in errors.
+    name: &'static str,
+    /// The physical degrees of freedom it maps (`q1..q_physical`).
+    physical: u32,
+    /// What a Hamiltonian of more degrees of freedom is told.
+    wrong_dimension: &'static str,
+    /// `L(u)`, square, of the regularized degrees of freedom.
+    rows: &'static [&'static [(i8, u32)]],
+}
+
+/// Levi-Civita: `A(u) = [[u1, -u2], [u2, u1]]`.
+const LEVI_CIVITA: Map = Map {
+    name: "levi-civita",
+    physical: 2,
+    wrong_dimension:
+        "the Hamiltonian is not planar (Levi-Civita needs exactly two degrees of freedom, q1, q2, p1, p2)",
+    rows: &[&[(1, 1), (-1, 2)], &[(1, 2), (1, 1)]],
+};
+
+/// Kustaanheimo-Stiefel (see the [module docs](self)).
+const KUSTAANHEIMO_STIEFEL: Map = Map {
+    name: "kustaanheimo-stiefel",
+    physical: 3,
+    wrong_dimension:
+        "the Hamiltonian has more than three degrees of freedom (Kustaanheimo-Stiefel maps q1, q2, q3, p1, p2, p3)",
+    rows: &[
+        &[(1, 1), (-1, 2), (-1, 3), (1, 4)],
+        &[(1, 2), (1, 1), (-1, 4), (-1, 3)],
+        &[(1, 3), (1, 4), (1, 1), (1, 2)],
+        &[(1, 4), (-1, 3), (1, 2), (-1, 1)],
+    ],
+};
+
 /// The Levi-Civita regularization of the planar Hamiltonian `src` (two degrees of freedom,
 /// autonomous) with the parameters `params`: the compiled `K` of the [module docs](self), on
 /// `z = (u1, u2, t, P1, P2, p_t)`.
@@ -49,11 +101,33 @@ use std::collections::HashMap;
 /// [`ErrorKind::CannotRegularize`] for a Hamiltonian that is not planar (degrees of freedom
 /// other than `q1, q2, p1, p2`) or uses `t`.
 pub fn levi_civita(src: &str, params: &[&str]) -> Result<System, Errors> {
+    regularize(src, params, &LEVI_CIVITA)
+}
+
+/// The Kustaanheimo-Stiefel regularization of the spatial Hamiltonian `src` (at most three
+/// degrees of freedom, autonomous): `K` on `z = (u1..u4, t, P1..P4, p_t)` (see the
+/// [module docs](self)).
+///
+/// ```
+/// use dth_symbolic::regularize::kustaanheimo_stiefel;
+/// let k = kustaanheimo_stiefel("p1^2 + p2^2 + p3^2 - (q1^2 + q2^2 + q3^2)^(-1/2)", &[]).unwrap();
+/// assert_eq!(k.dim(), 10);
+/// assert_eq!(k.expr(k.value()).to_string(), "-1 + (1/4)*(p1^2 + p2^2 + p3^2 + p4^2) + (q1^2 + q2^2 + q3^2 + q4^2)*p_t");
+/// ```
+///
+/// # Errors
+/// As [`levi_civita`], for more than three degrees of freedom.
+pub fn kustaanheimo_stiefel(src: &str, params: &[&str]) -> Result<System, Errors> {
+    regularize(src, params, &KUSTAANHEIMO_STIEFEL)
+}
+
+/// `src` regularized by `map`.
+fn regularize(src: &str, params: &[&str], map: &Map) -> Result<System, Errors> {
     let (mut arena, h, whole) = expression(src, params)?;
     let cannot = |reason| {
         Errors(vec![Error::new(
             ErrorKind::CannotRegularize {
-                name: "levi-civita",
+                name: map.name,
                 reason,
             },
             whole,
@@ -67,75 +141,86 @@ pub fn levi_civita(src: &str, params: &[&str]) -> Result<System, Errors> {
     }
     if vars
         .iter()
-        .any(|v| matches!(v, Var::Q(i) | Var::P(i) if *i > 2))
+        .any(|v| matches!(v, Var::Q(i) | Var::P(i) if *i > map.physical))
     {
-        return Err(cannot(
-            "the Hamiltonian is not planar (Levi-Civita needs exactly two degrees of freedom, q1, q2, p1, p2)",
-        ));
+        return Err(cannot(map.wrong_dimension));
     }
     let fault = |f: Fault| Errors(vec![Error::new(ErrorKind::Fault(f), whole)]);
-    let k = LeviCivita::new(&mut arena)
-        .and_then(|mut lc| lc.regularized(&mut arena, h))
+    let k = Substitution::new(&mut arena, map)
+        .and_then(|mut sub| sub.regularized(&mut arena, h))
         .map_err(fault)?;
-    let mut system = derive_value(arena, k, 2, true, whole).map_err(|e| Errors(vec![e]))?;
+    let n = map.rows.len();
+    let mut system = derive_value(arena, k, n, true, whole).map_err(|e| Errors(vec![e]))?;
     system.regularized = true;
     Ok(system)
 }
 
 /// The substitution of the [module docs](self), node by node over the original `H` (its
 /// nodes are read, never changed; the new ones join the same arena).
-struct LeviCivita {
-    /// `q1, q2, p1, p2` of the original `H` as expressions in `u`, `P`.
-    q: [Id; 2],
-    p: [Id; 2],
+struct Substitution {
+    /// `q_i`, `p_i` of the original `H` as expressions in `u`, `P`.
+    q: Vec<Id>,
+    p: Vec<Id>,
     /// `|u|^2`.
     s: Id,
-    /// `|P|^2 / (4 |u|^2)`: `p1^2 + p2^2`.
+    /// `|P|^2 / (4 |u|^2)`: `p1^2 + .. + p_n^2` (on the bilinear invariant's zero for KS).
     p_squared: Id,
-    /// The original variables' nodes.
-    q_vars: [Id; 2],
-    p_vars: [Id; 2],
+    /// The original variables' nodes, `q1..q_n` and `p1..p_n` (`n` physical).
+    q_vars: Vec<Id>,
+    p_vars: Vec<Id>,
     /// Each original node's image.
     done: HashMap<Id, Id>,
 }
 
-impl LeviCivita {
-    fn new(a: &mut Arena) -> Result<Self, Fault> {
-        let (u1, u2) = (a.var(Var::Q(1)), a.var(Var::Q(2)));
-        let (p1, p2) = (a.var(Var::P(1)), a.var(Var::P(2)));
-        let sq = |a: &mut Arena, x| a.pow(x, Num::int(2));
-        let (u1s, u2s) = (sq(a, u1)?, sq(a, u2)?);
-        let s = a.add(&[u1s, u2s])?;
-        let q1 = a.sub(u1s, u2s)?;
-        let two = a.num(Num::int(2));
-        let q2 = a.mul(&[two, u1, u2])?;
-        // p = A(u) P / (2 |u|^2), A(u) = [[u1, -u2], [u2, u1]].
-        let half_over_s = {
-            let inv = a.pow(s, Num::int(-1))?;
-            let half = a.num(Num::int(2).pow(Num::int(-1))?);
-            a.mul(&[half, inv])?
+impl Substitution {
+    fn new(a: &mut Arena, map: &Map) -> Result<Self, Fault> {
+        let n = map.rows.len() as u32;
+        let u: Vec<Id> = (1..=n).map(|i| a.var(Var::Q(i))).collect();
+        let pp: Vec<Id> = (1..=n).map(|i| a.var(Var::P(i))).collect();
+        let squares = |a: &mut Arena, x: &[Id]| -> Result<Id, Fault> {
+            let sq = x
+                .iter()
+                .map(|&v| a.pow(v, Num::int(2)))
+                .collect::<Result<Vec<_>, _>>()?;
+            a.add(&sq)
         };
-        let (u1p1, u2p2) = (a.mul(&[u1, p1])?, a.mul(&[u2, p2])?);
-        let (u2p1, u1p2) = (a.mul(&[u2, p1])?, a.mul(&[u1, p2])?);
-        let num1 = a.sub(u1p1, u2p2)?;
-        let num2 = a.add(&[u2p1, u1p2])?;
-        let p1_new = a.mul(&[num1, half_over_s])?;
-        let p2_new = a.mul(&[num2, half_over_s])?;
-        let (p1s, p2s) = (sq(a, p1)?, sq(a, p2)?);
-        let pp = a.add(&[p1s, p2s])?;
-        let quarter_over_s = {
-            let inv = a.pow(s, Num::int(-1))?;
-            let quarter = a.num(Num::int(4).pow(Num::int(-1))?);
-            a.mul(&[quarter, inv])?
+        let s = squares(a, &u)?;
+        // Row i of L(x) applied to y: sum_j sign * x_k * y_j.
+        let row = |a: &mut Arena, i: usize, y: &[Id]| -> Result<Id, Fault> {
+            let terms = map.rows[i]
+                .iter()
+                .zip(y)
+                .map(|(&(sign, k), &yj)| {
+                    let c = a.num(Num::int(i128::from(sign)));
+                    a.mul(&[c, u[k as usize - 1], yj])
+                })
+                .collect::<Result<Vec<_>, _>>()?;
+            a.add(&terms)
         };
-        let p_squared = a.mul(&[pp, quarter_over_s])?;
-        Ok(LeviCivita {
-            q: [q1, q2],
-            p: [p1_new, p2_new],
+        let inverse = |a: &mut Arena, c: i128| -> Result<Id, Fault> {
+            let inv = a.pow(s, Num::int(-1))?;
+            let c = a.num(Num::int(c).pow(Num::int(-1))?);
+            a.mul(&[c, inv])
+        };
+        let half_over_s = inverse(a, 2)?;
+        let physical = map.physical as usize;
+        let mut q = Vec::with_capacity(physical);
+        let mut p = Vec::with_capacity(physical);
+        for i in 0..physical {
+            q.push(row(a, i, &u)?);
+            let lp = row(a, i, &pp)?;
+            p.push(a.mul(&[lp, half_over_s])?);
+        }
+        let quarter_over_s = inverse(a, 4)?;
+        let all_p = squares(a, &pp)?;
+        let p_squared = a.mul(&[all_p, quarter_over_s])?;
+        Ok(Substitution {
+            q,
+            p,
             s,
             p_squared,
-            q_vars: [u1, u2],
-            p_vars: [p1, p2],
+            q_vars: (1..=map.physical).map(|i| a.var(Var::Q(i))).collect(),
+            p_vars: (1..=map.physical).map(|i| a.var(Var::P(i))).collect(),
             done: HashMap::new(),
         })
     }
@@ -178,8 +263,8 @@ impl LeviCivita {
                     .collect::<Result<Vec<_>, _>>()?;
                 a.mul(&f)?
             }
-            // (q1^2 + q2^2)^e = |u|^(4e): |u|^2 is not negative, so the powers merge.
-            Node::Pow(base, e) if is_pair(a, base, self.q_vars) => {
+            // |q|^(2e) = |u|^(4e): |u|^2 is not negative, so the powers merge.
+            Node::Pow(base, e) if is_full_sum(a, base, &self.q_vars) => {
                 a.pow(self.s, e.try_mul(Num::int(2))?)?
             }
             Node::Pow(base, e) => {
@@ -195,31 +280,43 @@ impl LeviCivita {
         Ok(image)
     }
 
-    /// The image of a sum, with `c q1^2 + c q2^2` as `c |u|^4` and `c p1^2 + c p2^2` as
-    /// `c |P|^2 / (4 |u|^2)`.
+    /// The image of a sum, with `c (q1^2 + .. + qn^2)` as `c |u|^4` and `c (p1^2 + .. + pn^2)`
+    /// as `c |P|^2 / (4 |u|^2)` (each square with the same cofactor `c`).
     fn sum(&mut self, a: &mut Arena, terms: &[Id]) -> Result<Id, Fault> {
         let mut rest: Vec<Id> = terms.to_vec();
         let mut out = Vec::with_capacity(terms.len());
-        for (vars, whole) in [(self.q_vars, None), (self.p_vars, Some(self.p_squared))] {
-            // Cofactors of x1^2 and x2^2 among the terms.
+        let groups = [
+            (self.q_vars.clone(), None),
+            (self.p_vars.clone(), Some(self.p_squared)),
+        ];
+        for (vars, whole) in groups {
+            // Cofactors of x_i^2 among the terms.
             let mut cofactors: Vec<(usize, Id, usize)> = Vec::new();
             for (k, &t) in rest.iter().enumerate() {
-                if let Some((c, i)) = square_cofactor(a, t, vars) {
+                if let Some((c, i)) = square_cofactor(a, t, &vars) {
                     cofactors.push((k, c, i));
                 }
             }
             let mut used = vec![false; rest.len()];
-            for &(k1, c1, i1) in &cofactors {
-                if used[k1] || i1 != 0 {
+            for &(k0, c0, i0) in &cofactors {
+                if used[k0] || i0 != 0 {
                     continue;
                 }
-                if let Some(&(k2, _, _)) = cofactors
-                    .iter()
-                    .find(|&&(k2, c2, i2)| i2 == 1 && c2 == c1 && !used[k2])
-                {
-                    used[k1] = true;
-                    used[k2] = true;
-                    let c = self.image(a, c1)?;
+                // The same cofactor on every other square of the group.
+                let others: Option<Vec<usize>> = (1..vars.len())
+                    .map(|i| {
+                        cofactors
+                            .iter()
+                            .find(|&&(k, c, j)| j == i && c == c0 && !used[k])
+                            .map(|&(k, _, _)| k)
+                    })
+                    .collect();
+                if let Some(others) = others {
+                    used[k0] = true;
+                    for k in others {
+                        used[k] = true;
+                    }
+                    let c = self.image(a, c0)?;
                     let square = match whole {
                         Some(pp) => pp,
                         None => a.pow(self.s, Num::int(2))?,
@@ -240,25 +337,27 @@ impl LeviCivita {
     }
 }
 
-/// `true` when `id` is exactly `x1^2 + x2^2` (no factor, nothing else).
-fn is_pair(a: &mut Arena, id: Id, vars: [Id; 2]) -> bool {
+/// `true` when `id` is exactly `x1^2 + .. + xn^2` for `vars = x1..xn` (no factor, nothing
+/// else).
+fn is_full_sum(a: &mut Arena, id: Id, vars: &[Id]) -> bool {
     let terms = match a.node(id) {
-        Node::Add(ch) if ch.len() == 2 => [ch[0], ch[1]],
+        Node::Add(ch) if ch.len() == vars.len() => ch.to_vec(),
         _ => return false,
     };
     let one = a.num(Num::ONE);
-    match (
-        square_cofactor(a, terms[0], vars),
-        square_cofactor(a, terms[1], vars),
-    ) {
-        (Some((c0, i0)), Some((c1, i1))) => c0 == one && c1 == one && i0 != i1,
-        _ => false,
+    let mut seen = vec![false; vars.len()];
+    for t in terms {
+        match square_cofactor(a, t, vars) {
+            Some((c, i)) if c == one && !seen[i] => seen[i] = true,
+            _ => return false,
+        }
     }
+    true
 }
 
 /// `(c, i)` when the term `t` is `c * x_i^2` (`c` the product of its other factors, `1` for
 /// `x_i^2` alone) for `x_i` one of `vars`.
-fn square_cofactor(a: &mut Arena, t: Id, vars: [Id; 2]) -> Option<(Id, usize)> {
+fn square_cofactor(a: &mut Arena, t: Id, vars: &[Id]) -> Option<(Id, usize)> {
     let is_square = |a: &Arena, f: Id| match a.node(f) {
         Node::Pow(b, e) if *e == Num::int(2) => vars.iter().position(|v| v == b),
         _ => None,
