@@ -68,6 +68,7 @@ pub mod lower;
 pub mod number;
 pub mod parser;
 pub mod simplify;
+pub mod solver;
 pub mod sources;
 pub mod span;
 pub mod system;
