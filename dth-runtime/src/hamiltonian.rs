@@ -333,7 +333,11 @@ impl RuntimeHamiltonian {
 
     /// The Hessian's entries at [`RuntimeHamiltonian::hessian_pattern`] into `values` (as long
     /// as the pattern). A text without a pattern (written out site by site) writes nothing.
-    pub fn hessian_nonzeros_slice(&self, z: &[f64], values: &mut [f64]) -> Result<(), RuntimeError> {
+    pub fn hessian_nonzeros_slice(
+        &self,
+        z: &[f64],
+        values: &mut [f64],
+    ) -> Result<(), RuntimeError> {
         match &self.form {
             Form::Written { .. } => Ok(()),
             Form::Looped(lattice) => lattice.nonzeros(z, &self.values, values),

@@ -557,9 +557,8 @@ impl Emitter<'_> {
                 } else {
                     b.ins().ireduce(ptr, bytes)
                 };
-                let at = |b: &mut FunctionBuilder| {
-                    [z, z1, out].map(|base| b.ins().iadd(base, bytes))
-                };
+                let at =
+                    |b: &mut FunctionBuilder| [z, z1, out].map(|base| b.ins().iadd(base, bytes));
                 self.site(b, &mut refs, &sum.program, &seg.plan, params, acc, at);
                 let next = b.ins().iadd_imm_s(iv, 1);
                 b.def_var(i, next);

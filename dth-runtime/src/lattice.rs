@@ -287,7 +287,10 @@ fn code(
             // The interior's plan, relative to the site: the same at both ends.
             let plan = at(first).shifted(first);
             if at(last).shifted(last) != plan {
-                return Err(malformed(f, "the interior's plan is not the same at every site"));
+                return Err(malformed(
+                    f,
+                    "the interior's plan is not the same at every site",
+                ));
             }
             segments.push(Segment {
                 first,
@@ -408,7 +411,10 @@ fn check(code: &LoopCode) -> Result<(), RuntimeError> {
         let p = &sum.program;
         crate::layout::check_ops(p).map_err(|reason| malformed(f, &reason))?;
         if p.params != code.params {
-            return Err(malformed(f, "a summand program has another number of parameters"));
+            return Err(malformed(
+                f,
+                "a summand program has another number of parameters",
+            ));
         }
         for seg in &sum.segments {
             if seg.plan.loads.len() != p.dim {

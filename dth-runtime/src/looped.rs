@@ -124,7 +124,11 @@ impl Lattice {
         out: &mut [f64],
     ) -> Result<(), RuntimeError> {
         let d = self.looped.dim();
-        let names = if f.two_point() { ("z0", "z1") } else { ("z", "z") };
+        let names = if f.two_point() {
+            ("z0", "z1")
+        } else {
+            ("z", "z")
+        };
         self.lengths(names, z0, z1, params, out.len(), f.len(d))?;
         let looped = |lf: LoopFunction, out: &mut [f64]| self.raw(lf, z0, z1, params, out);
         match f {

@@ -29,9 +29,9 @@ pub mod lattice;
 use proc_macro2::{Ident, TokenStream};
 use quote::{format_ident, quote};
 
+use crate::solver::structured_newton;
 use crate::{Method, Op, Output, Program, System};
 use code::{constant, kernel};
-use crate::solver::structured_newton;
 
 /// The implementation `hamiltonian!` emits for `source` when it is a lattice of sums that loop
 /// ([`crate::looped`]): `impl Hamiltonian<Const<D>>` as loops over the sites, its code

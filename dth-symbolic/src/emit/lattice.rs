@@ -13,8 +13,8 @@
 use proc_macro2::{Ident, TokenStream};
 use quote::quote;
 
-use crate::looped::diagonals::{layout, Place};
 use super::{body, Context, Values, CHUNK_OPS};
+use crate::looped::diagonals::{layout, Place};
 use crate::looped::{Looped, Site};
 use crate::{Method, Output, Program};
 
