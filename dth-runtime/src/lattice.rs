@@ -528,3 +528,58 @@ pub fn interpret(
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// What the JIT compiles, per function: the operations of every program it emits (once
+    /// per segment) and the additions. The same for 64 and 16,384 sites: compiled code does not
+    /// grow with the lattice.
+    #[test]
+    fn the_plans_do_not_grow_with_the_number_of_sites() {
+        let size = |n: usize| {
+            let src = format!(
+                "sum(i = 1..N, p[i]^2/2) + sum(i = 0..N, (q[i+1] - q[i])^2/2 + (q[i+1] - q[i])^3/12) \
+                 where N = {n}, q[0] = q[N+1] = 0"
+            );
+            let looped = dth_symbolic::looped::compile(&src, &[]).unwrap();
+            let plan = LatticePlan::new(&looped, 0).unwrap();
+            plan.functions
+                .iter()
+                .map(|f| {
+                    f.sums
+                        .iter()
+                        .map(|s| {
+                            let stores: usize =
+                                s.segments.iter().map(|g| g.plan.stores.len()).sum();
+                            (s.segments.len() * s.program.ops.len(), stores)
+                        })
+                        .collect::<Vec<_>>()
+                })
+                .collect::<Vec<_>>()
+        };
+        let (small, large) = (size(64), size(16384));
+        assert_eq!(small, large);
+        // The bonds' sum: one end site at each end, the interior's loop between.
+        assert_eq!(
+            LatticePlan::new(
+                &dth_symbolic::looped::compile(
+                    "sum(i = 1..N, p[i]^2/2) + sum(i = 0..N, (q[i+1] - q[i])^4) \
+                     where N = 64, q[0] = q[N+1] = 0",
+                    &[]
+                )
+                .unwrap(),
+                0
+            )
+            .unwrap()
+            .functions[0]
+                .sums[1]
+                .segments
+                .iter()
+                .map(|g| (g.first, g.last, g.relative))
+                .collect::<Vec<_>>(),
+            [(0, 0, false), (1, 63, true), (64, 64, false)]
+        );
+    }
+}
