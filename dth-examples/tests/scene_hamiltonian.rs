@@ -162,6 +162,10 @@ fn every_ui_case_has_a_scene_counterpart() {
         let Some(call) = call(&source).filter(|_| case != "unbalanced-paren") else {
             continue;
         };
+        // Scenes do not regularize (yet): the regularized cases have no scene.
+        if call.regularize.is_some() {
+            continue;
+        }
         let names: Vec<&str> = call.params.iter().map(|(n, _)| n.as_str()).collect();
         let compiled = dth_symbolic::compile(&call.expression, &names);
         let mut duplicate = None;

@@ -2,11 +2,13 @@
 //! built, evaluated into buffers the caller owns.
 
 use dth_symbolic::lexer::{lex, TokenKind};
+use dth_symbolic::looped::{self, Looped};
 use dth_symbolic::System;
 
 use crate::backend::{Backend, Compiled};
 use crate::error::{JitError, RuntimeError};
 use crate::layout::Function;
+use crate::looped::Lattice;
 
 /// A Hamiltonian given as text in the grammar of `hamiltonian!`, with parameter values: the
 /// engine derives its gradient, Hessian, Psi and discrete gradients, and every method runs
@@ -43,16 +45,30 @@ use crate::layout::Function;
 /// ```
 #[derive(Debug)]
 pub struct RuntimeHamiltonian {
-    system: System,
+    form: Form,
     names: Vec<String>,
     values: Vec<f64>,
     fallback: Option<JitError>,
-    /// One per [`Function`], in the order of [`Function::ALL`].
-    functions: Vec<Compiled>,
     /// The engine's flags, read once: the stepper asks for them inside its Newton loop, and
     /// [`System::separable`] scans the Hessian's nonzeros.
     separable: bool,
     psi_identically_zero: bool,
+    /// `Flags::structured_newton`, decided as for the macro's types.
+    structured_newton: bool,
+}
+
+/// How the text was compiled: written out site by site, or a lattice in loops.
+#[derive(Debug)]
+enum Form {
+    /// One straight-line program per function.
+    Written {
+        /// Boxed, as the lattice: the variants' sizes stay alike.
+        system: Box<System>,
+        /// One per [`Function`], in the order of [`Function::ALL`].
+        functions: Vec<Compiled>,
+    },
+    /// A lattice whose sums loop, compiled as the macro compiles it (boxed: it is large).
+    Looped(Box<Lattice>),
 }
 
 // One Hamiltonian serves every thread of an ensemble: compiled code is immutable and
@@ -119,8 +135,13 @@ impl RuntimeHamiltonian {
         backend: Backend,
     ) -> Result<Self, RuntimeError> {
         let names: Vec<&str> = params.iter().map(|&(n, _)| n).collect();
-        let system = dth_symbolic::compile(src, &names).map_err(RuntimeError::Expression)?;
-        Self::from_system(system, src, params, backend)
+        // A lattice whose sums loop is compiled in loops, exactly when the macro would;
+        // everything else (errors included) site by site, as before.
+        let text = match looped::loops(src, &names) {
+            Some(lattice) => Err(lattice),
+            None => Ok(dth_symbolic::compile(src, &names).map_err(RuntimeError::Expression)?),
+        };
+        Self::from_text(text, src, params, backend)
     }
 
     /// The Levi-Civita regularization of the planar Hamiltonian `src`
@@ -155,13 +176,13 @@ impl RuntimeHamiltonian {
     ) -> Result<Self, RuntimeError> {
         let names: Vec<&str> = params.iter().map(|&(n, _)| n).collect();
         let system = regularize(src, &names).map_err(RuntimeError::Expression)?;
-        Self::from_system(system, src, params, Backend::Jit)
+        Self::from_text(Ok(system), src, params, Backend::Jit)
     }
 
-    /// The compiled `system` of the text `src`, with the parameters `params` checked against
-    /// the text.
-    fn from_system(
-        system: System,
+    /// The compiled text `src` (`Ok`: the system written out; `Err`: the lattice in loops),
+    /// with the parameters `params` checked against the text.
+    fn from_text(
+        text: Result<System, Looped>,
         src: &str,
         params: &[(&str, f64)],
         backend: Backend,
@@ -184,6 +205,13 @@ impl RuntimeHamiltonian {
                 });
             }
         }
+        let names = names.iter().map(|n| n.to_string()).collect();
+        let values = params.iter().map(|&(_, v)| v).collect();
+        // `Ok`: the system written out; `Err`: the lattice in loops.
+        let system = match text {
+            Ok(system) => system,
+            Err(lattice) => return Self::from_lattice(lattice, names, values, backend),
+        };
         let programs = Function::ALL
             .iter()
             .map(|&f| Ok((f, f.program(&system)?)))
@@ -192,11 +220,40 @@ impl RuntimeHamiltonian {
         Ok(RuntimeHamiltonian {
             separable: system.separable(),
             psi_identically_zero: system.psi_identically_zero(),
-            system,
-            names: names.iter().map(|n| n.to_string()).collect(),
-            values: params.iter().map(|&(_, v)| v).collect(),
+            structured_newton: false,
+            form: Form::Written {
+                system: Box::new(system),
+                functions,
+            },
+            names,
+            values,
             fallback,
-            functions,
+        })
+    }
+
+    /// A lattice in loops: its flags as the macro's looped type sets them.
+    fn from_lattice(
+        lattice: Looped,
+        names: Vec<String>,
+        values: Vec<f64>,
+        backend: Backend,
+    ) -> Result<Self, RuntimeError> {
+        let (separable, psi_identically_zero) = lattice.flags();
+        let (lattice, fallback) = Lattice::new(lattice, values.len(), backend)?;
+        let structured_newton = dth_symbolic::solver::structured_newton(
+            lattice.looped().dim(),
+            lattice.pattern().len(),
+            lattice.diagonal(),
+            separable,
+        );
+        Ok(RuntimeHamiltonian {
+            form: Form::Looped(Box::new(lattice)),
+            names,
+            values,
+            fallback,
+            separable,
+            psi_identically_zero,
+            structured_newton,
         })
     }
 
@@ -208,20 +265,29 @@ impl RuntimeHamiltonian {
         z1: &[f64],
         out: &mut [f64],
     ) -> Result<(), RuntimeError> {
-        // `functions` follows `Function::ALL`, whose order is the enum's.
-        self.functions[f as usize].run(z0, z1, &self.values, out)
+        match &self.form {
+            // `functions` follows `Function::ALL`, whose order is the enum's.
+            Form::Written { functions, .. } => functions[f as usize].run(z0, z1, &self.values, out),
+            Form::Looped(lattice) => lattice.run(f, z0, z1, &self.values, out),
+        }
     }
 
     /// The phase-space dimension `D`: `2n`, or `2n + 2` when time-dependent. (Named apart from
     /// the [`Hamiltonian`](dth_core::Hamiltonian) trait's `dim()`, which is `Dyn` of it, so
     /// that `h.dim()` means one thing whatever the receiver.)
     pub fn dimension(&self) -> usize {
-        self.system.dim()
+        match &self.form {
+            Form::Written { system, .. } => system.dim(),
+            Form::Looped(lattice) => lattice.looped().dim(),
+        }
     }
 
     /// The degrees of freedom `n` (the largest index in the text).
     pub fn degrees_of_freedom(&self) -> usize {
-        self.system.n()
+        match &self.form {
+            Form::Written { system, .. } => system.n(),
+            Form::Looped(lattice) => lattice.looped().n(),
+        }
     }
 
     /// `true` when `H = T(p) + V(q)`.
@@ -231,12 +297,20 @@ impl RuntimeHamiltonian {
 
     /// `true` when `H` uses `t`: `z` is extended with `t` and `p_t`.
     pub fn time_dependent(&self) -> bool {
-        self.system.time_dependent()
+        match &self.form {
+            Form::Written { system, .. } => system.time_dependent(),
+            // A lattice that loops does not read `t` (`dth_symbolic::looped`).
+            Form::Looped(_) => false,
+        }
     }
 
     /// `true` for a regularization's `K` ([`RuntimeHamiltonian::levi_civita`]).
     pub fn regularized(&self) -> bool {
-        self.system.regularized()
+        match &self.form {
+            Form::Written { system, .. } => system.regularized(),
+            // A lattice is never a regularization.
+            Form::Looped(_) => false,
+        }
     }
 
     /// `true` when Psi simplifies to 0 (DTH's energy condition then does not determine the
@@ -248,7 +322,11 @@ impl RuntimeHamiltonian {
     /// The backend running the programs: [`Backend::Jit`] unless the interpreter was asked
     /// for or the JIT failed.
     pub fn backend(&self) -> Backend {
-        if self.functions.iter().all(Compiled::is_jit) {
+        let jit = match &self.form {
+            Form::Written { functions, .. } => functions.iter().all(Compiled::is_jit),
+            Form::Looped(lattice) => lattice.is_jit(),
+        };
+        if jit {
             Backend::Jit
         } else {
             Backend::Interpreter
@@ -263,12 +341,74 @@ impl RuntimeHamiltonian {
     /// What looks like a mistake in the text without being an error (a position without its
     /// momentum, a misnumbered index): the warnings `hamiltonian!` gives, with their spans.
     pub fn warnings(&self) -> &[dth_symbolic::Warning] {
-        self.system.warnings()
+        match &self.form {
+            Form::Written { system, .. } => system.warnings(),
+            Form::Looped(lattice) => lattice.looped().warnings(),
+        }
     }
 
-    /// The compiled symbolic system: expressions of the derivatives, programs.
-    pub fn system(&self) -> &System {
-        &self.system
+    /// The compiled symbolic system (expressions of the derivatives, programs) of a text
+    /// written out site by site; `None` for a lattice compiled in loops
+    /// ([`RuntimeHamiltonian::looped`]), which has one system per summand.
+    pub fn system(&self) -> Option<&System> {
+        match &self.form {
+            Form::Written { system, .. } => Some(system.as_ref()),
+            Form::Looped(_) => None,
+        }
+    }
+
+    /// The lattice, when the text is a lattice whose sums loop: compiled as
+    /// `hamiltonian!` compiles it (one program per summand and a loop over the sites, code
+    /// that does not grow with the number of sites), with the macro's bits, its Hessian
+    /// pattern and the structured Newton solver. `None` for a text written out site by site.
+    ///
+    /// ```
+    /// use dth_runtime::RuntimeHamiltonian;
+    /// let chain = RuntimeHamiltonian::new(
+    ///     "sum(i = 1..N, p[i]^2/2) + sum(i = 0..N, (q[i+1] - q[i])^2/2 + b*(q[i+1] - q[i])^4/4) \
+    ///      where N = 4096, q[0] = q[N+1] = 0",
+    ///     &[("b", 1.0)],
+    /// )?;
+    /// assert_eq!(chain.looped().map(|l| l.n()), Some(4096));
+    /// assert_eq!(chain.hessian_pattern().map(<[_]>::len), Some(3 * 4096 - 1));
+    /// assert!(chain.structured_newton());
+    /// # Ok::<(), dth_runtime::RuntimeError>(())
+    /// ```
+    pub fn looped(&self) -> Option<&Looped> {
+        match &self.form {
+            Form::Written { .. } => None,
+            Form::Looped(lattice) => Some(lattice.looped()),
+        }
+    }
+
+    /// The Hessian's nonzero entries `(i, j)`, `i <= j`, in the order
+    /// [`RuntimeHamiltonian::hessian_nonzeros_slice`] writes them (the macro's looped type's
+    /// pattern); `None` for a text written out site by site.
+    pub fn hessian_pattern(&self) -> Option<&[(usize, usize)]> {
+        match &self.form {
+            Form::Written { .. } => None,
+            Form::Looped(lattice) => Some(lattice.pattern()),
+        }
+    }
+
+    /// The Hessian's entries at [`RuntimeHamiltonian::hessian_pattern`] into `values` (as long
+    /// as the pattern). A text without a pattern (written out site by site) writes nothing.
+    pub fn hessian_nonzeros_slice(
+        &self,
+        z: &[f64],
+        values: &mut [f64],
+    ) -> Result<(), RuntimeError> {
+        match &self.form {
+            Form::Written { .. } => Ok(()),
+            Form::Looped(lattice) => lattice.nonzeros(z, &self.values, values),
+        }
+    }
+
+    /// Whether the implicit methods should solve their Newton systems with the structured
+    /// solver on the Hessian's pattern (`dth_core::Flags::structured_newton`): decided as for
+    /// the macro's types, `false` without a pattern.
+    pub fn structured_newton(&self) -> bool {
+        self.structured_newton
     }
 
     /// The parameters, by name, in the order given.

@@ -20,18 +20,20 @@ use std::collections::HashMap;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::sync::Arc;
 
+use cranelift_codegen::ir::condcodes::IntCC;
 use cranelift_codegen::ir::{
     types, AbiParam, FuncRef, InstBuilder, MemFlagsData, Signature, StackSlotData, StackSlotKind,
     UserFuncName, Value,
 };
 use cranelift_codegen::settings::{self, Configurable};
 use cranelift_codegen::Context;
-use cranelift_frontend::{FunctionBuilder, FunctionBuilderContext};
+use cranelift_frontend::{FunctionBuilder, FunctionBuilderContext, Variable};
 use cranelift_jit::{JITBuilder, JITModule};
 use cranelift_module::{default_libcall_names, FuncId, Linkage, Module};
 use dth_symbolic::{Kernel, Op, Program, Slot};
 
 use crate::error::{JitError, RuntimeError};
+use crate::lattice::{Load, LoopCode, SitePlan, Target};
 use crate::layout::{Function, Placement};
 use crate::shims;
 
@@ -105,7 +107,40 @@ pub fn compile(programs: &[(Function, &Program)]) -> Result<Vec<JitFunction>, Ru
     for &(f, p) in programs {
         check(f, p)?;
     }
-    guarded(|what| build(programs, what))
+    let jobs: Vec<Job> = programs.iter().map(|&(f, p)| Job::Program(f, p)).collect();
+    guarded(|what| build(&jobs, what))
+}
+
+/// Compiles the functions of a lattice in loops ([`LoopCode`], checked when planned) into one
+/// module, one function each: code whose size does not grow with the number of sites.
+pub fn compile_loops(codes: &[&LoopCode]) -> Result<Vec<JitFunction>, RuntimeError> {
+    let jobs: Vec<Job> = codes.iter().map(|&c| Job::Loop(c)).collect();
+    guarded(|what| build(&jobs, what))
+}
+
+/// What one function of a module computes.
+enum Job<'a> {
+    /// A straight-line program.
+    Program(Function, &'a Program),
+    /// A lattice's loops.
+    Loop(&'a LoopCode),
+}
+
+impl Job<'_> {
+    fn name(&self) -> &'static str {
+        match self {
+            Job::Program(f, _) => f.name(),
+            Job::Loop(c) => c.function.name(),
+        }
+    }
+
+    /// The programs the function runs.
+    fn programs(&self) -> Vec<&Program> {
+        match self {
+            Job::Program(_, p) => vec![p],
+            Job::Loop(c) => c.sums.iter().map(|s| &s.program).collect(),
+        }
+    }
 }
 
 /// `work(what)`, with a panic inside it caught and returned as [`JitError::Panicked`] naming
@@ -134,21 +169,7 @@ pub fn check(f: Function, p: &Program) -> Result<(), RuntimeError> {
         what: f.name(),
         reason,
     };
-    for (i, op) in p.ops.iter().enumerate() {
-        let earlier = |s: Slot| (s as usize) < i;
-        let ok = match *op {
-            Op::Input(k) | Op::Input1(k) => (k as usize) < p.dim,
-            Op::Param(k) => (k as usize) < p.params,
-            Op::Const(_) => true,
-            Op::Neg(a) | Op::Sqrt(a) | Op::Powf(a, _) | Op::Call(_, a) => earlier(a),
-            Op::Add(a, b) | Op::Sub(a, b) | Op::Mul(a, b) | Op::Div(a, b) | Op::Kernel(_, a, b) => {
-                earlier(a) && earlier(b)
-            }
-        };
-        if !ok {
-            return Err(bad(format!("operation {i} `{op:?}` reads out of range")));
-        }
-    }
+    crate::layout::check_ops(p).map_err(bad)?;
     let len = f.len(p.dim);
     for &(o, s) in &p.outputs {
         let inside = |k: usize| k < len;
@@ -216,10 +237,7 @@ struct Imports {
     funcs: HashMap<&'static str, FuncId>,
 }
 
-fn build(
-    programs: &[(Function, &Program)],
-    what: &mut &'static str,
-) -> Result<Vec<JitFunction>, JitError> {
+fn build(jobs: &[Job], what: &mut &'static str) -> Result<Vec<JitFunction>, JitError> {
     let mut module = module()?;
     let ptr = module.target_config().pointer_type();
     let f64s = |n: usize, module: &JITModule| {
@@ -261,7 +279,7 @@ fn build(
     let mut ctx = module.make_context();
     let mut fctx = FunctionBuilderContext::new();
     let mut distinct: Vec<Kernel> = Vec::new();
-    for (_, p) in programs {
+    for p in jobs.iter().flat_map(Job::programs) {
         for op in &p.ops {
             if let Op::Kernel(k, ..) = *op {
                 if !distinct.contains(&k) {
@@ -271,10 +289,10 @@ fn build(
         }
     }
     let kernels: Box<[Kernel]> = distinct.into_boxed_slice();
-    let mut entries = Vec::with_capacity(programs.len());
+    let mut entries = Vec::with_capacity(jobs.len());
     let mut count = 0u32;
-    for &(f, p) in programs {
-        *what = f.name();
+    for job in jobs {
+        *what = job.name();
         let mut emitter = Emitter {
             module: &mut module,
             ctx: &mut ctx,
@@ -283,9 +301,12 @@ fn build(
             kernels: &kernels,
             ptr,
             count: &mut count,
-            what: f.name(),
+            what: job.name(),
         };
-        let id = emitter.program(f, p)?;
+        let id = match *job {
+            Job::Program(f, p) => emitter.program(f, p)?,
+            Job::Loop(code) => emitter.looped(code)?,
+        };
         entries.push(id);
     }
     *what = "module";
@@ -420,6 +441,195 @@ impl Emitter<'_> {
         }
     }
 
+    /// Operation `op` as one instruction or one call: `operand` gives a slot's value, and
+    /// `input(b, second, k)` loads coordinate `k` of `z` (of `z1` when `second`).
+    fn op(
+        &mut self,
+        b: &mut FunctionBuilder,
+        refs: &mut HashMap<&'static str, FuncRef>,
+        op: Op,
+        params: Value,
+        operand: &mut dyn FnMut(&mut FunctionBuilder, Slot) -> Value,
+        input: &mut dyn FnMut(&mut FunctionBuilder, bool, usize) -> Value,
+    ) -> Value {
+        let flags = MemFlagsData::trusted();
+        let get = operand;
+        let mut call = |e: &mut Self, b: &mut FunctionBuilder, name: &'static str, a: &[Value]| {
+            let callee = *refs
+                .entry(name)
+                .or_insert_with(|| e.module.declare_func_in_func(e.imports.funcs[name], b.func));
+            let inst = b.ins().call(callee, a);
+            b.inst_results(inst)[0]
+        };
+        match op {
+            Op::Input(k) => input(b, false, k as usize),
+            Op::Input1(k) => input(b, true, k as usize),
+            Op::Param(k) => b.ins().load(types::F64, flags, params, (8 * k) as i32),
+            Op::Const(x) => b.ins().f64const(x),
+            Op::Add(x, y) => {
+                let (x, y) = (get(b, x), get(b, y));
+                b.ins().fadd(x, y)
+            }
+            Op::Sub(x, y) => {
+                let (x, y) = (get(b, x), get(b, y));
+                b.ins().fsub(x, y)
+            }
+            Op::Mul(x, y) => {
+                let (x, y) = (get(b, x), get(b, y));
+                b.ins().fmul(x, y)
+            }
+            Op::Div(x, y) => {
+                let (x, y) = (get(b, x), get(b, y));
+                b.ins().fdiv(x, y)
+            }
+            Op::Neg(x) => {
+                let x = get(b, x);
+                b.ins().fneg(x)
+            }
+            Op::Sqrt(x) => {
+                let x = get(b, x);
+                b.ins().sqrt(x)
+            }
+            Op::Powf(x, e) => {
+                let x = get(b, x);
+                let e = b.ins().f64const(e);
+                call(self, b, shims::pow().0, &[x, e])
+            }
+            Op::Call(f, x) => {
+                let x = get(b, x);
+                call(self, b, shims::func(f).0, &[x])
+            }
+            Op::Kernel(k, x, y) => {
+                let (x, y) = (get(b, x), get(b, y));
+                // Every kernel of the programs was collected before any code was written.
+                let held = self
+                    .kernels
+                    .iter()
+                    .find(|&&held| held == k)
+                    .unwrap_or(&self.kernels[0]);
+                let address = held as *const Kernel as i64;
+                let k = b.ins().iconst(self.ptr, address);
+                call(self, b, shims::kernels().0, &[k, x, y])
+            }
+        }
+    }
+
+    /// The function of a looped lattice ([`LoopCode`]): per sum, its end sites one by one
+    /// (absolute addresses) and its interior as one loop whose body is the summand's program
+    /// once, addressing `z`, `z1` and `out` relative to the site.
+    fn looped(&mut self, code: &LoopCode) -> ModuleResult<FuncId> {
+        let entry = self.declare(4, Linkage::Export)?;
+        self.define(entry, 4, |e, b, args| e.loops(b, code, args))?;
+        Ok(entry)
+    }
+
+    fn loops(&mut self, b: &mut FunctionBuilder, code: &LoopCode, args: &[Value]) {
+        let (z, z1, params, out) = (args[0], args[1], args[2], args[3]);
+        let flags = MemFlagsData::trusted();
+        let acc = b.declare_var(types::F64);
+        let zero = b.ins().f64const(0.0);
+        b.def_var(acc, zero);
+        let mut refs: HashMap<&'static str, FuncRef> = HashMap::new();
+        for sum in &code.sums {
+            for seg in &sum.segments {
+                if !seg.relative {
+                    let bases = [z, z1, out];
+                    let at = |_: &mut FunctionBuilder| bases;
+                    self.site(b, &mut refs, &sum.program, &seg.plan, params, acc, at);
+                    continue;
+                }
+                // for (i = first; i <= last; i++) { body at i }
+                let i = b.declare_var(types::I64);
+                let first = b.ins().iconst(types::I64, seg.first);
+                b.def_var(i, first);
+                let (header, body, exit) = (b.create_block(), b.create_block(), b.create_block());
+                b.ins().jump(header, &[]);
+                b.switch_to_block(header);
+                let iv = b.use_var(i);
+                let done = b.ins().icmp_imm_s(IntCC::SignedGreaterThan, iv, seg.last);
+                b.ins().brif(done, exit, &[], body, &[]);
+                b.switch_to_block(body);
+                let iv = b.use_var(i);
+                let ptr = self.ptr;
+                let bytes = b.ins().imul_imm_s(iv, 8);
+                let bytes = if ptr == types::I64 {
+                    bytes
+                } else {
+                    b.ins().ireduce(ptr, bytes)
+                };
+                let at =
+                    |b: &mut FunctionBuilder| [z, z1, out].map(|base| b.ins().iadd(base, bytes));
+                self.site(b, &mut refs, &sum.program, &seg.plan, params, acc, at);
+                let next = b.ins().iadd_imm_s(iv, 1);
+                b.def_var(i, next);
+                b.ins().jump(header, &[]);
+                b.switch_to_block(exit);
+            }
+        }
+        if code.function.scalar() {
+            let v = b.use_var(acc);
+            b.ins().store(flags, v, out, 0);
+        }
+    }
+
+    /// One site: the local coordinates loaded as `plan` says from `bases(b) = [z, z1, out]`
+    /// (moved to the site in a loop), the summand's program, its outputs added.
+    #[allow(clippy::too_many_arguments)]
+    fn site(
+        &mut self,
+        b: &mut FunctionBuilder,
+        refs: &mut HashMap<&'static str, FuncRef>,
+        p: &Program,
+        plan: &SitePlan,
+        params: Value,
+        acc: Variable,
+        bases: impl FnOnce(&mut FunctionBuilder) -> [Value; 3],
+    ) {
+        let flags = MemFlagsData::trusted();
+        let [z, z1, out] = bases(b);
+        let offset = |k: i64| (8 * k) as i32;
+        let mut vals: Vec<Value> = Vec::with_capacity(p.ops.len());
+        for &op in &p.ops {
+            let mut get = |_: &mut FunctionBuilder, s: Slot| vals[s as usize];
+            let mut input = |b: &mut FunctionBuilder, second: bool, k: usize| match plan.loads[k] {
+                Load::Z(at) => {
+                    let base = if second { z1 } else { z };
+                    b.ins().load(types::F64, flags, base, offset(at))
+                }
+                Load::Const(v) => b.ins().f64const(v),
+            };
+            let v = self.op(b, refs, op, params, &mut get, &mut input);
+            vals.push(v);
+        }
+        for s in &plan.stores {
+            let e = match s
+                .source
+                .and_then(|o| p.outputs.iter().find(|&&(x, _)| x == o))
+            {
+                Some(&(_, slot)) => vals[slot as usize],
+                None => b.ins().f64const(0.0),
+            };
+            let e = if s.twice {
+                let two = b.ins().f64const(2.0);
+                b.ins().fmul(two, e)
+            } else {
+                e
+            };
+            match s.target {
+                Target::Acc => {
+                    let a = b.use_var(acc);
+                    let sum = b.ins().fadd(a, e);
+                    b.def_var(acc, sum);
+                }
+                Target::Out(k) => {
+                    let old = b.ins().load(types::F64, flags, out, offset(k));
+                    let sum = b.ins().fadd(old, e);
+                    b.ins().store(flags, sum, out, offset(k));
+                }
+            }
+        }
+    }
+
     /// The operations of chunk `c`: inputs `args = [z, z1, params, out]`, `scratch` the
     /// shared slots (when the program has several chunks).
     fn chunk(
@@ -446,65 +656,11 @@ impl Emitter<'_> {
                     b.ins().load(types::F64, flags, base, offset(at))
                 })
             };
-            let mut call =
-                |e: &mut Self, b: &mut FunctionBuilder, name: &'static str, a: &[Value]| {
-                    let callee = *refs.entry(name).or_insert_with(|| {
-                        e.module.declare_func_in_func(e.imports.funcs[name], b.func)
-                    });
-                    let inst = b.ins().call(callee, a);
-                    b.inst_results(inst)[0]
-                };
-            let v = match p.ops[i] {
-                Op::Input(k) => b.ins().load(types::F64, flags, z, offset(k as usize)),
-                Op::Input1(k) => b.ins().load(types::F64, flags, z1, offset(k as usize)),
-                Op::Param(k) => b.ins().load(types::F64, flags, params, offset(k as usize)),
-                Op::Const(x) => b.ins().f64const(x),
-                Op::Add(x, y) => {
-                    let (x, y) = (get(b, x), get(b, y));
-                    b.ins().fadd(x, y)
-                }
-                Op::Sub(x, y) => {
-                    let (x, y) = (get(b, x), get(b, y));
-                    b.ins().fsub(x, y)
-                }
-                Op::Mul(x, y) => {
-                    let (x, y) = (get(b, x), get(b, y));
-                    b.ins().fmul(x, y)
-                }
-                Op::Div(x, y) => {
-                    let (x, y) = (get(b, x), get(b, y));
-                    b.ins().fdiv(x, y)
-                }
-                Op::Neg(x) => {
-                    let x = get(b, x);
-                    b.ins().fneg(x)
-                }
-                Op::Sqrt(x) => {
-                    let x = get(b, x);
-                    b.ins().sqrt(x)
-                }
-                Op::Powf(x, e) => {
-                    let x = get(b, x);
-                    let e = b.ins().f64const(e);
-                    call(self, b, shims::pow().0, &[x, e])
-                }
-                Op::Call(f, x) => {
-                    let x = get(b, x);
-                    call(self, b, shims::func(f).0, &[x])
-                }
-                Op::Kernel(k, x, y) => {
-                    let (x, y) = (get(b, x), get(b, y));
-                    // Every kernel of the programs was collected before any code was written.
-                    let held = self
-                        .kernels
-                        .iter()
-                        .find(|&&held| held == k)
-                        .unwrap_or(&self.kernels[0]);
-                    let address = held as *const Kernel as i64;
-                    let k = b.ins().iconst(self.ptr, address);
-                    call(self, b, shims::kernels().0, &[k, x, y])
-                }
+            let mut input = |b: &mut FunctionBuilder, second: bool, k: usize| {
+                let base = if second { z1 } else { z };
+                b.ins().load(types::F64, flags, base, offset(k))
             };
+            let v = self.op(b, &mut refs, p.ops[i], params, &mut get, &mut input);
             vals.insert(i as Slot, v);
             for &at in &plan.stores[i] {
                 b.ins().store(flags, v, out, offset(at));

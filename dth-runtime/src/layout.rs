@@ -2,7 +2,7 @@
 //! offers ([`Function`]), the engine program each is cut from, and the flat output buffer each
 //! writes.
 
-use dth_symbolic::{Method, Output, Program, System};
+use dth_symbolic::{Method, Op, Output, Program, Slot, System};
 
 use crate::error::RuntimeError;
 
@@ -165,6 +165,30 @@ impl Function {
             }
         }
         Ok(program.prune(|o| matches!(self.place(o, d), Placement::At(..))))
+    }
+}
+
+/// Every operation of `p` reads slots defined before it, inputs and parameters in range: the
+/// reason it does not, otherwise `Ok`. Compiled code trusts a program that passes.
+pub fn check_ops(p: &Program) -> Result<(), String> {
+    for (i, op) in p.ops.iter().enumerate() {
+        let earlier = |s: Slot| (s as usize) < i;
+        let ok = match *op {
+            Op::Input(k) | Op::Input1(k) => (k as usize) < p.dim,
+            Op::Param(k) => (k as usize) < p.params,
+            Op::Const(_) => true,
+            Op::Neg(a) | Op::Sqrt(a) | Op::Powf(a, _) | Op::Call(_, a) => earlier(a),
+            Op::Add(a, b) | Op::Sub(a, b) | Op::Mul(a, b) | Op::Div(a, b) | Op::Kernel(_, a, b) => {
+                earlier(a) && earlier(b)
+            }
+        };
+        if !ok {
+            return Err(format!("operation {i} `{op:?}` reads out of range"));
+        }
+    }
+    match p.outputs.iter().find(|&&(_, s)| s as usize >= p.ops.len()) {
+        Some(&(o, s)) => Err(format!("output {o:?} reads slot {s} of {}", p.ops.len())),
+        None => Ok(()),
     }
 }
 

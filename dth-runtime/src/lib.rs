@@ -87,7 +87,9 @@ pub mod backend;
 pub mod error;
 pub mod hamiltonian;
 pub mod jit;
+pub mod lattice;
 pub mod layout;
+mod looped;
 pub mod shims;
 pub mod typed;
 

@@ -62,8 +62,10 @@ use crate::layout::Function;
 /// A [`RuntimeHamiltonian`] checked to have dimension `D`, time dependence `TIME_DEPENDENT`
 /// and, when `SEPARABLE` is set, the form `H = T(p) + V(q)`: it implements
 /// `dth_core::Hamiltonian<Const<D>>` with these flags, `exact_divided_differences` (its
-/// discrete gradients are the engine's exact divided differences, as the macro's), and no
-/// Hessian pattern (the implicit methods use the dense Newton solver). Without a fixed `D`
+/// discrete gradients are the engine's exact divided differences, as the macro's), and, for a
+/// lattice compiled in loops, its Hessian pattern and the structured Newton flag as the
+/// macro's looped type has them (otherwise no pattern: the implicit methods use the dense
+/// Newton solver). Without a fixed `D`
 /// in mind, use the [`RuntimeHamiltonian`] itself: it is a `Hamiltonian<Dyn>`.
 ///
 /// `SEPARABLE = false` is allowed for a separable Hamiltonian (the methods that need
@@ -354,6 +356,22 @@ where
 /// wrong length names the caller's line.
 macro_rules! evaluations {
     ($d:ty) => {
+        /// The lattice's pattern for a text compiled in loops
+        /// ([`RuntimeHamiltonian::hessian_pattern`]); `None` otherwise.
+        fn hessian_pattern(&self) -> Option<&[(usize, usize)]> {
+            self.runtime().hessian_pattern()
+        }
+
+        /// One call of the lattice's looped nonzeros (nothing without a pattern).
+        ///
+        /// # Panics
+        /// When `z` is not of the Hamiltonian's dimension or `values` is shorter than the
+        /// pattern; [`RuntimeHamiltonian::hessian_nonzeros_slice`] returns the error instead.
+        #[track_caller]
+        fn hessian_nonzeros(&self, z: &OVector<f64, $d>, values: &mut [f64]) {
+            nonzeros(self.runtime(), z.as_slice(), values);
+        }
+
         /// # Panics
         /// When `z` is not of the Hamiltonian's dimension (only a `Dyn` vector can be);
         /// [`RuntimeHamiltonian::value_slice`] returns the error instead.
@@ -470,6 +488,40 @@ macro_rules! evaluations {
     };
 }
 
+/// The Hessian's nonzeros into `values[..nnz]`. A non-finite entry is left in `values` for
+/// the caller's checks (see the module docs).
+///
+/// # Panics
+/// When `z` is not of the Hamiltonian's dimension, or `values` is shorter than the pattern.
+#[track_caller]
+fn nonzeros(runtime: &RuntimeHamiltonian, z: &[f64], values: &mut [f64]) {
+    let Some(nnz) = runtime.hessian_pattern().map(<[_]>::len) else {
+        return;
+    };
+    let f = Function::Hessian;
+    if z.len() != runtime.dimension() {
+        wrong_length(runtime, f, "z", Found::Components(z.len()));
+    }
+    if values.len() < nnz {
+        nonzeros_too_short(values.len(), nnz);
+    }
+    match runtime.hessian_nonzeros_slice(z, &mut values[..nnz]) {
+        Ok(()) | Err(RuntimeError::NonFinite { .. }) => {}
+        Err(error) => refused(runtime, f, error),
+    }
+}
+
+/// The panic of `hessian_nonzeros` given fewer values than the pattern has entries.
+#[cold]
+#[inline(never)]
+#[track_caller]
+fn nonzeros_too_short(found: usize, nnz: usize) -> ! {
+    panic!(
+        "RuntimeHamiltonian::hessian_nonzeros: values has {found} entries, the Hessian's pattern \
+         {nnz} (the checked RuntimeHamiltonian::hessian_nonzeros_slice returns an error instead)"
+    )
+}
+
 /// The flags the engine derived from the text.
 fn derived_flags(runtime: &RuntimeHamiltonian) -> Flags {
     Flags::default()
@@ -478,6 +530,7 @@ fn derived_flags(runtime: &RuntimeHamiltonian) -> Flags {
         .with_separable(runtime.separable())
         .with_psi_identically_zero(runtime.psi_identically_zero())
         .with_exact_divided_differences(true)
+        .with_structured_newton(runtime.structured_newton())
 }
 
 /// The dimension and the flags are the text's.
@@ -517,6 +570,7 @@ impl<const D: usize, const TIME_DEPENDENT: bool, const SEPARABLE: bool> Hamilton
             .with_time_dependent(TIME_DEPENDENT)
             .with_separable(SEPARABLE)
             .with_exact_divided_differences(true)
+            .with_structured_newton(self.runtime.structured_newton())
             // Not a type parameter: what the text is (a regularization's time is its `t`).
             .with_regularized(self.runtime().regularized())
     }

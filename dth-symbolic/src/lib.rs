@@ -72,6 +72,7 @@ pub mod number;
 pub mod parser;
 pub mod regularize;
 pub mod simplify;
+pub mod solver;
 pub mod sources;
 pub mod span;
 pub mod system;

@@ -34,6 +34,7 @@
 //! assert_eq!((value, gradient[0], gradient[1]), (0.25, 1.0, -0.5));
 //! ```
 
+pub mod diagonals;
 mod flags;
 mod reach;
 mod runs;
@@ -69,9 +70,9 @@ impl std::fmt::Display for LoopError {
 
 impl std::error::Error for LoopError {}
 
-/// Where a slot reads its value at one site.
+/// Where a slot reads its value at one site ([`Looped::site`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub(crate) enum Site {
+pub enum Site {
     /// `z[k]`.
     Var(usize),
     /// A fixed boundary's value.
@@ -102,6 +103,12 @@ impl LoopSum {
     /// `q[i + c]` (`p[i + c]`) of the summand, in the order written.
     pub fn summand(&self) -> &crate::System {
         &self.system
+    }
+
+    /// The summand's Hessian nonzeros, upper triangle, as pairs of indices into
+    /// [`LoopSum::slots`], in the order the generated code writes them.
+    pub fn pattern(&self) -> &[(usize, usize)] {
+        &self.pattern
     }
 
     /// The sum's range `lo..=hi`.
@@ -148,6 +155,31 @@ fn sums(ast: &Ast) -> Result<Vec<&Ast>, LoopError> {
         }
         _ => Err(LoopError::NotLoopable("a term outside a sum")),
     }
+}
+
+/// The most operations of one summand program that a loop body holds: a lattice with a longer
+/// summand program is compiled site by site ([`crate::compile`]) by the macro and the JIT alike
+/// (the macro's limit on one function's body, `emit`'s `CHUNK_OPS`).
+pub const MAX_BODY_OPS: usize = 1000;
+
+/// The lattice compiled in loops exactly when `hamiltonian!` compiles `src` in loops: a source
+/// with a sum that [`compile`] accepts and whose summand programs each fit one loop body
+/// ([`Looped::fits_one_body`]). `None` for every other source, errors included: the caller
+/// compiles it site by site ([`crate::compile`]), which reports them. The macro and
+/// `dth-runtime` both decide here.
+///
+/// ```
+/// use dth_symbolic::looped;
+/// let chain = "sum(i = 1..N, p[i]^2/2) + sum(i = 0..N, (q[i+1] - q[i])^2/2) \
+///              where N = 64, q[0] = q[N+1] = 0";
+/// assert_eq!(looped::loops(chain, &[]).map(|l| l.n()), Some(64));
+/// assert!(looped::loops("p1^2/2 + q1^2/2", &[]).is_none());
+/// ```
+pub fn loops(src: &str, params: &[&str]) -> Option<Looped> {
+    if !src.contains("sum") {
+        return None;
+    }
+    compile(src, params).ok().filter(Looped::fits_one_body)
 }
 
 /// Compiles `src` in loops (see the module docs).
@@ -527,6 +559,23 @@ impl Looped {
         out
     }
 
+    /// `true` when every summand's programs (value, gradient, Hessian, and the two-point
+    /// discrete gradient and defect) hold at most [`MAX_BODY_OPS`] operations each.
+    pub fn fits_one_body(&self) -> bool {
+        let methods = [
+            Method::Value,
+            Method::Gradient,
+            Method::Hessian,
+            Method::DiscreteGradient,
+            Method::DiscreteGradientDefect,
+        ];
+        self.sums.iter().all(|s| {
+            methods
+                .iter()
+                .all(|&m| s.system.program(m).ops.len() <= MAX_BODY_OPS)
+        })
+    }
+
     /// `true` when some summand reads a momentum.
     pub fn has_momentum(&self) -> bool {
         self.sums
@@ -550,8 +599,9 @@ impl Looped {
         &self.warnings
     }
 
-    /// Where `letter[k]` is read from.
-    pub(crate) fn site(&self, letter: char, k: i64) -> Site {
+    /// Where `letter[k]` (`letter` is `'q'` or `'p'`) is read from: a variable of the
+    /// lattice or a periodic boundary's site, or a fixed boundary's value (`0` outside both).
+    pub fn site(&self, letter: char, k: i64) -> Site {
         if (1..=self.n as i64).contains(&k) {
             return Site::Var(index_of(letter, k, self.n));
         }

@@ -150,7 +150,12 @@ fn what_does_not_apply_is_an_error() {
     }
     let four = "p1^2 + p2^2 + p3^2 + p4^2 - (q1^2 + q2^2 + q3^2 + q4^2)^(-1/2)";
     let errors = dth_symbolic::regularize::kustaanheimo_stiefel(four, &[]).unwrap_err();
-    assert!(errors.to_string().contains("more than three degrees of freedom"), "{errors}");
+    assert!(
+        errors
+            .to_string()
+            .contains("more than three degrees of freedom"),
+        "{errors}"
+    );
     // The text's own errors come first, as compile gives them.
     let errors = levi_civita("p1^2 + x", &[]).unwrap_err();
     assert!(

@@ -46,7 +46,7 @@ pub const WARNING: &str =
     "a warning from `hamiltonian!`, not a deprecation (`#[allow(deprecated)]` silences it): ";
 
 /// Errors only the macro reports, with the reason: `(case, start of the message)`.
-pub const MACRO_ONLY: [(&str, &str, &str); 9] = [
+pub const MACRO_ONLY: [(&str, &str, &str); 10] = [
     (
         "fallback-keeps-item-users-quiet",
         "parameter `k` must have type `f64`",
@@ -87,6 +87,12 @@ pub const MACRO_ONLY: [(&str, &str, &str); 9] = [
         "mismatched closing delimiter",
         "rustc's tokenizer rejects the file before the macro runs; the engine's own error for \
          the same text is `unclosed (` (checked below)",
+    ),
+    (
+        "regularize-unknown",
+        "unknown regularization `polar`",
+        "an attribute of the Rust item; at run time a regularization is a function \
+         (`dth_symbolic::regularize`), and there is no function of an unknown name",
     ),
     (
         "greek-pi",
@@ -192,6 +198,8 @@ pub struct Call {
     pub at: usize,
     /// The declared parameters and their offsets in the file.
     pub params: Vec<(String, usize)>,
+    /// `#[regularize(name)]` on the item: the regularization's name.
+    pub regularize: Option<String>,
 }
 
 /// The macro call of `source` ([`Call`]).
@@ -207,12 +215,30 @@ pub fn call(source: &str) -> Option<Call> {
             expression: source[open + 1..close].to_string(),
             at: open + 1,
             params: Vec::new(),
+            regularize: None,
         });
     }
-    // `{ [pub] struct Name { a: T, b: T } = expression }`
+    // `{ [#[regularize(name)]] [pub] struct Name [{ a: T, b: T }] = expression }`
     let item = &source[open + 1..close];
+    let regularize = item.find("#[regularize(").and_then(|k| {
+        let name = &item[k + "#[regularize(".len()..];
+        name.find(')').map(|end| name[..end].trim().to_string())
+    });
     let after_struct = item.find("struct ")? + "struct ".len();
     let rest = &item[after_struct..];
+    // A unit struct: `struct Name = expression`.
+    if let Some(eq) = rest.find('=').filter(|&eq| !rest[..eq].contains('{')) {
+        let type_name = rest[..eq].trim();
+        if type_name.is_empty() || !type_name.chars().all(|c| c.is_alphanumeric() || c == '_') {
+            return None;
+        }
+        return Some(Call {
+            expression: rest[eq + 1..].to_string(),
+            at: open + 1 + after_struct + eq + 1,
+            params: Vec::new(),
+            regularize,
+        });
+    }
     let brace = rest.find('{')?;
     let type_name = rest[..brace].trim();
     if type_name.is_empty() || !type_name.chars().all(|c| c.is_alphanumeric() || c == '_') {
@@ -239,5 +265,6 @@ pub fn call(source: &str) -> Option<Call> {
         expression: tail[eq + 1..].to_string(),
         at: fields_close + 1 + eq + 1,
         params,
+        regularize,
     })
 }

@@ -3,7 +3,7 @@
 //! and scatters the results, so the emitted code does not grow with the number of sites.
 //!
 //! The Hessian's pattern is emitted as runs along its diagonals (the private module
-//! `emit::diagonals`), which `hessian_pattern` expands once, at its first call, into a
+//! `looped::diagonals`), which `hessian_pattern` expands once, at its first call, into a
 //! `static`; the position each (sum, site, summand entry) writes to is arithmetic on the
 //! site, listed only at the sites that reach a boundary. Neither the code nor the compiler's
 //! work on it grows with `N`: a constant pattern would make every build of the user's crate
@@ -13,8 +13,8 @@
 use proc_macro2::{Ident, TokenStream};
 use quote::quote;
 
-use super::diagonals::{layout, Place};
 use super::{body, Context, Values, CHUNK_OPS};
+use crate::looped::diagonals::{layout, Place};
 use crate::looped::{Looped, Site};
 use crate::{Method, Output, Program};
 
@@ -32,10 +32,9 @@ pub fn looped_impl(looped: &Looped, name: &Ident, params: &[Ident]) -> Option<To
         programs(Method::DiscreteGradient),
         programs(Method::DiscreteGradientDefect),
     );
-    let too_long = [&value_p, &gradient_p, &hessian_p, &pair_p, &defect_p]
-        .iter()
-        .any(|ps| ps.iter().any(|p| p.ops.len() > CHUNK_OPS));
-    if too_long {
+    // One loop body each: the rule is `Looped::fits_one_body`, shared with the JIT.
+    const _: () = assert!(CHUNK_OPS == crate::looped::MAX_BODY_OPS);
+    if !looped.fits_one_body() {
         return None;
     }
     let n = looped.n;
@@ -46,7 +45,7 @@ pub fn looped_impl(looped: &Looped, name: &Ident, params: &[Ident]) -> Option<To
     let (separable, psi0) = looped.flags();
     let layout = layout(looped);
     let nnz = layout.nnz;
-    let structured = super::structured_newton(d, nnz, layout.diagonal, separable);
+    let structured = crate::solver::structured_newton(d, nnz, layout.diagonal, separable);
 
     // Where letter[k] lives: the lattice, or a boundary (periodic: a site; fixed: a value).
     let arms = looped.boundaries.iter().map(|&(letter, k, site)| {

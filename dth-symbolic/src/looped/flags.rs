@@ -332,7 +332,7 @@ impl Looped {
 
     /// `(separable, psi_identically_zero)` from one build of the lattice's derivatives (what
     /// the emitter asks for together); `(false, false)` when building them faults.
-    pub(crate) fn flags(&self) -> (bool, bool) {
+    pub fn flags(&self) -> (bool, bool) {
         let Some(d) = self.derivatives() else {
             return (false, false);
         };

@@ -16,7 +16,7 @@ use crate::looped::{Looped, Site};
 
 /// Where one summand entry of one sum lands, site by site.
 #[derive(Clone, Debug, Default, PartialEq)]
-pub(crate) struct Place {
+pub struct Place {
     /// `(lo, hi, base)`: sites `lo..=hi` land at `base + i`.
     pub interior: Option<(i64, i64, i64)>,
     /// The other sites that land in the lattice, and where (a site with a slot at a fixed
@@ -26,7 +26,7 @@ pub(crate) struct Place {
 
 /// The pattern as runs, and every entry's place.
 #[derive(Clone, Debug, PartialEq)]
-pub(crate) struct Layout {
+pub struct Layout {
     /// `(a, b, len)`: the entries `(a + k, b + k)`, `k < len`, one run after the other.
     pub runs: Vec<(usize, usize, usize)>,
     /// The number of entries, `sum len`.
@@ -67,7 +67,7 @@ fn edge_sites(looped: &Looped, k: usize, (lo, hi): (i64, i64)) -> Vec<i64> {
 }
 
 /// Lays out the pattern of `looped` (see the module docs).
-pub(crate) fn layout(looped: &Looped) -> Layout {
+pub fn layout(looped: &Looped) -> Layout {
     // Every entry as intervals of rows on its diagonal `b - a`: `(first row, last row)`.
     let mut diagonals: BTreeMap<usize, Vec<(usize, usize)>> = BTreeMap::new();
     let mut add = |(a, b): (usize, usize), len: usize| {
