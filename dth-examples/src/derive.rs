@@ -75,6 +75,44 @@ pub fn derive(source: &str, params: &[&str]) -> Result<String, Error> {
     }
 }
 
+/// A regularization `dth derive --regularize` applies (`dth_symbolic::regularize`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Regularization {
+    /// Levi-Civita, planar.
+    LeviCivita,
+    /// Kustaanheimo-Stiefel, in space.
+    Ks,
+}
+
+/// [`derive`] of the regularized `K` of `source`: what the engine compiles for
+/// `#[regularize(..)]` (the radius cancelled, `K`'s gradient, Hessian and Psi).
+///
+/// ```
+/// use dth_examples::derive::{derive_regularized, Regularization};
+/// let text = derive_regularized("p1^2 + p2^2 - (q1^2 + q2^2)^(-1/2)", &[], Regularization::LeviCivita)?;
+/// assert!(text.contains("simplified: -1 + (1/4)*(p1^2 + p2^2) + (q1^2 + q2^2)*p_t"), "{text}");
+/// # Ok::<(), dth_examples::Error>(())
+/// ```
+///
+/// # Errors
+/// [`Error::Hamiltonian`] with every error under the expression (a Hamiltonian that is not
+/// planar, or not spatial for KS, or uses `t`, is one).
+pub fn derive_regularized(
+    source: &str,
+    params: &[&str],
+    regularization: Regularization,
+) -> Result<String, Error> {
+    let compiled = match regularization {
+        Regularization::LeviCivita => dth_symbolic::regularize::levi_civita(source, params),
+        Regularization::Ks => dth_symbolic::regularize::kustaanheimo_stiefel(source, params),
+    };
+    compiled
+        .map(|system| report(source, &system))
+        .map_err(|errors| Error::Hamiltonian {
+            diagnostics: render_errors(source, &errors),
+        })
+}
+
 /// A parameter name as `dth derive --param` takes it (a clap value parser): an identifier as
 /// the grammar reads one (an ASCII letter or `_`, then ASCII letters, digits or `_`) that is
 /// not a name of the grammar itself (`q1`, `t`, `pi`, `sin`, ...). A malformed name would
@@ -189,7 +227,13 @@ fn report(source: &str, s: &System) -> String {
     let names: Vec<String> = s.coordinates().iter().map(|&v| name(v)).collect();
     let mut out = String::new();
     let _ = writeln!(out, "H = {}", source.trim());
-    if s.time_dependent() {
+    if s.regularized() {
+        let _ = writeln!(
+            out,
+            "regularized: K = |u|^2 (H + p_t) on K = 0 (p_t = -E), its q and p are u and P, t the physical time: z = ({})",
+            names.join(", ")
+        );
+    } else if s.time_dependent() {
         let _ = writeln!(
             out,
             "extended phase space (H uses t): calH = p_t + H, z = ({})",

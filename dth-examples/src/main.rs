@@ -156,8 +156,12 @@ enum Command {
         params: Vec<String>,
         /// Print the code `hamiltonian!` emits (the struct `GeneratedHamiltonian` with one
         /// `f64` field per parameter, and its `impl Hamiltonian<D>`), formatted.
-        #[arg(long)]
+        #[arg(long, conflicts_with = "regularize")]
         rust: bool,
+        /// Show the regularized K = |u|^2 (H + p_t) instead (what `#[regularize(..)]`
+        /// compiles): levi-civita for a planar H, ks for one in space.
+        #[arg(long, value_enum)]
+        regularize: Option<dth_examples::derive::Regularization>,
     },
 }
 
@@ -378,12 +382,17 @@ fn main_inner(cli: Cli) -> Result<ExitCode, CliError> {
             }
             Ok(ExitCode::SUCCESS)
         }
-        Some(Command::Derive { expr, params, rust }) => {
+        Some(Command::Derive {
+            expr,
+            params,
+            rust,
+            regularize,
+        }) => {
             let params: Vec<&str> = params.iter().map(String::as_str).collect();
-            let text = if rust {
-                dth_examples::derive::rust(&expr, &params)?
-            } else {
-                dth_examples::derive::derive(&expr, &params)?
+            let text = match (rust, regularize) {
+                (true, _) => dth_examples::derive::rust(&expr, &params)?,
+                (false, Some(r)) => dth_examples::derive::derive_regularized(&expr, &params, r)?,
+                (false, None) => dth_examples::derive::derive(&expr, &params)?,
             };
             print!("{text}");
             Ok(ExitCode::SUCCESS)

@@ -247,3 +247,41 @@ fn many_errors_in_a_long_expression_are_shown_briefly() {
     );
     assert!(err.len() < 5_000, "{} bytes", err.len());
 }
+
+/// `--regularize` prints the regularized `K` (the radius cancelled) with its Psi, and a
+/// Hamiltonian the regularization does not fit is exit 2, underlined.
+#[test]
+fn derive_regularize_prints_k_and_refuses_what_does_not_fit() {
+    let dir = tempfile::tempdir().unwrap();
+    let kepler = "(p1^2 + p2^2)/(2*m) - k*(q1^2 + q2^2)^(-1/2)";
+    let o = dth(
+        &["derive", "--regularize", "levi-civita", kepler, "-p", "m,k"],
+        dir.path(),
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let out = stdout(&o);
+    for line in [
+        "regularized: K = |u|^2 (H + p_t)",
+        "z = (q1, q2, t, p1, p2, p_t)",
+        "simplified: (1/8)*(p1^2 + p2^2)*m^(-1) - k + (q1^2 + q2^2)*p_t",
+        "Psi = (J gradH)^T HessH (J gradH)",
+    ] {
+        assert!(out.contains(line), "missing `{line}` in\n{out}");
+    }
+    let o = dth(
+        &[
+            "derive",
+            "--regularize",
+            "ks",
+            "p1^2 + p2^2 + p3^2 + p4^2 - 1/q4",
+        ],
+        dir.path(),
+    );
+    assert_eq!(o.status.code(), Some(2), "{}", stdout(&o));
+    assert!(
+        stderr(&o).contains("more than three degrees of freedom"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(entries(dir.path()).is_empty());
+}
