@@ -15,10 +15,12 @@
 //! cancellation on one rung is not taken for convergence) or the run's cost passes a cap; the
 //! first of the two is reported, its wall time the median of `--repeats` runs. The error is the
 //! max-norm of `(q, p)` at the run's end (the `t` coordinate, `T` to rounding) against Kepler's
-//! equation there (`dth::kepler::KeplerOrbit`).
+//! equation there (`dth::kepler::KeplerOrbit`). With `--match e=ERR` the same is done, on the
+//! same ladder, for the error `ERR` at that `e` (the Python script passes IAS15's own error, so
+//! the two can be compared at the same accuracy where neither reaches the target).
 //!
 //! `cargo run --release -p dth-examples --example regularized_vs_ias15 -- [--json] [--quick]
-//! [--repeats N] [--target ERR] [--orbits N]`: a table on stdout; with `--json`, one JSON object
+//! [--repeats N] [--target ERR] [--orbits N] [--match e=ERR ...]`: a table on stdout; with `--json`, one JSON object
 //! a line instead (what the Python script reads). The ladder's every rung goes to stderr.
 
 use std::error::Error;
@@ -50,6 +52,8 @@ struct Settings {
     orbits: f64,
     /// No rung beyond this many steps in the whole run.
     max_steps: f64,
+    /// `(e, error)`: also find the cheapest rung reaching this error at this `e` (the peer's).
+    matches: Vec<(f64, f64)>,
 }
 
 /// One regularized DTH run: its end's error against Kepler's equation, steps, Newton
@@ -128,6 +132,7 @@ fn parse_args() -> Result<Settings, Box<dyn Error>> {
         target: 1e-10,
         orbits: 100.0,
         max_steps: 1.5e5,
+        matches: Vec::new(),
     };
     let mut args = std::env::args().skip(1);
     while let Some(arg) = args.next() {
@@ -144,6 +149,11 @@ fn parse_args() -> Result<Settings, Box<dyn Error>> {
             "--repeats" => settings.repeats = value("--repeats")?.parse::<usize>()?.max(1),
             "--target" => settings.target = value("--target")?.parse()?,
             "--orbits" => settings.orbits = value("--orbits")?.parse()?,
+            "--match" => {
+                let v = value("--match")?;
+                let (e, err) = v.split_once('=').ok_or("--match takes e=error")?;
+                settings.matches.push((e.parse()?, err.parse()?));
+            }
             other => return Err(format!("unknown argument {other:?}").into()),
         }
     }
@@ -179,9 +189,16 @@ fn run() -> Result<(), Box<dyn Error>> {
                 })
             );
         }
+        // The target, and the peer's own error at this e when given (`--match e=err`).
+        let mut goals = vec![("target", settings.target)];
+        if let Some(&(_, err)) = settings.matches.iter().find(|(m, _)| *m == e) {
+            goals.push(("match", err));
+        }
         for order in ORDERS {
-            // Rungs n = 8 * 2^(k/2) steps per orbit.
-            let mut found: Option<(f64, Run)> = None;
+            // Rungs n = 8 * 2^(k/2) steps per orbit. Per goal: the first of two consecutive
+            // rungs reaching it.
+            let mut found: Vec<Option<(f64, Run)>> = vec![None; goals.len()];
+            let mut confirmed = vec![false; goals.len()];
             let mut best: Option<(f64, Run)> = None;
             let mut failure = None;
             for k in 0.. {
@@ -201,6 +218,11 @@ fn run() -> Result<(), Box<dyn Error>> {
                         }
                         eprintln!("e = {e}, order {order}, n = {n}: {err}");
                         failure = Some(format!("n = {n}: {err}"));
+                        for (g, f) in found.iter_mut().enumerate() {
+                            if !confirmed[g] {
+                                *f = None;
+                            }
+                        }
                         continue;
                     }
                 };
@@ -211,57 +233,68 @@ fn run() -> Result<(), Box<dyn Error>> {
                     run.newton,
                     run.seconds * 1e3
                 );
-                let reached = run.error <= settings.target;
                 if best.as_ref().is_none_or(|(_, b)| run.error < b.error) {
                     best = Some((n, run));
                 }
-                if reached {
-                    if found.is_some() {
-                        break; // two consecutive rungs reach the target
+                for (g, &(_, goal)) in goals.iter().enumerate() {
+                    if confirmed[g] {
+                        continue;
                     }
-                    found = Some((n, run));
-                } else {
-                    found = None;
+                    if run.error <= goal {
+                        if found[g].is_some() {
+                            confirmed[g] = true;
+                        } else {
+                            found[g] = Some((n, run));
+                        }
+                    } else {
+                        found[g] = None;
+                    }
+                }
+                if confirmed.iter().all(|&c| c) {
+                    break;
                 }
             }
-            let reached = found.is_some();
-            let Some((n, first)) = found.or(best) else {
-                let why = failure.unwrap_or_else(|| "no rung ran".into());
+            for (g, &(label, goal)) in goals.iter().enumerate() {
+                // An unconfirmed find on the last rung counts (the cap stopped the ladder).
+                let reached = found[g].is_some();
+                let Some((n, first)) = found[g].or(best) else {
+                    let why = failure.clone().unwrap_or_else(|| "no rung ran".into());
+                    if settings.json {
+                        println!(
+                            "{}",
+                            json!({"kind": "dth", "goal": label, "e": e, "order": order, "failed": why})
+                        );
+                    } else {
+                        println!("{e:>6} {order:>5} failed: {why}");
+                    }
+                    continue;
+                };
+                let dtau = orbit_s / n;
+                let mut times = vec![first.seconds];
+                for _ in 1..settings.repeats {
+                    times.push(run_once(&z0, &orbit, t_end, dtau, order)?.seconds);
+                }
+                let seconds = median(times);
                 if settings.json {
                     println!(
                         "{}",
-                        json!({"kind": "dth", "e": e, "order": order, "failed": why})
+                        json!({
+                            "kind": "dth", "goal": label, "goal_error": goal, "e": e,
+                            "order": order, "steps_per_orbit": n, "dtau": dtau,
+                            "reached": reached, "error": first.error, "t_end": first.t_end,
+                            "steps": first.steps, "newton": first.newton, "seconds": seconds,
+                        })
                     );
                 } else {
-                    println!("{e:>6} {order:>5} failed: {why}");
+                    println!(
+                        "{e:>6} {order:>5} {n:>7} {dtau:>10.4e} {:>9} {:>9} {:>10.2e}{} {:>10.3} {label}",
+                        first.steps,
+                        first.newton,
+                        first.error,
+                        if reached { " " } else { "*" },
+                        seconds * 1e3
+                    );
                 }
-                continue;
-            };
-            let dtau = orbit_s / n;
-            let mut times = vec![first.seconds];
-            for _ in 1..settings.repeats {
-                times.push(run_once(&z0, &orbit, t_end, dtau, order)?.seconds);
-            }
-            let seconds = median(times);
-            if settings.json {
-                println!(
-                    "{}",
-                    json!({
-                        "kind": "dth", "e": e, "order": order, "steps_per_orbit": n,
-                        "dtau": dtau, "reached": reached, "error": first.error,
-                        "t_end": first.t_end, "steps": first.steps,
-                        "newton": first.newton, "seconds": seconds,
-                    })
-                );
-            } else {
-                println!(
-                    "{e:>6} {order:>5} {n:>7} {dtau:>10.4e} {:>9} {:>9} {:>10.2e}{} {:>10.3}",
-                    first.steps,
-                    first.newton,
-                    first.error,
-                    if reached { " " } else { "*" },
-                    seconds * 1e3
-                );
             }
         }
     }
