@@ -371,3 +371,29 @@ fn kustaanheimo_stiefel_in_space() {
     let error = (z - z0).amax();
     assert!(error < 1e-9, "after 10 orbits: {error:e}");
 }
+
+/// At a few steps per orbit the physical time of a regularized step is far from linear in its
+/// size (it follows `|u|^2 = r`): the run still ends at T, going on by full steps until one
+/// brackets it (was `EndNotReached` at 8 steps per orbit, orders 4 and 8).
+#[test]
+fn coarse_steps_end_at_t() {
+    let k = regularized();
+    for (e, per_orbit, order) in [(0.9, 8.0, 8), (0.9, 11.0, 4), (0.99, 32.0, 8)] {
+        let z0 = pericentre(e);
+        let energy = Kepler::thesis().value(&z0);
+        // Half a u-period of the oscillator (angular frequency sqrt(-E)) is one orbit.
+        let dtau = std::f64::consts::PI / (per_orbit * (-energy).sqrt());
+        let options = DthOptions::new(dtau).unwrap().with_order(order).unwrap();
+        let t_end = 100.0 * period(&z0);
+        let run = solve(&k, start(&z0), Method::Dth(options))
+            .until(t_end)
+            .save_every(usize::MAX)
+            .run()
+            .unwrap();
+        let (_, t) = physical(run.end_state().unwrap());
+        assert!(
+            (t - t_end).abs() <= 1e-12 * t_end,
+            "e = {e}: t = {t}, T = {t_end}"
+        );
+    }
+}

@@ -212,9 +212,11 @@ const DIAGNOSE_STEPS: usize = 3;
 /// near a close approach).
 const MAX_FALLBACK_HALVINGS: u32 = 20;
 
-/// Secant iterations of [`Dth::step_toward`] at most (it converges in three or four: the
-/// midpoint time is nearly linear in the step).
-const MAX_END_ITERATIONS: usize = 16;
+/// Tries of [`Dth::step_toward`]'s last step at most: the secant converges in three or four
+/// where the midpoint time is nearly linear in the step; where it is not (a regularized `K`,
+/// whose physical time per step follows `|u|^2`, at a few steps per orbit) bisection of the
+/// bracket takes over, which halves it per try (from the whole step to roundoff in about 50).
+const MAX_END_ITERATIONS: usize = 64;
 
 /// [`Dth::step_toward`] lands its last midpoint within `END_TOLERANCE eps max(|t_end|, |t_0|)`
 /// of `t_end`: the time sum `tbar_k + h (lambda_k + lambda_{k+1})/2` rounds by about
@@ -717,7 +719,18 @@ where
             record: full,
         };
         let start = (1.0, best.record.t - t_end);
+        // The full step, kept: where it ended short of t_end and no stretched try lands (the
+        // time is far from linear in the step, as for a regularized K whose physical time per
+        // step follows |u|^2), the run goes on from it and the next step brackets t_end.
+        let short = (start.1 < 0.0).then(|| (best.state.clone(), best.record.clone()));
         let landed = self.land(&landing, End::Step, start, &mut best);
+        if let Some((state, record)) =
+            short.filter(|_| landed.is_err() || !accepted(best.gap, best.state.time_noise))
+        {
+            self.s.assign(&state);
+            copy_record(&record, &mut self.work.record);
+            return Ok((record, false));
+        }
         if self.options.robust() && (landed.is_err() || best.gap > tolerance) {
             // DTH's last step could not be scaled onto t_end (a step that changes kind with its
             // size, or a failure): fallback steps of exactly the time left (their time is
@@ -776,7 +789,11 @@ where
     /// (`dtau` for [`End::Step`], the time left for [`End::Fallback`]), from `s = 0` (the
     /// saved start) and `start = (s, F(s))`, `F(s) = tbar(s) - t_end`; every try is offered to
     /// `best`. It stops within the tolerance, or when a try does not halve the distance to
-    /// `t_end` (the noise of `tbar(s)` itself).
+    /// `t_end` and either no bracket of the root is known or the best try is within the time's
+    /// noise (the noise of `tbar(s)` itself). With a bracket (`F(lo) < 0 < F(hi)`, `tbar`
+    /// increasing in `s`), a secant try outside it or one that did not halve the distance is
+    /// replaced by the bracket's midpoint: where `tbar(s)` is far from linear (a regularized
+    /// `K` at a few steps per orbit) the secant alone stalls short of `t_end`.
     fn land(
         &mut self,
         landing: &Landing,
@@ -791,11 +808,18 @@ where
         } = *landing;
         let (mut s_a, mut f_a) = (0.0, t0 - t_end);
         let (mut s_b, mut f_b) = start;
+        // (lo, hi) with F(lo) < 0 < F(hi), once known.
+        let mut bracket = (f_b > 0.0).then_some((0.0, s_b));
+        let mut bisect = false;
         for _ in 0..MAX_END_ITERATIONS {
             if best.gap <= tolerance || f_b == f_a {
                 break;
             }
-            let scale = (s_b - f_b * (s_b - s_a) / (f_b - f_a)).clamp(1e-3, 4.0);
+            let secant = s_b - f_b * (s_b - s_a) / (f_b - f_a);
+            let scale = match bracket {
+                Some((lo, hi)) if bisect || !(lo < secant && secant < hi) => 0.5 * (lo + hi),
+                _ => secant.clamp(1e-3, 4.0),
+            };
             self.restore();
             match how {
                 End::Step => self.composed_step(
@@ -807,10 +831,18 @@ where
             let f = self.work.record.t - t_end;
             let improved = f.abs() <= 0.5 * best.gap;
             best.offer(f, &self.s, &self.work.record);
-            if !improved {
+            bracket = match bracket {
+                Some((_, hi)) if f < 0.0 => Some((scale, hi)),
+                Some((lo, _)) => Some((lo, scale)),
+                None if f > 0.0 => Some((s_b.min(scale), scale)),
+                None => None,
+            };
+            let at_noise = best.gap <= tolerance + 2.0 * best.state.time_noise;
+            if !improved && (bracket.is_none() || at_noise) {
                 // At the noise of tbar(s): converged as far as it can.
                 break;
             }
+            bisect = !improved;
             (s_a, f_a) = (s_b, f_b);
             (s_b, f_b) = (scale, f);
         }
