@@ -103,6 +103,25 @@ where
 /// `Copy` for fixed sizes, as before the dimension became a type.
 impl<const N: usize> Copy for StepRecord<nalgebra::Const<N>> {}
 
+impl<D: Dim> StepRecord<D>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    /// The record of state `z` at time `t`, step `k`, of a fixed-step method (no Newton
+    /// iterations counted, no DTH part).
+    pub fn fixed(k: usize, t: f64, z: OVector<f64, D>) -> Self {
+        StepRecord {
+            k,
+            t,
+            z,
+            kind: StepKind::Fixed,
+            iterations: 0,
+            factorizations: 0,
+            dth: None,
+        }
+    }
+}
+
 /// Receives a run as it happens. Every method has a no-op default, so an observer implements
 /// only what it needs, and a run with `()` stores nothing and calls nothing per step.
 ///

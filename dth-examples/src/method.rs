@@ -12,7 +12,7 @@ use dth::methods::{
     Trapezoidal,
 };
 use dth::nalgebra::{DefaultAllocator, Dim, OVector};
-use dth::observer::{Observer, StepKind, StepRecord};
+use dth::observer::{Observer, StepRecord};
 use dth::Alloc;
 
 use crate::driver::{run_peer, DthRunner, FailureCause, Limit, MethodFailure, Stop};
@@ -34,15 +34,7 @@ pub fn run_exact<D: Dim, S: SceneSystem<D>, O: Observer<D>>(
 where
     DefaultAllocator: Alloc<D>,
 {
-    let mut record = StepRecord {
-        k: 0,
-        t: t0,
-        z: z0.clone(),
-        kind: StepKind::Fixed,
-        iterations: 0,
-        factorizations: 0,
-        dth: None,
-    };
+    let mut record = StepRecord::fixed(0, t0, z0.clone());
     observer.on_step(&record);
     // Every `dt`, and a run until a time lands on it, as the integrators do.
     let landing = match stop.limit {

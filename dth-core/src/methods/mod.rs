@@ -68,7 +68,7 @@ pub use verlet::StormerVerlet;
 /// A run that stopped early: the error, and in `partial` the last good [`RunEnd`] (the
 /// observer has seen it and every state before it). The same type as the DTH stepper's.
 pub use crate::error::RunError;
-use crate::observer::{Observer, StepKind, StepRecord};
+use crate::observer::{Observer, StepRecord};
 use crate::{Error, Hamiltonian};
 
 /// A fixed-step one-step method for the Hamiltonian `H` on `R^D`.
@@ -337,15 +337,7 @@ where
                 partial: end,
             });
         }
-        let record = StepRecord {
-            k: 0,
-            t: t0,
-            z: z0.clone(),
-            kind: StepKind::Fixed,
-            iterations: 0,
-            factorizations: 0,
-            dth: None,
-        };
+        let record = StepRecord::fixed(0, t0, z0.clone());
         observer.on_step(&record);
         Ok(FixedRun {
             next: z0.clone(),
