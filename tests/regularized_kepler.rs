@@ -68,7 +68,22 @@ fn eccentric_orbits_complete_without_breakdown_and_energy_at_roundoff() {
             .save_every(10)
             .run()
             .unwrap();
-        assert_eq!(run.fallback_steps, 0);
+        // Unregularized, the same plain DTH breaks down within the first orbit.
+        let unregularized = RuntimeHamiltonian::new(KEPLER, &[]).unwrap();
+        let z0_dyn = DVector::from_column_slice(z0.as_slice());
+        let err = solve(
+            &unregularized,
+            z0_dyn,
+            Method::Dth(DthOptions::new(0.01).unwrap()),
+        )
+        .until(period(&z0))
+        .run()
+        .unwrap_err();
+        assert!(
+            matches!(err.error, dth::Error::Breakdown { .. }),
+            "{:?}",
+            err.error
+        );
         let worst = worst_energy(&run, energy);
         assert!(worst < 1e-14, "e = {e}: relative energy error {worst:e}");
         // The run ended at the physical time asked (the t coordinate), to the time sum's
@@ -241,7 +256,6 @@ fn the_orbit_does_not_precess_over_1000_orbits() {
             })
             .run()
             .unwrap();
-        assert_eq!(run.fallback_steps, 0);
         assert!(
             worst.0 < 1e-12 && worst.1 < 1e-12,
             "e = {e}: shape {:e}, orientation {:e} over {} steps",
@@ -355,7 +369,6 @@ fn kustaanheimo_stiefel_in_space() {
         })
         .run()
         .unwrap();
-    assert_eq!(run.fallback_steps, 0);
     assert!(worst.0 < 1e-14, "relative energy error {:e}", worst.0);
     assert!(worst.1 < 1e-13, "bilinear invariant {:e}", worst.1);
     let (_, t) = KustaanheimoStiefel::physical(run.end_state().unwrap());
@@ -398,9 +411,10 @@ fn coarse_steps_end_at_t() {
     }
 }
 
-/// A perturbed Kepler problem (a Stark field `f q1`) at e = 0.9: the unregularized robust run
-/// needs fallback steps through the band where its `Psi` changes sign; the regularized one none
-/// (plain DTH), with the perturbed physical energy at roundoff at every midpoint.
+/// A perturbed Kepler problem (a Stark field `f q1`) at e = 0.9: unregularized, plain DTH breaks
+/// down and the robust run needs fallback steps through the band where `Psi` changes sign;
+/// regularized, plain DTH completes, with the perturbed physical energy at roundoff at every
+/// midpoint.
 #[test]
 fn a_stark_perturbed_orbit_needs_no_fallback_when_regularized() {
     let text = "p1^2 + p2^2 - (q1^2 + q2^2)^(-1/2) + f*q1";
@@ -437,10 +451,84 @@ fn a_stark_perturbed_orbit_needs_no_fallback_when_regularized() {
     })
     .run()
     .unwrap();
-    assert_eq!(
-        run.fallback_steps, 0,
-        "against {} unregularized",
-        unregularized.fallback_steps
-    );
+    // (Plain DTH has no fallback steps: that it completed is the claim; unregularized, the
+    // plain run breaks down.)
+    let z0_dyn = DVector::from_column_slice(z0.as_slice());
+    let plain_run = solve(&plain, z0_dyn, Method::Dth(DthOptions::new(0.01).unwrap()))
+        .until(t_end)
+        .run();
+    assert!(matches!(
+        plain_run.map(|_| ()).unwrap_err().error,
+        dth::Error::Breakdown { .. }
+    ));
     assert!(worst < 1e-14, "relative energy error {worst:e}");
+}
+
+proptest! {
+    /// The Kustaanheimo-Stiefel `K` at a regularized state on the bilinear invariant's zero is
+    /// `|u|^2 (H(q, p) + p_t)` of the physical state it maps to, to roundoff of the terms.
+    #[test]
+    fn ks_k_is_the_substituted_h(
+        q1 in -3.0..3.0f64, q2 in -3.0..3.0f64, q3 in -3.0..3.0f64,
+        p1 in -3.0..3.0f64, p2 in -3.0..3.0f64, p3 in -3.0..3.0f64,
+        pt in -2.0..2.0f64,
+    ) {
+        use dth::nalgebra::Vector6;
+        use dth::regularize::KustaanheimoStiefel;
+        let z = Vector6::new(q1, q2, q3, p1, p2, p3);
+        let r = z.fixed_rows::<3>(0).norm();
+        prop_assume!(r > 1e-3);
+        let text = "p1^2 + p2^2 + p3^2 - (q1^2 + q2^2 + q3^2)^(-1/2) + f*q3";
+        let k = RuntimeHamiltonian::kustaanheimo_stiefel(text, &[("f", 0.3)]).unwrap();
+        let w = KustaanheimoStiefel::start(&z, 0.0, -pt).unwrap();
+        let value = Hamiltonian::value(&k, &DVector::from_column_slice(w.as_slice()));
+        let h = p1 * p1 + p2 * p2 + p3 * p3 - 1.0 / r + 0.3 * q3;
+        let s = w.fixed_rows::<4>(0).norm_squared();
+        let terms = s * (p1 * p1 + p2 * p2 + p3 * p3 + 1.0 / r + (0.3 * q3).abs() + pt.abs());
+        prop_assert!((value - s * (h + pt)).abs() <= 64.0 * f64::EPSILON * terms, "{} vs {}", value, s * (h + pt));
+    }
+}
+
+/// A fixed-step peer steps in the fictitious time of a regularized `K`: it is refused an end
+/// time (it could only land on `s`, not on the physical `t`), with the reason.
+#[test]
+fn a_peer_is_refused_an_end_time_on_a_regularized_k() {
+    let k = regularized();
+    let z0 = pericentre(0.9);
+    let err = solve(&k, start(&z0), Method::Midpoint { dt: 0.01 })
+        .until(1.0)
+        .run()
+        .unwrap_err();
+    assert!(
+        matches!(err.error, dth::Error::InvalidOption { name: "dt", reason, .. } if reason.contains("regularized")),
+        "{:?}",
+        err.error
+    );
+    // A number of steps is fine: the peer integrates K as any Hamiltonian.
+    let run = solve(&k, start(&z0), Method::Midpoint { dt: 0.01 })
+        .steps(10)
+        .run()
+        .unwrap();
+    assert_eq!(run.steps, 10);
+}
+
+/// `solve` with a state of the wrong length is the method's `WrongStateLength`, not the
+/// run-time Hamiltonian's panic (the energy errors evaluate H only at a state of its size).
+#[test]
+fn solve_refuses_a_wrong_length_state() {
+    let k = regularized();
+    for method in [
+        Method::Dth(DthOptions::new(0.1).unwrap()),
+        Method::Rk4 { dt: 0.1 },
+    ] {
+        let err = solve(&k, DVector::from_element(4, 0.5), method)
+            .steps(3)
+            .run()
+            .unwrap_err();
+        assert!(
+            matches!(err.error, dth::Error::WrongStateLength { .. }),
+            "{:?}",
+            err.error
+        );
+    }
 }

@@ -305,6 +305,13 @@ fn drive_fixed<D: Dim, H: Hamiltonian<D>, M: OneStepMethod<D, H>, O: Observer<D>
 where
     DefaultAllocator: Alloc<D>,
 {
+    if matches!(plan.end, End::Time(_)) && h.flags().regularized {
+        return Err(Error::InvalidOption {
+            name: "dt",
+            value: dt,
+            reason: "a fixed-step method steps in the fictitious time of a regularized K and cannot land on a physical time: use Method::Dth, or end after .steps(n)",
+        });
+    }
     if matches!(plan.end, End::Time(_)) && dt.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
     {
         return Err(Error::InvalidOption {
@@ -485,13 +492,18 @@ where
     }
 
     /// Keep every `n`-th state (`k = 0, n, 2n, ...`) and the last (default: every state).
+    /// Replaces an earlier [`Solve::save_at`].
     pub fn save_every(mut self, n: usize) -> Self {
         self.save = Save::Every(n);
+        // One saving rule: the last one given (times no longer landed on).
+        self.times.clear();
         self
     }
 
     /// Keep only the states at these times (ascending, not before the start), landing on each
-    /// exactly as at the end. Without [`Solve::until`], the last time is the end.
+    /// exactly as at the end, and the end's (a failed run: the last state reached instead).
+    /// Without [`Solve::until`], the last time is the end. Replaces an earlier
+    /// [`Solve::save_every`].
     pub fn save_at(mut self, times: impl IntoIterator<Item = f64>) -> Self {
         self.save = Save::At;
         self.times = times.into_iter().collect();
@@ -572,7 +584,9 @@ where
             energy,
             mut observer,
         } = self;
-        // H is evaluated only for the energy errors, and not at all without them.
+        // H is evaluated only for the energy errors, and only at a state of its dimension (a
+        // run-time Hamiltonian panics on another; the method reports it as an error).
+        let energy = energy && crate::methods::check_state(h, &z0, "z0").is_ok();
         let energy0 = if energy { h.value(&z0) } else { f64::NAN };
         let energy_error = |z: &OVector<f64, D>| h.value(z) - energy0;
         let mut sink = Sink {
@@ -646,7 +660,14 @@ where
         (None, t0) => t0.unwrap_or(0.0),
     };
     if !t0.is_finite() {
-        return invalid("start_time", t0, "must be finite");
+        return match clock {
+            // The t coordinate of z0.
+            Some(_) => Err(Error::NonFiniteInitialState {
+                index: z0.len() / 2 - 1,
+                value: t0,
+            }),
+            None => invalid("start_time", t0, "must be finite"),
+        };
     }
     if let Save::Every(0) = save {
         return invalid("save_every", 0.0, "must be at least 1");
@@ -670,7 +691,11 @@ where
             return invalid("until", t_end, "must be finite and not before the start")
         }
         End::Time(t_end) if times.last().is_some_and(|&t| t > t_end) => {
-            return invalid("save_at", t_end, "times must not lie after the end");
+            return invalid(
+                "save_at",
+                times.last().copied().unwrap_or(t_end),
+                "times must not lie after the end",
+            );
         }
         End::Steps(_) if !times.is_empty() => {
             return invalid(
@@ -708,8 +733,9 @@ where
     pub k: Vec<usize>,
     /// What produced each saved state ([`StepKind::Fallback`]: a robust-mode fallback step).
     pub kinds: Vec<StepKind>,
-    /// `H(z) - H(z0)` at each saved state (for a time-dependent `H`, of the extended `calH`);
-    /// empty after [`Solve::without_energy_errors`].
+    /// `H(z) - H(z0)` at each saved state (for a time-dependent `H`, of the extended `calH`;
+    /// for a regularized one, of `K`, whose physical energy is `-p_t`); empty after
+    /// [`Solve::without_energy_errors`].
     pub energy_error: Vec<f64>,
     /// `H(z0)` (NaN after [`Solve::without_energy_errors`]).
     pub energy0: f64,

@@ -50,7 +50,6 @@ fn every_method_ends_exactly_at_t() {
             .unwrap();
         let t = run.end_time().unwrap();
         assert!(landed(&method, t, t_end), "{}: ended at {t}", run.method);
-        assert!(run.completed() && run.failure.is_none());
         assert_eq!(run.method, method.name());
         assert_eq!(
             run.len(),

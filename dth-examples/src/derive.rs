@@ -81,6 +81,7 @@ pub enum Regularization {
     /// Levi-Civita, planar.
     LeviCivita,
     /// Kustaanheimo-Stiefel, in space.
+    #[value(alias = "kustaanheimo-stiefel")]
     Ks,
 }
 

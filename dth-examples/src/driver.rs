@@ -102,14 +102,6 @@ impl Stop {
         })
     }
 
-    /// `true` once step `k` at time `t` ends the run.
-    pub fn done(&self, k: usize, t: f64) -> bool {
-        match self.limit {
-            Limit::Steps(n) => k >= n,
-            Limit::Time { t_end, max_steps } => t >= t_end || k >= max_steps,
-        }
-    }
-
     /// The failure of a run that is done at step `k` and time `t` only because the cap
     /// `max_steps` of a [`Limit::Time`] stopped it short of `t_end` (`None` when it reached its
     /// end): the run did not compute what it was asked for, so it failed at step `k + 1`.

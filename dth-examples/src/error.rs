@@ -215,7 +215,8 @@ pub enum FailureCause {
     },
 }
 
-/// A method run's failure after `step - 1` successful steps; the observer has every state up to there.
+/// A method run's failure after `step - 1` successful steps (`step` 0: it failed at its
+/// start, before any state); the observer has every state up to there.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error("step {step}: {cause}")]
 pub struct MethodFailure {

@@ -405,11 +405,7 @@ where
             });
         }
         if let (StepSpec::Fixed { dt }, Limit::Time { t_end, max_steps }) = (m.step, stop.limit) {
-            let steps = stop.fixed_steps(scene.t0, dt);
-            if stop
-                .cut_short(steps, scene.t0 + steps as f64 * dt)
-                .is_some()
-            {
+            if dth::methods::steps_until(scene.t0, t_end, dt) > max_steps {
                 return Err(Error::TooManySteps {
                     method: m.label.clone(),
                     steps: ((t_end - scene.t0) / dt).ceil(),

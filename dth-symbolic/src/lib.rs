@@ -25,8 +25,9 @@
 //! 11. `emit` (feature `emit`): a compiled system as the Rust code `hamiltonian!` emits, so
 //!     the macro and other tools (`dth derive --rust`) produce the same tokens.
 //!
-//! 12. [`regularize`]: a Hamiltonian rewritten in regularizing coordinates (Levi-Civita), then
-//!     compiled as in 9.
+//! 12. [`regularize`]: a Hamiltonian rewritten in regularizing coordinates (Levi-Civita in the
+//!     plane, Kustaanheimo-Stiefel in space), then compiled as in 9; [`solver`]: which Newton
+//!     solver a compiled system's size calls for (the rule `hamiltonian!` and the JIT share).
 //!
 //! [`sources`] (Hamiltonians as text, for tests and benchmarks) stands apart and imports
 //! nothing.

@@ -704,10 +704,8 @@ where
     // A regularization's `t` and `p_t` stay out of the move: `p_t = -E` is the physical
     // energy, constant along the flow (`dp_t/ds = -dK/dt = 0`), and the projection's ulps
     // would random-walk it.
-    let fixed = ham
-        .flags()
-        .regularized
-        .then(|| (z.len() / 2 - 1, z.len() - 1));
+    let flags = ham.flags();
+    let fixed = (flags.regularized && flags.time_dependent).then(|| (z.len() / 2 - 1, z.len() - 1));
     let direction = |i: usize, g: f64| match fixed {
         Some((t, pt)) if i == t || i == pt => 0.0,
         _ => g,

@@ -426,6 +426,7 @@ where
 /// assert_eq!(steps_until(0.0, 1.0, 0.3), 4); // 0.3, 0.6, 0.9, then 0.1
 /// assert_eq!(steps_until(0.0, 1.0, 0.1), 10); // ten steps, the last 1 - 9 * 0.1
 /// assert_eq!(steps_until(2.0, 1.0, 0.1), 0);
+/// assert_eq!(steps_until(100.0, 100.001, 0.001), 1); // not a second step of size 0
 /// ```
 pub fn steps_until(t_a: f64, t_b: f64, dt: f64) -> usize {
     let x = (t_b - t_a) / dt;
@@ -433,12 +434,16 @@ pub fn steps_until(t_a: f64, t_b: f64, dt: f64) -> usize {
         return 0;
     }
     // Saturates at usize::MAX for an astronomically long run (a step cap stops it).
-    let m = x.ceil() as usize;
+    let mut m = x.ceil() as usize;
     if m > 1 && x - (m - 1) as f64 <= 4.0 * f64::EPSILON * x {
-        m - 1
-    } else {
-        m
+        m -= 1;
     }
+    // The clock `t_a + (m - 1) dt` rounds relative to `t_a`: a step ending at or past `t_b`
+    // by that rounding would leave a last step of zero (or negative) size.
+    while m > 1 && t_a + (m - 1) as f64 * dt >= t_b {
+        m -= 1;
+    }
+    m
 }
 
 /// Fills in the step index of a method error.
