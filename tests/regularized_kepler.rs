@@ -451,8 +451,10 @@ fn a_stark_perturbed_orbit_needs_no_fallback_when_regularized() {
     })
     .run()
     .unwrap();
-    // (Plain DTH has no fallback steps: that it completed is the claim; unregularized, the
-    // plain run breaks down.)
+    // It reached T (plain DTH has no fallback steps: that it completed is the claim), where,
+    // unregularized, the plain run breaks down.
+    let (_, t) = physical(run.end_state().unwrap());
+    assert!((t - t_end).abs() <= 1e-12 * t_end);
     let z0_dyn = DVector::from_column_slice(z0.as_slice());
     let plain_run = solve(&plain, z0_dyn, Method::Dth(DthOptions::new(0.01).unwrap()))
         .until(t_end)
