@@ -85,7 +85,7 @@ pub enum Regularization {
     Ks,
 }
 
-/// [`derive`] of the regularized `K` of `source`: what the engine compiles for
+/// [`derive()`] of the regularized `K` of `source`: what the engine compiles for
 /// `#[regularize(..)]` (the radius cancelled, `K`'s gradient, Hessian and Psi).
 ///
 /// ```

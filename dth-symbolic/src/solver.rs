@@ -11,10 +11,10 @@
 /// the `D/2 x D/2` Schur complement (`dth_core`'s dense Newton matrix), 1.6-1.8x faster than
 /// the structured one at `D = 8` and within 5% at `D = 16` (structured ahead), 2.5x slower at
 /// `D = 32`.
-const STRUCTURED_MIN_DIM: usize = 8;
+pub const STRUCTURED_MIN_DIM: usize = 8;
 
 /// [`STRUCTURED_MIN_DIM`] for separable types.
-const STRUCTURED_MIN_DIM_SEPARABLE: usize = 16;
+pub const STRUCTURED_MIN_DIM_SEPARABLE: usize = 16;
 
 /// Whether a generated type of dimension `d` whose Hessian's upper triangle has `nnz` nonzero
 /// entries, `diagonal` of them on the diagonal, takes the structured Newton path: from
