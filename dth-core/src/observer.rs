@@ -120,6 +120,27 @@ where
             dth: None,
         }
     }
+
+    /// `self = from`, into `self`'s storage: no allocation when both have the same
+    /// dimension and both or neither carry a DTH part (the derived `clone_from` allocates
+    /// anew), so an observer or a stepper can keep the last record per step for free.
+    pub(crate) fn copy_from(&mut self, from: &StepRecord<D>) {
+        self.k = from.k;
+        self.t = from.t;
+        self.z.copy_from(&from.z);
+        self.kind = from.kind;
+        self.iterations = from.iterations;
+        self.factorizations = from.factorizations;
+        match (&mut self.dth, &from.dth) {
+            (Some(t), Some(f)) => {
+                t.lambda = f.lambda;
+                t.vertex.copy_from(&f.vertex);
+                t.vertex_time = f.vertex_time;
+                t.psi = f.psi;
+            }
+            (t, f) => t.clone_from(f),
+        }
+    }
 }
 
 /// Receives a run as it happens. Every method has a no-op default, so an observer implements

@@ -932,7 +932,7 @@ where
         }
         match &mut self.last {
             Some((last, was_saved)) => {
-                last.clone_from(r);
+                last.copy_from(r);
                 *was_saved = saved;
             }
             None => self.last = Some((r.clone(), saved)),

@@ -260,7 +260,7 @@ where
         if f.abs() < self.gap {
             self.gap = f.abs();
             self.state.assign(state);
-            copy_record(record, &mut self.record);
+            self.record.copy_from(record);
         }
     }
 }
@@ -734,7 +734,7 @@ where
             short.filter(|_| landed.is_err() || !accepted(best.gap, best.state.time_noise))
         {
             self.s.assign(&state);
-            copy_record(&record, &mut self.work.record);
+            self.work.record.copy_from(&record);
             return Ok((record, false));
         }
         if self.options.robust() && (landed.is_err() || best.gap > tolerance) {
@@ -787,7 +787,7 @@ where
             best_record.kind = StepKind::Shortened;
             self.s.step_kind = StepKind::Shortened;
         }
-        copy_record(&best_record, &mut self.work.record);
+        self.work.record.copy_from(&best_record);
         Ok((best_record, true))
     }
 
@@ -860,7 +860,7 @@ where
     /// [`Dth::composed_step`] saved.
     fn restore(&mut self) {
         self.s.assign(&self.work.saved);
-        copy_record(&self.work.saved_record, &mut self.work.record);
+        self.work.record.copy_from(&self.work.saved_record);
     }
 
     /// One composed step of size `dtau`: the sub-steps `gamma_i dtau` in turn (`gammas` is
@@ -873,7 +873,7 @@ where
     /// the start of the step.
     fn composed_step(&mut self, gammas: &[f64], dtau: f64) -> Result<(), Error> {
         self.work.saved.assign(&self.s);
-        copy_record(&self.work.record, &mut self.work.saved_record);
+        self.work.saved_record.copy_from(&self.work.record);
         let step = self.s.k + 1;
         let mut spent = Spent::default();
         let result = match self.s.mode {
@@ -1490,29 +1490,6 @@ where
             vertex_time: 0.0,
             psi: 0.0,
         }),
-    }
-}
-
-/// `to = from`, into `to`'s storage (no allocation when both carry a DTH part, as the
-/// stepper's records always do).
-fn copy_record<D: Dim>(from: &StepRecord<D>, to: &mut StepRecord<D>)
-where
-    DefaultAllocator: Alloc<D>,
-{
-    to.k = from.k;
-    to.t = from.t;
-    to.z.copy_from(&from.z);
-    to.kind = from.kind;
-    to.iterations = from.iterations;
-    to.factorizations = from.factorizations;
-    match (&mut to.dth, &from.dth) {
-        (Some(t), Some(f)) => {
-            t.lambda = f.lambda;
-            t.vertex.copy_from(&f.vertex);
-            t.vertex_time = f.vertex_time;
-            t.psi = f.psi;
-        }
-        (t, f) => t.clone_from(f),
     }
 }
 
