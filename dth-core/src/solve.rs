@@ -364,7 +364,7 @@ where
                 loop {
                     plan.check(dth.k() + 1, dth.tbar())
                         .map_err(|e| with_time(e, dth.tbar()))?;
-                    let (_, reached) = dth.step_toward(target)?;
+                    let reached = dth.advance_toward(target)?;
                     dth.run(0, sink)?;
                     if reached {
                         break;

@@ -680,6 +680,17 @@ where
     /// midpoint time; [`Error::EndNotReached`] when no try of the last step landed on
     /// `t_end`; otherwise as [`Dth::step`]. The state is then that of the last accepted step.
     pub fn step_toward(&mut self, t_end: f64) -> Result<(StepRecord<D>, bool), Error> {
+        let reached = self.advance_toward(t_end)?;
+        Ok((self.work.record.clone(), reached))
+    }
+
+    /// [`Dth::step_toward`] without the copy of the record (read it with
+    /// [`Dth::record_ref`]): `true` once `t_end` is reached. What a driver that steps to a time
+    /// calls per step, without allocating for a `Dyn` state.
+    ///
+    /// # Errors
+    /// As [`Dth::step_toward`].
+    pub fn advance_toward(&mut self, t_end: f64) -> Result<bool, Error> {
         let t0 = self.s.tbar;
         if !t_end.is_finite() {
             return Err(Error::InvalidOption {
@@ -695,7 +706,7 @@ where
         let accepted = |gap: f64, time_noise: f64| gap <= tolerance + 2.0 * time_noise;
         // Already there, as a landing would accept it.
         if accepted((t0 - t_end).abs(), self.s.time_noise) {
-            return Ok((self.work.record.clone(), true));
+            return Ok(true);
         }
         if t_end < t0 {
             return Err(Error::InvalidOption {
@@ -707,10 +718,9 @@ where
         let dtau = self.options.dtau();
         // (It keeps the start, state and record, in `work.saved`, `work.saved_record`.)
         self.composed_step(self.options.composition().coefficients(), dtau)?;
-        let full = self.work.record.clone();
-        let advance = full.t - t0;
-        if full.t < t_end - 0.5 * advance {
-            return Ok((full, false));
+        let full_t = self.work.record.t;
+        if full_t < t_end - 0.5 * (full_t - t0) {
+            return Ok(false);
         }
         // The last step: secant iteration on the scale s of dtau, F(s) = tbar(s) - t_end, from
         // F(0) = t0 - t_end < 0 and F(1) (just computed).
@@ -720,9 +730,9 @@ where
             tolerance,
         };
         let mut best = Best {
-            gap: (full.t - t_end).abs(),
+            gap: (full_t - t_end).abs(),
             state: self.s.clone(),
-            record: full,
+            record: self.work.record.clone(),
         };
         let start = (1.0, best.record.t - t_end);
         // The full step, kept: where it ended short of t_end and no stretched try lands (the
@@ -735,7 +745,7 @@ where
         {
             self.s.assign(&state);
             self.work.record.copy_from(&record);
-            return Ok((record, false));
+            return Ok(false);
         }
         if self.options.robust() && (landed.is_err() || best.gap > tolerance) {
             // DTH's last step could not be scaled onto t_end (a step that changes kind with its
@@ -763,7 +773,7 @@ where
                     2.0
                 };
                 self.fallback_from_start(left / share, true)?;
-                return Ok((self.work.record.clone(), false));
+                return Ok(false);
             }
         } else {
             landed?;
@@ -788,7 +798,7 @@ where
             self.s.step_kind = StepKind::Shortened;
         }
         self.work.record.copy_from(&best_record);
-        Ok((best_record, true))
+        Ok(true)
     }
 
     /// The secant iteration of [`Dth::step_toward`]'s last step on the scale `s` of its size
