@@ -25,6 +25,22 @@ use nalgebra::{SVector, Vector4, Vector6};
 
 use crate::Error;
 
+/// A start's checks: every value (the state's components, then `t` and the energy) finite,
+/// and `q` away from the centre (its length `r`), where the momenta have no regularized image.
+fn check_start(values: &[f64], r: f64) -> Result<(), Error> {
+    if let Some((index, &value)) = values.iter().enumerate().find(|(_, v)| !v.is_finite()) {
+        return Err(Error::NonFiniteInitialState { index, value });
+    }
+    if r == 0.0 {
+        return Err(Error::InvalidOption {
+            name: "q",
+            value: 0.0,
+            reason: "a regularized start needs q away from the centre (q = 0 is the collision)",
+        });
+    }
+    Ok(())
+}
+
 /// The Levi-Civita map of the plane (see the [module docs](self)).
 #[derive(Clone, Copy, Debug)]
 pub struct LeviCivita;
@@ -39,19 +55,9 @@ impl LeviCivita {
     /// [`Error::InvalidOption`] (`q`) at the centre `q = 0`, where the momenta have no
     /// regularized image.
     pub fn start(z: &Vector4<f64>, t: f64, energy: f64) -> Result<Vector6<f64>, Error> {
-        let all = [z[0], z[1], z[2], z[3], t, energy];
-        if let Some((index, &value)) = all.iter().enumerate().find(|(_, v)| !v.is_finite()) {
-            return Err(Error::NonFiniteInitialState { index, value });
-        }
         let (q1, q2) = (z[0], z[1]);
         let r = q1.hypot(q2);
-        if r == 0.0 {
-            return Err(Error::InvalidOption {
-                name: "q",
-                value: 0.0,
-                reason: "a regularized start needs q away from the centre (q = 0 is the collision)",
-            });
-        }
+        check_start(&[z[0], z[1], z[2], z[3], t, energy], r)?;
         // u^2 = q as complex numbers; the larger of |u1|, |u2| from a sum without cancellation.
         let (u1, u2) = if q1 >= 0.0 {
             let u1 = (0.5 * (r + q1)).sqrt();
@@ -124,19 +130,9 @@ impl KustaanheimoStiefel {
     /// # Errors
     /// As [`LeviCivita::start`].
     pub fn start(z: &Vector6<f64>, t: f64, energy: f64) -> Result<SVector<f64, 10>, Error> {
-        let all = [z[0], z[1], z[2], z[3], z[4], z[5], t, energy];
-        if let Some((index, &value)) = all.iter().enumerate().find(|(_, v)| !v.is_finite()) {
-            return Err(Error::NonFiniteInitialState { index, value });
-        }
         let (q1, q2, q3) = (z[0], z[1], z[2]);
         let r = q1.hypot(q2).hypot(q3);
-        if r == 0.0 {
-            return Err(Error::InvalidOption {
-                name: "q",
-                value: 0.0,
-                reason: "a regularized start needs q away from the centre (q = 0 is the collision)",
-            });
-        }
+        check_start(&[z[0], z[1], z[2], z[3], z[4], z[5], t, energy], r)?;
         let u = if q1 >= 0.0 {
             let u1 = (0.5 * (r + q1)).sqrt();
             [u1, q2 / (2.0 * u1), q3 / (2.0 * u1), 0.0]
