@@ -1,0 +1,40 @@
+"""DTH: Discrete-Time Hamiltonian dynamics from Python.
+
+Write a Hamiltonian as text, get its exact derivatives compiled to machine code, and
+integrate it with DTH (energy conserved to roundoff at every midpoint) or one of its peers,
+numpy arrays in and out. The whole integration runs in Rust: no Python per step.
+
+>>> import dth
+>>> kepler = dth.systems.kepler()            # H = (p1^2 + p2^2)/(2m) - k/|q|, m = 1/2, k = 1
+>>> s = dth.integrate(kepler, [0.5, 0.0, 0.0, 1.2], dtau=0.06277, steps=1000)
+>>> s.z.shape
+(1001, 4)
+>>> bool(abs(s.energy_error).max() < 1e-14)
+True
+
+Contents: `Hamiltonian` (text -> compiled H, gradient, Hessian, Psi), `integrate` (one
+call, every method), `Solution` (its result), `systems` (the built-in systems as texts),
+`HamiltonianError` (a `ValueError` with `.line` and `.column`) and `IntegrationError`.
+"""
+
+from ._dth import (
+    METHODS,
+    Hamiltonian,
+    HamiltonianError,
+    IntegrationError,
+    Solution,
+    __version__,
+    integrate,
+)
+from . import systems
+
+__all__ = [
+    "METHODS",
+    "Hamiltonian",
+    "HamiltonianError",
+    "IntegrationError",
+    "Solution",
+    "__version__",
+    "integrate",
+    "systems",
+]

@@ -1,0 +1,210 @@
+//! `dth.Hamiltonian`: a Hamiltonian read as text (the `hamiltonian!` grammar: `q1..qn`,
+//! `p1..pn`, `t`, parameters, indexed sums) and compiled to machine code when built, with its
+//! exact derivatives.
+
+use std::collections::BTreeMap;
+
+use numpy::ndarray::Array2;
+use numpy::{IntoPyArray, PyArray1, PyArray2};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+use dth::runtime::{Backend, RuntimeHamiltonian};
+
+use crate::errors::hamiltonian_error;
+use crate::state;
+
+/// An index array.
+type Indices<'py> = Bound<'py, PyArray1<usize>>;
+
+/// A Hamiltonian H(q, p) (or H(q, p, t)) read from text, its value, gradient, Hessian and
+/// Psi = (J grad H)^T Hess H (J grad H) derived exactly and compiled when it is built.
+///
+/// Hamiltonian(text, params=None)
+///
+/// `text` uses the grammar of the Rust macro `hamiltonian!`: coordinates `q1..qn`, momenta
+/// `p1..pn`, the time `t`, named parameters, `+ - * / ^`, `sqrt exp ln sin cos ...`, and
+/// indexed sums `sum(i = 1..N, ...)` with a `where` clause. `params` maps each parameter
+/// the text names to its value. A text that does not compile raises `HamiltonianError`
+/// (a `ValueError`) with the `line` and `column` of the offending token.
+///
+/// >>> import dth
+/// >>> h = dth.Hamiltonian("(p1^2 + p2^2)/(2*m) - k*(q1^2 + q2^2)^(-1/2)", params={"m": 0.5, "k": 1.0})
+/// >>> h.dim
+/// 4
+/// >>> h.value([0.5, 0.0, 0.0, 1.2])
+/// -0.56
+#[pyclass(module = "dth", name = "Hamiltonian")]
+pub struct Hamiltonian {
+    pub(crate) h: RuntimeHamiltonian,
+    text: String,
+}
+
+impl Hamiltonian {
+    /// The state argument `z` as a vector of this Hamiltonian's dimension.
+    fn state(&self, z: &Bound<'_, PyAny>) -> PyResult<Vec<f64>> {
+        state::read(z, "z", self.h.dimension())
+    }
+
+    /// An evaluation error (a non-finite value, a state outside the domain) as `ValueError`.
+    fn evaluation(e: dth::runtime::RuntimeError) -> PyErr {
+        PyValueError::new_err(e.to_string())
+    }
+}
+
+#[pymethods]
+impl Hamiltonian {
+    #[new]
+    #[pyo3(signature = (text, params = None))]
+    fn new(py: Python<'_>, text: &str, params: Option<BTreeMap<String, f64>>) -> PyResult<Self> {
+        let params = params.unwrap_or_default();
+        let pairs: Vec<(&str, f64)> = params.iter().map(|(k, v)| (k.as_str(), *v)).collect();
+        // Compiling a large lattice takes a while: without the GIL.
+        let built = py.detach(|| RuntimeHamiltonian::new(text, &pairs));
+        let h = built.map_err(|e| hamiltonian_error(py, text, &e))?;
+        Ok(Hamiltonian {
+            h,
+            text: text.to_string(),
+        })
+    }
+
+    /// The dimension D = 2n of the state z = (q1..qn, p1..pn).
+    #[getter]
+    fn dim(&self) -> usize {
+        self.h.dimension()
+    }
+
+    /// The text it was built from.
+    #[getter]
+    fn text(&self) -> &str {
+        &self.text
+    }
+
+    /// What the engine found: `separable` (H = T(p) + V(q)), `time_dependent` (uses `t`),
+    /// `regularized`, `psi_identically_zero` (DTH's Psi vanishes everywhere, so DTH cannot
+    /// run), `structured_newton` (Newton uses the Hessian's sparsity), and `backend`
+    /// ("jit" or "interpreter").
+    #[getter]
+    fn flags<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let d = PyDict::new(py);
+        d.set_item("separable", self.h.separable())?;
+        d.set_item("time_dependent", self.h.time_dependent())?;
+        d.set_item("regularized", self.h.regularized())?;
+        d.set_item("psi_identically_zero", self.h.psi_identically_zero())?;
+        d.set_item("structured_newton", self.h.structured_newton())?;
+        let backend = match self.h.backend() {
+            Backend::Jit => "jit",
+            _ => "interpreter",
+        };
+        d.set_item("backend", backend)?;
+        Ok(d)
+    }
+
+    /// The parameters and their values, as a new dict (change one with `set_parameter`).
+    #[getter]
+    fn params<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let d = PyDict::new(py);
+        for (name, value) in self.h.parameters() {
+            d.set_item(name, value)?;
+        }
+        Ok(d)
+    }
+
+    /// The engine's warnings about the text (a term that cancels, a sum that does not loop).
+    #[getter]
+    fn warnings(&self) -> Vec<String> {
+        self.h.warnings().iter().map(|w| w.to_string()).collect()
+    }
+
+    /// Sets parameter `name` to `value` (no recompilation). Raises `HamiltonianError` for a
+    /// name the text does not use or a value that is not finite.
+    fn set_parameter(&mut self, py: Python<'_>, name: &str, value: f64) -> PyResult<()> {
+        self.h
+            .set_parameter(name, value)
+            .map_err(|e| hamiltonian_error(py, &self.text, &e))
+    }
+
+    /// H(z).
+    fn value(&self, z: &Bound<'_, PyAny>) -> PyResult<f64> {
+        let z = self.state(z)?;
+        self.h.value_slice(&z).map_err(Self::evaluation)
+    }
+
+    /// The gradient dH/dz at z, an array of shape (D,).
+    fn gradient<'py>(
+        &self,
+        py: Python<'py>,
+        z: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let z = self.state(z)?;
+        let mut g = vec![0.0; z.len()];
+        self.h
+            .gradient_slice(&z, &mut g)
+            .map_err(Self::evaluation)?;
+        Ok(g.into_pyarray(py))
+    }
+
+    /// The Hessian d2H/dz2 at z, a dense array of shape (D, D) (see `hessian_pattern` for its
+    /// nonzeros).
+    fn hessian<'py>(
+        &self,
+        py: Python<'py>,
+        z: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let z = self.state(z)?;
+        let d = z.len();
+        let mut m = vec![0.0; d * d];
+        self.h.hessian_slice(&z, &mut m).map_err(Self::evaluation)?;
+        // Symmetric, so the storage order does not matter.
+        let array =
+            Array2::from_shape_vec((d, d), m).map_err(|e| PyValueError::new_err(e.to_string()))?;
+        Ok(array.into_pyarray(py))
+    }
+
+    /// The Hessian's structural nonzeros as `(rows, cols)`, two int arrays over the upper
+    /// triangle and diagonal (i <= j), or None when the engine gives no pattern (a small
+    /// system, treated as dense).
+    fn hessian_pattern<'py>(&self, py: Python<'py>) -> Option<(Indices<'py>, Indices<'py>)> {
+        let pattern = self.h.hessian_pattern()?;
+        let rows: Vec<usize> = pattern.iter().map(|&(i, _)| i).collect();
+        let cols: Vec<usize> = pattern.iter().map(|&(_, j)| j).collect();
+        Some((rows.into_pyarray(py), cols.into_pyarray(py)))
+    }
+
+    /// Psi(z) = (J grad H)^T Hess H (J grad H): DTH needs it to keep its sign along an orbit.
+    fn psi(&self, z: &Bound<'_, PyAny>) -> PyResult<f64> {
+        let z = self.state(z)?;
+        self.h.psi_slice(&z).map_err(Self::evaluation)
+    }
+
+    /// What the engine derives from the text, as the `dth derive` command prints it: the
+    /// simplified H, its flags, gradient, Hessian and Psi.
+    fn derive(&self) -> PyResult<String> {
+        let names: Vec<String> = self.h.parameters().map(|(n, _)| n.to_string()).collect();
+        let names: Vec<&str> = names.iter().map(String::as_str).collect();
+        dth_examples::derive::derive(&self.text, &names).map_err(|e| match e {
+            dth_examples::Error::Hamiltonian { .. } => {
+                crate::errors::HamiltonianError::new_err(e.to_string())
+            }
+            other => pyo3::exceptions::PyRuntimeError::new_err(other.to_string()),
+        })
+    }
+
+    fn __repr__(&self) -> String {
+        let params: Vec<String> = self
+            .h
+            .parameters()
+            .map(|(n, v)| format!("{n:?}: {v:?}"))
+            .collect();
+        if params.is_empty() {
+            format!("Hamiltonian({:?})", self.text)
+        } else {
+            format!(
+                "Hamiltonian({:?}, params={{{}}})",
+                self.text,
+                params.join(", ")
+            )
+        }
+    }
+}

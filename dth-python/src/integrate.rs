@@ -1,0 +1,298 @@
+//! `dth.integrate`: one call runs a whole integration in Rust (`dth::solve`), without the GIL
+//! and interruptible by Ctrl-C, and returns a [`Solution`].
+
+use pyo3::exceptions::{PyTypeError, PyValueError};
+use pyo3::prelude::*;
+
+use dth::nalgebra::DVector;
+use dth::{solve, DthOptions, Method};
+
+use crate::errors::{option_error, IntegrationError};
+use crate::hamiltonian::Hamiltonian;
+use crate::solution::Solution;
+
+/// The method names `integrate` accepts.
+pub const METHODS: [&str; 7] = [
+    "dth",
+    "midpoint",
+    "gauss_legendre2",
+    "stormer_verlet",
+    "rk4",
+    "trapezoidal",
+    "discrete_gradient",
+];
+
+/// What a run is asked to do, read from the keyword arguments.
+struct Request {
+    method: Method,
+    end: End,
+    t0: f64,
+    every: usize,
+    save_at: Option<Vec<f64>>,
+    max_steps: Option<usize>,
+    energy_errors: bool,
+}
+
+enum End {
+    Steps(usize),
+    Time(f64),
+}
+
+/// The initial state: `z0` of `h`'s dimension, or for a time-dependent `h` also the
+/// physical `(q, p)`, extended with `t0` and `p_t = -H(q, p, t0)` so that `calH = 0`.
+fn start(h: &Hamiltonian, z0: &Bound<'_, PyAny>, t0: f64) -> PyResult<DVector<f64>> {
+    let dim = h.h.dimension();
+    let extended = h.h.time_dependent() && !h.h.regularized();
+    if !extended {
+        return Ok(DVector::from_vec(crate::state::read(z0, "z0", dim)?));
+    }
+    let values = crate::state::values(z0, "z0", dim)?;
+    if values.len() == dim {
+        return Ok(DVector::from_vec(values));
+    }
+    if values.len() + 2 != dim {
+        return Err(PyValueError::new_err(format!(
+            "z0 has length {}, expected {} (q, p: extended with t0 and p_t = -H) or {dim} \
+             (q1..qn, t, p1..pn, p_t)",
+            values.len(),
+            dim - 2
+        )));
+    }
+    let z = dth::dth::lift(&DVector::from_vec(values), t0);
+    dth::dth::set_momentum_of_time(&h.h, z).map_err(|e| PyValueError::new_err(e.to_string()))
+}
+
+/// DTH's options, or an error naming the peer arguments given to DTH.
+fn dth_options(
+    dtau: Option<f64>,
+    dt: Option<f64>,
+    order: Option<u32>,
+    robust: Option<bool>,
+    lambda0: Option<f64>,
+) -> PyResult<Method> {
+    if dt.is_some() {
+        return Err(PyTypeError::new_err(
+            "dt is the step of the fixed-step methods; DTH takes dtau (its step in the \
+             discrete time tau: the physical step is lambda * dtau)",
+        ));
+    }
+    let dtau = dtau.ok_or_else(|| PyTypeError::new_err("method=\"dth\" needs dtau=..."))?;
+    let mut options = DthOptions::new(dtau).map_err(|e| option_error(&e))?;
+    if let Some(order) = order {
+        options = options.with_order(order).map_err(|e| option_error(&e))?;
+    }
+    if let Some(robust) = robust {
+        options = options.with_robust(robust);
+    }
+    if let Some(lambda0) = lambda0 {
+        options = options
+            .with_lambda0(lambda0)
+            .map_err(|e| option_error(&e))?;
+    }
+    Ok(Method::Dth(options))
+}
+
+/// A fixed-step peer, or an error naming the DTH arguments given to it.
+fn peer(
+    name: &str,
+    dt: Option<f64>,
+    dtau: Option<f64>,
+    order: Option<u32>,
+    robust: Option<bool>,
+    lambda0: Option<f64>,
+) -> PyResult<Method> {
+    let dth_only = [
+        ("dtau", dtau.is_some()),
+        ("order", order.is_some()),
+        ("robust", robust.is_some()),
+        ("lambda0", lambda0.is_some()),
+    ];
+    if let Some((arg, _)) = dth_only.iter().find(|(_, given)| *given) {
+        return Err(PyTypeError::new_err(format!(
+            "{arg} is an option of method=\"dth\"; method={name:?} takes dt"
+        )));
+    }
+    let dt = dt.ok_or_else(|| PyTypeError::new_err(format!("method={name:?} needs dt=...")))?;
+    Ok(match name {
+        "midpoint" => Method::Midpoint { dt },
+        "gauss_legendre2" => Method::GaussLegendre2 { dt },
+        "stormer_verlet" => Method::StormerVerlet { dt },
+        "rk4" => Method::Rk4 { dt },
+        "trapezoidal" => Method::Trapezoidal { dt },
+        "discrete_gradient" => Method::DiscreteGradient { dt },
+        _ => return Err(unknown_method(name)),
+    })
+}
+
+/// `method=` names no method: the list, and the closest name.
+fn unknown_method(name: &str) -> PyErr {
+    let closest = METHODS
+        .iter()
+        .map(|m| (strsim::levenshtein(name, m), *m))
+        .min()
+        .filter(|(d, _)| *d <= 3)
+        .map(|(_, m)| format!(" (did you mean {m:?}?)"))
+        .unwrap_or_default();
+    PyValueError::new_err(format!(
+        "unknown method {name:?}{closest}: expected one of {}",
+        METHODS.join(", ")
+    ))
+}
+
+/// Integrates `h` from `z0` with `method`, saving every `every`-th state, and returns a
+/// `Solution` (numpy arrays of the saved times and states, the step kinds, energy errors,
+/// and for DTH its vertices, multipliers and Psi).
+///
+/// integrate(h, z0, method="dth", *, dtau=None, dt=None, order=None, robust=None,
+///           lambda0=None, steps=None, t_end=None, t0=0.0, every=None, save_at=None,
+///           max_steps=None, energy_errors=True, raise_on_failure=False)
+///
+/// Arguments:
+///   h: a `dth.Hamiltonian`.
+///   z0: the initial state (q1..qn, p1..pn), any 1-D sequence of D numbers. For DTH it is
+///     the first midpoint zbar_0, and every saved midpoint keeps H(zbar_0) to roundoff. For
+///     a time-dependent H the state is extended, z = (q1..qn, t, p1..pn, p_t): give either
+///     the physical (q, p), extended with t0 and p_t = -H(q, p, t0), or the whole z.
+///   method: "dth" (Discrete-Time Hamiltonian dynamics) or a fixed-step peer:
+///     "midpoint", "gauss_legendre2", "stormer_verlet" (separable H only), "rk4",
+///     "trapezoidal", "discrete_gradient" (Gonzalez's, energy-conserving).
+///   dtau: DTH's step in the discrete time tau (the physical step is lambda * dtau).
+///   dt: a peer's physical step.
+///   order: DTH's order, 2 (default), 4, 6 or 8 (a composition of DTH steps).
+///   robust: DTH's robust mode: where Psi changes sign and DTH has no root, take an
+///     energy-conserving discrete-gradient step instead (counted in `fallback_steps`).
+///   lambda0: DTH's first guess of lambda = dt/dtau (default 1).
+///   steps: run this many steps; or
+///   t_end: run until this physical time, ending exactly on it (a shortened last step).
+///   t0: the initial time (default 0).
+///   every: save every `every`-th state (default 1; the last one is always saved).
+///   save_at: ascending times to land on exactly; only the states there and at t_end are
+///     saved (with `t_end`; not with `every`).
+///   max_steps: fail with "StepCap" after this many steps.
+///   energy_errors: compute H - H(z0) at the saved states (default True).
+///   raise_on_failure: raise `IntegrationError` (with the partial solution as `.solution`)
+///     instead of returning a Solution whose `failure` says what stopped it.
+///
+/// Ctrl-C stops a run within a fraction of a second with KeyboardInterrupt.
+///
+/// >>> import dth
+/// >>> h = dth.Hamiltonian("p1^2/2 + q1^2/2")
+/// >>> s = dth.integrate(h, [1.0, 0.0], dtau=0.1, t_end=10.0)
+/// >>> s.t[-1]
+/// 10.0
+/// >>> bool(abs(s.energy_error).max() < 1e-15)
+/// True
+#[pyfunction]
+#[pyo3(signature = (
+    h, z0, method = "dth", *, dtau = None, dt = None, order = None, robust = None,
+    lambda0 = None, steps = None, t_end = None, t0 = 0.0, every = None, save_at = None,
+    max_steps = None, energy_errors = true, raise_on_failure = false
+))]
+#[allow(clippy::too_many_arguments)]
+pub fn integrate(
+    py: Python<'_>,
+    h: PyRef<'_, Hamiltonian>,
+    z0: &Bound<'_, PyAny>,
+    method: &str,
+    dtau: Option<f64>,
+    dt: Option<f64>,
+    order: Option<u32>,
+    robust: Option<bool>,
+    lambda0: Option<f64>,
+    steps: Option<usize>,
+    t_end: Option<f64>,
+    t0: f64,
+    every: Option<usize>,
+    save_at: Option<Vec<f64>>,
+    max_steps: Option<usize>,
+    energy_errors: bool,
+    raise_on_failure: bool,
+) -> PyResult<Solution> {
+    let dim = h.h.dimension();
+    let z0 = start(&h, z0, t0)?;
+    let method = match method {
+        "dth" => dth_options(dtau, dt, order, robust, lambda0)?,
+        name if METHODS.contains(&name) => peer(name, dt, dtau, order, robust, lambda0)?,
+        name => return Err(unknown_method(name)),
+    };
+    let end = match (steps, t_end) {
+        (Some(n), None) => End::Steps(n),
+        (None, Some(t)) => End::Time(t),
+        _ => {
+            return Err(PyTypeError::new_err(
+                "give exactly one of steps=... (a number of steps) and t_end=... (a time)",
+            ))
+        }
+    };
+    if every == Some(0) {
+        return Err(PyValueError::new_err("every must be at least 1"));
+    }
+    if save_at.is_some() && !matches!(end, End::Time(_)) {
+        return Err(PyTypeError::new_err("save_at=... needs t_end=..."));
+    }
+    if save_at.is_some() && every.is_some() {
+        return Err(PyTypeError::new_err(
+            "give every or save_at, not both: save_at keeps only the states at its times",
+        ));
+    }
+    let every = every.unwrap_or(1);
+    let request = Request {
+        method,
+        end,
+        t0,
+        every,
+        save_at,
+        max_steps,
+        energy_errors,
+    };
+    let hamiltonian = &h.h;
+    let result = crate::interrupt::run(py, |flag| {
+        let mut run = solve(hamiltonian, z0, request.method)
+            .start_time(request.t0)
+            .interrupt(flag);
+        run = match request.end {
+            End::Steps(n) => run.steps(n),
+            End::Time(t) => run.until(t),
+        };
+        run = match request.save_at {
+            Some(times) => run.save_at(times),
+            None => run.save_every(request.every),
+        };
+        if let Some(n) = request.max_steps {
+            run = run.max_steps(n);
+        }
+        if !request.energy_errors {
+            run = run.without_energy_errors();
+        }
+        // Boxed: the partial solution makes the error large, and it crosses a thread.
+        run.run().map_err(Box::new)
+    })?;
+    match result {
+        Ok(solution) => Ok(Solution::new(py, solution, dim)),
+        Err(failed) => {
+            let error = failed.error;
+            // Refused before the first step: bad arguments, not a failed run.
+            if failed.partial.is_empty() {
+                return Err(PyValueError::new_err(error.to_string()));
+            }
+            let mut partial = failed.partial;
+            if partial.failure.is_none() {
+                partial.failure = Some(error);
+            }
+            let solution = Solution::new(py, partial, dim);
+            if raise_on_failure {
+                let message = format!(
+                    "the run stopped before its end: {}",
+                    solution.failure_message()
+                );
+                let kind = solution.failure_kind.clone();
+                let err = IntegrationError::new_err(message);
+                let value = err.value(py);
+                value.setattr("kind", kind)?;
+                value.setattr("solution", Py::new(py, solution)?)?;
+                return Err(err);
+            }
+            Ok(solution)
+        }
+    }
+}

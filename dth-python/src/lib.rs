@@ -1,0 +1,37 @@
+//! The extension module `dth._dth` of the Python package `dth`: a run-time Hamiltonian read as
+//! text ([`hamiltonian::Hamiltonian`]), one call that runs a whole integration in Rust
+//! ([`integrate::integrate`]) and its result ([`solution::Solution`]), and the exceptions
+//! ([`errors`]). The pure-Python package around it (`python/dth/`) re-exports these, adds
+//! `dth.systems` and carries the type stubs.
+//!
+//! Every long call runs without the GIL on a worker thread and polls Python's signal
+//! handlers, so Ctrl-C stops it within [`interrupt::POLL`] ([`interrupt::run`]).
+
+use pyo3::prelude::*;
+
+pub mod errors;
+pub mod hamiltonian;
+pub mod integrate;
+pub mod interrupt;
+pub mod solution;
+pub mod state;
+
+/// The module `dth._dth`.
+#[pymodule]
+fn _dth(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    let py = m.py();
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.add(
+        "HamiltonianError",
+        py.get_type::<errors::HamiltonianError>(),
+    )?;
+    m.add(
+        "IntegrationError",
+        py.get_type::<errors::IntegrationError>(),
+    )?;
+    m.add_class::<hamiltonian::Hamiltonian>()?;
+    m.add_class::<solution::Solution>()?;
+    m.add_function(wrap_pyfunction!(integrate::integrate, m)?)?;
+    m.add("METHODS", integrate::METHODS.to_vec())?;
+    Ok(())
+}

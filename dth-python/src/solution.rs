@@ -1,0 +1,176 @@
+//! `dth.Solution`: a run's saved states as numpy arrays, with what the run spent and how it
+//! ended.
+
+use numpy::ndarray::Array2;
+use numpy::{IntoPyArray, PyArray1, PyArray2};
+use pyo3::prelude::*;
+
+use dth::nalgebra::{DVector, Dyn};
+use dth::observer::StepKind;
+
+/// The result of `dth.integrate`: the saved states and their times (for DTH, the midpoints
+/// zbar_k at the midpoint times, where H(zbar_k) = H(zbar_0) to roundoff), what produced each
+/// state, the energy errors, and DTH's own series.
+///
+/// Attributes:
+///   method: the method's name.
+///   t: times, shape (M,).
+///   z: states, shape (M, D) (DTH: the midpoints).
+///   k: step index of each saved state, shape (M,).
+///   kinds: what produced each state, a list of "initial", "fixed" (a fixed-step method),
+///     "dth", "fallback" (a robust-mode fallback step) or "shortened" (the last DTH step,
+///     shortened to land on t_end).
+///   energy_error: H(z) - H(z0) at each saved state, shape (M,).
+///   energy0: H(z0).
+///   lam: DTH's multipliers lambda_k = dt/dtau, shape (M,); None for other methods.
+///   vertices: DTH's left vertices z^(k), shape (M, D); None for other methods.
+///   vertex_t: their times, shape (M,); None for other methods.
+///   psi: Psi(zbar_k), shape (M,); None for other methods.
+///   steps: steps taken (saved or not); fallback_steps: robust-mode fallback steps among them;
+///   newton_iterations: over all steps.
+///   failure: None for a run that reached its end, else what stopped it (the arrays hold the
+///     states up to the last accepted step); completed: failure is None.
+#[pyclass(module = "dth", name = "Solution", frozen)]
+pub struct Solution {
+    #[pyo3(get)]
+    method: &'static str,
+    #[pyo3(get)]
+    t: Py<PyArray1<f64>>,
+    #[pyo3(get)]
+    z: Py<PyArray2<f64>>,
+    #[pyo3(get)]
+    k: Py<PyArray1<usize>>,
+    #[pyo3(get)]
+    kinds: Vec<&'static str>,
+    #[pyo3(get)]
+    energy_error: Py<PyArray1<f64>>,
+    #[pyo3(get)]
+    energy0: f64,
+    #[pyo3(get)]
+    lam: Option<Py<PyArray1<f64>>>,
+    #[pyo3(get)]
+    vertices: Option<Py<PyArray2<f64>>>,
+    #[pyo3(get)]
+    vertex_t: Option<Py<PyArray1<f64>>>,
+    #[pyo3(get)]
+    psi: Option<Py<PyArray1<f64>>>,
+    #[pyo3(get)]
+    steps: usize,
+    #[pyo3(get)]
+    fallback_steps: usize,
+    #[pyo3(get)]
+    newton_iterations: u64,
+    #[pyo3(get)]
+    failure: Option<String>,
+    /// The failure's variant name (`NewtonDiverged`, `Breakdown`, `Interrupted`, ...).
+    pub(crate) failure_kind: Option<String>,
+}
+
+/// States as an (M, D) array.
+fn matrix<'py>(py: Python<'py>, states: &[DVector<f64>], dim: usize) -> Bound<'py, PyArray2<f64>> {
+    let flat: Vec<f64> = states.iter().flat_map(|z| z.iter().copied()).collect();
+    // The length is M * dim by construction.
+    Array2::from_shape_vec((states.len(), dim), flat)
+        .unwrap_or_else(|_| Array2::zeros((0, dim)))
+        .into_pyarray(py)
+}
+
+fn kind_name(kind: StepKind, k: usize) -> &'static str {
+    match kind {
+        _ if k == 0 => "initial",
+        StepKind::Fixed => "fixed",
+        StepKind::Dth => "dth",
+        StepKind::Fallback => "fallback",
+        StepKind::Shortened => "shortened",
+        _ => "other",
+    }
+}
+
+/// The name of an error's variant, from its `Debug` form (`NewtonDiverged { .. }`).
+fn variant(e: &dth::Error) -> String {
+    let debug = format!("{e:?}");
+    debug
+        .split(|c: char| !c.is_alphanumeric() && c != '_')
+        .next()
+        .unwrap_or("Error")
+        .to_string()
+}
+
+impl Solution {
+    /// From the driver's solution of a system of dimension `dim`.
+    pub fn new(py: Python<'_>, s: dth::Solution<Dyn>, dim: usize) -> Solution {
+        let kinds = s
+            .kinds
+            .iter()
+            .zip(&s.k)
+            .map(|(&kind, &k)| kind_name(kind, k))
+            .collect();
+        let (lam, vertices, vertex_t, psi) = match s.dth {
+            Some(series) => (
+                Some(series.lambda.into_pyarray(py).unbind()),
+                Some(matrix(py, &series.vertex, dim).unbind()),
+                Some(series.vertex_time.into_pyarray(py).unbind()),
+                Some(series.psi.into_pyarray(py).unbind()),
+            ),
+            None => (None, None, None, None),
+        };
+        Solution {
+            method: s.method,
+            z: matrix(py, &s.z, dim).unbind(),
+            t: s.t.into_pyarray(py).unbind(),
+            k: s.k.into_pyarray(py).unbind(),
+            kinds,
+            energy_error: s.energy_error.into_pyarray(py).unbind(),
+            energy0: s.energy0,
+            lam,
+            vertices,
+            vertex_t,
+            psi,
+            steps: s.steps,
+            fallback_steps: s.fallback_steps,
+            newton_iterations: s.newton_iterations,
+            failure_kind: s.failure.as_ref().map(variant),
+            failure: s.failure.map(|e| e.to_string()),
+        }
+    }
+}
+
+#[pymethods]
+impl Solution {
+    /// True when the run reached its end (`failure` is None).
+    #[getter]
+    fn completed(&self) -> bool {
+        self.failure.is_none()
+    }
+
+    /// The failure's kind (`"NewtonDiverged"`, `"Breakdown"`, `"Interrupted"`, ...), or None.
+    #[getter]
+    fn failure_kind(&self) -> Option<&str> {
+        self.failure_kind.as_deref()
+    }
+
+    fn __len__(&self) -> usize {
+        self.kinds.len()
+    }
+
+    fn __repr__(&self) -> String {
+        let end = match &self.failure {
+            None => "completed".to_string(),
+            Some(f) => format!("failed: {f}"),
+        };
+        format!(
+            "Solution(method={:?}, saved={}, steps={}, fallback_steps={}, {end})",
+            self.method,
+            self.kinds.len(),
+            self.steps,
+            self.fallback_steps
+        )
+    }
+}
+
+impl Solution {
+    /// What stopped the run ("" for a completed run).
+    pub fn failure_message(&self) -> &str {
+        self.failure.as_deref().unwrap_or("")
+    }
+}

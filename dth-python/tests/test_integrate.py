@@ -1,0 +1,197 @@
+"""dth.integrate: DTH and every peer through one call; shapes, guarantees, failures, errors."""
+
+import numpy as np
+import pytest
+
+import dth
+from conftest import EPS
+
+# Pericentre 0.5 with e = 0.9 (m = 1/2, k = 1): p = m v, v^2 = (k/m)(1 + e)/r.
+E09 = np.array([0.5, 0.0, 0.0, 0.5 * np.sqrt(2 * 1.9 / 0.5)])
+
+PEERS = ["midpoint", "gauss_legendre2", "stormer_verlet", "rk4", "trapezoidal", "discrete_gradient"]
+
+
+def test_methods_lists_every_method():
+    assert set(dth.METHODS) == {"dth", *PEERS}
+
+
+def test_dth_keeps_the_energy_at_every_midpoint(kepler, thesis_z0):
+    s = dth.integrate(kepler, thesis_z0, dtau=0.06277, steps=2000)
+    assert s.completed and s.failure is None
+    assert s.energy0 == kepler.value(thesis_z0)
+    # The midpoint equation is solved against H(zbar_0): roundoff of terms of size ~2.
+    assert np.max(np.abs(s.energy_error)) <= 4 * EPS * 2
+    for z in s.z[::97]:
+        assert abs(kepler.value(z) - s.energy0) <= 4 * EPS * 2
+
+
+def test_shapes_and_dtypes(kepler, thesis_z0):
+    s = dth.integrate(kepler, thesis_z0, dtau=0.05, steps=50)
+    assert len(s) == 51
+    assert s.t.shape == (51,) and s.t.dtype == np.float64
+    assert s.z.shape == (51, 4) and s.z.dtype == np.float64
+    assert s.k.shape == (51,) and s.k[-1] == 50
+    assert s.energy_error.shape == (51,)
+    for a in (s.lam, s.vertex_t, s.psi):
+        assert a.shape == (51,)
+    assert s.vertices.shape == (51, 4)
+    assert s.kinds[0] == "initial" and set(s.kinds[1:]) == {"dth"}
+    assert np.array_equal(s.z[0], thesis_z0)
+    assert s.steps == 50 and s.fallback_steps == 0 and s.newton_iterations > 0
+    assert "Solution(method=\"dth\"" in repr(s)
+
+
+def test_dth_ends_exactly_at_t_end(kepler, thesis_z0):
+    s = dth.integrate(kepler, thesis_z0, dtau=0.07, t_end=3.0)
+    assert s.t[-1] == 3.0
+    assert s.kinds[-1] == "shortened"
+    assert np.all(np.diff(s.t) > 0)
+
+
+def test_every_saves_every_nth_state_and_the_last(kepler, thesis_z0):
+    s = dth.integrate(kepler, thesis_z0, dtau=0.05, steps=95, every=10)
+    assert s.k.tolist() == list(range(0, 100, 10)) + [95]
+    full = dth.integrate(kepler, thesis_z0, dtau=0.05, steps=95)
+    assert np.array_equal(s.z, full.z[s.k])
+
+
+@pytest.mark.parametrize("method", PEERS)
+def test_every_peer_lands_on_t_end(method, kepler, thesis_z0):
+    s = dth.integrate(kepler, thesis_z0, method, dt=0.01, t_end=1.234)
+    assert s.completed
+    assert s.method == method
+    assert s.t[-1] == 1.234
+    assert s.lam is None and s.vertices is None and s.psi is None
+    assert set(s.kinds[1:]) == {"fixed"}
+    # Each is consistent: after ~1.2 time units at dt = 0.01 the energy has moved little.
+    assert np.max(np.abs(s.energy_error)) < 1e-3
+
+
+def test_the_discrete_gradient_conserves_energy(kepler, thesis_z0):
+    s = dth.integrate(kepler, thesis_z0, "discrete_gradient", dt=0.05, steps=500)
+    assert np.max(np.abs(s.energy_error)) <= 8 * EPS * 2
+
+
+def test_save_at_lands_on_each_time(kepler, thesis_z0):
+    times = [0.5, 1.0, 2.25]
+    s = dth.integrate(kepler, thesis_z0, dtau=0.05, t_end=3.0, save_at=times)
+    assert s.t.tolist() == times + [3.0]
+    with pytest.raises(TypeError, match="every or save_at"):
+        dth.integrate(kepler, thesis_z0, dtau=0.05, t_end=3.0, save_at=times, every=2)
+
+
+def _final(h, z0, order, dtau, t_end):
+    return dth.integrate(h, z0, dtau=dtau, order=order, t_end=t_end, every=10**9).z[-1]
+
+
+@pytest.mark.parametrize("order", [2, 4, 6, 8])
+def test_dth_converges_at_its_order(order, kepler, thesis_z0):
+    # Differences of successive halvings shrink by 2^order (Richardson): the observed order
+    # within 0.5 of the nominal one, on the thesis orbit over half a period.
+    # The bases are in each order's asymptotic range and above the roundoff floor (order 8
+    # at 0.025 differs by ~2e-11, a thousand times the roundoff of states of size ~1).
+    base = {2: 0.02, 4: 0.04, 6: 0.08, 8: 0.1}[order]
+    finals = [_final(kepler, thesis_z0, order, base / 2**j, 1.5) for j in range(3)]
+    d1 = np.max(np.abs(finals[0] - finals[1]))
+    d2 = np.max(np.abs(finals[1] - finals[2]))
+    observed = np.log2(d1 / d2)
+    assert abs(observed - order) < 0.5, (d1, d2, observed)
+
+
+def test_plain_dth_breaks_down_on_an_eccentric_orbit_and_keeps_the_partial_run(kepler):
+    z0 = E09
+    s = dth.integrate(kepler, z0, dtau=0.01, steps=5000)
+    assert not s.completed
+    assert s.failure_kind == "Breakdown"
+    assert len(s) > 1 and s.steps == len(s) - 1
+
+
+def test_robust_mode_counts_its_fallback_steps(kepler):
+    z0 = E09
+    s = dth.integrate(kepler, z0, dtau=0.01, robust=True, steps=3000)
+    assert s.completed
+    assert s.fallback_steps > 0
+    assert s.kinds.count("fallback") == s.fallback_steps
+    assert np.max(np.abs(s.energy_error)) <= 16 * EPS * 8
+
+
+def test_raise_on_failure_carries_the_partial_solution(kepler):
+    z0 = E09
+    with pytest.raises(dth.IntegrationError) as info:
+        dth.integrate(kepler, z0, dtau=0.01, steps=5000, raise_on_failure=True)
+    e = info.value
+    assert isinstance(e, RuntimeError)
+    assert e.kind == "Breakdown"
+    assert isinstance(e.solution, dth.Solution) and len(e.solution) > 1
+
+
+def test_a_step_cap_is_a_failure(kepler, thesis_z0):
+    s = dth.integrate(kepler, thesis_z0, dtau=0.05, t_end=100.0, max_steps=10)
+    assert s.failure_kind == "StepCap"
+    assert s.steps == 10
+
+
+def test_without_energy_errors(kepler, thesis_z0):
+    s = dth.integrate(kepler, thesis_z0, dtau=0.05, steps=10, energy_errors=False)
+    assert s.energy_error.shape == (0,)
+
+
+def test_a_time_dependent_hamiltonian_runs_in_extended_phase_space():
+    h = dth.systems.forced_oscillator()
+    assert h.dim == 4  # z = (q1, t, p1, p_t)
+    # The physical state (q1, p1) is extended with t0 and p_t = -H(q1, p1, t0).
+    s = dth.integrate(h, [1.0, 0.0], dtau=0.05, t_end=5.0, t0=0.5)
+    assert s.completed and s.t[-1] == 5.0
+    h0 = 0.5 - 0.1 * np.cos(1.3 * 0.5)
+    assert s.z[0].tolist() == [1.0, 0.5, 0.0, -h0]
+    # The extended energy stays at zero to roundoff.
+    assert np.max(np.abs(s.energy_error)) <= 8 * EPS
+    # Given whole, the extended state must be on calH = 0.
+    with pytest.raises(ValueError, match="p_t = -H"):
+        dth.integrate(h, [1.0, 0.0, 0.0, 0.0], dtau=0.05, t_end=5.0)
+
+
+@pytest.mark.parametrize(
+    "kwargs, error, pattern",
+    [
+        ({"steps": 10}, TypeError, "needs dtau"),
+        ({"dtau": 0.1, "dt": 0.1, "steps": 10}, TypeError, "DTH takes dtau"),
+        ({"dtau": 0.1}, TypeError, "exactly one of steps"),
+        ({"dtau": 0.1, "steps": 10, "t_end": 1.0}, TypeError, "exactly one of steps"),
+        ({"dtau": 0.1, "steps": 10, "every": 0}, ValueError, "every must be at least 1"),
+        ({"dtau": -0.1, "steps": 10}, ValueError, "dtau"),
+        ({"dtau": 0.1, "order": 3, "steps": 10}, ValueError, "order"),
+        ({"dtau": 0.1, "steps": 10, "save_at": [0.5]}, TypeError, "save_at"),
+    ],
+)
+def test_bad_arguments_name_the_argument(kwargs, error, pattern, kepler, thesis_z0):
+    with pytest.raises(error, match=pattern):
+        dth.integrate(kepler, thesis_z0, **kwargs)
+
+
+def test_dth_options_given_to_a_peer_are_refused(kepler, thesis_z0):
+    with pytest.raises(TypeError, match='dtau is an option of method="dth"'):
+        dth.integrate(kepler, thesis_z0, "midpoint", dtau=0.1, steps=10)
+    with pytest.raises(TypeError, match='method="rk4" needs dt'):
+        dth.integrate(kepler, thesis_z0, "rk4", steps=10)
+
+
+def test_an_unknown_method_suggests_the_closest(kepler, thesis_z0):
+    with pytest.raises(ValueError, match='unknown method "dht" \\(did you mean "dth"\\?\\)'):
+        dth.integrate(kepler, thesis_z0, "dht", dtau=0.1, steps=1)
+
+
+def test_a_non_finite_initial_state_is_a_value_error(kepler):
+    with pytest.raises(ValueError, match="(?i)finite"):
+        dth.integrate(kepler, [np.nan, 0.0, 0.0, 1.0], dtau=0.1, steps=1)
+
+
+def test_a_state_of_the_wrong_length_names_z0(kepler):
+    with pytest.raises(ValueError, match="z0 has length 2, expected 4"):
+        dth.integrate(kepler, [0.5, 0.0], dtau=0.1, steps=1)
+
+
+def test_the_hamiltonian_must_be_one(thesis_z0):
+    with pytest.raises(TypeError):
+        dth.integrate("p1^2", thesis_z0, dtau=0.1, steps=1)
