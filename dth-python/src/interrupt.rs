@@ -4,6 +4,7 @@
 //! caught and becomes a `RuntimeError`, never crossing into Python.
 
 use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::RecvTimeoutError;
 use std::time::Duration;
 
 use pyo3::exceptions::PyRuntimeError;
@@ -21,44 +22,54 @@ where
     F: FnOnce(&AtomicBool) -> T + Send,
 {
     let flag = AtomicBool::new(false);
-    let caller = std::thread::current();
     std::thread::scope(|scope| {
-        let worker = scope.spawn(|| {
-            // Wakes the caller when done, whatever the job did (the guard runs on unwind too).
-            struct Wake(std::thread::Thread);
-            impl Drop for Wake {
-                fn drop(&mut self) {
-                    self.0.unpark();
-                }
-            }
-            let _wake = Wake(caller);
-            job(&flag)
+        let (sender, mut receiver) = std::sync::mpsc::channel();
+        let flag = &flag;
+        let worker = scope.spawn(move || {
+            // A send fails only when the caller has gone, which it does not before joining.
+            let _ = sender.send(job(flag));
         });
         let mut raised = None;
-        while !worker.is_finished() {
-            py.detach(|| {
-                if !worker.is_finished() {
-                    std::thread::park_timeout(POLL);
-                }
-            });
-            if raised.is_none() {
-                if let Err(signal) = py.check_signals() {
-                    flag.store(true, Ordering::Relaxed);
-                    raised = Some(signal);
+        let received = loop {
+            // The receiver is not `Sync`: moved in and back out.
+            let (waited, back) = py.detach(move || (receiver.recv_timeout(POLL), receiver));
+            receiver = back;
+            match waited {
+                Ok(result) => break Some(result),
+                // The worker ended without a result: it panicked (joined below).
+                Err(RecvTimeoutError::Disconnected) => break None,
+                Err(RecvTimeoutError::Timeout) => {
+                    if raised.is_none() {
+                        if let Err(signal) = py.check_signals() {
+                            flag.store(true, Ordering::Relaxed);
+                            raised = Some(signal);
+                        }
+                    }
                 }
             }
+        };
+        let joined = worker.join();
+        if let Some(signal) = raised {
+            return Err(signal);
         }
-        let result = worker.join().map_err(|panic| {
-            let message = panic
-                .downcast_ref::<&str>()
-                .map(|s| s.to_string())
-                .or_else(|| panic.downcast_ref::<String>().cloned())
-                .unwrap_or_else(|| "unknown panic".to_string());
-            PyRuntimeError::new_err(format!("internal error (a panic in dth): {message}"))
-        })?;
-        match raised {
-            Some(signal) => Err(signal),
-            None => Ok(result),
+        match (received, joined) {
+            (Some(result), _) => Ok(result),
+            (None, Err(panic)) => Err(PyRuntimeError::new_err(format!(
+                "internal error (a panic in dth): {}",
+                panic_message(panic.as_ref())
+            ))),
+            (None, Ok(())) => Err(PyRuntimeError::new_err(
+                "internal error: the run ended without a result",
+            )),
         }
     })
+}
+
+/// A panic's message, when it has one.
+fn panic_message(panic: &(dyn std::any::Any + Send)) -> String {
+    panic
+        .downcast_ref::<&str>()
+        .map(|s| s.to_string())
+        .or_else(|| panic.downcast_ref::<String>().cloned())
+        .unwrap_or_else(|| "unknown panic".to_string())
 }
