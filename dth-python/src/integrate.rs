@@ -1,6 +1,8 @@
 //! `dth.integrate`: one call runs a whole integration in Rust (`dth::solve`), without the GIL
 //! and interruptible by Ctrl-C, and returns a [`Solution`].
 
+use std::sync::atomic::AtomicBool;
+
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 
@@ -178,7 +180,7 @@ fn unknown_method(name: &str) -> PyErr {
 /// >>> import dth
 /// >>> h = dth.Hamiltonian("p1^2/2 + q1^2/2")
 /// >>> s = dth.integrate(h, [1.0, 0.0], dtau=0.1, t_end=10.0)
-/// >>> s.t[-1]
+/// >>> float(s.t[-1])
 /// 10.0
 /// >>> bool(abs(s.energy_error).max() < 1e-15)
 /// True
@@ -246,10 +248,11 @@ pub fn integrate(
         energy_errors,
     };
     let hamiltonian = &h.h;
-    let result = crate::interrupt::run(py, |flag| {
+    let flag = AtomicBool::new(false);
+    let result = crate::interrupt::run(py, &flag, || {
         let mut run = solve(hamiltonian, z0, request.method)
             .start_time(request.t0)
-            .interrupt(flag);
+            .interrupt(&flag);
         run = match request.end {
             End::Steps(n) => run.steps(n),
             End::Time(t) => run.until(t),

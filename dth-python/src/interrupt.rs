@@ -13,21 +13,19 @@ use pyo3::prelude::*;
 /// How often the calling thread wakes to run Python's signal handlers.
 pub const POLL: Duration = Duration::from_millis(50);
 
-/// Runs `job(flag)` on a worker thread without the GIL, `flag` raised when Python receives a
-/// signal whose handler raises (Ctrl-C); returns the job's result, or that exception after the
-/// job has returned.
-pub fn run<T, F>(py: Python<'_>, job: F) -> PyResult<T>
+/// Runs `job` on a worker thread without the GIL, raising `flag` (which the job polls) when
+/// Python receives a signal whose handler raises (Ctrl-C); returns the job's result, or that
+/// exception after the job has returned.
+pub fn run<T, F>(py: Python<'_>, flag: &AtomicBool, job: F) -> PyResult<T>
 where
     T: Send,
-    F: FnOnce(&AtomicBool) -> T + Send,
+    F: FnOnce() -> T + Send,
 {
-    let flag = AtomicBool::new(false);
     std::thread::scope(|scope| {
         let (sender, mut receiver) = std::sync::mpsc::channel();
-        let flag = &flag;
         let worker = scope.spawn(move || {
             // A send fails only when the caller has gone, which it does not before joining.
-            let _ = sender.send(job(flag));
+            let _ = sender.send(job());
         });
         let mut raised = None;
         let received = loop {

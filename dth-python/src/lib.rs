@@ -13,6 +13,7 @@ pub mod errors;
 pub mod hamiltonian;
 pub mod integrate;
 pub mod interrupt;
+pub mod scene;
 pub mod solution;
 pub mod state;
 
@@ -31,7 +32,9 @@ fn _dth(m: &Bound<'_, PyModule>) -> PyResult<()> {
     )?;
     m.add_class::<hamiltonian::Hamiltonian>()?;
     m.add_class::<solution::Solution>()?;
+    m.add("SceneError", py.get_type::<scene::SceneError>())?;
     m.add_function(wrap_pyfunction!(integrate::integrate, m)?)?;
+    m.add_function(wrap_pyfunction!(scene::run_scene_into, m)?)?;
     m.add("METHODS", integrate::METHODS.to_vec())?;
     Ok(())
 }

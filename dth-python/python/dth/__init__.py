@@ -14,7 +14,8 @@ True
 
 Contents: `Hamiltonian` (text -> compiled H, gradient, Hessian, Psi), `integrate` (one
 call, every method), `Solution` (its result), `systems` (the built-in systems as texts),
-`HamiltonianError` (a `ValueError` with `.line` and `.column`) and `IntegrationError`.
+`run_scene` (a scene file run as `dth run` does: its summary and arrays), `HamiltonianError`
+(a `ValueError` with `.line` and `.column`), `IntegrationError` and `SceneError`.
 """
 
 from ._dth import (
@@ -22,19 +23,24 @@ from ._dth import (
     Hamiltonian,
     HamiltonianError,
     IntegrationError,
+    SceneError,
     Solution,
     __version__,
     integrate,
 )
 from . import systems
+from .scenes import SceneRun, run_scene
 
 __all__ = [
     "METHODS",
     "Hamiltonian",
     "HamiltonianError",
     "IntegrationError",
+    "SceneError",
+    "SceneRun",
     "Solution",
     "__version__",
     "integrate",
+    "run_scene",
     "systems",
 ]

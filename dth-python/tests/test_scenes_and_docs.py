@@ -1,0 +1,76 @@
+"""dth.run_scene, and the examples in the docstrings (they are run here)."""
+
+import doctest
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import dth
+
+SCENES = Path(__file__).resolve().parents[2] / "dth-examples" / "scenes"
+
+
+def test_a_shipped_scene_runs_from_its_path():
+    run = dth.run_scene(SCENES / "pendulum.toml")
+    assert run.completed and run.out is None
+    labels = [m["label"] for m in run.summary["methods"]]
+    assert labels == ["dth", "midpoint", "stormer_verlet"]
+    for m in run.summary["methods"]:
+        assert m["failure"] is None and m["t_end"] == 200.0
+    energy = run.arrays["dth_energy"]
+    assert energy["t"][0] == 0.0
+    # DTH's midpoints keep the energy to roundoff (|H| <= 1 here).
+    assert np.max(np.abs(energy["energy_deviation"])) <= 4 * np.finfo(float).eps
+
+
+def test_the_output_folder_is_written_when_asked(tmp_path):
+    out = tmp_path / "pendulum"
+    run = dth.run_scene(SCENES / "pendulum.toml", out)
+    assert run.out == out
+    assert (out / "summary.json").is_file() and (out / "index.html").is_file()
+
+
+def test_a_bad_scene_is_a_scene_error_with_its_position():
+    text = '[system]\nname = "pendulum"\n[[method]]\nkind = "dht"\ndtau = 0.1\n'
+    with pytest.raises(dth.SceneError, match="dht") as info:
+        dth.run_scene(text)
+    assert isinstance(info.value, ValueError)
+    assert "<scene>:4" in str(info.value)
+
+
+def test_a_scene_that_is_neither_path_nor_text_is_a_type_error():
+    with pytest.raises(TypeError, match="path or TOML text"):
+        dth.run_scene(42)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize(
+    "module",
+    [dth, dth.systems, dth.scenes],
+    ids=lambda m: m.__name__,
+)
+def test_the_docstring_examples_run(module):
+    result = doctest.testmod(module, raise_on_error=False, verbose=False)
+    assert result.attempted > 0
+    assert result.failed == 0
+
+
+def test_the_extensions_docstring_examples_run():
+    finder = doctest.DocTestFinder()
+    runner = doctest.DocTestRunner()
+    attempted = 0
+    for obj in (dth.Hamiltonian, dth.integrate):
+        for test in finder.find(obj, obj.__name__, globs={"dth": dth}):
+            runner.run(test)
+            attempted += len(test.examples)
+    assert attempted > 0
+    assert runner.failures == 0
+
+
+def test_help_shows_complete_docstrings():
+    doc = dth.integrate.__doc__
+    assert doc is not None
+    for argument in ("dtau", "dt", "order", "robust", "steps", "t_end", "every", "save_at",
+                     "raise_on_failure"):
+        assert f"{argument}:" in doc
+    assert dth.Hamiltonian.__doc__ and "HamiltonianError" in dth.Hamiltonian.__doc__
