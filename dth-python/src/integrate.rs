@@ -6,23 +6,12 @@ use std::sync::atomic::AtomicBool;
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 
-use dth::nalgebra::DVector;
-use dth::{solve, DthOptions, Method};
+use dth::{solve, Method};
 
-use crate::errors::{option_error, IntegrationError};
+use crate::args::{self, start, End};
+use crate::errors::IntegrationError;
 use crate::hamiltonian::Hamiltonian;
 use crate::solution::Solution;
-
-/// The method names `integrate` accepts.
-pub const METHODS: [&str; 7] = [
-    "dth",
-    "midpoint",
-    "gauss_legendre2",
-    "stormer_verlet",
-    "rk4",
-    "trapezoidal",
-    "discrete_gradient",
-];
 
 /// What a run is asked to do, read from the keyword arguments.
 struct Request {
@@ -33,112 +22,6 @@ struct Request {
     save_at: Option<Vec<f64>>,
     max_steps: Option<usize>,
     energy_errors: bool,
-}
-
-enum End {
-    Steps(usize),
-    Time(f64),
-}
-
-/// The initial state: `z0` of `h`'s dimension, or for a time-dependent `h` also the
-/// physical `(q, p)`, extended with `t0` and `p_t = -H(q, p, t0)` so that `calH = 0`.
-fn start(h: &Hamiltonian, z0: &Bound<'_, PyAny>, t0: f64) -> PyResult<DVector<f64>> {
-    let dim = h.h.dimension();
-    let extended = h.h.time_dependent() && !h.h.regularized();
-    if !extended {
-        return Ok(DVector::from_vec(crate::state::read(z0, "z0", dim)?));
-    }
-    let values = crate::state::values(z0, "z0", dim)?;
-    if values.len() == dim {
-        return Ok(DVector::from_vec(values));
-    }
-    if values.len() + 2 != dim {
-        return Err(PyValueError::new_err(format!(
-            "z0 has length {}, expected {} (q, p: extended with t0 and p_t = -H) or {dim} \
-             (q1..qn, t, p1..pn, p_t)",
-            values.len(),
-            dim - 2
-        )));
-    }
-    let z = dth::dth::lift(&DVector::from_vec(values), t0);
-    dth::dth::set_momentum_of_time(&h.h, z).map_err(|e| PyValueError::new_err(e.to_string()))
-}
-
-/// DTH's options, or an error naming the peer arguments given to DTH.
-fn dth_options(
-    dtau: Option<f64>,
-    dt: Option<f64>,
-    order: Option<u32>,
-    robust: Option<bool>,
-    lambda0: Option<f64>,
-) -> PyResult<Method> {
-    if dt.is_some() {
-        return Err(PyTypeError::new_err(
-            "dt is the step of the fixed-step methods; DTH takes dtau (its step in the \
-             discrete time tau: the physical step is lambda * dtau)",
-        ));
-    }
-    let dtau = dtau.ok_or_else(|| PyTypeError::new_err("method=\"dth\" needs dtau=..."))?;
-    let mut options = DthOptions::new(dtau).map_err(|e| option_error(&e))?;
-    if let Some(order) = order {
-        options = options.with_order(order).map_err(|e| option_error(&e))?;
-    }
-    if let Some(robust) = robust {
-        options = options.with_robust(robust);
-    }
-    if let Some(lambda0) = lambda0 {
-        options = options
-            .with_lambda0(lambda0)
-            .map_err(|e| option_error(&e))?;
-    }
-    Ok(Method::Dth(options))
-}
-
-/// A fixed-step peer, or an error naming the DTH arguments given to it.
-fn peer(
-    name: &str,
-    dt: Option<f64>,
-    dtau: Option<f64>,
-    order: Option<u32>,
-    robust: Option<bool>,
-    lambda0: Option<f64>,
-) -> PyResult<Method> {
-    let dth_only = [
-        ("dtau", dtau.is_some()),
-        ("order", order.is_some()),
-        ("robust", robust.is_some()),
-        ("lambda0", lambda0.is_some()),
-    ];
-    if let Some((arg, _)) = dth_only.iter().find(|(_, given)| *given) {
-        return Err(PyTypeError::new_err(format!(
-            "{arg} is an option of method=\"dth\"; method={name:?} takes dt"
-        )));
-    }
-    let dt = dt.ok_or_else(|| PyTypeError::new_err(format!("method={name:?} needs dt=...")))?;
-    Ok(match name {
-        "midpoint" => Method::Midpoint { dt },
-        "gauss_legendre2" => Method::GaussLegendre2 { dt },
-        "stormer_verlet" => Method::StormerVerlet { dt },
-        "rk4" => Method::Rk4 { dt },
-        "trapezoidal" => Method::Trapezoidal { dt },
-        "discrete_gradient" => Method::DiscreteGradient { dt },
-        _ => return Err(unknown_method(name)),
-    })
-}
-
-/// `method=` names no method: the list, and the closest name.
-fn unknown_method(name: &str) -> PyErr {
-    let closest = METHODS
-        .iter()
-        .map(|m| (strsim::levenshtein(name, m), *m))
-        .min()
-        .filter(|(d, _)| *d <= 3)
-        .map(|(_, m)| format!(" (did you mean {m:?}?)"))
-        .unwrap_or_default();
-    PyValueError::new_err(format!(
-        "unknown method {name:?}{closest}: expected one of {}",
-        METHODS.join(", ")
-    ))
 }
 
 /// Integrates `h` from `z0` with `method`, saving every `every`-th state, and returns a
@@ -211,21 +94,9 @@ pub fn integrate(
     raise_on_failure: bool,
 ) -> PyResult<Solution> {
     let dim = h.h.dimension();
-    let z0 = start(&h, z0, t0)?;
-    let method = match method {
-        "dth" => dth_options(dtau, dt, order, robust, lambda0)?,
-        name if METHODS.contains(&name) => peer(name, dt, dtau, order, robust, lambda0)?,
-        name => return Err(unknown_method(name)),
-    };
-    let end = match (steps, t_end) {
-        (Some(n), None) => End::Steps(n),
-        (None, Some(t)) => End::Time(t),
-        _ => {
-            return Err(PyTypeError::new_err(
-                "give exactly one of steps=... (a number of steps) and t_end=... (a time)",
-            ))
-        }
-    };
+    let z0 = start(&h, z0, "z0", t0)?;
+    let method = args::method(method, dtau, dt, order, robust, lambda0)?;
+    let end = args::end(steps, t_end)?;
     if every == Some(0) {
         return Err(PyValueError::new_err("every must be at least 1"));
     }

@@ -9,6 +9,8 @@
 
 use pyo3::prelude::*;
 
+pub mod args;
+pub mod ensemble;
 pub mod errors;
 pub mod hamiltonian;
 pub mod integrate;
@@ -33,8 +35,10 @@ fn _dth(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<hamiltonian::Hamiltonian>()?;
     m.add_class::<solution::Solution>()?;
     m.add("SceneError", py.get_type::<scene::SceneError>())?;
+    m.add_class::<ensemble::Ensemble>()?;
     m.add_function(wrap_pyfunction!(integrate::integrate, m)?)?;
+    m.add_function(wrap_pyfunction!(ensemble::ensemble, m)?)?;
     m.add_function(wrap_pyfunction!(scene::run_scene_into, m)?)?;
-    m.add("METHODS", integrate::METHODS.to_vec())?;
+    m.add("METHODS", args::METHODS.to_vec())?;
     Ok(())
 }

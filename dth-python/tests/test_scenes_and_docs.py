@@ -59,7 +59,7 @@ def test_the_extensions_docstring_examples_run():
     finder = doctest.DocTestFinder()
     runner = doctest.DocTestRunner()
     attempted = 0
-    for obj in (dth.Hamiltonian, dth.integrate):
+    for obj in (dth.Hamiltonian, dth.integrate, dth.ensemble):
         for test in finder.find(obj, obj.__name__, globs={"dth": dth}):
             runner.run(test)
             attempted += len(test.examples)

@@ -13,19 +13,22 @@ numpy arrays in and out. The whole integration runs in Rust: no Python per step.
 True
 
 Contents: `Hamiltonian` (text -> compiled H, gradient, Hessian, Psi), `integrate` (one
-call, every method), `Solution` (its result), `systems` (the built-in systems as texts),
+call, every method), `Solution` (its result), `ensemble` (many initial states on every
+core) and `Ensemble`, `systems` (the built-in systems as texts),
 `run_scene` (a scene file run as `dth run` does: its summary and arrays), `HamiltonianError`
 (a `ValueError` with `.line` and `.column`), `IntegrationError` and `SceneError`.
 """
 
 from ._dth import (
     METHODS,
+    Ensemble,
     Hamiltonian,
     HamiltonianError,
     IntegrationError,
     SceneError,
     Solution,
     __version__,
+    ensemble,
     integrate,
 )
 from . import systems
@@ -33,6 +36,7 @@ from .scenes import SceneRun, run_scene
 
 __all__ = [
     "METHODS",
+    "Ensemble",
     "Hamiltonian",
     "HamiltonianError",
     "IntegrationError",
@@ -40,6 +44,7 @@ __all__ = [
     "SceneRun",
     "Solution",
     "__version__",
+    "ensemble",
     "integrate",
     "run_scene",
     "systems",

@@ -98,3 +98,41 @@ def integrate(
     energy_errors: bool = True,
     raise_on_failure: bool = False,
 ) -> Solution: ...
+
+class Ensemble:
+    @property
+    def final(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def t_end(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def energy_error(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def steps(self) -> npt.NDArray[np.uintp]: ...
+    @property
+    def fallback_steps(self) -> npt.NDArray[np.uintp]: ...
+    @property
+    def failure(self) -> list[Optional[str]]: ...
+    @property
+    def failed(self) -> int: ...
+    def __len__(self) -> int: ...
+
+def ensemble(
+    h: Hamiltonian,
+    z0s: npt.ArrayLike,
+    method: str = "dth",
+    *,
+    dtau: Optional[float] = None,
+    dt: Optional[float] = None,
+    order: Optional[int] = None,
+    robust: Optional[bool] = None,
+    lambda0: Optional[float] = None,
+    steps: Optional[int] = None,
+    t_end: Optional[float] = None,
+    t0: float = 0.0,
+    max_steps: Optional[int] = None,
+    threads: Optional[int] = None,
+) -> Ensemble: ...
+
+class SceneError(ValueError): ...
+
+def run_scene_into(text: str, file: str, out: str, threads: Optional[int] = None) -> bool: ...
