@@ -26,28 +26,37 @@ class SceneRun:
         summary: `summary.json` as a dict (per method: steps, t_end, failure, energy
             deviations, fallback steps, ...).
         arrays: every CSV file the run wrote, by file stem (`"dth_energy"`,
-            `"rk4_poincare1"`, ...), each a dict of column name -> float array.
+            `"rk4_poincare1"`, ...), each a dict of column name -> array (float, or str for a column of names).
         completed: every method reached its end (a failed method's outputs are kept and
             `summary["methods"][i]["failure"]` says what stopped it).
         out: the output folder, or None when the run went to a temporary folder (removed).
     """
 
     summary: dict[str, Any]
-    arrays: dict[str, dict[str, npt.NDArray[np.float64]]] = field(default_factory=dict)
+    arrays: dict[str, dict[str, npt.NDArray[Any]]] = field(default_factory=dict)
     completed: bool = True
     out: Optional[Path] = None
 
 
-def _read_csv(path: Path) -> dict[str, npt.NDArray[np.float64]]:
-    """A numeric CSV file by column; empty cells and the missing end of a short row (a DTH
-    trajectory's last, shortened step has no right vertex) are NaN."""
+def _number(cell: str) -> float:
+    return float(cell) if cell else np.nan
+
+
+def _read_csv(path: Path) -> dict[str, npt.NDArray[Any]]:
+    """A CSV file by column: numbers as float arrays (an empty cell, or the missing end of a
+    short row, is NaN: a DTH trajectory's last, shortened step has no right vertex), any
+    other column (method names in an ensemble's table) as an array of str."""
     with path.open() as f:
         header = f.readline().strip().split(",")
-        rows = [line.strip().split(",") for line in f if line.strip()]
-    data = np.full((len(rows), len(header)), np.nan)
-    for i, row in enumerate(rows):
-        data[i, : len(row)] = [float(x) if x else np.nan for x in row]
-    return {name: data[:, i].copy() for i, name in enumerate(header)}
+        rows = [line.rstrip("\n").split(",") for line in f if line.strip()]
+    columns: dict[str, npt.NDArray[Any]] = {}
+    for j, name in enumerate(header):
+        cells = [row[j] if j < len(row) else "" for row in rows]
+        try:
+            columns[name] = np.array([_number(c) for c in cells], dtype=np.float64)
+        except ValueError:
+            columns[name] = np.array(cells, dtype=str)
+    return columns
 
 
 def _scene_text(scene: Union[str, os.PathLike[str]]) -> tuple[str, str]:
