@@ -208,32 +208,24 @@ pub fn ensemble(
         .collect();
     let finals = Array2::from_shape_vec((m, dim), flat)
         .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
+    fn column<T: numpy::Element>(
+        py: Python<'_>,
+        members: &[Member],
+        f: impl Fn(&Member) -> T,
+    ) -> Py<PyArray1<T>> {
+        members
+            .iter()
+            .map(f)
+            .collect::<Vec<T>>()
+            .into_pyarray(py)
+            .unbind()
+    }
     Ok(Ensemble {
         r#final: finals.into_pyarray(py).unbind(),
-        t_end: members
-            .iter()
-            .map(|r| r.t)
-            .collect::<Vec<_>>()
-            .into_pyarray(py)
-            .unbind(),
-        energy_error: members
-            .iter()
-            .map(|r| r.energy_error)
-            .collect::<Vec<_>>()
-            .into_pyarray(py)
-            .unbind(),
-        steps: members
-            .iter()
-            .map(|r| r.steps)
-            .collect::<Vec<_>>()
-            .into_pyarray(py)
-            .unbind(),
-        fallback_steps: members
-            .iter()
-            .map(|r| r.fallback_steps)
-            .collect::<Vec<_>>()
-            .into_pyarray(py)
-            .unbind(),
+        t_end: column(py, &members, |r| r.t),
+        energy_error: column(py, &members, |r| r.energy_error),
+        steps: column(py, &members, |r| r.steps),
+        fallback_steps: column(py, &members, |r| r.fallback_steps),
         failure: members.into_iter().map(|r| r.failure).collect(),
     })
 }
