@@ -82,8 +82,6 @@ kind = "dth"
 dtau = 0.1
 [duration]
 time = 200.0
-[[effect]]
-kind = "energy_deviation"
 """
 
 
