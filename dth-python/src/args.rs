@@ -73,7 +73,7 @@ pub fn start_from(
         )));
     }
     let z = dth::dth::lift(&DVector::from_vec(values), t0);
-    dth::dth::set_momentum_of_time(&h.h, z).map_err(|e| PyValueError::new_err(e.to_string()))
+    dth::dth::set_momentum_of_time(&*h.h, z).map_err(|e| PyValueError::new_err(e.to_string()))
 }
 
 /// The method `name` with its step and options, each argument checked against the method.

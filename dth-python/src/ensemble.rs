@@ -3,6 +3,7 @@
 //! the thread count (a member is one `dth::solve` run, computed whole by one thread).
 
 use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 
 use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray2, PyUntypedArrayMethods};
@@ -10,9 +11,10 @@ use pyo3::exceptions::{PyRuntimeError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use rayon::prelude::*;
 
-use dth::nalgebra::DVector;
+use dth::nalgebra::{DVector, DefaultAllocator, Dim, OVector, SVector};
 use dth::observer::StepRecord;
-use dth::{solve, Hamiltonian as _, Method};
+use dth::runtime::{Fixed, RuntimeHamiltonian};
+use dth::{solve, Alloc, Method};
 
 use crate::args::{self, End};
 use crate::hamiltonian::Hamiltonian;
@@ -65,7 +67,7 @@ impl Ensemble {
 
 /// One member's outcome.
 struct Member {
-    last: DVector<f64>,
+    last: Vec<f64>,
     t: f64,
     energy_error: f64,
     steps: usize,
@@ -73,20 +75,27 @@ struct Member {
     failure: Option<String>,
 }
 
-/// Runs one member: the largest energy error over every step, observed as it goes (nothing
-/// but the last state is kept).
-fn member(
-    h: &dth::runtime::RuntimeHamiltonian,
-    z0: DVector<f64>,
-    method: &Method,
-    end: &End,
+/// What every member shares.
+struct Plan<'a> {
+    method: Method,
+    end: End,
     t0: f64,
     max_steps: Option<usize>,
-    flag: &AtomicBool,
-) -> Member {
+    flag: &'a AtomicBool,
+}
+
+/// Runs one member: the largest energy error over every step, observed as it goes (nothing
+/// but the last state is kept).
+fn member<D: Dim, H: dth::Hamiltonian<D>>(h: &H, z0: OVector<f64, D>, plan: &Plan<'_>) -> Member
+where
+    DefaultAllocator: Alloc<D>,
+{
+    let (method, end, t0, max_steps, flag) =
+        (&plan.method, &plan.end, plan.t0, plan.max_steps, plan.flag);
+    let dim = z0.len();
     let h0 = h.value(&z0);
     let mut worst = 0.0f64;
-    let observe = |r: &StepRecord<dth::nalgebra::Dyn>| {
+    let observe = |r: &StepRecord<D>| {
         worst = worst.max((h.value(&r.z) - h0).abs());
     };
     let mut run = solve(h, z0, *method)
@@ -108,8 +117,8 @@ fn member(
     };
     let failure = failure.or_else(|| solution.failure.as_ref().map(|e| e.to_string()));
     let (last, t) = match (solution.z.last(), solution.t.last()) {
-        (Some(z), Some(&t)) => (z.clone(), t),
-        _ => (DVector::from_element(h.dimension(), f64::NAN), f64::NAN),
+        (Some(z), Some(&t)) => (z.iter().copied().collect(), t),
+        _ => (vec![f64::NAN; dim], f64::NAN),
     };
     Member {
         last,
@@ -119,6 +128,49 @@ fn member(
         fallback_steps: solution.fallback_steps,
         failure,
     }
+}
+
+/// Every member at `Const<N>` through [`dth::runtime::Fixed`].
+fn fixed<const N: usize>(
+    h: &Arc<RuntimeHamiltonian>,
+    starts: Vec<DVector<f64>>,
+    plan: &Plan<'_>,
+) -> PyResult<Vec<Member>> {
+    let view =
+        Fixed::<N>::new(Arc::clone(h)).map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
+    let starts = starts
+        .iter()
+        .map(|z| SVector::<f64, N>::from_column_slice(z.as_slice()))
+        .collect();
+    all(&view, starts, plan)
+}
+
+/// Every member, on the current thread pool.
+fn all<D: Dim, H: dth::Hamiltonian<D> + Sync>(
+    h: &H,
+    starts: Vec<OVector<f64, D>>,
+    plan: &Plan<'_>,
+) -> PyResult<Vec<Member>>
+where
+    DefaultAllocator: Alloc<D>,
+    OVector<f64, D>: Send,
+{
+    Ok(starts
+        .into_par_iter()
+        .map(|z0| {
+            if plan.flag.load(Ordering::Relaxed) {
+                return Member {
+                    last: z0.iter().copied().collect(),
+                    t: plan.t0,
+                    energy_error: 0.0,
+                    steps: 0,
+                    fallback_steps: 0,
+                    failure: Some("interrupted before it started".to_string()),
+                };
+            }
+            member(h, z0, plan)
+        })
+        .collect())
 }
 
 /// Integrates every row of `z0s` with the same method and returns an `Ensemble` (the final
@@ -180,27 +232,22 @@ pub fn ensemble(
             .map_err(|e| PyRuntimeError::new_err(format!("cannot start the threads: {e}")))?
     };
     let flag = AtomicBool::new(false);
-    let hamiltonian = &h.h;
+    let plan = Plan {
+        method,
+        end,
+        t0,
+        max_steps,
+        flag: &flag,
+    };
+    // Small states at a fixed size, as `integrate` and the scene runner run them.
+    let shared: &Arc<RuntimeHamiltonian> = &h.h;
     let members: Vec<Member> = crate::interrupt::run(py, &flag, || {
-        pool.install(|| {
-            starts
-                .into_par_iter()
-                .map(|z0| {
-                    if flag.load(Ordering::Relaxed) {
-                        return Member {
-                            last: z0,
-                            t: t0,
-                            energy_error: 0.0,
-                            steps: 0,
-                            fallback_steps: 0,
-                            failure: Some("interrupted before it started".to_string()),
-                        };
-                    }
-                    member(hamiltonian, z0, &method, &end, t0, max_steps, &flag)
-                })
-                .collect()
+        pool.install(|| match dim {
+            2 => fixed::<2>(shared, starts, &plan),
+            4 => fixed::<4>(shared, starts, &plan),
+            _ => all(&**shared, starts, &plan),
         })
-    })?;
+    })??;
     let m = members.len();
     let flat: Vec<f64> = members
         .iter()

@@ -3,6 +3,7 @@
 //! exact derivatives.
 
 use std::collections::BTreeMap;
+use std::sync::Arc;
 
 use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyArray1, PyArray2};
@@ -37,7 +38,8 @@ type Indices<'py> = Bound<'py, PyArray1<usize>>;
 /// -0.56
 #[pyclass(module = "dth", name = "Hamiltonian")]
 pub struct Hamiltonian {
-    pub(crate) h: RuntimeHamiltonian,
+    /// Shared with the fixed-size views (`dth::runtime::Fixed`) a run of small dimension uses.
+    pub(crate) h: Arc<RuntimeHamiltonian>,
     text: String,
 }
 
@@ -64,7 +66,7 @@ impl Hamiltonian {
         let built = py.detach(|| RuntimeHamiltonian::new(text, &pairs));
         let h = built.map_err(|e| hamiltonian_error(py, text, &e))?;
         Ok(Hamiltonian {
-            h,
+            h: Arc::new(h),
             text: text.to_string(),
         })
     }
@@ -120,8 +122,13 @@ impl Hamiltonian {
     /// Sets parameter `name` to `value` (no recompilation). Raises `HamiltonianError` for a
     /// name the text does not use or a value that is not finite.
     fn set_parameter(&mut self, py: Python<'_>, name: &str, value: f64) -> PyResult<()> {
-        self.h
-            .set_parameter(name, value)
+        // A run holds a view only while it runs, and a run holds this object borrowed.
+        let h = Arc::get_mut(&mut self.h).ok_or_else(|| {
+            pyo3::exceptions::PyRuntimeError::new_err(
+                "the Hamiltonian is in use by a running integration",
+            )
+        })?;
+        h.set_parameter(name, value)
             .map_err(|e| hamiltonian_error(py, &self.text, &e))
     }
 

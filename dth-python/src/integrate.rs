@@ -2,11 +2,14 @@
 //! and interruptible by Ctrl-C, and returns a [`Solution`].
 
 use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
 
-use pyo3::exceptions::{PyTypeError, PyValueError};
+use pyo3::exceptions::{PyRuntimeError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
 
-use dth::{solve, Method};
+use dth::nalgebra::{DVector, DefaultAllocator, Dim, OVector, SVector};
+use dth::runtime::Fixed;
+use dth::{solve, Alloc, Method};
 
 use crate::args::{self, start, End};
 use crate::errors::IntegrationError;
@@ -118,18 +121,60 @@ pub fn integrate(
         max_steps,
         energy_errors,
     };
-    let hamiltonian = &h.h;
+    // Small states at a fixed size (stack vectors, fixed-size LU), as the scene runner
+    // does; the same compiled code, so the same derivatives.
+    match dim {
+        2 => fixed::<2>(py, &h, &z0, &request, raise_on_failure),
+        4 => fixed::<4>(py, &h, &z0, &request, raise_on_failure),
+        _ => {
+            let result = drive(py, &*h.h, z0, &request)?;
+            finish(py, result, dim, raise_on_failure)
+        }
+    }
+}
+
+/// The run at `Const<N>` through [`dth::runtime::Fixed`].
+fn fixed<const N: usize>(
+    py: Python<'_>,
+    h: &Hamiltonian,
+    z0: &DVector<f64>,
+    request: &Request,
+    raise_on_failure: bool,
+) -> PyResult<Solution> {
+    let view =
+        Fixed::<N>::new(Arc::clone(&h.h)).map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
+    let z0 = SVector::<f64, N>::from_column_slice(z0.as_slice());
+    let result = drive(py, &view, z0, request)?;
+    finish(py, result, N, raise_on_failure)
+}
+
+/// What [`drive`] returns: the solution, or the error with the partial one (boxed: it is
+/// large and crosses a thread).
+type Outcome<D> = Result<dth::Solution<D>, Box<dth::RunError<dth::Solution<D>>>>;
+
+/// Runs `request` on `h` from `z0` on a worker thread, without the GIL, interruptible.
+fn drive<D: Dim, H: dth::Hamiltonian<D> + Sync>(
+    py: Python<'_>,
+    h: &H,
+    z0: OVector<f64, D>,
+    request: &Request,
+) -> PyResult<Outcome<D>>
+where
+    DefaultAllocator: Alloc<D>,
+    OVector<f64, D>: Send,
+    dth::Solution<D>: Send,
+{
     let flag = AtomicBool::new(false);
-    let result = crate::interrupt::run(py, &flag, || {
-        let mut run = solve(hamiltonian, z0, request.method)
+    crate::interrupt::run(py, &flag, || {
+        let mut run = solve(h, z0, request.method)
             .start_time(request.t0)
             .interrupt(&flag);
         run = match request.end {
             End::Steps(n) => run.steps(n),
             End::Time(t) => run.until(t),
         };
-        run = match request.save_at {
-            Some(times) => run.save_at(times),
+        run = match &request.save_at {
+            Some(times) => run.save_at(times.iter().copied()),
             None => run.save_every(request.every),
         };
         if let Some(n) = request.max_steps {
@@ -138,9 +183,22 @@ pub fn integrate(
         if !request.energy_errors {
             run = run.without_energy_errors();
         }
-        // Boxed: the partial solution makes the error large, and it crosses a thread.
         run.run().map_err(Box::new)
-    })?;
+    })
+}
+
+/// The Python result of a run: its `Solution`, or for a failed run the partial one (raised in
+/// an `IntegrationError` with `raise_on_failure`); a run refused before its first step is a
+/// `ValueError`.
+fn finish<D: Dim>(
+    py: Python<'_>,
+    result: Outcome<D>,
+    dim: usize,
+    raise_on_failure: bool,
+) -> PyResult<Solution>
+where
+    DefaultAllocator: Alloc<D>,
+{
     match result {
         Ok(solution) => Ok(Solution::new(py, solution, dim)),
         Err(failed) => {

@@ -5,8 +5,9 @@ use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyArray1, PyArray2};
 use pyo3::prelude::*;
 
-use dth::nalgebra::{DVector, Dyn};
+use dth::nalgebra::{DefaultAllocator, Dim, OVector};
 use dth::observer::StepKind;
+use dth::Alloc;
 
 /// The result of `dth.integrate`: the saved states and their times (for DTH, the midpoints
 /// zbar_k at the midpoint times, where H(zbar_k) = H(zbar_0) to roundoff), what produced each
@@ -67,7 +68,14 @@ pub struct Solution {
 }
 
 /// States as an (M, D) array.
-fn matrix<'py>(py: Python<'py>, states: &[DVector<f64>], dim: usize) -> Bound<'py, PyArray2<f64>> {
+fn matrix<'py, D: Dim>(
+    py: Python<'py>,
+    states: &[OVector<f64, D>],
+    dim: usize,
+) -> Bound<'py, PyArray2<f64>>
+where
+    DefaultAllocator: Alloc<D>,
+{
     let flat: Vec<f64> = states.iter().flat_map(|z| z.iter().copied()).collect();
     // The length is M * dim by construction.
     Array2::from_shape_vec((states.len(), dim), flat)
@@ -98,7 +106,10 @@ fn variant(e: &dth::Error) -> String {
 
 impl Solution {
     /// From the driver's solution of a system of dimension `dim`.
-    pub fn new(py: Python<'_>, s: dth::Solution<Dyn>, dim: usize) -> Solution {
+    pub fn new<D: Dim>(py: Python<'_>, s: dth::Solution<D>, dim: usize) -> Solution
+    where
+        DefaultAllocator: Alloc<D>,
+    {
         let kinds = s
             .kinds
             .iter()
