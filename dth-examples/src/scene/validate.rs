@@ -9,7 +9,7 @@ use toml::Spanned;
 
 use super::raw::{RawEffect, RawMethod, RawScene};
 use super::suggest::did_you_mean;
-use super::{expression, members};
+use super::{expression, members, regularization};
 use dth::dth::{Composition, Solver};
 use dth::runtime::{Backend, RuntimeHamiltonian};
 
@@ -358,6 +358,7 @@ fn validate(raw: RawScene, systems: &dyn SystemLookup, cx: &mut Ctxt<'_>) -> Opt
             Some(v.into_inner())
         }
     };
+    let q_span = initial.q.as_ref().map(|v| v.span());
     let q = vector(initial.q, "q", cx);
     let p = vector(initial.p, "p", cx);
     let t0 = match initial.t {
@@ -427,6 +428,44 @@ fn validate(raw: RawScene, systems: &dyn SystemLookup, cx: &mut Ctxt<'_>) -> Opt
                     methods.push(spec);
                 }
             }
+        }
+    }
+
+    // Regularization: method `dth` on the regularized K of a Hamiltonian given as text.
+    let regularize = match (&system.regularize, &system.centre) {
+        (Some(r), centre) if info.is_some() => {
+            let names: Vec<&str> = params.keys().map(String::as_str).collect();
+            let has_dth = methods.iter().any(|m| m.kind == MethodKind::Dth);
+            let mut errors = Vec::new();
+            let checked = regularization::check(
+                r,
+                centre.as_ref(),
+                hamiltonian.as_ref().map(|h| (h, names.as_slice())),
+                (&name, has_dth),
+                &mut errors,
+            );
+            for (span, message) in errors {
+                cx.error(span, message);
+            }
+            checked
+        }
+        (None, Some(c)) => {
+            cx.error(
+                c.span(),
+                "`centre` is the centre of a regularization: give `regularize` (\"levi-civita\" or \"ks\") too, or remove it",
+            );
+            None
+        }
+        _ => None,
+    };
+    if let (Some(r), Some(q), Some(span)) = (&regularize, &q, &q_span) {
+        if *q == r.centre {
+            cx.error(
+                span.clone(),
+                format!(
+                    "initial `q` = {q:?} is the centre of the regularization, the collision, where the momenta have no regularized image: start away from it"
+                ),
+            );
         }
     }
 
@@ -617,6 +656,7 @@ fn validate(raw: RawScene, systems: &dyn SystemLookup, cx: &mut Ctxt<'_>) -> Opt
         description: raw.description.unwrap_or_default(),
         system: name,
         hamiltonian,
+        regularize,
         params,
         q: q?,
         p: p?,
