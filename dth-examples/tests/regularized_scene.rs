@@ -52,6 +52,21 @@ fn three_body(regularized: bool, dth_keys: &str) -> String {
     text
 }
 
+/// Plain DTH at `dtau` on `k` from `w0` until the physical time `t_end`, through the library
+/// (not the scene): the end state and the steps taken.
+fn by_hand(k: &RuntimeHamiltonian, w0: &[f64], dtau: f64, t_end: f64) -> (DVector<f64>, usize) {
+    let run = solve(
+        k,
+        DVector::from_column_slice(w0),
+        Method::Dth(DthOptions::new(dtau).unwrap()),
+    )
+    .until(t_end)
+    .save_every(usize::MAX)
+    .run()
+    .unwrap();
+    (run.end_state().unwrap().clone(), run.steps)
+}
+
 /// `H` of the restricted three-body scene at `z = (q, p)`, and the size of its roundoff there:
 /// its terms, and what a rounding of each component (eps |z_i|) changes it by,
 /// `|dH/dz_i| |z_i|`. The latter dominates near the small primary: `q` is stored about the
@@ -154,22 +169,13 @@ fn the_final_state_is_the_regularized_end_mapped_back() {
     let z0 = Vector4::new(1.04 - 0.99, 0.0, 0.0, 1.09);
     let (energy, _) = jacobi(&[1.04, 0.0, 0.0, 1.09]);
     let w0 = LeviCivita::start(&z0, 0.0, energy).unwrap();
-    let by_hand = solve(
-        &k,
-        DVector::from_column_slice(w0.as_slice()),
-        Method::Dth(DthOptions::new(0.02).unwrap()),
-    )
-    .until(5.0)
-    .save_every(usize::MAX)
-    .run()
-    .unwrap();
-    let w = by_hand.end_state().unwrap();
+    let (w, steps) = by_hand(&k, w0.as_slice(), 0.02, 5.0);
     let (z, t) = LeviCivita::physical(&Vector6::from_column_slice(w.as_slice()));
     let expected = [z[0] + 0.99, z[1], z[2], z[3]];
     // The same run (same K, start and steps), so the same numbers.
     assert_eq!(reported.z, expected);
     assert_eq!((reported.t, t, dth.t_end), (5.0, 5.0, 5.0));
-    assert_eq!(reported.step, by_hand.steps);
+    assert_eq!(reported.step, steps);
     // The energy error is of the physical H: at the final state it is one of the deviations
     // the statistics cover.
     let (h, _) = jacobi(&reported.z);
@@ -273,17 +279,8 @@ fn a_ks_scene_about_a_centre_runs_in_space() {
         .collect();
     let energy = h.0.value_slice(&start).unwrap();
     let w0 = KustaanheimoStiefel::start(&z0, 0.0, energy).unwrap();
-    let end = solve(
-        &k,
-        DVector::from_column_slice(w0.as_slice()),
-        Method::Dth(DthOptions::new(0.3).unwrap()),
-    )
-    .until(3141.592653589793)
-    .save_every(usize::MAX)
-    .run()
-    .unwrap();
-    let w =
-        dth::nalgebra::SVector::<f64, 10>::from_column_slice(end.end_state().unwrap().as_slice());
+    let (w, _) = by_hand(&k, w0.as_slice(), 0.3, 3141.592653589793);
+    let w = dth::nalgebra::SVector::<f64, 10>::from_column_slice(w.as_slice());
     let (z, _) = KustaanheimoStiefel::physical(&w);
     let reported = &s.final_state.as_ref().unwrap().z;
     // The same K and start, so the same run; the centre is added back.
