@@ -17,22 +17,48 @@
 //! `super::validate`, an initial `q` at the centre, where the momenta have no regularized
 //! image.
 
+use std::ops::Range;
+
 use toml::Spanned;
 
 use super::members::Errors;
 use super::schema::{Regularization, RegularizeMap, TextHamiltonian};
 use dth_symbolic::lexer::{lex, TokenKind};
 
-/// Reads `regularize` (and `centre`) of a `[system]` whose Hamiltonian is `text` with the
-/// parameters `params` (`None`: a catalogue system named `name`), for a scene that has method
-/// `dth` (`has_dth`); `None` with every independent error pushed to `errors`.
+/// What [`check`] needs of the rest of the scene.
+pub(super) struct Context<'a> {
+    /// The system's name, for messages.
+    pub(super) name: &'a str,
+    /// `false` when the system is unknown or its text has errors (reported already).
+    pub(super) known: bool,
+    /// `true` when the scene has a method `dth`.
+    pub(super) has_dth: bool,
+    /// The initial `q` and its span in the file, when given.
+    pub(super) q: Option<(&'a [f64], Range<usize>)>,
+}
+
+/// Reads `regularize` and `centre` of a `[system]` whose Hamiltonian is `text` with the
+/// parameters named (`None`: a catalogue system); `None` when there is no regularization, or
+/// with every independent error pushed to `errors`.
 pub(super) fn check(
-    regularize: &Spanned<String>,
-    centre: Option<&Spanned<Vec<f64>>>,
+    (regularize, centre): (Option<&Spanned<String>>, Option<&Spanned<Vec<f64>>>),
     text: Option<(&TextHamiltonian, &[&str])>,
-    (name, has_dth): (&str, bool),
+    scene: Context<'_>,
     errors: &mut Errors,
 ) -> Option<Regularization> {
+    let Some(regularize) = regularize else {
+        if let Some(c) = centre {
+            errors.push((
+                c.span(),
+                "`centre` is the centre of a regularization: give `regularize` (\"levi-civita\" or \"ks\") too, or remove it".to_string(),
+            ));
+        }
+        return None;
+    };
+    if !scene.known {
+        return None;
+    }
+    let (name, has_dth) = (scene.name, scene.has_dth);
     let at = regularize.span();
     let Some(map) = RegularizeMap::from_name(regularize.get_ref()) else {
         errors.push((
@@ -116,6 +142,16 @@ pub(super) fn check(
             ));
         }
         return None;
+    }
+    if let Some((q, span)) = scene.q {
+        if q == centre.as_slice() {
+            errors.push((
+                span,
+                format!(
+                    "initial `q` = {q:?} is the centre of the regularization, the collision, where the momenta have no regularized image: start away from it"
+                ),
+            ));
+        }
     }
     Some(Regularization { map, centre })
 }

@@ -432,41 +432,21 @@ fn validate(raw: RawScene, systems: &dyn SystemLookup, cx: &mut Ctxt<'_>) -> Opt
     }
 
     // Regularization: method `dth` on the regularized K of a Hamiltonian given as text.
-    let regularize = match (&system.regularize, &system.centre) {
-        (Some(r), centre) if info.is_some() => {
-            let names: Vec<&str> = params.keys().map(String::as_str).collect();
-            let has_dth = methods.iter().any(|m| m.kind == MethodKind::Dth);
-            let mut errors = Vec::new();
-            let checked = regularization::check(
-                r,
-                centre.as_ref(),
-                hamiltonian.as_ref().map(|h| (h, names.as_slice())),
-                (&name, has_dth),
-                &mut errors,
-            );
-            for (span, message) in errors {
-                cx.error(span, message);
-            }
-            checked
-        }
-        (None, Some(c)) => {
-            cx.error(
-                c.span(),
-                "`centre` is the centre of a regularization: give `regularize` (\"levi-civita\" or \"ks\") too, or remove it",
-            );
-            None
-        }
-        _ => None,
-    };
-    if let (Some(r), Some(q), Some(span)) = (&regularize, &q, &q_span) {
-        if *q == r.centre {
-            cx.error(
-                span.clone(),
-                format!(
-                    "initial `q` = {q:?} is the centre of the regularization, the collision, where the momenta have no regularized image: start away from it"
-                ),
-            );
-        }
+    let names: Vec<&str> = params.keys().map(String::as_str).collect();
+    let mut errors = Vec::new();
+    let regularize = regularization::check(
+        (system.regularize.as_ref(), system.centre.as_ref()),
+        hamiltonian.as_ref().map(|h| (h, names.as_slice())),
+        regularization::Context {
+            name: &name,
+            known: info.is_some(),
+            has_dth: methods.iter().any(|m| m.kind == MethodKind::Dth),
+            q: q.as_deref().zip(q_span),
+        },
+        &mut errors,
+    );
+    for (span, message) in errors {
+        cx.error(span, message);
     }
 
     // Duration: exactly one of steps, time, orbits.
