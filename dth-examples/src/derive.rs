@@ -75,15 +75,9 @@ pub fn derive(source: &str, params: &[&str]) -> Result<String, Error> {
     }
 }
 
-/// A regularization `dth derive --regularize` applies (`dth_symbolic::regularize`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum Regularization {
-    /// Levi-Civita, planar.
-    LeviCivita,
-    /// Kustaanheimo-Stiefel, in space.
-    #[value(alias = "kustaanheimo-stiefel")]
-    Ks,
-}
+/// A regularization `dth derive --regularize` applies (`dth_symbolic::regularize`): the maps
+/// a scene's `[system] regularize` names.
+pub use crate::scene::RegularizeMap as Regularization;
 
 /// [`derive()`] of the regularized `K` of `source`: what the engine compiles for
 /// `#[regularize(..)]` (the radius cancelled, `K`'s gradient, Hessian and Psi).
@@ -103,11 +97,7 @@ pub fn derive_regularized(
     params: &[&str],
     regularization: Regularization,
 ) -> Result<String, Error> {
-    let compiled = match regularization {
-        Regularization::LeviCivita => dth_symbolic::regularize::levi_civita(source, params),
-        Regularization::Ks => dth_symbolic::regularize::kustaanheimo_stiefel(source, params),
-    };
-    compiled
+    regularization.symbolic()(source, params)
         .map(|system| report(source, &system))
         .map_err(|errors| Error::Hamiltonian {
             diagnostics: render_errors(source, &errors),

@@ -18,7 +18,8 @@
 //! 2. [`scene`]: its schema (the validated types), the serde form, and validation against a
 //!    [`scene::SystemLookup`];
 //! 3. [`driver`]: when runs stop, the fixed-step and DTH drivers, one observer protocol
-//!    (`dth::observer`);
+//!    (`dth::observer`); [`regularized`]: DTH on a scene's regularized `K`, every record mapped
+//!    back to physical coordinates;
 //! 4. [`system`] (what a scene needs of a system) and [`systems`] (the built-in ones);
 //! 5. [`method`] (a scene's method name to an integrator), [`normal_modes`] (a chain's linear
 //!    normal modes and their energies), [`effects`] (observers for the requested effects) and
@@ -35,7 +36,7 @@
 //!
 //! [`workprecision`] (the benchmark behind `dth workprecision`) and [`derive`](mod@derive) (what the
 //! symbolic engine derives from a Hamiltonian as text, `dth derive`) sit beside the scene
-//! stack and use only layer 1.
+//! stack and use only layer 1 (and `derive` the scene's names of the regularizations).
 //!
 //! ```
 //! use dth_examples::{catalogue::Catalogue, check_scene};
@@ -55,6 +56,7 @@ pub mod plot;
 pub mod scene;
 
 pub mod driver;
+pub mod regularized;
 
 pub mod system;
 pub mod systems;

@@ -23,7 +23,12 @@ use dth::nalgebra::{Const, DMatrix, DVector, DefaultAllocator, Dim, Dyn};
 use dth::runtime::{Fixed, RuntimeHamiltonian};
 use dth::{Alloc, Derivatives, Flags, Hamiltonian};
 
+use dth::methods::RunEnd;
+use dth::observer::Observer;
+
+use crate::driver::{DthRunner, MethodFailure, Stop};
 use crate::error::Error;
+use crate::regularized::Regularized;
 use crate::scene::{Scene, TextHamiltonian};
 use crate::system::SceneSystem;
 
@@ -31,8 +36,11 @@ use crate::system::SceneSystem;
 /// stepper owns its Hamiltonian; each thread of an ensemble holds a clone). It has its energy
 /// and nothing else: no invariants, period or exact solution (validation refuses the effects
 /// and methods that need them).
+///
+/// The first field is `H`; the second, for a scene with `[system] regularize`, the regularized
+/// `K` method `dth` runs on ([`Regularized`]; the peers run on `H`).
 #[derive(Debug, Clone)]
-pub struct TextSystem(pub Arc<RuntimeHamiltonian>);
+pub struct TextSystem(pub Arc<RuntimeHamiltonian>, Option<Arc<Regularized>>);
 
 impl TextSystem {
     /// The scene's Hamiltonian given as text, compiled with the scene's parameters.
@@ -85,13 +93,20 @@ impl TextSystem {
         params: &BTreeMap<String, f64>,
     ) -> Result<Self, Error> {
         let params: Vec<(&str, f64)> = params.iter().map(|(k, &v)| (k.as_str(), v)).collect();
+        let refused = |reason: String| Error::NotAvailable {
+            what: "system",
+            name: scene.system.clone(),
+            reason,
+        };
         let runtime =
-            RuntimeHamiltonian::new(&h.source, &params).map_err(|e| Error::NotAvailable {
-                what: "system",
-                name: scene.system.clone(),
-                reason: e.to_string(),
-            })?;
-        Ok(TextSystem(Arc::new(runtime)))
+            RuntimeHamiltonian::new(&h.source, &params).map_err(|e| refused(e.to_string()))?;
+        let regularized = match &scene.regularize {
+            Some(r) => Some(Arc::new(
+                Regularized::compile(&h.source, &params, r).map_err(|e| refused(e.to_string()))?,
+            )),
+            None => None,
+        };
+        Ok(TextSystem(Arc::new(runtime), regularized))
     }
 }
 
@@ -165,8 +180,24 @@ impl Hamiltonian<Dyn> for TextSystem {
     }
 }
 
-/// Energy only: the defaults (no invariants, period, exact solution, central force).
-impl SceneSystem<Dyn> for TextSystem {}
+/// Energy only: the defaults (no invariants, period, exact solution, central force). DTH runs
+/// on `H`, or for a regularized scene on its `K`, every record mapped back to `H`'s physical
+/// coordinates ([`Regularized::run`]).
+impl SceneSystem<Dyn> for TextSystem {
+    fn run_dth<O: Observer<Dyn>>(
+        &self,
+        runner: &DthRunner,
+        z0: DVector<f64>,
+        t0: f64,
+        stop: Stop,
+        observer: &mut O,
+    ) -> Option<Result<RunEnd<Dyn>, MethodFailure>> {
+        Some(match &self.1 {
+            Some(k) => k.run(runner, self, z0, t0, stop, observer),
+            None => runner.run(self, z0, t0, stop, observer),
+        })
+    }
+}
 
 /// Energy only, as [`TextSystem`]: the fixed-size view of the same compiled code.
 impl<const N: usize> SceneSystem<Const<N>> for Fixed<N> {}
@@ -188,8 +219,8 @@ pub trait TextJob {
 
 /// Compiles the scene's text and runs `job` on it: at `Const<D>` ([`Fixed`]) when its
 /// dimension `D` is 4 (two degrees of freedom, or one in the extended phase space of a
-/// time-dependent `H`), else at `Dyn` ([`TextSystem`]). The one place a text's dimension
-/// picks a type.
+/// time-dependent `H`) and not regularized, else at `Dyn` ([`TextSystem`]). The one place a
+/// text's dimension picks a type.
 ///
 /// # Errors
 /// As [`TextSystem::build`].
@@ -207,8 +238,9 @@ pub fn dispatch<J: TextJob>(scene: &Scene, job: J) -> Result<J::Output, Error> {
             reason: e.to_string(),
         })
     }
-    Ok(match system.0.dimension() {
-        4 => job.run::<Const<4>, Fixed<4>>(&|p| fixed(&system, scene, p)),
+    // A regularized scene's DTH runs on K at `Dyn` whatever the size of H.
+    Ok(match (system.0.dimension(), &scene.regularize) {
+        (4, None) => job.run::<Const<4>, Fixed<4>>(&|p| fixed(&system, scene, p)),
         _ => job.run::<Dyn, TextSystem>(&|p| system.with_params(scene, p)),
     })
 }

@@ -17,7 +17,7 @@ use crate::effects::{DeviationStats, EffectOutputs, Effects, FinalState};
 use crate::error::Error;
 use crate::fallback::{Fallback, FallbackWatch};
 use crate::method::{run_method, unavailable};
-use crate::scene::{Duration, Ensemble, MethodSpec, Scene, StepSpec};
+use crate::scene::{Duration, Ensemble, MethodKind, MethodSpec, Scene, StepSpec};
 use crate::system::SceneSystem;
 
 /// How to run.
@@ -538,10 +538,15 @@ where
                 Some(Failure::from(f)),
             ),
         };
+        let mut step = step_summary(m.step);
+        if let (Some(r), MethodKind::Dth) = (&scene.regularize, m.kind) {
+            // What it ran on; its records were mapped back to the physical state.
+            step.insert("regularize".into(), r.map.name().into());
+        }
         let summary = MethodSummary {
             label: m.label.clone(),
             kind: m.kind.name().to_string(),
-            step: step_summary(m.step),
+            step,
             steps,
             t_end,
             failure,

@@ -79,8 +79,9 @@ where
         None
     }
 
-    /// Runs the DTH stepper (`runner`) on this system. Keep the default: it is the only place
-    /// the scene runner instantiates the stepper for `Self`, so a system whose `Psi` is
+    /// Runs the DTH stepper (`runner`) on this system. Keep the default (a text Hamiltonian
+    /// overrides it to run a regularized scene on its `K`, `crate::regularized`): it is the
+    /// only place the scene runner instantiates the stepper for `Self`, so a system whose `Psi` is
     /// identically zero (rejected by the stepper with `Error::PsiIdenticallyZero`) runs through [`WithoutDth`]
     /// instead, which returns `None` here ([`SystemEntry::runnable_without_dth`](crate::catalogue::SystemEntry::runnable_without_dth)
     /// does that).

@@ -57,6 +57,14 @@ pub fn index(scene: &Scene, report: &RunReport) -> String {
             _ => "",
         }
     );
+    if let Some(r) = &scene.regularize {
+        let _ = writeln!(
+            h,
+            "<p>Method dth runs on the Hamiltonian regularized by {} about q = {:?} (K = |u|<sup>2</sup> (H + p<sub>t</sub>)), its states mapped back: every value here is physical (t, q, p and H); the other methods run on H.</p>",
+            r.map.name(),
+            r.centre
+        );
+    }
     // The fallback column only where a method can fall back (DTH in robust mode) or did.
     let fallback = report.methods.iter().any(|m| m.reports_fallback());
     let _ = writeln!(

@@ -1,8 +1,9 @@
 //! Scene files: parsing (TOML, serde, unknown keys rejected) and validation against the
 //! systems a [`SystemLookup`] knows, with every error located at `file:line:column`.
 //!
-//! Layers, imports pointing down: `validate` (the rules) -> `members` (ensemble scenes) and
-//! `expression` (a Hamiltonian given as text, read by the symbolic engine) -> `toml_string`
+//! Layers, imports pointing down: `validate` (the rules) -> `members` (ensemble scenes),
+//! `expression` (a Hamiltonian given as text, read by the symbolic engine) and
+//! `regularization` (`[system] regularize`, checked by the engine) -> `toml_string`
 //! (where each byte of a TOML string comes from in the file) -> `raw` (the serde types, as
 //! written), `schema` (the validated types the rest of the crate works with) and `suggest`
 //! (the known name closest to a misspelled one).
@@ -44,15 +45,17 @@
 mod expression;
 mod members;
 mod raw;
+mod regularization;
 mod schema;
 mod suggest;
 mod toml_string;
 mod validate;
 
+pub use regularization::{translated, IndexedCentre};
 pub(crate) use schema::thousands;
 pub use schema::{
     component_names, Axis, AxisRange, ChaosIndicator, Coord, Direction, Duration, EffectKind,
-    EffectSpec, EnergyShell, Ensemble, Members, MethodKind, MethodSpec, Sampler, Scene, StepSpec,
-    TextHamiltonian,
+    EffectSpec, EnergyShell, Ensemble, Members, MethodKind, MethodSpec, Regularization,
+    RegularizeMap, Sampler, Scene, StepSpec, TextHamiltonian,
 };
 pub use validate::{line_col, parse, ParamRule, ParamSpec, SystemInfo, SystemLookup};

@@ -46,7 +46,8 @@ pub(super) struct RawEnsemble {
 }
 
 /// `[system]`: a catalogue system (`name`) or a Hamiltonian given as text (`hamiltonian`, and
-/// optionally a `title` naming it); exactly one of the two, checked in `super::validate`.
+/// optionally a `title` naming it); exactly one of the two, checked in `super::validate`. A text
+/// may be regularized (`regularize`, about `centre`).
 #[derive(Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 pub(super) struct RawSystem {
@@ -55,6 +56,8 @@ pub(super) struct RawSystem {
     pub(super) title: Option<Spanned<String>>,
     #[serde(default)]
     pub(super) params: BTreeMap<Spanned<String>, Spanned<f64>>,
+    pub(super) regularize: Option<Spanned<String>>,
+    pub(super) centre: Option<Spanned<Vec<f64>>>,
 }
 
 #[derive(Deserialize, Default)]

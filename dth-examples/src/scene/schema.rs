@@ -20,6 +20,9 @@ pub struct Scene {
     /// The Hamiltonian given as text (`[system] hamiltonian = "..."`), when the scene names
     /// no catalogue system.
     pub hamiltonian: Option<TextHamiltonian>,
+    /// The regularization DTH runs under (`[system] regularize`, a Hamiltonian given as text
+    /// only): `None` for a plain run.
+    pub regularize: Option<Regularization>,
     /// Parameters, with the catalogue's defaults filled in (for a Hamiltonian given as text,
     /// those the scene gives, each used by the expression).
     pub params: BTreeMap<String, f64>,
@@ -70,6 +73,70 @@ pub struct TextHamiltonian {
     /// warnings: a position without its momentum, a misnumbered index), located in the scene
     /// file at the token they concern. They do not stop the scene; `dth check` prints them.
     pub warnings: Vec<SceneDiagnostic>,
+}
+
+/// `[system] regularize = "levi-civita" | "ks"` with an optional `centre`: method `dth` runs
+/// on the regularized `K = |u|^2 (H + p_t)` of the Hamiltonian given as text, translated so
+/// that `centre` is the origin of the map (`crate::regularized`); the peers run on `H` itself.
+/// Everything the scene reports is physical (`t`, `q`, `p` and `H`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Regularization {
+    /// Which map.
+    pub map: RegularizeMap,
+    /// The centre `c` of the map, `q = c + q(u)`: the point the close approaches are to (one
+    /// value per degree of freedom; zeros when the scene gives none).
+    pub centre: Vec<f64>,
+}
+
+/// The regularizing maps a scene (`[system] regularize`) and `dth derive --regularize` name
+/// (`dth_symbolic::regularize`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum RegularizeMap {
+    /// Levi-Civita, planar (`n = 2`): `K` on `(u1, u2, t, P1, P2, p_t)`.
+    LeviCivita,
+    /// Kustaanheimo-Stiefel, in space (`n = 3`): `K` on `(u1..u4, t, P1..P4, p_t)`.
+    #[value(alias = "kustaanheimo-stiefel")]
+    Ks,
+}
+
+impl RegularizeMap {
+    /// Both maps, in the order messages name them.
+    pub const ALL: [RegularizeMap; 2] = [RegularizeMap::LeviCivita, RegularizeMap::Ks];
+
+    /// The name in scene files and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            RegularizeMap::LeviCivita => "levi-civita",
+            RegularizeMap::Ks => "ks",
+        }
+    }
+
+    /// The map named `s`: its [`RegularizeMap::name`], or `kustaanheimo-stiefel` spelled out.
+    pub fn from_name(s: &str) -> Option<Self> {
+        match s {
+            "kustaanheimo-stiefel" => Some(RegularizeMap::Ks),
+            _ => Self::ALL.into_iter().find(|m| m.name() == s),
+        }
+    }
+
+    /// The degrees of freedom of the physical system it maps.
+    pub fn n(self) -> usize {
+        match self {
+            RegularizeMap::LeviCivita => 2,
+            RegularizeMap::Ks => 3,
+        }
+    }
+
+    /// The engine's regularization of a text (`dth_symbolic::regularize::levi_civita` or
+    /// `::kustaanheimo_stiefel`).
+    pub fn symbolic(
+        self,
+    ) -> fn(&str, &[&str]) -> Result<dth_symbolic::System, dth_symbolic::Errors> {
+        match self {
+            RegularizeMap::LeviCivita => dth_symbolic::regularize::levi_civita,
+            RegularizeMap::Ks => dth_symbolic::regularize::kustaanheimo_stiefel,
+        }
+    }
 }
 
 /// A square of initial conditions around the scene's initial state, in the plane of two of

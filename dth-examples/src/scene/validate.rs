@@ -9,7 +9,7 @@ use toml::Spanned;
 
 use super::raw::{RawEffect, RawMethod, RawScene};
 use super::suggest::did_you_mean;
-use super::{expression, members};
+use super::{expression, members, regularization};
 use dth::dth::{Composition, Solver};
 use dth::runtime::{Backend, RuntimeHamiltonian};
 
@@ -358,6 +358,7 @@ fn validate(raw: RawScene, systems: &dyn SystemLookup, cx: &mut Ctxt<'_>) -> Opt
             Some(v.into_inner())
         }
     };
+    let q_span = initial.q.as_ref().map(|v| v.span());
     let q = vector(initial.q, "q", cx);
     let p = vector(initial.p, "p", cx);
     let t0 = match initial.t {
@@ -428,6 +429,24 @@ fn validate(raw: RawScene, systems: &dyn SystemLookup, cx: &mut Ctxt<'_>) -> Opt
                 }
             }
         }
+    }
+
+    // Regularization: method `dth` on the regularized K of a Hamiltonian given as text.
+    let names: Vec<&str> = params.keys().map(String::as_str).collect();
+    let mut errors = Vec::new();
+    let regularize = regularization::check(
+        (system.regularize.as_ref(), system.centre.as_ref()),
+        hamiltonian.as_ref().map(|h| (h, names.as_slice())),
+        regularization::Context {
+            name: &name,
+            known: info.is_some(),
+            has_dth: methods.iter().any(|m| m.kind == MethodKind::Dth),
+            q: q.as_deref().zip(q_span),
+        },
+        &mut errors,
+    );
+    for (span, message) in errors {
+        cx.error(span, message);
     }
 
     // Duration: exactly one of steps, time, orbits.
@@ -617,6 +636,7 @@ fn validate(raw: RawScene, systems: &dyn SystemLookup, cx: &mut Ctxt<'_>) -> Opt
         description: raw.description.unwrap_or_default(),
         system: name,
         hamiltonian,
+        regularize,
         params,
         q: q?,
         p: p?,

@@ -1,0 +1,272 @@
+//! DTH on a regularized Hamiltonian, seen in physical coordinates: a scene's
+//! `[system] regularize = "levi-civita" | "ks"` (with an optional `centre`) runs method `dth` on
+//! `K = |u|^2 (H + p_t)` (`dth_symbolic::regularize`), where `Psi` keeps its sign through close
+//! approaches to the centre, and every record of that run is mapped back to the physical
+//! `(t, q, p)` here, in one place ([`Regularized::run`]): the effects, the fallback watch, the
+//! summary and the figures see the physical state and evaluate the physical `H`, as for any
+//! other method; a duration in `time` is physical time, and the run ends exactly on it (the
+//! stepper reads `K`'s `t` coordinate as its clock).
+//!
+//! - **The start.** The scene's `(q, p)` at `t0` is mapped with `dth::regularize::LeviCivita::start`
+//!   (or `KustaanheimoStiefel::start`, on the fibre where the bilinear invariant is zero), with
+//!   `p_t = -H(q, p)` so that the run starts on `K = 0`.
+//! - **Each record.** `zbar` and the vertex map back with `physical` (`q = c + q(u)`,
+//!   `p = A(u) P / (2 |u|^2)`); the times are `K`'s `t` coordinate; `lambda` becomes the
+//!   physical `dt/dtau = |u|^2 lambda_K` of the step (`dt/ds = dK/dp_t = |u|^2` at the
+//!   midpoint); `Psi` stays `K`'s, the one whose sign DTH's existence needs.
+//! - **The centre.** `q = c + q'` with `p` unchanged is canonical, so it is a substitution in
+//!   the text (`crate::scene::translated`): `q_i` becomes `(q_i + c_i)` before the engine regularizes, and
+//!   a distance written about the same point, `((q1 - c1)^2 + q2^2)^(-1/2)`, simplifies to
+//!   `|q'|^(-1)`, which the regularization cancels exactly. Write `c` in the text with the same
+//!   digits as in `centre` (the engine's numbers are exact decimals, so `0.99` cancels `0.99`);
+//!   a centre hidden behind a parameter (`1 - mu`) does not cancel, and `K` then has terms that
+//!   only cancel numerically near the centre.
+//!
+//! The peers of a regularized scene (midpoint, Gauss-Legendre, ...) run on the physical `H`,
+//! as in any scene: they do not need the regularization (a fixed step in the fictitious time
+//! could not land on a physical end time), and beside DTH they show what it changes.
+//!
+//! ```
+//! use dth_examples::scene::translated;
+//! assert_eq!(
+//!     translated("((q1 - 0.99)^2 + q2^2)^(-1/2)", &[0.99, 0.0]).unwrap(),
+//!     "(((q1 + 0.99) - 0.99)^2 + q2^2)^(-1/2)"
+//! );
+//! ```
+
+use dth::methods::RunEnd;
+use dth::nalgebra::{DVector, DefaultAllocator, Dim, Dyn, OVector, SVector, Vector4, Vector6};
+use dth::observer::{DthRecord, Observer, StepRecord};
+use dth::regularize::{KustaanheimoStiefel, LeviCivita};
+use dth::runtime::{RuntimeError, RuntimeHamiltonian};
+use dth::{Alloc, Hamiltonian};
+
+use crate::driver::{DthRunner, MethodFailure, Stop};
+use crate::scene::{translated, IndexedCentre, Regularization, RegularizeMap};
+
+/// The most physical coordinates a map has (`q`, `p` in space).
+const MAX_PHYSICAL: usize = 6;
+
+/// Why a scene's regularized `K` was not built.
+#[derive(Debug, thiserror::Error)]
+pub enum RegularizeError {
+    /// The engine refused the text or its parameters (a text that is not planar, or not
+    /// spatial for KS, or uses `t`).
+    #[error("{0}")]
+    Text(#[from] RuntimeError),
+    /// The centre is not the origin and the text indexes `q[..]` (in a sum): only the
+    /// coordinates written out are translated.
+    #[error(transparent)]
+    IndexedCentre(#[from] IndexedCentre),
+}
+
+/// A scene's regularized `K`, compiled, with the map between its states and the physical ones.
+#[derive(Debug)]
+pub struct Regularized {
+    k: RuntimeHamiltonian,
+    map: RegularizeMap,
+    centre: Vec<f64>,
+}
+
+impl Regularized {
+    /// `K` of the Hamiltonian `source` (parameters `params`) under `regularization`: the text
+    /// translated to its centre (`crate::scene::translated`), then regularized and compiled
+    /// (`RuntimeHamiltonian::levi_civita` or `::kustaanheimo_stiefel`).
+    ///
+    /// # Errors
+    /// [`RegularizeError::Text`] with the engine's error, as `RuntimeHamiltonian::levi_civita`
+    /// gives it; [`RegularizeError::IndexedCentre`] from `crate::scene::translated`.
+    pub fn compile(
+        source: &str,
+        params: &[(&str, f64)],
+        regularization: &Regularization,
+    ) -> Result<Self, RegularizeError> {
+        let text = translated(source, &regularization.centre)?;
+        let k = match regularization.map {
+            RegularizeMap::LeviCivita => RuntimeHamiltonian::levi_civita(&text, params),
+            RegularizeMap::Ks => RuntimeHamiltonian::kustaanheimo_stiefel(&text, params),
+        }?;
+        Ok(Regularized {
+            k,
+            map: regularization.map,
+            centre: regularization.centre.clone(),
+        })
+    }
+
+    /// The compiled `K` (on `(u, t, P, p_t)`).
+    pub fn k(&self) -> &RuntimeHamiltonian {
+        &self.k
+    }
+
+    /// The regularized start of the physical state `z = (q, p)` at time `t` with
+    /// `energy = H(z)` (`p_t = -energy`, so `K = 0`).
+    ///
+    /// # Errors
+    /// `dth::Error::NonFiniteInitialState` for a value that is not finite,
+    /// `dth::Error::InvalidOption` (`q`) at the centre, where the momenta have no image, and
+    /// `dth::Error::WrongStateLength` for a `z` that is not `2n` long.
+    pub fn start(&self, z: &[f64], t: f64, energy: f64) -> Result<DVector<f64>, dth::Error> {
+        let n = self.map.n();
+        if z.len() != 2 * n {
+            return Err(dth::Error::WrongStateLength {
+                what: "z0",
+                expected: 2 * n,
+                found: z.len(),
+            });
+        }
+        let mut shifted = [0.0; MAX_PHYSICAL];
+        shifted[..2 * n].copy_from_slice(z);
+        for (q, c) in shifted.iter_mut().zip(&self.centre) {
+            *q -= c;
+        }
+        Ok(match self.map {
+            RegularizeMap::LeviCivita => {
+                let w = LeviCivita::start(&Vector4::from_column_slice(&shifted[..4]), t, energy)?;
+                DVector::from_column_slice(w.as_slice())
+            }
+            RegularizeMap::Ks => {
+                let w =
+                    KustaanheimoStiefel::start(&Vector6::from_column_slice(&shifted), t, energy)?;
+                DVector::from_column_slice(w.as_slice())
+            }
+        })
+    }
+
+    /// The physical state `(q, p)` of the regularized state `w` into `out` (its first `2n`
+    /// values), and its time.
+    pub fn physical_into(&self, w: &[f64], out: &mut [f64]) -> f64 {
+        let n = self.map.n();
+        let (z, t) = match self.map {
+            RegularizeMap::LeviCivita => {
+                let (z, t) = LeviCivita::physical(&Vector6::from_column_slice(&w[..6]));
+                let mut all = [0.0; MAX_PHYSICAL];
+                all[..4].copy_from_slice(z.as_slice());
+                (all, t)
+            }
+            RegularizeMap::Ks => {
+                let (z, t) =
+                    KustaanheimoStiefel::physical(&SVector::<f64, 10>::from_column_slice(&w[..10]));
+                let mut all = [0.0; MAX_PHYSICAL];
+                all.copy_from_slice(z.as_slice());
+                (all, t)
+            }
+        };
+        out[..2 * n].copy_from_slice(&z[..2 * n]);
+        for (q, c) in out.iter_mut().zip(&self.centre) {
+            *q += c;
+        }
+        t
+    }
+
+    /// `dt/ds = dK/dp_t = |u|^2` at the regularized state `w`.
+    fn dt_ds(&self, w: &[f64]) -> f64 {
+        let u = match self.map {
+            RegularizeMap::LeviCivita => &w[..2],
+            RegularizeMap::Ks => &w[..4],
+        };
+        u.iter().map(|x| x * x).sum()
+    }
+
+    /// Runs DTH (`runner`) on `K` from the physical start `z0` at `t0` (the energy from
+    /// `physical`, the physical `H`) until `stop`, every record shown to `observer` in
+    /// physical coordinates (see the [module docs](self)); the end is physical.
+    ///
+    /// A start the map refuses (the centre, a value that is not finite) is the method's
+    /// failure at step 0.
+    pub fn run<D: Dim, H: Hamiltonian<D>, O: Observer<D>>(
+        &self,
+        runner: &DthRunner,
+        physical: &H,
+        z0: OVector<f64, D>,
+        t0: f64,
+        stop: Stop,
+        observer: &mut O,
+    ) -> Result<RunEnd<D>, MethodFailure>
+    where
+        DefaultAllocator: Alloc<D>,
+    {
+        let energy = physical.value(&z0);
+        let physical_z0: Vec<f64> = z0.iter().copied().collect();
+        let w0 = self
+            .start(&physical_z0, t0, energy)
+            .map_err(|e| MethodFailure::integrator(0, e))?;
+        let mut view = PhysicalView {
+            map: self,
+            record: StepRecord::fixed(0, t0, z0.clone()),
+            vertex: z0,
+            observer,
+        };
+        let end = runner.run::<Dyn, _, _>(&self.k, w0, t0, stop, &mut view)?;
+        let mut z = view.vertex;
+        let t = self.physical_into(end.z.as_slice(), Slice::of(&mut z).0);
+        Ok(RunEnd {
+            z,
+            t,
+            steps: end.steps,
+        })
+    }
+}
+
+/// A mutable view of a state's values as a slice, whatever its dimension type (nalgebra's
+/// owned vectors are contiguous).
+struct Slice<'a>(&'a mut [f64]);
+
+impl<'a> Slice<'a> {
+    fn of<D: Dim>(z: &'a mut OVector<f64, D>) -> Self
+    where
+        DefaultAllocator: Alloc<D>,
+    {
+        Slice(z.as_mut_slice())
+    }
+}
+
+/// The observer of a run on `K` that shows `observer` each record in physical coordinates
+/// (see the [module docs](self)); `record` and `vertex` are its reused storage.
+struct PhysicalView<'a, D: Dim, O>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    map: &'a Regularized,
+    record: StepRecord<D>,
+    vertex: OVector<f64, D>,
+    observer: &'a mut O,
+}
+
+impl<D: Dim, O: Observer<D>> Observer<Dyn> for PhysicalView<'_, D, O>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    fn on_step(&mut self, r: &StepRecord<Dyn>) {
+        let w = r.z.as_slice();
+        let record = &mut self.record;
+        record.k = r.k;
+        record.kind = r.kind;
+        record.iterations = r.iterations;
+        record.factorizations = r.factorizations;
+        record.t = r.t;
+        self.map.physical_into(w, Slice::of(&mut record.z).0);
+        match &r.dth {
+            Some(d) => {
+                let out = record.dth.get_or_insert_with(|| DthRecord {
+                    lambda: 0.0,
+                    vertex: self.vertex.clone(),
+                    vertex_time: 0.0,
+                    psi: 0.0,
+                });
+                out.lambda = d.lambda * self.map.dt_ds(w);
+                self.map
+                    .physical_into(d.vertex.as_slice(), Slice::of(&mut out.vertex).0);
+                out.vertex_time = d.vertex_time;
+                out.psi = d.psi;
+            }
+            None => record.dth = None,
+        }
+        self.observer.on_step(record);
+    }
+
+    fn on_finish(&mut self, last_vertex: &DVector<f64>, last_vertex_time: f64) {
+        self.map
+            .physical_into(last_vertex.as_slice(), Slice::of(&mut self.vertex).0);
+        self.observer.on_finish(&self.vertex, last_vertex_time);
+    }
+}
