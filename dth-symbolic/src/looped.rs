@@ -250,11 +250,7 @@ pub fn loops(src: &str, params: &[&str]) -> Option<Looped> {
     if !src.contains("sum") {
         return None;
     }
-    compile(src, params)
-        .ok()
-        .filter(Looped::fits_one_body)
-        // The generated code does not loop nested sums yet.
-        .filter(|l| l.nested.is_empty())
+    compile(src, params).ok().filter(Looped::fits_one_body)
 }
 
 /// Compiles `src` in loops (see the module docs).
