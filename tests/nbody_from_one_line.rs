@@ -10,22 +10,7 @@ use dth::dth::{Dth, DthOptions};
 use dth::nalgebra::{Const, DVector, SVector};
 use dth::runtime::{Fixed, RuntimeHamiltonian};
 use dth::Hamiltonian;
-
-/// 3-D gravity of `n` bodies of unit mass, `G = 1`: one line.
-fn gravity(n: usize) -> String {
-    format!(
-        "sum(i = 1..N, (p[3*i-2]^2 + p[3*i-1]^2 + p[3*i]^2)/2) - sum(1 <= i < j <= N, \
-         ((q[3*i-2] - q[3*j-2])^2 + (q[3*i-1] - q[3*j-1])^2 + (q[3*i] - q[3*j])^2)^(-1/2)) \
-         where N = {n}"
-    )
-}
-
-/// Calogero-Moser of `n` particles on a line: one line.
-fn calogero(n: usize) -> String {
-    format!(
-        "sum(i = 1..N, p[i]^2/2) + g^2*sum(1 <= i < j <= N, (q[i] - q[j])^(-2)) where N = {n}"
-    )
-}
+use dth_symbolic::sources::{calogero_moser, gravity_3d};
 
 dth::hamiltonian! {
     /// 64 gravitating bodies in 3-D.
@@ -120,7 +105,7 @@ fn on_a_large_stack(f: impl FnOnce() + Send + 'static) {
 fn a_cluster_of_64_bodies_from_one_line_keeps_its_energy_text_and_macro() {
     on_a_large_stack(|| {
         const D: usize = 6 * 64;
-        let text = RuntimeHamiltonian::new(&gravity(64), &[]).expect("one line");
+        let text = RuntimeHamiltonian::new(&gravity_3d(64), &[]).expect("one line");
         assert!(text.looped().is_some(), "the pair sum loops");
         let z0 = cluster_start();
         let steps = 10;
@@ -140,7 +125,7 @@ fn a_cluster_of_64_bodies_from_one_line_keeps_its_energy_text_and_macro() {
 fn calogero_moser_of_256_particles_from_one_line_keeps_its_energy_text_and_macro() {
     on_a_large_stack(|| {
         const D: usize = 2 * 256;
-        let text = RuntimeHamiltonian::new(&calogero(256), &[("g", 0.5)]).expect("one line");
+        let text = RuntimeHamiltonian::new(&calogero_moser(256), &[("g", 0.5)]).expect("one line");
         assert!(text.looped().is_some(), "the pair sum loops");
         let z0 = calogero_start();
         let steps = 5;

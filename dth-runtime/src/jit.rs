@@ -30,7 +30,7 @@ use cranelift_codegen::Context;
 use cranelift_frontend::{FunctionBuilder, FunctionBuilderContext, Variable};
 use cranelift_jit::{JITBuilder, JITModule};
 use cranelift_module::{default_libcall_names, FuncId, Linkage, Module};
-use dth_symbolic::{Kernel, Op, Program, Slot};
+use dth_symbolic::{Kernel, Op, Output, Program, Slot};
 
 use crate::error::{JitError, RuntimeError};
 use crate::lattice::{
@@ -686,18 +686,10 @@ impl Emitter<'_> {
             vals.push(v);
         }
         for s in &plan.stores {
-            let e = match s
-                .source
-                .and_then(|o| p.outputs.iter().find(|&&(x, _)| x == o))
-            {
-                Some(&(_, slot)) => vals[slot as usize],
-                None => b.ins().f64const(0.0),
-            };
+            let e = output(b, p, &vals, s.source);
             let k = match s.target {
                 TupleTarget::Acc => {
-                    let a = b.use_var(acc);
-                    let sum = b.ins().fadd(a, e);
-                    b.def_var(acc, sum);
+                    accumulate(b, acc, e);
                     continue;
                 }
                 TupleTarget::Out(a) => index(b, &a),
@@ -753,13 +745,7 @@ impl Emitter<'_> {
             vals.push(v);
         }
         for s in &plan.stores {
-            let e = match s
-                .source
-                .and_then(|o| p.outputs.iter().find(|&&(x, _)| x == o))
-            {
-                Some(&(_, slot)) => vals[slot as usize],
-                None => b.ins().f64const(0.0),
-            };
+            let e = output(b, p, &vals, s.source);
             let e = if s.twice {
                 let two = b.ins().f64const(2.0);
                 b.ins().fmul(two, e)
@@ -767,11 +753,7 @@ impl Emitter<'_> {
                 e
             };
             match s.target {
-                Target::Acc => {
-                    let a = b.use_var(acc);
-                    let sum = b.ins().fadd(a, e);
-                    b.def_var(acc, sum);
-                }
+                Target::Acc => accumulate(b, acc, e),
                 Target::Out(k) => {
                     let old = b.ins().load(types::F64, flags, out, offset(k));
                     let sum = b.ins().fadd(old, e);
@@ -822,6 +804,22 @@ impl Emitter<'_> {
             }
         }
     }
+}
+
+/// The value of the summand's output `source` among the program's values `vals`, or `0` when
+/// the program does not compute it.
+fn output(b: &mut FunctionBuilder, p: &Program, vals: &[Value], source: Option<Output>) -> Value {
+    match source.and_then(|o| p.outputs.iter().find(|&&(x, _)| x == o)) {
+        Some(&(_, slot)) => vals[slot as usize],
+        None => b.ins().f64const(0.0),
+    }
+}
+
+/// `acc += e`.
+fn accumulate(b: &mut FunctionBuilder, acc: Variable, e: Value) {
+    let a = b.use_var(acc);
+    let sum = b.ins().fadd(a, e);
+    b.def_var(acc, sum);
 }
 
 /// How a program is cut into chunks, where its outputs go, and which slots chunks share.

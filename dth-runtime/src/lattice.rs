@@ -85,6 +85,15 @@ impl LoopFunction {
         matches!(self, LoopFunction::Value | LoopFunction::EnergyDifference)
     }
 
+    /// The output a scalar function ([`LoopFunction::scalar`]) adds up.
+    fn scalar_output(self) -> Output {
+        if self == LoopFunction::Value {
+            Output::Value
+        } else {
+            Output::EnergyDifference
+        }
+    }
+
     /// The summand output this function adds up, for the vector functions: `Some(k)` of
     /// output `k` of the local coordinates.
     fn local_output(self, o: Output) -> Option<usize> {
@@ -426,11 +435,7 @@ fn site_plan(
     let computed = |o: Output| program.outputs.iter().any(|&(x, _)| x == o);
     match f {
         LoopFunction::Value | LoopFunction::EnergyDifference => {
-            let o = if f == LoopFunction::Value {
-                Output::Value
-            } else {
-                Output::EnergyDifference
-            };
+            let o = f.scalar_output();
             stores.push(Store {
                 source: computed(o).then_some(o),
                 target: Target::Acc,
@@ -497,11 +502,7 @@ fn nested_plan(looped: &Looped, layout: &Layout, f: LoopFunction, k: usize) -> N
     let mut stores = Vec::new();
     match f {
         LoopFunction::Value | LoopFunction::EnergyDifference => {
-            let o = if f == LoopFunction::Value {
-                Output::Value
-            } else {
-                Output::EnergyDifference
-            };
+            let o = f.scalar_output();
             stores.push(TupleStore {
                 source: computed(o).then_some(o),
                 target: TupleTarget::Acc,

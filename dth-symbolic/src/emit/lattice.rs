@@ -22,6 +22,11 @@ use crate::looped::diagonals::{layout, Place};
 use crate::looped::{Looped, Site};
 use crate::{Method, Output, Program};
 
+/// Each of `programs` keeping only the operations the outputs `keep` holds reach.
+fn pruned(programs: &[Program], keep: fn(Output) -> bool) -> Vec<Program> {
+    programs.iter().map(|p| p.prune(keep)).collect()
+}
+
 /// `impl Hamiltonian<Const<D>>` for a looped lattice, or `None` when a summand's program is
 /// too long for one loop body (the caller emits the site-by-site code instead).
 pub fn looped_impl(looped: &Looped, name: &Ident, params: &[Ident]) -> Option<TokenStream> {
@@ -329,18 +334,12 @@ pub fn looped_impl(looped: &Looped, name: &Ident, params: &[Ident]) -> Option<To
     });
     let nested_pair = nested_programs(Method::DiscreteGradient);
     let nested_discrete_gradient = nested_loops(
-        &nested_pair
-            .iter()
-            .map(|p| p.prune(|o| matches!(o, Output::DiscreteGradient(_))))
-            .collect::<Vec<_>>(),
+        &pruned(&nested_pair, |o| matches!(o, Output::DiscreteGradient(_))),
         true,
         &|k, v| nested_vector(k, &v.discrete_gradient, quote!(g)),
     );
     let nested_energy_difference = nested_loops(
-        &nested_pair
-            .iter()
-            .map(|p| p.prune(|o| o == Output::EnergyDifference))
-            .collect::<Vec<_>>(),
+        &pruned(&nested_pair, |o| o == Output::EnergyDifference),
         true,
         &|_, v| {
             let e = &v.energy_difference;
@@ -388,18 +387,12 @@ pub fn looped_impl(looped: &Looped, name: &Ident, params: &[Ident]) -> Option<To
         quote!({ #(#writes)* })
     });
     let discrete_gradient = loops(
-        &pair_p
-            .iter()
-            .map(|p| p.prune(|o| matches!(o, Output::DiscreteGradient(_))))
-            .collect::<Vec<_>>(),
+        &pruned(&pair_p, |o| matches!(o, Output::DiscreteGradient(_))),
         true,
         &|k, v| scatter_vector(k, &v.discrete_gradient, quote!(g)),
     );
     let energy_difference = loops(
-        &pair_p
-            .iter()
-            .map(|p| p.prune(|o| o == Output::EnergyDifference))
-            .collect::<Vec<_>>(),
+        &pruned(&pair_p, |o| o == Output::EnergyDifference),
         true,
         &|_, v| {
             let e = &v.energy_difference;
