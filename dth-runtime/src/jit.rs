@@ -30,10 +30,12 @@ use cranelift_codegen::Context;
 use cranelift_frontend::{FunctionBuilder, FunctionBuilderContext, Variable};
 use cranelift_jit::{JITBuilder, JITModule};
 use cranelift_module::{default_libcall_names, FuncId, Linkage, Module};
-use dth_symbolic::{Kernel, Op, Program, Slot};
+use dth_symbolic::{Kernel, Op, Output, Program, Slot};
 
 use crate::error::{JitError, RuntimeError};
-use crate::lattice::{Load, LoopCode, SitePlan, Target};
+use crate::lattice::{
+    Affine, Load, LoopCode, NestedPlan, SitePlan, Target, TupleLoad, TupleTarget,
+};
 use crate::layout::{Function, Placement};
 use crate::shims;
 
@@ -138,7 +140,10 @@ impl Job<'_> {
     fn programs(&self) -> Vec<&Program> {
         match self {
             Job::Program(_, p) => vec![p],
-            Job::Loop(c) => c.sums.iter().map(|s| &s.program).collect(),
+            Job::Loop(c) => {
+                let nested = c.nested.iter().map(|s| &s.program);
+                c.sums.iter().map(|s| &s.program).chain(nested).collect()
+            }
         }
     }
 }
@@ -566,9 +571,147 @@ impl Emitter<'_> {
                 b.switch_to_block(exit);
             }
         }
+        for plan in &code.nested {
+            self.nested(b, &mut refs, plan, args, acc);
+        }
         if code.function.scalar() {
             let v = b.use_var(acc);
             b.ins().store(flags, v, out, 0);
+        }
+    }
+
+    /// `for (v = first; v <= last; v++) body(v)`, `first` and `last` values of the function.
+    fn count(
+        &mut self,
+        b: &mut FunctionBuilder,
+        first: Value,
+        last: Value,
+        body: &mut dyn FnMut(&mut Self, &mut FunctionBuilder, Value),
+    ) {
+        let v = b.declare_var(types::I64);
+        b.def_var(v, first);
+        let end = b.declare_var(types::I64);
+        b.def_var(end, last);
+        let (header, inside, exit) = (b.create_block(), b.create_block(), b.create_block());
+        b.ins().jump(header, &[]);
+        b.switch_to_block(header);
+        let (vv, ev) = (b.use_var(v), b.use_var(end));
+        let done = b.ins().icmp(IntCC::SignedGreaterThan, vv, ev);
+        b.ins().brif(done, exit, &[], inside, &[]);
+        b.switch_to_block(inside);
+        let vv = b.use_var(v);
+        body(self, b, vv);
+        let vv = b.use_var(v);
+        let next = b.ins().iadd_imm_s(vv, 1);
+        b.def_var(v, next);
+        b.ins().jump(header, &[]);
+        b.switch_to_block(exit);
+    }
+
+    /// A nested sum ([`NestedPlan`]): a loop over the outer index, inside it one over the
+    /// inner index (from bounds affine in the outer), the summand's program at each tuple.
+    fn nested(
+        &mut self,
+        b: &mut FunctionBuilder,
+        refs: &mut HashMap<&'static str, FuncRef>,
+        plan: &NestedPlan,
+        args: &[Value],
+        acc: Variable,
+    ) {
+        let (lo, hi) = plan.tuples.outer;
+        let (first, last) = (
+            b.ins().iconst(types::I64, lo),
+            b.ins().iconst(types::I64, hi),
+        );
+        self.count(b, first, last, &mut |e, b, i| match plan.tuples.inner {
+            None => {
+                let j = b.ins().iconst(types::I64, 0);
+                e.tuple(b, refs, plan, args, acc, [i, j]);
+            }
+            Some([(al, bl), (ah, bh)]) => {
+                let bound = |b: &mut FunctionBuilder, a: i64, c: i64| {
+                    let ai = b.ins().imul_imm_s(i, a);
+                    b.ins().iadd_imm_s(ai, c)
+                };
+                let (first, last) = (bound(b, al, bl), bound(b, ah, bh));
+                e.count(b, first, last, &mut |e, b, j| {
+                    e.tuple(b, refs, plan, args, acc, [i, j]);
+                });
+            }
+        });
+    }
+
+    /// One tuple `at = [i, j]` of a nested sum: the local coordinates loaded at their affine
+    /// indices, the summand's program, its outputs added.
+    fn tuple(
+        &mut self,
+        b: &mut FunctionBuilder,
+        refs: &mut HashMap<&'static str, FuncRef>,
+        plan: &NestedPlan,
+        args: &[Value],
+        acc: Variable,
+        at: [Value; 2],
+    ) {
+        let (z, z1, params, out) = (args[0], args[1], args[2], args[3]);
+        let flags = MemFlagsData::trusted();
+        let ptr = self.ptr;
+        let index = |b: &mut FunctionBuilder, a: &Affine| {
+            let i = b.ins().imul_imm_s(at[0], a.coef[0]);
+            let j = b.ins().imul_imm_s(at[1], a.coef[1]);
+            let k = b.ins().iadd(i, j);
+            b.ins().iadd_imm_s(k, a.offset)
+        };
+        let address = |b: &mut FunctionBuilder, base: Value, k: Value| {
+            let bytes = b.ins().imul_imm_s(k, 8);
+            let bytes = if ptr == types::I64 {
+                bytes
+            } else {
+                b.ins().ireduce(ptr, bytes)
+            };
+            b.ins().iadd(base, bytes)
+        };
+        let p = &plan.program;
+        let mut vals: Vec<Value> = Vec::with_capacity(p.ops.len());
+        for &op in &p.ops {
+            let mut get = |_: &mut FunctionBuilder, s: Slot| vals[s as usize];
+            let mut input = |b: &mut FunctionBuilder, second: bool, k: usize| match plan.loads[k] {
+                TupleLoad::Z(a) => {
+                    let k = index(b, &a);
+                    let at = address(b, if second { z1 } else { z }, k);
+                    b.ins().load(types::F64, flags, at, 0)
+                }
+                TupleLoad::Const(v) => b.ins().f64const(v),
+            };
+            let v = self.op(b, refs, op, params, &mut get, &mut input);
+            vals.push(v);
+        }
+        for s in &plan.stores {
+            let e = output(b, p, &vals, s.source);
+            let k = match s.target {
+                TupleTarget::Acc => {
+                    accumulate(b, acc, e);
+                    continue;
+                }
+                TupleTarget::Out(a) => index(b, &a),
+                TupleTarget::Block { block, a, b: c } => {
+                    // start + o len - o (o - 1) / 2 + (lo - first), o = hi - lo.
+                    let (x, y) = (index(b, &a), index(b, &c));
+                    let (lo, hi) = (b.ins().smin(x, y), b.ins().smax(x, y));
+                    let o = b.ins().isub(hi, lo);
+                    let o1 = b.ins().iadd_imm_s(o, -1);
+                    let tri = b.ins().imul(o, o1);
+                    let tri = b.ins().sshr_imm_u(tri, 1);
+                    let along = b.ins().imul_imm_s(o, block.len as i64);
+                    let k = b.ins().isub(along, tri);
+                    let k = b.ins().iadd(k, lo);
+                    b.ins()
+                        .iadd_imm_s(k, block.start as i64 - block.first as i64)
+                }
+            };
+            let at = address(b, out, k);
+            let old = b.ins().load(types::F64, flags, at, 0);
+            let sum = b.ins().fadd(old, e);
+            b.ins().store(flags, sum, at, 0);
         }
     }
 
@@ -602,13 +745,7 @@ impl Emitter<'_> {
             vals.push(v);
         }
         for s in &plan.stores {
-            let e = match s
-                .source
-                .and_then(|o| p.outputs.iter().find(|&&(x, _)| x == o))
-            {
-                Some(&(_, slot)) => vals[slot as usize],
-                None => b.ins().f64const(0.0),
-            };
+            let e = output(b, p, &vals, s.source);
             let e = if s.twice {
                 let two = b.ins().f64const(2.0);
                 b.ins().fmul(two, e)
@@ -616,11 +753,7 @@ impl Emitter<'_> {
                 e
             };
             match s.target {
-                Target::Acc => {
-                    let a = b.use_var(acc);
-                    let sum = b.ins().fadd(a, e);
-                    b.def_var(acc, sum);
-                }
+                Target::Acc => accumulate(b, acc, e),
                 Target::Out(k) => {
                     let old = b.ins().load(types::F64, flags, out, offset(k));
                     let sum = b.ins().fadd(old, e);
@@ -671,6 +804,22 @@ impl Emitter<'_> {
             }
         }
     }
+}
+
+/// The value of the summand's output `source` among the program's values `vals`, or `0` when
+/// the program does not compute it.
+fn output(b: &mut FunctionBuilder, p: &Program, vals: &[Value], source: Option<Output>) -> Value {
+    match source.and_then(|o| p.outputs.iter().find(|&&(x, _)| x == o)) {
+        Some(&(_, slot)) => vals[slot as usize],
+        None => b.ins().f64const(0.0),
+    }
+}
+
+/// `acc += e`.
+fn accumulate(b: &mut FunctionBuilder, acc: Variable, e: Value) {
+    let a = b.use_var(acc);
+    let sum = b.ins().fadd(a, e);
+    b.def_var(acc, sum);
 }
 
 /// How a program is cut into chunks, where its outputs go, and which slots chunks share.

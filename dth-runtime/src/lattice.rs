@@ -16,8 +16,14 @@
 //! serves the whole interior (one loop); each end site has a plan of its own, with absolute
 //! addresses. How many end sites there are depends on the offsets and the boundaries, not on
 //! `N`, so the plans, and the code compiled from them, do not grow with the lattice.
+//!
+//! A nested sum (over pairs, nested or strided, [`dth_symbolic::looped::nested`]) is one plan
+//! ([`NestedPlan`]) for all its index tuples: every address is affine in the indices `(i, j)`
+//! (`z[3 j - 3]`), and a Hessian entry of a sum over pairs lands in its dense block at
+//! [`Block::position`] of its row and column, computed in the loop.
 
-use dth_symbolic::looped::diagonals::{layout, Layout};
+use dth_symbolic::looped::diagonals::{layout, Block, Layout};
+use dth_symbolic::looped::nested::{NestedSlot, Tuples};
 use dth_symbolic::looped::{Looped, Site};
 use dth_symbolic::{Method, Output, Program};
 
@@ -77,6 +83,15 @@ impl LoopFunction {
     /// `true` when the function is one value, accumulated over the sites.
     pub fn scalar(self) -> bool {
         matches!(self, LoopFunction::Value | LoopFunction::EnergyDifference)
+    }
+
+    /// The output a scalar function ([`LoopFunction::scalar`]) adds up.
+    fn scalar_output(self) -> Output {
+        if self == LoopFunction::Value {
+            Output::Value
+        } else {
+            Output::EnergyDifference
+        }
     }
 
     /// The summand output this function adds up, for the vector functions: `Some(k)` of
@@ -201,13 +216,91 @@ pub struct SumPlan {
     pub segments: Vec<Segment>,
 }
 
+/// An index affine in a nested sum's indices: `coef[0] i + coef[1] j + offset`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Affine {
+    /// The coefficients of the outer and the inner index.
+    pub coef: [i64; 2],
+    /// The constant.
+    pub offset: i64,
+}
+
+impl Affine {
+    /// Its value at the indices `at = [i, j]`.
+    pub fn at(&self, at: [i64; 2]) -> i64 {
+        self.coef[0] * at[0] + self.coef[1] * at[1] + self.offset
+    }
+
+    /// The position in `z` of a slot of a lattice of `n` sites.
+    fn of(slot: &NestedSlot, n: usize) -> Affine {
+        let shift = if slot.letter == 'q' { 0 } else { n as i64 };
+        Affine {
+            coef: slot.coef,
+            offset: slot.offset - 1 + shift,
+        }
+    }
+}
+
+/// Where a local coordinate of a nested sum is read at a tuple.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum TupleLoad {
+    /// `z[index]` (of `z1` for a two-point program's second point).
+    Z(Affine),
+    /// `0` for a local coordinate no slot reads.
+    Const(f64),
+}
+
+/// Where one output of a nested sum is added at a tuple.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum TupleTarget {
+    /// The function's one value.
+    Acc,
+    /// `out[index]`.
+    Out(Affine),
+    /// `out[block.position(a, b)]`: an entry of a dense block of the Hessian.
+    Block {
+        /// The block.
+        block: Block,
+        /// The entry's row and column (either order).
+        a: Affine,
+        /// See `a`.
+        b: Affine,
+    },
+}
+
+/// One addition at a tuple: `target += e`, `e` the summand's output `source` (`0` when the
+/// program does not compute it).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TupleStore {
+    /// The summand's output.
+    pub source: Option<Output>,
+    /// Where it is added.
+    pub target: TupleTarget,
+}
+
+/// One nested sum ([`dth_symbolic::looped::nested`]) of one function: its program, its index
+/// tuples and what happens at each, relative to the indices.
+#[derive(Clone, Debug)]
+pub struct NestedPlan {
+    /// The summand's program, in its local coordinates.
+    pub program: Program,
+    /// The index tuples.
+    pub tuples: Tuples,
+    /// Per local coordinate of the summand.
+    pub loads: Vec<TupleLoad>,
+    /// The additions, in the order the macro's code makes them.
+    pub stores: Vec<TupleStore>,
+}
+
 /// One function of the lattice: its sums in order.
 #[derive(Clone, Debug)]
 pub struct LoopCode {
     /// Which function.
     pub function: LoopFunction,
-    /// The sums, in the order written.
+    /// The sums over sites, in the order written.
     pub sums: Vec<SumPlan>,
+    /// The nested sums, in the order written, after the sums over sites.
+    pub nested: Vec<NestedPlan>,
     /// The lattice's dimension `D` (every `z` index is below it).
     pub dim: usize,
     /// The length of the output buffer: 1, `D` or the number of nonzeros.
@@ -221,7 +314,8 @@ pub struct LoopCode {
 pub struct LatticePlan {
     /// One per [`LoopFunction::ALL`], in that order.
     pub functions: Vec<LoopCode>,
-    /// The Hessian's nonzeros, upper triangle, the macro's order (its runs expanded).
+    /// The Hessian's nonzeros, upper triangle, the macro's order (its runs expanded, then its
+    /// dense blocks).
     pub pattern: Vec<(usize, usize)>,
     /// The pattern as the macro lays it out (runs along the diagonals).
     pub layout: Layout,
@@ -233,11 +327,7 @@ impl LatticePlan {
     /// code trusts them).
     pub fn new(looped: &Looped, params: usize) -> Result<LatticePlan, RuntimeError> {
         let layout = layout(looped);
-        let pattern: Vec<(usize, usize)> = layout
-            .runs
-            .iter()
-            .flat_map(|&(a, b, len)| (0..len).map(move |k| (a + k, b + k)))
-            .collect();
+        let pattern = layout.pattern();
         let functions = LoopFunction::ALL
             .iter()
             .map(|&f| code(looped, &layout, f, params))
@@ -304,9 +394,13 @@ fn code(
         }
         sums.push(SumPlan { program, segments });
     }
+    let nested = (0..looped.nested().len())
+        .map(|k| nested_plan(looped, layout, f, k))
+        .collect();
     let code = LoopCode {
         function: f,
         sums,
+        nested,
         dim,
         len,
         params,
@@ -341,11 +435,7 @@ fn site_plan(
     let computed = |o: Output| program.outputs.iter().any(|&(x, _)| x == o);
     match f {
         LoopFunction::Value | LoopFunction::EnergyDifference => {
-            let o = if f == LoopFunction::Value {
-                Output::Value
-            } else {
-                Output::EnergyDifference
-            };
+            let o = f.scalar_output();
             stores.push(Store {
                 source: computed(o).then_some(o),
                 target: Target::Acc,
@@ -394,6 +484,72 @@ fn site_plan(
         }
     }
     SitePlan { loads, stores }
+}
+
+/// The plan of nested sum `k` for function `f`: loads and stores relative to the indices.
+fn nested_plan(looped: &Looped, layout: &Layout, f: LoopFunction, k: usize) -> NestedPlan {
+    let s = &looped.nested()[k];
+    let program = f.program(s.summand());
+    let n = looped.n();
+    let slot_of_local = |l: usize| s.slots().iter().find(|slot| slot.local == l);
+    let loads = (0..s.summand().dim())
+        .map(|l| match slot_of_local(l) {
+            Some(slot) => TupleLoad::Z(Affine::of(slot, n)),
+            None => TupleLoad::Const(0.0),
+        })
+        .collect();
+    let computed = |o: Output| program.outputs.iter().any(|&(x, _)| x == o);
+    let mut stores = Vec::new();
+    match f {
+        LoopFunction::Value | LoopFunction::EnergyDifference => {
+            let o = f.scalar_output();
+            stores.push(TupleStore {
+                source: computed(o).then_some(o),
+                target: TupleTarget::Acc,
+            });
+        }
+        LoopFunction::HessianNonzeros => {
+            for (idx, &(r, t)) in s.pattern().iter().enumerate() {
+                let (sr, st) = (&s.slots()[r], &s.slots()[t]);
+                let o = Output::Hessian(sr.local.min(st.local), sr.local.max(st.local));
+                let place = &layout.nested[k][idx];
+                let target = match (place.block, place.interior) {
+                    (Some(b), _) => TupleTarget::Block {
+                        block: layout.blocks[b],
+                        a: Affine::of(sr, n),
+                        b: Affine::of(st, n),
+                    },
+                    (None, Some((_, _, base))) => TupleTarget::Out(Affine {
+                        coef: [place.stride, 0],
+                        offset: base,
+                    }),
+                    (None, None) => continue,
+                };
+                stores.push(TupleStore {
+                    source: computed(o).then_some(o),
+                    target,
+                });
+            }
+        }
+        _ => {
+            for &(o, _) in &program.outputs {
+                let Some(l) = f.local_output(o) else { continue };
+                let Some(slot) = slot_of_local(l) else {
+                    continue;
+                };
+                stores.push(TupleStore {
+                    source: Some(o),
+                    target: TupleTarget::Out(Affine::of(slot, n)),
+                });
+            }
+        }
+    }
+    NestedPlan {
+        program,
+        tuples: *s.tuples(),
+        loads,
+        stores,
+    }
 }
 
 fn malformed(f: LoopFunction, reason: &str) -> RuntimeError {
@@ -446,6 +602,51 @@ fn check(code: &LoopCode) -> Result<(), RuntimeError> {
             }
         }
     }
+    for plan in &code.nested {
+        let p = &plan.program;
+        crate::layout::check_ops(p).map_err(|reason| malformed(f, &reason))?;
+        if p.params != code.params || plan.loads.len() != p.dim {
+            return Err(malformed(f, "a nested sum's program does not fit its plan"));
+        }
+        // Every index is affine with nonnegative coefficients: smallest at the smallest
+        // indices, largest at the largest.
+        let Some([(imin, imax), (jmin, jmax)]) = plan.tuples.extent() else {
+            continue;
+        };
+        let corners = [[imin, jmin], [imax, jmax]];
+        let inside = |a: &Affine, len: usize| {
+            a.coef.iter().all(|&c| c >= 0)
+                && corners
+                    .iter()
+                    .all(|&at| (0..len as i64).contains(&a.at(at)))
+        };
+        let loads = plan.loads.iter().all(|l| match l {
+            TupleLoad::Z(a) => inside(a, code.dim),
+            TupleLoad::Const(_) => true,
+        });
+        let stores = plan.stores.iter().all(|s| {
+            let target = match &s.target {
+                TupleTarget::Acc => f.scalar(),
+                TupleTarget::Out(a) => inside(a, code.len),
+                TupleTarget::Block { block, a, b } => {
+                    let held = |x: &Affine| {
+                        x.coef.iter().all(|&c| c >= 0)
+                            && corners.iter().all(|&at| {
+                                let k = x.at(at);
+                                k >= block.first as i64 && k < (block.first + block.len) as i64
+                            })
+                    };
+                    held(a) && held(b) && block.start + block.nnz() <= code.len
+                }
+            };
+            target
+                && s.source
+                    .is_none_or(|o| p.outputs.iter().any(|&(x, _)| x == o))
+        });
+        if !(loads && stores) {
+            return Err(malformed(f, "a nested sum reads or writes out of range"));
+        }
+    }
     Ok(())
 }
 
@@ -477,38 +678,7 @@ pub fn interpret(
                         })
                         .collect()
                 };
-                let x0 = local(z0);
-                let outputs: Vec<(Output, f64)> = if two {
-                    let e = p.eval_pair(&x0, &local(z1), params)?;
-                    p.outputs
-                        .iter()
-                        .map(|&(o, _)| {
-                            let v = match o {
-                                Output::DiscreteGradient(l) => e.discrete_gradient[l],
-                                Output::EnergyDifference => e.energy_difference,
-                                Output::DiscreteGradientDefect(l) => e.discrete_gradient_defect[l],
-                                _ => 0.0,
-                            };
-                            (o, v)
-                        })
-                        .collect()
-                } else {
-                    let e = p.eval(&x0, params)?;
-                    let d = p.dim;
-                    p.outputs
-                        .iter()
-                        .map(|&(o, _)| {
-                            let v = match o {
-                                Output::Value => e.value,
-                                Output::Gradient(l) => e.gradient[l],
-                                Output::Hessian(a, b) => e.hessian[a * d + b],
-                                Output::Psi => e.psi,
-                                _ => 0.0,
-                            };
-                            (o, v)
-                        })
-                        .collect()
-                };
+                let outputs = outputs(p, two, &local(z0), &local(z1), params)?;
                 for s in &seg.plan.stores {
                     let e = s
                         .source
@@ -523,10 +693,79 @@ pub fn interpret(
             }
         }
     }
+    for plan in &code.nested {
+        let p = &plan.program;
+        for at in plan.tuples.iter() {
+            let local = |z: &[f64]| -> Vec<f64> {
+                plan.loads
+                    .iter()
+                    .map(|l| match *l {
+                        TupleLoad::Z(a) => z[a.at(at) as usize],
+                        TupleLoad::Const(v) => v,
+                    })
+                    .collect()
+            };
+            let outputs = outputs(p, two, &local(z0), &local(z1), params)?;
+            for s in &plan.stores {
+                let e = s
+                    .source
+                    .and_then(|o| outputs.iter().find(|&&(x, _)| x == o))
+                    .map_or(0.0, |&(_, v)| v);
+                match s.target {
+                    TupleTarget::Acc => acc += e,
+                    TupleTarget::Out(a) => out[a.at(at) as usize] += e,
+                    TupleTarget::Block { block, a, b } => {
+                        out[block.position(a.at(at) as usize, b.at(at) as usize)] += e
+                    }
+                }
+            }
+        }
+    }
     if code.function.scalar() {
         out[0] = acc;
     }
     Ok(())
+}
+
+/// The outputs of `p` at `x0` (and `x1` for a two-point program), by output.
+fn outputs(
+    p: &Program,
+    two: bool,
+    x0: &[f64],
+    x1: &[f64],
+    params: &[f64],
+) -> Result<Vec<(Output, f64)>, RuntimeError> {
+    Ok(if two {
+        let e = p.eval_pair(x0, x1, params)?;
+        p.outputs
+            .iter()
+            .map(|&(o, _)| {
+                let v = match o {
+                    Output::DiscreteGradient(l) => e.discrete_gradient[l],
+                    Output::EnergyDifference => e.energy_difference,
+                    Output::DiscreteGradientDefect(l) => e.discrete_gradient_defect[l],
+                    _ => 0.0,
+                };
+                (o, v)
+            })
+            .collect()
+    } else {
+        let e = p.eval(x0, params)?;
+        let d = p.dim;
+        p.outputs
+            .iter()
+            .map(|&(o, _)| {
+                let v = match o {
+                    Output::Value => e.value,
+                    Output::Gradient(l) => e.gradient[l],
+                    Output::Hessian(a, b) => e.hessian[a * d + b],
+                    Output::Psi => e.psi,
+                    _ => 0.0,
+                };
+                (o, v)
+            })
+            .collect()
+    })
 }
 
 #[cfg(test)]

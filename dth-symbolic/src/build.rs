@@ -46,7 +46,7 @@ impl Builder<'_> {
                     .lattice
                     .local
                     .as_ref()
-                    .is_some_and(|l| l.index == self.src[s.range()]) =>
+                    .is_some_and(|l| l.indices.iter().any(|i| *i == self.src[s.range()])) =>
             {
                 if let Some(local) = self.lattice.local.as_mut() {
                     local.not_loopable = Some("the sum's index is used as a number");
@@ -350,6 +350,7 @@ impl Builder<'_> {
             }
         };
         self.record(false, span, site, letter);
+        self.strides(index, site);
         self.arena.span = span;
         Some(
             self.arena
@@ -383,30 +384,68 @@ impl Builder<'_> {
         }
     }
 
-    /// `letter[index]` in a summand built once ([`crate::looped`]): the index must be the
-    /// sum's index plus a constant, `i + c`; the variable is the slot of that offset.
+    /// Raises the strides ([`Lattice::strides`]) of the bound indices to their coefficients in
+    /// `index`, which is `site` at the indices' current values.
+    fn strides(&mut self, index: &Ast, site: i64) {
+        let params = self.arena.params().to_vec();
+        if self.lattice.strides.len() < self.lattice.bound.len() {
+            self.lattice.strides.resize(self.lattice.bound.len(), 1);
+        }
+        for k in 0..self.lattice.bound.len() {
+            let v = self.lattice.bound[k].1;
+            self.lattice.bound[k].1 = v.saturating_add(1);
+            let next = self.lattice.int(self.src, index, &params);
+            self.lattice.bound[k].1 = v;
+            if let Ok(next) = next {
+                let stride = &mut self.lattice.strides[k];
+                *stride = (*stride).max(next.saturating_sub(site));
+            }
+        }
+    }
+
+    /// `letter[index]` in a summand built once ([`crate::looped`]): the index must be affine
+    /// in the sum's indices, `a i + b j + c`; the variable is the slot of that access.
     fn slot(&mut self, letter: char, index: &Ast, span: Span) -> Option<Id> {
         let params = self.arena.params().to_vec();
-        let at = |b: &mut Self, i: i64| {
-            if let Some(last) = b.lattice.bound.last_mut() {
-                last.1 = i;
+        let k = self.lattice.local.as_ref()?.indices.len();
+        let base = self.lattice.bound.len().checked_sub(k)?;
+        let at = |b: &mut Self, values: [i64; 2]| {
+            for (m, &v) in values.iter().enumerate().take(k) {
+                b.lattice.bound[base + m].1 = v;
             }
             b.lattice.int(b.src, index, &params)
         };
-        let (c, c1) = match (at(self, 0), at(self, 1)) {
-            (Ok(c), Ok(c1)) => (c, c1),
-            (Err(e), _) | (_, Err(e)) => {
+        let c = match at(self, [0, 0]) {
+            Ok(c) => c,
+            Err(e) => {
                 self.errors.push(e);
                 return None;
             }
         };
-        at(self, 0).ok();
+        // The coefficients, from the values at `e_m`, checked at `2 e_m` and `e_0 + e_1`
+        // (which tell `2*i` from `i*i` and `i + j` from `i*j`).
+        let probes: &[[i64; 2]] = if k == 2 {
+            &[[1, 0], [0, 1], [2, 0], [0, 2], [1, 1]]
+        } else {
+            &[[1, 0], [2, 0]]
+        };
+        let values: Vec<Option<i64>> = probes.iter().map(|&p| at(self, p).ok()).collect();
+        at(self, [0, 0]).ok();
+        // In `i128`: near the ends of `i64` nothing overflows.
+        let wide = |v: Option<i64>| v.map_or(0, |v| i128::from(v) - i128::from(c));
+        let coef = [wide(values[0]), if k == 2 { wide(values[1]) } else { 0 }];
+        let affine = probes.iter().zip(&values).all(|(p, v)| {
+            let expected = i128::from(c) + i128::from(p[0]) * coef[0] + i128::from(p[1]) * coef[1];
+            v.map(i128::from) == Some(expected)
+        });
+        let coef = coef.map(|a| i64::try_from(a).unwrap_or(-1));
         let local = self.lattice.local.as_mut()?;
-        if c1 != c + 1 {
-            local.not_loopable = Some("an index is not the sum's index plus a constant");
+        if !affine || coef.iter().any(|&a| a < 0) || coef == [0, 0] {
+            local.not_loopable =
+                Some("an index is not a sum's index times a positive integer plus a constant");
             return None;
         }
-        let v = local.slot(letter, c, span);
+        let v = local.slot(letter, coef, c, span);
         self.arena.span = span;
         Some(self.arena.var(v))
     }
@@ -541,6 +580,17 @@ impl Builder<'_> {
             // An empty sum is zero; one whose every range is empty is an error (`finish`).
             return Some(self.arena.num(Num::ZERO));
         }
+        let depth = self.lattice.bound.len();
+        if self.lattice.strides.len() < depth + names.len() {
+            self.lattice.strides.resize(depth + names.len(), 1);
+        }
+        for stride in &mut self.lattice.strides[depth..depth + names.len()] {
+            *stride = 1;
+        }
+        // The largest value each index takes: the lattice reaches `stride * value`.
+        let largest: Vec<i64> = (0..names.len())
+            .map(|m| sites.iter().map(|v| v[m]).max().unwrap_or(0))
+            .collect();
         let mut terms = Vec::with_capacity(sites.len());
         let mut failed = false;
         for values in sites {
@@ -555,6 +605,14 @@ impl Builder<'_> {
                 Some(t) => terms.push(t),
                 None => failed = true,
             }
+        }
+        let reach = largest
+            .iter()
+            .zip(&self.lattice.strides[depth..depth + names.len()])
+            .map(|(&v, &stride)| v.saturating_mul(stride))
+            .max();
+        if let Some(reach) = reach {
+            self.extend_lattice(reach);
         }
         if failed {
             return None;

@@ -3,8 +3,10 @@
 //!
 //! An index (`q[i + 1]`), a sum's bound (`1..N`) and a declared size (`N = 64`) are integer
 //! expressions: integer literals, the indices of the enclosing sums, declared sizes, `+`, `-`,
-//! `*` and parentheses. The lattice's sites are `1..n`, `n` the largest upper bound any sum
-//! reaches; an indexed variable outside them must be defined by a boundary
+//! `*` and parentheses. The lattice's sites are `1..n`, `n` the largest site the sums' indices
+//! reach: a sum's index `i` up to `hi` reaches `a * hi`, `a` the largest coefficient of `i` in
+//! the sum's accesses (`N` for `q[i]`, `q[i + 1]` and `i = 1..N`; `2N` for `p[2*i - 1]`,
+//! `p[2*i]`). An indexed variable outside them must be defined by a boundary
 //! (`q[0] = q[N+1] = 0`, `q[N+1] = q[1]`).
 
 use std::collections::HashMap;
@@ -44,6 +46,10 @@ pub(crate) struct Lattice {
     pub constant_spans: Vec<(String, Span)>,
     /// The indices of the enclosing sums and their current values, outermost first.
     pub bound: Vec<(String, i64)>,
+    /// Per entry of `bound`: the largest coefficient of that index in an access built so far
+    /// (`2` for `q[2*i - 1]`), at least 1. A sum's index `i` up to `hi` makes the lattice
+    /// reach site `stride * hi`: `p[2*i-1]`, `p[2*i]` for `i = 1..N` make the sites `1..2N`.
+    pub strides: Vec<i64>,
     /// The declared boundaries.
     pub boundaries: Vec<Boundary>,
     /// The largest upper bound of the sums built so far: the lattice's last site.
@@ -73,14 +79,16 @@ pub(crate) struct Bound<'a> {
     pub value: i64,
 }
 
-/// A summand built once, in local coordinates: each indexed variable `q[i + c]` is a slot,
-/// the local coordinate `q<k>` (or `p<k>`) for the `k`-th distinct `q` (or `p`) offset.
+/// A summand built once, in local coordinates: each indexed variable `q[a i + b j + c]` is a
+/// slot, the local coordinate `q<k>` (or `p<k>`) for the `k`-th distinct `q` (or `p`) slot.
 #[derive(Clone, Debug, Default)]
 pub(crate) struct Local {
-    /// The sum's index.
-    pub index: String,
-    /// The slots: letter and offset `c` of `q[i + c]`, in the order first met.
-    pub slots: Vec<(char, i64)>,
+    /// The sum's indices, outermost first: one for a sum over sites, two for a sum over pairs
+    /// or a nested sum. They are the innermost entries of [`Lattice::bound`].
+    pub indices: Vec<String>,
+    /// The slots: letter, the coefficients `[a, b]` of the indices and the constant `c` of
+    /// `q[a i + b j + c]`, in the order first met.
+    pub slots: Vec<(char, [i64; 2], i64)>,
     /// The span of each slot's first access, in the order of `slots`.
     pub spans: Vec<Span>,
     /// Every access: its slot (a position in `slots`) and its span.
@@ -90,12 +98,14 @@ pub(crate) struct Local {
 }
 
 impl Local {
-    /// The local coordinate of `letter[i + offset]`, a new slot if not met yet.
-    pub fn slot(&mut self, letter: char, offset: i64, span: Span) -> Var {
-        let slot = match self.slots.iter().position(|&s| s == (letter, offset)) {
+    /// The local coordinate of `letter[a i + b j + c]` (`coef = [a, b]`, `offset = c`), a new
+    /// slot if not met yet.
+    pub fn slot(&mut self, letter: char, coef: [i64; 2], offset: i64, span: Span) -> Var {
+        let key = (letter, coef, offset);
+        let slot = match self.slots.iter().position(|&s| s == key) {
             Some(slot) => slot,
             None => {
-                self.slots.push((letter, offset));
+                self.slots.push(key);
                 self.spans.push(span);
                 self.slots.len() - 1
             }
@@ -104,8 +114,8 @@ impl Local {
         let k = self
             .slots
             .iter()
-            .filter(|&&(l, _)| l == letter)
-            .position(|&(_, c)| c == offset)
+            .filter(|&&(l, ..)| l == letter)
+            .position(|&s| s == key)
             .map_or(1, |k| k as u32 + 1);
         if letter == 'q' {
             Var::Q(k)

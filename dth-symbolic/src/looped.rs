@@ -16,11 +16,19 @@
 //! written-out path's warnings (`reach`) are decided on the summands and the ranges, never
 //! site by site.
 //!
-//! What loops: a sum of single-index sums (`sum(i = a..b, f)`, no nesting, no sum over
-//! pairs) whose indices are the sum's index plus a constant, with boundaries that are
-//! constants (fixed ends) or a variable of the lattice (periodic), no written-out coordinate
-//! and no `t`. Anything else is [`LoopError::NotLoopable`]: compile it with
-//! [`crate::compile`], which builds sums site by site.
+//! What loops: sums, added or subtracted, each times constant factors (`- g^2 * sum(..)`), of
+//! two kinds, with no written-out coordinate and no `t`:
+//!
+//! - sums over sites, `sum(i = a..b, f)` whose indices are the sum's index plus a constant,
+//!   with boundaries that are constants (fixed ends) or a variable of the lattice (periodic);
+//! - sums over pairs `sum(lo <= i < j <= hi, f)`, nested sums `sum(i = a..b, sum(j = c..d, f))`
+//!   (`c`, `d` a constant or the outer index plus one) and strided sums (`q[3*i - 2]`), whose
+//!   indices are affine in the sum's indices and stay inside the lattice ([`nested`]).
+//!
+//! The lattice's sites are `1..n`, `n` the largest site the sums' indices reach (`2N` for
+//! `p[2*i]` and `i = 1..N`, as [`crate::compile`] counts them). Anything else is
+//! [`LoopError::NotLoopable`]: compile it with [`crate::compile`], which builds sums site by
+//! site.
 //!
 //! ```
 //! use dth_symbolic::looped;
@@ -36,6 +44,7 @@
 
 pub mod diagonals;
 mod flags;
+pub mod nested;
 mod reach;
 mod runs;
 
@@ -49,6 +58,8 @@ use crate::number::Num;
 use crate::parser::{parse, Ast, BinOp, Decl, Range};
 use crate::span::Span;
 use crate::system::{derive, Method};
+use diagonals::Layout;
+use nested::{NestedSlot, NestedSum, Tuples};
 
 /// Why a Hamiltonian is not compiled by [`compile`].
 #[derive(Clone, Debug, PartialEq)]
@@ -136,20 +147,80 @@ pub struct Looped {
     params: usize,
     /// The written-out path's warnings, decided on the ranges (`reach`).
     warnings: Vec<Warning>,
+    /// The sums over pairs, nested and strided sums, in the order written.
+    pub(crate) nested: Vec<NestedSum>,
+    /// The Hessian's layout ([`diagonals::layout`]).
+    pub(crate) layout: Layout,
 }
 
-/// The summands of `ast` (a sum of sums), or why it does not loop.
-fn sums(ast: &Ast) -> Result<Vec<&Ast>, LoopError> {
+/// One term of the Hamiltonian: a sum, times constant factors, negated or not
+/// (`- g^2 * sum(..)`).
+struct Term<'a> {
+    factors: Vec<&'a Ast>,
+    negate: bool,
+    sum: &'a Ast,
+}
+
+/// `true` when `ast` holds a sum.
+fn has_sum(ast: &Ast) -> bool {
+    match ast {
+        Ast::Sum { .. } => true,
+        Ast::Paren { inner, .. } => has_sum(inner),
+        Ast::Unary { arg, .. } | Ast::Call { arg, .. } => has_sum(arg),
+        Ast::Chain { first, rest } => has_sum(first) || rest.iter().any(|(_, _, x)| has_sum(x)),
+        Ast::Binary { lhs, rhs, .. } => has_sum(lhs) || has_sum(rhs),
+        _ => false,
+    }
+}
+
+/// The terms of `ast` (sums, added or subtracted, each times factors without a sum), or why
+/// it does not loop.
+fn sums(ast: &Ast) -> Result<Vec<Term<'_>>, LoopError> {
     match ast {
         Ast::Paren { inner, .. } => sums(inner),
-        Ast::Sum { .. } => Ok(vec![ast]),
+        Ast::Sum { .. } => Ok(vec![Term {
+            factors: Vec::new(),
+            negate: false,
+            sum: ast,
+        }]),
+        Ast::Unary { negate, arg, .. } => {
+            let mut terms = sums(arg)?;
+            for t in &mut terms {
+                t.negate ^= negate;
+            }
+            Ok(terms)
+        }
+        Ast::Chain { first, rest } if matches!(rest.first(), Some((BinOp::Mul, _, _))) => {
+            // `g^2 * sum(..)`: one factor holds the sums, the others are constants.
+            let operands: Vec<&Ast> = std::iter::once(&**first)
+                .chain(rest.iter().map(|(_, _, x)| x))
+                .collect();
+            if rest.iter().any(|(op, _, _)| *op != BinOp::Mul) {
+                return Err(LoopError::NotLoopable("a sum is divided"));
+            }
+            let with: Vec<usize> = (0..operands.len())
+                .filter(|&k| has_sum(operands[k]))
+                .collect();
+            let [at] = with[..] else {
+                return Err(LoopError::NotLoopable("a product of sums"));
+            };
+            let mut terms = sums(operands[at])?;
+            for t in &mut terms {
+                let others = operands.iter().enumerate().filter(|&(k, _)| k != at);
+                t.factors.extend(others.map(|(_, &x)| x));
+            }
+            Ok(terms)
+        }
         Ast::Chain { first, rest } => {
             let mut out = sums(first)?;
             for (op, _, x) in rest {
-                if *op != BinOp::Add {
-                    return Err(LoopError::NotLoopable("the sums are not added"));
+                let mut terms = sums(x)?;
+                if *op == BinOp::Sub {
+                    for t in &mut terms {
+                        t.negate = !t.negate;
+                    }
                 }
-                out.extend(sums(x)?);
+                out.extend(terms);
             }
             Ok(out)
         }
@@ -206,58 +277,95 @@ pub fn compile(src: &str, params: &[&str]) -> Result<Looped, LoopError> {
         lattice: Lattice::default(),
     };
     root.declare(decls);
-    // The ranges first: the lattice is 1..n, n the largest upper bound.
-    let mut ranges = Vec::new();
+    // The ranges first: `N = 10^12` is one error, before anything is counted out per site.
+    let mut shapes = Vec::new();
     for term in &terms {
-        let Ast::Sum { range, body, span } = term else {
+        let Ast::Sum { range, body, span } = term.sum else {
             continue;
         };
-        let Range::Single { index, lo, hi } = &**range else {
-            return Err(LoopError::NotLoopable("a sum over pairs"));
-        };
-        let (name, lo_value, hi_value) = (root.bindable(*index), root.int(lo), root.int(hi));
-        if let (Some(name), Some(lo_value), Some(hi_value)) = (name, lo_value, hi_value) {
-            let (lo_bound, hi_bound) = (
-                Bound {
-                    ast: lo,
-                    value: lo_value,
-                },
-                Bound {
-                    ast: hi,
-                    value: hi_value,
-                },
-            );
-            // Before anything is counted out per site: `N = 10^12` is one error, here.
-            if let Some(e) = root
-                .lattice
-                .too_large(src, lo_bound, hi_bound, crate::MAX_SITES)
-            {
-                root.errors.push(e);
-                continue;
-            }
-            let (lo, hi) = (lo_value, hi_value);
-            if lo > hi {
-                root.errors.push(Error::new(
-                    ErrorKind::EmptySum {
-                        range: format!("{name} = {lo}..{hi}"),
-                    },
-                    range.span(),
-                ));
-            }
-            ranges.push((name, lo, hi, body, *span));
+        if let Some(shape) = shape(&mut root, range, body)? {
+            shapes.push((term, shape, *span));
         }
     }
     if !root.errors.is_empty() {
         return Err(fail(root.errors));
     }
-    let n = ranges.iter().map(|r| r.2).max().unwrap_or(0);
+    // Each summand built once, in local coordinates.
+    let mut errors = Vec::new();
+    let mut not_loopable = None;
+    let mut pending = Vec::new();
+    for (term, shape, span) in shapes {
+        let mut b = Builder {
+            src,
+            arena: Arena::new(params),
+            errors: Vec::new(),
+            lattice: root.lattice.clone(),
+        };
+        b.lattice.local = Some(Local {
+            indices: shape.names.clone(),
+            ..Local::default()
+        });
+        for name in &shape.names {
+            b.lattice.bound.push((name.clone(), 0));
+        }
+        let f = b.build(shape.body);
+        let factors: Vec<Option<crate::arena::Id>> =
+            term.factors.iter().map(|x| b.build(x)).collect();
+        let local = b.lattice.local.take().unwrap_or_default();
+        if let Some(why) = local.not_loopable {
+            not_loopable = Some(why);
+            continue;
+        }
+        let factors: Option<Vec<_>> = factors.into_iter().collect();
+        let f = match (f, factors) {
+            (Some(f), Some(mut factors)) if b.errors.is_empty() => {
+                b.arena.span = span;
+                factors.push(f);
+                let f = if factors.len() > 1 {
+                    b.arena.mul(&factors)
+                } else {
+                    Ok(f)
+                };
+                match f.and_then(|f| if term.negate { b.arena.neg(f) } else { Ok(f) }) {
+                    Ok(f) => Some(f),
+                    Err(fault) => {
+                        errors.push(Error::new(ErrorKind::Fault(fault), span));
+                        None
+                    }
+                }
+            }
+            _ => {
+                errors.append(&mut b.errors);
+                None
+            }
+        };
+        let system = match f.map(|f| derive(b.arena, f, span)) {
+            Some(Ok(system)) => Some(system),
+            Some(Err(e)) => {
+                errors.push(e);
+                None
+            }
+            None => None,
+        };
+        pending.push((shape.names.len(), shape.tuples, local, system));
+    }
+    // The lattice is `1..n`: each index reaches its largest value times its largest
+    // coefficient, as the site-by-site path counts (`Lattice::strides`).
+    let mut n: i64 = 0;
+    for (indices, tuples, local, _) in &pending {
+        let Some(extent) = tuples.extent() else {
+            continue;
+        };
+        for (k, &(_, largest)) in extent.iter().enumerate().take(*indices) {
+            let stride = local.slots.iter().map(|s| s.1[k]).max().unwrap_or(1).max(1);
+            n = n.max(stride.saturating_mul(largest));
+        }
+    }
     let Ok(n_sites) = usize::try_from(n) else {
         return Err(LoopError::NotLoopable("the lattice is empty"));
     };
     // The faults of a source that loops are errors here, as the site-by-site path reports
     // them: `crate::compile` shows them for a lattice too large to write out.
-    let mut errors = Vec::new();
-    let mut not_loopable = None;
     let mut boundaries = Vec::new();
     let mut boundary_spans = Vec::new();
     for b in &root.lattice.boundaries {
@@ -309,77 +417,82 @@ pub fn compile(src: &str, params: &[&str]) -> Result<Looped, LoopError> {
         boundary_spans.push(b.value.span());
     }
     let mut compiled = Vec::new();
-    for (name, lo, hi, body, span) in ranges {
-        let mut b = Builder {
-            src,
-            arena: Arena::new(params),
-            errors: Vec::new(),
-            lattice: root.lattice.clone(),
-        };
-        b.lattice.local = Some(Local {
-            index: name.clone(),
-            ..Local::default()
-        });
-        b.lattice.bound.push((name, 0));
-        let f = b.build(body);
-        let local = b.lattice.local.take().unwrap_or_default();
-        if let Some(why) = local.not_loopable {
-            not_loopable = Some(why);
-            continue;
+    let mut nested = Vec::new();
+    for (indices, tuples, local, system) in pending {
+        let band = indices == 1 && local.slots.iter().all(|s| s.1 == [1, 0]);
+        if band {
+            // Every site the summand reaches is in the lattice or a boundary.
+            let slots: Vec<(char, i64)> = local.slots.iter().map(|&(l, _, c)| (l, c)).collect();
+            let index = local.indices.first().cloned().unwrap_or_default();
+            let (lo, hi) = tuples.outer;
+            errors.extend(out_of_range(
+                src,
+                (&index, lo, hi),
+                n,
+                &slots,
+                &local.accesses,
+                &boundaries,
+            ));
         }
-        // Every site the summand reaches is in the lattice or a boundary.
-        errors.extend(out_of_range(
-            src,
-            (&local.index, lo, hi),
-            n,
-            &local,
-            &boundaries,
-        ));
-        let f = match f {
-            Some(f) if b.errors.is_empty() => f,
-            _ => {
-                errors.append(&mut b.errors);
-                continue;
-            }
-        };
-        let system = match derive(b.arena, f, span) {
-            Ok(system) => system,
-            Err(e) => {
-                errors.push(e);
-                continue;
-            }
-        };
-        let half = system.dim() / 2;
-        let slots = local
-            .slots
-            .iter()
-            .map(|&(letter, c)| {
-                let k = local
-                    .slots
-                    .iter()
-                    .filter(|&&(l, _)| l == letter)
-                    .position(|&(_, d)| d == c)
-                    .unwrap_or(0);
-                (letter, c, if letter == 'q' { k } else { half + k })
-            })
-            .collect::<Vec<_>>();
-        let slot_of = |local: usize| slots.iter().position(|&(_, _, l)| l == local);
-        let pattern = system
+        let Some(system) = system else { continue };
+        let letters: Vec<char> = local.slots.iter().map(|s| s.0).collect();
+        let locals = locals(&letters, system.dim() / 2);
+        let slot_of = |l: usize| locals.iter().position(|&x| x == l);
+        let pattern: Vec<(usize, usize)> = system
             .hessian_nonzeros()
             .iter()
             .filter_map(|&(i, j, _)| Some((slot_of(i)?, slot_of(j)?)))
             .collect();
-        compiled.push(LoopSum {
-            lo,
-            hi,
+        let (all, pair, defect) = (
+            system.program(Method::All),
+            system.program(Method::DiscreteGradient),
+            system.program(Method::DiscreteGradientDefect),
+        );
+        if band {
+            compiled.push(LoopSum {
+                lo: tuples.outer.0,
+                hi: tuples.outer.1,
+                slots: local
+                    .slots
+                    .iter()
+                    .zip(&locals)
+                    .map(|(&(letter, _, c), &l)| (letter, c, l))
+                    .collect(),
+                pattern,
+                spans: local.spans.clone(),
+                local_dim: system.dim(),
+                system,
+                all,
+                pair,
+                defect,
+            });
+            continue;
+        }
+        let slots: Vec<NestedSlot> = local
+            .slots
+            .iter()
+            .zip(&locals)
+            .map(|(&(letter, coef, offset), &local)| NestedSlot {
+                letter,
+                coef,
+                offset,
+                local,
+            })
+            .collect();
+        if let Some(why) = nested_reach(&tuples, &slots, indices, n) {
+            not_loopable = Some(why);
+            continue;
+        }
+        nested.push(NestedSum {
+            tuples,
             slots,
+            local_dim: system.dim(),
             pattern,
             spans: local.spans.clone(),
-            local_dim: system.dim(),
-            system: system.clone(),
-            all: system.program(Method::All),
-            pair: system.program(Method::DiscreteGradient),
-            defect: system.program(Method::DiscreteGradientDefect),
+            system,
+            all,
+            pair,
+            defect,
         });
     }
     if let Some(why) = not_loopable {
@@ -397,7 +510,10 @@ pub fn compile(src: &str, params: &[&str]) -> Result<Looped, LoopError> {
         boundary_spans,
         params: params.len(),
         warnings: Vec::new(),
+        nested,
+        layout: Layout::default(),
     };
+    looped.layout = diagonals::try_layout(&looped).map_err(LoopError::NotLoopable)?;
     let faults = looped.boundary_faults();
     if !faults.is_empty() {
         return Err(fail(faults));
@@ -416,7 +532,8 @@ pub fn compile(src: &str, params: &[&str]) -> Result<Looped, LoopError> {
     Ok(looped)
 }
 
-/// The errors of the accesses of one sum `index = lo..hi` (built in `local`) that leave the
+/// The errors of the accesses of one sum `index = lo..hi` (its `slots` `letter[i + c]`, and
+/// each access's slot and span) that leave the
 /// lattice `1..n` where no boundary is declared: one per access, at its farthest such site,
 /// as the site-by-site path reports them. The sites outside the lattice a slot `q[i + c]`
 /// reaches are a few at either end of `lo + c..hi + c`; each scan stops at the first site
@@ -425,13 +542,14 @@ fn out_of_range(
     src: &str,
     (index, lo, hi): (&str, i64, i64),
     n: i64,
-    local: &Local,
+    slots: &[(char, i64)],
+    accesses: &[(usize, Span)],
     boundaries: &[(char, i64, Site)],
 ) -> Vec<Error> {
     let open = |letter: char, k: i64| !boundaries.iter().any(|&(l, s, _)| l == letter && s == k);
     let mut errors = Vec::new();
-    for &(slot, span) in &local.accesses {
-        let (letter, c) = local.slots[slot];
+    for &(slot, span) in accesses {
+        let (letter, c) = slots[slot];
         let (from, to) = (lo.saturating_add(c), hi.saturating_add(c));
         let lowest = (from..=to.min(0)).find(|&k| open(letter, k));
         let highest = (from.max(n.saturating_add(1))..=to)
@@ -451,6 +569,222 @@ fn out_of_range(
         }
     }
     errors
+}
+
+/// A term's indices, their tuples, and the summand inside the sums.
+struct Shape<'a> {
+    names: Vec<String>,
+    tuples: Tuples,
+    body: &'a Ast,
+}
+
+/// The indices and tuples of `sum(range, body)`: one index (`i = lo..hi`), or two (`lo <= i <
+/// j <= hi`, or `sum(i = a..b, sum(j = c..d, f))` with `c`, `d` affine in `i`). `Ok(None)`
+/// with the errors in `root.errors` (a range too large, ...); `NotLoopable` for what the
+/// site-by-site path builds or reports (an empty sum over pairs, a bound not affine).
+fn shape<'a>(
+    root: &mut Builder<'_>,
+    range: &Range,
+    body: &'a Ast,
+) -> Result<Option<Shape<'a>>, LoopError> {
+    let src = root.src;
+    let fits = |root: &mut Builder<'_>, lo: &Ast, lo_v: i64, hi: &Ast, hi_v: i64| {
+        let (lo, hi) = (
+            Bound {
+                ast: lo,
+                value: lo_v,
+            },
+            Bound {
+                ast: hi,
+                value: hi_v,
+            },
+        );
+        match root.lattice.too_large(src, lo, hi, crate::MAX_SITES) {
+            Some(e) => {
+                root.errors.push(e);
+                false
+            }
+            None => true,
+        }
+    };
+    match range {
+        Range::Single { index, lo, hi } => {
+            let (name, lo_v, hi_v) = (root.bindable(*index), root.int(lo), root.int(hi));
+            let (Some(name), Some(lo_v), Some(hi_v)) = (name, lo_v, hi_v) else {
+                return Ok(None);
+            };
+            if !fits(root, lo, lo_v, hi, hi_v) {
+                return Ok(None);
+            }
+            if lo_v > hi_v {
+                root.errors.push(Error::new(
+                    ErrorKind::EmptySum {
+                        range: format!("{name} = {lo_v}..{hi_v}"),
+                    },
+                    range.span(),
+                ));
+                return Ok(None);
+            }
+            let mut inside = body;
+            while let Ast::Paren { inner, .. } = inside {
+                inside = inner;
+            }
+            let Ast::Sum {
+                range: inner,
+                body: inner_body,
+                ..
+            } = inside
+            else {
+                return Ok(Some(Shape {
+                    names: vec![name],
+                    tuples: Tuples {
+                        outer: (lo_v, hi_v),
+                        inner: None,
+                    },
+                    body,
+                }));
+            };
+            let Range::Single {
+                index: j,
+                lo: jlo,
+                hi: jhi,
+            } = &**inner
+            else {
+                return Err(LoopError::NotLoopable("a sum over pairs inside a sum"));
+            };
+            // The inner bounds at `i = 0, 1, 2`: `a i + b` with `a` 0 or 1.
+            root.lattice.bound.push((name.clone(), 0));
+            let jname = root.bindable(*j);
+            let params = root.arena.params().to_vec();
+            let mut values = Vec::new();
+            for i in 0..3 {
+                if let Some(last) = root.lattice.bound.last_mut() {
+                    last.1 = i;
+                }
+                let bound = |ast: &Ast| root.lattice.int(src, ast, &params);
+                values.push((bound(jlo), bound(jhi)));
+            }
+            root.lattice.bound.pop();
+            let mut ends = [[0i64; 3]; 2];
+            for (i, (l, h)) in values.into_iter().enumerate() {
+                match (l, h) {
+                    (Ok(l), Ok(h)) => (ends[0][i], ends[1][i]) = (l, h),
+                    (Err(e), _) | (_, Err(e)) => {
+                        root.errors.push(e);
+                        return Ok(None);
+                    }
+                }
+            }
+            let Some(jname) = jname else { return Ok(None) };
+            let affine = |v: [i64; 3]| {
+                let a = v[1].checked_sub(v[0])?;
+                ((a == 0 || a == 1) && v[2].checked_sub(v[1]) == Some(a)).then_some((a, v[0]))
+            };
+            let (Some(l), Some(h)) = (affine(ends[0]), affine(ends[1])) else {
+                return Err(LoopError::NotLoopable(
+                    "an inner sum's bound is not the outer index plus a constant, or a constant",
+                ));
+            };
+            for i in [lo_v, hi_v] {
+                let (a, b) = (l.0 * i, h.0 * i);
+                if !fits(root, jlo, a.saturating_add(l.1), jhi, b.saturating_add(h.1)) {
+                    return Ok(None);
+                }
+            }
+            let tuples = Tuples {
+                outer: (lo_v, hi_v),
+                inner: Some([l, h]),
+            };
+            if tuples.extent().is_none() {
+                return Err(LoopError::NotLoopable("an empty sum"));
+            }
+            Ok(Some(Shape {
+                names: vec![name, jname],
+                tuples,
+                body: inner_body,
+            }))
+        }
+        Range::Pairs {
+            lo,
+            lo_strict,
+            i,
+            j,
+            hi_strict,
+            hi,
+        } => {
+            let (a, b) = (root.bindable(*i), root.bindable(*j));
+            let (lo_v, hi_v) = (root.int(lo), root.int(hi));
+            let (Some(a), Some(b), Some(lo_v), Some(hi_v)) = (a, b, lo_v, hi_v) else {
+                return Ok(None);
+            };
+            if a == b {
+                return Err(LoopError::NotLoopable(
+                    "a sum over pairs names one index twice",
+                ));
+            }
+            if !fits(root, lo, lo_v, hi, hi_v) {
+                return Ok(None);
+            }
+            let (first, last) = (
+                lo_v.saturating_add(i64::from(*lo_strict)),
+                hi_v.saturating_sub(i64::from(*hi_strict)),
+            );
+            if first >= last {
+                return Err(LoopError::NotLoopable("an empty sum"));
+            }
+            Ok(Some(Shape {
+                names: vec![a, b],
+                tuples: Tuples {
+                    outer: (first, last),
+                    inner: Some([(1, 1), (0, last)]),
+                },
+                body,
+            }))
+        }
+    }
+}
+
+/// Why a nested sum's accesses do not loop, if they do not: an access of a pair depends on
+/// both indices, or some access reaches outside the lattice `1..n` (a boundary: the sum is
+/// then written out, which reads it).
+fn nested_reach(
+    tuples: &Tuples,
+    slots: &[NestedSlot],
+    indices: usize,
+    n: i64,
+) -> Option<&'static str> {
+    let extent = tuples.extent()?;
+    for s in slots {
+        let Some(k) = s.depends_on().filter(|&k| k < indices) else {
+            return Some("an access depends on both indices of a pair");
+        };
+        let (vmin, vmax) = extent[k];
+        let at = |v: i64| s.coef[k].checked_mul(v)?.checked_add(s.offset);
+        match (at(vmin), at(vmax)) {
+            (Some(a), Some(b)) if 1 <= a && b <= n => {}
+            _ => return Some("a sum over pairs, nested or strided, reaches outside the lattice"),
+        }
+    }
+    None
+}
+
+/// The local coordinate of each slot (`letters`, in the order met): the `k`-th distinct `q` is
+/// `k`, the `k`-th `p` is `half + k`.
+fn locals(letters: &[char], half: usize) -> Vec<usize> {
+    let mut counts = [0usize; 2];
+    letters
+        .iter()
+        .map(|&letter| {
+            let h = self::half(letter);
+            let k = counts[h];
+            counts[h] += 1;
+            if h == 0 {
+                k
+            } else {
+                half + k
+            }
+        })
+        .collect()
 }
 
 /// The error of a boundary whose value `letter[k]` is not a site of the lattice `1..n`, as
@@ -496,6 +830,18 @@ fn index_of(letter: char, k: i64, n: usize) -> usize {
     }
 }
 
+/// What [`Looped::eval`] runs at one site of a sum: the summand's programs, the local
+/// coordinate of each slot, the summand's Hessian pattern as pairs of slots.
+#[derive(Clone, Copy)]
+struct Summand<'a> {
+    all: &'a Program,
+    pair: &'a Program,
+    defect: &'a Program,
+    locals: &'a [usize],
+    pattern: &'a [(usize, usize)],
+    local_dim: usize,
+}
+
 /// The outputs of [`Looped::eval`].
 #[derive(Clone, Debug, PartialEq)]
 pub struct LoopedEvaluation {
@@ -525,18 +871,30 @@ impl Looped {
         &self.sums
     }
 
+    /// The sums over pairs, nested and strided sums, each compiled once, in the order
+    /// written (they are computed after [`Looped::sums`]).
+    pub fn nested(&self) -> &[NestedSum] {
+        &self.nested
+    }
+
     /// The operations of all the summands' programs together: what a loop body holds, the
     /// same for every number of sites.
     pub fn ops(&self) -> usize {
-        self.sums
-            .iter()
-            .map(|s| s.all.ops.len() + s.pair.ops.len() + s.defect.ops.len())
-            .sum()
+        let sums = self.sums.iter().map(|s| [&s.all, &s.pair, &s.defect]);
+        let nested = self.nested.iter().map(|s| [&s.all, &s.pair, &s.defect]);
+        sums.chain(nested).flatten().map(|p| p.ops.len()).sum()
+    }
+
+    /// Every summand system, the sums over sites first.
+    fn summands(&self) -> impl Iterator<Item = &crate::System> {
+        let nested = self.nested.iter().map(|s| &s.system);
+        self.sums.iter().map(|s| &s.system).chain(nested)
     }
 
     /// The Hessian's nonzero entries `(i, j)`, `i <= j`, in the order the loops first reach
-    /// them (sum by sum, site by site, the summand's entries in order), each once: the order
-    /// generated code writes them in.
+    /// them (sum by sum, site by site, the summand's entries in order), each once, every
+    /// entry of every tuple visited: a reference for tests, quadratic in `N` for a sum over
+    /// pairs (the generated code uses [`diagonals::layout`]).
     pub fn hessian_pattern(&self) -> Vec<(usize, usize)> {
         let mut seen = std::collections::HashSet::new();
         let mut out = Vec::new();
@@ -556,6 +914,20 @@ impl Looped {
                 }
             }
         }
+        for s in &self.nested {
+            for at in s.tuples.iter() {
+                for &(r, t) in &s.pattern {
+                    let (a, b) = (
+                        s.slots[r].position(at, self.n),
+                        s.slots[t].position(at, self.n),
+                    );
+                    let e = (a.min(b), a.max(b));
+                    if seen.insert(e) {
+                        out.push(e);
+                    }
+                }
+            }
+        }
         out
     }
 
@@ -569,10 +941,10 @@ impl Looped {
             Method::DiscreteGradient,
             Method::DiscreteGradientDefect,
         ];
-        self.sums.iter().all(|s| {
+        self.summands().all(|system| {
             methods
                 .iter()
-                .all(|&m| s.system.program(m).ops.len() <= MAX_BODY_OPS)
+                .all(|&m| system.program(m).ops.len() <= MAX_BODY_OPS)
         })
     }
 
@@ -581,6 +953,10 @@ impl Looped {
         self.sums
             .iter()
             .any(|s| s.slots.iter().any(|&(letter, _, _)| letter == 'p'))
+            || self
+                .nested
+                .iter()
+                .any(|s| s.slots.iter().any(|slot| slot.letter == 'p'))
     }
 
     /// What is legal but easily a mistake, as the written-out path reports it (a `q` without
@@ -629,12 +1005,22 @@ impl Looped {
         Ok(())
     }
 
-    /// Runs `each(sum, sites, local values)` at every site of every sum, the local
-    /// coordinates read from `z` (or the boundaries).
-    fn sites(&self, z: &[f64], mut each: impl FnMut(&LoopSum, &[Site], &[f64])) {
+    /// Runs `each(summand, sites, local values)` at every site of every sum over sites, then
+    /// at every tuple of every nested sum, the local coordinates read from `z` (or the
+    /// boundaries).
+    fn sites(&self, z: &[f64], mut each: impl FnMut(Summand<'_>, &[Site], &[f64])) {
         let mut sites = Vec::new();
         let mut x = Vec::new();
         for s in &self.sums {
+            let locals: Vec<usize> = s.slots.iter().map(|slot| slot.2).collect();
+            let summand = Summand {
+                all: &s.all,
+                pair: &s.pair,
+                defect: &s.defect,
+                locals: &locals,
+                pattern: &s.pattern,
+                local_dim: s.local_dim,
+            };
             for i in s.lo..=s.hi {
                 sites.clear();
                 x.clear();
@@ -647,7 +1033,29 @@ impl Looped {
                     };
                     sites.push(site);
                 }
-                each(s, &sites, &x);
+                each(summand, &sites, &x);
+            }
+        }
+        for s in &self.nested {
+            let locals: Vec<usize> = s.slots.iter().map(|slot| slot.local).collect();
+            let summand = Summand {
+                all: &s.all,
+                pair: &s.pair,
+                defect: &s.defect,
+                locals: &locals,
+                pattern: &s.pattern,
+                local_dim: s.local_dim,
+            };
+            for at in s.tuples.iter() {
+                sites.clear();
+                x.clear();
+                x.resize(s.local_dim, 0.0);
+                for slot in &s.slots {
+                    let k = slot.position(at, self.n);
+                    x[slot.local] = z[k];
+                    sites.push(Site::Var(k));
+                }
+                each(summand, &sites, &x);
             }
         }
     }
@@ -676,16 +1084,16 @@ impl Looped {
                 }
             };
             value += e.value;
-            for (r, &(_, _, lr)) in s.slots.iter().enumerate() {
+            for (r, &lr) in s.locals.iter().enumerate() {
                 if let Site::Var(a) = sites[r] {
                     gradient[a] += e.gradient[lr];
                 }
             }
-            for &(r, t) in &s.pattern {
+            for &(r, t) in s.pattern {
                 let (Site::Var(a), Site::Var(b)) = (sites[r], sites[t]) else {
                     continue;
                 };
-                let h = e.hessian[s.slots[r].2 * s.local_dim + s.slots[t].2];
+                let h = e.hessian[s.locals[r] * s.local_dim + s.locals[t]];
                 // Two slots on one particle (a ring of two): d^2/dz_a^2 of f(z_a, z_a) has
                 // the mixed entry twice.
                 let h = if r != t && a == b { 2.0 * h } else { h };
@@ -762,7 +1170,7 @@ impl Looped {
                 }
             };
             delta += e.energy_difference;
-            for (r, &(_, _, lr)) in s.slots.iter().enumerate() {
+            for (r, &lr) in s.locals.iter().enumerate() {
                 if let Site::Var(a) = sites[r] {
                     gbar[a] += e.discrete_gradient[lr];
                     defect[a] += t.discrete_gradient_defect[lr];

@@ -51,3 +51,32 @@ pub fn fput_alpha_fixed_ends(n: usize) -> String {
     src.push_str(&format!(" + q{n}^2/2 - q{n}^3/12"));
     src
 }
+
+/// 3-D gravity of `n` bodies of unit mass, `G = 1`, in one line (`D = 6n`): body `i` at
+/// `q[3i-2..3i]`, its momentum at `p[3i-2..3i]`; the kinetic energy a strided sum, the
+/// potential a sum over pairs. Both compile once for all bodies ([`crate::looped`]).
+///
+/// ```
+/// use dth_symbolic::{looped, sources::gravity_3d};
+/// let h = looped::compile(&gravity_3d(1024), &[]).unwrap();
+/// assert_eq!(h.dim(), 6 * 1024);
+/// assert_eq!(h.ops(), looped::compile(&gravity_3d(8), &[]).unwrap().ops());
+/// ```
+pub fn gravity_3d(n: usize) -> String {
+    format!(
+        "sum(i = 1..N, (p[3*i-2]^2 + p[3*i-1]^2 + p[3*i]^2)/2) - sum(1 <= i < j <= N, \
+         ((q[3*i-2] - q[3*j-2])^2 + (q[3*i-1] - q[3*j-1])^2 + (q[3*i] - q[3*j])^2)^(-1/2)) \
+         where N = {n}"
+    )
+}
+
+/// The Calogero-Moser system of `n` particles on a line, in one line (`D = 2n`):
+/// `H = sum p_i^2 / 2 + g^2 sum_{i<j} (q_i - q_j)^-2`, the coupling `g` a parameter.
+///
+/// ```
+/// use dth_symbolic::{looped, sources::calogero_moser};
+/// assert_eq!(looped::compile(&calogero_moser(256), &["g"]).unwrap().dim(), 512);
+/// ```
+pub fn calogero_moser(n: usize) -> String {
+    format!("sum(i = 1..N, p[i]^2/2) + g^2*sum(1 <= i < j <= N, (q[i] - q[j])^(-2)) where N = {n}")
+}

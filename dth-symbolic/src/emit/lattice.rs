@@ -2,6 +2,10 @@
 //! over the sites, runs the summand's straight-line program on the local coordinates it reads
 //! and scatters the results, so the emitted code does not grow with the number of sites.
 //!
+//! A nested sum (over pairs, nested or strided, [`crate::looped::nested`]) is a loop over its
+//! index tuples `(i, j)`, every index affine in them; a sum over pairs writes its Hessian
+//! entries into its dense block, at the block's position of the row and column.
+//!
 //! The Hessian's pattern is emitted as runs along its diagonals (the private module
 //! `looped::diagonals`), which `hessian_pattern` expands once, at its first call, into a
 //! `static`; the position each (sum, site, summand entry) writes to is arithmetic on the
@@ -17,6 +21,11 @@ use super::{body, Context, Values, CHUNK_OPS};
 use crate::looped::diagonals::{layout, Place};
 use crate::looped::{Looped, Site};
 use crate::{Method, Output, Program};
+
+/// Each of `programs` keeping only the operations the outputs `keep` holds reach.
+fn pruned(programs: &[Program], keep: fn(Output) -> bool) -> Vec<Program> {
+    programs.iter().map(|p| p.prune(keep)).collect()
+}
 
 /// `impl Hamiltonian<Const<D>>` for a looped lattice, or `None` when a summand's program is
 /// too long for one loop body (the caller emits the site-by-site code instead).
@@ -93,11 +102,21 @@ pub fn looped_impl(looped: &Looped, name: &Ident, params: &[Ident]) -> Option<To
         .iter()
         .map(|&(a, b, len)| quote!((#a, #b, #len)));
     let nruns = layout.runs.len();
+    let blocks = layout.blocks.iter().map(|b| {
+        let (first, len) = (b.first, b.len);
+        quote!((#first, #len))
+    });
+    let nblocks = layout.blocks.len();
     let pattern = quote! {
         /// Runs along the Hessian's diagonals: `(a, b, len)` holds `(a + k, b + k)`, `k < len`.
         #[doc(hidden)]
         const __DTH_HESSIAN_RUNS: [(usize, usize, usize); #nruns] = [#(#runs),*];
-        /// The pattern, the runs one after the other, expanded once, at the first call.
+        /// Dense blocks after the runs: `(first, len)` holds every `(a, b)`, `a <= b`, of
+        /// `first..first + len`, diagonal by diagonal.
+        #[doc(hidden)]
+        const __DTH_HESSIAN_BLOCKS: [(usize, usize); #nblocks] = [#(#blocks),*];
+        /// The pattern, the runs one after the other, then the blocks, expanded once, at the
+        /// first call.
         #[doc(hidden)]
         fn __dth_hessian_pattern() -> &'static [(usize, usize)] {
             static PATTERN: ::std::sync::OnceLock<::std::vec::Vec<(usize, usize)>> =
@@ -106,6 +125,11 @@ pub fn looped_impl(looped: &Looped, name: &Ident, params: &[Ident]) -> Option<To
                 let mut out = ::std::vec::Vec::with_capacity(#nnz);
                 for &(a, b, len) in Self::__DTH_HESSIAN_RUNS.iter() {
                     out.extend((0..len).map(|k| (a + k, b + k)));
+                }
+                for &(first, len) in Self::__DTH_HESSIAN_BLOCKS.iter() {
+                    for o in 0..len {
+                        out.extend((0..len - o).map(|r| (first + r, first + r + o)));
+                    }
                 }
                 out
             })
@@ -192,6 +216,142 @@ pub fn looped_impl(looped: &Looped, name: &Ident, params: &[Ident]) -> Option<To
         quote!({ #(#adds)* })
     };
 
+    // The nested sums: loops over their index tuples `(i, j)`, every index affine in them.
+    let nested_programs = |m: Method| -> Vec<Program> {
+        looped
+            .nested
+            .iter()
+            .map(|s| s.summand().program(m))
+            .collect()
+    };
+    let index = |slot: &crate::looped::nested::NestedSlot| {
+        let shift = if slot.letter == 'q' { 0 } else { n_i64 };
+        let [a, b] = slot.coef;
+        let c = slot.offset - 1 + shift;
+        quote!(((#a * i + #b * j + #c) as usize))
+    };
+    let nested_loops = |programs: &[Program],
+                        two_point: bool,
+                        scatter: &dyn Fn(usize, &Values) -> TokenStream|
+     -> TokenStream {
+        let sums = looped
+            .nested
+            .iter()
+            .zip(programs)
+            .enumerate()
+            .map(|(k, (s, program))| {
+                let (lo, hi) = s.tuples.outer;
+                let load = |zg: TokenStream| {
+                    let entries = (0..s.local_dim).map(|l| {
+                        match s.slots.iter().find(|slot| slot.local == l) {
+                            Some(slot) => {
+                                let at = index(slot);
+                                quote!(#zg[#at])
+                            }
+                            None => quote!(0.0f64),
+                        }
+                    });
+                    quote!([#(#entries),*])
+                };
+                let z0 = load(quote!(zg));
+                let local_dim = s.local_dim;
+                let z1 = if two_point {
+                    let z1 = load(quote!(zg1));
+                    quote!(let z1: [f64; #local_dim] = #z1;)
+                } else {
+                    quote!()
+                };
+                let code = body(program, &cx, |v| scatter(k, v));
+                let (jlo, jhi) = match s.tuples.inner {
+                    Some([(al, bl), (ah, bh)]) => (quote!(#al * i + #bl), quote!(#ah * i + #bh)),
+                    None => (quote!(0i64), quote!(0i64)),
+                };
+                quote! {
+                    let mut i: i64 = #lo;
+                    while i <= #hi {
+                        let (mut j, last): (i64, i64) = (#jlo, #jhi);
+                        while j <= last {
+                            let z: [f64; #local_dim] = #z0;
+                            #z1
+                            { #code }
+                            j += 1;
+                        }
+                        i += 1;
+                    }
+                }
+            });
+        quote!(#(#sums)*)
+    };
+    let nested_vector = |k: usize, entries: &[(usize, TokenStream)], target: TokenStream| {
+        let s = &looped.nested[k];
+        let adds = entries.iter().filter_map(|(l, e)| {
+            let slot = s.slots.iter().find(|slot| slot.local == *l)?;
+            let at = index(slot);
+            Some(quote!(#target[#at] += #e;))
+        });
+        quote!({ #(#adds)* })
+    };
+    let nested_value = nested_loops(&nested_programs(Method::Value), false, &|_, v| {
+        let e = &v.value;
+        quote!({ acc += #e; })
+    });
+    let nested_gradient = nested_loops(&nested_programs(Method::Gradient), false, &|k, v| {
+        nested_vector(k, &v.gradient, quote!(g))
+    });
+    let nested_nonzeros = nested_loops(&nested_programs(Method::Hessian), false, &|k, v| {
+        let s = &looped.nested[k];
+        let writes = s.pattern.iter().enumerate().filter_map(|(idx, &(r, t))| {
+            let (sr, st) = (&s.slots[r], &s.slots[t]);
+            let (a, b) = (sr.local.min(st.local), sr.local.max(st.local));
+            let e = v
+                .hessian
+                .iter()
+                .find(|(i, j, _)| (*i, *j) == (a, b))
+                .map_or(quote!(0.0f64), |(_, _, e)| e.clone());
+            let place = &layout.nested[k][idx];
+            let at = match (place.block, place.interior) {
+                (Some(block), _) => {
+                    let block = layout.blocks[block];
+                    let (x, y) = (index(sr), index(st));
+                    let len = block.len;
+                    let shift = block.start as i64 - block.first as i64;
+                    quote! {{
+                        let (x, y) = (#x, #y);
+                        let (lo, hi) = (x.min(y), x.max(y));
+                        let o = hi - lo;
+                        (#shift + (o * #len) as i64 - ((o * o.saturating_sub(1)) / 2) as i64 + lo as i64) as usize
+                    }}
+                }
+                (None, Some((_, _, base))) => {
+                    let stride = place.stride;
+                    quote!(((#base + #stride * i) as usize))
+                }
+                (None, None) => return None,
+            };
+            Some(quote!(values[#at] += #e;))
+        });
+        quote!({ #(#writes)* })
+    });
+    let nested_pair = nested_programs(Method::DiscreteGradient);
+    let nested_discrete_gradient = nested_loops(
+        &pruned(&nested_pair, |o| matches!(o, Output::DiscreteGradient(_))),
+        true,
+        &|k, v| nested_vector(k, &v.discrete_gradient, quote!(g)),
+    );
+    let nested_energy_difference = nested_loops(
+        &pruned(&nested_pair, |o| o == Output::EnergyDifference),
+        true,
+        &|_, v| {
+            let e = &v.energy_difference;
+            quote!({ acc += #e; })
+        },
+    );
+    let nested_defect = nested_loops(
+        &nested_programs(Method::DiscreteGradientDefect),
+        true,
+        &|k, v| nested_vector(k, &v.discrete_gradient_defect, quote!(g)),
+    );
+
     let value = loops(&value_p, false, &|_, v| {
         let e = &v.value;
         quote!({ acc += #e; })
@@ -227,18 +387,12 @@ pub fn looped_impl(looped: &Looped, name: &Ident, params: &[Ident]) -> Option<To
         quote!({ #(#writes)* })
     });
     let discrete_gradient = loops(
-        &pair_p
-            .iter()
-            .map(|p| p.prune(|o| matches!(o, Output::DiscreteGradient(_))))
-            .collect::<Vec<_>>(),
+        &pruned(&pair_p, |o| matches!(o, Output::DiscreteGradient(_))),
         true,
         &|k, v| scatter_vector(k, &v.discrete_gradient, quote!(g)),
     );
     let energy_difference = loops(
-        &pair_p
-            .iter()
-            .map(|p| p.prune(|o| o == Output::EnergyDifference))
-            .collect::<Vec<_>>(),
+        &pruned(&pair_p, |o| o == Output::EnergyDifference),
         true,
         &|_, v| {
             let e = &v.energy_difference;
@@ -290,6 +444,7 @@ pub fn looped_impl(looped: &Looped, name: &Ident, params: &[Ident]) -> Option<To
                     let zg = z;
                     let mut acc = 0.0f64;
                     #value
+                    #nested_value
                     acc
                 }
                 #[inline]
@@ -299,6 +454,7 @@ pub fn looped_impl(looped: &Looped, name: &Ident, params: &[Ident]) -> Option<To
                     let g = out;
                     g.fill(0.0);
                     #gradient
+                    #nested_gradient
                 }
                 #[inline]
                 fn hessian_into(&self, z: &#nalgebra::SVector<f64, #d>, out: &mut #nalgebra::SMatrix<f64, #d, #d>) {
@@ -322,6 +478,7 @@ pub fn looped_impl(looped: &Looped, name: &Ident, params: &[Ident]) -> Option<To
                         *v = 0.0;
                     }
                     #nonzeros
+                    #nested_nonzeros
                 }
                 #[inline]
                 fn psi(&self, z: &#nalgebra::SVector<f64, #d>) -> f64 {
@@ -360,6 +517,7 @@ pub fn looped_impl(looped: &Looped, name: &Ident, params: &[Ident]) -> Option<To
                     let g = out;
                     g.fill(0.0);
                     #discrete_gradient
+                    #nested_discrete_gradient
                 }
                 /// `H(z1) - H(z0)` by exact divided differences, without cancellation.
                 #[inline]
@@ -372,6 +530,7 @@ pub fn looped_impl(looped: &Looped, name: &Ident, params: &[Ident]) -> Option<To
                     let (zg, zg1) = (z0, z1);
                     let mut acc = 0.0f64;
                     #energy_difference
+                    #nested_energy_difference
                     acc
                 }
                 /// `grad H(z0) + grad H(z1) - 2 gbar(z0, z1)` without cancellation; `gbar` is
@@ -390,6 +549,7 @@ pub fn looped_impl(looped: &Looped, name: &Ident, params: &[Ident]) -> Option<To
                     let g = out;
                     g.fill(0.0);
                     #defect
+                    #nested_defect
                 }
             }
         })

@@ -19,6 +19,10 @@
 //!   could see some).
 //! - [`Looped::separable`]: no nonzero entry between a position and a momentum.
 //!
+//! A nested sum ([`super::nested`]) counts by its summand: the lattice is separable when
+//! every summand is and the sums over sites are, and Psi is not claimed identically zero
+//! (the cautious answer) once there is one.
+//!
 //! A fixed boundary's value enters as the number the generated code reads (`0` exactly, other
 //! values as `f64`); should building a class fault (a constant that overflows), the answer is
 //! the cautious one (`false` for both flags).
@@ -336,6 +340,17 @@ impl Looped {
         let Some(d) = self.derivatives() else {
             return (false, false);
         };
+        // A nested sum: separable when its summand is; Psi is then not proven zero (the
+        // cautious answer: the stepper computes it).
+        let nested_separable = self.nested.iter().all(|s| {
+            s.pattern
+                .iter()
+                .all(|&(r, t)| s.slots[r].letter == s.slots[t].letter)
+        });
+        if !self.nested.is_empty() {
+            let separable = nested_separable && d.entries.iter().all(|e| e.letter == e.other);
+            return (separable, false);
+        }
         let separable = d.entries.iter().all(|e| e.letter == e.other);
         // `w` at letter `l` is the gradient by the other letter.
         let w = |l: usize| &d.gradient[1 - l];

@@ -7,6 +7,7 @@
 //!   on the sites each letter reaches: sites reached by neither letter are an error, a `q`
 //!   without its `p` a warning, and a `p` without its `q` one too beside such a `q`; each for a
 //!   run of sites, at the access that first reaches it, as the written-out path reports them.
+//!   A nested sum ([`super::nested`]) reaches its sites from its first access of each letter.
 
 use super::runs::Runs;
 use super::{half, LoopSum, Looped, Site};
@@ -82,6 +83,24 @@ impl Looped {
                     out[half(l)].1.push(Through {
                         site: at,
                         key: (k, site - c, r),
+                        span,
+                    });
+                }
+            }
+        }
+        // A nested sum's sites, per letter, at its first access of that letter; after the
+        // sums over sites (as it is computed after them).
+        for (k, s) in self.nested.iter().enumerate() {
+            for letter in ['q', 'p'] {
+                let Some((runs, span)) = s.reach(letter) else {
+                    continue;
+                };
+                for run in runs.iter() {
+                    out[half(letter)].0.push(Reach {
+                        sum: self.sums.len() + k,
+                        offset: 0,
+                        slot: 0,
+                        run,
                         span,
                     });
                 }

@@ -15,6 +15,22 @@ impl Runs {
         r
     }
 
+    /// The set of `sites` (in any order, repeats allowed), in one pass after sorting: for
+    /// the many short runs of a strided access (`q[2*i]`), where inserting one by one would
+    /// merge quadratically.
+    pub fn of(mut sites: Vec<i64>) -> Self {
+        sites.sort_unstable();
+        sites.dedup();
+        let mut runs: Vec<(i64, i64)> = Vec::new();
+        for k in sites {
+            match runs.last_mut() {
+                Some(last) if last.1.saturating_add(1) == k => last.1 = k,
+                _ => runs.push((k, k)),
+            }
+        }
+        Runs(runs)
+    }
+
     /// The runs, in order.
     pub fn iter(&self) -> impl Iterator<Item = (i64, i64)> + '_ {
         self.0.iter().copied()
