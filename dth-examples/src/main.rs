@@ -121,6 +121,12 @@ enum Command {
         out: Option<PathBuf>,
     },
     /// Validate a scene file without running it (exit 2 and file:line:column on errors).
+    ///
+    /// Also probes the sign of Psi along a short stretch of the orbit (a scene with a `dth`
+    /// method): where it changes sign, DTH breaks down, and a warning says where and suggests
+    /// the fix (`regularize = "levi-civita"` or `"ks"` under [system] for a 1/r-like
+    /// singularity in two or three degrees of freedom, else `robust = true`). Warnings do not
+    /// change the exit code.
     Check {
         /// The scene file (TOML).
         scene: PathBuf,
@@ -357,6 +363,9 @@ fn main_inner(cli: Cli) -> Result<ExitCode, CliError> {
                 eprintln!("warning: {warning}");
             }
             let memory = catalogue.estimate(&s, &options)?;
+            if let Some(change) = catalogue.probe_psi(&s)? {
+                eprintln!("warning: {}", change.warning());
+            }
             println!(
                 "{}: ok ({}, {} method{}, {} effect{}; effects keep about {}, limit {})",
                 scene.display(),
