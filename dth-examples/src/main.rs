@@ -28,6 +28,7 @@ impl CliError {
     fn exit_code(&self) -> i32 {
         match self {
             CliError::Scene(e) => e.exit_code(),
+            CliError::WorkPrecision(workprecision::Error::UnknownProblem { .. }) => 2,
             CliError::WorkPrecision(_) => 1,
         }
     }
@@ -139,7 +140,7 @@ enum Command {
         #[arg(long)]
         json: Option<PathBuf>,
     },
-    /// Work-precision diagrams for every method: error against wall time on six problems
+    /// Work-precision diagrams for every method: error against wall time on seven problems
     /// (docs/benchmarks.md has the tables).
     Workprecision {
         /// Output folder (default: dth-out/workprecision).
@@ -148,6 +149,10 @@ enum Command {
         /// A quick smoke-test variant.
         #[arg(long)]
         quick: bool,
+        /// Only this problem (repeat for more): kepler_e044, kepler_e07, kepler_e09,
+        /// kepler_e09_regularized, henon_heiles, pendulum, forced_oscillator.
+        #[arg(long = "problem")]
+        problems: Vec<String>,
     },
     /// Show what the symbolic engine derives from a Hamiltonian (the `hamiltonian!` grammar):
     /// the simplified gradient, the Hessian's nonzero entries, Psi = (J gradH)^T HessH (J gradH),
@@ -406,13 +411,22 @@ fn main_inner(cli: Cli) -> Result<ExitCode, CliError> {
             print!("{text}");
             Ok(ExitCode::SUCCESS)
         }
-        Some(Command::Workprecision { out, quick }) => {
+        Some(Command::Workprecision {
+            out,
+            quick,
+            problems,
+        }) => {
             let out = out.unwrap_or_else(|| Path::new(DEFAULT_OUT).join("workprecision"));
-            let options = if quick {
+            let mut options = if quick {
                 WorkPrecisionOptions::quick()
             } else {
                 WorkPrecisionOptions::default()
             };
+            if !problems.is_empty() {
+                options = options
+                    .with_problems(&problems)
+                    .map_err(CliError::WorkPrecision)?;
+            }
             let staging = Staging::new(&out)?;
             let summary =
                 workprecision::run(&options, staging.path()).map_err(CliError::WorkPrecision)?;
