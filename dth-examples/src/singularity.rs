@@ -165,7 +165,12 @@ where
         return None;
     }
     // The directions of the test: towards the state, and perpendicular to it in the plane of
-    // its first two coordinates.
+    // its first two coordinates; the distances from the state's distance to the centre found
+    // (the first estimate's may be off by a share of it).
+    let r0 = (&q0 - &centre).norm();
+    if !(r0.is_finite() && r0 > 0.0) {
+        return None;
+    }
     let e1 = (&q0 - &centre) / r0;
     let mut e2 = DVector::zeros(n);
     e2[0] = -e1[1];
@@ -259,7 +264,8 @@ mod tests {
     }
 
     /// A centre off the origin with a perturbation beside it (a second, far attractor and a
-    /// Stark field) is found, and a spatial problem gets KS.
+    /// Stark field; the restricted three-body problem's rotating frame) is found, and a spatial
+    /// problem gets KS.
     #[test]
     fn an_offset_centre_and_a_spatial_problem() {
         let h = text(
@@ -272,6 +278,15 @@ mod tests {
             r.scene_keys(),
             "regularize = \"levi-civita\", centre = [-0.25, 1.0]"
         );
+        // The restricted three-body problem in the rotating frame (mu = 0.1), near the small
+        // primary at (1 - mu, 0): the momentum-dependent p1 q2 - p2 q1 leaves it found.
+        let h = text(
+            "(p1^2 + p2^2)/2 + p1*q2 - p2*q1 - 0.9*((q1 + 0.1)^2 + q2^2)^(-1/2) - 0.1*((q1 - 0.9)^2 + q2^2)^(-1/2)",
+        );
+        let z = V::from_vec(vec![0.95, 0.03, -0.2, 1.1]);
+        let r = regularization(&h, &z).unwrap();
+        assert_eq!(r.centre, [0.9, 0.0]);
+        assert!((r.strength + 0.1).abs() < 1e-5, "{}", r.strength);
         let h = text("(p1^2 + p2^2 + p3^2)/2 - 3*(q1^2 + q2^2 + q3^2)^(-1/2)");
         let z = V::from_vec(vec![0.0, 0.0, 2.0, 0.1, 0.0, 0.0]);
         let r = regularization(&h, &z).unwrap();
