@@ -14,8 +14,8 @@
 //! `Hess V d = -2 grad V`: the centre is `c = q + 2 (Hess_qq H)^-1 grad_q H`, exactly, from any
 //! state. Smooth terms beside the singular one (kinetic, a perturbation, a second primary, the
 //! rotating frame's `p1 q2 - p2 q1`) move this estimate by a share that shrinks with `r`, so it
-//! is repeated from points closer to the estimate (each [`SHRINK`] of the previous distance)
-//! until it moves less than [`CENTRE_TOLERANCE`] of the first distance.
+//! is repeated from points closer to the estimate (each `SHRINK` of the previous distance)
+//! until it moves less than `CENTRE_TOLERANCE` of the first distance.
 //!
 //! **Testing it.** `H` is `1/r`-like at `c` when `s(eps) = eps H(c + eps e, p)` tends to the same
 //! finite, nonzero constant (`-k`) along two perpendicular directions `e`: compared at
@@ -54,7 +54,7 @@ pub struct Regularization {
     /// Levi-Civita for two degrees of freedom, Kustaanheimo-Stiefel for three.
     pub preset: Preset,
     /// The singular point `c` in configuration space, rounded to the decimals the estimate
-    /// resolves ([`CENTRE_TOLERANCE`] of the state's distance to it): the origin is `0`.
+    /// resolves (`CENTRE_TOLERANCE`, 1e-9, of the state's distance to it): the origin is `0`.
     pub centre: Vec<f64>,
     /// `lim eps H(c + eps e)`: `-k` for a `-k/r` term.
     pub strength: f64,
