@@ -30,6 +30,7 @@ use crate::budget::{self, MemoryEstimate};
 use crate::ensemble;
 use crate::error::Error;
 use crate::pipeline::{run_system, RunError};
+use crate::probe::{probe_psi, PsiSignChange};
 use crate::report::RunReport;
 use crate::runtime_system::{self, MakeSystem, TextJob};
 use crate::scene::{ParamSpec, Scene, SystemInfo, SystemLookup};
@@ -44,6 +45,7 @@ type RunFn =
     dyn Fn(&Scene, &Path, &RunOptions) -> Result<RunReport, RunError> + Send + Sync + 'static;
 type EstimateFn =
     dyn Fn(&Scene, &RunOptions) -> Result<MemoryEstimate, Error> + Send + Sync + 'static;
+type ProbeFn = dyn Fn(&Scene) -> Result<Option<PsiSignChange>, Error> + Send + Sync + 'static;
 
 /// One system of a [`Catalogue`].
 pub struct SystemEntry {
@@ -61,6 +63,7 @@ pub struct SystemEntry {
     psi_identically_zero: bool,
     run: Box<RunFn>,
     estimate: Box<EstimateFn>,
+    probe: Box<ProbeFn>,
 }
 
 impl std::fmt::Debug for SystemEntry {
@@ -143,6 +146,33 @@ where
         preflight(&system, scene, &z0, stop)?;
     }
     Ok(estimate)
+}
+
+/// [`probe_psi`] of a validated scene on the system `make` builds from its parameters.
+fn probe_built<D: Dim, S: SceneSystem<D>>(
+    make: &(dyn Fn(&Params) -> Result<S, Error> + Sync),
+    scene: &Scene,
+) -> Result<Option<PsiSignChange>, Error>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    Ok(probe_psi(&make(&scene.params)?, scene))
+}
+
+/// [`probe_built`] on a scene's text Hamiltonian.
+struct ProbeText<'a> {
+    scene: &'a Scene,
+}
+
+impl TextJob for ProbeText<'_> {
+    type Output = Result<Option<PsiSignChange>, Error>;
+
+    fn run<D: Dim, S: SceneSystem<D>>(self, make: &MakeSystem<'_, S>) -> Self::Output
+    where
+        DefaultAllocator: Alloc<D>,
+    {
+        probe_built::<D, S>(make, self.scene)
+    }
 }
 
 /// [`run_built`] on a scene's text Hamiltonian.
@@ -293,8 +323,9 @@ impl SystemEntry {
             }
             build(params).map_err(unavailable)
         };
-        let (run_name, estimate_name) = (name.to_string(), name.to_string());
-        let make_too = make.clone();
+        let (run_name, estimate_name, probe_name) =
+            (name.to_string(), name.to_string(), name.to_string());
+        let (make_too, make_probe) = (make.clone(), make.clone());
         SystemEntry {
             name: name.to_string(),
             doc: doc.to_string(),
@@ -317,6 +348,9 @@ impl SystemEntry {
                     scene,
                     options,
                 )
+            }),
+            probe: Box::new(move |scene| {
+                probe_built::<Const<D>, S>(&|p: &Params| make_probe(&probe_name, p), scene)
             }),
         }
     }
@@ -583,6 +617,22 @@ impl Catalogue {
             return runtime_system::dispatch(scene, EstimateText { scene, options })?;
         }
         (self.entry(scene)?.estimate)(scene, options)
+    }
+}
+
+impl Catalogue {
+    /// Where `Psi` changes sign along a validated scene's orbit, if it does
+    /// ([`crate::probe`]): `dth check` warns with it. `Ok(None)` for a scene whose probe saw
+    /// no sign change or that is not probed.
+    ///
+    /// # Errors
+    /// Only what building the scene's system fails with (as [`Catalogue::estimate`]); the
+    /// probe itself never fails a check.
+    pub fn probe_psi(&self, scene: &Scene) -> Result<Option<PsiSignChange>, Error> {
+        if scene.hamiltonian.is_some() {
+            return runtime_system::dispatch(scene, ProbeText { scene })?;
+        }
+        (self.entry(scene)?.probe)(scene)
     }
 }
 

@@ -7,6 +7,11 @@
 //! `summary.json` (per method, `fallback`) and `index.html` read [`Fallback`]; the trajectory
 //! CSV's `step_kind` column names each record's kind with [`kind_name`].
 //!
+//! Where a regularization would have removed the cause (a `1/r`-like singularity in two or
+//! three degrees of freedom, `crate::singularity`), the run says so: the caller, which has the
+//! system, looks at the state the watch kept ([`FallbackWatch::cause_state`]) and sets
+//! [`Fallback::regularization`], which the summary line, the warning and `summary.json` show.
+//!
 //! ```
 //! use dth::nalgebra::Vector2;
 //! use dth::observer::{DthRecord, Observer, StepKind, StepRecord};
@@ -32,6 +37,8 @@ use dth::nalgebra::{DefaultAllocator, Dim};
 use dth::observer::{Observer, StepKind, StepRecord};
 use dth::Alloc;
 use serde::Serialize;
+
+use crate::singularity::Regularization;
 
 /// `dth run` warns about a method when more than this share of its steps fell back
 /// ([`Fallback::warning`]). An isolated fallback step (a close approach, one breakdown) costs
@@ -74,13 +81,18 @@ pub struct Fallback {
     pub share_of_time: f64,
     /// Why DTH fell back, as far as the records tell (`None` when no step fell back).
     pub cause: Option<String>,
+    /// The regularization that would have removed the cause, where one applies (the scene
+    /// keys to add and the singular point); set by the caller from
+    /// [`FallbackWatch::cause_state`].
+    pub regularization: Option<Regularization>,
     /// The run's steps, for [`Fallback`]'s `Display` (in `summary.json` as the method's
     /// `steps`).
     #[serde(skip)]
     pub run_steps: usize,
 }
 
-/// "1517 of 1621 steps (93.6%), 97.2% of the physical time".
+/// "1517 of 1621 steps (93.6%), 97.2% of the physical time", and where a regularization
+/// applies, "; `regularize = "levi-civita"` under [system] would avoid them".
 impl std::fmt::Display for Fallback {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(
@@ -90,7 +102,11 @@ impl std::fmt::Display for Fallback {
             self.run_steps,
             percent(self.share_of_steps),
             percent(self.share_of_time)
-        )
+        )?;
+        if let Some(r) = &self.regularization {
+            write!(f, "; `{}` under [system] would avoid them", r.scene_keys())?;
+        }
+        Ok(())
     }
 }
 
@@ -105,11 +121,16 @@ fn percent(share: f64) -> String {
 
 impl Fallback {
     /// The warning `dth run` prints for the method `label` when more than [`WARN_ABOVE`] of
-    /// its steps fell back: how many, their share of the time, and the cause; `None` otherwise.
+    /// its steps fell back: how many, their share of the time, the cause, and the
+    /// regularization that removes it where one applies; `None` otherwise.
     pub fn warning(&self, label: &str) -> Option<String> {
         (self.share_of_steps > WARN_ABOVE).then(|| {
+            let fix = self
+                .regularization
+                .as_ref()
+                .map_or(String::new(), |r| format!("; a regularization applies: {r}"));
             format!(
-                "method `{label}`: {} of {} steps ({}) fell back to discrete-gradient steps (robust mode), {} of the physical time; cause: {}; DTH's vertex invariants do not hold across them",
+                "method `{label}`: {} of {} steps ({}) fell back to discrete-gradient steps (robust mode), {} of the physical time; cause: {}; DTH's vertex invariants do not hold across them{fix}",
                 self.steps,
                 self.run_steps,
                 percent(self.share_of_steps),
@@ -149,7 +170,9 @@ impl std::fmt::Display for At {
 }
 
 /// An observer that counts a run's fallback steps and keeps what names their cause
-/// ([`FallbackWatch::finish`]). It stores nothing per step and never allocates.
+/// ([`FallbackWatch::finish`]). It stores nothing per step; it allocates twice at most, to
+/// keep the state of the first sign change of `Psi` and of the first fallback step
+/// ([`FallbackWatch::cause_state`]).
 #[derive(Debug, Clone)]
 pub struct FallbackWatch {
     /// Configuration coordinates `q` of the system (the first `n` components of `z`).
@@ -169,6 +192,10 @@ pub struct FallbackWatch {
     first_opposite: Option<At>,
     /// The smallest `|Psi / Psi(zbar_0)|` at a fallback node.
     smallest_psi: f64,
+    /// The whole state of the first record with the sign of `Psi` opposite to
+    /// `Psi(zbar_0)`, and of the first fallback step.
+    opposite_state: Option<Vec<f64>>,
+    fallback_state: Option<Vec<f64>>,
 }
 
 impl FallbackWatch {
@@ -185,7 +212,21 @@ impl FallbackWatch {
             first_fallback: None,
             first_opposite: None,
             smallest_psi: f64::INFINITY,
+            opposite_state: None,
+            fallback_state: None,
         }
+    }
+
+    /// Where the cause of the fallback steps is to be looked at, as a whole state: the first
+    /// sign change of `Psi`, or without one the first fallback step; `None` for a run without
+    /// fallback steps.
+    pub fn cause_state(&self) -> Option<&[f64]> {
+        if self.steps == 0 {
+            return None;
+        }
+        self.opposite_state
+            .as_deref()
+            .or(self.fallback_state.as_deref())
     }
 
     /// The time of the last state seen (`None` before the first).
@@ -203,6 +244,7 @@ impl FallbackWatch {
             share_of_steps: share(self.steps as f64, self.k as f64),
             share_of_time: share(self.time.abs(), span),
             cause: (self.steps > 0).then(|| self.cause()),
+            regularization: None,
             run_steps: self.k,
         }
     }
@@ -278,11 +320,15 @@ where
         let psi0 = self.psi0.filter(|p| *p != 0.0).unwrap_or(f64::NAN);
         if self.first_opposite.is_none() && d.psi * psi0 <= 0.0 {
             self.first_opposite = Some(self.at(r));
+            self.opposite_state = Some(r.z.iter().copied().collect());
         }
         if r.kind == StepKind::Fallback {
             self.steps += 1;
             self.time += r.t - previous;
-            self.first_fallback.get_or_insert(self.at(r));
+            if self.first_fallback.is_none() {
+                self.first_fallback = Some(self.at(r));
+                self.fallback_state = Some(r.z.iter().copied().collect());
+            }
             let ratio = (d.psi / psi0).abs();
             if ratio.is_finite() {
                 self.smallest_psi = self.smallest_psi.min(ratio);

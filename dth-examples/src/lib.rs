@@ -22,10 +22,13 @@
 //!    back to physical coordinates;
 //! 4. [`system`] (what a scene needs of a system) and [`systems`] (the built-in ones);
 //! 5. [`method`] (a scene's method name to an integrator), [`normal_modes`] (a chain's linear
-//!    normal modes and their energies), [`effects`] (observers for the requested effects) and
-//!    [`fallback`] (what robust DTH's fallback steps were and why, from the step records);
+//!    normal modes and their energies), [`effects`] (observers for the requested effects),
+//!    [`singularity`] (whether a regularization applies at a state: a `1/r`-like singularity
+//!    in two or three degrees of freedom) and [`fallback`] (what robust DTH's fallback steps
+//!    were and why, from the step records);
 //! 6. [`budget`] (the memory a run's effects will keep, checked before it runs), then
-//!    [`simulate`]: every method of a scene on a system, results in memory;
+//!    [`simulate`]: every method of a scene on a system, results in memory, and [`probe`]
+//!    (`dth check`'s look at the sign of `Psi` along a scene's orbit);
 //! 7. [`report`]: CSV, figures, Table 4.1, the thesis's figures, `index.html`;
 //! 8. [`ensemble`] (ensemble scenes: members on every core and MPI rank, their table and
 //!    figures) and [`pipeline`]: simulate, report, stage;
@@ -65,8 +68,10 @@ pub mod effects;
 pub mod fallback;
 pub mod method;
 pub mod normal_modes;
+pub mod singularity;
 
 pub mod budget;
+pub mod probe;
 pub mod simulate;
 
 pub mod report;

@@ -28,6 +28,7 @@ impl CliError {
     fn exit_code(&self) -> i32 {
         match self {
             CliError::Scene(e) => e.exit_code(),
+            CliError::WorkPrecision(workprecision::Error::UnknownProblem { .. }) => 2,
             CliError::WorkPrecision(_) => 1,
         }
     }
@@ -121,6 +122,12 @@ enum Command {
         out: Option<PathBuf>,
     },
     /// Validate a scene file without running it (exit 2 and file:line:column on errors).
+    ///
+    /// Also probes the sign of Psi along a short stretch of the orbit (a scene with a `dth`
+    /// method): where it changes sign, DTH breaks down, and a warning says where and suggests
+    /// the fix (`regularize = "levi-civita"` or `"ks"` under [system] for a 1/r-like
+    /// singularity in two or three degrees of freedom, else `robust = true`). Warnings do not
+    /// change the exit code.
     Check {
         /// The scene file (TOML).
         scene: PathBuf,
@@ -133,7 +140,7 @@ enum Command {
         #[arg(long)]
         json: Option<PathBuf>,
     },
-    /// Work-precision diagrams for every method: error against wall time on six problems
+    /// Work-precision diagrams for every method: error against wall time on seven problems
     /// (docs/benchmarks.md has the tables).
     Workprecision {
         /// Output folder (default: dth-out/workprecision).
@@ -142,6 +149,10 @@ enum Command {
         /// A quick smoke-test variant.
         #[arg(long)]
         quick: bool,
+        /// Only this problem (repeat for more): kepler_e044, kepler_e07, kepler_e09,
+        /// kepler_e09_regularized, henon_heiles, pendulum, forced_oscillator.
+        #[arg(long = "problem")]
+        problems: Vec<String>,
     },
     /// Show what the symbolic engine derives from a Hamiltonian (the `hamiltonian!` grammar):
     /// the simplified gradient, the Hessian's nonzero entries, Psi = (J gradH)^T HessH (J gradH),
@@ -357,6 +368,9 @@ fn main_inner(cli: Cli) -> Result<ExitCode, CliError> {
                 eprintln!("warning: {warning}");
             }
             let memory = catalogue.estimate(&s, &options)?;
+            if let Some(change) = catalogue.probe_psi(&s)? {
+                eprintln!("warning: {}", change.warning());
+            }
             println!(
                 "{}: ok ({}, {} method{}, {} effect{}; effects keep about {}, limit {})",
                 scene.display(),
@@ -397,13 +411,22 @@ fn main_inner(cli: Cli) -> Result<ExitCode, CliError> {
             print!("{text}");
             Ok(ExitCode::SUCCESS)
         }
-        Some(Command::Workprecision { out, quick }) => {
+        Some(Command::Workprecision {
+            out,
+            quick,
+            problems,
+        }) => {
             let out = out.unwrap_or_else(|| Path::new(DEFAULT_OUT).join("workprecision"));
-            let options = if quick {
+            let mut options = if quick {
                 WorkPrecisionOptions::quick()
             } else {
                 WorkPrecisionOptions::default()
             };
+            if !problems.is_empty() {
+                options = options
+                    .with_problems(&problems)
+                    .map_err(CliError::WorkPrecision)?;
+            }
             let staging = Staging::new(&out)?;
             let summary =
                 workprecision::run(&options, staging.path()).map_err(CliError::WorkPrecision)?;

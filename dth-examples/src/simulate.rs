@@ -18,6 +18,7 @@ use crate::error::Error;
 use crate::fallback::{Fallback, FallbackWatch};
 use crate::method::{run_method, unavailable};
 use crate::scene::{Duration, Ensemble, MethodKind, MethodSpec, Scene, StepSpec};
+use crate::singularity::regularization;
 use crate::system::SceneSystem;
 
 /// How to run.
@@ -494,6 +495,23 @@ fn step_summary(step: StepSpec) -> BTreeMap<String, serde_json::Value> {
     m
 }
 
+/// What the robust mode did in a run `watch` saw, with the regularization that would have
+/// avoided its fallback steps where one applies at the state of their cause.
+fn fallback_of<D: Dim, S: SceneSystem<D>>(system: &S, watch: &FallbackWatch) -> Fallback
+where
+    DefaultAllocator: Alloc<D>,
+{
+    let mut fallback = watch.finish();
+    if let Some(state) = watch.cause_state() {
+        let mut z = dth::zeros(system.dim());
+        if z.len() == state.len() {
+            z.as_mut_slice().copy_from_slice(state);
+            fallback.regularization = regularization(system, &z);
+        }
+    }
+    fallback
+}
+
 /// Runs every method of `scene` on `system` and keeps the results in memory (no files).
 /// Effects not requested are not constructed. A run interrupted through
 /// [`RunOptions::interrupt`] returns the methods up to the interrupted one (its failure is
@@ -559,7 +577,7 @@ where
                 .map(|v| v.iter().map(|i| i.0.clone()).collect())
                 .unwrap_or_default(),
             final_state: outputs.final_state.clone(),
-            fallback: watch.finish(),
+            fallback: fallback_of(system, &watch),
         };
         let mut interrupted = matches!(&end, Err(f) if f.cause == FailureCause::Interrupted);
         let (ensemble, ensemble_interrupted) = match &scene.ensemble {

@@ -60,6 +60,54 @@ fn robust_mode_runs_through_a_breakdown_that_stops_plain_dth() {
         cause.starts_with("Psi changes sign along the orbit"),
         "{cause}"
     );
+    // Where it changed sign, H has its 1/r singularity at the origin: the run says that
+    // Levi-Civita would have avoided the fallback steps (summary line, warning, summary.json).
+    let r = fallback
+        .regularization
+        .as_ref()
+        .expect("a regularization applies to Kepler");
+    assert_eq!(r.scene_keys(), "regularize = \"levi-civita\"");
+    assert!(
+        fallback
+            .to_string()
+            .ends_with("; `regularize = \"levi-civita\"` under [system] would avoid them"),
+        "{fallback}"
+    );
+    let warning = fallback.warning("dth").unwrap_or_default();
+    assert!(
+        warning.contains("a regularization applies: `regularize = \"levi-civita\"` under [system]"),
+        "{warning}"
+    );
+    let json = serde_json::to_value(fallback).unwrap();
+    assert_eq!(json["regularization"]["preset"], "levi-civita");
+    assert_eq!(
+        json["regularization"]["centre"],
+        serde_json::json!([0.0, 0.0])
+    );
+}
+
+/// A pendulum in rotation falls back over the top, where no regularization applies (one
+/// degree of freedom, no singularity): the run names none.
+#[test]
+fn a_fallback_without_a_singularity_names_no_regularization() {
+    let text = "[system]\nname = \"pendulum\"\n[initial]\nq = [0.0]\np = [2.5]\n\
+                [[method]]\nkind = \"dth\"\ndtau = 0.05\nrobust = true\n[duration]\ntime = 10\n";
+    let scene = dth_examples::check_scene(text, "rotation.toml", &Catalogue::builtin()).unwrap();
+    let pendulum = dth_examples::systems::Pendulum {
+        m: 1.0,
+        l: 1.0,
+        g: 1.0,
+    };
+    let results = compute(
+        &pendulum,
+        &scene,
+        &RunOptions::default().with_progress(false),
+    )
+    .unwrap();
+    let fallback = &results[0].summary.fallback;
+    assert!(fallback.steps > 0, "{fallback:?}");
+    assert_eq!(fallback.regularization, None);
+    assert!(!fallback.to_string().contains("regularize"), "{fallback}");
 }
 
 #[test]

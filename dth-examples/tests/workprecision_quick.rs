@@ -88,6 +88,7 @@ fn quick_sweep_runs_and_writes_its_files() {
     }
 
     robust_orbit_is_swept(&summary.records);
+    regularized_orbit_is_swept(&summary.records);
 
     for name in ["workprecision.json", "workprecision.csv", "summary.md"] {
         let path = dir.path().join(name);
@@ -106,8 +107,11 @@ fn quick_sweep_runs_and_writes_its_files() {
     assert_eq!(csv.lines().count(), summary.records.len() + 1);
 
     // One PNG and one SVG per problem and error kind: global and energy everywhere, the
-    // angular momentum on the three Kepler orbits.
-    for system in systems.into_iter().chain(["kepler_e09"]) {
+    // angular momentum on the four Kepler problems.
+    for system in systems
+        .into_iter()
+        .chain(["kepler_e09", "kepler_e09_regularized"])
+    {
         let mut kinds = vec!["global", "energy"];
         if system.starts_with("kepler") {
             kinds.push("invariant");
@@ -130,8 +134,8 @@ fn quick_sweep_runs_and_writes_its_files() {
             .join(format!("kepler_e044_derivatives_global.{ext}"));
         assert!(path.is_file(), "{} missing", path.display());
     }
-    // 3 data files + PNG and SVG of (3 Kepler x 3 kinds + 3 others x 2 kinds + 1 derivatives).
-    assert_eq!(summary.files.len(), 3 + 2 * (3 * 3 + 3 * 2 + 1));
+    // 3 data files + PNG and SVG of (4 Kepler x 3 kinds + 3 others x 2 kinds + 1 derivatives).
+    assert_eq!(summary.files.len(), 3 + 2 * (4 * 3 + 3 * 2 + 1));
 }
 
 /// Kepler e = 0.9, where `Psi` changes sign near pericenter: robust DTH of orders 2 and 8 runs
@@ -172,6 +176,46 @@ fn robust_orbit_is_swept(records: &[Record]) {
         "gauss_legendre2",
         "dop853",
         "discrete_mechanics",
+    ] {
+        assert_eq!(runs(method).len(), 3, "{method}: three points");
+    }
+}
+
+/// Kepler e = 0.9 regularized by Levi-Civita: plain DTH of orders 2 and 8 runs through at
+/// every point without a fallback step, the physical energy at its midpoints at roundoff and
+/// (order 2) the angular momentum at its vertices too; beside it robust DTH and the three peers
+/// at every point.
+fn regularized_orbit_is_swept(records: &[Record]) {
+    let runs = |method: &str| -> Vec<&Record> {
+        records
+            .iter()
+            .filter(|r| r.system == "kepler_e09_regularized" && r.method == method)
+            .collect()
+    };
+    for method in ["dth_lc", "dth8_lc"] {
+        let runs = runs(method);
+        assert_eq!(runs.len(), 3, "{method}: three points");
+        for r in runs {
+            assert!(r.failure.is_none(), "{r:?}");
+            assert!(r.global_error.is_finite() && r.time > 0.0, "{r:?}");
+            assert_eq!(r.fallback_steps, Some(0), "{r:?}");
+            // `K = |u|^2 (H + p_t)` is solved to a few eps of its terms (k = 1), which is
+            // eps / r in `H`: at pericentre r = 0.5, ~1e-15; 1e-13 leaves a wide margin.
+            assert!(r.energy_error < 1e-13, "{r:?}");
+            if method == "dth_lc" {
+                // L = (u1 P2 - u2 P1) / 2 is quadratic in the regularized state: DTH keeps it
+                // at its vertices.
+                let l = r.vertex_invariant_error.expect("Kepler has an invariant");
+                assert!(l < 1e-13, "{r:?}");
+            }
+        }
+    }
+    for method in [
+        "dth_robust",
+        "dth8_robust",
+        "gauss_legendre2",
+        "discrete_gradient",
+        "dop853",
     ] {
         assert_eq!(runs(method).len(), 3, "{method}: three points");
     }

@@ -1,7 +1,7 @@
 //! Work-precision benchmark: what each accuracy costs in wall time, for DTH and every peer.
 //!
 //! [`run`] sweeps the step size of every method (the tolerance of the outside reference,
-//! DOP853 from the `differential-equations` crate) over more than two decades on six
+//! DOP853 from the `differential-equations` crate) over more than two decades on seven
 //! problems ([`problems`]) and measures, for each point:
 //!
 //! - **wall time**: median of repeated runs in this process (no diagnostics inside the timed
@@ -13,7 +13,9 @@
 //!   step is shortened or stretched in `tau` so that its last midpoint lands on `T` to roundoff
 //!   (`Dth::step_toward`), and that midpoint is compared with the reference at its own time.
 //!   For comparison the harness also records the error at DTH's last vertex, at that vertex's
-//!   own time ([`Record::vertex_error`]);
+//!   own time ([`Record::vertex_error`]). Regularized DTH (`dth_lc`, `dth8_lc`: Kepler
+//!   regularized by Levi-Civita, on `(u, t, P, p_t)`) ends the same way at physical `T`, and
+//!   every state it produces is mapped back to `(q, p)` before anything is measured;
 //! - **maximum energy deviation** `max_k |H(z_k) - H(z_0)|` over every state the method produces
 //!   (DTH: at its midpoints, where it conserves energy, and separately at its vertices against
 //!   the first vertex `z^(0)`, the thesis's Table 4.1 convention);
@@ -56,6 +58,8 @@ pub struct WorkPrecisionOptions {
     quick: bool,
     repeats: usize,
     min_timing: f64,
+    /// Only these problems (`None`: all).
+    problems: Option<Vec<&'static str>>,
 }
 
 impl Default for WorkPrecisionOptions {
@@ -66,6 +70,7 @@ impl Default for WorkPrecisionOptions {
             quick: false,
             repeats: 5,
             min_timing: 0.05,
+            problems: None,
         }
     }
 }
@@ -78,6 +83,7 @@ impl WorkPrecisionOptions {
             quick: true,
             repeats: 1,
             min_timing: 0.0,
+            problems: None,
         }
     }
 
@@ -112,6 +118,41 @@ impl WorkPrecisionOptions {
         Ok(self)
     }
 
+    /// Sweep only the problems named (`kepler_e09_regularized`, ...: [`problems::NAMES`]), in
+    /// their usual order. Default: every problem.
+    ///
+    /// ```
+    /// use dth_examples::workprecision::WorkPrecisionOptions;
+    /// let options = WorkPrecisionOptions::default().with_problems(&["kepler_e09_regularized"])?;
+    /// assert!(WorkPrecisionOptions::default().with_problems(&["kepler"]).is_err());
+    /// # Ok::<(), dth_examples::workprecision::Error>(())
+    /// ```
+    ///
+    /// # Errors
+    /// [`Error::UnknownProblem`] for a name that is not a problem's.
+    pub fn with_problems<S: AsRef<str>>(mut self, names: &[S]) -> Result<Self, Error> {
+        let mut chosen = Vec::with_capacity(names.len());
+        for name in names {
+            let name = name.as_ref();
+            let known = problems::NAMES
+                .iter()
+                .find(|n| **n == name)
+                .ok_or_else(|| Error::UnknownProblem {
+                    name: name.to_string(),
+                })?;
+            chosen.push(*known);
+        }
+        self.problems = Some(chosen);
+        Ok(self)
+    }
+
+    /// Whether the problem `name` is swept.
+    fn sweeps(&self, name: &str) -> bool {
+        self.problems
+            .as_ref()
+            .is_none_or(|chosen| chosen.contains(&name))
+    }
+
     /// Whether this is the quick smoke-test sweep.
     pub fn is_quick(&self) -> bool {
         self.quick
@@ -134,6 +175,12 @@ pub enum Error {
         name: &'static str,
         /// What is wrong.
         reason: &'static str,
+    },
+    /// A problem name that is not one of [`problems::NAMES`].
+    #[error("unknown work-precision problem `{name}`: expected one of {}", problems::NAMES.join(", "))]
+    UnknownProblem {
+        /// The name given.
+        name: String,
     },
     /// Writing an output file failed.
     #[error("cannot write `{}`", path.display())]
@@ -171,7 +218,8 @@ impl From<crate::error::Error> for Error {
 pub struct Record {
     /// Problem name (file-name safe, e.g. `kepler_e044`).
     pub system: &'static str,
-    /// Method name (e.g. `dth_joint`, `dth8` (order 8), `midpoint`, `dop853`).
+    /// Method name (e.g. `dth_joint`, `dth8` (order 8), `dth_lc` (regularized by
+    /// Levi-Civita), `midpoint`, `dop853`).
     pub method: &'static str,
     /// What `parameter` is: `"dt"`, `"dtau"` (DTH) or `"tol"` (DOP853, `rtol = atol`).
     pub parameter_kind: &'static str,
@@ -266,7 +314,9 @@ pub fn run(options: &WorkPrecisionOptions, out: &Path) -> Result<Summary, Error>
     let mut references = Vec::new();
     let mut infos = Vec::new();
     for problem in problems::all(options)? {
-        problem.sweep(options, &mut records, &mut references, &mut infos)?;
+        if options.sweeps(problem.name()) {
+            problem.sweep(options, &mut records, &mut references, &mut infos)?;
+        }
     }
     let tables = report::tables(&records, &infos, &references);
     let mut summary = Summary {

@@ -205,6 +205,17 @@ mod tests {
         "discrete_mechanics",
     ];
 
+    /// Every method of the regularized sweep (Kepler e = 0.9 over 100 orbits).
+    const KEPLER_REGULARIZED: [&str; 7] = [
+        "dth_lc",
+        "dth8_lc",
+        "dth_robust",
+        "dth8_robust",
+        "gauss_legendre2",
+        "discrete_gradient",
+        "dop853",
+    ];
+
     #[test]
     fn the_default_solver_has_a_curve_in_every_main_figure() {
         for kind in ["global", "energy", "invariant"] {
@@ -212,7 +223,7 @@ mod tests {
             assert!(shown("dth_robust", kind, Selection::Main), "{kind}");
             // Within the palette: DTH of order 2 draws midpoints and vertices on energy and
             // invariants.
-            for methods in [&KEPLER[..], &KEPLER_ROBUST[..]] {
+            for methods in [&KEPLER[..], &KEPLER_ROBUST[..], &KEPLER_REGULARIZED[..]] {
                 let curves: usize = methods
                     .iter()
                     .filter(|m| shown(m, kind, Selection::Main))

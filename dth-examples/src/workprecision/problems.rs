@@ -1,4 +1,4 @@
-//! The six work-precision problems, each with its final time, reference solution and
+//! The seven work-precision problems, each with its final time, reference solution and
 //! invariant.
 //!
 //! | name | system | initial state | `T` | reference |
@@ -6,14 +6,16 @@
 //! | `kepler_e044` | thesis Kepler `H = p1^2 + p2^2 - 1/r` | `q = (0.5, 0)`, `p = (0, 1.2)` (e = 0.44) | 10 periods | exact |
 //! | `kepler_e07` | same `H` | `q = (0.5, 0)`, `p = (0, 1.30384..)` at pericenter (e = 0.7) | 10 periods | exact |
 //! | `kepler_e09` | same `H`, DTH in robust mode (`DthOptions::with_robust`; plain DTH breaks down) | `q = (0.5, 0)`, `p = (0, sqrt(1.9))` at pericenter (e = 0.9) | 10 periods | exact |
+//! | `kepler_e09_regularized` | same `H`; DTH on its Levi-Civita regularization (plain DTH, orders 2 and 8) beside robust DTH (orders 2 and 8), Gauss-Legendre 2, the discrete gradient and DOP853 | as `kepler_e09` | 100 periods | exact |
 //! | `henon_heiles` | Henon-Heiles | `q = (0, 0.1)`, `p2 = 0`, `p1 > 0` with `H = 1/8` | 10 x 2 pi | Gauss-Legendre 2 |
 //! | `pendulum` | `H = p^2/2 - cos q` | `q = 2`, `p = 0` (libration, amplitude 2 rad) | 10 periods | Gauss-Legendre 2 |
 //! | `forced_oscillator` | `H = p^2/2 + 1.69 q^2/2 - 0.4 q cos(0.7 t)`, extended phase space | `q = 1`, `p = 0`, `t = 0` | 10 x 2 pi / 1.3 | exact |
 //!
-//! The quick sweep integrates one period instead of ten.
+//! The quick sweep integrates one period instead of ten (or a hundred).
 
 use dth::nalgebra::Const;
-use dth::nalgebra::{SVector, Vector2, Vector4};
+use dth::nalgebra::{SVector, Vector2, Vector4, Vector6};
+use dth::regularize::LeviCivita;
 
 use dth::dth::DthOptions;
 use dth::kepler::KeplerOrbit;
@@ -27,7 +29,7 @@ use dth::Hamiltonian;
 use super::external::sweep_dop853;
 use super::problem::{Problem, ProblemInfo};
 use super::reference::{gauss_legendre_reference, Reference};
-use super::runners::{sweep_dth, sweep_peer, Ladder, Stall};
+use super::runners::{sweep_dth, sweep_dth_on, sweep_peer, Integrated, Ladder, Stall};
 use super::{Error, Record, ReferenceCheck, WorkPrecisionOptions};
 
 fn same(name: &'static str) -> &'static str {
@@ -58,8 +60,20 @@ dth::hamiltonian! {
     } = (p1^2 + p2^2)/(2*m) - k*(q1^2 + q2^2)^(-1/2)
 }
 
+dth::hamiltonian! {
+    /// The thesis Kepler Hamiltonian regularized by Levi-Civita at compile time:
+    /// `K = |u|^2 (H + p_t)` on `(u1, u2, t, P1, P2, p_t)` (`dth_symbolic::regularize`), a
+    /// harmonic oscillator in `u` on `K = 0`, whose `Psi` keeps its sign at any eccentricity.
+    #[regularize(levi_civita)]
+    #[derive(Clone, Copy, Debug)]
+    pub struct RegularizedKepler = p1^2 + p2^2 - (q1^2 + q2^2)^(-1/2)
+}
+
 /// A problem of any dimension, as the sweep sees it.
 pub(crate) trait Sweep {
+    /// The problem's name ([`ProblemInfo::name`]).
+    fn name(&self) -> &'static str;
+
     fn sweep(
         &self,
         options: &WorkPrecisionOptions,
@@ -267,6 +281,10 @@ where
 struct Generic<H, const D: usize>(Problem<H, D>);
 
 impl<H: Hamiltonian<Const<D>> + Clone, const D: usize> Sweep for Generic<H, D> {
+    fn name(&self) -> &'static str {
+        self.0.info.name
+    }
+
     fn sweep(
         &self,
         options: &WorkPrecisionOptions,
@@ -285,6 +303,10 @@ impl<H: Hamiltonian<Const<D>> + Clone, const D: usize> Sweep for Generic<H, D> {
 struct KeplerProblem(Problem<Kepler, 4>, Variants);
 
 impl Sweep for KeplerProblem {
+    fn name(&self) -> &'static str {
+        self.0.info.name
+    }
+
     fn sweep(
         &self,
         options: &WorkPrecisionOptions,
@@ -330,11 +352,117 @@ impl Sweep for KeplerProblem {
     }
 }
 
+/// Kepler e = 0.9 over 100 orbits: DTH on the Levi-Civita regularization
+/// ([`RegularizedKepler`], plain DTH of orders 2 and 8, no robust mode needed) against robust
+/// DTH of the same orders on `H` itself, Gauss-Legendre 2, the discrete gradient and DOP853.
+/// Every error is measured on the physical state (`LeviCivita::physical` of DTH's midpoints
+/// and vertices) against Kepler's equation.
+///
+/// The ladders stop earlier than the 10-orbit problems' ([`LONG_FINEST`],
+/// [`LONG_FINEST_HIGH`]): over 100 orbits a rung costs ten times as much, and the finer rungs
+/// would only extend the second-order methods' lines.
+struct RegularizedKeplerProblem(Problem<Kepler, 4>);
+
+/// Finest rung, in steps per period, of the order-2 and fixed-step ladders over 100 orbits.
+const LONG_FINEST: f64 = 8192.0;
+
+/// Finest rung of the order-8 ladders over 100 orbits: regularized DTH-8 reaches its floor
+/// near 32 steps per orbit (docs/benchmarks.md, against IAS15), robust DTH-8 near 700.
+const LONG_FINEST_HIGH: f64 = 512.0;
+
+impl Sweep for RegularizedKeplerProblem {
+    fn name(&self) -> &'static str {
+        self.0.info.name
+    }
+
+    fn sweep(
+        &self,
+        options: &WorkPrecisionOptions,
+        records: &mut Vec<Record>,
+        references: &mut Vec<ReferenceCheck>,
+        infos: &mut Vec<ProblemInfo>,
+    ) -> Result<(), Error> {
+        let problem = &self.0;
+        let mut ladder = ladder(options, &problem.info);
+        let period = problem.info.period;
+        ladder
+            .dt
+            .retain(|dt| period / dt <= LONG_FINEST * (1.0 + 1e-9));
+        ladder
+            .dtau
+            .retain(|dtau| period / dtau <= LONG_FINEST * (1.0 + 1e-9));
+        let high = order_ladder(options, &problem.info, LONG_FINEST_HIGH);
+        let energy = problem.hamiltonian.value(&problem.z0);
+        let w0 = LeviCivita::start(&problem.z0, 0.0, energy).map_err(|e| Error::Reference {
+            system: problem.info.name,
+            message: format!("cannot start the regularized run: {e}"),
+        })?;
+        let regularized = Integrated {
+            hamiltonian: &RegularizedKepler,
+            z0: w0,
+            physical: |w: &Vector6<f64>| LeviCivita::physical(w).0,
+        };
+        let base = DthOptions::thesis_kepler();
+        let robust = base.with_robust(true);
+        let mut runs = vec![("dth_lc", base, &ladder)];
+        if let Ok(base8) = base.with_order(8) {
+            runs.push(("dth8_lc", base8, &high));
+        }
+        for (name, dth, rungs) in runs {
+            sweep_dth_on(
+                problem,
+                &regularized,
+                options,
+                rungs,
+                name,
+                dth,
+                Stall::Default,
+                records,
+            );
+        }
+        sweep_dth(
+            problem,
+            options,
+            &ladder,
+            "dth_robust",
+            robust,
+            Stall::Default,
+            records,
+        );
+        if let Ok(robust8) = robust.with_order(8) {
+            sweep_dth(
+                problem,
+                options,
+                &high,
+                "dth8_robust",
+                robust8,
+                Stall::Default,
+                records,
+            );
+        }
+        sweep_peer(problem, options, &ladder, GaussLegendre2::new, records);
+        sweep_peer(problem, options, &ladder, DiscreteGradient::new, records);
+        sweep_dop853(problem, options, &ladder, records);
+        problem.push_info(references, infos);
+        Ok(())
+    }
+}
+
+/// Periods of every problem: 10, or 1 in the quick sweep.
 fn periods(options: &WorkPrecisionOptions) -> f64 {
     if options.is_quick() {
         1.0
     } else {
         10.0
+    }
+}
+
+/// Periods of the long problem ([`RegularizedKeplerProblem`]): 100, or 1 in the quick sweep.
+fn long_periods(options: &WorkPrecisionOptions) -> f64 {
+    if options.is_quick() {
+        1.0
+    } else {
+        100.0
     }
 }
 
@@ -345,30 +473,40 @@ fn kepler(
     z0: Vector4<f64>,
     variants: Variants,
 ) -> Result<KeplerProblem, Error> {
+    Ok(KeplerProblem(
+        kepler_problem(periods(options), name, title, z0)?,
+        variants,
+    ))
+}
+
+/// The thesis Kepler problem from `z0` over `orbits` periods, against Kepler's equation.
+fn kepler_problem(
+    orbits: f64,
+    name: &'static str,
+    title: &'static str,
+    z0: Vector4<f64>,
+) -> Result<Problem<Kepler, 4>, Error> {
     let hamiltonian = Kepler::thesis();
     let orbit = KeplerOrbit::new(&hamiltonian, &z0).map_err(|e| Error::Reference {
         system: name,
         message: e.to_string(),
     })?;
     let period = orbit.elements().period;
-    Ok(KeplerProblem(
-        Problem {
-            info: ProblemInfo {
-                name,
-                title,
-                t_end: periods(options) * period,
-                period,
-                invariant: Some("angular momentum"),
-            },
-            hamiltonian,
-            z0,
-            reference: Reference::exact(name, move |t| orbit.state_at(t)),
-            invariant: Some(Kepler::angular_momentum),
-            error: full_norm,
-            rename: same,
+    Ok(Problem {
+        info: ProblemInfo {
+            name,
+            title,
+            t_end: orbits * period,
+            period,
+            invariant: Some("angular momentum"),
         },
-        variants,
-    ))
+        hamiltonian,
+        z0,
+        reference: Reference::exact(name, move |t| orbit.state_at(t)),
+        invariant: Some(Kepler::angular_momentum),
+        error: full_norm,
+        rename: same,
+    })
 }
 
 /// Pericenter state at `r = 0.5` of the thesis Kepler problem (`m = 1/2`, `k = 1`) with
@@ -387,7 +525,18 @@ fn elliptic_k(k: f64) -> f64 {
     std::f64::consts::FRAC_PI_2 / a
 }
 
-/// All six problems.
+/// The names of every problem, in the order they run.
+pub const NAMES: [&str; 7] = [
+    "kepler_e044",
+    "kepler_e07",
+    "kepler_e09",
+    "kepler_e09_regularized",
+    "henon_heiles",
+    "pendulum",
+    "forced_oscillator",
+];
+
+/// All seven problems.
 pub(crate) fn all(options: &WorkPrecisionOptions) -> Result<Vec<Box<dyn Sweep>>, Error> {
     let n = periods(options);
     let tau = std::f64::consts::TAU;
@@ -414,6 +563,13 @@ pub(crate) fn all(options: &WorkPrecisionOptions) -> Result<Vec<Box<dyn Sweep>>,
             pericenter(0.9),
             Variants::Robust,
         )?),
+        // The same orbit over 100 periods, where regularized DTH runs without fallback.
+        Box::new(RegularizedKeplerProblem(kepler_problem(
+            long_periods(options),
+            "kepler_e09_regularized",
+            "Kepler, e = 0.9, regularized DTH beside robust DTH",
+            pericenter(0.9),
+        )?)),
     ];
 
     // Henon-Heiles at E = 1/8 from q = (0, 0.1), p2 = 0.
@@ -498,6 +654,17 @@ pub(crate) fn all(options: &WorkPrecisionOptions) -> Result<Vec<Box<dyn Sweep>>,
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `NAMES` (what `--problem` accepts) is the list `all` builds, in its order.
+    #[test]
+    fn names_are_the_problems() {
+        let names: Vec<&str> = all(&WorkPrecisionOptions::quick())
+            .unwrap()
+            .iter()
+            .map(|p| p.name())
+            .collect();
+        assert_eq!(names, NAMES);
+    }
 
     #[test]
     fn dth_order_reads_every_recorded_name() {

@@ -244,7 +244,32 @@ impl Stall {
     }
 }
 
-/// DTH with the given solver over the `dtau` ladder.
+/// What DTH integrates for a problem: its own Hamiltonian ([`Integrated::own`]), or a
+/// regularized `K` on another state space (Levi-Civita's `(u, t, P, p_t)`) with the map of its
+/// states back to the problem's, where every error is measured. DTH's record times are
+/// physical either way (a regularized `K` carries `t` as a coordinate, which the stepper reads
+/// as its clock).
+pub(crate) struct Integrated<'a, K, const E: usize, const D: usize> {
+    /// The Hamiltonian DTH steps.
+    pub hamiltonian: &'a K,
+    /// Its initial state (the problem's `z_0`, mapped).
+    pub z0: SVector<f64, E>,
+    /// A state of `hamiltonian` as the problem's state.
+    pub physical: fn(&SVector<f64, E>) -> SVector<f64, D>,
+}
+
+impl<'a, H, const D: usize> Integrated<'a, H, D, D> {
+    /// The problem's own Hamiltonian and state.
+    pub fn own(problem: &'a Problem<H, D>) -> Self {
+        Integrated {
+            hamiltonian: &problem.hamiltonian,
+            z0: problem.z0,
+            physical: |z| *z,
+        }
+    }
+}
+
+/// DTH with the given solver over the `dtau` ladder, on the problem's own Hamiltonian.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn sweep_dth<H: Hamiltonian<Const<D>> + Clone, const D: usize>(
     problem: &Problem<H, D>,
@@ -255,10 +280,33 @@ pub(crate) fn sweep_dth<H: Hamiltonian<Const<D>> + Clone, const D: usize>(
     stall: Stall,
     records: &mut Vec<Record>,
 ) {
+    let own = Integrated::own(problem);
+    sweep_dth_on(problem, &own, options, ladder, name, base, stall, records);
+}
+
+/// DTH with the given solver over the `dtau` ladder, stepping `integrated` (the problem's own
+/// Hamiltonian, or a regularized one) and measuring every error on the problem's states. The
+/// ladder's `dtau` are divided by the mean `dt/dtau` of `integrated` ([`mean_lambda`]), so that
+/// the same rung is the same mean number of steps per period whatever DTH steps.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn sweep_dth_on<H, K, const D: usize, const E: usize>(
+    problem: &Problem<H, D>,
+    integrated: &Integrated<'_, K, E, D>,
+    options: &WorkPrecisionOptions,
+    ladder: &Ladder,
+    name: &'static str,
+    base: DthOptions,
+    stall: Stall,
+    records: &mut Vec<Record>,
+) where
+    H: Hamiltonian<Const<D>> + Clone,
+    K: Hamiltonian<Const<E>> + Clone,
+{
     let h = &problem.hamiltonian;
     let z0 = &problem.z0;
+    let (k, w0, physical) = (integrated.hamiltonian, &integrated.z0, integrated.physical);
     let t_end = problem.info.t_end;
-    let lambda_mean = mean_lambda(problem, base);
+    let lambda_mean = mean_lambda(integrated, problem.info.period, base);
     for &dtau in ladder
         .dtau
         .iter()
@@ -294,11 +342,12 @@ pub(crate) fn sweep_dth<H: Hamiltonian<Const<D>> + Clone, const D: usize>(
         let mut fallback_steps = 0usize;
         // The left vertex of the current segment and its time.
         let mut last_vertex = (*z0, 0.0);
-        let result = dth_to_time(h, z0, dth_options, t_end, |dth, last| {
+        let result = dth_to_time(k, w0, dth_options, t_end, |dth, last| {
             let r = dth.record();
             // A DTH stepper's records always carry its DTH data.
             let Some(d) = r.dth else { return };
-            energy.push(h.value(&r.z));
+            let (z, vertex) = (physical(&r.z), physical(&d.vertex));
+            energy.push(h.value(&z));
             factorizations += u64::from(r.factorizations);
             steps = r.k;
             fallback_steps += usize::from(r.kind == StepKind::Fallback);
@@ -311,18 +360,19 @@ pub(crate) fn sweep_dth<H: Hamiltonian<Const<D>> + Clone, const D: usize>(
                 return;
             }
             vertex_energy
-                .get_or_insert_with(|| MaxDeviation::new(h.value(&d.vertex)))
-                .push(h.value(&d.vertex));
+                .get_or_insert_with(|| MaxDeviation::new(h.value(&vertex)))
+                .push(h.value(&vertex));
             if let (Some(f), Some(m)) = (problem.invariant, invariant.as_mut()) {
-                m.push(f(&r.z));
+                m.push(f(&z));
                 vertex_invariant
-                    .get_or_insert_with(|| MaxDeviation::new(f(&d.vertex)))
-                    .push(f(&d.vertex));
+                    .get_or_insert_with(|| MaxDeviation::new(f(&vertex)))
+                    .push(f(&vertex));
             }
-            last_vertex = (d.vertex, d.vertex_time);
+            last_vertex = (vertex, d.vertex_time);
         });
         match result {
-            Ok((z, t)) => {
+            Ok((w, t)) => {
+                let z = physical(&w);
                 record.steps = steps;
                 record.mean_dt = t_end / steps.max(1) as f64;
                 // At the midpoint's own time: t_end to roundoff (with the plain energy
@@ -337,7 +387,7 @@ pub(crate) fn sweep_dth<H: Hamiltonian<Const<D>> + Clone, const D: usize>(
                 record.newton_per_step = Some(factorizations as f64 / steps.max(1) as f64);
                 record.fallback_steps = Some(fallback_steps);
                 median_time(options, || {
-                    black_box(dth_to_time(h, z0, dth_options, t_end, |_, _| ())).is_ok()
+                    black_box(dth_to_time(k, w0, dth_options, t_end, |_, _| ())).is_ok()
                 })
                 .store(&mut record);
             }
@@ -363,15 +413,20 @@ pub(crate) fn sweep_dth<H: Hamiltonian<Const<D>> + Clone, const D: usize>(
 /// fails by its breakdown, not by a step far too large. (Where DTH does not break down, robust
 /// mode takes the same steps.) 1 if every probe fails, the first estimate if only the second
 /// does.
-fn mean_lambda<H: Hamiltonian<Const<D>> + Clone, const D: usize>(
-    problem: &Problem<H, D>,
+///
+/// On a regularized `K` (Levi-Civita) `dt/dtau` is `|u|^2 = r` times DTH's own `lambda`, which
+/// stays at `lambda_0` there (the regularized Kepler problem is an oscillator, its `Psi`
+/// constant on `K = 0`): the ladder then takes equal steps in the fictitious time, `n` per
+/// orbit.
+fn mean_lambda<K: Hamiltonian<Const<E>> + Clone, const E: usize, const D: usize>(
+    integrated: &Integrated<'_, K, E, D>,
+    period: f64,
     base: DthOptions,
 ) -> f64 {
-    let period = problem.info.period;
     let probe = |options: DthOptions, dtau: f64| -> Option<f64> {
         let mut dth = Dth::new(
-            problem.hamiltonian.clone(),
-            problem.z0,
+            integrated.hamiltonian.clone(),
+            integrated.z0,
             options.with_dtau(dtau).ok()?,
         )
         .ok()?;
@@ -464,7 +519,7 @@ mod tests {
                 .with_robust(true)
                 .with_order(order)
                 .unwrap();
-            let lambda = mean_lambda(&problem, base);
+            let lambda = mean_lambda(&Integrated::own(&problem), period, base);
             let n = 64.0;
             let options = base.with_dtau(period / (n * lambda)).unwrap();
             let mut steps = 0;
@@ -491,8 +546,9 @@ mod tests {
     #[test]
     fn a_plain_dth_that_breaks_down_is_probed_in_robust_mode() {
         let problem = eccentric_kepler();
-        let plain = mean_lambda(&problem, DthOptions::thesis_kepler());
-        let robust = mean_lambda(&problem, DthOptions::thesis_kepler().with_robust(true));
+        let (own, period) = (Integrated::own(&problem), problem.info.period);
+        let plain = mean_lambda(&own, period, DthOptions::thesis_kepler());
+        let robust = mean_lambda(&own, period, DthOptions::thesis_kepler().with_robust(true));
         assert_eq!(plain, robust);
         assert!(robust > 10.0, "{robust}");
         let options = DthOptions::new(problem.info.period / (64.0 * plain)).unwrap();
