@@ -92,7 +92,7 @@ pub struct Fallback {
 }
 
 /// "1517 of 1621 steps (93.6%), 97.2% of the physical time", and where a regularization
-/// applies, "; `regularize = "levi-civita"` under [system] would avoid them".
+/// applies, "; `regularize = "levi-civita"` under `[system]` would avoid them".
 impl std::fmt::Display for Fallback {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(

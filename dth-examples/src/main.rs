@@ -125,7 +125,7 @@ enum Command {
     ///
     /// Also probes the sign of Psi along a short stretch of the orbit (a scene with a `dth`
     /// method): where it changes sign, DTH breaks down, and a warning says where and suggests
-    /// the fix (`regularize = "levi-civita"` or `"ks"` under [system] for a 1/r-like
+    /// the fix (`regularize = "levi-civita"` or `"ks"` under `[system]` for a 1/r-like
     /// singularity in two or three degrees of freedom, else `robust = true`). Warnings do not
     /// change the exit code.
     Check {

@@ -99,7 +99,7 @@ impl serde::Serialize for Regularization {
     }
 }
 
-/// "`regularize = "levi-civita"` under [system] (H has a 1/r singularity at q = (0, 0), which
+/// "`regularize = "levi-civita"` under `[system]` (H has a 1/r singularity at q = (0, 0), which
 /// Levi-Civita removes: DTH then runs through it without breaking down)".
 impl std::fmt::Display for Regularization {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
