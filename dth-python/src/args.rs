@@ -11,6 +11,7 @@ use dth::{Alloc, DthOptions, Method};
 
 use dth::runtime::RuntimeHamiltonian;
 
+use crate::catalogue::Special;
 use crate::errors::option_error;
 
 /// The method names `integrate` accepts.
@@ -25,26 +26,6 @@ pub const METHODS: [&str; 9] = [
     "discrete_mechanics",
     "exact",
 ];
-
-/// A method that runs on the catalogue system a `dth.systems` Hamiltonian is the text of,
-/// not on the text ([`crate::catalogue`]): what it needs is not in the text.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Special {
-    /// Greenspan's discrete mechanics (a central force `H = |p|^2/(2m) + phi(|q|)`).
-    DiscreteMechanics,
-    /// The system's exact solution, sampled every `dt`.
-    Exact,
-}
-
-impl Special {
-    /// Its name in `method=`.
-    pub fn name(self) -> &'static str {
-        match self {
-            Special::DiscreteMechanics => "discrete_mechanics",
-            Special::Exact => "exact",
-        }
-    }
-}
 
 /// The method a call asks for, with its step and options.
 #[derive(Clone, Copy, Debug)]

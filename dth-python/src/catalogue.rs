@@ -17,17 +17,37 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use dth::methods::{DiscreteMechanics, OneStepMethod};
-use dth::nalgebra::{DVector, DefaultAllocator, Dim, OVector, SVector};
+use dth::nalgebra::{Const, DVector, DefaultAllocator, Dim, OVector, SVector};
 use dth::runtime::RuntimeHamiltonian;
 use dth::solve::Peer;
+use dth::systems::CentralForce;
 use dth::{Alloc, Error};
 use dth_examples::catalogue::Catalogue;
 use dth_examples::scene::SystemLookup;
 use dth_examples::system::SceneSystem;
 use dth_examples::systems::{FreeParticle, HarmonicOscillator, Kepler};
 
-use crate::args::Special;
 use crate::sized::Job;
+
+/// A method that runs on the catalogue system a `dth.systems` Hamiltonian is the text of,
+/// not on the text ([`crate::catalogue`]): what it needs is not in the text.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Special {
+    /// Greenspan's discrete mechanics (a central force `H = |p|^2/(2m) + phi(|q|)`).
+    DiscreteMechanics,
+    /// The system's exact solution, sampled every `dt`.
+    Exact,
+}
+
+impl Special {
+    /// Its name in `method=`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Special::DiscreteMechanics => "discrete_mechanics",
+            Special::Exact => "exact",
+        }
+    }
+}
 
 /// The catalogue systems that have a period, an exact solution or a central force, with the
 /// parameters `h` has now. Every other entry has none of these.
@@ -117,32 +137,38 @@ pub fn dispatch<J: Job>(
     dt: f64,
     job: J,
 ) -> PyResult<J::Output> {
+    match Twin::of(name, h)? {
+        Some(Twin::Kepler(s)) => Ok(run_special(&s, special, dt, job)),
+        Some(Twin::FreeParticle(s)) => Ok(run_special(&s, special, dt, job)),
+        _ => Err(match special {
+            Special::DiscreteMechanics => not_offered(
+                "method=\"discrete_mechanics\": the central force (H = |p|^2/(2m) + phi(|q|)) Greenspan's method needs",
+                "dth.systems.kepler and dth.systems.free_particle",
+                name,
+                "; use another method",
+            ),
+            Special::Exact => not_offered(
+                "method=\"exact\": the exact solution",
+                "dth.systems.kepler and dth.systems.free_particle",
+                name,
+                "; use another method",
+            ),
+        }),
+    }
+}
+
+/// `job` with `special` on `system`, a planar central force with an exact solution.
+fn run_special<S, J>(system: &S, special: Special, dt: f64, job: J) -> J::Output
+where
+    S: SceneSystem<Const<4>> + CentralForce<Const<4>> + Sync,
+    J: Job,
+{
     let state = |z: &DVector<f64>| SVector::<f64, 4>::from_column_slice(z.as_slice());
-    match (special, Twin::of(name, h)?) {
-        (Special::DiscreteMechanics, Some(Twin::Kepler(s))) => {
-            Ok(job.run(&s, Peer::new(DiscreteMechanics::new(), dt), state))
+    match special {
+        Special::DiscreteMechanics => {
+            job.run(system, Peer::new(DiscreteMechanics::new(), dt), state)
         }
-        (Special::DiscreteMechanics, Some(Twin::FreeParticle(s))) => {
-            Ok(job.run(&s, Peer::new(DiscreteMechanics::new(), dt), state))
-        }
-        (Special::Exact, Some(Twin::Kepler(s))) => {
-            Ok(job.run(&s, Peer::new(ExactSolution::default(), dt), state))
-        }
-        (Special::Exact, Some(Twin::FreeParticle(s))) => {
-            Ok(job.run(&s, Peer::new(ExactSolution::default(), dt), state))
-        }
-        (Special::DiscreteMechanics, _) => Err(not_offered(
-            "method=\"discrete_mechanics\": the central force (H = |p|^2/(2m) + phi(|q|)) Greenspan's method needs",
-            "dth.systems.kepler and dth.systems.free_particle",
-            name,
-            "; use another method",
-        )),
-        (Special::Exact, _) => Err(not_offered(
-            "method=\"exact\": the exact solution",
-            "dth.systems.kepler and dth.systems.free_particle",
-            name,
-            "; use another method",
-        )),
+        Special::Exact => job.run(system, Peer::new(ExactSolution::default(), dt), state),
     }
 }
 
@@ -153,16 +179,19 @@ pub fn exact_unavailable(
     h: &RuntimeHamiltonian,
     z0: &DVector<f64>,
 ) -> PyResult<Option<String>> {
+    let Some(Twin::Kepler(s)) = Twin::of(name, h)? else {
+        return Ok(None);
+    };
+    // A Kepler twin has dimension 4 (`Twin::of`).
     let z = SVector::<f64, 4>::from_column_slice(z0.as_slice());
-    Ok(match Twin::of(name, h)? {
-        Some(Twin::Kepler(s)) if s.exact_solution(&z, 0.0).is_none() => Some(format!(
+    Ok(s.exact_solution(&z, 0.0).is_none().then(|| {
+        format!(
             "method=\"exact\": dth.systems.kepler has an exact solution for elliptic orbits \
              only, and z0 = {:?} has H = {:?} >= 0",
             z0.as_slice(),
             dth::Hamiltonian::value(&s, &z)
-        )),
-        _ => None,
-    })
+        )
+    }))
 }
 
 /// The exact solution as a one-step method, for `dth::solve`: each step ends on the system's

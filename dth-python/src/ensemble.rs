@@ -21,7 +21,8 @@ use dth::solve::Integrator;
 use dth::{solve, Alloc};
 use dth_examples::ensemble::chaos::{Indicators, Megno};
 
-use crate::args::{self, Chosen, End, Special};
+use crate::args::{self, Chosen, End};
+use crate::catalogue::Special;
 use crate::hamiltonian::Hamiltonian;
 use crate::sized::{self, Job};
 
@@ -35,7 +36,7 @@ use crate::sized::{self, Job};
 ///   steps: steps taken, shape (M,); fallback_steps: robust-mode fallback steps among them.
 ///   failure: per member, None or what stopped it (its row is then where it stopped).
 ///   failed: the number of members that did not reach their end.
-///   megno: with megno=True (or lyapunov=True), MEGNO's running mean <Y> at the end, shape
+///   megno: with megno=True (or lyapunov=True), MEGNO's running mean `<Y>` at the end, shape
 ///     (M,): about 2 on a regular (quasi-periodic) orbit, growing like lambda t / 2 on a
 ///     chaotic one; NaN where no time passed or the variational equations broke down.
 ///     None when not asked.
@@ -217,13 +218,13 @@ fn member(
 ///     physical states, each extended with t0 and p_t = -H). With `params`, also one state
 ///     (D,) that every member starts from.
 ///   params: a parameter grid, a dict from parameter names to 1-D arrays of M values each:
-///     member i has the parameters {name: values[i]} (the others are h's). One member per
+///     member i has the parameters `{name: values[i]}` (the others are h's). One member per
 ///     value: for a grid over two parameters, give the pairs, e.g. from
 ///     `np.meshgrid(a, b)` raveled. With an (M, D) z0s, member i starts from row i.
 ///   orbits: as in `integrate`, from each member's own state and parameters.
 ///   threads: worker threads (default: every core). The results are the same for any
 ///     number: each member is computed whole by one thread.
-///   megno, lyapunov: compute the chaos indicators MEGNO <Y> and Benettin's Lyapunov
+///   megno, lyapunov: compute the chaos indicators MEGNO `<Y>` and Benettin's Lyapunov
 ///     estimate from the variational equations along each member's run (the scene
 ///     ensembles' own observer: the tangent vector carried by the trapezoidal rule from
 ///     state to state with the exact Hessian); either one fills both `megno` and `lyapunov`.

@@ -10,7 +10,8 @@ use dth::nalgebra::{DVector, DefaultAllocator, Dim, OVector};
 use dth::solve::Integrator;
 use dth::{solve, Alloc};
 
-use crate::args::{self, start, Chosen, End, Special};
+use crate::args::{self, start, Chosen, End};
+use crate::catalogue::Special;
 use crate::errors::IntegrationError;
 use crate::hamiltonian::Hamiltonian;
 use crate::sized::{self, Job};
