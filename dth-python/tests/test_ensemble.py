@@ -181,3 +181,36 @@ def test_orbits_in_an_ensemble_name_the_member_without_a_period():
     z0s = np.array([[0.5, 0.0, 0.0, 1.2], [0.5, 0.0, 0.0, 3.0]])
     with pytest.raises(ValueError, match="member 1: orbits=.*unbound"):
         dth.ensemble(dth.systems.kepler(), z0s, dtau=0.1, orbits=1)
+
+
+def test_megno_is_the_scene_ensembles_to_the_bit():
+    # The same two members as a `dth run` ensemble scene (the catalogue's compiled system,
+    # `chaos = "megno"`) and from Python (the text, at the same fixed size): the same
+    # trajectories and the same observer, so the same indicators to the last bit.
+    scene = '''
+[system]
+name = "henon_heiles"
+[initial]
+q = [0.0, 0.0]
+p = [0.0, 0.0]
+[ensemble]
+kind = "list"
+members = """
+q2, p1, p2
+0.1, 0.45, 0.0
+-0.25, 0.5, 0.1
+"""
+chaos = "megno"
+[[method]]
+kind = "dth"
+dtau = 0.05
+[duration]
+time = 200.0
+'''
+    table = dth.run_scene(scene).arrays["ensemble"]
+    z0s = np.array([[0.0, 0.1, 0.45, 0.0], [0.0, -0.25, 0.5, 0.1]])
+    e = dth.ensemble(dth.systems.henon_heiles(), z0s, dtau=0.05, t_end=200.0, megno=True)
+    assert np.array_equal(e.megno, table["megno"])
+    assert np.array_equal(e.lyapunov, table["lyapunov"])
+    ends = np.column_stack([table[f"end_{c}"] for c in ("q1", "q2", "p1", "p2")])
+    assert np.array_equal(e.final, ends)
