@@ -195,19 +195,37 @@ pub fn exact_unavailable(
 }
 
 /// The exact solution as a one-step method, for `dth::solve`: each step ends on the system's
-/// exact solution ([`SceneSystem::exact_solution`]) from the run's initial state at the time
-/// elapsed (the sum of the steps), not on a composition of one-step flows, so no error
-/// accumulates from step to step. A step that does not continue the last one (another state)
-/// starts anew from its state.
+/// exact solution ([`SceneSystem::exact_solution`]) from the run's initial state, at the time
+/// elapsed since it, not on a composition of one-step flows, so no error accumulates from step
+/// to step. The time elapsed is counted as the driver's clock is, `t_a + j dt` from the last
+/// step of another size (not a running sum), so that from `t0 = 0` the samples are the
+/// scene runner's `exact` at the same times. A step that does not continue the last one
+/// (another state) starts anew from its state.
 #[derive(Clone, Debug)]
 struct ExactSolution<D: Dim>
 where
     DefaultAllocator: Alloc<D>,
 {
-    /// The run's initial state and the time elapsed since it.
-    origin: Option<(OVector<f64, D>, f64)>,
+    /// Where the run started and its clock.
+    origin: Option<Origin<D>>,
     /// The state the last step ended on.
     last: Option<OVector<f64, D>>,
+}
+
+/// The initial state of an [`ExactSolution`] run and the time elapsed since it,
+/// `base + count * step`.
+#[derive(Clone, Debug)]
+struct Origin<D: Dim>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    z0: OVector<f64, D>,
+    /// The run's step (its first step's size).
+    step: f64,
+    /// The time elapsed at the last step of another size.
+    base: f64,
+    /// Steps of `step` since.
+    count: u64,
 }
 
 impl<D: Dim> Default for ExactSolution<D>
@@ -238,9 +256,16 @@ where
             step: 0,
             what: "exact solution (none for this state)",
         };
-        let (origin, elapsed) = self.origin.as_mut().ok_or(unavailable.clone())?;
-        *elapsed += dt;
-        let z = h.exact_solution(origin, *elapsed).ok_or(unavailable)?;
+        let origin = self.origin.as_mut().ok_or(unavailable.clone())?;
+        let elapsed = if dt == origin.step {
+            origin.count += 1;
+            origin.base + origin.count as f64 * origin.step
+        } else {
+            origin.base += origin.count as f64 * origin.step + dt;
+            origin.count = 0;
+            origin.base
+        };
+        let z = h.exact_solution(&origin.z0, elapsed).ok_or(unavailable)?;
         z1.copy_from(&z);
         self.last = Some(z);
         Ok(())
@@ -262,7 +287,12 @@ where
         dt: f64,
         z1: &mut OVector<f64, D>,
     ) -> Result<(), Error> {
-        self.origin = Some((z.clone(), 0.0));
+        self.origin = Some(Origin {
+            z0: z.clone(),
+            step: dt,
+            base: 0.0,
+            count: 0,
+        });
         self.advance(h, dt, z1)
     }
 

@@ -27,8 +27,7 @@ params = {{ m = 0.5, k = 1.0 }}
 q = [0.5, 0.0]
 p = [0.0, 1.2]
 [[method]]
-kind = "dth"
-dtau = 0.06277
+{method}
 [duration]
 {duration}
 [[effect]]
@@ -36,10 +35,11 @@ kind = "trajectory"
 """
 
 
-def kepler_scene_trajectory(duration):
-    """The times and states of the thesis's Kepler orbit run by DTH (dtau = 0.06277) as a
-    scene of the catalogue's `kepler` for `duration` (a `[duration]` line), every digit."""
-    run = dth.run_scene(KEPLER_SCENE.format(duration=duration))
+def kepler_scene_trajectory(duration, method='kind = "dth"\ndtau = 0.06277'):
+    """The times and states of the thesis's Kepler orbit run as a scene of the catalogue's
+    `kepler` for `duration` (a `[duration]` line) with `method` (the `[[method]]` lines; DTH
+    with dtau = 0.06277 by default), every digit."""
+    run = dth.run_scene(KEPLER_SCENE.format(duration=duration, method=method))
     (name,) = [n for n in run.arrays if "trajectory" in n]
     table = run.arrays[name]
     columns = ["q1", "q2", "p1", "p2"]

@@ -79,6 +79,14 @@ def test_exact_samples_keplers_solution(kepler, thesis_z0):
     assert np.max(np.abs(angular - 0.6)) <= 256 * EPS
 
 
+def test_exact_is_the_scene_runners_exact_to_the_bit(kepler, thesis_z0):
+    # Both sample Kepler's solution from z0 at t = k dt and land on the end time.
+    t, z = kepler_scene_trajectory("time = 3.05", 'kind = "exact"\ndt = 0.1')
+    s = dth.integrate(kepler, thesis_z0, "exact", dt=0.1, t_end=3.05)
+    assert s.t[-1] == 3.05
+    assert np.array_equal(t, s.t) and np.array_equal(z, s.z)
+
+
 def test_exact_agrees_with_gauss_legendre_to_its_error(kepler, thesis_z0):
     exact = dth.integrate(kepler, thesis_z0, "exact", dt=0.5, t_end=2.0)
     gl = dth.integrate(kepler, thesis_z0, "gauss_legendre2", dt=1e-3, t_end=2.0)
