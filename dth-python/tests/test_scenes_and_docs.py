@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 import dth
+from conftest import kepler_scene_trajectory
 
 SCENES = Path(__file__).resolve().parents[2] / "dth-examples" / "scenes"
 
@@ -70,9 +71,16 @@ def test_the_extensions_docstring_examples_run():
 def test_help_shows_complete_docstrings():
     doc = dth.integrate.__doc__
     assert doc is not None
-    for argument in ("dtau", "dt", "order", "robust", "steps", "t_end", "every", "save_at",
-                     "raise_on_failure"):
+    for argument in ("dtau", "dt", "order", "robust", "steps", "t_end", "orbits", "every",
+                     "save_at", "raise_on_failure"):
         assert f"{argument}:" in doc
+    for method in dth.METHODS:
+        assert f'"{method}"' in doc
+    doc = dth.ensemble.__doc__
+    assert doc is not None
+    for argument in ("z0s", "params", "orbits", "threads", "megno, lyapunov"):
+        assert f"{argument}:" in doc
+    assert "sparse=True" in (dth.Hamiltonian.hessian.__doc__ or "")
     assert dth.Hamiltonian.__doc__ and "HamiltonianError" in dth.Hamiltonian.__doc__
 
 
@@ -81,27 +89,7 @@ def test_a_text_kepler_matches_the_built_in_to_the_bit():
     # Python integrates the same text compiled at run time, viewed at Const<4> as well. The
     # JIT performs the macro's operations in its order and the stepper's linear algebra is
     # the same, so every DTH midpoint is the same to the last bit (the CSV keeps every digit).
-    scene = """
-[system]
-name = "kepler"
-params = { m = 0.5, k = 1.0 }
-[initial]
-q = [0.5, 0.0]
-p = [0.0, 1.2]
-[[method]]
-kind = "dth"
-dtau = 0.06277
-[duration]
-steps = 300
-[[effect]]
-kind = "trajectory"
-"""
-    run = dth.run_scene(scene)
-    (name,) = [n for n in run.arrays if "trajectory" in n]
-    table = run.arrays[name]
-    columns = ["q1", "q2", "p1", "p2"]
-    assert all(c in table for c in columns), list(table)
-    built_in = np.column_stack([table[c] for c in columns])
+    _, built_in = kepler_scene_trajectory("steps = 300")
     s = dth.integrate(dth.systems.kepler(), [0.5, 0.0, 0.0, 1.2], dtau=0.06277, steps=300)
     assert built_in.shape == s.z.shape
     assert np.array_equal(built_in, s.z)
