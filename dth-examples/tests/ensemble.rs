@@ -120,12 +120,17 @@ fn the_energy_shell_puts_members_on_h_equals_e_and_counts_the_rest() {
 
 /// MEGNO `<Y>` of one start (q2, p2) on the plane q1 = 0 at energy `e`, run to t = 500.
 fn megno(e: &str, q2: f64, p2: f64, method: &str) -> f64 {
+    megno_until(e, q2, p2, method, 500.0)
+}
+
+/// MEGNO `<Y>` of one start (q2, p2) on the plane q1 = 0 at energy `e`, run to `time`.
+fn megno_until(e: &str, q2: f64, p2: f64, method: &str, time: f64) -> f64 {
     let scene = henon_heiles(
         &format!("kind = \"list\"\nmembers = \"\"\"\nq2, p2\n{q2}, {p2}\n\"\"\""),
         e,
         "chaos = \"megno\"",
         method,
-        500.0,
+        time,
     );
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out");
@@ -146,6 +151,29 @@ fn megno_separates_a_regular_from_a_chaotic_henon_heiles_orbit() {
         let chaotic = megno("0.16666666666666666", 0.0, -0.25, method);
         assert!(regular < 2.5, "{method}: regular orbit <Y> = {regular}");
         assert!(chaotic > 8.0, "{method}: chaotic orbit <Y> = {chaotic}");
+    }
+}
+
+#[test]
+fn a_regular_orbits_verdict_does_not_depend_on_the_step() {
+    // Inside the main island at E = 1/8 (q2 = 0.3, p2 = 0.05), t = 1000: a torus, <Y> -> 2.
+    // With the tangent step's Hessian taken at each end of the step, coarse steps read
+    // <Y> = 3.8 (DTH, dtau = 0.2) and 6.4 (Gauss-Legendre, dt = 0.1) and called it chaotic. The
+    // step's Cayley map with the Hessian between its ends is symplectic (the tangent map of the
+    // implicit midpoint rule exactly), so the torus's tangent dynamics stays a shear at every
+    // step size: the verdict holds at the shipped step (dtau = 0.1), twice and half of it.
+    for method in [
+        "[[method]]\nkind = \"dth\"\ndtau = 0.2\n",
+        "[[method]]\nkind = \"dth\"\ndtau = 0.1\n",
+        "[[method]]\nkind = \"dth\"\ndtau = 0.05\n",
+        "[[method]]\nkind = \"midpoint\"\ndt = 0.1\n",
+        "[[method]]\nkind = \"midpoint\"\ndt = 0.05\n",
+    ] {
+        let y = megno_until("0.125", 0.3, 0.05, method, 1000.0);
+        assert!(
+            (1.5..=2.5).contains(&y),
+            "{method}: regular orbit <Y> = {y}"
+        );
     }
 }
 

@@ -3,12 +3,20 @@
 //!
 //! A tangent vector `delta` obeys `delta' = J HessH(z(t)) delta` along the trajectory. The
 //! observer [`Megno`] sees the states `z_k` at times `t_k` of any method (DTH: its midpoints
-//! `zbar_k` at `tbar_k`) and carries `delta` from `t_k` to `t_{k+1}` by the trapezoidal rule
-//! on that linear equation,
-//! `(I - h/2 A_{k+1}) delta_{k+1} = (I + h/2 A_k) delta_k`, `A_k = J HessH(z_k)`,
+//! `zbar_k` at `tbar_k`) and carries `delta` from `t_k` to `t_{k+1}` by the implicit midpoint
+//! rule on that linear equation,
+//! `(I - h/2 A) delta_{k+1} = (I + h/2 A) delta_k`, `A = J HessH((z_k + z_{k+1})/2)`,
 //! `h = t_{k+1} - t_k` (second order, with the exact Hessian the `hamiltonian!` macro
 //! generates), renormalising `delta` to length 1 each step and keeping the sum of the
-//! logarithms of the growth factors, `ln |delta(t)|`. From it:
+//! logarithms of the growth factors, `ln |delta(t)|`.
+//!
+//! One `A` per step, between the step's ends, makes the step's map a Cayley transform of a
+//! Hamiltonian matrix: symplectic, as the flow's tangent map is (and for the implicit midpoint
+//! method exactly that method's tangent map). The trapezoidal form with `A` at each end is not
+//! symplectic, and on a torus, whose tangent dynamics is a shear (eigenvalues 1), its
+//! `O(h^2)` defect per step turns the shear hyperbolic: a regular Henon-Heiles orbit read
+//! `<Y>` = 3.8 at DTH's `dtau = 0.2` and 6.4 with Gauss-Legendre at `dt = 0.1` (2 is right).
+//! From `ln |delta(t)|`:
 //!
 //! - MEGNO `Y(t) = (2/t) int_0^t s d(ln |delta(s)|)` and its running mean
 //!   `<Y>(t) = (1/t) int_0^t Y(s) ds` (the Stieltjes integral by the midpoint of each step, the
@@ -56,9 +64,9 @@ where
     DefaultAllocator: Alloc<D>,
 {
     system: &'s S,
-    /// Start time, previous time, previous `A = J HessH`.
+    /// Start time, previous time and state.
     start: Option<f64>,
-    prev: Option<(f64, OMatrix<f64, D, D>)>,
+    prev: Option<(f64, OVector<f64, D>)>,
     delta: OVector<f64, D>,
     log_norm: f64,
     stieltjes: f64,
@@ -110,19 +118,19 @@ where
         if self.broken {
             return;
         }
-        let a1 = j_times(&self.system.hessian(&record.z));
-        let Some((t0, a0)) = self.prev.take() else {
+        let Some((t0, z0)) = self.prev.take() else {
             self.start = Some(record.t);
-            self.prev = Some((record.t, a1));
+            self.prev = Some((record.t, record.z.clone()));
             return;
         };
         let start = self.start.unwrap_or(t0);
         let h = record.t - t0;
-        let (d, _) = a1.shape_generic();
+        let a = j_times(&self.system.hessian(&((z0 + &record.z) * 0.5)));
+        let (d, _) = a.shape_generic();
         let id = OMatrix::<f64, D, D>::identity_generic(d, d);
-        let rhs = (&id + a0 * (h / 2.0)) * &self.delta;
+        let rhs = (&id + &a * (h / 2.0)) * &self.delta;
         // The core's allocation-free fixed-size LU: one factorization per step, no heap.
-        let lhs = id - &a1 * (h / 2.0);
+        let lhs = id - a * (h / 2.0);
         let next = Lu::factor(&lhs).ok().map(|lu| lu.solve(&rhs));
         let Some(next) = next else {
             self.broken = true;
@@ -146,6 +154,6 @@ where
         };
         self.y_integral += h * (self.y_prev + y) / 2.0;
         self.y_prev = y;
-        self.prev = Some((record.t, a1));
+        self.prev = Some((record.t, record.z.clone()));
     }
 }
