@@ -178,6 +178,38 @@ fn a_regular_orbits_verdict_does_not_depend_on_the_step() {
 }
 
 #[test]
+fn a_chaos_map_checks_its_verdicts_at_half_the_step() {
+    // The regular orbit above, t = 1000: Gauss-Legendre at dt = 0.05 reads <Y> = 2.7 (called
+    // not regular) and 2.2 at dt = 0.025 (a fourth-order trajectory under a second-order
+    // tangent step, docs/theory.md): the check must say the verdict changed. DTH at the shipped
+    // dtau = 0.1 reads 2.06 and 1.9 at half: unchanged.
+    let check = |method: &str| {
+        let scene = henon_heiles(
+            "kind = \"list\"\nmembers = \"\"\"\nq2, p2\n0.3, 0.05\n\"\"\"",
+            "0.125",
+            "chaos = \"megno\"",
+            method,
+            1000.0,
+        );
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("out");
+        let report = run(&scene, &out, 1);
+        let check = report.ensemble.unwrap().step_check.unwrap();
+        let summary: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
+        assert_eq!(
+            summary["ensemble"]["step_check"]["changed"].as_u64(),
+            Some(check.changed as u64)
+        );
+        check
+    };
+    let gl = check("[[method]]\nkind = \"gauss_legendre2\"\ndt = 0.05\n");
+    assert_eq!((gl.compared, gl.changed), (1, 1));
+    let dth = check("[[method]]\nkind = \"dth\"\ndtau = 0.1\n");
+    assert_eq!((dth.compared, dth.changed), (1, 0));
+}
+
+#[test]
 fn a_member_that_fails_is_recorded_and_the_others_complete() {
     // Kepler from q = 0 (the singularity) fails at once; the two bound orbits complete.
     let scene = "[system]\nname = \"kepler\"\n[initial]\nq = [0.5, 0.0]\np = [0.0, 1.2]\n\

@@ -9,10 +9,11 @@ use std::path::Path;
 use serde::Serialize;
 
 use super::member::MemberResult;
+use super::step_check::REGULAR_MAX;
 use crate::error::Error;
 use crate::plot::{Figure, Mark, Series};
 use crate::report::html::escape;
-use crate::report::{write_file, write_json, EnsembleCounts as Counts};
+use crate::report::{write_file, write_json, EnsembleCounts as Counts, StepCheck};
 use crate::scene::{component_names, Axis, EffectSpec, Members, Sampler, Scene};
 use crate::simulate::Failure;
 
@@ -57,7 +58,8 @@ pub struct Table {
 }
 
 /// The table of `results` (skipped members counted, not listed as rows).
-pub fn table(scene: &Scene, results: &[MemberResult]) -> Table {
+/// `step_check` goes into the counts as it is.
+pub fn table(scene: &Scene, results: &[MemberResult], step_check: Option<StepCheck>) -> Table {
     let mut rows = Vec::new();
     let mut counts = Counts {
         drawn: results.len(),
@@ -65,6 +67,7 @@ pub fn table(scene: &Scene, results: &[MemberResult]) -> Table {
         not_run: 0,
         failed_runs: 0,
         fallback_runs: 0,
+        step_check,
     };
     let mut skipped = Vec::new();
     for r in results {
@@ -280,7 +283,10 @@ fn axis_value(axis: &Axis, r: &MemberResult, d: usize) -> Option<f64> {
 
 /// MEGNO classes of the chaos map: upper bound (inclusive) and legend.
 const CLASSES: [(f64, &str); 4] = [
-    (2.5, "<Y> <= 2.5: regular (quasi-periodic: <Y> -> 2)"),
+    (
+        REGULAR_MAX,
+        "<Y> <= 2.5: regular (quasi-periodic: <Y> -> 2)",
+    ),
     (5.0, "2.5 < <Y> <= 5"),
     (20.0, "5 < <Y> <= 20"),
     (f64::INFINITY, "<Y> > 20: chaotic"),
@@ -351,16 +357,18 @@ fn chaos_figures(
     figs
 }
 
-/// Writes every file of the ensemble into `dir`; returns their names.
+/// Writes every file of the ensemble into `dir` (`step_check` into the counts); returns
+/// their names.
 pub fn write(
     dir: &Path,
     scene: &Scene,
     members: &Members,
     d: usize,
     results: &[MemberResult],
+    step_check: Option<StepCheck>,
 ) -> Result<(Vec<String>, Counts), Error> {
     let mut files = Vec::new();
-    let t = table(scene, results);
+    let t = table(scene, results, step_check);
     write_file(&dir.join("ensemble.csv"), csv(scene, d, &t))?;
     files.push("ensemble.csv".to_string());
     write_json(&dir.join("ensemble.json"), &t)?;
@@ -398,13 +406,14 @@ pub fn index(scene: &Scene, counts: &Counts, files: &[String]) -> String {
     let methods: Vec<&str> = scene.methods.iter().map(|m| m.label.as_str()).collect();
     let _ = writeln!(
         h,
-        "<p>System <b>{}</b>; {} members drawn, {} skipped (no real solution on the energy shell), {} not run, {} method runs failed{}; methods {}; duration {} each.</p>",
+        "<p>System <b>{}</b>; {} members drawn, {} skipped (no real solution on the energy shell), {} not run, {} method runs failed{}{}; methods {}; duration {} each.</p>",
         escape(&scene.system),
         counts.drawn,
         counts.skipped,
         counts.not_run,
         counts.failed_runs,
         counts.fallback_note(),
+        escape(&counts.step_check_note()),
         escape(&methods.join(", ")),
         scene.duration
     );
