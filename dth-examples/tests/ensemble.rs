@@ -118,13 +118,15 @@ fn the_energy_shell_puts_members_on_h_equals_e_and_counts_the_rest() {
     }
 }
 
-/// MEGNO `<Y>` of one start (q2, p2) on the plane q1 = 0 at energy `e`, run to t = 500.
-fn megno(e: &str, q2: f64, p2: f64, method: &str) -> f64 {
+/// MEGNO `<Y>` and SALI of one start (q2, p2) on the plane q1 = 0 at energy `e`, run to
+/// t = 500.
+fn megno(e: &str, q2: f64, p2: f64, method: &str) -> (f64, f64) {
     megno_until(e, q2, p2, method, 500.0)
 }
 
-/// MEGNO `<Y>` of one start (q2, p2) on the plane q1 = 0 at energy `e`, run to `time`.
-fn megno_until(e: &str, q2: f64, p2: f64, method: &str, time: f64) -> f64 {
+/// MEGNO `<Y>` and SALI of one start (q2, p2) on the plane q1 = 0 at energy `e`, run to
+/// `time`.
+fn megno_until(e: &str, q2: f64, p2: f64, method: &str, time: f64) -> (f64, f64) {
     let scene = henon_heiles(
         &format!("kind = \"list\"\nmembers = \"\"\"\nq2, p2\n{q2}, {p2}\n\"\"\""),
         e,
@@ -135,7 +137,11 @@ fn megno_until(e: &str, q2: f64, p2: f64, method: &str, time: f64) -> f64 {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out");
     run(&scene, &out, 1);
-    json(&out)["rows"][0]["megno"].as_f64().unwrap()
+    let row = &json(&out)["rows"][0];
+    (
+        row["megno"].as_f64().unwrap(),
+        row["sali"].as_f64().unwrap(),
+    )
 }
 
 #[test]
@@ -147,10 +153,20 @@ fn megno_separates_a_regular_from_a_chaotic_henon_heiles_orbit() {
         "[[method]]\nkind = \"dth\"\ndtau = 0.05\n",
         "[[method]]\nkind = \"gauss_legendre2\"\ndt = 0.05\n",
     ] {
-        let regular = megno("0.125", 0.3, 0.0, method);
-        let chaotic = megno("0.16666666666666666", 0.0, -0.25, method);
+        let (regular, regular_sali) = megno("0.125", 0.3, 0.0, method);
+        let (chaotic, chaotic_sali) = megno("0.16666666666666666", 0.0, -0.25, method);
         assert!(regular < 2.5, "{method}: regular orbit <Y> = {regular}");
         assert!(chaotic > 8.0, "{method}: chaotic orbit <Y> = {chaotic}");
+        // SALI: the two tangent vectors stay apart on the torus and align on the chaotic
+        // orbit (falling like exp(-(l1 - l2) t): with l1 ~ 0.05 and t = 500, below e^-20).
+        assert!(
+            regular_sali > 1e-2,
+            "{method}: regular orbit SALI = {regular_sali}"
+        );
+        assert!(
+            chaotic_sali < 1e-8,
+            "{method}: chaotic orbit SALI = {chaotic_sali}"
+        );
     }
 }
 
@@ -169,7 +185,7 @@ fn a_regular_orbits_verdict_does_not_depend_on_the_step() {
         "[[method]]\nkind = \"midpoint\"\ndt = 0.1\n",
         "[[method]]\nkind = \"midpoint\"\ndt = 0.05\n",
     ] {
-        let y = megno_until("0.125", 0.3, 0.05, method, 1000.0);
+        let (y, _) = megno_until("0.125", 0.3, 0.05, method, 1000.0);
         assert!(
             (1.5..=2.5).contains(&y),
             "{method}: regular orbit <Y> = {y}"

@@ -22,7 +22,13 @@
 //!   `<Y>(t) = (1/t) int_0^t Y(s) ds` (the Stieltjes integral by the midpoint of each step, the
 //!   mean by the trapezoidal rule). `<Y> -> 2` on quasi-periodic (regular) orbits, `-> 0` on
 //!   stable periodic ones, and grows like `lambda t / 2` on chaotic ones;
-//! - Benettin's estimate of the maximal Lyapunov exponent, `ln |delta(t)| / t`.
+//! - Benettin's estimate of the maximal Lyapunov exponent, `ln |delta(t)| / t`;
+//! - SALI, the smaller alignment index (Skokos 2001): a second tangent vector `w` carried by
+//!   the same steps and also renormalised, `SALI = min(|delta + w|, |delta - w|)` at the end.
+//!   On a torus of a system with 2 or more degrees of freedom the two vectors stay apart
+//!   (`SALI` fluctuates about a positive value); on a chaotic orbit both turn towards the
+//!   most unstable direction and `SALI` falls like `exp(-(l1 - l2) t)` to roundoff. It is a
+//!   second opinion on MEGNO's verdict that reads off a different quantity.
 //!
 //! Why not the DTH step's own tangent map: `docs/theory.md#chaos-indicators`.
 
@@ -56,6 +62,8 @@ pub struct Indicators {
     pub megno: f64,
     /// Benettin's maximal Lyapunov exponent estimate `ln |delta| / t`.
     pub lyapunov: f64,
+    /// The smaller alignment index of two tangent vectors at the end (see the module docs).
+    pub sali: f64,
 }
 
 /// The observer: MEGNO and the Lyapunov estimate along a run (see the module docs).
@@ -68,6 +76,9 @@ where
     start: Option<f64>,
     prev: Option<(f64, OVector<f64, D>)>,
     delta: OVector<f64, D>,
+    /// SALI's second tangent vector (length 1).
+    second: OVector<f64, D>,
+    sali: f64,
     log_norm: f64,
     stieltjes: f64,
     y_prev: f64,
@@ -80,7 +91,8 @@ impl<'s, D: Dim, S: Hamiltonian<D>> Megno<'s, D, S>
 where
     DefaultAllocator: Alloc<D>,
 {
-    /// The observer for a run of `system`; the tangent vector starts along `(1, ..., 1)`.
+    /// The observer for a run of `system`; the tangent vector starts along `(1, ..., 1)`,
+    /// SALI's second one along `(1, -1, 1, ..., -1)` (orthogonal to it: `D` is even).
     pub fn new(system: &'s S) -> Self {
         Megno {
             system,
@@ -90,6 +102,18 @@ where
                 let d = system.dim();
                 OVector::from_element_generic(d, dth::nalgebra::U1, 1.0 / (d.value() as f64).sqrt())
             },
+            second: {
+                let d = system.dim();
+                let size = 1.0 / (d.value() as f64).sqrt();
+                OVector::from_fn_generic(d, dth::nalgebra::U1, |i, _| {
+                    if i % 2 == 0 {
+                        size
+                    } else {
+                        -size
+                    }
+                })
+            },
+            sali: std::f64::consts::SQRT_2,
             log_norm: 0.0,
             stieltjes: 0.0,
             y_prev: 0.0,
@@ -106,6 +130,7 @@ where
         (span > 0.0 && !self.broken).then(|| Indicators {
             megno: self.y_integral / span,
             lyapunov: self.log_norm / span,
+            sali: self.sali,
         })
     }
 }
@@ -128,20 +153,27 @@ where
         let a = j_times(&self.system.hessian(&((z0 + &record.z) * 0.5)));
         let (d, _) = a.shape_generic();
         let id = OMatrix::<f64, D, D>::identity_generic(d, d);
-        let rhs = (&id + &a * (h / 2.0)) * &self.delta;
+        let forward = &id + &a * (h / 2.0);
+        let (rhs, rhs2) = (&forward * &self.delta, forward * &self.second);
         // The core's allocation-free fixed-size LU: one factorization per step, no heap.
         let lhs = id - a * (h / 2.0);
-        let next = Lu::factor(&lhs).ok().map(|lu| lu.solve(&rhs));
-        let Some(next) = next else {
+        let next = Lu::factor(&lhs)
+            .ok()
+            .map(|lu| (lu.solve(&rhs), lu.solve(&rhs2)));
+        let Some((next, second)) = next else {
             self.broken = true;
             return;
         };
-        let norm = next.norm();
-        if !(norm.is_finite() && norm > 0.0) {
+        let (norm, norm2) = (next.norm(), second.norm());
+        if !(norm.is_finite() && norm > 0.0 && norm2.is_finite() && norm2 > 0.0) {
             self.broken = true;
             return;
         }
         self.delta = next / norm;
+        self.second = second / norm2;
+        self.sali = (&self.delta + &self.second)
+            .norm()
+            .min((&self.delta - &self.second).norm());
         let growth = norm.ln();
         self.log_norm += growth;
         // int s d(ln|delta|) over the step, s at the step's middle.

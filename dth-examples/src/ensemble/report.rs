@@ -44,6 +44,8 @@ pub struct Row {
     pub megno: Option<f64>,
     /// Benettin's maximal Lyapunov exponent estimate.
     pub lyapunov: Option<f64>,
+    /// The smaller alignment index SALI.
+    pub sali: Option<f64>,
 }
 
 /// `ensemble.json`: the counts, the skipped members' numbers, and the rows.
@@ -95,6 +97,7 @@ pub fn table(scene: &Scene, results: &[MemberResult], step_check: Option<StepChe
                     }),
                     megno: None,
                     lyapunov: None,
+                    sali: None,
                 });
             }
             continue;
@@ -115,6 +118,7 @@ pub fn table(scene: &Scene, results: &[MemberResult], step_check: Option<StepChe
                 failure: run.failure.clone(),
                 megno: run.megno,
                 lyapunov: run.lyapunov,
+                sali: run.sali,
             });
         }
     }
@@ -152,7 +156,7 @@ pub fn csv(scene: &Scene, d: usize, t: &Table) -> String {
     for n in &names {
         let _ = write!(s, ",end_{n}");
     }
-    s.push_str(",energy_error,failure_step,failure,megno,lyapunov,fallback_steps\n");
+    s.push_str(",energy_error,failure_step,failure,megno,lyapunov,sali,fallback_steps\n");
     for r in &t.rows {
         let _ = write!(s, "{},{}", r.member, field(&r.method));
         for k in scene.params.keys() {
@@ -167,7 +171,7 @@ pub fn csv(scene: &Scene, d: usize, t: &Table) -> String {
         }
         let _ = writeln!(
             s,
-            ",{:e},{},{},{},{},{}",
+            ",{:e},{},{},{},{},{},{}",
             r.energy_error,
             r.failure
                 .as_ref()
@@ -175,6 +179,7 @@ pub fn csv(scene: &Scene, d: usize, t: &Table) -> String {
             field(r.failure.as_ref().map_or("", |f| f.reason.as_str())),
             opt(r.megno),
             opt(r.lyapunov),
+            opt(r.sali),
             r.fallback_steps
         );
     }
