@@ -208,12 +208,13 @@ fn run(
     }
     if let Some(c) = &report.ensemble {
         println!(
-            "{} members: {} skipped (no real solution on the energy shell), {} not run, {} method runs failed{} (see ensemble.csv)",
+            "{} members: {} skipped (no real solution on the energy shell), {} not run, {} method runs failed{}{} (see ensemble.csv)",
             c.drawn,
             c.skipped,
             c.not_run,
             c.failed_runs,
-            c.fallback_note()
+            c.fallback_note(),
+            c.step_check_note()
         );
     }
     let deviations = report.deviation_markdown();
