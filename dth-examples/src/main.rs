@@ -248,6 +248,13 @@ fn run(
     for warning in report.fallback_warnings() {
         eprintln!("warning: {warning}");
     }
+    if report.out != out {
+        eprintln!(
+            "note: `{}` holds a complete earlier result, kept as it was; this incomplete run is in `{}`",
+            out.display(),
+            report.out.display()
+        );
+    }
     if report.interrupted.is_some() {
         eprintln!("{}", dth_examples::pipeline::interrupted_message(&report));
         return Ok(ExitCode::from(INTERRUPTED as u8));
@@ -270,7 +277,16 @@ fn run(
             );
         }
     }
-    Ok(if failed {
+    // Member runs that failed are rows of the table, not lost output; but the run did not
+    // compute what it was asked to, and says so last, with the exit code of a failed method.
+    let members_failed = report.ensemble.filter(|c| c.failed_runs > 0);
+    if let Some(c) = members_failed {
+        eprintln!(
+            "error: {} member runs (member and method) failed: the `failure` column of ensemble.csv says where and why",
+            c.failed_runs
+        );
+    }
+    Ok(if failed || members_failed.is_some() {
         ExitCode::from(1)
     } else {
         ExitCode::SUCCESS
@@ -430,7 +446,7 @@ fn main_inner(cli: Cli) -> Result<ExitCode, CliError> {
             let staging = Staging::new(&out)?;
             let summary =
                 workprecision::run(&options, staging.path()).map_err(CliError::WorkPrecision)?;
-            let out = staging.commit()?;
+            let out = staging.commit(true)?;
             print!("{}", summary.tables);
             println!(
                 "wrote {} files ({} runs) to {}",
