@@ -584,3 +584,43 @@ fn an_infinite_deviation_is_not_null_in_summary_json() {
     // A value that is absent is still `null`.
     assert!(energy["vertices"].is_null(), "{text}");
 }
+
+/// A rerun removes only what dth wrote (the manifest in `.dth-output`): a user's notes and
+/// plots kept in the output folder survive it. A rerun that does not complete (a method
+/// fails mid-run) does not replace the complete result: it goes to `o.incomplete`, and the
+/// command says where.
+#[test]
+fn a_rerun_keeps_the_users_files_and_the_complete_result() {
+    let dir = tempfile::tempdir().unwrap();
+    let good = manifest_dir().join("tests/scenes/pipeline-kepler.toml");
+    let o = dth(&["run", good.to_str().unwrap(), "--out", "o"], dir.path());
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let out = dir.path().join("o");
+    std::fs::write(out.join("my_notes.txt"), "mine").unwrap();
+    std::fs::create_dir(out.join("myplots")).unwrap();
+    std::fs::write(out.join("myplots/a.png"), "mine").unwrap();
+    let o = dth(&["run", good.to_str().unwrap(), "--out", "o"], dir.path());
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert_eq!(std::fs::read_to_string(out.join("my_notes.txt")).unwrap(), "mine");
+    assert_eq!(std::fs::read_to_string(out.join("myplots/a.png")).unwrap(), "mine");
+    assert!(out.join("summary.json").is_file());
+    assert_eq!(entries(dir.path()), ["o"], "a hidden folder was left behind");
+    let complete = (entries(&out), std::fs::read(out.join("summary.json")).unwrap());
+    // A failing rerun into the same folder.
+    let blowup = manifest_dir().join("tests/scenes/rk4-blowup.toml");
+    let o = dth(&["run", blowup.to_str().unwrap(), "--out", "o"], dir.path());
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("`o` holds a complete earlier result, kept as it was; this incomplete run is in `o.incomplete`"),
+        "{err}"
+    );
+    assert_eq!(
+        (entries(&out), std::fs::read(out.join("summary.json")).unwrap()),
+        complete
+    );
+    assert!(dir.path().join("o.incomplete/rk4_trajectory.csv").is_file());
+    let manifest = std::fs::read_to_string(dir.path().join("o.incomplete/.dth-output")).unwrap();
+    assert!(manifest.contains("state = incomplete"), "{manifest}");
+    assert_eq!(entries(dir.path()), ["o", "o.incomplete"]);
+}
