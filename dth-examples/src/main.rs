@@ -392,7 +392,13 @@ fn main_inner(cli: Cli) -> Result<ExitCode, CliError> {
             let out = cli
                 .out
                 .unwrap_or_else(|| default_out(Path::new("thesis-kepler.toml")));
-            run(DEFAULT_SCENE, DEFAULT_SCENE_NAME, &out, true, &cli.limits.options())
+            run(
+                DEFAULT_SCENE,
+                DEFAULT_SCENE_NAME,
+                &out,
+                true,
+                &cli.limits.options(),
+            )
         }
         Some(Command::Run { scene, out, limits }) => {
             let options = limits.options();

@@ -46,7 +46,8 @@ pub const MARKER: &str = ".dth-output";
 pub const INCOMPLETE_SUFFIX: &str = ".incomplete";
 
 /// First line of the marker file.
-const MARKER_HEADER: &str = "written by the dth command; a rerun removes only the entries listed here";
+const MARKER_HEADER: &str =
+    "written by the dth command; a rerun removes only the entries listed here";
 
 /// What a dth output folder's marker file says: the entries dth wrote there and whether the
 /// run that wrote them was complete.
@@ -69,7 +70,11 @@ impl Manifest {
     pub fn render(&self) -> String {
         let mut s = format!(
             "{MARKER_HEADER}\nstate = {}\n",
-            if self.complete { "complete" } else { "incomplete" }
+            if self.complete {
+                "complete"
+            } else {
+                "incomplete"
+            }
         );
         for e in self.entries.iter().flatten() {
             s.push_str("entry = ");
@@ -88,7 +93,9 @@ impl Manifest {
                 complete = state.trim() != "incomplete";
                 entries.get_or_insert_with(BTreeSet::new);
             } else if let Some(name) = line.strip_prefix("entry = ") {
-                entries.get_or_insert_with(BTreeSet::new).insert(name.to_string());
+                entries
+                    .get_or_insert_with(BTreeSet::new)
+                    .insert(name.to_string());
             }
         }
         Manifest { complete, entries }
@@ -499,7 +506,12 @@ mod tests {
         s.commit(true)?;
         let manifest = Manifest::read(&target)?.ok_or("no manifest")?;
         assert!(manifest.complete);
-        let listed: Vec<&str> = manifest.entries.iter().flatten().map(String::as_str).collect();
+        let listed: Vec<&str> = manifest
+            .entries
+            .iter()
+            .flatten()
+            .map(String::as_str)
+            .collect();
         assert_eq!(listed, ["a.csv", "b.csv", "figs"]);
         // The user's own file and folder, kept in the output folder.
         std::fs::write(target.join("my_notes.txt"), "mine")?;
@@ -512,7 +524,10 @@ mod tests {
         left.sort();
         assert_eq!(left, ["a.csv", "my_notes.txt", "myplots"]);
         assert_eq!(std::fs::read_to_string(target.join("a.csv"))?, "2");
-        assert_eq!(std::fs::read_to_string(target.join("myplots/p.png"))?, "mine");
+        assert_eq!(
+            std::fs::read_to_string(target.join("myplots/p.png"))?,
+            "mine"
+        );
         // A user's file under the name of a new output is not overwritten: refused, target
         // as it was, no hidden folder left.
         std::fs::write(target.join("c.csv"), "mine")?;
@@ -527,8 +542,7 @@ mod tests {
     }
 
     #[test]
-    fn an_incomplete_rerun_keeps_the_complete_result() -> Result<(), Box<dyn std::error::Error>>
-    {
+    fn an_incomplete_rerun_keeps_the_complete_result() -> Result<(), Box<dyn std::error::Error>> {
         let dir = tempfile::tempdir()?;
         let target = dir.path().join("out");
         let s = Staging::new(&target)?;

@@ -195,7 +195,9 @@ fn tick_label(v: f64, log: bool, span: f64) -> String {
             format!("{x}")
         } else {
             let e = x.log10().floor();
-            let m: f64 = format!("{:.2}", x / 10f64.powf(e)).parse().unwrap_or(f64::NAN);
+            let m: f64 = format!("{:.2}", x / 10f64.powf(e))
+                .parse()
+                .unwrap_or(f64::NAN);
             format!("{m}e{e}")
         }
     } else if v != 0.0 && (v.abs() < 1e-3 || v.abs() >= 1e5) {
@@ -743,7 +745,10 @@ mod tests {
             .iter()
             .map(|&v| tick_label(v, true, 16.0))
             .collect();
-        assert_eq!(labels, ["1e-16", "1e-14", "1e-12", "1e-10", "1e-8", "1e-6", "1e-4", "0.01", "1"]);
+        assert_eq!(
+            labels,
+            ["1e-16", "1e-14", "1e-12", "1e-10", "1e-8", "1e-6", "1e-4", "0.01", "1"]
+        );
         assert_eq!(tick_label(3f64.log10() + 5.0, true, 1.0), "3e5");
         assert_eq!(tick_label(0.25, false, 1.0), "0.25");
         assert_eq!(tick_label(3.5e-18, false, 0.03), "0");

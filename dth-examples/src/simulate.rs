@@ -410,7 +410,9 @@ where
     for m in &scene.methods {
         let (dt, per_dt, unit) = match m.step {
             StepSpec::Fixed { dt } => (dt, 1.0, "dt"),
-            StepSpec::Dth { dtau, lambda0, .. } => (lambda0 * dtau, lambda0, "dtau (at this lambda0)"),
+            StepSpec::Dth { dtau, lambda0, .. } => {
+                (lambda0 * dtau, lambda0, "dtau (at this lambda0)")
+            }
         };
         if speed > 0.0 && dt * speed < resolved {
             return Err(Error::StepUnresolved {

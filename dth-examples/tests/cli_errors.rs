@@ -667,6 +667,9 @@ fn derive_says_how_to_declare_a_parameter() {
         err.contains("if `m`, `k` are parameters, declare them with `-p m,k`"),
         "{err}"
     );
-    let o = dth(&["derive", "p1^2/(2*m) + k*q1^2/2", "-p", "m,k"], dir.path());
+    let o = dth(
+        &["derive", "p1^2/(2*m) + k*q1^2/2", "-p", "m,k"],
+        dir.path(),
+    );
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
 }

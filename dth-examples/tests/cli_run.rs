@@ -393,7 +393,11 @@ fn outputs_name_what_they_hold() {
         let columns: Vec<&str> = lines.next().unwrap().split(',').collect();
         assert!(columns.contains(&"t"), "{name}: {columns:?}");
         for (i, line) in lines.enumerate() {
-            assert_eq!(line.split(',').count(), columns.len(), "{name} row {i}: {line}");
+            assert_eq!(
+                line.split(',').count(),
+                columns.len(),
+                "{name} row {i}: {line}"
+            );
         }
     }
     // The trajectory says what its rows are: DTH's initial vertex, then midpoints; a
@@ -407,11 +411,16 @@ fn outputs_name_what_they_hold() {
             .split(',')
             .position(|c| c == "row")
             .unwrap();
-        lines.map(|l| l.split(',').nth(col).unwrap().to_string()).collect()
+        lines
+            .map(|l| l.split(',').nth(col).unwrap().to_string())
+            .collect()
     };
     let dth = rows("dth_coarse_trajectory.csv");
     assert_eq!(dth[0], "vertex");
-    assert!(dth.len() > 2 && dth[1..].iter().all(|r| r == "midpoint"), "{dth:?}");
+    assert!(
+        dth.len() > 2 && dth[1..].iter().all(|r| r == "midpoint"),
+        "{dth:?}"
+    );
     assert!(rows("midpoint_trajectory.csv").iter().all(|r| r == "step"));
     // The trajectory as `.npy`: the CSV's numeric columns (all but `step_kind` and `row`),
     // the same numbers.
@@ -420,7 +429,11 @@ fn outputs_name_what_they_hold() {
     assert_eq!(&npy[..6], b"\x93NUMPY");
     let len = usize::from(u16::from_le_bytes([npy[8], npy[9]]));
     let header = String::from_utf8_lossy(&npy[10..10 + len]).into_owned();
-    let cells: Vec<Vec<&str>> = csv.lines().skip(1).map(|l| l.split(',').collect()).collect();
+    let cells: Vec<Vec<&str>> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect())
+        .collect();
     let width = cells[0].len() - 2;
     assert!(
         header.contains(&format!("'shape': ({}, {width})", cells.len())),
@@ -655,11 +668,24 @@ fn a_rerun_keeps_the_users_files_and_the_complete_result() {
     std::fs::write(out.join("myplots/a.png"), "mine").unwrap();
     let o = dth(&["run", good.to_str().unwrap(), "--out", "o"], dir.path());
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    assert_eq!(std::fs::read_to_string(out.join("my_notes.txt")).unwrap(), "mine");
-    assert_eq!(std::fs::read_to_string(out.join("myplots/a.png")).unwrap(), "mine");
+    assert_eq!(
+        std::fs::read_to_string(out.join("my_notes.txt")).unwrap(),
+        "mine"
+    );
+    assert_eq!(
+        std::fs::read_to_string(out.join("myplots/a.png")).unwrap(),
+        "mine"
+    );
     assert!(out.join("summary.json").is_file());
-    assert_eq!(entries(dir.path()), ["o"], "a hidden folder was left behind");
-    let complete = (entries(&out), std::fs::read(out.join("summary.json")).unwrap());
+    assert_eq!(
+        entries(dir.path()),
+        ["o"],
+        "a hidden folder was left behind"
+    );
+    let complete = (
+        entries(&out),
+        std::fs::read(out.join("summary.json")).unwrap(),
+    );
     // A failing rerun into the same folder.
     let blowup = manifest_dir().join("tests/scenes/rk4-blowup.toml");
     let o = dth(&["run", blowup.to_str().unwrap(), "--out", "o"], dir.path());
@@ -670,7 +696,10 @@ fn a_rerun_keeps_the_users_files_and_the_complete_result() {
         "{err}"
     );
     assert_eq!(
-        (entries(&out), std::fs::read(out.join("summary.json")).unwrap()),
+        (
+            entries(&out),
+            std::fs::read(out.join("summary.json")).unwrap()
+        ),
         complete
     );
     assert!(dir.path().join("o.incomplete/rk4_trajectory.csv").is_file());

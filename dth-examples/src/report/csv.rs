@@ -19,11 +19,11 @@ use std::path::Path;
 
 use super::write_file;
 use crate::effects::{Series, TrajectoryRow};
-use dth::observer::StepKind;
 use crate::error::Error;
 use crate::fallback::kind_name;
 use crate::scene::{component_names, EffectKind, EffectSpec, Scene};
 use crate::simulate::MethodResult;
+use dth::observer::StepKind;
 
 /// Writes the CSV files of every method's effects into `dir`; returns their names.
 pub fn write(dir: &Path, scene: &Scene, results: &[MethodResult]) -> Result<Vec<String>, Error> {

@@ -33,8 +33,8 @@ use std::ops::Range;
 use toml::Spanned;
 
 use super::raw::RawEnsemble;
-use super::toml_string::StringPositions;
 use super::schema::{Axis, AxisRange, ChaosIndicator, Coord, EnergyShell, Members, Sampler};
+use super::toml_string::StringPositions;
 
 /// Validation errors: where and what.
 pub(super) type Errors = Vec<(Range<usize>, String)>;
@@ -376,11 +376,17 @@ fn csv(
     let header_span = header_at..header_at + header.len();
     let columns = header
         .split(',')
-        .map(|c| axis(c.trim(), n, params).map_err(|m| vec![(header_span.clone(), format!("`members` header: {m}"))]))
+        .map(|c| {
+            axis(c.trim(), n, params)
+                .map_err(|m| vec![(header_span.clone(), format!("`members` header: {m}"))])
+        })
         .collect::<Result<Vec<_>, _>>()?;
     for (i, c) in columns.iter().enumerate() {
         if columns[..i].contains(c) {
-            return Err(vec![(header_span, format!("`members` header names `{}` twice", c.name()))]);
+            return Err(vec![(
+                header_span,
+                format!("`members` header names `{}` twice", c.name()),
+            )]);
         }
     }
     let mut rows = Vec::new();
@@ -426,7 +432,10 @@ fn csv(
         return Err(errors);
     }
     if rows.is_empty() {
-        return Err(vec![(header_span, "`members` has a header but no rows: expected at least one member".into())]);
+        return Err(vec![(
+            header_span,
+            "`members` has a header but no rows: expected at least one member".into(),
+        )]);
     }
     Ok((columns, rows))
 }
