@@ -164,8 +164,10 @@ where
     }
     // `summary.json` has the same form as a single run's: no methods of its own (they are
     // the table's), the counts under `ensemble`.
+    let complete = report.interrupted.is_none();
+    report.out = staging.destination(complete)?;
     write_json(&dir.join("summary.json"), &report)?;
-    report.out = staging.commit()?;
+    report.out = staging.commit(complete)?;
     if report.interrupted.is_some() {
         return Err(RunError::Interrupted {
             report: Box::new(report),

@@ -8,6 +8,7 @@
 pub mod csv;
 pub mod figures;
 pub mod html;
+pub mod npy;
 pub mod table41;
 pub mod thesis;
 
