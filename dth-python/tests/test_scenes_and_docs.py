@@ -32,6 +32,37 @@ def test_the_output_folder_is_written_when_asked(tmp_path):
     assert (out / "summary.json").is_file() and (out / "index.html").is_file()
 
 
+KEPLER_E09 = """
+title = "kepler e = 0.9"
+[system]
+name = "kepler"
+[initial]
+q = [0.5, 0.0]
+p = [0.0, 1.3784048752090221]
+[[method]]
+kind = "dth"
+dtau = 0.01
+{robust}
+[duration]
+time = 2.0
+"""
+
+
+def test_an_incomplete_rerun_goes_beside_a_complete_result(tmp_path):
+    # Plain DTH breaks down near pericentre at e = 0.9 (Psi changes sign); robust DTH
+    # completes. The failing rerun must not replace the complete result, and what
+    # run_scene returns is the folder it wrote.
+    out = tmp_path / "kepler"
+    complete = dth.run_scene(KEPLER_E09.format(robust="robust = true"), out)
+    assert complete.completed and complete.out == out
+    before = (out / "summary.json").read_bytes()
+    failed = dth.run_scene(KEPLER_E09.format(robust=""), out)
+    assert not failed.completed
+    assert failed.out is not None and failed.out != out and failed.out.is_dir()
+    assert failed.summary["methods"][0]["failure"] is not None
+    assert (out / "summary.json").read_bytes() == before
+
+
 def test_a_bad_scene_is_a_scene_error_with_its_position():
     text = '[system]\nname = "pendulum"\n[[method]]\nkind = "dht"\ndtau = 0.1\n'
     with pytest.raises(dth.SceneError, match="dht") as info:

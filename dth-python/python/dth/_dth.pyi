@@ -1,6 +1,8 @@
 """Type stubs of the extension module `dth._dth` (see `dth.__doc__`)."""
 
-from typing import Literal, Mapping, Optional, Sequence, Union, overload
+from typing import Literal, Mapping, Optional, Sequence, Tuple, Union, overload
+
+import os
 
 import numpy as np
 import numpy.typing as npt
@@ -159,4 +161,6 @@ def _catalogue() -> list[dict[str, object]]: ...
 def _catalogue_evaluate(
     name: str, params: Mapping[str, float], z: Sequence[float]
 ) -> tuple[float, list[float]]: ...
-def run_scene_into(text: str, file: str, out: str, threads: Optional[int] = None) -> bool: ...
+def run_scene_into(
+    text: str, file: str, out: str, threads: Optional[int] = None
+) -> Tuple[bool, Union[str, "os.PathLike[str]"]]: ...
