@@ -9,7 +9,7 @@ use toml::Spanned;
 
 use super::raw::{RawEffect, RawMethod, RawScene};
 use super::suggest::did_you_mean;
-use super::{expression, members, regularization};
+use super::{expression, initial, members, regularization};
 use dth::dth::{Composition, Solver};
 use dth::runtime::{Backend, RuntimeHamiltonian};
 
@@ -272,12 +272,24 @@ fn validate(raw: RawScene, systems: &dyn SystemLookup, cx: &mut Ctxt<'_>) -> Opt
                     "`title` names a Hamiltonian given as text (`hamiltonian`): a catalogue system is named by `name` (give the scene a `title` at the top instead)",
                 );
             }
+            if let Some((size, _)) = system.sizes.iter().next() {
+                cx.error(
+                    size.span(),
+                    "`sizes` sets the sizes of a Hamiltonian given as text (`hamiltonian = \"... where N = ..\"`): a catalogue system has its own size",
+                );
+            }
             catalogue_system(name, &system.params, systems, cx)
         }
         (None, Some(source)) => {
             let (mut errors, mut warnings) = (Vec::new(), Vec::new());
-            let checked =
-                expression::check(cx.text, source, &system.params, &mut errors, &mut warnings);
+            let checked = expression::check(
+                cx.text,
+                source,
+                &system.params,
+                &system.sizes,
+                &mut errors,
+                &mut warnings,
+            );
             for (span, message) in errors {
                 cx.error(span, message);
             }
@@ -325,8 +337,19 @@ fn validate(raw: RawScene, systems: &dyn SystemLookup, cx: &mut Ctxt<'_>) -> Opt
 
     // Initial state: q and p present, length n, finite.
     let missing_initial = raw.initial.is_none();
-    let (init_span, initial) = table(raw.initial, "initial", "`q` and `p`", cx);
+    let (init_span, mut initial) = table(raw.initial, "initial", "`q` and `p`", cx);
     let n = info.map(|i| i.n);
+    // Formulas and files become numbers, checked below as a list would be.
+    let mut names = hamiltonian
+        .as_ref()
+        .map(|h| initial::declared_sizes(&h.source))
+        .unwrap_or_default();
+    names.extend(params.iter().map(|(k, v)| (k.clone(), *v)));
+    let mut errors = Vec::new();
+    let resolved = initial::resolve(cx.text, cx.file, &mut initial, n, names, &mut errors);
+    for (span, message) in errors {
+        cx.error(span, message);
+    }
     let vector = |v: Option<Spanned<Vec<f64>>>, what: &str, cx: &mut Ctxt<'_>| match v {
         None if missing_initial => None,
         None => {
@@ -358,16 +381,16 @@ fn validate(raw: RawScene, systems: &dyn SystemLookup, cx: &mut Ctxt<'_>) -> Opt
             Some(v.into_inner())
         }
     };
-    let q_span = initial.q.as_ref().map(|v| v.span());
-    let q = vector(initial.q, "q", cx);
-    let p = vector(initial.p, "p", cx);
+    let q_span = resolved.q.as_ref().map(|v| v.span());
+    let q = vector(resolved.q, "q", cx);
+    let p = vector(resolved.p, "p", cx);
     let t0 = match initial.t {
         Some(t) if !t.get_ref().is_finite() => {
             cx.error(t.span(), "initial `t` is not finite");
             0.0
         }
         Some(t) => *t.get_ref(),
-        None => 0.0,
+        None => resolved.t.unwrap_or(0.0),
     };
 
     // Methods.
