@@ -3,9 +3,9 @@
 
 use std::path::Path;
 
-use crate::effects::{DeviationStats, ModeEnergies, Series};
+use crate::effects::{DeviationStats, ModeEnergies, Series, SpaceTimeRow};
 use crate::error::Error;
-use crate::plot::{Figure, Mark, Series as PlotSeries};
+use crate::plot::{Figure, Mark, Raster, Series as PlotSeries};
 use crate::scene::{Coord, EffectSpec, Scene};
 use crate::simulate::MethodResult;
 
@@ -23,6 +23,7 @@ pub fn write(
     let mut seen_invariants = false;
     let mut seen_time_law = false;
     let mut seen_modes = false;
+    let mut files = Vec::new();
     for spec in &scene.effects {
         match spec {
             EffectSpec::EnergyDeviation { .. } if !seen_energy => {
@@ -139,6 +140,20 @@ pub fn write(
                     }
                 }
             }
+            EffectSpec::SpaceTime { .. } => {
+                for r in results {
+                    if let Some(rows) = &r.outputs.space_time {
+                        let stem = format!("space_time_{}", r.summary.label);
+                        if let Some(raster) =
+                            space_time_figure(&scene.title, r, rows, scene.q.len())
+                        {
+                            raster.render(dir, &stem)?;
+                            files.push(format!("{stem}.png"));
+                            files.push(format!("{stem}.svg"));
+                        }
+                    }
+                }
+            }
             _ => {}
         }
     }
@@ -173,7 +188,6 @@ pub fn write(
             figs.push((format!("ensemble_{}", r.summary.label), f));
         }
     }
-    let mut files = Vec::new();
     for (stem, f) in figs {
         f.render(dir, &stem)?;
         files.push(format!("{stem}.png"));
@@ -216,6 +230,39 @@ fn deviation_figure<'r>(
 
 /// The energies `E_1..E_k` of the normal modes against `t`, one line per mode (FPUT's
 /// Figure 1), for one method.
+/// The most rows the space-time raster draws: more samples are averaged in groups of
+/// consecutive ones (a figure of 650 pixels shows no more).
+const SPACE_TIME_ROWS: usize = 200;
+
+/// The `space_time` raster of one method's run: site against `t`, colour = displacement;
+/// `None` without samples. `sites` is the chain's `n`.
+fn space_time_figure(
+    title: &str,
+    r: &MethodResult,
+    rows: &[SpaceTimeRow],
+    sites: usize,
+) -> Option<Raster> {
+    let (first, last) = (rows.first()?, rows.last()?);
+    let cols = first.q.len();
+    let groups = rows.len().div_ceil(SPACE_TIME_ROWS);
+    let mut values = Vec::with_capacity(cols * rows.len().div_ceil(groups));
+    for chunk in rows.chunks(groups) {
+        for c in 0..cols {
+            values.push(chunk.iter().map(|row| row.q[c]).sum::<f64>() / chunk.len() as f64);
+        }
+    }
+    Some(Raster::new(
+        &format!("{title}: displacement, {}", series_name(r)),
+        "site i",
+        "t",
+        (0.5, sites as f64 + 0.5),
+        (first.t, last.t),
+        values,
+        cols,
+        "q_i",
+    ))
+}
+
 fn mode_energy_figure(title: &str, r: &MethodResult, rows: &[ModeEnergies]) -> Figure {
     let k = rows.first().map_or(0, |r| r.energies.len());
     let mut f = Figure::new(

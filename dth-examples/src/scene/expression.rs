@@ -27,8 +27,8 @@ use dth_symbolic::ErrorKind;
 use toml::Spanned;
 
 use super::members::Errors;
-use super::sizes::Origin;
 use super::schema::TextHamiltonian;
+use super::sizes::Origin;
 use super::toml_string::StringPositions;
 
 /// Reads the expression `source` (the spanned TOML string in `text`) with the parameters

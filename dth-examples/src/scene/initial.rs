@@ -218,7 +218,10 @@ pub(super) fn resolve(
 ) -> Resolved {
     let seed = match &raw.seed {
         Some(s) if *s.get_ref() < 0 => {
-            errors.push((s.span(), format!("`seed` = {}: expected 0 or more", s.get_ref())));
+            errors.push((
+                s.span(),
+                format!("`seed` = {}: expected 0 or more", s.get_ref()),
+            ));
             0
         }
         Some(s) => *s.get_ref() as u64,
@@ -230,12 +233,20 @@ pub(super) fn resolve(
                 given.span(),
                 "`[initial] file` gives the whole state: remove `q` and `p`, or `file`".into(),
             ));
-            return Resolved { q: None, p: None, t: None };
+            return Resolved {
+                q: None,
+                p: None,
+                t: None,
+            };
         }
         let span = file.span();
         let Some(n) = n else {
             let none = || Some(Spanned::new(span.clone(), Vec::new()));
-            return Resolved { q: none(), p: none(), t: None };
+            return Resolved {
+                q: none(),
+                p: none(),
+                t: None,
+            };
         };
         return match csv(scene_file, file.get_ref(), span.clone(), n, errors) {
             Some((q, p, t)) => Resolved {
@@ -246,7 +257,11 @@ pub(super) fn resolve(
             // Its error is reported; zeros keep the length checks quiet.
             None => {
                 let zeros = || Some(Spanned::new(span.clone(), vec![0.0; n]));
-                Resolved { q: zeros(), p: zeros(), t: None }
+                Resolved {
+                    q: zeros(),
+                    p: zeros(),
+                    t: None,
+                }
             }
         };
     }
@@ -478,10 +493,7 @@ mod tests {
     #[test]
     fn a_value_that_is_not_finite_names_the_index() {
         let errors = eval("1/(i - 3)", Half::Q, 4).unwrap_err();
-        assert!(
-            errors[0].1.contains("not finite at i = 3"),
-            "{errors:?}"
-        );
+        assert!(errors[0].1.contains("not finite at i = 3"), "{errors:?}");
     }
 
     #[test]
@@ -498,7 +510,9 @@ mod tests {
         assert_eq!((q, p, t), (vec![5.0, 6.0], vec![7.0, 8.0], Some(0.5)));
         assert!(csv_state(text, 3).unwrap_err().contains("no column `q3`"));
         let bad = "q1,p1\n1,x\n";
-        assert!(csv_state(bad, 1).unwrap_err().contains("line 2, column `p1`: `x`"));
+        assert!(csv_state(bad, 1)
+            .unwrap_err()
+            .contains("line 2, column `p1`: `x`"));
         assert!(csv_state("q1,p1\n", 1).unwrap_err().contains("no row"));
     }
 }

@@ -806,18 +806,28 @@ fn text_chain_mismatch(h: &TextHamiltonian, params: &BTreeMap<String, f64>) -> O
         return Some("it depends on `t`".to_string());
     }
     let params: Vec<(&str, f64)> = params.iter().map(|(k, v)| (k.as_str(), *v)).collect();
+    let z = vec![0.0; h.dim];
+    let mut g = vec![0.0; h.dim];
     let at_rest = RuntimeHamiltonian::with_backend(&h.source, &params, Backend::Interpreter)
         .and_then(|rt| {
-            let z = vec![0.0; h.dim];
-            let (mut g, mut hess) = (vec![0.0; h.dim], vec![0.0; h.dim * h.dim]);
             rt.gradient_slice(&z, &mut g)?;
-            rt.hessian_slice(&z, &mut hess)?;
-            Ok((g, hess))
+            // A lattice that loops gives its nonzeros: its dense Hessian may not fit in
+            // memory (512 MB at 4,096 sites).
+            Ok(match rt.hessian_pattern() {
+                Some(pattern) => {
+                    let mut values = vec![0.0; pattern.len()];
+                    rt.hessian_nonzeros_slice(&z, &mut values)?;
+                    let entries = pattern.iter().zip(&values).map(|(&(i, j), &v)| (i, j, v));
+                    crate::normal_modes::unit_chain_mismatch_sparse(h.n, &g, entries)
+                }
+                None => {
+                    let mut hess = vec![0.0; h.dim * h.dim];
+                    rt.hessian_slice(&z, &mut hess)?;
+                    crate::normal_modes::unit_chain_mismatch(h.n, &g, &hess)
+                }
+            })
         });
-    match at_rest {
-        Ok((g, hess)) => crate::normal_modes::unit_chain_mismatch(h.n, &g, &hess),
-        Err(e) => Some(format!("its derivatives at z = 0 cannot be evaluated: {e}")),
-    }
+    at_rest.unwrap_or_else(|e| Some(format!("its derivatives at z = 0 cannot be evaluated: {e}")))
 }
 
 /// The thesis's square of initial conditions (`[ensemble]` without `kind`).
@@ -1143,6 +1153,7 @@ fn validate_effect(
         EffectKind::EnergyDeviation => EffectSpec::EnergyDeviation { every: every? },
         EffectKind::Invariants => EffectSpec::Invariants { every: every? },
         EffectKind::TimeLaw => EffectSpec::TimeLaw { every: every? },
+        EffectKind::SpaceTime => EffectSpec::SpaceTime { every: every? },
         EffectKind::NormalModes => {
             let modes = match &e.modes {
                 None => Some(n.map_or(5, |n| n.min(5))),
