@@ -80,7 +80,7 @@ where
                         samples(every).saturating_mul(3 * dth * invariants)
                     }
                     EffectSpec::TimeLaw { every } => samples(every).saturating_mul(3),
-                    EffectSpec::PhasePlot { every, .. } => samples(every).saturating_mul(2),
+                    EffectSpec::PhasePlot { every, .. } => samples(every).saturating_mul(3), // t, x, y
                     EffectSpec::Poincare { direction, .. } => {
                         let crossings = match direction {
                             Direction::Both => n,

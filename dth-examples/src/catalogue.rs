@@ -20,7 +20,7 @@
 //! `Error::PsiIdenticallyZero` (thesis Section 3.4). Register it with [`SystemEntry::runnable_without_dth`]: every peer method
 //! runs, and a scene naming `dth` for it is rejected by validation.
 
-use dth::nalgebra::{Const, DefaultAllocator, Dim};
+use dth::nalgebra::{Const, DefaultAllocator, Dim, SVector};
 use dth::{Alloc, ConstFlags};
 
 use std::collections::BTreeMap;
@@ -46,6 +46,7 @@ type RunFn =
 type EstimateFn =
     dyn Fn(&Scene, &RunOptions) -> Result<MemoryEstimate, Error> + Send + Sync + 'static;
 type ProbeFn = dyn Fn(&Scene) -> Result<Option<PsiSignChange>, Error> + Send + Sync + 'static;
+type EvaluateFn = dyn Fn(&Params, &[f64]) -> Result<(f64, Vec<f64>), Error> + Send + Sync + 'static;
 
 /// One system of a [`Catalogue`].
 pub struct SystemEntry {
@@ -64,6 +65,7 @@ pub struct SystemEntry {
     run: Box<RunFn>,
     estimate: Box<EstimateFn>,
     probe: Box<ProbeFn>,
+    evaluate: Box<EvaluateFn>,
 }
 
 impl std::fmt::Debug for SystemEntry {
@@ -323,9 +325,13 @@ impl SystemEntry {
             }
             build(params).map_err(unavailable)
         };
-        let (run_name, estimate_name, probe_name) =
-            (name.to_string(), name.to_string(), name.to_string());
-        let (make_too, make_probe) = (make.clone(), make.clone());
+        let (run_name, estimate_name, probe_name, evaluate_name) = (
+            name.to_string(),
+            name.to_string(),
+            name.to_string(),
+            name.to_string(),
+        );
+        let (make_too, make_probe, make_evaluate) = (make.clone(), make.clone(), make.clone());
         SystemEntry {
             name: name.to_string(),
             doc: doc.to_string(),
@@ -352,7 +358,39 @@ impl SystemEntry {
             probe: Box::new(move |scene| {
                 probe_built::<Const<D>, S>(&|p: &Params| make_probe(&probe_name, p), scene)
             }),
+            evaluate: Box::new(move |params, z| {
+                let system = make_evaluate(&evaluate_name, params)?;
+                if z.len() != D {
+                    return Err(Error::NotAvailable {
+                        what: "state for system",
+                        name: evaluate_name.clone(),
+                        reason: format!("it has length {}, expected {D}", z.len()),
+                    });
+                }
+                let z = SVector::<f64, D>::from_column_slice(z);
+                Ok((system.value(&z), system.gradient(&z).as_slice().to_vec()))
+            }),
         }
+    }
+
+    /// `H` and its gradient at the state `z` (of length `D`, the extended state for a
+    /// time-dependent system) of the system built from `params` (every parameter given: the
+    /// defaults are in [`SystemEntry::info`]), as the compiled type computes them: what a
+    /// twin of the system (the Python package's `dth.systems`, a text) is checked against.
+    ///
+    /// # Errors
+    /// [`Error::NotAvailable`] for parameters the entry refuses or a state of another length.
+    ///
+    /// ```
+    /// use dth_examples::catalogue::Catalogue;
+    /// let c = Catalogue::builtin();
+    /// let params = [("m".to_string(), 0.5), ("k".to_string(), 1.0)].into();
+    /// let (h, g) = c.get("kepler").unwrap().evaluate(&params, &[0.5, 0.0, 0.0, 1.2])?;
+    /// assert!((h + 0.56).abs() < 1e-15 && g.len() == 4);
+    /// # Ok::<(), dth_examples::Error>(())
+    /// ```
+    pub fn evaluate(&self, params: &Params, z: &[f64]) -> Result<(f64, Vec<f64>), Error> {
+        (self.evaluate)(params, z)
     }
 
     /// The name scenes use.

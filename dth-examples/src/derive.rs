@@ -396,6 +396,31 @@ pub fn render_errors(source: &str, errors: &Errors) -> String {
             errors.0.len() - MAX_SHOWN
         );
     }
+    // Names that could be parameters: `dth derive` declares parameters with `-p`, which a
+    // reader of "unknown variable `m`" may not know.
+    let mut undeclared: Vec<&str> = Vec::new();
+    for e in &errors.0 {
+        if let ErrorKind::UnknownVariable { name } = &e.kind {
+            if param_name(name).is_ok() && !undeclared.contains(&name.as_str()) {
+                undeclared.push(name);
+            }
+        }
+    }
+    if !undeclared.is_empty() {
+        let _ = writeln!(
+            text,
+            "hint: if {} {} parameter{}, declare {} with `-p {}` (names only: derivation needs no values)",
+            undeclared
+                .iter()
+                .map(|n| format!("`{n}`"))
+                .collect::<Vec<_>>()
+                .join(", "),
+            if undeclared.len() == 1 { "is a" } else { "are" },
+            if undeclared.len() == 1 { "" } else { "s" },
+            if undeclared.len() == 1 { "it" } else { "them" },
+            undeclared.join(",")
+        );
+    }
     text
 }
 

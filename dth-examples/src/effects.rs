@@ -247,7 +247,7 @@ struct PhaseSamples {
     t_end: f64,
     t0: Option<f64>,
     until: f64,
-    points: Vec<(f64, f64)>,
+    points: Vec<(f64, f64, f64)>,
 }
 
 /// What the effects of one method produced.
@@ -265,8 +265,8 @@ pub struct EffectOutputs {
     pub time_law: Option<Vec<TimeLawRow>>,
     /// `poincare`: one list of crossings per requested section, in scene order.
     pub poincare: Vec<Crossings>,
-    /// `phase_plot`: one list of `(x, y)` per requested plot, in scene order.
-    pub phase: Vec<Vec<(f64, f64)>>,
+    /// `phase_plot`: one list of `(t, x, y)` per requested plot, in scene order.
+    pub phase: Vec<Vec<(f64, f64, f64)>>,
     /// `normal_modes`: the mode energies every `every` steps.
     pub normal_modes: Option<Vec<ModeEnergies>>,
     /// `space_time`: the positions (grouped) every `every` steps.
@@ -420,7 +420,7 @@ where
                 .iter()
                 .map(|s| 3 * s.crossings.len())
                 .sum::<usize>()
-            + self.phase.iter().map(|p| 2 * p.points.len()).sum::<usize>()
+            + self.phase.iter().map(|p| 3 * p.points.len()).sum::<usize>()
             + self
                 .normal_modes
                 .as_ref()
@@ -566,7 +566,7 @@ where
                 p.t_end = t + p.until;
             }
             if step.is_multiple_of(p.every) && t <= p.t_end {
-                p.points.push((at(p.x, t, z), at(p.y, t, z)));
+                p.points.push((t, at(p.x, t, z), at(p.y, t, z)));
             }
         }
     }

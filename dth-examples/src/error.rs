@@ -148,6 +148,24 @@ pub enum Error {
         /// The cap.
         max_steps: usize,
     },
+    /// A method's first step moves the initial state by less than double precision resolves
+    /// at the state's scale (`simulate::preflight`): the step would change nothing, and the
+    /// solver has nothing to work with. Exit code 2, refused before any method runs.
+    #[error("method `{method}`: a step of dt = {dt:e} moves the initial state by about {change:.3e} (dt times the largest component of grad H), below what double precision resolves at the state's scale (eps * max |z0| = {resolved:.3e}): the step would not change the state; expected a step of at least {min_step:.3e} in {unit}")]
+    StepUnresolved {
+        /// The method's label.
+        method: String,
+        /// Its first physical step (`dt`, or `lambda0 * dtau` for DTH).
+        dt: f64,
+        /// What the step moves the state by: `dt * max |grad H(z0)|`.
+        change: f64,
+        /// The smallest change double precision resolves: `eps * max |z0|`.
+        resolved: f64,
+        /// The smallest step that resolves, in the scene's key (`unit`).
+        min_step: f64,
+        /// The scene key the step is given in (`dt`, or `dtau` with `lambda0`).
+        unit: &'static str,
+    },
     /// Memory the scene asks for that the system refused (exit code 2: too much was asked),
     /// although its estimate was within the limit (a limit set above what the machine has).
     #[error("cannot allocate {what}: {reason}: ask for less (e.g. fewer members), or a --max-memory the machine has")]
@@ -178,6 +196,7 @@ impl Error {
             | Error::MemoryLimit { .. }
             | Error::InitialState { .. }
             | Error::TooManySteps { .. }
+            | Error::StepUnresolved { .. }
             | Error::Allocation { .. } => 2,
             _ => 1,
         }

@@ -46,16 +46,38 @@ struct Cli {
     /// Output folder for the default run (default: dth-out/thesis-kepler).
     #[arg(long, global = false)]
     out: Option<PathBuf>,
+    #[command(flatten)]
+    limits: Limits,
+}
+
+/// The limits of a scene's run: for `run`, `check` (the memory estimate), `table41` and the
+/// default run; the other subcommands run no scene and do not take them.
+#[derive(clap::Args, Clone, Copy, Default)]
+struct Limits {
     /// The most memory a run's effects may keep, e.g. 4G, 4GB, 4GiB, 512M (default: half the
     /// available memory). A scene estimated above it is refused, by `check` and `run`, before
     /// it runs.
-    #[arg(long, global = true, value_parser = parse_size)]
+    #[arg(long, value_parser = parse_size)]
     max_memory: Option<u64>,
     /// Threads an ensemble scene runs its members on (default: one per core; at most one per
     /// member). The files are the same for any number. Under `mpirun` (the `mpi` feature)
     /// this is per rank.
-    #[arg(long, global = true, value_parser = clap::value_parser!(u16).range(1..))]
+    #[arg(long, value_parser = clap::value_parser!(u16).range(1..))]
     threads: Option<u16>,
+}
+
+impl Limits {
+    /// The run options with these limits.
+    fn options(self) -> RunOptions {
+        let mut options = RunOptions::default();
+        if let Some(bytes) = self.max_memory {
+            options = options.with_memory_limit(bytes);
+        }
+        if let Some(threads) = self.threads {
+            options = options.with_threads(usize::from(threads));
+        }
+        options
+    }
 }
 
 /// A size in bytes: a number with an optional `k`, `M`, `G` or `T` (powers of 1000), or
@@ -107,10 +129,13 @@ enum Command {
     /// Run a scene file and write CSV, JSON summary, figures (PNG, SVG) and index.html.
     ///
     /// The output is written to a temporary folder next to the target and moved into place
-    /// only when the run succeeds. An existing target is replaced (after success) only if it
-    /// is empty or is a dth output folder (it holds a .dth-output marker); otherwise the run is
-    /// refused. Exit codes: 0 success, 2 bad input (scene errors, refused output folder),
-    /// 1 run failures (a method failed mid-run: what it computed is still written), 130
+    /// once written. An existing target is written into only if it is empty or is a dth
+    /// output folder (it holds a .dth-output marker, which lists what dth wrote there);
+    /// otherwise the run is refused. A rerun replaces only the files dth wrote: other files
+    /// in the folder stay. A run that does not complete does not replace a complete earlier
+    /// result: it goes to NAME.incomplete beside it. Exit codes: 0 success, 2 bad input
+    /// (scene errors, refused output folder), 1 run failures (a method failed mid-run, or an
+    /// ensemble's member runs failed: what was computed is still written), 130
     /// interrupted by SIGINT or SIGTERM (Ctrl-C): the run stops at the next step and writes
     /// what it computed, `summary.json`'s `interrupted` saying where; a second signal quits
     /// at once, with nothing written and no temporary folder left.
@@ -120,6 +145,8 @@ enum Command {
         /// Output folder (default: dth-out/STEM, STEM the scene file name without `.toml`).
         #[arg(long)]
         out: Option<PathBuf>,
+        #[command(flatten)]
+        limits: Limits,
     },
     /// Validate a scene file without running it (exit 2 and file:line:column on errors).
     ///
@@ -131,6 +158,8 @@ enum Command {
     Check {
         /// The scene file (TOML).
         scene: PathBuf,
+        #[command(flatten)]
+        limits: Limits,
     },
     /// List the systems (with parameters), methods and effects scenes can name.
     List,
@@ -139,6 +168,8 @@ enum Command {
         /// Also write {"rows": [{"method", "energy", "angular_momentum"}, ...]} here.
         #[arg(long)]
         json: Option<PathBuf>,
+        #[command(flatten)]
+        limits: Limits,
     },
     /// Work-precision diagrams for every method: error against wall time on seven problems
     /// (docs/benchmarks.md has the tables).
@@ -208,12 +239,13 @@ fn run(
     }
     if let Some(c) = &report.ensemble {
         println!(
-            "{} members: {} skipped (no real solution on the energy shell), {} not run, {} method runs failed{} (see ensemble.csv)",
+            "{} members: {} skipped (no real solution on the energy shell), {} not run, {} method runs failed{}{} (see ensemble.csv)",
             c.drawn,
             c.skipped,
             c.not_run,
             c.failed_runs,
-            c.fallback_note()
+            c.fallback_note(),
+            c.step_check_note()
         );
     }
     let deviations = report.deviation_markdown();
@@ -248,6 +280,13 @@ fn run(
     for warning in report.fallback_warnings() {
         eprintln!("warning: {warning}");
     }
+    if report.out != out {
+        eprintln!(
+            "note: `{}` holds a complete earlier result, kept as it was; this incomplete run is in `{}`",
+            out.display(),
+            report.out.display()
+        );
+    }
     if report.interrupted.is_some() {
         eprintln!("{}", dth_examples::pipeline::interrupted_message(&report));
         return Ok(ExitCode::from(INTERRUPTED as u8));
@@ -270,7 +309,16 @@ fn run(
             );
         }
     }
-    Ok(if failed {
+    // Member runs that failed are rows of the table, not lost output; but the run did not
+    // compute what it was asked to, and says so last, with the exit code of a failed method.
+    let members_failed = report.ensemble.filter(|c| c.failed_runs > 0);
+    if let Some(c) = members_failed {
+        eprintln!(
+            "error: {} member runs (member and method) failed: the `failure` column of ensemble.csv says where and why",
+            c.failed_runs
+        );
+    }
+    Ok(if failed || members_failed.is_some() {
         ExitCode::from(1)
     } else {
         ExitCode::SUCCESS
@@ -340,27 +388,28 @@ fn list() {
 }
 
 fn main_inner(cli: Cli) -> Result<ExitCode, CliError> {
-    let mut options = RunOptions::default();
-    if let Some(bytes) = cli.max_memory {
-        options = options.with_memory_limit(bytes);
-    }
-    if let Some(threads) = cli.threads {
-        options = options.with_threads(usize::from(threads));
-    }
     match cli.command {
         None => {
             let out = cli
                 .out
                 .unwrap_or_else(|| default_out(Path::new("thesis-kepler.toml")));
-            run(DEFAULT_SCENE, DEFAULT_SCENE_NAME, &out, true, &options)
+            run(
+                DEFAULT_SCENE,
+                DEFAULT_SCENE_NAME,
+                &out,
+                true,
+                &cli.limits.options(),
+            )
         }
-        Some(Command::Run { scene, out }) => {
+        Some(Command::Run { scene, out, limits }) => {
+            let options = limits.options();
             let text = dth_examples::read_scene(&scene)?;
             let out = out.unwrap_or_else(|| default_out(&scene));
             dth_examples::output::check_outside(&scene, &out)?;
             run(&text, &scene.display().to_string(), &out, false, &options)
         }
-        Some(Command::Check { scene }) => {
+        Some(Command::Check { scene, limits }) => {
+            let options = limits.options();
             let text = dth_examples::read_scene(&scene)?;
             let catalogue = Catalogue::builtin();
             let s = dth_examples::check_scene(&text, &scene.display().to_string(), &catalogue)?;
@@ -388,7 +437,8 @@ fn main_inner(cli: Cli) -> Result<ExitCode, CliError> {
             list();
             Ok(ExitCode::SUCCESS)
         }
-        Some(Command::Table41 { json }) => {
+        Some(Command::Table41 { json, limits }) => {
+            let options = limits.options();
             let table = dth_examples::table41(&options)?;
             print!("{}", table41::markdown(&table));
             if let Some(path) = json {
@@ -430,7 +480,7 @@ fn main_inner(cli: Cli) -> Result<ExitCode, CliError> {
             let staging = Staging::new(&out)?;
             let summary =
                 workprecision::run(&options, staging.path()).map_err(CliError::WorkPrecision)?;
-            let out = staging.commit()?;
+            let out = staging.commit(true)?;
             print!("{}", summary.tables);
             println!(
                 "wrote {} files ({} runs) to {}",

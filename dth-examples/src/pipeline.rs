@@ -156,7 +156,8 @@ fn failures_message(report: &RunReport) -> String {
 }
 
 /// Runs `scene` on `system` and writes the output folder `out` (see [`crate::output`] for
-/// the rules: staged, moved into place only on success, replaces only dth output folders).
+/// the rules: staged, moved into place once written, replacing only what dth wrote there; an
+/// incomplete run over a complete result goes beside it, [`RunReport::out`] says where).
 ///
 /// A method that fails mid-run does not abort the run: its results up to the failing step
 /// are written, the folder is moved into place, and the run returns
@@ -236,8 +237,12 @@ where
         ensemble: None,
         interrupted,
     };
+    // An incomplete run does not replace a complete earlier result (`crate::output`): the
+    // summary and the page name the folder it goes to.
+    let complete = report.complete();
+    report.out = staging.destination(complete)?;
     write_file(&dir.join("index.html"), html::index(scene, &report))?;
     write_json(&dir.join("summary.json"), &report)?;
-    report.out = staging.commit()?;
+    report.out = staging.commit(complete)?;
     RunError::incomplete(report)
 }

@@ -16,6 +16,8 @@
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
+use plotters::coord::ranged1d::{DefaultFormatting, KeyPointHint};
+use plotters::coord::types::RangedCoordf64;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::FontStyle;
@@ -180,16 +182,23 @@ fn axis_range(values: impl Iterator<Item = f64>) -> std::ops::Range<f64> {
 
 /// A tick label; `span` is the axis length (ticks within `1e-9 span` of zero print as 0,
 /// since the tick generator's multiples of the step carry roundoff of that relative size).
+/// On a logarithmic axis `v` is `log10` of the value, and the label is the value as a person
+/// writes it: `1`, `3`, `10`, `30`, `0.03`, and `1e-6`, `3e5` beyond `[0.01, 1e5)`.
 fn tick_label(v: f64, log: bool, span: f64) -> String {
     if !log && v.abs() <= 1e-9 * span {
         return "0".into();
     }
     if log {
-        let r = v.round();
-        if (v - r).abs() < 1e-9 {
-            format!("1e{r}")
+        // Three significant digits undo the roundoff of `10^log10(x)`.
+        let x: f64 = format!("{:.2e}", 10f64.powf(v)).parse().unwrap_or(f64::NAN);
+        if (1e-2..1e5).contains(&x) {
+            format!("{x}")
         } else {
-            format!("{:.1e}", 10f64.powf(v))
+            let e = x.log10().floor();
+            let m: f64 = format!("{:.2}", x / 10f64.powf(e))
+                .parse()
+                .unwrap_or(f64::NAN);
+            format!("{m}e{e}")
         }
     } else if v != 0.0 && (v.abs() < 1e-3 || v.abs() >= 1e5) {
         format!("{v:.1e}")
@@ -200,6 +209,94 @@ fn tick_label(v: f64, log: bool, span: f64) -> String {
             "0".into()
         } else {
             s.into()
+        }
+    }
+}
+
+/// The ticks of a logarithmic axis over `log10` values `lo..hi`: (labelled, light), in
+/// `log10` units. Labelled: 1, 2, 3 and 5 of each decade over at most
+/// [`LOG_DENSE_DECADES`] decades, 1 and 3 over at most [`LOG_SPARSE_DECADES`], else the powers
+/// of ten (every k-th, at most about eight of them); light: 1..9 of each decade up to
+/// [`LOG_SPARSE_DECADES`] decades, the powers of ten beyond.
+fn log_ticks(lo: f64, hi: f64) -> (Vec<f64>, Vec<f64>) {
+    let decades = hi - lo;
+    if !(decades.is_finite() && decades > 0.0) {
+        return (Vec::new(), Vec::new());
+    }
+    let (labelled, stride): (&[f64], i32) = if decades <= LOG_DENSE_DECADES {
+        (&[1.0, 2.0, 3.0, 5.0], 1)
+    } else if decades <= LOG_SPARSE_DECADES {
+        (&[1.0, 3.0], 1)
+    } else {
+        (&[1.0], (decades / 8.0).ceil() as i32)
+    };
+    let light: &[f64] = if decades <= LOG_SPARSE_DECADES {
+        &[1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0]
+    } else {
+        &[1.0]
+    };
+    let at = |mantissas: &[f64], stride: i32| -> Vec<f64> {
+        let mut v = Vec::new();
+        for e in (lo.floor() as i32)..=(hi.ceil() as i32) {
+            if e.rem_euclid(stride) != 0 {
+                continue;
+            }
+            for m in mantissas {
+                let x = m.log10() + f64::from(e);
+                if (lo..=hi).contains(&x) {
+                    v.push(x);
+                }
+            }
+        }
+        v
+    };
+    (at(labelled, stride), at(light, 1))
+}
+
+/// Up to this many decades a log axis labels 1, 2, 3 and 5 of each.
+const LOG_DENSE_DECADES: f64 = 1.5;
+
+/// Up to this many decades a log axis labels 1 and 3 of each (beyond: powers of ten).
+const LOG_SPARSE_DECADES: f64 = 5.0;
+
+/// An axis: plotters' linear axis over `f64`, with the ticks of [`log_ticks`] when it is
+/// logarithmic (its values are then `log10` of the data).
+struct TickedAxis {
+    inner: RangedCoordf64,
+    log: bool,
+}
+
+impl TickedAxis {
+    fn new(range: std::ops::Range<f64>, log: bool) -> Self {
+        TickedAxis {
+            inner: range.into(),
+            log,
+        }
+    }
+}
+
+impl Ranged for TickedAxis {
+    type ValueType = f64;
+    type FormatOption = DefaultFormatting;
+
+    fn range(&self) -> std::ops::Range<f64> {
+        self.inner.range()
+    }
+
+    fn map(&self, value: &f64, limit: (i32, i32)) -> i32 {
+        self.inner.map(value, limit)
+    }
+
+    fn key_points<Hint: KeyPointHint>(&self, hint: Hint) -> Vec<f64> {
+        if !self.log {
+            return self.inner.key_points(hint);
+        }
+        let r = self.inner.range();
+        let (labelled, light) = log_ticks(r.start, r.end);
+        if hint.weight().allow_light_points() {
+            light
+        } else {
+            labelled
         }
     }
 }
@@ -347,7 +444,10 @@ impl Figure {
             .margin(15)
             .x_label_area_size(50)
             .y_label_area_size(80)
-            .build_cartesian_2d(xr.clone(), yr.clone())?;
+            .build_cartesian_2d(
+                TickedAxis::new(xr.clone(), self.log_x),
+                TickedAxis::new(yr.clone(), self.log_y),
+            )?;
         let (lx, ly) = (self.log_x, self.log_y);
         let (sx, sy) = (xr.end - xr.start, yr.end - yr.start);
         let fx = move |v: &f64| tick_label(*v, lx, sx);
@@ -776,6 +876,26 @@ mod tests {
     #[test]
     fn tick_labels_read_as_numbers() {
         assert_eq!(tick_label(-3.0, true, 5.0), "1e-3");
+        // Log ticks read as the numbers they are: 1, 3, 10, 30 (not 3.2e0, 1e1, 3.2e1).
+        let (labelled, _) = log_ticks(0.0, 2.0);
+        let labels: Vec<String> = labelled.iter().map(|&v| tick_label(v, true, 2.0)).collect();
+        assert_eq!(labels, ["1", "3", "10", "30", "100"]);
+        let labels: Vec<String> = log_ticks(-0.2, 0.9)
+            .0
+            .iter()
+            .map(|&v| tick_label(v, true, 1.1))
+            .collect();
+        assert_eq!(labels, ["1", "2", "3", "5"]);
+        let labels: Vec<String> = log_ticks(-16.0, 0.0)
+            .0
+            .iter()
+            .map(|&v| tick_label(v, true, 16.0))
+            .collect();
+        assert_eq!(
+            labels,
+            ["1e-16", "1e-14", "1e-12", "1e-10", "1e-8", "1e-6", "1e-4", "0.01", "1"]
+        );
+        assert_eq!(tick_label(3f64.log10() + 5.0, true, 1.0), "3e5");
         assert_eq!(tick_label(0.25, false, 1.0), "0.25");
         assert_eq!(tick_label(3.5e-18, false, 0.03), "0");
         assert_eq!(tick_label(1e-15, false, 1e-14), "1.0e-15");

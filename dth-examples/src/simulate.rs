@@ -369,6 +369,7 @@ where
 ///   outside `H`'s domain, or overflowing; no method can take a step from it);
 /// - a method that cannot run from `z0` ([`Error::NotAvailable`], `method::unavailable`:
 ///   e.g. `exact` on an unbound Kepler orbit);
+/// - a step too small to change the state in double precision ([`Error::StepUnresolved`]);
 /// - a fixed-step method given a duration in time that would need more than
 ///   `options.max_steps` steps ([`Error::TooManySteps`]: the cap would stop it short).
 ///
@@ -396,6 +397,33 @@ where
                 scene.system
             ),
         });
+    }
+    // The step's effect on the state: `dt * |J grad H|`, whose largest component is that of
+    // `grad H` (J only permutes and negates). Below `eps * max |z0|` a step changes no
+    // component of the state in double precision, and Newton's matrices (differences of the
+    // state) are zero: refused here with the smallest step that resolves, instead of a
+    // "singular matrix" at step 1. A state at rest (zero gradient) or at the origin is not
+    // bounded this way.
+    let scale = z0.iter().fold(0.0f64, |a, x| a.max(x.abs()));
+    let speed = gradient.iter().fold(0.0f64, |a, g| a.max(g.abs()));
+    let resolved = f64::EPSILON * scale;
+    for m in &scene.methods {
+        let (dt, per_dt, unit) = match m.step {
+            StepSpec::Fixed { dt } => (dt, 1.0, "dt"),
+            StepSpec::Dth { dtau, lambda0, .. } => {
+                (lambda0 * dtau, lambda0, "dtau (at this lambda0)")
+            }
+        };
+        if speed > 0.0 && dt * speed < resolved {
+            return Err(Error::StepUnresolved {
+                method: m.label.clone(),
+                dt,
+                change: dt * speed,
+                resolved,
+                min_step: resolved / speed / per_dt,
+                unit,
+            });
+        }
     }
     for m in &scene.methods {
         if let Some(reason) = unavailable(m, system, z0) {

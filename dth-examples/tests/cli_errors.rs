@@ -516,3 +516,160 @@ fn every_missing_table_at_once() {
     }
     assert_eq!(err.lines().count(), 4, "one line per missing table: {err}");
 }
+
+/// The diagnostics of `dth check bad.toml` on `scene` (exit code 2), one per line.
+fn diagnostics(scene: &str) -> Vec<String> {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("bad.toml"), scene).unwrap();
+    let o = dth(&["check", "bad.toml"], dir.path());
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    err.lines()
+        .filter(|l| l.contains("bad.toml:"))
+        .map(str::to_string)
+        .collect()
+}
+
+/// A structural error (`step = 10` for `steps`) used to hide every other problem of the
+/// file: serde stopped there. Now each is reported, and the missing duration that follows
+/// from the misspelled key is not a second error.
+#[test]
+fn a_structural_error_hides_no_other() {
+    let scene = BASE
+        .replace("steps = 100", "step = 10")
+        .replace("midpoint", "dht")
+        .replace("p = [0.0, 1.2]", "p = [0.0, 1.2]\nqq = 1")
+        + "[[effect]]\nkind = \"energy_deviation\"\nevry = 3\n";
+    let found = diagnostics(&scene);
+    for expected in [
+        "bad.toml:6:1: unknown field `qq`",
+        "bad.toml:11:1: unknown field `step`, expected one of `steps`, `time`, `orbits`",
+        "bad.toml:14:1: unknown field `evry`",
+        "bad.toml:8:8: unknown method `dht` (did you mean `dth`?)",
+    ] {
+        assert!(
+            found.iter().any(|l| l.starts_with(expected)),
+            "want `{expected}` in {found:#?}"
+        );
+    }
+    assert_eq!(found.len(), 4, "{found:#?}");
+}
+
+/// `dht` for `dth`: two letters swapped are one edit, and get their "did you mean".
+#[test]
+fn a_swapped_method_name_gets_a_suggestion() {
+    rejects(
+        &BASE.replace("midpoint", "dht"),
+        "7:8",
+        "unknown method `dht` (did you mean `dth`?)",
+    );
+}
+
+/// A bad row of a list ensemble's `members` is reported at the row (its bad value), every
+/// one of them, not at the key and only the first.
+#[test]
+fn every_bad_member_row_at_its_place() {
+    let scene = format!(
+        "{BASE}[ensemble]\nkind = \"list\"\nmembers = \"\"\"\nq1, p2\n0.5, 1.2\n0.6, x\n0.7\n\"\"\"\n"
+    );
+    let found = diagnostics(&scene);
+    for expected in [
+        "bad.toml:16:6: `members` row 3: `x` is not a finite number",
+        "bad.toml:17:1: `members` row 4 has 1 values: expected 2",
+    ] {
+        assert!(
+            found.iter().any(|l| l.starts_with(expected)),
+            "want `{expected}` in {found:#?}"
+        );
+    }
+    assert_eq!(found.len(), 2, "{found:#?}");
+}
+
+/// `dtau = 1e-300` passed `check` and failed at step 1 with "singular newton matrix". A step
+/// that cannot change the state in double precision is now refused by `check` and `run`,
+/// with the smallest step that can.
+#[test]
+fn a_step_below_roundoff_is_refused_before_stepping() {
+    let scene = BASE.replace(
+        "kind = \"midpoint\"\ndt = 0.001",
+        "kind = \"dth\"\ndtau = 1e-300",
+    );
+    refuses(
+        &scene,
+        2,
+        &[
+            "method `dth`: a step of dt = 1e-300 moves the initial state by about",
+            "below what double precision resolves",
+            "expected a step of at least",
+        ],
+    );
+    // The bound is roundoff's: a small step that does change the state runs.
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("small.toml"),
+        BASE.replace("dt = 0.001", "dt = 1e-12"),
+    )
+    .unwrap();
+    let o = dth(&["check", "small.toml"], dir.path());
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+}
+
+/// An ensemble whose member runs failed exited 0 with the count in the middle of its output.
+/// It now ends with the error and exits 1, as a run whose method failed does.
+#[test]
+fn an_ensemble_with_failed_member_runs_says_so_last_and_exits_1() {
+    let scene = "[system]\nname = \"kepler\"\n[initial]\nq = [0.5, 0.0]\np = [0.0, 1.2]\n\
+                 [[method]]\nkind = \"midpoint\"\ndt = 0.01\n[[method]]\nkind = \"exact\"\ndt = 0.01\n\
+                 [duration]\nsteps = 10\n\
+                 [ensemble]\nkind = \"grid\"\nx = \"p2\"\nx_range = [1.0, 3.0]\nx_count = 3\n";
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("e.toml"), scene).unwrap();
+    let o = dth(&["run", "e.toml", "--out", "out"], dir.path());
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    let last = err.lines().last().unwrap_or_default();
+    assert!(
+        last.starts_with("error: 2 member runs (member and method) failed"),
+        "{err}"
+    );
+    assert!(dir.path().join("out/ensemble.csv").is_file());
+}
+
+/// `dth derive --help` listed `--threads` and `--max-memory`, which do nothing there.
+#[test]
+fn derive_takes_no_run_limits() {
+    let dir = tempfile::tempdir().unwrap();
+    let help = stdout(&dth(&["derive", "--help"], dir.path()));
+    assert!(help.contains("--param"), "{help}");
+    assert!(
+        !help.contains("--threads") && !help.contains("--max-memory"),
+        "{help}"
+    );
+    let o = dth(&["derive", "p1^2/2", "--threads", "2"], dir.path());
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    let help = stdout(&dth(&["run", "--help"], dir.path()));
+    assert!(
+        help.contains("--threads") && help.contains("--max-memory"),
+        "{help}"
+    );
+}
+
+/// `derive` without `-p` reported `m` as an unknown variable without saying how to declare
+/// it.
+#[test]
+fn derive_says_how_to_declare_a_parameter() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = dth(&["derive", "p1^2/(2*m) + k*q1^2/2"], dir.path());
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("unknown variable `m`"), "{err}");
+    assert!(
+        err.contains("if `m`, `k` are parameters, declare them with `-p m,k`"),
+        "{err}"
+    );
+    let o = dth(
+        &["derive", "p1^2/(2*m) + k*q1^2/2", "-p", "m,k"],
+        dir.path(),
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+}

@@ -382,9 +382,76 @@ fn outputs_name_what_they_hold() {
             .to_string()
     };
     // phase_plot x = "q1", y = "q2"; then x = "t", y = "q1"; the section is plotted in q1, p1.
-    assert_eq!(header("midpoint_phase1.csv"), "q1,q2");
+    assert_eq!(header("midpoint_phase1.csv"), "t,q1,q2");
     assert_eq!(header("dth_coarse_phase2.csv"), "t,q1");
     assert_eq!(header("midpoint_poincare1.csv"), "t,q1,p1");
+    // Every CSV of states has `t`, and every row the header's number of cells (DTH's last,
+    // shortened step has no vertex: its vertex cells are empty, not missing).
+    for name in entries(&out).iter().filter(|n| n.ends_with(".csv")) {
+        let text = std::fs::read_to_string(out.join(name)).unwrap();
+        let mut lines = text.lines();
+        let columns: Vec<&str> = lines.next().unwrap().split(',').collect();
+        assert!(columns.contains(&"t"), "{name}: {columns:?}");
+        for (i, line) in lines.enumerate() {
+            assert_eq!(
+                line.split(',').count(),
+                columns.len(),
+                "{name} row {i}: {line}"
+            );
+        }
+    }
+    // The trajectory says what its rows are: DTH's initial vertex, then midpoints; a
+    // fixed-step method's states after steps.
+    let rows = |f: &str| -> Vec<String> {
+        let text = std::fs::read_to_string(out.join(f)).unwrap();
+        let mut lines = text.lines();
+        let col = lines
+            .next()
+            .unwrap()
+            .split(',')
+            .position(|c| c == "row")
+            .unwrap();
+        lines
+            .map(|l| l.split(',').nth(col).unwrap().to_string())
+            .collect()
+    };
+    let dth = rows("dth_coarse_trajectory.csv");
+    assert_eq!(dth[0], "vertex");
+    assert!(
+        dth.len() > 2 && dth[1..].iter().all(|r| r == "midpoint"),
+        "{dth:?}"
+    );
+    assert!(rows("midpoint_trajectory.csv").iter().all(|r| r == "step"));
+    // The trajectory as `.npy`: the CSV's numeric columns (all but `step_kind` and `row`),
+    // the same numbers.
+    let csv = std::fs::read_to_string(out.join("dth_coarse_trajectory.csv")).unwrap();
+    let npy = std::fs::read(out.join("dth_coarse_trajectory.npy")).unwrap();
+    assert_eq!(&npy[..6], b"\x93NUMPY");
+    let len = usize::from(u16::from_le_bytes([npy[8], npy[9]]));
+    let header = String::from_utf8_lossy(&npy[10..10 + len]).into_owned();
+    let cells: Vec<Vec<&str>> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect())
+        .collect();
+    let width = cells[0].len() - 2;
+    assert!(
+        header.contains(&format!("'shape': ({}, {width})", cells.len())),
+        "{header}"
+    );
+    let values: Vec<f64> = npy[10 + len..]
+        .chunks_exact(8)
+        .map(|b| f64::from_le_bytes(b.try_into().unwrap()))
+        .collect();
+    for (i, row) in cells.iter().enumerate() {
+        for (j, cell) in row[..width].iter().enumerate() {
+            let v = values[i * width + j];
+            match cell.parse::<f64>() {
+                Ok(x) => assert_eq!(x, v, "row {i} column {j}"),
+                Err(_) => assert!(cell.is_empty() && v.is_nan(), "row {i} column {j}"),
+            }
+        }
+    }
     let html = std::fs::read_to_string(out.join("index.html")).unwrap();
     assert!(html.contains("; duration 2 orbits.</p>"), "{html}");
     assert!(!html.contains("Orbits("), "{html}");
@@ -583,4 +650,94 @@ fn an_infinite_deviation_is_not_null_in_summary_json() {
     assert_eq!(energy["points"]["count"], 3, "{text}");
     // A value that is absent is still `null`.
     assert!(energy["vertices"].is_null(), "{text}");
+}
+
+/// A rerun removes only what dth wrote (the manifest in `.dth-output`): a user's notes and
+/// plots kept in the output folder survive it. A rerun that does not complete (a method
+/// fails mid-run) does not replace the complete result: it goes to `o.incomplete`, and the
+/// command says where.
+#[test]
+fn a_rerun_keeps_the_users_files_and_the_complete_result() {
+    let dir = tempfile::tempdir().unwrap();
+    let good = manifest_dir().join("tests/scenes/pipeline-kepler.toml");
+    let o = dth(&["run", good.to_str().unwrap(), "--out", "o"], dir.path());
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let out = dir.path().join("o");
+    std::fs::write(out.join("my_notes.txt"), "mine").unwrap();
+    std::fs::create_dir(out.join("myplots")).unwrap();
+    std::fs::write(out.join("myplots/a.png"), "mine").unwrap();
+    let o = dth(&["run", good.to_str().unwrap(), "--out", "o"], dir.path());
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert_eq!(
+        std::fs::read_to_string(out.join("my_notes.txt")).unwrap(),
+        "mine"
+    );
+    assert_eq!(
+        std::fs::read_to_string(out.join("myplots/a.png")).unwrap(),
+        "mine"
+    );
+    assert!(out.join("summary.json").is_file());
+    assert_eq!(
+        entries(dir.path()),
+        ["o"],
+        "a hidden folder was left behind"
+    );
+    let complete = (
+        entries(&out),
+        std::fs::read(out.join("summary.json")).unwrap(),
+    );
+    // A failing rerun into the same folder.
+    let blowup = manifest_dir().join("tests/scenes/rk4-blowup.toml");
+    let o = dth(&["run", blowup.to_str().unwrap(), "--out", "o"], dir.path());
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("`o` holds a complete earlier result, kept as it was; this incomplete run is in `o.incomplete`"),
+        "{err}"
+    );
+    assert_eq!(
+        (
+            entries(&out),
+            std::fs::read(out.join("summary.json")).unwrap()
+        ),
+        complete
+    );
+    assert!(dir.path().join("o.incomplete/rk4_trajectory.csv").is_file());
+    let manifest = std::fs::read_to_string(dir.path().join("o.incomplete/.dth-output")).unwrap();
+    assert!(manifest.contains("state = incomplete"), "{manifest}");
+    assert_eq!(entries(dir.path()), ["o", "o.incomplete"]);
+}
+
+/// Fixed-step methods end exactly at the scene's end time: `exact` with `dt = 1` on
+/// `orbits = 10` of a Kepler orbit of period 3.748 ended at 38 (a whole step past it). The
+/// last step is now what is left to T.
+#[test]
+fn fixed_step_methods_end_at_the_end_time() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = "[system]\nname = \"kepler\"\nparams = { m = 0.5, k = 1.0 }\n\
+                 [initial]\nq = [0.5, 0.0]\np = [0.0, 1.2]\n\
+                 [[method]]\nkind = \"exact\"\ndt = 1.0\n\
+                 [[method]]\nkind = \"rk4\"\ndt = 1.0\n\
+                 [duration]\norbits = 10\n[[effect]]\nkind = \"final_state\"\n";
+    std::fs::write(dir.path().join("k.toml"), scene).unwrap();
+    let o = dth(&["run", "k.toml", "--out", "o"], dir.path());
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("o/summary.json")).unwrap())
+            .unwrap();
+    // Kepler's third law: E = |p|^2/(2m) - k/|q|, a = k/(2|E|), T = 2 pi sqrt(m a^3/k).
+    let (m, k) = (0.5f64, 1.0f64);
+    let e = 1.2f64.powi(2) / (2.0 * m) - k / 0.5;
+    let a = k / (2.0 * e.abs());
+    let t_end = 10.0 * 2.0 * std::f64::consts::PI * (m * a.powi(3) / k).sqrt();
+    for method in summary["methods"].as_array().unwrap() {
+        let t = method["t_end"].as_f64().unwrap();
+        // Roundoff of the period's arithmetic (a few eps of 37.5).
+        assert!(
+            (t - t_end).abs() <= 16.0 * f64::EPSILON * t_end,
+            "{}: ended at {t}, T = {t_end}",
+            method["label"]
+        );
+        assert_eq!(method["steps"].as_u64(), Some(38), "{method}");
+    }
 }

@@ -118,19 +118,30 @@ fn the_energy_shell_puts_members_on_h_equals_e_and_counts_the_rest() {
     }
 }
 
-/// MEGNO `<Y>` of one start (q2, p2) on the plane q1 = 0 at energy `e`, run to t = 500.
-fn megno(e: &str, q2: f64, p2: f64, method: &str) -> f64 {
+/// MEGNO `<Y>` and SALI of one start (q2, p2) on the plane q1 = 0 at energy `e`, run to
+/// t = 500.
+fn megno(e: &str, q2: f64, p2: f64, method: &str) -> (f64, f64) {
+    megno_until(e, q2, p2, method, 500.0)
+}
+
+/// MEGNO `<Y>` and SALI of one start (q2, p2) on the plane q1 = 0 at energy `e`, run to
+/// `time`.
+fn megno_until(e: &str, q2: f64, p2: f64, method: &str, time: f64) -> (f64, f64) {
     let scene = henon_heiles(
         &format!("kind = \"list\"\nmembers = \"\"\"\nq2, p2\n{q2}, {p2}\n\"\"\""),
         e,
         "chaos = \"megno\"",
         method,
-        500.0,
+        time,
     );
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out");
     run(&scene, &out, 1);
-    json(&out)["rows"][0]["megno"].as_f64().unwrap()
+    let row = &json(&out)["rows"][0];
+    (
+        row["megno"].as_f64().unwrap(),
+        row["sali"].as_f64().unwrap(),
+    )
 }
 
 #[test]
@@ -142,11 +153,76 @@ fn megno_separates_a_regular_from_a_chaotic_henon_heiles_orbit() {
         "[[method]]\nkind = \"dth\"\ndtau = 0.05\n",
         "[[method]]\nkind = \"gauss_legendre2\"\ndt = 0.05\n",
     ] {
-        let regular = megno("0.125", 0.3, 0.0, method);
-        let chaotic = megno("0.16666666666666666", 0.0, -0.25, method);
+        let (regular, regular_sali) = megno("0.125", 0.3, 0.0, method);
+        let (chaotic, chaotic_sali) = megno("0.16666666666666666", 0.0, -0.25, method);
         assert!(regular < 2.5, "{method}: regular orbit <Y> = {regular}");
         assert!(chaotic > 8.0, "{method}: chaotic orbit <Y> = {chaotic}");
+        // SALI: the two tangent vectors stay apart on the torus and align on the chaotic
+        // orbit (falling like exp(-(l1 - l2) t): with l1 ~ 0.05 and t = 500, below e^-20).
+        assert!(
+            regular_sali > 1e-2,
+            "{method}: regular orbit SALI = {regular_sali}"
+        );
+        assert!(
+            chaotic_sali < 1e-8,
+            "{method}: chaotic orbit SALI = {chaotic_sali}"
+        );
     }
+}
+
+#[test]
+fn a_regular_orbits_verdict_does_not_depend_on_the_step() {
+    // Inside the main island at E = 1/8 (q2 = 0.3, p2 = 0.05), t = 1000: a torus, <Y> -> 2.
+    // With the tangent step's Hessian taken at each end of the step, coarse steps read
+    // <Y> = 3.8 (DTH, dtau = 0.2) and 6.4 (Gauss-Legendre, dt = 0.1) and called it chaotic. The
+    // step's Cayley map with the Hessian between its ends is symplectic (the tangent map of the
+    // implicit midpoint rule exactly), so the torus's tangent dynamics stays a shear at every
+    // step size: the verdict holds at the shipped step (dtau = 0.1), twice and half of it.
+    for method in [
+        "[[method]]\nkind = \"dth\"\ndtau = 0.2\n",
+        "[[method]]\nkind = \"dth\"\ndtau = 0.1\n",
+        "[[method]]\nkind = \"dth\"\ndtau = 0.05\n",
+        "[[method]]\nkind = \"midpoint\"\ndt = 0.1\n",
+        "[[method]]\nkind = \"midpoint\"\ndt = 0.05\n",
+    ] {
+        let (y, _) = megno_until("0.125", 0.3, 0.05, method, 1000.0);
+        assert!(
+            (1.5..=2.5).contains(&y),
+            "{method}: regular orbit <Y> = {y}"
+        );
+    }
+}
+
+#[test]
+fn a_chaos_map_checks_its_verdicts_at_half_the_step() {
+    // The regular orbit above, t = 1000: Gauss-Legendre at dt = 0.05 reads <Y> = 2.7 (called
+    // not regular) and 2.2 at dt = 0.025 (a fourth-order trajectory under a second-order
+    // tangent step, docs/theory.md): the check must say the verdict changed. DTH at the shipped
+    // dtau = 0.1 reads 2.06 and 1.9 at half: unchanged.
+    let check = |method: &str| {
+        let scene = henon_heiles(
+            "kind = \"list\"\nmembers = \"\"\"\nq2, p2\n0.3, 0.05\n\"\"\"",
+            "0.125",
+            "chaos = \"megno\"",
+            method,
+            1000.0,
+        );
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("out");
+        let report = run(&scene, &out, 1);
+        let check = report.ensemble.unwrap().step_check.unwrap();
+        let summary: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
+        assert_eq!(
+            summary["ensemble"]["step_check"]["changed"].as_u64(),
+            Some(check.changed as u64)
+        );
+        check
+    };
+    let gl = check("[[method]]\nkind = \"gauss_legendre2\"\ndt = 0.05\n");
+    assert_eq!((gl.compared, gl.changed), (1, 1));
+    let dth = check("[[method]]\nkind = \"dth\"\ndtau = 0.1\n");
+    assert_eq!((dth.compared, dth.changed), (1, 0));
 }
 
 #[test]

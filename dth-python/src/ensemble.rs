@@ -1,7 +1,10 @@
-//! `dth.ensemble`: many initial states integrated with one method, members spread over the
-//! cores (rayon), without the GIL and interruptible; each member's result is independent of
-//! the thread count (a member is one `dth::solve` run, computed whole by one thread).
+//! `dth.ensemble`: many initial states (or parameter values) integrated with one method,
+//! members spread over the cores (rayon), without the GIL and interruptible; each member's
+//! result is independent of the thread count (a member is one `dth::solve` run, computed
+//! whole by one thread, its chaos indicators by the scene ensembles' own observer,
+//! `dth_examples::ensemble::chaos::Megno`).
 
+use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
@@ -11,15 +14,20 @@ use pyo3::exceptions::{PyRuntimeError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use rayon::prelude::*;
 
-use dth::nalgebra::{DVector, DefaultAllocator, Dim, OVector, SVector};
-use dth::observer::StepRecord;
-use dth::runtime::{Fixed, RuntimeHamiltonian};
-use dth::{solve, Alloc, Method};
+use dth::nalgebra::{DVector, DefaultAllocator, Dim, OVector};
+use dth::observer::{Observer, StepRecord};
+use dth::runtime::RuntimeHamiltonian;
+use dth::solve::Integrator;
+use dth::{solve, Alloc};
+use dth_examples::ensemble::chaos::{Indicators, Megno};
 
-use crate::args::{self, End};
+use crate::args::{self, Chosen, End};
+use crate::catalogue::Special;
 use crate::hamiltonian::Hamiltonian;
+use crate::sized::{self, Job};
 
-/// The result of `dth.ensemble`, one row per member (in the order of `z0s`).
+/// The result of `dth.ensemble`, one row per member (in the order of `z0s`, or of the
+/// parameter values).
 ///
 /// Attributes:
 ///   final: the last state each member reached, shape (M, D) (DTH: its last midpoint).
@@ -28,6 +36,12 @@ use crate::hamiltonian::Hamiltonian;
 ///   steps: steps taken, shape (M,); fallback_steps: robust-mode fallback steps among them.
 ///   failure: per member, None or what stopped it (its row is then where it stopped).
 ///   failed: the number of members that did not reach their end.
+///   megno: with megno=True (or lyapunov=True), MEGNO's running mean `<Y>` at the end, shape
+///     (M,): about 2 on a regular (quasi-periodic) orbit, growing like lambda t / 2 on a
+///     chaotic one; NaN where no time passed or the variational equations broke down.
+///     None when not asked.
+///   lyapunov: likewise, Benettin's estimate ln|delta(t)| / t of the maximal Lyapunov
+///     exponent, shape (M,).
 #[pyclass(module = "dth", name = "Ensemble", frozen)]
 pub struct Ensemble {
     #[pyo3(get)]
@@ -42,6 +56,10 @@ pub struct Ensemble {
     fallback_steps: Py<PyArray1<usize>>,
     #[pyo3(get)]
     failure: Vec<Option<String>>,
+    #[pyo3(get)]
+    megno: Option<Py<PyArray1<f64>>>,
+    #[pyo3(get)]
+    lyapunov: Option<Py<PyArray1<f64>>>,
 }
 
 #[pymethods]
@@ -73,117 +91,143 @@ struct Member {
     steps: usize,
     fallback_steps: usize,
     failure: Option<String>,
+    /// MEGNO and the Lyapunov estimate, when asked and computed.
+    indicators: Option<Indicators>,
 }
 
 /// What every member shares.
 struct Plan<'a> {
-    method: Method,
-    end: End,
     t0: f64,
     max_steps: Option<usize>,
     flag: &'a AtomicBool,
+    /// Compute MEGNO and the Lyapunov estimate.
+    chaos: bool,
 }
 
-/// Runs one member: the largest energy error over every step, observed as it goes (nothing
-/// but the last state is kept).
-fn member<D: Dim, H: dth::Hamiltonian<D>>(h: &H, z0: OVector<f64, D>, plan: &Plan<'_>) -> Member
-where
-    DefaultAllocator: Alloc<D>,
-{
-    let (method, end, t0, max_steps, flag) =
-        (&plan.method, &plan.end, plan.t0, plan.max_steps, plan.flag);
-    let dim = z0.len();
-    let h0 = h.value(&z0);
-    let mut worst = 0.0f64;
-    let observe = |r: &StepRecord<D>| {
-        worst = worst.max((h.value(&r.z) - h0).abs());
-    };
-    let mut run = solve(h, z0, *method)
-        .start_time(t0)
-        .save_every(usize::MAX)
-        .without_energy_errors()
-        .interrupt(flag)
-        .observe(observe);
-    run = match end {
-        End::Steps(n) => run.steps(*n),
-        End::Time(t) => run.until(*t),
-    };
-    if let Some(n) = max_steps {
-        run = run.max_steps(n);
-    }
-    let (solution, failure) = match run.run() {
-        Ok(s) => (s, None),
-        Err(e) => (e.partial, Some(e.error.to_string())),
-    };
-    let failure = failure.or_else(|| solution.failure.as_ref().map(|e| e.to_string()));
-    let (last, t) = match (solution.z.last(), solution.t.last()) {
-        (Some(z), Some(&t)) => (z.iter().copied().collect(), t),
-        _ => (vec![f64::NAN; dim], f64::NAN),
-    };
-    Member {
-        last,
-        t,
-        energy_error: worst,
-        steps: solution.steps,
-        fallback_steps: solution.fallback_steps,
-        failure,
-    }
+/// One member to run: its initial state, its end and (a parameter grid) its parameters.
+struct Start {
+    z0: DVector<f64>,
+    end: End,
+    params: Vec<(String, f64)>,
 }
 
-/// Every member at `Const<N>` through [`dth::runtime::Fixed`].
-fn fixed<const N: usize>(
-    h: &Arc<RuntimeHamiltonian>,
-    starts: Vec<DVector<f64>>,
-    plan: &Plan<'_>,
-) -> PyResult<Vec<Member>> {
-    let view =
-        Fixed::<N>::new(Arc::clone(h)).map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
-    let starts = starts
-        .iter()
-        .map(|z| SVector::<f64, N>::from_column_slice(z.as_slice()))
-        .collect();
-    all(&view, starts, plan)
+/// One member's run, as a [`Job`]: the largest energy error over every step, observed as it
+/// goes (nothing but the last state is kept), and the chaos indicators when asked.
+struct Run<'a> {
+    start: &'a Start,
+    plan: &'a Plan<'a>,
 }
 
-/// Every member, on the current thread pool.
-fn all<D: Dim, H: dth::Hamiltonian<D> + Sync>(
-    h: &H,
-    starts: Vec<OVector<f64, D>>,
-    plan: &Plan<'_>,
-) -> PyResult<Vec<Member>>
-where
-    DefaultAllocator: Alloc<D>,
-    OVector<f64, D>: Send,
-{
-    Ok(starts
-        .into_par_iter()
-        .map(|z0| {
-            if plan.flag.load(Ordering::Relaxed) {
-                return Member {
-                    last: z0.iter().copied().collect(),
-                    t: plan.t0,
-                    energy_error: 0.0,
-                    steps: 0,
-                    fallback_steps: 0,
-                    failure: Some("interrupted before it started".to_string()),
-                };
+impl Job for Run<'_> {
+    type Output = Member;
+
+    fn run<D, H, I, S>(self, h: &H, method: I, state: S) -> Member
+    where
+        D: Dim,
+        H: dth::Hamiltonian<D> + Sync,
+        I: Integrator<D, H> + Clone + Send + Sync,
+        S: Fn(&DVector<f64>) -> OVector<f64, D> + Sync,
+        DefaultAllocator: Alloc<D>,
+        OVector<f64, D>: Send,
+        dth::Solution<D>: Send,
+    {
+        let plan = self.plan;
+        let z0 = state(&self.start.z0);
+        let dim = z0.len();
+        let h0 = h.value(&z0);
+        let mut worst = 0.0f64;
+        let mut megno = plan.chaos.then(|| Megno::new(h));
+        let observe = |r: &StepRecord<D>| {
+            worst = worst.max((h.value(&r.z) - h0).abs());
+            if let Some(m) = megno.as_mut() {
+                m.on_step(r);
             }
-            member(h, z0, plan)
-        })
-        .collect())
+        };
+        let mut run = solve(h, z0, method)
+            .start_time(plan.t0)
+            .save_every(usize::MAX)
+            .without_energy_errors()
+            .interrupt(plan.flag)
+            .observe(observe);
+        run = self.start.end.apply(run);
+        if let Some(n) = plan.max_steps {
+            run = run.max_steps(n);
+        }
+        let (solution, failure) = match run.run() {
+            Ok(s) => (s, None),
+            Err(e) => (e.partial, Some(e.error.to_string())),
+        };
+        let failure = failure.or_else(|| solution.failure.as_ref().map(|e| e.to_string()));
+        let (last, t) = match (solution.z.last(), solution.t.last()) {
+            (Some(z), Some(&t)) => (z.iter().copied().collect(), t),
+            _ => (vec![f64::NAN; dim], f64::NAN),
+        };
+        Member {
+            last,
+            t,
+            energy_error: worst,
+            steps: solution.steps,
+            fallback_steps: solution.fallback_steps,
+            failure,
+            indicators: megno.as_ref().and_then(Megno::indicators),
+        }
+    }
 }
 
-/// Integrates every row of `z0s` with the same method and returns an `Ensemble` (the final
-/// states, their times, energy errors, steps and failures, one row per member).
+/// A member that did not start: Ctrl-C came first.
+fn not_started(start: &Start, t0: f64) -> Member {
+    Member {
+        last: start.z0.iter().copied().collect(),
+        t: t0,
+        energy_error: 0.0,
+        steps: 0,
+        fallback_steps: 0,
+        failure: Some("interrupted before it started".to_string()),
+        indicators: None,
+    }
+}
+
+/// Runs one member on `h` (with its parameters set) with the method chosen.
+fn member(
+    h: &Arc<RuntimeHamiltonian>,
+    catalogue: Option<&str>,
+    chosen: Chosen,
+    start: &Start,
+    plan: &Plan<'_>,
+) -> PyResult<Member> {
+    if plan.flag.load(Ordering::Relaxed) {
+        return Ok(not_started(start, plan.t0));
+    }
+    let job = Run { start, plan };
+    match chosen {
+        Chosen::Method(method) => sized::dispatch(h, method, job),
+        Chosen::Special(special, dt) => crate::catalogue::dispatch(catalogue, h, special, dt, job),
+    }
+}
+
+/// Integrates every row of `z0s` (or every value of a parameter grid) with the same method
+/// and returns an `Ensemble` (the final states, their times, energy errors, steps, failures
+/// and, when asked, MEGNO and the Lyapunov estimate, one row per member).
 ///
 /// ensemble(h, z0s, method="dth", *, dtau=None, dt=None, order=None, robust=None,
-///          lambda0=None, steps=None, t_end=None, t0=0.0, max_steps=None, threads=None)
+///          lambda0=None, steps=None, t_end=None, orbits=None, t0=0.0, max_steps=None,
+///          threads=None, params=None, megno=False, lyapunov=False)
 ///
 /// Arguments are those of `integrate`, with:
 ///   z0s: the initial states, an (M, D) array (for a time-dependent H also (M, D - 2): the
-///     physical states, each extended with t0 and p_t = -H).
+///     physical states, each extended with t0 and p_t = -H). With `params`, also one state
+///     (D,) that every member starts from.
+///   params: a parameter grid, a dict from parameter names to 1-D arrays of M values each:
+///     member i has the parameters `{name: values[i]}` (the others are h's). One member per
+///     value: for a grid over two parameters, give the pairs, e.g. from
+///     `np.meshgrid(a, b)` raveled. With an (M, D) z0s, member i starts from row i.
+///   orbits: as in `integrate`, from each member's own state and parameters.
 ///   threads: worker threads (default: every core). The results are the same for any
 ///     number: each member is computed whole by one thread.
+///   megno, lyapunov: compute the chaos indicators MEGNO `<Y>` and Benettin's Lyapunov
+///     estimate from the variational equations along each member's run (the scene
+///     ensembles' own observer: the tangent vector carried by the trapezoidal rule from
+///     state to state with the exact Hessian); either one fills both `megno` and `lyapunov`.
 ///
 /// A member that fails does not stop the others: its `failure` says why and its row holds
 /// the last state it reached. Ctrl-C stops the whole ensemble with KeyboardInterrupt.
@@ -193,10 +237,16 @@ where
 /// >>> e = dth.ensemble(h, np.array([[1.0, 0.0], [0.0, 2.0]]), dtau=0.1, t_end=5.0)
 /// >>> e.final.shape, e.failed
 /// ((2, 2), 0)
+/// >>> spring = dth.Hamiltonian("p1^2/2 + k*q1^2/2", params={"k": 1.0})
+/// >>> g = dth.ensemble(spring, [1.0, 0.0], params={"k": np.linspace(1, 4, 4)}, dtau=0.1,
+/// ...                  steps=10)
+/// >>> g.final.shape
+/// (4, 2)
 #[pyfunction]
 #[pyo3(signature = (
     h, z0s, method = "dth", *, dtau = None, dt = None, order = None, robust = None,
-    lambda0 = None, steps = None, t_end = None, t0 = 0.0, max_steps = None, threads = None
+    lambda0 = None, steps = None, t_end = None, orbits = None, t0 = 0.0, max_steps = None,
+    threads = None, params = None, megno = false, lyapunov = false
 ))]
 #[allow(clippy::too_many_arguments)]
 pub fn ensemble(
@@ -211,14 +261,57 @@ pub fn ensemble(
     lambda0: Option<f64>,
     steps: Option<usize>,
     t_end: Option<f64>,
+    orbits: Option<f64>,
     t0: f64,
     max_steps: Option<usize>,
     threads: Option<usize>,
+    params: Option<BTreeMap<String, Vec<f64>>>,
+    megno: bool,
+    lyapunov: bool,
 ) -> PyResult<Ensemble> {
     let dim = h.h.dimension();
-    let method = args::method(method, dtau, dt, order, robust, lambda0)?;
-    let end = args::end(steps, t_end)?;
-    let starts = states(&h, z0s, t0)?;
+    let chosen = args::method(method, dtau, dt, order, robust, lambda0)?;
+    let duration = args::end(steps, t_end, orbits)?;
+    let grid = params.map(|p| grid(&h, p)).transpose()?;
+    let rows = states(&h, z0s, grid.as_ref().map(Vec::len))?;
+    // Each member's start and end, with its own parameters (a grid: a scratch copy of `h`).
+    let source = h.source();
+    let mut scratch = match &grid {
+        Some(_) => Some(source.compile()?),
+        None => None,
+    };
+    let starts = rows
+        .into_iter()
+        .enumerate()
+        .map(|(i, row)| {
+            let params = grid.as_ref().map(|g| g[i].clone()).unwrap_or_default();
+            let runtime: &RuntimeHamiltonian = match scratch.as_mut() {
+                Some(copy) => {
+                    for (name, value) in &params {
+                        copy.set_parameter(name, *value).map_err(|e| {
+                            PyValueError::new_err(format!("params[{name:?}][{i}]: {e}"))
+                        })?;
+                    }
+                    copy
+                }
+                None => &h.h,
+            };
+            let name = format!("z0s[{i}]");
+            let z0 = args::start_from(runtime, row, &name, t0)?;
+            let in_member =
+                |e: PyErr| PyValueError::new_err(format!("member {i}: {}", e.value(py)));
+            let end =
+                args::resolve_end(duration, h.catalogue(), runtime, &z0, t0).map_err(in_member)?;
+            if let Chosen::Special(Special::Exact, _) = chosen {
+                if let Some(reason) =
+                    crate::catalogue::exact_unavailable(h.catalogue(), runtime, &z0)?
+                {
+                    return Err(in_member(PyValueError::new_err(reason)));
+                }
+            }
+            Ok(Start { z0, end, params })
+        })
+        .collect::<PyResult<Vec<Start>>>()?;
     let pool = {
         let mut builder = rayon::ThreadPoolBuilder::new();
         if let Some(n) = threads {
@@ -233,19 +326,42 @@ pub fn ensemble(
     };
     let flag = AtomicBool::new(false);
     let plan = Plan {
-        method,
-        end,
         t0,
         max_steps,
         flag: &flag,
+        chaos: megno || lyapunov,
     };
-    // Small states at a fixed size, as `integrate` and the scene runner run them.
     let shared: &Arc<RuntimeHamiltonian> = &h.h;
+    let catalogue = h.catalogue();
     let members: Vec<Member> = crate::interrupt::run(py, &flag, || {
-        pool.install(|| match dim {
-            2 => fixed::<2>(shared, starts, &plan),
-            4 => fixed::<4>(shared, starts, &plan),
-            _ => all(&**shared, starts, &plan),
+        pool.install(|| match grid {
+            None => starts
+                .par_iter()
+                .map(|start| member(shared, catalogue, chosen, start, &plan))
+                .collect::<PyResult<Vec<Member>>>(),
+            // Each thread its own copy of `h`, its parameters set per member.
+            Some(_) => starts
+                .par_iter()
+                .map_init(
+                    || source.compile().map(Arc::new),
+                    |copy, start| {
+                        let copy = copy
+                            .as_mut()
+                            .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
+                        let runtime = Arc::get_mut(copy).ok_or_else(|| {
+                            PyRuntimeError::new_err(
+                                "internal error: a member's Hamiltonian is shared",
+                            )
+                        })?;
+                        for (name, value) in &start.params {
+                            runtime
+                                .set_parameter(name, *value)
+                                .map_err(|e| PyValueError::new_err(e.to_string()))?;
+                        }
+                        member(copy, catalogue, chosen, start, &plan)
+                    },
+                )
+                .collect::<PyResult<Vec<Member>>>(),
         })
     })??;
     let m = members.len();
@@ -273,18 +389,71 @@ pub fn ensemble(
         energy_error: column(py, &members, |r| r.energy_error),
         steps: column(py, &members, |r| r.steps),
         fallback_steps: column(py, &members, |r| r.fallback_steps),
+        megno: plan
+            .chaos
+            .then(|| column(py, &members, |r| r.indicators.map_or(f64::NAN, |i| i.megno))),
+        lyapunov: plan.chaos.then(|| {
+            column(py, &members, |r| {
+                r.indicators.map_or(f64::NAN, |i| i.lyapunov)
+            })
+        }),
         failure: members.into_iter().map(|r| r.failure).collect(),
     })
 }
 
-/// The rows of `z0s` as initial states.
-fn states(h: &Hamiltonian, z0s: &Bound<'_, PyAny>, t0: f64) -> PyResult<Vec<DVector<f64>>> {
+/// The parameter grid `params`: per member, its (name, value) pairs; every array of the same
+/// length, every name one of `h`'s parameters.
+fn grid(h: &Hamiltonian, params: BTreeMap<String, Vec<f64>>) -> PyResult<Vec<Vec<(String, f64)>>> {
+    let known: Vec<&str> = h.h.parameters().map(|(n, _)| n).collect();
+    if let Some(name) = params.keys().find(|n| !known.contains(&n.as_str())) {
+        return Err(PyValueError::new_err(format!(
+            "params: unknown parameter `{name}`: the Hamiltonian has {}",
+            if known.is_empty() {
+                "no parameters".to_string()
+            } else {
+                known.join(", ")
+            }
+        )));
+    }
+    let mut lengths = params.iter().map(|(n, v)| (n, v.len()));
+    let Some((first, m)) = lengths.next() else {
+        return Err(PyValueError::new_err(
+            "params is empty: give at least one parameter and its values",
+        ));
+    };
+    if let Some((name, len)) = lengths.find(|(_, len)| *len != m) {
+        return Err(PyValueError::new_err(format!(
+            "params: `{name}` has {len} values and `{first}` {m}: one value of each per member"
+        )));
+    }
+    Ok((0..m)
+        .map(|i| params.iter().map(|(n, v)| (n.clone(), v[i])).collect())
+        .collect())
+}
+
+/// The rows of `z0s`: an (M, D) array, or with a grid of `members` also one state for all.
+fn states(
+    h: &Hamiltonian,
+    z0s: &Bound<'_, PyAny>,
+    members: Option<usize>,
+) -> PyResult<Vec<Vec<f64>>> {
     let dim = h.h.dimension();
     let converted = z0s
         .py()
         .import("numpy")?
         .call_method1("asarray", (z0s, "float64"))
         .map_err(|_| PyTypeError::new_err("z0s must be an (M, D) array of floats"))?;
+    if let (Some(m), Ok(row)) = (
+        members,
+        converted.extract::<numpy::PyReadonlyArray1<'_, f64>>(),
+    ) {
+        return Ok(vec![row.as_array().to_vec(); m]);
+    }
+    let one = if members.is_some() {
+        ", or one state (D,) for every member of the grid"
+    } else {
+        ""
+    };
     let array = converted
         .extract::<PyReadonlyArray2<'_, f64>>()
         .map_err(|_| {
@@ -293,11 +462,15 @@ fn states(h: &Hamiltonian, z0s: &Bound<'_, PyAny>, t0: f64) -> PyResult<Vec<DVec
                 .map(|s| s.to_string())
                 .unwrap_or_default();
             PyValueError::new_err(format!(
-                "z0s has shape {shape}, expected (M, {dim}): one initial state per row"
+                "z0s has shape {shape}, expected (M, {dim}): one initial state per row{one}"
             ))
         })?;
+    let rows = array.shape()[0];
+    if let Some(m) = members.filter(|&m| m != rows) {
+        return Err(PyValueError::new_err(format!(
+            "z0s has {rows} rows and params {m} values: one initial state per member, or one (D,) for all"
+        )));
+    }
     let view = array.as_array();
-    (0..array.shape()[0])
-        .map(|i| args::start_from(h, view.row(i).to_vec(), &format!("z0s[{i}]"), t0))
-        .collect()
+    Ok((0..rows).map(|i| view.row(i).to_vec()).collect())
 }

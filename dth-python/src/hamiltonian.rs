@@ -6,7 +6,7 @@ use std::collections::BTreeMap;
 use std::sync::Arc;
 
 use numpy::ndarray::Array2;
-use numpy::{IntoPyArray, PyArray1, PyArray2};
+use numpy::{IntoPyArray, PyArray1};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -15,6 +15,21 @@ use dth::runtime::{Backend, RuntimeHamiltonian};
 
 use crate::errors::hamiltonian_error;
 use crate::state;
+
+/// A Hamiltonian's text and parameters ([`Hamiltonian::source`]).
+pub struct Source {
+    text: String,
+    params: Vec<(String, f64)>,
+}
+
+impl Source {
+    /// A new compiled copy.
+    pub fn compile(&self) -> PyResult<RuntimeHamiltonian> {
+        let params: Vec<(&str, f64)> = self.params.iter().map(|(n, v)| (n.as_str(), *v)).collect();
+        RuntimeHamiltonian::new(&self.text, &params)
+            .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(e.to_string()))
+    }
+}
 
 /// An index array.
 type Indices<'py> = Bound<'py, PyArray1<usize>>;
@@ -41,12 +56,76 @@ pub struct Hamiltonian {
     /// Shared with the fixed-size views (`dth::runtime::Fixed`) a run of small dimension uses.
     pub(crate) h: Arc<RuntimeHamiltonian>,
     text: String,
+    /// The catalogue system this is the text of (`dth.systems`), when it has that system's
+    /// dimension: what `orbits=`, `"exact"` and `"discrete_mechanics"` need
+    /// ([`crate::catalogue`]).
+    catalogue: Option<String>,
 }
 
 impl Hamiltonian {
+    /// The catalogue system this is the text of, if any.
+    pub fn catalogue(&self) -> Option<&str> {
+        self.catalogue.as_deref()
+    }
+
+    /// `text` compiled with `params` (without the GIL: a large lattice takes a while).
+    fn build(py: Python<'_>, text: &str, params: Option<BTreeMap<String, f64>>) -> PyResult<Self> {
+        let params = params.unwrap_or_default();
+        let pairs: Vec<(&str, f64)> = params.iter().map(|(k, v)| (k.as_str(), *v)).collect();
+        let built = py.detach(|| RuntimeHamiltonian::new(text, &pairs));
+        let h = built.map_err(|e| hamiltonian_error(py, text, &e))?;
+        Ok(Hamiltonian {
+            h: Arc::new(h),
+            text: text.to_string(),
+            catalogue: None,
+        })
+    }
+
     /// The state argument `z` as a vector of this Hamiltonian's dimension.
     fn state(&self, z: &Bound<'_, PyAny>) -> PyResult<Vec<f64>> {
         state::read(z, "z", self.h.dimension())
+    }
+
+    /// The Hessian's nonzeros at `z` as `(rows, cols, values)`.
+    fn sparse_hessian<'py>(
+        &self,
+        py: Python<'py>,
+        z: &[f64],
+    ) -> PyResult<Bound<'py, pyo3::types::PyTuple>> {
+        let pattern = self.h.hessian_pattern().ok_or_else(|| {
+            PyValueError::new_err(
+                "sparse=True: this Hamiltonian has no Hessian pattern (hessian_pattern() is \
+                 None: only a lattice written with indexed sums has one); use hessian(z) for \
+                 the dense matrix",
+            )
+        })?;
+        let mut values = vec![0.0; pattern.len()];
+        self.h
+            .hessian_nonzeros_slice(z, &mut values)
+            .map_err(Self::evaluation)?;
+        let rows: Vec<usize> = pattern.iter().map(|&(i, _)| i).collect();
+        let cols: Vec<usize> = pattern.iter().map(|&(_, j)| j).collect();
+        pyo3::types::PyTuple::new(
+            py,
+            [
+                rows.into_pyarray(py).into_any(),
+                cols.into_pyarray(py).into_any(),
+                values.into_pyarray(py).into_any(),
+            ],
+        )
+    }
+
+    /// Its text and current parameters, to compile copies from (one per thread of an
+    /// ensemble whose members have their own parameters).
+    pub fn source(&self) -> Source {
+        Source {
+            text: self.text.clone(),
+            params: self
+                .h
+                .parameters()
+                .map(|(n, v)| (n.to_string(), v))
+                .collect(),
+        }
     }
 
     /// An evaluation error (a non-finite value, a state outside the domain) as `ValueError`.
@@ -60,15 +139,36 @@ impl Hamiltonian {
     #[new]
     #[pyo3(signature = (text, params = None))]
     fn new(py: Python<'_>, text: &str, params: Option<BTreeMap<String, f64>>) -> PyResult<Self> {
-        let params = params.unwrap_or_default();
-        let pairs: Vec<(&str, f64)> = params.iter().map(|(k, v)| (k.as_str(), *v)).collect();
-        // Compiling a large lattice takes a while: without the GIL.
-        let built = py.detach(|| RuntimeHamiltonian::new(text, &pairs));
-        let h = built.map_err(|e| hamiltonian_error(py, text, &e))?;
-        Ok(Hamiltonian {
-            h: Arc::new(h),
-            text: text.to_string(),
-        })
+        Self::build(py, text, params)
+    }
+
+    /// `text` as the twin of the catalogue system `system` (what `dth.systems` builds): it
+    /// then has that system's period, exact solution and central force, when the text has the
+    /// system's dimension (a lattice or an N-body text of another size is a plain text).
+    /// `dth.systems`' tests hold each text to its system, to the bit.
+    #[staticmethod]
+    #[pyo3(name = "_catalogue_twin", signature = (system, text, params = None))]
+    fn catalogue_twin(
+        py: Python<'_>,
+        system: &str,
+        text: &str,
+        params: Option<BTreeMap<String, f64>>,
+    ) -> PyResult<Self> {
+        let mut h = Self::build(py, text, params)?;
+        let dim = crate::catalogue::dimension(system)
+            .ok_or_else(|| PyValueError::new_err(format!("no catalogue system `{system}`")))?;
+        if h.h.dimension() == dim {
+            h.catalogue = Some(system.to_string());
+        }
+        Ok(h)
+    }
+
+    /// The catalogue system this is the text of (`dth.systems`), or None: a text of that
+    /// system's size, for which `orbits=`, `"exact"` and `"discrete_mechanics"` use the
+    /// system's period, exact solution and central force.
+    #[getter]
+    fn system(&self) -> Option<&str> {
+        self.catalogue()
     }
 
     /// The dimension D = 2n of the state z = (q1..qn, p1..pn).
@@ -152,21 +252,30 @@ impl Hamiltonian {
         Ok(g.into_pyarray(py))
     }
 
-    /// The Hessian d2H/dz2 at z, a dense array of shape (D, D) (see `hessian_pattern` for its
-    /// nonzeros).
+    /// The Hessian d2H/dz2 at z: a dense array of shape (D, D), or with `sparse=True` its
+    /// structural nonzeros as `(rows, cols, values)`, three arrays over the upper triangle and
+    /// diagonal (i <= j) in the order of `hessian_pattern()` (the engine's own sparse
+    /// evaluation, without the dense matrix: what a lattice of thousands of sites wants).
+    /// `sparse=True` on a Hamiltonian without a pattern (a small system, treated as dense)
+    /// raises ValueError.
+    #[pyo3(signature = (z, sparse = false))]
     fn hessian<'py>(
         &self,
         py: Python<'py>,
         z: &Bound<'py, PyAny>,
-    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        sparse: bool,
+    ) -> PyResult<Bound<'py, PyAny>> {
         let z = self.state(z)?;
+        if sparse {
+            return self.sparse_hessian(py, &z).map(|t| t.into_any());
+        }
         let d = z.len();
         let mut m = vec![0.0; d * d];
         self.h.hessian_slice(&z, &mut m).map_err(Self::evaluation)?;
         // Symmetric, so the storage order does not matter.
         let array =
             Array2::from_shape_vec((d, d), m).map_err(|e| PyValueError::new_err(e.to_string()))?;
-        Ok(array.into_pyarray(py))
+        Ok(array.into_pyarray(py).into_any())
     }
 
     /// The Hessian's structural nonzeros as `(rows, cols)`, two int arrays over the upper

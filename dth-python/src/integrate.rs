@@ -2,23 +2,24 @@
 //! and interruptible by Ctrl-C, and returns a [`Solution`].
 
 use std::sync::atomic::AtomicBool;
-use std::sync::Arc;
 
-use pyo3::exceptions::{PyRuntimeError, PyTypeError, PyValueError};
+use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 
-use dth::nalgebra::{DVector, DefaultAllocator, Dim, OVector, SVector};
-use dth::runtime::Fixed;
-use dth::{solve, Alloc, Method};
+use dth::nalgebra::{DVector, DefaultAllocator, Dim, OVector};
+use dth::solve::Integrator;
+use dth::{solve, Alloc};
 
-use crate::args::{self, start, End};
+use crate::args::{self, start, Chosen, End};
+use crate::catalogue::Special;
 use crate::errors::IntegrationError;
 use crate::hamiltonian::Hamiltonian;
+use crate::sized::{self, Job};
 use crate::solution::Solution;
 
 /// What a run is asked to do, read from the keyword arguments.
 struct Request {
-    method: Method,
+    /// A number of steps or a time (a number of orbits is resolved to its time).
     end: End,
     t0: f64,
     every: usize,
@@ -32,8 +33,8 @@ struct Request {
 /// and for DTH its vertices, multipliers and Psi).
 ///
 /// integrate(h, z0, method="dth", *, dtau=None, dt=None, order=None, robust=None,
-///           lambda0=None, steps=None, t_end=None, t0=0.0, every=None, save_at=None,
-///           max_steps=None, energy_errors=True, raise_on_failure=False)
+///           lambda0=None, steps=None, t_end=None, orbits=None, t0=0.0, every=None,
+///           save_at=None, max_steps=None, energy_errors=True, raise_on_failure=False)
 ///
 /// Arguments:
 ///   h: a `dth.Hamiltonian`.
@@ -43,7 +44,12 @@ struct Request {
 ///     the physical (q, p), extended with t0 and p_t = -H(q, p, t0), or the whole z.
 ///   method: "dth" (Discrete-Time Hamiltonian dynamics) or a fixed-step peer:
 ///     "midpoint", "gauss_legendre2", "stormer_verlet" (separable H only), "rk4",
-///     "trapezoidal", "discrete_gradient" (Gonzalez's, energy-conserving).
+///     "trapezoidal", "discrete_gradient" (Gonzalez's, energy-conserving),
+///     "discrete_mechanics" (Greenspan's, energy- and angular-momentum-conserving, for the
+///     central forces dth.systems.kepler and dth.systems.free_particle), "exact" (the
+///     exact solution sampled every dt: dth.systems.kepler on an elliptic orbit,
+///     dth.systems.free_particle). The last two run on the catalogue's compiled system of
+///     which the Hamiltonian is the text; another Hamiltonian raises ValueError.
 ///   dtau: DTH's step in the discrete time tau (the physical step is lambda * dtau).
 ///   dt: a peer's physical step.
 ///   order: DTH's order, 2 (default), 4, 6 or 8 (a composition of DTH steps).
@@ -51,7 +57,11 @@ struct Request {
 ///     energy-conserving discrete-gradient step instead (counted in `fallback_steps`).
 ///   lambda0: DTH's first guess of lambda = dt/dtau (default 1).
 ///   steps: run this many steps; or
-///   t_end: run until this physical time, ending exactly on it (a shortened last step).
+///   t_end: run until this physical time, ending exactly on it (a shortened last step); or
+///   orbits: run for this many orbit periods of z0, that is until t0 + orbits * period, as
+///     a scene's `orbits` duration (dth.systems.kepler on a bound orbit and
+///     dth.systems.harmonic_oscillator know their period; another Hamiltonian raises
+///     ValueError: give t_end or steps).
 ///   t0: the initial time (default 0).
 ///   every: save every `every`-th state (default 1; the last one is always saved).
 ///   save_at: ascending times to land on exactly; only the states there and at t_end are
@@ -73,8 +83,8 @@ struct Request {
 #[pyfunction]
 #[pyo3(signature = (
     h, z0, method = "dth", *, dtau = None, dt = None, order = None, robust = None,
-    lambda0 = None, steps = None, t_end = None, t0 = 0.0, every = None, save_at = None,
-    max_steps = None, energy_errors = true, raise_on_failure = false
+    lambda0 = None, steps = None, t_end = None, orbits = None, t0 = 0.0, every = None,
+    save_at = None, max_steps = None, energy_errors = true, raise_on_failure = false
 ))]
 #[allow(clippy::too_many_arguments)]
 pub fn integrate(
@@ -89,6 +99,7 @@ pub fn integrate(
     lambda0: Option<f64>,
     steps: Option<usize>,
     t_end: Option<f64>,
+    orbits: Option<f64>,
     t0: f64,
     every: Option<usize>,
     save_at: Option<Vec<f64>>,
@@ -96,15 +107,17 @@ pub fn integrate(
     energy_errors: bool,
     raise_on_failure: bool,
 ) -> PyResult<Solution> {
-    let dim = h.h.dimension();
-    let z0 = start(&h, z0, "z0", t0)?;
-    let method = args::method(method, dtau, dt, order, robust, lambda0)?;
-    let end = args::end(steps, t_end)?;
+    let z0 = start(&h.h, z0, "z0", t0)?;
+    let chosen = args::method(method, dtau, dt, order, robust, lambda0)?;
+    let end = args::end(steps, t_end, orbits)?;
+    let end = args::resolve_end(end, h.catalogue(), &h.h, &z0, t0)?;
     if every == Some(0) {
         return Err(PyValueError::new_err("every must be at least 1"));
     }
     if save_at.is_some() && !matches!(end, End::Time(_)) {
-        return Err(PyTypeError::new_err("save_at=... needs t_end=..."));
+        return Err(PyTypeError::new_err(
+            "save_at=... needs t_end=... (or orbits=...): a run to a number of steps lands on no time",
+        ));
     }
     if save_at.is_some() && every.is_some() {
         return Err(PyTypeError::new_err(
@@ -113,7 +126,6 @@ pub fn integrate(
     }
     let every = every.unwrap_or(1);
     let request = Request {
-        method,
         end,
         t0,
         every,
@@ -121,42 +133,64 @@ pub fn integrate(
         max_steps,
         energy_errors,
     };
-    // Small states at a fixed size (stack vectors, fixed-size LU), as the scene runner
-    // does; the same compiled code, so the same derivatives.
-    match dim {
-        2 => fixed::<2>(py, &h, &z0, &request, raise_on_failure),
-        4 => fixed::<4>(py, &h, &z0, &request, raise_on_failure),
-        _ => {
-            let result = drive(py, &*h.h, z0, &request)?;
-            finish(py, result, dim, raise_on_failure)
+    let job = Run {
+        py,
+        z0: &z0,
+        request: &request,
+        raise_on_failure,
+    };
+    match chosen {
+        Chosen::Method(method) => sized::dispatch(&h.h, method, job)?,
+        Chosen::Special(special, dt) => {
+            if special == Special::Exact {
+                if let Some(reason) = crate::catalogue::exact_unavailable(h.catalogue(), &h.h, &z0)?
+                {
+                    return Err(PyValueError::new_err(reason));
+                }
+            }
+            crate::catalogue::dispatch(h.catalogue(), &h.h, special, dt, job)?
         }
     }
 }
 
-/// The run at `Const<N>` through [`dth::runtime::Fixed`].
-fn fixed<const N: usize>(
-    py: Python<'_>,
-    h: &Hamiltonian,
-    z0: &DVector<f64>,
-    request: &Request,
+/// One run, as a [`Job`]: at the size the dispatch picks.
+struct Run<'a, 'py> {
+    py: Python<'py>,
+    z0: &'a DVector<f64>,
+    request: &'a Request,
     raise_on_failure: bool,
-) -> PyResult<Solution> {
-    let view =
-        Fixed::<N>::new(Arc::clone(&h.h)).map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
-    let z0 = SVector::<f64, N>::from_column_slice(z0.as_slice());
-    let result = drive(py, &view, z0, request)?;
-    finish(py, result, N, raise_on_failure)
+}
+
+impl Job for Run<'_, '_> {
+    type Output = PyResult<Solution>;
+
+    fn run<D, H, I, S>(self, h: &H, method: I, state: S) -> Self::Output
+    where
+        D: Dim,
+        H: dth::Hamiltonian<D> + Sync,
+        I: Integrator<D, H> + Clone + Send + Sync,
+        S: Fn(&DVector<f64>) -> OVector<f64, D> + Sync,
+        DefaultAllocator: Alloc<D>,
+        OVector<f64, D>: Send,
+        dth::Solution<D>: Send,
+    {
+        let dim = self.z0.len();
+        let result = drive(self.py, h, state(self.z0), method, self.request)?;
+        finish(self.py, result, dim, self.raise_on_failure)
+    }
 }
 
 /// What [`drive`] returns: the solution, or the error with the partial one (boxed: it is
 /// large and crosses a thread).
 type Outcome<D> = Result<dth::Solution<D>, Box<dth::RunError<dth::Solution<D>>>>;
 
-/// Runs `request` on `h` from `z0` on a worker thread, without the GIL, interruptible.
-fn drive<D: Dim, H: dth::Hamiltonian<D> + Sync>(
+/// Runs `request` with `method` on `h` from `z0` on a worker thread, without the GIL,
+/// interruptible.
+fn drive<D: Dim, H: dth::Hamiltonian<D> + Sync, I: Integrator<D, H> + Send>(
     py: Python<'_>,
     h: &H,
     z0: OVector<f64, D>,
+    method: I,
     request: &Request,
 ) -> PyResult<Outcome<D>>
 where
@@ -166,13 +200,8 @@ where
 {
     let flag = AtomicBool::new(false);
     crate::interrupt::run(py, &flag, || {
-        let mut run = solve(h, z0, request.method)
-            .start_time(request.t0)
-            .interrupt(&flag);
-        run = match request.end {
-            End::Steps(n) => run.steps(n),
-            End::Time(t) => run.until(t),
-        };
+        let mut run = solve(h, z0, method).start_time(request.t0).interrupt(&flag);
+        run = request.end.apply(run);
         run = match &request.save_at {
             Some(times) => run.save_at(times.iter().copied()),
             None => run.save_every(request.every),

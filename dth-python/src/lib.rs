@@ -10,12 +10,14 @@
 use pyo3::prelude::*;
 
 pub mod args;
+pub mod catalogue;
 pub mod ensemble;
 pub mod errors;
 pub mod hamiltonian;
 pub mod integrate;
 pub mod interrupt;
 pub mod scene;
+pub mod sized;
 pub mod solution;
 pub mod state;
 
@@ -39,6 +41,8 @@ fn _dth(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(integrate::integrate, m)?)?;
     m.add_function(wrap_pyfunction!(ensemble::ensemble, m)?)?;
     m.add_function(wrap_pyfunction!(scene::run_scene_into, m)?)?;
+    m.add_function(wrap_pyfunction!(catalogue::builtin, m)?)?;
+    m.add_function(wrap_pyfunction!(catalogue::evaluate, m)?)?;
     m.add("METHODS", args::METHODS.to_vec())?;
     Ok(())
 }

@@ -23,8 +23,10 @@ create_exception!(
 );
 
 /// Runs scene `text` (named `file` in messages) into the folder `out`; returns whether every
-/// method completed. A method that failed mid-run is not an exception: its outputs are
-/// written and `summary.json` says what stopped it.
+/// method completed and the folder written: `out`, or beside it (`out.incomplete`) when an
+/// incomplete run would have replaced a complete earlier result there. A method that failed
+/// mid-run is not an exception: its outputs are written and `summary.json` says what stopped
+/// it.
 #[pyfunction]
 #[pyo3(signature = (text, file, out, threads = None))]
 pub fn run_scene_into(
@@ -33,7 +35,7 @@ pub fn run_scene_into(
     file: &str,
     out: PathBuf,
     threads: Option<usize>,
-) -> PyResult<bool> {
+) -> PyResult<(bool, PathBuf)> {
     // The scene runner takes a flag that lives as long as the program (`RunOptions` holds a
     // `&'static AtomicBool`): one byte per call, never freed.
     let interrupt: &'static AtomicBool = Box::leak(Box::new(AtomicBool::new(false)));
@@ -50,10 +52,10 @@ pub fn run_scene_into(
         dth_examples::run_scene(text, file, &Catalogue::builtin(), &out, &options).map_err(Box::new)
     })?;
     match result {
-        Ok(_) => Ok(true),
+        Ok(report) => Ok((true, report.out)),
         Err(e) => match *e {
             RunError::NotRun(error) => Err(SceneError::new_err(error_chain(&error))),
-            RunError::MethodsFailed { .. } => Ok(false),
+            RunError::MethodsFailed { report } => Ok((false, report.out)),
             RunError::Interrupted { .. } => {
                 Err(PyRuntimeError::new_err("the scene run was interrupted"))
             }

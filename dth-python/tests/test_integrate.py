@@ -4,16 +4,133 @@ import numpy as np
 import pytest
 
 import dth
-from conftest import EPS
+from conftest import EPS, kepler_scene_trajectory
 
 # Pericentre 0.5 with e = 0.9 (m = 1/2, k = 1): p = m v, v^2 = (k/m)(1 + e)/r.
 E09 = np.array([0.5, 0.0, 0.0, 0.5 * np.sqrt(2 * 1.9 / 0.5)])
 
 PEERS = ["midpoint", "gauss_legendre2", "stormer_verlet", "rk4", "trapezoidal", "discrete_gradient"]
+# The methods that run on the catalogue system of a dth.systems Hamiltonian.
+CATALOGUE_METHODS = ["discrete_mechanics", "exact"]
 
 
 def test_methods_lists_every_method():
-    assert set(dth.METHODS) == {"dth", *PEERS}
+    assert set(dth.METHODS) == {"dth", *PEERS, *CATALOGUE_METHODS}
+
+
+def kepler_period(z0, m=0.5, k=1.0):
+    """2 pi sqrt(m a^3 / k), a = -k / (2 H)."""
+    energy = (z0[2] ** 2 + z0[3] ** 2) / (2 * m) - k / np.hypot(z0[0], z0[1])
+    a = -k / (2 * energy)
+    return 2 * np.pi * np.sqrt(m * a**3 / k)
+
+
+def test_orbits_ends_after_that_many_periods(kepler, thesis_z0):
+    s = dth.integrate(kepler, thesis_z0, dtau=0.06, orbits=2.5, t0=1.0)
+    expected = 1.0 + 2.5 * kepler_period(thesis_z0)
+    # The period is a handful of operations on numbers of order one: a few eps.
+    assert abs(s.t[-1] - expected) <= 8 * EPS * expected
+    assert s.kinds[-1] == "shortened"
+    spring = dth.systems.harmonic_oscillator(m=2.0, k=0.5)
+    s = dth.integrate(spring, [1.0, 0.0], "midpoint", dt=0.1, orbits=3)
+    assert abs(s.t[-1] - 3 * 2 * np.pi * np.sqrt(2.0 / 0.5)) <= 8 * EPS * s.t[-1]
+
+
+def test_orbits_is_the_dth_commands_duration_to_the_bit():
+    # The scene runs the catalogue's Kepler for 1 orbit, which the `dth` command turns into
+    # a time from the system's period; Python's orbits=1 is the same time, so the same run.
+    t, z = kepler_scene_trajectory("orbits = 1")
+    s = dth.integrate(dth.systems.kepler(), [0.5, 0.0, 0.0, 1.2], dtau=0.06277, orbits=1)
+    assert np.array_equal(t, s.t) and np.array_equal(z, s.z)
+
+
+@pytest.mark.parametrize(
+    "h, z0, pattern",
+    [
+        (dth.systems.henon_heiles(), [0.0, 0.1, 0.3, 0.0], "dth.systems.henon_heiles has none"),
+        (dth.Hamiltonian("p1^2/2 + q1^2/2"), [1.0, 0.0], "built from text has none"),
+        (dth.systems.kepler(), [0.5, 0.0, 0.0, 3.0], "no orbit period .*unbound"),
+    ],
+)
+def test_orbits_without_a_period_says_what_to_give_instead(h, z0, pattern):
+    with pytest.raises(ValueError, match=pattern) as info:
+        dth.integrate(h, z0, dtau=0.1, orbits=1)
+    assert "give t_end=... (a time) or steps=... instead" in str(info.value)
+
+
+def test_orbits_is_one_duration_among_three(kepler, thesis_z0):
+    with pytest.raises(TypeError, match="exactly one of steps=.*orbits="):
+        dth.integrate(kepler, thesis_z0, dtau=0.1, orbits=1, t_end=2.0)
+    with pytest.raises(ValueError, match="orbits must be a finite number"):
+        dth.integrate(kepler, thesis_z0, dtau=0.1, orbits=-1)
+
+
+def test_exact_samples_keplers_solution(kepler, thesis_z0):
+    period = kepler_period(thesis_z0)
+    s = dth.integrate(kepler, thesis_z0, "exact", dt=period / 40, orbits=3)
+    assert s.method == "exact" and s.kinds[1:] == ["fixed"] * (len(s) - 1)
+    assert np.allclose(s.t, np.arange(len(s)) * period / 40, rtol=0, atol=8 * EPS * s.t[-1])
+    # After whole orbits the state is the initial one: Kepler's equation solved to roundoff
+    # (a few eps of the mean anomaly 6 pi, times the size of the state's derivatives ~ 3).
+    assert np.max(np.abs(s.z[-1] - thesis_z0)) <= 256 * EPS * 6 * np.pi
+    # Energy and angular momentum along the way, to roundoff.
+    assert np.max(np.abs(s.energy_error)) <= 16 * EPS * 2
+    angular = s.z[:, 0] * s.z[:, 3] - s.z[:, 1] * s.z[:, 2]
+    assert np.max(np.abs(angular - 0.6)) <= 256 * EPS
+
+
+def test_exact_is_the_scene_runners_exact_to_the_bit(kepler, thesis_z0):
+    # Both sample Kepler's solution from z0 at t = k dt and land on the end time.
+    t, z = kepler_scene_trajectory("time = 3.05", 'kind = "exact"\ndt = 0.1')
+    s = dth.integrate(kepler, thesis_z0, "exact", dt=0.1, t_end=3.05)
+    assert s.t[-1] == 3.05
+    assert np.array_equal(t, s.t) and np.array_equal(z, s.z)
+
+
+def test_exact_agrees_with_gauss_legendre_to_its_error(kepler, thesis_z0):
+    exact = dth.integrate(kepler, thesis_z0, "exact", dt=0.5, t_end=2.0)
+    gl = dth.integrate(kepler, thesis_z0, "gauss_legendre2", dt=1e-3, t_end=2.0)
+    # Fourth order: C dt^4 with C ~ 10 here.
+    assert np.max(np.abs(exact.z[-1] - gl.z[-1])) < 1e-10
+
+
+def test_the_free_particles_exact_solution_is_straight_lines():
+    h = dth.systems.free_particle(m=2.0)
+    s = dth.integrate(h, [1.0, -1.0, 0.5, 0.25], "exact", dt=0.1, steps=10)
+    assert np.allclose(s.z[-1], [1.0 + 0.5 * 1.0 / 2.0, -1.0 + 0.25 / 2.0, 0.5, 0.25], rtol=0, atol=4 * EPS)
+
+
+def test_discrete_mechanics_conserves_energy_and_angular_momentum(kepler, thesis_z0):
+    s = dth.integrate(kepler, thesis_z0, "discrete_mechanics", dt=0.05, orbits=5)
+    assert s.method == "discrete_mechanics" and s.completed
+    assert np.max(np.abs(s.energy_error)) <= 16 * EPS * 2
+    angular = s.z[:, 0] * s.z[:, 3] - s.z[:, 1] * s.z[:, 2]
+    assert np.max(np.abs(angular - 0.6)) <= 64 * EPS
+
+
+def test_discrete_mechanics_is_second_order_against_the_exact_solution(kepler, thesis_z0):
+    errors = []
+    for dt in (0.02, 0.01):
+        dm = dth.integrate(kepler, thesis_z0, "discrete_mechanics", dt=dt, t_end=2.0)
+        exact = dth.integrate(kepler, thesis_z0, "exact", dt=dt, t_end=2.0)
+        errors.append(np.max(np.abs(dm.z[-1] - exact.z[-1])))
+    assert 3.5 < errors[0] / errors[1] < 4.5
+
+
+@pytest.mark.parametrize("method", CATALOGUE_METHODS)
+def test_the_catalogue_methods_name_the_method_and_the_system(method):
+    with pytest.raises(ValueError, match=f'method="{method}".*dth.systems.henon_heiles has none'):
+        dth.integrate(dth.systems.henon_heiles(), [0.0, 0.1, 0.3, 0.0], method, dt=0.1, steps=1)
+    with pytest.raises(ValueError, match=f'method="{method}".*built from text has none'):
+        dth.integrate(dth.Hamiltonian("p1^2/2 + p2^2/2 - (q1^2 + q2^2)^(-1/2)"), [0.5, 0.0, 0.0, 1.2],
+                      method, dt=0.1, steps=1)
+    with pytest.raises(TypeError, match=f'dtau is an option of method="dth"; method="{method}" takes dt'):
+        dth.integrate(dth.systems.kepler(), [0.5, 0.0, 0.0, 1.2], method, dtau=0.1, steps=1)
+
+
+def test_exact_needs_an_elliptic_kepler_orbit(kepler):
+    with pytest.raises(ValueError, match='method="exact": .*elliptic orbits only'):
+        dth.integrate(kepler, [0.5, 0.0, 0.0, 3.0], "exact", dt=0.1, steps=1)
 
 
 def test_dth_keeps_the_energy_at_every_midpoint(kepler, thesis_z0):

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 import dth
+from conftest import kepler_scene_trajectory
 
 SCENES = Path(__file__).resolve().parents[2] / "dth-examples" / "scenes"
 
@@ -29,6 +30,37 @@ def test_the_output_folder_is_written_when_asked(tmp_path):
     run = dth.run_scene(SCENES / "pendulum.toml", out)
     assert run.out == out
     assert (out / "summary.json").is_file() and (out / "index.html").is_file()
+
+
+KEPLER_E09 = """
+title = "kepler e = 0.9"
+[system]
+name = "kepler"
+[initial]
+q = [0.5, 0.0]
+p = [0.0, 1.3784048752090221]
+[[method]]
+kind = "dth"
+dtau = 0.01
+{robust}
+[duration]
+time = 2.0
+"""
+
+
+def test_an_incomplete_rerun_goes_beside_a_complete_result(tmp_path):
+    # Plain DTH breaks down near pericentre at e = 0.9 (Psi changes sign); robust DTH
+    # completes. The failing rerun must not replace the complete result, and what
+    # run_scene returns is the folder it wrote.
+    out = tmp_path / "kepler"
+    complete = dth.run_scene(KEPLER_E09.format(robust="robust = true"), out)
+    assert complete.completed and complete.out == out
+    before = (out / "summary.json").read_bytes()
+    failed = dth.run_scene(KEPLER_E09.format(robust=""), out)
+    assert not failed.completed
+    assert failed.out is not None and failed.out != out and failed.out.is_dir()
+    assert failed.summary["methods"][0]["failure"] is not None
+    assert (out / "summary.json").read_bytes() == before
 
 
 def test_a_bad_scene_is_a_scene_error_with_its_position():
@@ -70,9 +102,16 @@ def test_the_extensions_docstring_examples_run():
 def test_help_shows_complete_docstrings():
     doc = dth.integrate.__doc__
     assert doc is not None
-    for argument in ("dtau", "dt", "order", "robust", "steps", "t_end", "every", "save_at",
-                     "raise_on_failure"):
+    for argument in ("dtau", "dt", "order", "robust", "steps", "t_end", "orbits", "every",
+                     "save_at", "raise_on_failure"):
         assert f"{argument}:" in doc
+    for method in dth.METHODS:
+        assert f'"{method}"' in doc
+    doc = dth.ensemble.__doc__
+    assert doc is not None
+    for argument in ("z0s", "params", "orbits", "threads", "megno, lyapunov"):
+        assert f"{argument}:" in doc
+    assert "sparse=True" in (dth.Hamiltonian.hessian.__doc__ or "")
     assert dth.Hamiltonian.__doc__ and "HamiltonianError" in dth.Hamiltonian.__doc__
 
 
@@ -81,27 +120,7 @@ def test_a_text_kepler_matches_the_built_in_to_the_bit():
     # Python integrates the same text compiled at run time, viewed at Const<4> as well. The
     # JIT performs the macro's operations in its order and the stepper's linear algebra is
     # the same, so every DTH midpoint is the same to the last bit (the CSV keeps every digit).
-    scene = """
-[system]
-name = "kepler"
-params = { m = 0.5, k = 1.0 }
-[initial]
-q = [0.5, 0.0]
-p = [0.0, 1.2]
-[[method]]
-kind = "dth"
-dtau = 0.06277
-[duration]
-steps = 300
-[[effect]]
-kind = "trajectory"
-"""
-    run = dth.run_scene(scene)
-    (name,) = [n for n in run.arrays if "trajectory" in n]
-    table = run.arrays[name]
-    columns = ["q1", "q2", "p1", "p2"]
-    assert all(c in table for c in columns), list(table)
-    built_in = np.column_stack([table[c] for c in columns])
+    _, built_in = kepler_scene_trajectory("steps = 300")
     s = dth.integrate(dth.systems.kepler(), [0.5, 0.0, 0.0, 1.2], dtau=0.06277, steps=300)
     assert built_in.shape == s.z.shape
     assert np.array_equal(built_in, s.z)

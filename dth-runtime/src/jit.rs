@@ -641,6 +641,26 @@ impl Emitter<'_> {
         });
     }
 
+    /// The operations of a loop-free summand program `p` in order, its inputs from
+    /// `input(b, second, k)` (local coordinate `k` of `z`, or of `z1` when `second`); returns
+    /// the value of every slot.
+    fn straight(
+        &mut self,
+        b: &mut FunctionBuilder,
+        refs: &mut HashMap<&'static str, FuncRef>,
+        p: &Program,
+        params: Value,
+        input: &mut dyn FnMut(&mut FunctionBuilder, bool, usize) -> Value,
+    ) -> Vec<Value> {
+        let mut vals: Vec<Value> = Vec::with_capacity(p.ops.len());
+        for &op in &p.ops {
+            let mut get = |_: &mut FunctionBuilder, s: Slot| vals[s as usize];
+            let v = self.op(b, refs, op, params, &mut get, input);
+            vals.push(v);
+        }
+        vals
+    }
+
     /// One tuple `at = [i, j]` of a nested sum: the local coordinates loaded at their affine
     /// indices, the summand's program, its outputs added.
     fn tuple(
@@ -671,20 +691,20 @@ impl Emitter<'_> {
             b.ins().iadd(base, bytes)
         };
         let p = &plan.program;
-        let mut vals: Vec<Value> = Vec::with_capacity(p.ops.len());
-        for &op in &p.ops {
-            let mut get = |_: &mut FunctionBuilder, s: Slot| vals[s as usize];
-            let mut input = |b: &mut FunctionBuilder, second: bool, k: usize| match plan.loads[k] {
+        let vals = self.straight(
+            b,
+            refs,
+            p,
+            params,
+            &mut |b, second, k| match plan.loads[k] {
                 TupleLoad::Z(a) => {
                     let k = index(b, &a);
                     let at = address(b, if second { z1 } else { z }, k);
                     b.ins().load(types::F64, flags, at, 0)
                 }
                 TupleLoad::Const(v) => b.ins().f64const(v),
-            };
-            let v = self.op(b, refs, op, params, &mut get, &mut input);
-            vals.push(v);
-        }
+            },
+        );
         for s in &plan.stores {
             let e = output(b, p, &vals, s.source);
             let k = match s.target {
@@ -709,9 +729,7 @@ impl Emitter<'_> {
                 }
             };
             let at = address(b, out, k);
-            let old = b.ins().load(types::F64, flags, at, 0);
-            let sum = b.ins().fadd(old, e);
-            b.ins().store(flags, sum, at, 0);
+            add_to(b, at, 0, e);
         }
     }
 
@@ -731,19 +749,19 @@ impl Emitter<'_> {
         let flags = MemFlagsData::trusted();
         let [z, z1, out] = bases(b);
         let offset = |k: i64| (8 * k) as i32;
-        let mut vals: Vec<Value> = Vec::with_capacity(p.ops.len());
-        for &op in &p.ops {
-            let mut get = |_: &mut FunctionBuilder, s: Slot| vals[s as usize];
-            let mut input = |b: &mut FunctionBuilder, second: bool, k: usize| match plan.loads[k] {
+        let vals = self.straight(
+            b,
+            refs,
+            p,
+            params,
+            &mut |b, second, k| match plan.loads[k] {
                 Load::Z(at) => {
                     let base = if second { z1 } else { z };
                     b.ins().load(types::F64, flags, base, offset(at))
                 }
                 Load::Const(v) => b.ins().f64const(v),
-            };
-            let v = self.op(b, refs, op, params, &mut get, &mut input);
-            vals.push(v);
-        }
+            },
+        );
         for s in &plan.stores {
             let e = output(b, p, &vals, s.source);
             let e = if s.twice {
@@ -754,11 +772,7 @@ impl Emitter<'_> {
             };
             match s.target {
                 Target::Acc => accumulate(b, acc, e),
-                Target::Out(k) => {
-                    let old = b.ins().load(types::F64, flags, out, offset(k));
-                    let sum = b.ins().fadd(old, e);
-                    b.ins().store(flags, sum, out, offset(k));
-                }
+                Target::Out(k) => add_to(b, out, offset(k), e),
             }
         }
     }
@@ -813,6 +827,14 @@ fn output(b: &mut FunctionBuilder, p: &Program, vals: &[Value], source: Option<O
         Some(&(_, slot)) => vals[slot as usize],
         None => b.ins().f64const(0.0),
     }
+}
+
+/// `e` added to the `f64` at `base + offset` in memory.
+fn add_to(b: &mut FunctionBuilder, base: Value, offset: i32, e: Value) {
+    let flags = MemFlagsData::trusted();
+    let old = b.ins().load(types::F64, flags, base, offset);
+    let sum = b.ins().fadd(old, e);
+    b.ins().store(flags, sum, base, offset);
 }
 
 /// `acc += e`.

@@ -42,6 +42,8 @@ pub struct MemberRun {
     pub megno: Option<f64>,
     /// Benettin's maximal Lyapunov exponent estimate (beside MEGNO).
     pub lyapunov: Option<f64>,
+    /// The smaller alignment index SALI (beside MEGNO).
+    pub sali: Option<f64>,
     /// The crossings of each `poincare` effect of the scene, in scene order.
     pub crossings: Vec<Crossings>,
 }
@@ -152,6 +154,7 @@ where
         failure,
         megno: indicators.map(|i| i.megno),
         lyapunov: indicators.map(|i| i.lyapunov),
+        sali: indicators.map(|i| i.sali),
         crossings,
     })
 }
@@ -261,6 +264,7 @@ where
                 }),
                 megno: None,
                 lyapunov: None,
+                sali: None,
                 crossings: vec![Vec::new(); sections(scene)],
             },
             None => run_one(&system, scene, members.chaos, m, z0.clone(), stop)?,

@@ -6,6 +6,7 @@
 //!
 //! - [`sample`]: the members a sampler draws and the energy shell;
 //! - [`chaos`]: MEGNO and Benettin's Lyapunov estimate from the variational equations;
+//! - [`step_check`]: a chaos map's verdicts against half the step, on a sample of members;
 //! - [`member`]: one member run with every method;
 //! - [`wire`]: a member's results as bytes (MPI);
 //! - [`schedule`]: members over threads (rayon) and ranks (MPI), gathered in member order;
@@ -19,6 +20,7 @@ pub mod member;
 pub mod report;
 pub mod sample;
 pub mod schedule;
+pub mod step_check;
 pub mod wire;
 
 use dth::nalgebra::{DefaultAllocator, Dim};
@@ -111,6 +113,26 @@ where
         member::run_member(build, scene, members, &candidates[i], options)
     })?;
     bar.finish_and_clear();
+    // Every rank takes part (the members are shared out as above); rank 0 compares.
+    let check = match (&members.chaos, options.interrupted()) {
+        (Some(_), false) => {
+            let sampled = step_check::sample(candidates.len());
+            let half = step_check::halved(scene);
+            let bar = progress(sampled.len(), options);
+            bar.set_prefix("half-step check");
+            let runs = schedule::run_members(sampled.len(), options.threads, &bar, |k| {
+                member::run_member(build, &half, members, &candidates[sampled[k]], options)
+            })?;
+            bar.finish_and_clear();
+            match (&results, runs) {
+                (Some(full), Some(runs)) if !options.interrupted() => {
+                    Some(step_check::compare(full, &sampled, &runs))
+                }
+                _ => None,
+            }
+        }
+        _ => None,
+    };
     let (Some(results), Some(staging)) = (results, staging) else {
         // A worker rank: rank 0 writes.
         return Ok(idle_report(scene));
@@ -118,7 +140,7 @@ where
     let mut report = idle_report(scene);
     report.out = out.to_path_buf();
     let dir = staging.path().to_path_buf();
-    let (mut files, counts) = report::write(&dir, scene, members, dim, &results)?;
+    let (mut files, counts) = report::write(&dir, scene, members, dim, &results, check)?;
     files.push("summary.json".into());
     files.push("index.html".into());
     write_file(
@@ -142,8 +164,10 @@ where
     }
     // `summary.json` has the same form as a single run's: no methods of its own (they are
     // the table's), the counts under `ensemble`.
+    let complete = report.interrupted.is_none();
+    report.out = staging.destination(complete)?;
     write_json(&dir.join("summary.json"), &report)?;
-    report.out = staging.commit()?;
+    report.out = staging.commit(complete)?;
     if report.interrupted.is_some() {
         return Err(RunError::Interrupted {
             report: Box::new(report),

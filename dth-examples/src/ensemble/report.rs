@@ -9,10 +9,11 @@ use std::path::Path;
 use serde::Serialize;
 
 use super::member::MemberResult;
+use super::step_check::REGULAR_MAX;
 use crate::error::Error;
 use crate::plot::{Figure, Mark, Series};
 use crate::report::html::escape;
-use crate::report::{write_file, write_json, EnsembleCounts as Counts};
+use crate::report::{write_file, write_json, EnsembleCounts as Counts, StepCheck};
 use crate::scene::{component_names, Axis, EffectSpec, Members, Sampler, Scene};
 use crate::simulate::Failure;
 
@@ -43,6 +44,8 @@ pub struct Row {
     pub megno: Option<f64>,
     /// Benettin's maximal Lyapunov exponent estimate.
     pub lyapunov: Option<f64>,
+    /// The smaller alignment index SALI.
+    pub sali: Option<f64>,
 }
 
 /// `ensemble.json`: the counts, the skipped members' numbers, and the rows.
@@ -57,7 +60,8 @@ pub struct Table {
 }
 
 /// The table of `results` (skipped members counted, not listed as rows).
-pub fn table(scene: &Scene, results: &[MemberResult]) -> Table {
+/// `step_check` goes into the counts as it is.
+pub fn table(scene: &Scene, results: &[MemberResult], step_check: Option<StepCheck>) -> Table {
     let mut rows = Vec::new();
     let mut counts = Counts {
         drawn: results.len(),
@@ -65,6 +69,7 @@ pub fn table(scene: &Scene, results: &[MemberResult]) -> Table {
         not_run: 0,
         failed_runs: 0,
         fallback_runs: 0,
+        step_check,
     };
     let mut skipped = Vec::new();
     for r in results {
@@ -92,6 +97,7 @@ pub fn table(scene: &Scene, results: &[MemberResult]) -> Table {
                     }),
                     megno: None,
                     lyapunov: None,
+                    sali: None,
                 });
             }
             continue;
@@ -112,6 +118,7 @@ pub fn table(scene: &Scene, results: &[MemberResult]) -> Table {
                 failure: run.failure.clone(),
                 megno: run.megno,
                 lyapunov: run.lyapunov,
+                sali: run.sali,
             });
         }
     }
@@ -149,7 +156,7 @@ pub fn csv(scene: &Scene, d: usize, t: &Table) -> String {
     for n in &names {
         let _ = write!(s, ",end_{n}");
     }
-    s.push_str(",energy_error,failure_step,failure,megno,lyapunov,fallback_steps\n");
+    s.push_str(",energy_error,failure_step,failure,megno,lyapunov,sali,fallback_steps\n");
     for r in &t.rows {
         let _ = write!(s, "{},{}", r.member, field(&r.method));
         for k in scene.params.keys() {
@@ -164,7 +171,7 @@ pub fn csv(scene: &Scene, d: usize, t: &Table) -> String {
         }
         let _ = writeln!(
             s,
-            ",{:e},{},{},{},{},{}",
+            ",{:e},{},{},{},{},{},{}",
             r.energy_error,
             r.failure
                 .as_ref()
@@ -172,6 +179,7 @@ pub fn csv(scene: &Scene, d: usize, t: &Table) -> String {
             field(r.failure.as_ref().map_or("", |f| f.reason.as_str())),
             opt(r.megno),
             opt(r.lyapunov),
+            opt(r.sali),
             r.fallback_steps
         );
     }
@@ -280,7 +288,10 @@ fn axis_value(axis: &Axis, r: &MemberResult, d: usize) -> Option<f64> {
 
 /// MEGNO classes of the chaos map: upper bound (inclusive) and legend.
 const CLASSES: [(f64, &str); 4] = [
-    (2.5, "<Y> <= 2.5: regular (quasi-periodic: <Y> -> 2)"),
+    (
+        REGULAR_MAX,
+        "<Y> <= 2.5: regular (quasi-periodic: <Y> -> 2)",
+    ),
     (5.0, "2.5 < <Y> <= 5"),
     (20.0, "5 < <Y> <= 20"),
     (f64::INFINITY, "<Y> > 20: chaotic"),
@@ -351,16 +362,18 @@ fn chaos_figures(
     figs
 }
 
-/// Writes every file of the ensemble into `dir`; returns their names.
+/// Writes every file of the ensemble into `dir` (`step_check` into the counts); returns
+/// their names.
 pub fn write(
     dir: &Path,
     scene: &Scene,
     members: &Members,
     d: usize,
     results: &[MemberResult],
+    step_check: Option<StepCheck>,
 ) -> Result<(Vec<String>, Counts), Error> {
     let mut files = Vec::new();
-    let t = table(scene, results);
+    let t = table(scene, results, step_check);
     write_file(&dir.join("ensemble.csv"), csv(scene, d, &t))?;
     files.push("ensemble.csv".to_string());
     write_json(&dir.join("ensemble.json"), &t)?;
@@ -398,13 +411,14 @@ pub fn index(scene: &Scene, counts: &Counts, files: &[String]) -> String {
     let methods: Vec<&str> = scene.methods.iter().map(|m| m.label.as_str()).collect();
     let _ = writeln!(
         h,
-        "<p>System <b>{}</b>; {} members drawn, {} skipped (no real solution on the energy shell), {} not run, {} method runs failed{}; methods {}; duration {} each.</p>",
+        "<p>System <b>{}</b>; {} members drawn, {} skipped (no real solution on the energy shell), {} not run, {} method runs failed{}{}; methods {}; duration {} each.</p>",
         escape(&scene.system),
         counts.drawn,
         counts.skipped,
         counts.not_run,
         counts.failed_runs,
         counts.fallback_note(),
+        escape(&counts.step_check_note()),
         escape(&methods.join(", ")),
         scene.duration
     );

@@ -106,6 +106,7 @@ pub fn encode(results: &[MemberResult], out: &mut Vec<u8>) {
             w.str(run.failure.as_ref().map_or("", |f| f.reason.as_str()));
             w.opt_f64(run.megno);
             w.opt_f64(run.lyapunov);
+            w.opt_f64(run.sali);
             w.u64(run.crossings.len() as u64);
             for c in &run.crossings {
                 w.u64(c.len() as u64);
@@ -149,6 +150,7 @@ pub fn decode(bytes: &[u8]) -> Option<Vec<MemberResult>> {
             let reason = r.str()?;
             let megno = r.opt_f64()?;
             let lyapunov = r.opt_f64()?;
+            let sali = r.opt_f64()?;
             let mut crossings = Vec::new();
             for _ in 0..r.usize()? {
                 let mut c = Vec::new();
@@ -167,6 +169,7 @@ pub fn decode(bytes: &[u8]) -> Option<Vec<MemberResult>> {
                 failure: failed.then_some(Failure { step, reason }),
                 megno,
                 lyapunov,
+                sali,
                 crossings,
             });
         }
@@ -208,6 +211,7 @@ mod tests {
                     }),
                     megno: Some(2.0000000000000004),
                     lyapunov: None,
+                    sali: Some(1e-300),
                     crossings: vec![vec![(1.0, 2.0, 3.0)], Vec::new()],
                 }],
             },

@@ -1,14 +1,29 @@
 //! CSV files: one per effect and method, `LABEL_<effect>.csv`, plus the ensemble's.
+//!
+//! Every file that holds states has a `t` column. The trajectory's `row` column says what
+//! each row's state is: `midpoint` (a DTH step's midpoint `zbar`, at the midpoint's time:
+//! the points DTH's energy is exact at), `vertex` (DTH's initial state, the first vertex of
+//! its path) or `step` (the state after a step of a fixed-step method or of a fallback
+//! step, and a fixed-step method's initial state). Rows have the header's number of cells:
+//! a value a row does not have (DTH's `lambda` on a fixed-step row, the vertex of DTH's last,
+//! shortened step) is an empty cell.
+//!
+//! Each trajectory is also written as `LABEL_trajectory.npy` ([`super::npy`]) for readers that
+//! do not parse CSV: a `rows x (3 + D)` array of the CSV's numeric columns in its order,
+//! `step, t, <state>, lambda` (`lambda` NaN for fixed-step methods); `step_kind` and `row`
+//! are in the CSV only. The trajectories are the arrays a reader loads whole; the other
+//! series are small and stay CSV only.
 
 use std::fmt::Write as _;
 use std::path::Path;
 
 use super::write_file;
-use crate::effects::Series;
+use crate::effects::{Series, TrajectoryRow};
 use crate::error::Error;
 use crate::fallback::kind_name;
 use crate::scene::{component_names, EffectKind, EffectSpec, Scene};
 use crate::simulate::MethodResult;
+use dth::observer::StepKind;
 
 /// Writes the CSV files of every method's effects into `dir`; returns their names.
 pub fn write(dir: &Path, scene: &Scene, results: &[MethodResult]) -> Result<Vec<String>, Error> {
@@ -24,7 +39,7 @@ pub fn write(dir: &Path, scene: &Scene, results: &[MethodResult]) -> Result<Vec<
         if let Some(rows) = &o.trajectory {
             let d = rows.first().map_or(0, |r| r.z.len());
             let mut s = format!(
-                "step,t,{},lambda,step_kind\n",
+                "step,t,{},lambda,step_kind,row\n",
                 component_names(scene.q.len(), d).join(",")
             );
             for r in rows {
@@ -34,12 +49,26 @@ pub fn write(dir: &Path, scene: &Scene, results: &[MethodResult]) -> Result<Vec<
                 }
                 let _ = writeln!(
                     s,
-                    ",{},{}",
+                    ",{},{},{}",
                     r.lambda.map_or(String::new(), |v| format!("{v:e}")),
-                    kind_name(r.kind)
+                    kind_name(r.kind),
+                    row_kind(r)
                 );
             }
             put(format!("{l}_trajectory.csv"), s, &mut files)?;
+            // The same rows as an array for readers that do not parse CSV: the numeric
+            // columns in the CSV's order (`lambda` NaN where the CSV cell is empty).
+            let width = d + 3;
+            let mut values = Vec::with_capacity(rows.len() * width);
+            for r in rows {
+                values.push(r.step as f64);
+                values.push(r.t);
+                values.extend_from_slice(&r.z);
+                values.push(r.lambda.unwrap_or(f64::NAN));
+            }
+            let name = format!("{l}_trajectory.npy");
+            super::npy::write(&dir.join(&name), rows.len(), width, &values)?;
+            files.push(name);
         }
         if let Some((_, a, b)) = &o.energy {
             if !a.is_empty() {
@@ -144,8 +173,17 @@ pub fn write(dir: &Path, scene: &Scene, results: &[MethodResult]) -> Result<Vec<
             .zip(axes(scene, EffectKind::PhasePlot))
             .enumerate()
         {
-            let mut s = format!("{x},{y}\n");
-            for (x, y) in pts {
+            // `t` first, unless it is one of the plot's axes already.
+            let with_t = x != "t" && y != "t";
+            let mut s = if with_t {
+                format!("t,{x},{y}\n")
+            } else {
+                format!("{x},{y}\n")
+            };
+            for (t, x, y) in pts {
+                if with_t {
+                    let _ = write!(s, "{t:e},");
+                }
                 let _ = writeln!(s, "{x:e},{y:e}");
             }
             put(format!("{l}_phase{}.csv", i + 1), s, &mut files)?;
@@ -170,6 +208,15 @@ fn axes(scene: &Scene, kind: EffectKind) -> Vec<(String, String)> {
         .collect()
 }
 
+/// What a trajectory row's state is (the `row` column, see the module docs).
+fn row_kind(r: &TrajectoryRow) -> &'static str {
+    match (r.step, r.kind) {
+        (0, StepKind::Dth | StepKind::Shortened) => "vertex",
+        (_, StepKind::Dth | StepKind::Shortened) => "midpoint",
+        _ => "step",
+    }
+}
+
 fn csv_series(header: &str, a: &Series, b: &Series) -> String {
     let mut s = String::new();
     let _ = writeln!(s, "{header}");
@@ -177,6 +224,10 @@ fn csv_series(header: &str, a: &Series, b: &Series) -> String {
         let _ = write!(s, "{k},{t:e},{d:e}");
         if let Some(&(_, tv, dv)) = b.get(i) {
             let _ = write!(s, ",{tv:e},{dv:e}");
+        } else if !b.is_empty() {
+            // No vertex for this row (DTH's last step, shortened to end on time): empty
+            // cells, so that every row has the header's columns.
+            s.push_str(",,");
         }
         s.push('\n');
     }

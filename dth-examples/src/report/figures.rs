@@ -122,7 +122,7 @@ pub fn write(
                         f = f.with_series(PlotSeries::new(
                             &series_name(r),
                             Mark::Line,
-                            pts.iter().copied(),
+                            pts.iter().map(|&(_, x, y)| (x, y)),
                         ));
                     }
                 }

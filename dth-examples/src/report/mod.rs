@@ -8,6 +8,7 @@
 pub mod csv;
 pub mod figures;
 pub mod html;
+pub mod npy;
 pub mod table41;
 pub mod thesis;
 
@@ -108,6 +109,9 @@ pub struct EnsembleCounts {
     pub failed_runs: usize,
     /// Member runs that took fallback steps (robust DTH; `fallback_steps` in the table).
     pub fallback_runs: usize,
+    /// A chaos map's verdicts against half the step (`crate::ensemble::step_check`), when
+    /// the ensemble asks for MEGNO and was not interrupted.
+    pub step_check: Option<StepCheck>,
 }
 
 impl EnsembleCounts {
@@ -117,6 +121,39 @@ impl EnsembleCounts {
         match self.fallback_runs {
             0 => String::new(),
             n => format!(", {n} method runs took fallback steps (robust mode)"),
+        }
+    }
+
+    /// [`StepCheck::note`] when the check ran; empty otherwise.
+    pub fn step_check_note(&self) -> String {
+        self.step_check.map(|c| c.note()).unwrap_or_default()
+    }
+}
+
+/// A chaos map's verdicts checked against half the step (`crate::ensemble::step_check`),
+/// counted over (member, method) runs that have a verdict at both
+/// steps.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub struct StepCheck {
+    /// Sampled runs compared.
+    pub compared: usize,
+    /// Of them, runs whose verdict changed at half the step.
+    pub changed: usize,
+}
+
+impl StepCheck {
+    /// ", verdict changed at half the step for 2 of 32 sampled runs: halve the step" when any
+    /// changed, ", verdicts unchanged at half the step (32 sampled runs)" otherwise.
+    pub fn note(&self) -> String {
+        match self.changed {
+            0 => format!(
+                ", MEGNO verdicts unchanged at half the step ({} sampled runs)",
+                self.compared
+            ),
+            n => format!(
+                ", warning: the MEGNO verdict changed at half the step for {n} of {} sampled runs (the map depends on the step: halve it)",
+                self.compared
+            ),
         }
     }
 }

@@ -34,6 +34,7 @@ use toml::Spanned;
 
 use super::raw::RawEnsemble;
 use super::schema::{Axis, AxisRange, ChaosIndicator, Coord, EnergyShell, Members, Sampler};
+use super::toml_string::StringPositions;
 
 /// Validation errors: where and what.
 pub(super) type Errors = Vec<(Range<usize>, String)>;
@@ -108,8 +109,9 @@ fn axis(s: &str, n: Option<usize>, params: &[&str]) -> Result<Axis, String> {
 
 /// Validates `[ensemble]` of kind `kind` (`grid`, `random`, `list`) for a system with `n`
 /// degrees of freedom and parameters `params`; errors go to `errors` (span, message), `at` is
-/// the table's span for missing keys.
+/// the table's span for missing keys, `file` the scene's text.
 pub(super) fn check(
+    file: &str,
     e: RawEnsemble,
     kind: &Spanned<String>,
     at: Range<usize>,
@@ -257,8 +259,16 @@ pub(super) fn check(
                 );
                 return None;
             };
+            // Each error at its cell or row in the file when the literal maps back to it
+            // (`StringPositions`), else at the value.
+            let positions = StringPositions::new(file, text.span(), text.get_ref());
             let (columns, rows) = csv(text.get_ref(), n, params)
-                .map_err(|m| errors.push((text.span(), m)))
+                .map_err(|found| {
+                    for (range, m) in found {
+                        let span = positions.as_ref().map_or(text.span(), |p| p.range(range));
+                        errors.push((span, m));
+                    }
+                })
                 .ok()?;
             Sampler::List { columns, rows }
         }
@@ -342,51 +352,90 @@ pub(super) fn check(
 }
 
 /// Parses a list ensemble's CSV: a header of axes, then rows of as many finite numbers.
+/// Every bad row is an error of its own, at the byte range of the value (the cell, or the
+/// row) within `text`.
 fn csv(
     text: &str,
     n: Option<usize>,
     params: &[&str],
-) -> Result<(Vec<Axis>, Vec<Vec<f64>>), String> {
+) -> Result<(Vec<Axis>, Vec<Vec<f64>>), Errors> {
+    // (line number, byte offset of the trimmed line in `text`, the trimmed line)
+    let mut start = 0;
     let mut lines = text
-        .lines()
+        .split_inclusive('\n')
         .enumerate()
-        .map(|(i, l)| (i + 1, l.trim()))
-        .filter(|(_, l)| !l.is_empty() && !l.starts_with('#'));
-    let Some((_, header)) = lines.next() else {
-        return Err("`members` is empty: expected a CSV header naming the columns (e.g. q1, p2), then one row per member".into());
+        .map(|(i, raw)| {
+            let at = start + (raw.len() - raw.trim_start().len());
+            start += raw.len();
+            (i + 1, at, raw.trim())
+        })
+        .filter(|(_, _, l)| !l.is_empty() && !l.starts_with('#'));
+    let Some((_, header_at, header)) = lines.next() else {
+        return Err(vec![(0..text.len(), "`members` is empty: expected a CSV header naming the columns (e.g. q1, p2), then one row per member".into())]);
     };
+    let header_span = header_at..header_at + header.len();
     let columns = header
         .split(',')
-        .map(|c| axis(c.trim(), n, params).map_err(|m| format!("`members` header: {m}")))
+        .map(|c| {
+            axis(c.trim(), n, params)
+                .map_err(|m| vec![(header_span.clone(), format!("`members` header: {m}"))])
+        })
         .collect::<Result<Vec<_>, _>>()?;
     for (i, c) in columns.iter().enumerate() {
         if columns[..i].contains(c) {
-            return Err(format!("`members` header names `{}` twice", c.name()));
+            return Err(vec![(
+                header_span,
+                format!("`members` header names `{}` twice", c.name()),
+            )]);
         }
     }
     let mut rows = Vec::new();
-    for (line, l) in lines {
-        let row = l
-            .split(',')
-            .map(|v| v.trim().parse::<f64>().ok().filter(|x| x.is_finite()))
-            .collect::<Option<Vec<f64>>>()
-            .ok_or_else(|| {
-                format!(
-                    "`members` line {line}: `{l}`: expected {} finite numbers separated by commas",
-                    columns.len()
-                )
-            })?;
-        if row.len() != columns.len() {
-            return Err(format!(
-                "`members` line {line} has {} values: expected {} (one per header column)",
-                row.len(),
-                columns.len()
-            ));
+    let mut errors = Vec::new();
+    for (line, at, l) in lines {
+        let mut cell_at = at;
+        let mut row = Vec::new();
+        let mut bad = None;
+        for cell in l.split(',') {
+            let lead = cell.len() - cell.trim_start().len();
+            match cell.trim().parse::<f64>().ok().filter(|x| x.is_finite()) {
+                Some(x) => row.push(x),
+                None if bad.is_none() => {
+                    let from = cell_at + lead;
+                    bad = Some((from..from + cell.trim().len(), cell.trim()));
+                }
+                None => {}
+            }
+            cell_at += cell.len() + 1;
         }
-        rows.push(row);
+        if let Some((span, cell)) = bad {
+            errors.push((
+                span,
+                format!(
+                    "`members` row {line}: `{cell}` is not a finite number: expected {} finite numbers separated by commas",
+                    columns.len()
+                ),
+            ));
+        } else if row.len() != columns.len() {
+            errors.push((
+                at..at + l.len(),
+                format!(
+                    "`members` row {line} has {} values: expected {} (one per header column)",
+                    row.len(),
+                    columns.len()
+                ),
+            ));
+        } else {
+            rows.push(row);
+        }
+    }
+    if !errors.is_empty() {
+        return Err(errors);
     }
     if rows.is_empty() {
-        return Err("`members` has a header but no rows: expected at least one member".into());
+        return Err(vec![(
+            header_span,
+            "`members` has a header but no rows: expected at least one member".into(),
+        )]);
     }
     Ok((columns, rows))
 }

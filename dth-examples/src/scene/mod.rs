@@ -6,7 +6,8 @@
 //! `regularization` (`[system] regularize`, checked by the engine) -> `toml_string`
 //! (where each byte of a TOML string comes from in the file) -> `raw` (the serde types, as
 //! written), `schema` (the validated types the rest of the crate works with) and `suggest`
-//! (the known name closest to a misspelled one).
+//! (the known name closest to a misspelled one); `structure` reads the file past its first
+//! structural error, so that every problem is reported at once.
 //!
 //! A scene declares a system and its parameters, the initial state, the methods with their
 //! steps, the duration and the effects wanted:
@@ -49,6 +50,7 @@ mod raw;
 mod regularization;
 mod schema;
 mod sizes;
+mod structure;
 mod suggest;
 mod toml_string;
 mod validate;

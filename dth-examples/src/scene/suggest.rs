@@ -1,8 +1,9 @@
 //! "Did you mean": the known name closest to a misspelled one ([`close_match`]), for the
 //! messages about unknown systems, methods, effects and parameters.
 
-/// The one name of `names` closest to `name` (case ignored; Levenshtein distance: insertions,
-/// deletions and substitutions of characters), when it is close: at most a third of its
+/// The one name of `names` closest to `name` (case ignored; optimal string alignment distance:
+/// insertions, deletions, substitutions and swaps of two adjacent characters, so `dht` is one
+/// edit from `dth`), when it is close: at most a third of its
 /// characters (and at least one) differ. `None` when nothing is that close, or two names are
 /// equally close.
 ///
@@ -13,7 +14,7 @@ pub fn close_match<'a>(name: &str, names: impl IntoIterator<Item = &'a str>) -> 
     let mut best: Option<(usize, &str)> = None;
     let mut tie = false;
     for candidate in names {
-        let d = strsim::levenshtein(&lower, &candidate.to_lowercase());
+        let d = strsim::osa_distance(&lower, &candidate.to_lowercase());
         match best {
             Some((b, _)) if d > b => {}
             Some((b, _)) if d == b => tie = true,
@@ -44,6 +45,8 @@ mod tests {
         assert_eq!(close_match("midpiont", methods), Some("midpoint"));
         assert_eq!(close_match("RK4", methods), Some("rk4"));
         assert_eq!(close_match("trapezodial", methods), Some("trapezoidal"));
+        // Two adjacent letters swapped are one edit.
+        assert_eq!(close_match("dht", methods), Some("dth"));
         // Far from every name.
         assert_eq!(close_match("leapfrog", methods), None);
         // Equally close to two.

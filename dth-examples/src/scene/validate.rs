@@ -227,25 +227,34 @@ pub fn parse(text: &str, file: &str, systems: &dyn SystemLookup) -> Result<Scene
         }
         return Err(Error::Scene(SceneErrors(cx.diagnostics)));
     }
-    let raw: RawScene = match toml::from_str(text) {
-        Ok(raw) => raw,
-        Err(e) => {
-            let span = e.span().unwrap_or(0..0);
-            let mut cx = Ctxt {
-                file,
-                text,
-                diagnostics: Vec::new(),
-            };
-            cx.error(span, plain_types(e.message().trim()));
-            return Err(Error::Scene(SceneErrors(cx.diagnostics)));
-        }
-    };
+    // Every structural error (unknown key, wrong type) at once, then the rules on what
+    // remains, less what follows from a structural error already reported.
+    let structure = super::structure::read(text);
     let mut cx = Ctxt {
         file,
         text,
         diagnostics: Vec::new(),
     };
+    for (span, message) in structure.errors {
+        cx.error(span, plain_types(&message));
+    }
+    let Some(raw) = structure.raw else {
+        return Err(Error::Scene(SceneErrors(cx.diagnostics)));
+    };
+    let structural = cx.diagnostics.len();
     let scene = validate(raw, systems, &mut cx);
+    if !structure.touched.is_empty() {
+        let touched: Vec<(usize, usize)> = structure
+            .touched
+            .iter()
+            .map(|t| line_col(text, t.start))
+            .collect();
+        let mut i = 0;
+        cx.diagnostics.retain(|d| {
+            i += 1;
+            i <= structural || !touched.contains(&(d.line, d.column))
+        });
+    }
     match scene {
         Some(scene) if cx.diagnostics.is_empty() => Ok(scene),
         _ => Err(Error::Scene(SceneErrors(cx.diagnostics))),
@@ -597,7 +606,7 @@ fn validate(raw: RawScene, systems: &dyn SystemLookup, cx: &mut Ctxt<'_>) -> Opt
             match e.kind.clone() {
                 Some(kind) if kind.get_ref() != "square" => {
                     let mut errors = Vec::new();
-                    let m = members::check(e, &kind, at, n, &param_names, &mut errors);
+                    let m = members::check(cx.text, e, &kind, at, n, &param_names, &mut errors);
                     for (span, message) in errors {
                         cx.error(span, message);
                     }

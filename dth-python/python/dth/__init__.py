@@ -13,8 +13,9 @@ numpy arrays in and out. The whole integration runs in Rust: no Python per step.
 True
 
 Contents: `Hamiltonian` (text -> compiled H, gradient, Hessian, Psi), `integrate` (one
-call, every method), `Solution` (its result), `ensemble` (many initial states on every
-core) and `Ensemble`, `systems` (the built-in systems as texts),
+call, every method), `Solution` (its result), `ensemble` (many initial states or parameter
+values on every core, MEGNO on demand) and `Ensemble`, `systems` (the built-in systems as
+texts),
 `run_scene` (a scene file run as `dth run` does: its summary and arrays), `HamiltonianError`
 (a `ValueError` with `.line` and `.column`), `IntegrationError` and `SceneError`.
 """

@@ -1,6 +1,8 @@
 """Type stubs of the extension module `dth._dth` (see `dth.__doc__`)."""
 
-from typing import Mapping, Optional, Sequence, Union
+from typing import Literal, Mapping, Optional, Sequence, Tuple, Union, overload
+
+import os
 
 import numpy as np
 import numpy.typing as npt
@@ -22,6 +24,12 @@ class IntegrationError(RuntimeError):
 
 class Hamiltonian:
     def __init__(self, text: str, params: Optional[Mapping[str, float]] = None) -> None: ...
+    @staticmethod
+    def _catalogue_twin(
+        system: str, text: str, params: Optional[Mapping[str, float]] = None
+    ) -> "Hamiltonian": ...
+    @property
+    def system(self) -> Optional[str]: ...
     @property
     def dim(self) -> int: ...
     @property
@@ -35,7 +43,12 @@ class Hamiltonian:
     def set_parameter(self, name: str, value: float) -> None: ...
     def value(self, z: State) -> float: ...
     def gradient(self, z: State) -> npt.NDArray[np.float64]: ...
-    def hessian(self, z: State) -> npt.NDArray[np.float64]: ...
+    @overload
+    def hessian(self, z: State, sparse: Literal[False] = False) -> npt.NDArray[np.float64]: ...
+    @overload
+    def hessian(
+        self, z: State, sparse: Literal[True]
+    ) -> tuple[npt.NDArray[np.uintp], npt.NDArray[np.uintp], npt.NDArray[np.float64]]: ...
     def hessian_pattern(
         self,
     ) -> Optional[tuple[npt.NDArray[np.uintp], npt.NDArray[np.uintp]]]: ...
@@ -91,8 +104,9 @@ def integrate(
     lambda0: Optional[float] = None,
     steps: Optional[int] = None,
     t_end: Optional[float] = None,
+    orbits: Optional[float] = None,
     t0: float = 0.0,
-    every: int = 1,
+    every: Optional[int] = None,
     save_at: Optional[Sequence[float]] = None,
     max_steps: Optional[int] = None,
     energy_errors: bool = True,
@@ -114,6 +128,10 @@ class Ensemble:
     def failure(self) -> list[Optional[str]]: ...
     @property
     def failed(self) -> int: ...
+    @property
+    def megno(self) -> Optional[npt.NDArray[np.float64]]: ...
+    @property
+    def lyapunov(self) -> Optional[npt.NDArray[np.float64]]: ...
     def __len__(self) -> int: ...
 
 def ensemble(
@@ -128,11 +146,21 @@ def ensemble(
     lambda0: Optional[float] = None,
     steps: Optional[int] = None,
     t_end: Optional[float] = None,
+    orbits: Optional[float] = None,
     t0: float = 0.0,
     max_steps: Optional[int] = None,
     threads: Optional[int] = None,
+    params: Optional[Mapping[str, npt.ArrayLike]] = None,
+    megno: bool = False,
+    lyapunov: bool = False,
 ) -> Ensemble: ...
 
 class SceneError(ValueError): ...
 
-def run_scene_into(text: str, file: str, out: str, threads: Optional[int] = None) -> bool: ...
+def _catalogue() -> list[dict[str, object]]: ...
+def _catalogue_evaluate(
+    name: str, params: Mapping[str, float], z: Sequence[float]
+) -> tuple[float, list[float]]: ...
+def run_scene_into(
+    text: str, file: str, out: str, threads: Optional[int] = None
+) -> Tuple[bool, Union[str, "os.PathLike[str]"]]: ...

@@ -87,8 +87,10 @@ def run_scene(
 
     Args:
         scene: a path to a scene file (`.toml`) or the scene's TOML text.
-        out: the output folder to write (figures, CSV files, `index.html`, `summary.json`),
-            replaced if it is a dth output folder; by default the run goes to a temporary
+        out: the output folder to write (figures, CSV files, `index.html`, `summary.json`);
+            a rerun replaces only what dth wrote there, and a run that does not complete
+            goes beside a complete earlier result (`out.incomplete`, given as
+            `SceneRun.out`); by default the run goes to a temporary
             folder, read back and removed.
         threads: threads for an ensemble scene (default: every core).
 
@@ -120,10 +122,9 @@ def run_scene(
     """
     text, name = _scene_text(scene)
     if out is not None:
-        target = Path(out)
-        completed = run_scene_into(text, name, str(target), threads)
-        return _collect(target, completed, target)
+        # An incomplete run beside a complete earlier result goes to `out.incomplete`.
+        completed, written = run_scene_into(text, name, str(Path(out)), threads)
+        return _collect(Path(written), completed, Path(written))
     with tempfile.TemporaryDirectory(prefix="dth-scene-") as tmp:
-        target = Path(tmp) / "run"
-        completed = run_scene_into(text, name, str(target), threads)
-        return _collect(target, completed, None)
+        completed, written = run_scene_into(text, name, str(Path(tmp) / "run"), threads)
+        return _collect(Path(written), completed, None)

@@ -157,37 +157,21 @@ pub fn looped_impl(looped: &Looped, name: &Ident, params: &[Ident]) -> Option<To
             .enumerate()
             .map(|(k, (s, program))| {
                 let (lo, hi) = (s.lo, s.hi);
-                let load = |zg: TokenStream| {
-                    let entries = (0..s.local_dim).map(|l| {
-                        match s.slots.iter().find(|&&(_, _, local)| local == l) {
-                            Some(&(letter, c, _)) => {
-                                let q = letter == 'q';
-                                quote! {
-                                    match site(#q, i + #c) {
-                                        ::core::option::Option::Some(a) => #zg[a],
-                                        ::core::option::Option::None => fixed(#q, i + #c),
-                                    }
-                                }
-                            }
-                            None => quote!(0.0f64),
+                let locals = load_locals(s.local_dim, two_point, |l, zg| {
+                    let &(letter, c, _) = s.slots.iter().find(|&&(_, _, local)| local == l)?;
+                    let q = letter == 'q';
+                    Some(quote! {
+                        match site(#q, i + #c) {
+                            ::core::option::Option::Some(a) => #zg[a],
+                            ::core::option::Option::None => fixed(#q, i + #c),
                         }
-                    });
-                    quote!([#(#entries),*])
-                };
-                let z0 = load(quote!(zg));
-                let local_dim = s.local_dim;
-                let z1 = if two_point {
-                    let z1 = load(quote!(zg1));
-                    quote!(let z1: [f64; #local_dim] = #z1;)
-                } else {
-                    quote!()
-                };
+                    })
+                });
                 let code = body(program, &cx, |v| scatter(k, v));
                 quote! {
                     let mut i: i64 = #lo;
                     while i <= #hi {
-                        let z: [f64; #local_dim] = #z0;
-                        #z1
+                        #locals
                         { #code }
                         i += 1;
                     }
@@ -241,26 +225,10 @@ pub fn looped_impl(looped: &Looped, name: &Ident, params: &[Ident]) -> Option<To
             .enumerate()
             .map(|(k, (s, program))| {
                 let (lo, hi) = s.tuples.outer;
-                let load = |zg: TokenStream| {
-                    let entries = (0..s.local_dim).map(|l| {
-                        match s.slots.iter().find(|slot| slot.local == l) {
-                            Some(slot) => {
-                                let at = index(slot);
-                                quote!(#zg[#at])
-                            }
-                            None => quote!(0.0f64),
-                        }
-                    });
-                    quote!([#(#entries),*])
-                };
-                let z0 = load(quote!(zg));
-                let local_dim = s.local_dim;
-                let z1 = if two_point {
-                    let z1 = load(quote!(zg1));
-                    quote!(let z1: [f64; #local_dim] = #z1;)
-                } else {
-                    quote!()
-                };
+                let locals = load_locals(s.local_dim, two_point, |l, zg| {
+                    let at = index(s.slots.iter().find(|slot| slot.local == l)?);
+                    Some(quote!(#zg[#at]))
+                });
                 let code = body(program, &cx, |v| scatter(k, v));
                 let (jlo, jhi) = match s.tuples.inner {
                     Some([(al, bl), (ah, bh)]) => (quote!(#al * i + #bl), quote!(#ah * i + #bh)),
@@ -271,8 +239,7 @@ pub fn looped_impl(looped: &Looped, name: &Ident, params: &[Ident]) -> Option<To
                     while i <= #hi {
                         let (mut j, last): (i64, i64) = (#jlo, #jhi);
                         while j <= last {
-                            let z: [f64; #local_dim] = #z0;
-                            #z1
+                            #locals
                             { #code }
                             j += 1;
                         }
@@ -553,4 +520,29 @@ pub fn looped_impl(looped: &Looped, name: &Ident, params: &[Ident]) -> Option<To
                 }
             }
         })
+}
+
+/// `let z = [..];` (and `let z1 = [..];` for a two-point method): a summand's `local_dim` local
+/// coordinates loaded from the global state `zg` (and `zg1`); `entry(l, zg)` loads local
+/// coordinate `l`, `None` where the summand does not use it (loaded as 0).
+fn load_locals(
+    local_dim: usize,
+    two_point: bool,
+    entry: impl Fn(usize, &TokenStream) -> Option<TokenStream>,
+) -> TokenStream {
+    let load = |zg: TokenStream| {
+        let entries = (0..local_dim).map(|l| entry(l, &zg).unwrap_or_else(|| quote!(0.0f64)));
+        quote!([#(#entries),*])
+    };
+    let z = load(quote!(zg));
+    let z1 = if two_point {
+        let z1 = load(quote!(zg1));
+        quote!(let z1: [f64; #local_dim] = #z1;)
+    } else {
+        quote!()
+    };
+    quote! {
+        let z: [f64; #local_dim] = #z;
+        #z1
+    }
 }
