@@ -219,18 +219,28 @@ struct SpaceTimeSamples {
     rows: Vec<SpaceTimeRow>,
 }
 
+/// The index ranges (0-based) of `columns` groups of consecutive sites among `n`: groups of
+/// `n / columns` or one more (the first `n % columns` have one more); none when `columns`
+/// is 0.
+pub fn site_groups(n: usize, columns: usize) -> impl Iterator<Item = std::ops::Range<usize>> {
+    let (base, extra) = if columns == 0 {
+        (0, 0)
+    } else {
+        (n / columns, n % columns)
+    };
+    (0..columns).scan(0, move |at, c| {
+        let len = base + usize::from(c < extra);
+        let group = *at..*at + len;
+        *at += len;
+        Some(group)
+    })
+}
+
 /// The mean of `q` over `columns` groups of consecutive entries (see [`SpaceTimeRow::q`]).
 fn group_means(q: &[f64], columns: usize) -> Vec<f64> {
-    let n = q.len();
-    let (base, extra) = (n / columns, n % columns);
-    let mut out = Vec::with_capacity(columns);
-    let mut at = 0;
-    for c in 0..columns {
-        let len = base + usize::from(c < extra);
-        out.push(q[at..at + len].iter().sum::<f64>() / len as f64);
-        at += len;
-    }
-    out
+    site_groups(q.len(), columns)
+        .map(|g| q[g.clone()].iter().sum::<f64>() / g.len() as f64)
+        .collect()
 }
 
 struct ModeSamples {

@@ -725,8 +725,10 @@ fn write_png(path: &Path, rgb: &[u8], w: u32, h: u32) -> Result<(), PngError> {
 
 /// A filled raster with a colour bar: `values` on a grid of `cols` columns (along x) and
 /// `values.len() / cols` rows (along y, the first row at the bottom), coloured on a diverging
-/// scale (blue, white at 0, red) symmetric about 0: a lattice's displacement against site and
-/// time.
+/// scale (blue, white at the centre, red): by default symmetric about 0 (a lattice's
+/// displacement against site and time), or any `low < centre < high` ([`Raster::with_scale`]:
+/// a chaos indicator, white where orbits are regular). Values beyond the scale take its end
+/// colours; a value that is not a number is grey (a member that did not run).
 ///
 /// ```
 /// use dth_examples::plot::Raster;
@@ -746,6 +748,8 @@ pub struct Raster {
     values: Vec<f64>,
     cols: usize,
     colour_label: String,
+    /// `(low, centre, high)`; `None`: symmetric about 0 over the values' largest magnitude.
+    scale: Option<(f64, f64, f64)>,
 }
 
 impl Raster {
@@ -771,7 +775,29 @@ impl Raster {
             values,
             cols: cols.max(1),
             colour_label: colour_label.into(),
+            scale: None,
         }
+    }
+
+    /// The values, row after row (the first row at the bottom).
+    pub fn values(&self) -> &[f64] {
+        &self.values
+    }
+
+    /// The number of columns (cells along x).
+    pub fn cols(&self) -> usize {
+        self.cols
+    }
+
+    /// Colours from blue at `low` through white at `centre` to red at `high` (each side
+    /// linear), the colour bar spanning `low..high`. A scale that is not ordered
+    /// (`low < centre < high`, all finite) leaves the default.
+    pub fn with_scale(mut self, low: f64, centre: f64, high: f64) -> Self {
+        let ordered = low < centre && centre < high && low.is_finite() && high.is_finite();
+        if ordered {
+            self.scale = Some((low, centre, high));
+        }
+        self
     }
 
     /// Writes `dir/stem.png` and `dir/stem.svg`; returns their paths.
@@ -785,14 +811,39 @@ impl Raster {
         )
     }
 
-    /// Blue (-1) through white (0) to red (+1).
+    /// Blue (-1) through white (0) to red (+1); grey for a value that is not a number.
     fn colour(v: f64) -> RGBColor {
+        if v.is_nan() {
+            return RGBColor(170, 170, 170);
+        }
         let v = v.clamp(-1.0, 1.0);
         let mix = |c: f64| (255.0 * (1.0 - v.abs()) + c * v.abs()).round() as u8;
         if v >= 0.0 {
             RGBColor(mix(200.0), mix(30.0), mix(30.0))
         } else {
             RGBColor(mix(30.0), mix(60.0), mix(200.0))
+        }
+    }
+
+    /// The scale `(low, centre, high)`: the one set, or symmetric about 0 over the values.
+    fn scale(&self) -> (f64, f64, f64) {
+        self.scale.unwrap_or_else(|| {
+            let limit = self
+                .values
+                .iter()
+                .filter(|v| v.is_finite())
+                .fold(0.0f64, |m, v| m.max(v.abs()));
+            let limit = if limit > 0.0 { limit } else { 1.0 };
+            (-limit, 0.0, limit)
+        })
+    }
+
+    /// `v` on the scale, `-1..1` (see [`Raster::colour`]).
+    fn unit((low, centre, high): (f64, f64, f64), v: f64) -> f64 {
+        if v >= centre {
+            (v - centre) / (high - centre)
+        } else {
+            (v - centre) / (centre - low)
         }
     }
 
@@ -803,12 +854,8 @@ impl Raster {
         root.fill(&WHITE)?;
         let (main, bar) = root.split_horizontally(790);
         let rows = self.values.len() / self.cols;
-        let limit = self
-            .values
-            .iter()
-            .filter(|v| v.is_finite())
-            .fold(0.0f64, |m, v| m.max(v.abs()));
-        let limit = if limit > 0.0 { limit } else { 1.0 };
+        let scale = self.scale();
+        let (low, high) = (scale.0, scale.2);
         let (x0, x1) = self.x_range;
         let (y0, y1) = self.y_range;
         // A single row or column still spans its cell.
@@ -839,17 +886,20 @@ impl Raster {
         chart.draw_series(self.values.iter().enumerate().map(|(k, v)| {
             let (r, c) = (k / self.cols, k % self.cols);
             let (x, y) = (x0 + c as f64 * dx, y0 + r as f64 * dy);
-            Rectangle::new([(x, y), (x + dx, y + dy)], Self::colour(v / limit).filled())
+            Rectangle::new(
+                [(x, y), (x + dx, y + dy)],
+                Self::colour(Self::unit(scale, *v)).filled(),
+            )
         }))?;
-        // The colour bar: the scale from -limit to +limit.
-        let mut scale = ChartBuilder::on(&bar)
+        // The colour bar: the scale from low to high.
+        let mut bar_chart = ChartBuilder::on(&bar)
             .margin_top(45)
             .margin_bottom(65)
             .margin_right(5)
             .right_y_label_area_size(70)
-            .build_cartesian_2d(0.0..1.0, -limit..limit)?;
-        let fl = move |v: &f64| tick_label(*v, false, 2.0 * limit);
-        scale
+            .build_cartesian_2d(0.0..1.0, low..high)?;
+        let fl = move |v: &f64| tick_label(*v, false, high - low);
+        bar_chart
             .configure_mesh()
             .disable_mesh()
             .disable_x_axis()
@@ -859,10 +909,11 @@ impl Raster {
             .axis_desc_style(("sans-serif", 15))
             .draw()?;
         let steps = 100;
-        scale.draw_series((0..steps).map(|k| {
-            let a = -limit + 2.0 * limit * k as f64 / steps as f64;
-            let b = a + 2.0 * limit / steps as f64;
-            Rectangle::new([(0.0, a), (1.0, b)], Self::colour(a / limit).filled())
+        bar_chart.draw_series((0..steps).map(|k| {
+            let a = low + (high - low) * k as f64 / steps as f64;
+            let b = a + (high - low) / steps as f64;
+            let mid = 0.5 * (a + b);
+            Rectangle::new([(0.0, a), (1.0, b)], Self::colour(Self::unit(scale, mid)).filled())
         }))?;
         root.present()?;
         Ok(())

@@ -166,3 +166,71 @@ pub(super) fn apply(
     sized.source = out;
     Some(sized)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The `[system]` table's `sizes` of a scene line, with the line itself (the spans are
+    /// byte ranges of it).
+    fn sizes(line: &str) -> BTreeMap<Spanned<String>, Spanned<i64>> {
+        #[derive(serde::Deserialize)]
+        struct T {
+            sizes: BTreeMap<Spanned<String>, Spanned<i64>>,
+        }
+        toml::from_str::<T>(line).unwrap().sizes
+    }
+
+    const CHAIN: &str = "sum(i = 1..N, p[i]^2/2) + sum(i = 0..N, (q[i+1] - q[i])^2/2) where N = 32, q[0] = q[N+1] = 0";
+
+    #[test]
+    fn a_declared_size_takes_the_scenes_value() {
+        let mut errors = Vec::new();
+        let line = "sizes = { N = 4096 }";
+        let s = apply(CHAIN, &sizes(line), &mut errors).unwrap();
+        assert!(errors.is_empty(), "{errors:?}");
+        assert_eq!(s.source, CHAIN.replace("N = 32", "N = 4096"));
+        // The new value's bytes are the scene's; text after it maps back to the original.
+        let at = s.source.find("4096").unwrap();
+        assert_eq!(s.origin(at..at + 4), Origin::Scene(14..18));
+        let q0 = s.source.find("q[0]").unwrap();
+        assert_eq!(s.origin(q0..q0 + 4), Origin::Text(CHAIN.find("q[0]").unwrap()..CHAIN.find("q[0]").unwrap() + 4));
+        // Before the edit, nothing moves.
+        assert_eq!(s.origin(0..3), Origin::Text(0..3));
+    }
+
+    #[test]
+    fn a_used_size_the_text_does_not_declare_is_declared() {
+        let mut errors = Vec::new();
+        let text = "sum(i = 1..N, p[i]^2/2 + q[i]^2/2)";
+        let s = apply(text, &sizes("sizes = { N = 5 }"), &mut errors).unwrap();
+        assert_eq!(s.source, format!("{text} where N = 5"));
+        let with_where = "sum(i = 1..N, p[i]^2/2 + q[i]^2/2) where q[0] = 0";
+        let s = apply(with_where, &sizes("sizes = { N = 5 }"), &mut errors).unwrap();
+        assert_eq!(s.source, "sum(i = 1..N, p[i]^2/2 + q[i]^2/2) where N = 5, q[0] = 0");
+        assert!(errors.is_empty(), "{errors:?}");
+        // The text read with it is the engine's lattice of 5 sites.
+        let h = dth::runtime::RuntimeHamiltonian::new(&s.source, &[]).unwrap();
+        assert_eq!(h.dimension(), 10);
+    }
+
+    #[test]
+    fn an_unused_or_negative_size_is_an_error_at_its_key_or_value() {
+        let mut errors = Vec::new();
+        let line = "sizes = { M = 4, N = -1 }";
+        assert!(apply(CHAIN, &sizes(line), &mut errors).is_none());
+        assert_eq!(errors.len(), 2, "{errors:?}");
+        assert_eq!(errors[0].0, 10..11, "{errors:?}");
+        assert!(errors[0].1.contains("`M` is not a name the Hamiltonian uses: it declares `N`"));
+        assert_eq!(errors[1].0, 21..23, "{errors:?}");
+        assert!(errors[1].1.contains("0 or more"), "{errors:?}");
+    }
+
+    #[test]
+    fn no_sizes_leave_the_text_as_it_is() {
+        let mut errors = Vec::new();
+        let s = apply(CHAIN, &BTreeMap::new(), &mut errors).unwrap();
+        assert_eq!(s.source, CHAIN);
+        assert_eq!(s.origin(5..9), Origin::Text(5..9));
+    }
+}

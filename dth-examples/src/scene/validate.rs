@@ -140,6 +140,9 @@ pub struct SystemInfo<'a> {
     /// `true` when `Psi` is identically zero (`Flags::psi_identically_zero`): the reason
     /// DTH is not offered, when it is not.
     pub psi_identically_zero: bool,
+    /// The system as text with its sizes after `where`, for a system whose size a scene may
+    /// set (`[system] sizes`): the scene then runs this text at its sizes.
+    pub sized_text: Option<&'a str>,
 }
 
 impl SystemInfo<'_> {
@@ -281,28 +284,62 @@ fn validate(raw: RawScene, systems: &dyn SystemLookup, cx: &mut Ctxt<'_>) -> Opt
                     "`title` names a Hamiltonian given as text (`hamiltonian`): a catalogue system is named by `name` (give the scene a `title` at the top instead)",
                 );
             }
-            if let Some((size, _)) = system.sizes.iter().next() {
-                cx.error(
-                    size.span(),
-                    "`sizes` sets the sizes of a Hamiltonian given as text (`hamiltonian = \"... where N = ..\"`): a catalogue system has its own size",
-                );
+            let sized = match system.sizes.iter().next() {
+                None => None,
+                Some((size, _)) => {
+                    let text = systems.info(name.get_ref()).and_then(|i| i.sized_text);
+                    if text.is_none() && systems.info(name.get_ref()).is_some() {
+                        let sizable: Vec<String> = systems
+                            .names()
+                            .into_iter()
+                            .filter(|n| systems.info(n).is_some_and(|i| i.sized_text.is_some()))
+                            .map(|n| format!("`{n}`"))
+                            .collect();
+                        cx.error(
+                            size.span(),
+                            format!(
+                                "`{}` has its own size: `sizes` sets the sizes of {} or of a Hamiltonian given as text (`hamiltonian = \"... where N = ..\"`)",
+                                name.get_ref(),
+                                sizable.join(", ")
+                            ),
+                        );
+                    }
+                    text
+                }
+            };
+            match sized {
+                // The catalogue's text at the scene's sizes: a text system, named after the
+                // entry (its parameters' defaults filled in, located at the name).
+                Some(text) => {
+                    let mut given = system.params.clone();
+                    for spec in systems.info(name.get_ref()).map_or(&[][..], |i| i.params) {
+                        if let (Some(default), false) = (
+                            spec.default,
+                            given.keys().any(|k| k.get_ref() == spec.name),
+                        ) {
+                            given.insert(
+                                Spanned::new(name.span(), spec.name.to_string()),
+                                Spanned::new(name.span(), default),
+                            );
+                        }
+                    }
+                    let sizes: Vec<String> = system
+                        .sizes
+                        .iter()
+                        .map(|(k, v)| format!("{} = {}", k.get_ref(), v.get_ref()))
+                        .collect();
+                    let title = format!("{}, {}", name.get_ref(), sizes.join(", "));
+                    let source = Spanned::new(name.span(), text.to_string());
+                    let (name, info, params, h) =
+                        text_system(&source, &given, &system.sizes, title, cx);
+                    hamiltonian = h;
+                    (name, info, params)
+                }
+                None => catalogue_system(name, &system.params, systems, cx),
             }
-            catalogue_system(name, &system.params, systems, cx)
         }
         (None, Some(source)) => {
-            let (mut errors, mut warnings) = (Vec::new(), Vec::new());
-            let checked = expression::check(
-                cx.text,
-                source,
-                &system.params,
-                &system.sizes,
-                &mut errors,
-                &mut warnings,
-            );
-            for (span, message) in errors {
-                cx.error(span, message);
-            }
-            let name = match &system.title {
+            let title = match &system.title {
                 Some(t) => t.get_ref().clone(),
                 None => format!(
                     "H = {}",
@@ -313,18 +350,10 @@ fn validate(raw: RawScene, systems: &dyn SystemLookup, cx: &mut Ctxt<'_>) -> Opt
                         .join(" ")
                 ),
             };
-            match checked {
-                Some((mut h, params)) => {
-                    h.warnings = warnings
-                        .into_iter()
-                        .map(|(span, message)| cx.locate(span, message))
-                        .collect();
-                    let info = text_info(&h);
-                    hamiltonian = Some(h);
-                    (name, Some(info), params)
-                }
-                None => (name, None, BTreeMap::new()),
-            }
+            let (name, info, params, h) =
+                text_system(source, &system.params, &system.sizes, title, cx);
+            hamiltonian = h;
+            (name, info, params)
         }
         (Some(name), Some(source)) => {
             cx.error(
@@ -788,6 +817,39 @@ fn catalogue_system<'s>(
     (name, info, params)
 }
 
+/// A Hamiltonian given as text (`source`, spanned in the scene file, with the parameters
+/// `params` and the sizes `sizes`), read by the engine: the system's name `title`, its
+/// metadata, the parameter values and the text system, or `None`s with the errors reported.
+fn text_system(
+    source: &Spanned<String>,
+    params: &BTreeMap<Spanned<String>, Spanned<f64>>,
+    sizes: &BTreeMap<Spanned<String>, Spanned<i64>>,
+    title: String,
+    cx: &mut Ctxt<'_>,
+) -> (
+    String,
+    Option<SystemInfo<'static>>,
+    BTreeMap<String, f64>,
+    Option<TextHamiltonian>,
+) {
+    let (mut errors, mut warnings) = (Vec::new(), Vec::new());
+    let checked = expression::check(cx.text, source, params, sizes, &mut errors, &mut warnings);
+    for (span, message) in errors {
+        cx.error(span, message);
+    }
+    match checked {
+        Some((mut h, params)) => {
+            h.warnings = warnings
+                .into_iter()
+                .map(|(span, message)| cx.locate(span, message))
+                .collect();
+            let info = text_info(&h);
+            (title, Some(info), params, Some(h))
+        }
+        None => (title, None, BTreeMap::new(), None),
+    }
+}
+
 /// What validation checks a Hamiltonian given as text against: the engine's dimension and
 /// flags; no parameters to fill in, no period, exact solution or central force, and DTH
 /// unless Psi is identically zero.
@@ -803,6 +865,7 @@ fn text_info(h: &TextHamiltonian) -> SystemInfo<'static> {
         fixed_end_chain: false,
         dth: !h.psi_identically_zero,
         psi_identically_zero: h.psi_identically_zero,
+        sized_text: None,
     }
 }
 
