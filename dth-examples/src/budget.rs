@@ -92,6 +92,8 @@ where
                     EffectSpec::NormalModes { modes, every } => {
                         samples(every).saturating_mul(modes as u64 + 2)
                     }
+                    EffectSpec::SpaceTime { every } => samples(every)
+                        .saturating_mul((d / 2).min(crate::effects::SPACE_TIME_COLUMNS as u64) + 1),
                 })
                 .fold(0u64, u64::saturating_add);
             if let Some(e) = &scene.ensemble {

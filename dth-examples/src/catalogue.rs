@@ -35,6 +35,7 @@ use crate::report::RunReport;
 use crate::runtime_system::{self, MakeSystem, TextJob};
 use crate::scene::{ParamSpec, Scene, SystemInfo, SystemLookup};
 use crate::simulate::{initial_state, preflight, stop_for, RunOptions};
+use crate::step_time;
 use crate::system::{SceneSystem, WithoutDth};
 use crate::systems::{
     DoublePendulum, ForcedOscillator, FputAlpha32, FputBeta32, FreeParticle, HarmonicOscillator,
@@ -46,6 +47,7 @@ type RunFn =
 type EstimateFn =
     dyn Fn(&Scene, &RunOptions) -> Result<MemoryEstimate, Error> + Send + Sync + 'static;
 type ProbeFn = dyn Fn(&Scene) -> Result<Option<PsiSignChange>, Error> + Send + Sync + 'static;
+type StepTimeFn = dyn Fn(&Scene) -> Result<Vec<f64>, Error> + Send + Sync + 'static;
 type EvaluateFn = dyn Fn(&Params, &[f64]) -> Result<(f64, Vec<f64>), Error> + Send + Sync + 'static;
 
 /// One system of a [`Catalogue`].
@@ -62,9 +64,11 @@ pub struct SystemEntry {
     fixed_end_chain: bool,
     dth: bool,
     psi_identically_zero: bool,
+    sized_text: Option<String>,
     run: Box<RunFn>,
     estimate: Box<EstimateFn>,
     probe: Box<ProbeFn>,
+    step_time: Box<StepTimeFn>,
     evaluate: Box<EvaluateFn>,
 }
 
@@ -174,6 +178,34 @@ impl TextJob for ProbeText<'_> {
         DefaultAllocator: Alloc<D>,
     {
         probe_built::<D, S>(make, self.scene)
+    }
+}
+
+/// [`step_time::seconds_per_step`] of a validated scene on the system `make` builds from its
+/// parameters.
+fn step_time_built<D: Dim, S: SceneSystem<D>>(
+    make: &(dyn Fn(&Params) -> Result<S, Error> + Sync),
+    scene: &Scene,
+) -> Result<Vec<f64>, Error>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    step_time::seconds_per_step(&make(&scene.params)?, scene)
+}
+
+/// [`step_time_built`] on a scene's text Hamiltonian.
+struct StepTimeText<'a> {
+    scene: &'a Scene,
+}
+
+impl TextJob for StepTimeText<'_> {
+    type Output = Result<Vec<f64>, Error>;
+
+    fn run<D: Dim, S: SceneSystem<D>>(self, make: &MakeSystem<'_, S>) -> Self::Output
+    where
+        DefaultAllocator: Alloc<D>,
+    {
+        step_time_built::<D, S>(make, self.scene)
     }
 }
 
@@ -325,13 +357,15 @@ impl SystemEntry {
             }
             build(params).map_err(unavailable)
         };
-        let (run_name, estimate_name, probe_name, evaluate_name) = (
+        let (run_name, estimate_name, probe_name, step_time_name, evaluate_name) = (
+            name.to_string(),
             name.to_string(),
             name.to_string(),
             name.to_string(),
             name.to_string(),
         );
-        let (make_too, make_probe, make_evaluate) = (make.clone(), make.clone(), make.clone());
+        let (make_too, make_probe, make_step_time, make_evaluate) =
+            (make.clone(), make.clone(), make.clone(), make.clone());
         SystemEntry {
             name: name.to_string(),
             doc: doc.to_string(),
@@ -345,6 +379,7 @@ impl SystemEntry {
             fixed_end_chain: S::FIXED_END_CHAIN,
             dth,
             psi_identically_zero: S::FLAGS.psi_identically_zero,
+            sized_text: None,
             run: Box::new(move |scene, out, options| {
                 run_built::<Const<D>, S>(&|p: &Params| make(&run_name, p), scene, out, options)
             }),
@@ -357,6 +392,12 @@ impl SystemEntry {
             }),
             probe: Box::new(move |scene| {
                 probe_built::<Const<D>, S>(&|p: &Params| make_probe(&probe_name, p), scene)
+            }),
+            step_time: Box::new(move |scene| {
+                step_time_built::<Const<D>, S>(
+                    &|p: &Params| make_step_time(&step_time_name, p),
+                    scene,
+                )
             }),
             evaluate: Box::new(move |params, z| {
                 let system = make_evaluate(&evaluate_name, params)?;
@@ -393,6 +434,16 @@ impl SystemEntry {
         (self.evaluate)(params, z)
     }
 
+    /// The entry with its text: the Hamiltonian in the grammar of `hamiltonian!`, its sizes
+    /// declared after `where` (`where N = 32, q[0] = q[N+1] = 0`) and the entry's parameters
+    /// by name. At the declared sizes the text is the compiled system (a unit test compares
+    /// `H` and its gradient to the bit); a scene that sets other sizes (`[system] sizes = { N
+    /// = 4096 }`) runs the text at those sizes, compiled at run time.
+    pub fn with_sizes(mut self, text: &str) -> Self {
+        self.sized_text = Some(text.to_string());
+        self
+    }
+
     /// The name scenes use.
     pub fn name(&self) -> &str {
         &self.name
@@ -416,6 +467,7 @@ impl SystemEntry {
             fixed_end_chain: self.fixed_end_chain,
             dth: self.dth,
             psi_identically_zero: self.psi_identically_zero,
+            sized_text: self.sized_text.as_deref(),
         }
     }
 }
@@ -510,20 +562,23 @@ impl Catalogue {
                 // Any coupling: the sign only mirrors the chain (q -> -q).
                 &[ParamSpec::new("alpha", Some(0.25), "cubic coupling (FPUT 1955: 1/4)")],
                 |p| Ok(FputAlpha32 { alpha: param("fput_alpha", p, "alpha")? }),
-            ),
+            )
+            .with_sizes("sum(i = 1..N, p[i]^2/2) + sum(i = 0..N, (q[i+1] - q[i])^2/2 + alpha*(q[i+1] - q[i])^3/3) where N = 32, q[0] = q[N+1] = 0"),
             SystemEntry::runnable::<64, FputBeta32, _>(
                 "fput_beta",
                 "FPUT-beta chain of 32 unit masses, fixed ends q0 = q33 = 0: H = sum p_i^2/2 + sum_{i=0}^{32} [d_i^2/2 + beta d_i^4/4], d_i = q_{i+1} - q_i, n = 32",
                 // beta < 0 is studied too (its potential is bounded below only locally).
                 &[ParamSpec::new("beta", Some(1.0), "quartic coupling")],
                 |p| Ok(FputBeta32 { beta: param("fput_beta", p, "beta")? }),
-            ),
+            )
+            .with_sizes("sum(i = 1..N, p[i]^2/2) + sum(i = 0..N, (q[i+1] - q[i])^2/2 + beta*(q[i+1] - q[i])^4/4) where N = 32, q[0] = q[N+1] = 0"),
             SystemEntry::runnable::<64, TodaFixedEnds32, _>(
                 "toda_fixed_ends",
                 "Toda chain of 32 unit masses between walls q0 = q33 = 0: H = sum p_i^2/2 + sum_{i=0}^{32} exp(q_i - q_{i+1}), n = 32",
                 &[],
                 |_| Ok(TodaFixedEnds32),
-            ),
+            )
+            .with_sizes("sum(i = 1..N, p[i]^2/2) + sum(i = 0..N, exp(q[i] - q[i+1])) where N = 32, q[0] = q[N+1] = 0"),
             SystemEntry::runnable::<12, NBody2d3, _>(
                 "nbody_2d",
                 "three gravitating bodies in the plane, all pairs: H = sum |p_i|^2/(2 m_i) - g sum_{i<j} m_i m_j/|q_i - q_j|, body i at (q_{2i-1}, q_{2i}), n = 6",
@@ -672,6 +727,18 @@ impl Catalogue {
         }
         (self.entry(scene)?.probe)(scene)
     }
+
+    /// Each method's seconds per step on a validated scene, measured on a few steps from its
+    /// initial state ([`step_time::seconds_per_step`]): `dth check`'s time estimate.
+    ///
+    /// # Errors
+    /// What a run of the scene refuses before it starts.
+    pub fn seconds_per_step(&self, scene: &Scene) -> Result<Vec<f64>, Error> {
+        if scene.hamiltonian.is_some() {
+            return runtime_system::dispatch(scene, StepTimeText { scene })?;
+        }
+        (self.entry(scene)?.step_time)(scene)
+    }
 }
 
 impl SystemLookup for Catalogue {
@@ -734,6 +801,39 @@ mod tests {
             assert_eq!(i.dth, e.name() != "free_particle", "{}", e.name());
             assert_eq!(i.psi_identically_zero, !i.dth, "{}", e.name());
         }
+    }
+
+    /// At its declared size, the text of a sizable entry is the compiled system: `H` and its
+    /// gradient to the bit at states of every scale (the run-time programs perform the
+    /// macro's operations in its order).
+    #[test]
+    fn a_sizable_entrys_text_is_its_compiled_system() {
+        let c = Catalogue::builtin();
+        let mut sizable = Vec::new();
+        for e in c.entries() {
+            let Some(text) = e.info().sized_text else {
+                continue;
+            };
+            sizable.push(e.name());
+            let params: Params = e
+                .params
+                .iter()
+                .filter_map(|p| p.default.map(|v| (p.name.to_string(), v)))
+                .collect();
+            let named: Vec<(&str, f64)> = params.iter().map(|(k, v)| (k.as_str(), *v)).collect();
+            let rt = dth::runtime::RuntimeHamiltonian::new(text, &named).unwrap();
+            let d = 2 * e.n;
+            assert_eq!(rt.dimension(), d, "{}", e.name());
+            for scale in [1e-3, 0.3, 2.0] {
+                let z: Vec<f64> = (0..d).map(|k| scale * ((k as f64 * 0.7).sin())).collect();
+                let (h, g) = e.evaluate(&params, &z).unwrap();
+                let mut g_text = vec![0.0; d];
+                rt.gradient_slice(&z, &mut g_text).unwrap();
+                assert_eq!(rt.value_slice(&z).unwrap(), h, "{} at {scale}", e.name());
+                assert_eq!(g_text, g, "{} at {scale}", e.name());
+            }
+        }
+        assert_eq!(sizable, ["fput_alpha", "fput_beta", "toda_fixed_ends"]);
     }
 
     const KEPLER: &str = "[system]\nname = \"kepler\"\nparams = { m = -1.0 }\n[initial]\n\

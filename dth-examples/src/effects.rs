@@ -198,6 +198,51 @@ pub struct ModeEnergies {
     pub energies: Vec<f64>,
 }
 
+/// The most columns (groups of sites) the `space_time` effect records: a raster finer than a
+/// figure's pixels shows nothing more, and the record stays small at any size (256 numbers
+/// a sample for a chain of 16,384).
+pub const SPACE_TIME_COLUMNS: usize = 256;
+
+/// One row of the `space_time` effect: the positions averaged over groups of sites.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SpaceTimeRow {
+    /// Physical time.
+    pub t: f64,
+    /// The mean of `q_i` over each group of consecutive sites, groups of `n / columns` or
+    /// one more sites (the first `n % columns` have one more).
+    pub q: Vec<f64>,
+}
+
+/// The `space_time` samples of one run.
+struct SpaceTimeSamples {
+    every: usize,
+    rows: Vec<SpaceTimeRow>,
+}
+
+/// The index ranges (0-based) of `columns` groups of consecutive sites among `n`: groups of
+/// `n / columns` or one more (the first `n % columns` have one more); none when `columns`
+/// is 0.
+pub fn site_groups(n: usize, columns: usize) -> impl Iterator<Item = std::ops::Range<usize>> {
+    let (base, extra) = if columns == 0 {
+        (0, 0)
+    } else {
+        (n / columns, n % columns)
+    };
+    (0..columns).scan(0, move |at, c| {
+        let len = base + usize::from(c < extra);
+        let group = *at..*at + len;
+        *at += len;
+        Some(group)
+    })
+}
+
+/// The mean of `q` over `columns` groups of consecutive entries (see [`SpaceTimeRow::q`]).
+fn group_means(q: &[f64], columns: usize) -> Vec<f64> {
+    site_groups(q.len(), columns)
+        .map(|g| q[g.clone()].iter().sum::<f64>() / g.len() as f64)
+        .collect()
+}
+
 struct ModeSamples {
     every: usize,
     modes: ChainModes,
@@ -234,6 +279,8 @@ pub struct EffectOutputs {
     pub phase: Vec<Vec<(f64, f64, f64)>>,
     /// `normal_modes`: the mode energies every `every` steps.
     pub normal_modes: Option<Vec<ModeEnergies>>,
+    /// `space_time`: the positions (grouped) every `every` steps.
+    pub space_time: Option<Vec<SpaceTimeRow>>,
 }
 
 /// The observers of one method's run, one per requested effect.
@@ -252,6 +299,7 @@ where
     sections: Vec<Section<D>>,
     phase: Vec<PhaseSamples>,
     normal_modes: Option<ModeSamples>,
+    space_time: Option<SpaceTimeSamples>,
     calls: usize,
 }
 
@@ -277,6 +325,7 @@ where
             sections: Vec::new(),
             phase: Vec::new(),
             normal_modes: None,
+            space_time: None,
             calls: 0,
         };
         let names = system.invariant_names();
@@ -343,6 +392,12 @@ where
                         rows: Vec::new(),
                     })
                 }
+                EffectSpec::SpaceTime { every } => {
+                    e.space_time = Some(SpaceTimeSamples {
+                        every,
+                        rows: Vec::new(),
+                    })
+                }
             }
         }
         Some(e)
@@ -380,6 +435,10 @@ where
                 .normal_modes
                 .as_ref()
                 .map_or(0, |m| m.rows.len() * (m.modes.modes() + 2))
+            + self
+                .space_time
+                .as_ref()
+                .map_or(0, |s| s.rows.iter().map(|r| r.q.len() + 1).sum())
     }
 
     /// Ends observation and hands over the results.
@@ -399,6 +458,7 @@ where
             poincare: self.sections.into_iter().map(|s| s.crossings).collect(),
             phase: self.phase.into_iter().map(|p| p.points).collect(),
             normal_modes: self.normal_modes.map(|m| m.rows),
+            space_time: self.space_time.map(|s| s.rows),
         }
     }
 }
@@ -496,6 +556,18 @@ where
                 let mut energies = vec![0.0; m.modes.modes()];
                 m.modes.energies(q, p, &mut energies);
                 m.rows.push(ModeEnergies { step, t, energies });
+            }
+        }
+        if let Some(s) = &mut self.space_time {
+            if step.is_multiple_of(s.every) {
+                let q = &z.as_slice()[..z.len() / 2];
+                let columns = q.len().clamp(1, SPACE_TIME_COLUMNS);
+                if !q.is_empty() {
+                    s.rows.push(SpaceTimeRow {
+                        t,
+                        q: group_means(q, columns),
+                    });
+                }
             }
         }
         for p in &mut self.phase {

@@ -72,6 +72,7 @@ pub mod singularity;
 
 pub mod budget;
 pub mod probe;
+pub mod step_time;
 pub mod simulate;
 
 pub mod report;

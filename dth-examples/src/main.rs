@@ -11,6 +11,7 @@ use dth_examples::output::Staging;
 use dth_examples::report::table41;
 use dth_examples::scene::{EffectKind, MethodKind};
 use dth_examples::simulate::RunOptions;
+use dth_examples::step_time;
 use dth_examples::workprecision::{self, WorkPrecisionOptions};
 use dth_examples::{Error, DEFAULT_OUT, DEFAULT_SCENE, DEFAULT_SCENE_NAME};
 
@@ -339,11 +340,16 @@ fn list() {
             })
             .collect();
         println!(
-            "  {:<20} n = {}{}\n  {:<20} {}\n  {:<20} params: {}",
+            "  {:<20} n = {}{}{}\n  {:<20} {}\n  {:<20} params: {}",
             e.name(),
             info.n,
             if info.time_dependent {
                 ", time-dependent"
+            } else {
+                ""
+            },
+            if info.sized_text.is_some() {
+                " (any size: `sizes = { N = .. }` in [system])"
             } else {
                 ""
             },
@@ -420,8 +426,14 @@ fn main_inner(cli: Cli) -> Result<ExitCode, CliError> {
             if let Some(change) = catalogue.probe_psi(&s)? {
                 eprintln!("warning: {}", change.warning());
             }
+            let per_step = catalogue.seconds_per_step(&s)?;
+            let members = s.members.as_ref().map_or(1, |m| m.candidates());
+            let threads = options.threads.unwrap_or_else(|| {
+                std::thread::available_parallelism().map_or(1, std::num::NonZeroUsize::get)
+            });
+            let seconds = step_time::run_seconds(&memory, &per_step, members, threads);
             println!(
-                "{}: ok ({}, {} method{}, {} effect{}; effects keep about {}, limit {})",
+                "{}: ok ({}, {} method{}, {} effect{}; effects keep about {}, limit {}; stepping takes about {})",
                 scene.display(),
                 s.system,
                 s.methods.len(),
@@ -429,7 +441,8 @@ fn main_inner(cli: Cli) -> Result<ExitCode, CliError> {
                 s.effects.len(),
                 if s.effects.len() == 1 { "" } else { "s" },
                 budget::human(memory.bytes()),
-                budget::human(options.memory_limit())
+                budget::human(options.memory_limit()),
+                step_time::human(seconds)
             );
             Ok(ExitCode::SUCCESS)
         }

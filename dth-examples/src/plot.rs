@@ -723,6 +723,203 @@ fn write_png(path: &Path, rgb: &[u8], w: u32, h: u32) -> Result<(), PngError> {
     writer.finish().map_err(|e| PngError::Encode(e.to_string()))
 }
 
+/// A filled raster with a colour bar: `values` on a grid of `cols` columns (along x) and
+/// `values.len() / cols` rows (along y, the first row at the bottom), coloured on a diverging
+/// scale (blue, white at the centre, red): by default symmetric about 0 (a lattice's
+/// displacement against site and time), or any `low < centre < high` ([`Raster::with_scale`]:
+/// a chaos indicator, white where orbits are regular). Values beyond the scale take its end
+/// colours; a value that is not a number is grey (a member that did not run).
+///
+/// ```
+/// use dth_examples::plot::Raster;
+/// let dir = tempfile::tempdir().unwrap();
+/// let values: Vec<f64> = (0..20).flat_map(|t| (0..10).map(move |i| (i as f64 - t as f64 * 0.3).sin())).collect();
+/// let r = Raster::new("wave", "site", "t", (1.0, 10.0), (0.0, 19.0), values, 10, "q");
+/// let files = r.render(dir.path(), "wave").unwrap();
+/// assert!(files.iter().all(|f| f.exists()));
+/// ```
+#[derive(Debug, Clone, PartialEq)]
+pub struct Raster {
+    title: String,
+    x_label: String,
+    y_label: String,
+    x_range: (f64, f64),
+    y_range: (f64, f64),
+    values: Vec<f64>,
+    cols: usize,
+    colour_label: String,
+    /// `(low, centre, high)`; `None`: symmetric about 0 over the values' largest magnitude.
+    scale: Option<(f64, f64, f64)>,
+}
+
+impl Raster {
+    /// The raster of `values` (row after row, `cols` a row) over `x_range` x `y_range`,
+    /// `colour_label` naming what the colour shows.
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        title: &str,
+        x_label: &str,
+        y_label: &str,
+        x_range: (f64, f64),
+        y_range: (f64, f64),
+        values: Vec<f64>,
+        cols: usize,
+        colour_label: &str,
+    ) -> Self {
+        Raster {
+            title: title.into(),
+            x_label: x_label.into(),
+            y_label: y_label.into(),
+            x_range,
+            y_range,
+            values,
+            cols: cols.max(1),
+            colour_label: colour_label.into(),
+            scale: None,
+        }
+    }
+
+    /// The values, row after row (the first row at the bottom).
+    pub fn values(&self) -> &[f64] {
+        &self.values
+    }
+
+    /// The number of columns (cells along x).
+    pub fn cols(&self) -> usize {
+        self.cols
+    }
+
+    /// Colours from blue at `low` through white at `centre` to red at `high` (each side
+    /// linear), the colour bar spanning `low..high`. A scale that is not ordered
+    /// (`low < centre < high`, all finite) leaves the default.
+    pub fn with_scale(mut self, low: f64, centre: f64, high: f64) -> Self {
+        let ordered = low < centre && centre < high && low.is_finite() && high.is_finite();
+        if ordered {
+            self.scale = Some((low, centre, high));
+        }
+        self
+    }
+
+    /// Writes `dir/stem.png` and `dir/stem.svg`; returns their paths.
+    pub fn render(&self, dir: &Path, stem: &str) -> Result<Vec<PathBuf>, Error> {
+        render_both(
+            dir,
+            stem,
+            (900, 650),
+            |root| self.draw(root),
+            |root| self.draw(root),
+        )
+    }
+
+    /// Blue (-1) through white (0) to red (+1); grey for a value that is not a number.
+    fn colour(v: f64) -> RGBColor {
+        if v.is_nan() {
+            return RGBColor(170, 170, 170);
+        }
+        let v = v.clamp(-1.0, 1.0);
+        let mix = |c: f64| (255.0 * (1.0 - v.abs()) + c * v.abs()).round() as u8;
+        if v >= 0.0 {
+            RGBColor(mix(200.0), mix(30.0), mix(30.0))
+        } else {
+            RGBColor(mix(30.0), mix(60.0), mix(200.0))
+        }
+    }
+
+    /// The scale `(low, centre, high)`: the one set, or symmetric about 0 over the values.
+    fn scale(&self) -> (f64, f64, f64) {
+        self.scale.unwrap_or_else(|| {
+            let limit = self
+                .values
+                .iter()
+                .filter(|v| v.is_finite())
+                .fold(0.0f64, |m, v| m.max(v.abs()));
+            let limit = if limit > 0.0 { limit } else { 1.0 };
+            (-limit, 0.0, limit)
+        })
+    }
+
+    /// `v` on the scale, `-1..1` (see [`Raster::colour`]).
+    fn unit((low, centre, high): (f64, f64, f64), v: f64) -> f64 {
+        if v >= centre {
+            (v - centre) / (high - centre)
+        } else {
+            (v - centre) / (centre - low)
+        }
+    }
+
+    fn draw<DB: DrawingBackend>(
+        &self,
+        root: &DrawingArea<DB, Shift>,
+    ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+        root.fill(&WHITE)?;
+        let (main, bar) = root.split_horizontally(790);
+        let rows = self.values.len() / self.cols;
+        let scale = self.scale();
+        let (low, high) = (scale.0, scale.2);
+        let (x0, x1) = self.x_range;
+        let (y0, y1) = self.y_range;
+        // A single row or column still spans its cell.
+        let (x1, y1) = (
+            if x1 > x0 { x1 } else { x0 + 1.0 },
+            if y1 > y0 { y1 } else { y0 + 1.0 },
+        );
+        let mut chart = ChartBuilder::on(&main)
+            .caption(&self.title, ("sans-serif", 22))
+            .margin(15)
+            .x_label_area_size(50)
+            .y_label_area_size(80)
+            .build_cartesian_2d(x0..x1, y0..y1)?;
+        let (sx, sy) = (x1 - x0, y1 - y0);
+        let fx = move |v: &f64| tick_label(*v, false, sx);
+        let fy = move |v: &f64| tick_label(*v, false, sy);
+        chart
+            .configure_mesh()
+            .disable_mesh()
+            .x_desc(&self.x_label)
+            .y_desc(&self.y_label)
+            .x_label_formatter(&fx)
+            .y_label_formatter(&fy)
+            .label_style(("sans-serif", 14))
+            .axis_desc_style(("sans-serif", 16))
+            .draw()?;
+        let (dx, dy) = (sx / self.cols as f64, sy / rows.max(1) as f64);
+        chart.draw_series(self.values.iter().enumerate().map(|(k, v)| {
+            let (r, c) = (k / self.cols, k % self.cols);
+            let (x, y) = (x0 + c as f64 * dx, y0 + r as f64 * dy);
+            Rectangle::new(
+                [(x, y), (x + dx, y + dy)],
+                Self::colour(Self::unit(scale, *v)).filled(),
+            )
+        }))?;
+        // The colour bar: the scale from low to high.
+        let mut bar_chart = ChartBuilder::on(&bar)
+            .margin_top(45)
+            .margin_bottom(65)
+            .margin_right(5)
+            .right_y_label_area_size(70)
+            .build_cartesian_2d(0.0..1.0, low..high)?;
+        let fl = move |v: &f64| tick_label(*v, false, high - low);
+        bar_chart
+            .configure_mesh()
+            .disable_mesh()
+            .disable_x_axis()
+            .y_desc(&self.colour_label)
+            .y_label_formatter(&fl)
+            .label_style(("sans-serif", 13))
+            .axis_desc_style(("sans-serif", 15))
+            .draw()?;
+        let steps = 100;
+        bar_chart.draw_series((0..steps).map(|k| {
+            let a = low + (high - low) * k as f64 / steps as f64;
+            let b = a + (high - low) / steps as f64;
+            let mid = 0.5 * (a + b);
+            Rectangle::new([(0.0, a), (1.0, b)], Self::colour(Self::unit(scale, mid)).filled())
+        }))?;
+        root.present()?;
+        Ok(())
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -560,3 +560,185 @@ fn a_four_dimensional_text_runs_at_a_fixed_size_and_ends_where_the_builtin_keple
     // `Const<4>` stepper code, so nothing differs to round differently.
     assert_eq!(from_text, compiled);
 }
+
+/// The shipped `fput-4096.toml` with `[system] sizes = { N = n }` added: the same text, the
+/// same formulas, another size.
+fn fput_at(n: usize) -> String {
+    let path = format!("{}/scenes/fput-4096.toml", env!("CARGO_MANIFEST_DIR"));
+    let text = fs::read_to_string(path).unwrap();
+    assert!(text.contains("[system]\n"));
+    text.replacen("[system]\n", &format!("[system]\nsizes = {{ N = {n} }}\n"), 1)
+}
+
+#[test]
+fn the_4096_chain_scene_is_valid_at_its_size_and_its_formulas_fill_the_state() {
+    let scene = shipped("fput-4096.toml");
+    let h = scene.hamiltonian.as_ref().unwrap();
+    assert_eq!((h.n, scene.q.len(), scene.p.len()), (4096, 4096, 4096));
+    // q_i = 10 sin(i pi / (N + 1)): sin and the product round once each (a few eps of 10).
+    for (k, &q) in scene.q.iter().enumerate() {
+        let i = (k + 1) as f64;
+        let want = 10.0 * (i * std::f64::consts::PI / 4097.0).sin();
+        assert!((q - want).abs() <= 4.0 * 10.0 * f64::EPSILON, "q{}: {q} {want}", k + 1);
+    }
+    assert!(scene.p.iter().all(|&p| p == 0.0));
+    // The effects the scene asks for are all there (normal_modes was checked against the
+    // unit chain by its nonzeros: no dense Hessian of D = 8192).
+    let kinds: Vec<_> = scene.effects.iter().map(EffectSpec::kind).collect();
+    assert!(kinds.contains(&dth_examples::scene::EffectKind::NormalModes), "{kinds:?}");
+    assert!(kinds.contains(&dth_examples::scene::EffectKind::SpaceTime), "{kinds:?}");
+}
+
+#[test]
+fn one_chain_scene_serves_every_size() {
+    let text = fput_at(16);
+    let mut scene = check_scene(&text, "fput-16.toml", &Catalogue::builtin())
+        .unwrap_or_else(|e| panic!("{e}"));
+    let h = scene.hamiltonian.as_ref().unwrap();
+    assert_eq!((h.n, scene.q.len()), (16, 16));
+    // N in the formula is the scene's 16, not the text's 4096.
+    let want = 10.0 * (std::f64::consts::PI / 17.0).sin();
+    assert!((scene.q[0] - want).abs() <= 40.0 * f64::EPSILON, "{}", scene.q[0]);
+
+    // A short run: DTH keeps the energy; space_time records every site (16 columns) every
+    // 5 steps, its first row the initial positions themselves (groups of one site).
+    scene.duration = Duration::Steps(40);
+    scene.effects = vec![
+        EffectSpec::EnergyDeviation { every: 1 },
+        EffectSpec::SpaceTime { every: 5 },
+    ];
+    let system = TextSystem::build(&scene).unwrap();
+    let results = compute(&system, &scene, &quiet()).unwrap();
+    let dth = &results[0];
+    assert!(dth.failure.is_none(), "{:?}", dth.failure);
+    // H is about 0.3 here over 50 terms of order 1e-2..1: roundoff ~ a few eps of the
+    // largest term, 1e-14 is ~45 eps.
+    let energy = dth.summary.energy.as_ref().unwrap();
+    assert!(energy.points.max <= 1e-14, "{:?}", energy.points);
+    let rows = dth.outputs.space_time.as_ref().expect("space_time");
+    assert_eq!(rows.len(), 40 / 5 + 1);
+    assert_eq!(rows[0].q, scene.q);
+    assert!(rows.iter().all(|r| r.q.len() == 16));
+    assert!(rows.windows(2).all(|w| w[1].t > w[0].t));
+}
+
+#[test]
+fn space_time_groups_sites_beyond_its_column_limit() {
+    // 600 sites in 256 columns: groups of 3 (the first 88) and 2 (the other 168).
+    let groups: Vec<_> = dth_examples::effects::site_groups(600, 256).collect();
+    assert_eq!(groups.len(), 256);
+    assert_eq!(groups[0], 0..3);
+    assert_eq!(groups[87], 261..264);
+    assert_eq!(groups[88], 264..266);
+    assert_eq!(groups[255].end, 600);
+    assert!(groups.windows(2).all(|w| w[0].end == w[1].start));
+}
+
+#[test]
+fn seeded_random_states_repeat_and_differ_by_seed() {
+    let scene_with = |seed: u64| {
+        let text = fput_at(8).replace(
+            "p = \"0\"",
+            &format!("p = \"0.01*(2*random - 1)\"\nseed = {seed}"),
+        );
+        check_scene(&text, "r.toml", &Catalogue::builtin()).unwrap_or_else(|e| panic!("{e}"))
+    };
+    let (a, b, c) = (scene_with(7), scene_with(7), scene_with(8));
+    assert_eq!(a.p, b.p);
+    assert_ne!(a.p, c.p);
+    assert!(a.p.iter().all(|p| (-0.01..0.01).contains(p)), "{:?}", a.p);
+    // The positions are the formula's, whatever the seed.
+    assert_eq!(a.q, c.q);
+}
+
+#[test]
+fn an_initial_state_from_a_csv_file_takes_its_last_row() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = "row,t,q1,q2,p1,p2\nvertex,0,1,2,3,4\nvertex,0.75,0.5,0.25,-1,-2\n";
+    fs::write(dir.path().join("start.csv"), csv).unwrap();
+    let text = with_system(
+        KEPLER,
+        &PLANAR.replace(
+            "q = [0.5, 0.0]\np = [0.0, 1.2]",
+            "file = \"start.csv\"",
+        ),
+    );
+    let path = dir.path().join("k.toml");
+    let scene = check_scene(&text, path.to_str().unwrap(), &Catalogue::builtin())
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!((scene.q, scene.p, scene.t0), (vec![0.5, 0.25], vec![-1.0, -2.0], 0.75));
+    // A missing file is an error at `file`, naming the path.
+    let missing = text.replace("start.csv", "nowhere.csv");
+    let e = messages_at(&missing, path.to_str().unwrap());
+    assert_eq!(e.len(), 1, "{e:?}");
+    assert!(e[0].contains(":5:8: initial state file") && e[0].contains("nowhere.csv"), "{e:?}");
+}
+
+/// Every message validation gives for `text` read as the file `file`.
+fn messages_at(text: &str, file: &str) -> Vec<String> {
+    match check_scene(text, file, &Catalogue::builtin()) {
+        Ok(_) => Vec::new(),
+        Err(Error::Scene(diags)) => diags.0.iter().map(ToString::to_string).collect(),
+        Err(e) => panic!("{e}"),
+    }
+}
+
+#[test]
+fn lattice_scene_errors_are_reported_at_their_place() {
+    let one = |from: &str, to: &str| {
+        let text = fput_at(8).replace(from, to);
+        let line = text.lines().position(|l| l.contains(to)).unwrap() + 1;
+        let e = messages_at(&text, "bad.toml");
+        assert_eq!(e.len(), 1, "{e:?}");
+        (line, e[0].clone())
+    };
+    // A size the text does not use: at its key.
+    let (line, e) = one("sizes = { N = 8 }", "sizes = { N = 8, M = 3 }");
+    assert!(e.starts_with(&format!("bad.toml:{line}:18: size `M` is not a name the Hamiltonian uses")), "{e}");
+    // A formula's unknown name and the state itself: inside the string.
+    let (line, e) = one("q = \"10*sin(i*", "q = \"10*sin(j*");
+    assert!(e.starts_with(&format!("bad.toml:{line}:13: unknown variable `j`")), "{e}");
+    let (line, e) = one("(N+1))\"", "(N+1)) + q1\"");
+    assert!(e.starts_with(&format!("bad.toml:{line}:27: initial `q` is a formula")), "{e}");
+    assert!(e.contains("`q1` is the state it defines"), "{e}");
+}
+
+#[test]
+fn the_catalogues_chains_take_their_size_from_the_scene() {
+    let scene_of = |system: &str| {
+        format!(
+            "[system]\n{system}\n[initial]\nq = \"0.1*sin(i*pi/(N+1))\"\np = \"0\"\n\
+             [[method]]\nkind = \"dth\"\ndtau = 0.1\n[duration]\nsteps = 20\n\
+             [[effect]]\nkind = \"normal_modes\"\n[[effect]]\nkind = \"final_state\"\n"
+        )
+    };
+    let text = scene_of("name = \"fput_beta\"\nsizes = { N = 100 }\nparams = { beta = 0.5 }");
+    let scene =
+        check_scene(&text, "b.toml", &Catalogue::builtin()).unwrap_or_else(|e| panic!("{e}"));
+    let h = scene.hamiltonian.as_ref().expect("runs the catalogue's text");
+    assert_eq!((h.n, scene.q.len()), (100, 100));
+    assert_eq!(scene.system, "fput_beta, N = 100");
+    assert_eq!(scene.params.get("beta"), Some(&0.5));
+    // At its own size, with the default parameter, it is the compiled chain: the same run.
+    let at_32 = scene_of("name = \"fput_beta\"\nsizes = { N = 32 }");
+    let compiled = scene_of("name = \"fput_beta\"");
+    let run = |text: &str| {
+        let scene = check_scene(text, "b.toml", &Catalogue::builtin()).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        Catalogue::builtin()
+            .run(&scene, &dir.path().join("out"), &quiet())
+            .unwrap_or_else(|e| panic!("{e:?}"));
+        let summary: serde_json::Value = serde_json::from_str(
+            &fs::read_to_string(dir.path().join("out/summary.json")).unwrap(),
+        )
+        .unwrap();
+        summary["methods"][0]["final_state"].clone()
+    };
+    let (a, b) = (run(&at_32), run(&compiled));
+    assert!(!a.is_null());
+    assert_eq!(a, b);
+    // A system of fixed size says which ones take a size.
+    let e = messages_at(&scene_of("name = \"kepler\"\nsizes = { N = 3 }"), "k.toml");
+    assert!(e.iter().any(|m| m.contains("`kepler` has its own size")
+        && m.contains("`fput_alpha`, `fput_beta`, `toda_fixed_ends`")), "{e:?}");
+}

@@ -11,7 +11,7 @@ use serde::Serialize;
 use super::member::MemberResult;
 use super::step_check::REGULAR_MAX;
 use crate::error::Error;
-use crate::plot::{Figure, Mark, Series};
+use crate::plot::{Figure, Mark, Raster, Series};
 use crate::report::html::escape;
 use crate::report::{write_file, write_json, EnsembleCounts as Counts, StepCheck};
 use crate::scene::{component_names, Axis, EffectSpec, Members, Sampler, Scene};
@@ -362,6 +362,62 @@ fn chaos_figures(
     figs
 }
 
+/// Where the raster chaos map puts white (`<Y>` of a quasi-periodic orbit tends to 2) and
+/// where its red saturates (well past the chaotic class's lower bound, 20 would wash out the
+/// weakly chaotic members).
+const RASTER_REGULAR: f64 = 2.0;
+const RASTER_CHAOTIC: f64 = 10.0;
+
+/// The chaos maps of a grid over two axes as rasters, per method: one cell per member at its
+/// place on the grid, coloured by `<Y>` on a scale white at 2 (regular), blue towards 0
+/// (periodic orbits), red from 2 to 10 and beyond (chaotic); grey where the member has no
+/// `<Y>` (skipped by the energy shell, not run, or stopped early). Empty for other samplers
+/// (the class scatter of [`chaos_figures`] draws those).
+fn chaos_rasters(scene: &Scene, members: &Members, results: &[MemberResult]) -> Vec<(String, Raster)> {
+    let Sampler::Grid {
+        x: (x, nx),
+        y: Some((y, ny)),
+    } = &members.sampler
+    else {
+        return Vec::new();
+    };
+    let (nx, ny) = (*nx, *ny);
+    // Cells centred on the grid's values (at least 2 a side: validation).
+    let half = |from: f64, to: f64, n: usize| 0.5 * (to - from) / (n.max(2) - 1) as f64;
+    let (hx, hy) = (half(x.from, x.to, nx), half(y.from, y.to, ny));
+    let mut rasters = Vec::new();
+    for (mi, m) in scene.methods.iter().enumerate() {
+        // Row r (y, bottom first), column c (x): the member at x index c, y index r (the grid
+        // varies x slowest, so its index is c * ny + r).
+        let mut values = vec![f64::NAN; nx * ny];
+        for r in results {
+            let megno = r
+                .runs
+                .get(mi)
+                .filter(|run| run.failure.is_none())
+                .and_then(|run| run.megno);
+            if let (Some(v), true) = (megno, r.index < nx * ny) {
+                let (c, row) = (r.index / ny, r.index % ny);
+                values[row * nx + c] = v;
+            }
+        }
+        let title = format!("{}: {}, MEGNO <Y> over the grid", scene.title, m.label);
+        let raster = Raster::new(
+            &title,
+            &x.axis.name(),
+            &y.axis.name(),
+            (x.from - hx, x.to + hx),
+            (y.from - hy, y.to + hy),
+            values,
+            nx,
+            "MEGNO <Y> (2: regular)",
+        )
+        .with_scale(0.0, RASTER_REGULAR, RASTER_CHAOTIC);
+        rasters.push((format!("chaos_map_{}", m.label), raster));
+    }
+    rasters
+}
+
 /// Writes every file of the ensemble into `dir` (`step_check` into the counts); returns
 /// their names.
 pub fn write(
@@ -385,7 +441,15 @@ pub fn write(
         figs.extend(section_figures(scene, results));
     }
     if members.chaos.is_some() {
-        figs.extend(chaos_figures(scene, members, d, results));
+        let rasters = chaos_rasters(scene, members, results);
+        if rasters.is_empty() {
+            figs.extend(chaos_figures(scene, members, d, results));
+        }
+        for (stem, r) in rasters {
+            r.render(dir, &stem)?;
+            files.push(format!("{stem}.png"));
+            files.push(format!("{stem}.svg"));
+        }
     }
     for (stem, f) in figs {
         f.render(dir, &stem)?;
@@ -434,4 +498,72 @@ pub fn index(scene: &Scene, counts: &Counts, files: &[String]) -> String {
     }
     h.push_str("</ul>\n</body></html>\n");
     h
+}
+
+#[cfg(test)]
+mod raster_tests {
+    use super::super::member::MemberRun;
+    use super::*;
+    use crate::catalogue::Catalogue;
+
+    /// A member of a grid with `<Y>` = its index (the one method), or none.
+    fn member(index: usize, megno: Option<f64>) -> MemberResult {
+        MemberResult {
+            index,
+            params: BTreeMap::new(),
+            start: Some(vec![0.0; 4]),
+            not_run: None,
+            skipped: megno.is_none(),
+            runs: vec![MemberRun {
+                method: "dth".into(),
+                steps: 1,
+                t_end: 1.0,
+                end: vec![0.0; 4],
+                energy_error: 0.0,
+                fallback_steps: 0,
+                failure: None,
+                megno,
+                lyapunov: None,
+                sali: None,
+                crossings: Vec::new(),
+            }],
+        }
+    }
+
+    #[test]
+    fn each_member_is_the_cell_at_its_grid_values() {
+        let text = "title = \"HH\"\n[system]\nname = \"henon_heiles\"\n[initial]\nq = [0.0, 0.0]\n\
+                    p = [0.0, 0.0]\n[ensemble]\nkind = \"grid\"\nx = \"q2\"\nx_range = [-0.3, 0.3]\n\
+                    x_count = 4\ny = \"p2\"\ny_range = [0.0, 0.2]\ny_count = 3\nchaos = \"megno\"\n\
+                    [[method]]\nkind = \"dth\"\ndtau = 0.1\n[duration]\ntime = 1.0\n";
+        let scene = crate::check_scene(text, "g.toml", &Catalogue::builtin()).unwrap();
+        let members = scene.members.clone().unwrap();
+        // Index 5 (x index 1, y index 2) has no <Y>: grey (NaN).
+        let results: Vec<MemberResult> = (0..12)
+            .map(|i| member(i, (i != 5).then_some(i as f64)))
+            .collect();
+        let rasters = chaos_rasters(&scene, &members, &results);
+        assert_eq!(rasters.len(), 1);
+        let (stem, r) = &rasters[0];
+        assert_eq!(stem, "chaos_map_dth");
+        assert_eq!(r.cols(), 4);
+        let v = r.values();
+        assert_eq!(v.len(), 12);
+        for row in 0..3 {
+            for c in 0..4 {
+                let index = c * 3 + row;
+                let cell = v[row * 4 + c];
+                if index == 5 {
+                    assert!(cell.is_nan());
+                } else {
+                    assert_eq!(cell, index as f64, "x {c}, y {row}");
+                }
+            }
+        }
+        // A random sampler draws no raster (the class scatter does).
+        let random = text.replace("kind = \"grid\"", "kind = \"random\"").replace("x_count = 4\n", "").replace("y_count = 3\n", "samples = 12\n");
+        let scene = crate::check_scene(&random, "r.toml", &Catalogue::builtin()).unwrap();
+        let members = scene.members.clone().unwrap();
+        assert!(chaos_rasters(&scene, &members, &results).is_empty());
+    }
 }

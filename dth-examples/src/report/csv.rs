@@ -134,6 +134,25 @@ pub fn write(dir: &Path, scene: &Scene, results: &[MethodResult]) -> Result<Vec<
             }
             put(format!("{l}_normal_modes.csv"), s, &mut files)?;
         }
+        if let Some(rows) = &o.space_time {
+            let sites = scene.q.len();
+            let columns = rows.first().map_or(0, |r| r.q.len());
+            let names: Vec<String> = crate::effects::site_groups(sites, columns)
+                .map(|g| match g.len() {
+                    1 => format!("q{}", g.start + 1),
+                    _ => format!("q{}-q{}", g.start + 1, g.end),
+                })
+                .collect();
+            let mut s = format!("t,{}\n", names.join(","));
+            for r in rows {
+                let _ = write!(s, "{:e}", r.t);
+                for q in &r.q {
+                    let _ = write!(s, ",{q:e}");
+                }
+                s.push('\n');
+            }
+            put(format!("{l}_space_time.csv"), s, &mut files)?;
+        }
         if let Some(members) = &r.ensemble {
             let d = members
                 .iter()

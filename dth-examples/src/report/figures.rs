@@ -3,9 +3,9 @@
 
 use std::path::Path;
 
-use crate::effects::{DeviationStats, ModeEnergies, Series};
+use crate::effects::{DeviationStats, ModeEnergies, Series, SpaceTimeRow};
 use crate::error::Error;
-use crate::plot::{Figure, Mark, Series as PlotSeries};
+use crate::plot::{Figure, Mark, Raster, Series as PlotSeries};
 use crate::scene::{Coord, EffectSpec, Scene};
 use crate::simulate::MethodResult;
 
@@ -23,6 +23,7 @@ pub fn write(
     let mut seen_invariants = false;
     let mut seen_time_law = false;
     let mut seen_modes = false;
+    let mut files = Vec::new();
     for spec in &scene.effects {
         match spec {
             EffectSpec::EnergyDeviation { .. } if !seen_energy => {
@@ -139,6 +140,20 @@ pub fn write(
                     }
                 }
             }
+            EffectSpec::SpaceTime { .. } => {
+                for r in results {
+                    if let Some(rows) = &r.outputs.space_time {
+                        let stem = format!("space_time_{}", r.summary.label);
+                        if let Some(raster) =
+                            space_time_figure(&scene.title, r, rows, scene.q.len())
+                        {
+                            raster.render(dir, &stem)?;
+                            files.push(format!("{stem}.png"));
+                            files.push(format!("{stem}.svg"));
+                        }
+                    }
+                }
+            }
             _ => {}
         }
     }
@@ -173,7 +188,6 @@ pub fn write(
             figs.push((format!("ensemble_{}", r.summary.label), f));
         }
     }
-    let mut files = Vec::new();
     for (stem, f) in figs {
         f.render(dir, &stem)?;
         files.push(format!("{stem}.png"));
@@ -212,6 +226,36 @@ fn deviation_figure<'r>(
         }
     }
     f
+}
+
+/// The most rows the space-time raster draws (a figure of 650 pixels shows no more): of more
+/// samples every k-th is drawn. Not their mean: a displacement that oscillates faster than a
+/// row would average to nothing. The CSV keeps every sample.
+const SPACE_TIME_ROWS: usize = 200;
+
+/// The `space_time` raster of one method's run: site against `t`, colour = displacement;
+/// `None` without samples. `sites` is the chain's `n`.
+fn space_time_figure(
+    title: &str,
+    r: &MethodResult,
+    rows: &[SpaceTimeRow],
+    sites: usize,
+) -> Option<Raster> {
+    let stride = rows.len().div_ceil(SPACE_TIME_ROWS).max(1);
+    let drawn: Vec<&SpaceTimeRow> = rows.iter().step_by(stride).collect();
+    let (first, last) = (drawn.first()?, drawn.last()?);
+    let cols = first.q.len();
+    let values: Vec<f64> = drawn.iter().flat_map(|row| row.q.iter().copied()).collect();
+    Some(Raster::new(
+        &format!("{title}: displacement, {}", series_name(r)),
+        "site i",
+        "t",
+        (0.5, sites as f64 + 0.5),
+        (first.t, last.t),
+        values,
+        cols,
+        "q_i",
+    ))
 }
 
 /// The energies `E_1..E_k` of the normal modes against `t`, one line per mode (FPUT's

@@ -28,26 +28,33 @@ use toml::Spanned;
 
 use super::members::Errors;
 use super::schema::TextHamiltonian;
+use super::sizes::Origin;
 use super::toml_string::StringPositions;
 
 /// Reads the expression `source` (the spanned TOML string in `text`) with the parameters
-/// `params`: the Hamiltonian and the parameter values, or `None` with every independent error
-/// pushed to `errors` (file byte ranges and messages). The engine's warnings go to `warnings`
-/// in the same form (the returned Hamiltonian's own list is left for the caller to locate).
+/// `params` and the sizes `sizes` (`super::sizes`): the Hamiltonian and the parameter values,
+/// or `None` with every independent error pushed to `errors` (file byte ranges and messages).
+/// The engine's warnings go to `warnings` in the same form (the returned Hamiltonian's own
+/// list is left for the caller to locate).
 pub(super) fn check(
     text: &str,
     source: &Spanned<String>,
     params: &BTreeMap<Spanned<String>, Spanned<f64>>,
+    sizes: &BTreeMap<Spanned<String>, Spanned<i64>>,
     errors: &mut Errors,
     warnings: &mut Errors,
 ) -> Option<(TextHamiltonian, BTreeMap<String, f64>)> {
-    let expression = source.get_ref().as_str();
-    let positions = StringPositions::new(text, source.span(), expression);
-    // Byte range of the expression -> file range; the opening quote if the literal could not
-    // be mapped (it always can for what the TOML parser accepts: see `toml_string`).
-    let at = |range: Range<usize>| match &positions {
-        Some(p) => p.range(range),
-        None => source.span().start..source.span().start,
+    let written = source.get_ref().as_str();
+    let sized = super::sizes::apply(written, sizes, errors)?;
+    let expression = sized.source.as_str();
+    let positions = StringPositions::new(text, source.span(), written);
+    // Byte range of the expression -> file range (a size the scene set: its value there);
+    // the opening quote if the literal could not be mapped (it always can for what the TOML
+    // parser accepts: see `toml_string`).
+    let at = |range: Range<usize>| match (sized.origin(range), &positions) {
+        (Origin::Scene(value), _) => value,
+        (Origin::Text(range), Some(p)) => p.range(range),
+        (Origin::Text(_), None) => source.span().start..source.span().start,
     };
     // In file order, so that the engine reports parameter errors in the order written.
     let mut given: Vec<(&Spanned<String>, &Spanned<f64>)> = params.iter().collect();

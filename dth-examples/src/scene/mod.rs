@@ -44,10 +44,12 @@
 //! `params` and an optional `title`): see `expression` and [`TextHamiltonian`].
 
 mod expression;
+mod initial;
 mod members;
 mod raw;
 mod regularization;
 mod schema;
+mod sizes;
 mod structure;
 mod suggest;
 mod toml_string;

@@ -6,6 +6,8 @@ use std::collections::BTreeMap;
 use serde::Deserialize;
 use toml::Spanned;
 
+use super::initial::RawValues;
+
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(super) struct RawScene {
@@ -56,6 +58,9 @@ pub(super) struct RawSystem {
     pub(super) title: Option<Spanned<String>>,
     #[serde(default)]
     pub(super) params: BTreeMap<Spanned<String>, Spanned<f64>>,
+    /// The sizes of a Hamiltonian given as text (`super::sizes`).
+    #[serde(default)]
+    pub(super) sizes: BTreeMap<Spanned<String>, Spanned<i64>>,
     pub(super) regularize: Option<Spanned<String>>,
     pub(super) centre: Option<Spanned<Vec<f64>>>,
 }
@@ -63,9 +68,13 @@ pub(super) struct RawSystem {
 #[derive(Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 pub(super) struct RawInitial {
-    pub(super) q: Option<Spanned<Vec<f64>>>,
-    pub(super) p: Option<Spanned<Vec<f64>>>,
+    pub(super) q: Option<Spanned<RawValues>>,
+    pub(super) p: Option<Spanned<RawValues>>,
     pub(super) t: Option<Spanned<f64>>,
+    /// The seed of `random` in formulas (`super::initial`).
+    pub(super) seed: Option<Spanned<i64>>,
+    /// A CSV file of states, in place of `q` and `p` (`super::initial`).
+    pub(super) file: Option<Spanned<String>>,
 }
 
 #[derive(Deserialize)]

@@ -474,6 +474,13 @@ pub enum EffectSpec {
         /// Sampling stride.
         every: usize,
     },
+    /// The positions `q_1..q_n` against the site index and `t`, every `every` steps: a
+    /// filled raster (colour = displacement) per method, for lattices. Sites are averaged in
+    /// at most [`crate::effects::SPACE_TIME_COLUMNS`] groups as they are recorded.
+    SpaceTime {
+        /// Sampling stride.
+        every: usize,
+    },
 }
 
 impl EffectSpec {
@@ -489,6 +496,7 @@ impl EffectSpec {
             EffectSpec::PhasePlot { .. } => EffectKind::PhasePlot,
             EffectSpec::ComparisonTable => EffectKind::ComparisonTable,
             EffectSpec::NormalModes { .. } => EffectKind::NormalModes,
+            EffectSpec::SpaceTime { .. } => EffectKind::SpaceTime,
         }
     }
 }
@@ -515,11 +523,13 @@ pub enum EffectKind {
     ComparisonTable,
     /// [`EffectSpec::NormalModes`].
     NormalModes,
+    /// [`EffectSpec::SpaceTime`].
+    SpaceTime,
 }
 
 impl EffectKind {
     /// Every effect, in the order `dth list` shows them.
-    pub const ALL: [EffectKind; 9] = [
+    pub const ALL: [EffectKind; 10] = [
         EffectKind::FinalState,
         EffectKind::Trajectory,
         EffectKind::EnergyDeviation,
@@ -529,6 +539,7 @@ impl EffectKind {
         EffectKind::PhasePlot,
         EffectKind::ComparisonTable,
         EffectKind::NormalModes,
+        EffectKind::SpaceTime,
     ];
 
     /// The name used in scene files.
@@ -543,6 +554,7 @@ impl EffectKind {
             EffectKind::PhasePlot => "phase_plot",
             EffectKind::ComparisonTable => "comparison_table",
             EffectKind::NormalModes => "normal_modes",
+            EffectKind::SpaceTime => "space_time",
         }
     }
 
@@ -565,7 +577,8 @@ impl EffectKind {
             EffectKind::Trajectory
             | EffectKind::EnergyDeviation
             | EffectKind::Invariants
-            | EffectKind::TimeLaw => &["every"],
+            | EffectKind::TimeLaw
+            | EffectKind::SpaceTime => &["every"],
             EffectKind::PhasePlot => &["x", "y", "every", "until"],
             EffectKind::Poincare => &["coordinate", "value", "direction", "crossing", "x", "y"],
             EffectKind::NormalModes => &["modes", "every"],
@@ -584,6 +597,7 @@ impl EffectKind {
             EffectKind::PhasePlot => "figure of y against x for all methods (x = \"t\": a time series); keys x, y, every, until (time span from t0)",
             EffectKind::ComparisonTable => "table of mean/max energy and invariant deviations of all methods",
             EffectKind::NormalModes => "energy in each of the first `modes` linear normal modes of a chain with fixed ends against t (CSV, figure per method); keys modes (default 5), every",
+            EffectKind::SpaceTime => "positions q_i against site i and t, a filled raster with a colour bar per method (lattices); key every",
         }
     }
 }

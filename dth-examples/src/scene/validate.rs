@@ -9,7 +9,7 @@ use toml::Spanned;
 
 use super::raw::{RawEffect, RawMethod, RawScene};
 use super::suggest::did_you_mean;
-use super::{expression, members, regularization};
+use super::{expression, initial, members, regularization};
 use dth::dth::{Composition, Solver};
 use dth::runtime::{Backend, RuntimeHamiltonian};
 
@@ -140,6 +140,9 @@ pub struct SystemInfo<'a> {
     /// `true` when `Psi` is identically zero (`Flags::psi_identically_zero`): the reason
     /// DTH is not offered, when it is not.
     pub psi_identically_zero: bool,
+    /// The system as text with its sizes after `where`, for a system whose size a scene may
+    /// set (`[system] sizes`): the scene then runs this text at its sizes.
+    pub sized_text: Option<&'a str>,
 }
 
 impl SystemInfo<'_> {
@@ -281,16 +284,62 @@ fn validate(raw: RawScene, systems: &dyn SystemLookup, cx: &mut Ctxt<'_>) -> Opt
                     "`title` names a Hamiltonian given as text (`hamiltonian`): a catalogue system is named by `name` (give the scene a `title` at the top instead)",
                 );
             }
-            catalogue_system(name, &system.params, systems, cx)
+            let sized = match system.sizes.iter().next() {
+                None => None,
+                Some((size, _)) => {
+                    let text = systems.info(name.get_ref()).and_then(|i| i.sized_text);
+                    if text.is_none() && systems.info(name.get_ref()).is_some() {
+                        let sizable: Vec<String> = systems
+                            .names()
+                            .into_iter()
+                            .filter(|n| systems.info(n).is_some_and(|i| i.sized_text.is_some()))
+                            .map(|n| format!("`{n}`"))
+                            .collect();
+                        cx.error(
+                            size.span(),
+                            format!(
+                                "`{}` has its own size: `sizes` sets the sizes of {} or of a Hamiltonian given as text (`hamiltonian = \"... where N = ..\"`)",
+                                name.get_ref(),
+                                sizable.join(", ")
+                            ),
+                        );
+                    }
+                    text
+                }
+            };
+            match sized {
+                // The catalogue's text at the scene's sizes: a text system, named after the
+                // entry (its parameters' defaults filled in, located at the name).
+                Some(text) => {
+                    let mut given = system.params.clone();
+                    for spec in systems.info(name.get_ref()).map_or(&[][..], |i| i.params) {
+                        if let (Some(default), false) = (
+                            spec.default,
+                            given.keys().any(|k| k.get_ref() == spec.name),
+                        ) {
+                            given.insert(
+                                Spanned::new(name.span(), spec.name.to_string()),
+                                Spanned::new(name.span(), default),
+                            );
+                        }
+                    }
+                    let sizes: Vec<String> = system
+                        .sizes
+                        .iter()
+                        .map(|(k, v)| format!("{} = {}", k.get_ref(), v.get_ref()))
+                        .collect();
+                    let title = format!("{}, {}", name.get_ref(), sizes.join(", "));
+                    let source = Spanned::new(name.span(), text.to_string());
+                    let (name, info, params, h) =
+                        text_system(&source, &given, &system.sizes, title, cx);
+                    hamiltonian = h;
+                    (name, info, params)
+                }
+                None => catalogue_system(name, &system.params, systems, cx),
+            }
         }
         (None, Some(source)) => {
-            let (mut errors, mut warnings) = (Vec::new(), Vec::new());
-            let checked =
-                expression::check(cx.text, source, &system.params, &mut errors, &mut warnings);
-            for (span, message) in errors {
-                cx.error(span, message);
-            }
-            let name = match &system.title {
+            let title = match &system.title {
                 Some(t) => t.get_ref().clone(),
                 None => format!(
                     "H = {}",
@@ -301,18 +350,10 @@ fn validate(raw: RawScene, systems: &dyn SystemLookup, cx: &mut Ctxt<'_>) -> Opt
                         .join(" ")
                 ),
             };
-            match checked {
-                Some((mut h, params)) => {
-                    h.warnings = warnings
-                        .into_iter()
-                        .map(|(span, message)| cx.locate(span, message))
-                        .collect();
-                    let info = text_info(&h);
-                    hamiltonian = Some(h);
-                    (name, Some(info), params)
-                }
-                None => (name, None, BTreeMap::new()),
-            }
+            let (name, info, params, h) =
+                text_system(source, &system.params, &system.sizes, title, cx);
+            hamiltonian = h;
+            (name, info, params)
         }
         (Some(name), Some(source)) => {
             cx.error(
@@ -334,8 +375,19 @@ fn validate(raw: RawScene, systems: &dyn SystemLookup, cx: &mut Ctxt<'_>) -> Opt
 
     // Initial state: q and p present, length n, finite.
     let missing_initial = raw.initial.is_none();
-    let (init_span, initial) = table(raw.initial, "initial", "`q` and `p`", cx);
+    let (init_span, mut initial) = table(raw.initial, "initial", "`q` and `p`", cx);
     let n = info.map(|i| i.n);
+    // Formulas and files become numbers, checked below as a list would be.
+    let mut names = hamiltonian
+        .as_ref()
+        .map(|h| initial::declared_sizes(&h.source))
+        .unwrap_or_default();
+    names.extend(params.iter().map(|(k, v)| (k.clone(), *v)));
+    let mut errors = Vec::new();
+    let resolved = initial::resolve(cx.text, cx.file, &mut initial, n, names, &mut errors);
+    for (span, message) in errors {
+        cx.error(span, message);
+    }
     let vector = |v: Option<Spanned<Vec<f64>>>, what: &str, cx: &mut Ctxt<'_>| match v {
         None if missing_initial => None,
         None => {
@@ -367,16 +419,16 @@ fn validate(raw: RawScene, systems: &dyn SystemLookup, cx: &mut Ctxt<'_>) -> Opt
             Some(v.into_inner())
         }
     };
-    let q_span = initial.q.as_ref().map(|v| v.span());
-    let q = vector(initial.q, "q", cx);
-    let p = vector(initial.p, "p", cx);
+    let q_span = resolved.q.as_ref().map(|v| v.span());
+    let q = vector(resolved.q, "q", cx);
+    let p = vector(resolved.p, "p", cx);
     let t0 = match initial.t {
         Some(t) if !t.get_ref().is_finite() => {
             cx.error(t.span(), "initial `t` is not finite");
             0.0
         }
         Some(t) => *t.get_ref(),
-        None => 0.0,
+        None => resolved.t.unwrap_or(0.0),
     };
 
     // Methods.
@@ -765,6 +817,39 @@ fn catalogue_system<'s>(
     (name, info, params)
 }
 
+/// A Hamiltonian given as text (`source`, spanned in the scene file, with the parameters
+/// `params` and the sizes `sizes`), read by the engine: the system's name `title`, its
+/// metadata, the parameter values and the text system, or `None`s with the errors reported.
+fn text_system(
+    source: &Spanned<String>,
+    params: &BTreeMap<Spanned<String>, Spanned<f64>>,
+    sizes: &BTreeMap<Spanned<String>, Spanned<i64>>,
+    title: String,
+    cx: &mut Ctxt<'_>,
+) -> (
+    String,
+    Option<SystemInfo<'static>>,
+    BTreeMap<String, f64>,
+    Option<TextHamiltonian>,
+) {
+    let (mut errors, mut warnings) = (Vec::new(), Vec::new());
+    let checked = expression::check(cx.text, source, params, sizes, &mut errors, &mut warnings);
+    for (span, message) in errors {
+        cx.error(span, message);
+    }
+    match checked {
+        Some((mut h, params)) => {
+            h.warnings = warnings
+                .into_iter()
+                .map(|(span, message)| cx.locate(span, message))
+                .collect();
+            let info = text_info(&h);
+            (title, Some(info), params, Some(h))
+        }
+        None => (title, None, BTreeMap::new(), None),
+    }
+}
+
 /// What validation checks a Hamiltonian given as text against: the engine's dimension and
 /// flags; no parameters to fill in, no period, exact solution or central force, and DTH
 /// unless Psi is identically zero.
@@ -780,6 +865,7 @@ fn text_info(h: &TextHamiltonian) -> SystemInfo<'static> {
         fixed_end_chain: false,
         dth: !h.psi_identically_zero,
         psi_identically_zero: h.psi_identically_zero,
+        sized_text: None,
     }
 }
 
@@ -792,18 +878,28 @@ fn text_chain_mismatch(h: &TextHamiltonian, params: &BTreeMap<String, f64>) -> O
         return Some("it depends on `t`".to_string());
     }
     let params: Vec<(&str, f64)> = params.iter().map(|(k, v)| (k.as_str(), *v)).collect();
+    let z = vec![0.0; h.dim];
+    let mut g = vec![0.0; h.dim];
     let at_rest = RuntimeHamiltonian::with_backend(&h.source, &params, Backend::Interpreter)
         .and_then(|rt| {
-            let z = vec![0.0; h.dim];
-            let (mut g, mut hess) = (vec![0.0; h.dim], vec![0.0; h.dim * h.dim]);
             rt.gradient_slice(&z, &mut g)?;
-            rt.hessian_slice(&z, &mut hess)?;
-            Ok((g, hess))
+            // A lattice that loops gives its nonzeros: its dense Hessian may not fit in
+            // memory (512 MB at 4,096 sites).
+            Ok(match rt.hessian_pattern() {
+                Some(pattern) => {
+                    let mut values = vec![0.0; pattern.len()];
+                    rt.hessian_nonzeros_slice(&z, &mut values)?;
+                    let entries = pattern.iter().zip(&values).map(|(&(i, j), &v)| (i, j, v));
+                    crate::normal_modes::unit_chain_mismatch_sparse(h.n, &g, entries)
+                }
+                None => {
+                    let mut hess = vec![0.0; h.dim * h.dim];
+                    rt.hessian_slice(&z, &mut hess)?;
+                    crate::normal_modes::unit_chain_mismatch(h.n, &g, &hess)
+                }
+            })
         });
-    match at_rest {
-        Ok((g, hess)) => crate::normal_modes::unit_chain_mismatch(h.n, &g, &hess),
-        Err(e) => Some(format!("its derivatives at z = 0 cannot be evaluated: {e}")),
-    }
+    at_rest.unwrap_or_else(|e| Some(format!("its derivatives at z = 0 cannot be evaluated: {e}")))
 }
 
 /// The thesis's square of initial conditions (`[ensemble]` without `kind`).
@@ -1129,6 +1225,7 @@ fn validate_effect(
         EffectKind::EnergyDeviation => EffectSpec::EnergyDeviation { every: every? },
         EffectKind::Invariants => EffectSpec::Invariants { every: every? },
         EffectKind::TimeLaw => EffectSpec::TimeLaw { every: every? },
+        EffectKind::SpaceTime => EffectSpec::SpaceTime { every: every? },
         EffectKind::NormalModes => {
             let modes = match &e.modes {
                 None => Some(n.map_or(5, |n| n.min(5))),
