@@ -223,11 +223,9 @@ struct SpaceTimeSamples {
 /// `n / columns` or one more (the first `n % columns` have one more); none when `columns`
 /// is 0.
 pub fn site_groups(n: usize, columns: usize) -> impl Iterator<Item = std::ops::Range<usize>> {
-    let (base, extra) = if columns == 0 {
-        (0, 0)
-    } else {
-        (n / columns, n % columns)
-    };
+    let (base, extra) = n
+        .checked_div(columns)
+        .map_or((0, 0), |base| (base, n % columns));
     (0..columns).scan(0, move |at, c| {
         let len = base + usize::from(c < extra);
         let group = *at..*at + len;

@@ -72,8 +72,8 @@ pub mod singularity;
 
 pub mod budget;
 pub mod probe;
-pub mod step_time;
 pub mod simulate;
+pub mod step_time;
 
 pub mod report;
 

@@ -913,7 +913,10 @@ impl Raster {
             let a = low + (high - low) * k as f64 / steps as f64;
             let b = a + (high - low) / steps as f64;
             let mid = 0.5 * (a + b);
-            Rectangle::new([(0.0, a), (1.0, b)], Self::colour(Self::unit(scale, mid)).filled())
+            Rectangle::new(
+                [(0.0, a), (1.0, b)],
+                Self::colour(Self::unit(scale, mid)).filled(),
+            )
         }))?;
         root.present()?;
         Ok(())

@@ -109,7 +109,13 @@ pub fn human(seconds: f64) -> String {
     let s = seconds.max(0.0);
     // Two significant digits below 10, whole numbers above.
     let short = |x: f64| {
-        let digits = if x < 1.0 { 2 } else if x < 10.0 { 1 } else { 0 };
+        let digits = if x < 1.0 {
+            2
+        } else if x < 10.0 {
+            1
+        } else {
+            0
+        };
         let text = format!("{x:.digits$}");
         if text.contains('.') {
             text.trim_end_matches('0').trim_end_matches('.').to_string()

@@ -192,7 +192,11 @@ fn check_accepts_every_shipped_scene() {
         let o = dth(&["check", dir.join(&f).to_str().unwrap()], &dir);
         assert_eq!(o.status.code(), Some(0), "{f}: {}", stderr(&o));
         assert!(stdout(&o).contains(": ok ("), "{}", stdout(&o));
-        assert!(stdout(&o).contains("stepping takes about"), "{}", stdout(&o));
+        assert!(
+            stdout(&o).contains("stepping takes about"),
+            "{}",
+            stdout(&o)
+        );
     }
     assert!(
         n >= 5,

@@ -567,7 +567,11 @@ fn fput_at(n: usize) -> String {
     let path = format!("{}/scenes/fput-4096.toml", env!("CARGO_MANIFEST_DIR"));
     let text = fs::read_to_string(path).unwrap();
     assert!(text.contains("[system]\n"));
-    text.replacen("[system]\n", &format!("[system]\nsizes = {{ N = {n} }}\n"), 1)
+    text.replacen(
+        "[system]\n",
+        &format!("[system]\nsizes = {{ N = {n} }}\n"),
+        1,
+    )
 }
 
 #[test]
@@ -579,26 +583,40 @@ fn the_4096_chain_scene_is_valid_at_its_size_and_its_formulas_fill_the_state() {
     for (k, &q) in scene.q.iter().enumerate() {
         let i = (k + 1) as f64;
         let want = 10.0 * (i * std::f64::consts::PI / 4097.0).sin();
-        assert!((q - want).abs() <= 4.0 * 10.0 * f64::EPSILON, "q{}: {q} {want}", k + 1);
+        assert!(
+            (q - want).abs() <= 4.0 * 10.0 * f64::EPSILON,
+            "q{}: {q} {want}",
+            k + 1
+        );
     }
     assert!(scene.p.iter().all(|&p| p == 0.0));
     // The effects the scene asks for are all there (normal_modes was checked against the
     // unit chain by its nonzeros: no dense Hessian of D = 8192).
     let kinds: Vec<_> = scene.effects.iter().map(EffectSpec::kind).collect();
-    assert!(kinds.contains(&dth_examples::scene::EffectKind::NormalModes), "{kinds:?}");
-    assert!(kinds.contains(&dth_examples::scene::EffectKind::SpaceTime), "{kinds:?}");
+    assert!(
+        kinds.contains(&dth_examples::scene::EffectKind::NormalModes),
+        "{kinds:?}"
+    );
+    assert!(
+        kinds.contains(&dth_examples::scene::EffectKind::SpaceTime),
+        "{kinds:?}"
+    );
 }
 
 #[test]
 fn one_chain_scene_serves_every_size() {
     let text = fput_at(16);
-    let mut scene = check_scene(&text, "fput-16.toml", &Catalogue::builtin())
-        .unwrap_or_else(|e| panic!("{e}"));
+    let mut scene =
+        check_scene(&text, "fput-16.toml", &Catalogue::builtin()).unwrap_or_else(|e| panic!("{e}"));
     let h = scene.hamiltonian.as_ref().unwrap();
     assert_eq!((h.n, scene.q.len()), (16, 16));
     // N in the formula is the scene's 16, not the text's 4096.
     let want = 10.0 * (std::f64::consts::PI / 17.0).sin();
-    assert!((scene.q[0] - want).abs() <= 40.0 * f64::EPSILON, "{}", scene.q[0]);
+    assert!(
+        (scene.q[0] - want).abs() <= 40.0 * f64::EPSILON,
+        "{}",
+        scene.q[0]
+    );
 
     // A short run: DTH keeps the energy; space_time records every site (16 columns) every
     // 5 steps, its first row the initial positions themselves (groups of one site).
@@ -658,20 +676,23 @@ fn an_initial_state_from_a_csv_file_takes_its_last_row() {
     fs::write(dir.path().join("start.csv"), csv).unwrap();
     let text = with_system(
         KEPLER,
-        &PLANAR.replace(
-            "q = [0.5, 0.0]\np = [0.0, 1.2]",
-            "file = \"start.csv\"",
-        ),
+        &PLANAR.replace("q = [0.5, 0.0]\np = [0.0, 1.2]", "file = \"start.csv\""),
     );
     let path = dir.path().join("k.toml");
     let scene = check_scene(&text, path.to_str().unwrap(), &Catalogue::builtin())
         .unwrap_or_else(|e| panic!("{e}"));
-    assert_eq!((scene.q, scene.p, scene.t0), (vec![0.5, 0.25], vec![-1.0, -2.0], 0.75));
+    assert_eq!(
+        (scene.q, scene.p, scene.t0),
+        (vec![0.5, 0.25], vec![-1.0, -2.0], 0.75)
+    );
     // A missing file is an error at `file`, naming the path.
     let missing = text.replace("start.csv", "nowhere.csv");
     let e = messages_at(&missing, path.to_str().unwrap());
     assert_eq!(e.len(), 1, "{e:?}");
-    assert!(e[0].contains(":5:8: initial state file") && e[0].contains("nowhere.csv"), "{e:?}");
+    assert!(
+        e[0].contains(":5:8: initial state file") && e[0].contains("nowhere.csv"),
+        "{e:?}"
+    );
 }
 
 /// Every message validation gives for `text` read as the file `file`.
@@ -694,12 +715,23 @@ fn lattice_scene_errors_are_reported_at_their_place() {
     };
     // A size the text does not use: at its key.
     let (line, e) = one("sizes = { N = 8 }", "sizes = { N = 8, M = 3 }");
-    assert!(e.starts_with(&format!("bad.toml:{line}:18: size `M` is not a name the Hamiltonian uses")), "{e}");
+    assert!(
+        e.starts_with(&format!(
+            "bad.toml:{line}:18: size `M` is not a name the Hamiltonian uses"
+        )),
+        "{e}"
+    );
     // A formula's unknown name and the state itself: inside the string.
     let (line, e) = one("q = \"10*sin(i*", "q = \"10*sin(j*");
-    assert!(e.starts_with(&format!("bad.toml:{line}:13: unknown variable `j`")), "{e}");
+    assert!(
+        e.starts_with(&format!("bad.toml:{line}:13: unknown variable `j`")),
+        "{e}"
+    );
     let (line, e) = one("(N+1))\"", "(N+1)) + q1\"");
-    assert!(e.starts_with(&format!("bad.toml:{line}:27: initial `q` is a formula")), "{e}");
+    assert!(
+        e.starts_with(&format!("bad.toml:{line}:27: initial `q` is a formula")),
+        "{e}"
+    );
     assert!(e.contains("`q1` is the state it defines"), "{e}");
 }
 
@@ -715,7 +747,10 @@ fn the_catalogues_chains_take_their_size_from_the_scene() {
     let text = scene_of("name = \"fput_beta\"\nsizes = { N = 100 }\nparams = { beta = 0.5 }");
     let scene =
         check_scene(&text, "b.toml", &Catalogue::builtin()).unwrap_or_else(|e| panic!("{e}"));
-    let h = scene.hamiltonian.as_ref().expect("runs the catalogue's text");
+    let h = scene
+        .hamiltonian
+        .as_ref()
+        .expect("runs the catalogue's text");
     assert_eq!((h.n, scene.q.len()), (100, 100));
     assert_eq!(scene.system, "fput_beta, N = 100");
     assert_eq!(scene.params.get("beta"), Some(&0.5));
@@ -728,10 +763,9 @@ fn the_catalogues_chains_take_their_size_from_the_scene() {
         Catalogue::builtin()
             .run(&scene, &dir.path().join("out"), &quiet())
             .unwrap_or_else(|e| panic!("{e:?}"));
-        let summary: serde_json::Value = serde_json::from_str(
-            &fs::read_to_string(dir.path().join("out/summary.json")).unwrap(),
-        )
-        .unwrap();
+        let summary: serde_json::Value =
+            serde_json::from_str(&fs::read_to_string(dir.path().join("out/summary.json")).unwrap())
+                .unwrap();
         summary["methods"][0]["final_state"].clone()
     };
     let (a, b) = (run(&at_32), run(&compiled));
@@ -739,6 +773,9 @@ fn the_catalogues_chains_take_their_size_from_the_scene() {
     assert_eq!(a, b);
     // A system of fixed size says which ones take a size.
     let e = messages_at(&scene_of("name = \"kepler\"\nsizes = { N = 3 }"), "k.toml");
-    assert!(e.iter().any(|m| m.contains("`kepler` has its own size")
-        && m.contains("`fput_alpha`, `fput_beta`, `toda_fixed_ends`")), "{e:?}");
+    assert!(
+        e.iter().any(|m| m.contains("`kepler` has its own size")
+            && m.contains("`fput_alpha`, `fput_beta`, `toda_fixed_ends`")),
+        "{e:?}"
+    );
 }

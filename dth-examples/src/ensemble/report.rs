@@ -373,7 +373,11 @@ const RASTER_CHAOTIC: f64 = 10.0;
 /// (periodic orbits), red from 2 to 10 and beyond (chaotic); grey where the member has no
 /// `<Y>` (skipped by the energy shell, not run, or stopped early). Empty for other samplers
 /// (the class scatter of [`chaos_figures`] draws those).
-fn chaos_rasters(scene: &Scene, members: &Members, results: &[MemberResult]) -> Vec<(String, Raster)> {
+fn chaos_rasters(
+    scene: &Scene,
+    members: &Members,
+    results: &[MemberResult],
+) -> Vec<(String, Raster)> {
     let Sampler::Grid {
         x: (x, nx),
         y: Some((y, ny)),
@@ -561,7 +565,10 @@ mod raster_tests {
             }
         }
         // A random sampler draws no raster (the class scatter does).
-        let random = text.replace("kind = \"grid\"", "kind = \"random\"").replace("x_count = 4\n", "").replace("y_count = 3\n", "samples = 12\n");
+        let random = text
+            .replace("kind = \"grid\"", "kind = \"random\"")
+            .replace("x_count = 4\n", "")
+            .replace("y_count = 3\n", "samples = 12\n");
         let scene = crate::check_scene(&random, "r.toml", &Catalogue::builtin()).unwrap();
         let members = scene.members.clone().unwrap();
         assert!(chaos_rasters(&scene, &members, &results).is_empty());

@@ -67,24 +67,48 @@ pub(super) fn check(
             .map_or(source.span(), |(k, _)| k.span())
     };
 
-    let system = match dth_symbolic::compile(expression, &names) {
-        Ok(system) => {
-            for w in system.warnings() {
+    // A lattice whose sums loop is read as `dth::runtime` compiles it (in loops, any size up
+    // to `dth_symbolic::MAX_SITES`); everything else, errors included, site by site.
+    let system = match dth_symbolic::looped::loops(expression, &names) {
+        Some(lattice) => {
+            for w in lattice.warnings() {
                 warnings.push((at(w.span.range()), w.to_string()));
             }
-            Some(system)
+            let (separable, psi_identically_zero) = lattice.flags();
+            Some(Shape {
+                n: lattice.n(),
+                dim: lattice.dim(),
+                // Looped sums do not use `t` (the loop path refuses it).
+                time_dependent: false,
+                separable,
+                psi_identically_zero,
+            })
         }
-        Err(e) => {
-            for e in &e.0 {
-                // A parameter's error is about a name beside the text: at its key.
-                let span = match &e.kind {
-                    ErrorKind::BadParameter { name, .. } => key(name),
-                    _ => at(e.span.range()),
-                };
-                errors.push((span, e.to_string()));
+        None => match dth_symbolic::compile(expression, &names) {
+            Ok(system) => {
+                for w in system.warnings() {
+                    warnings.push((at(w.span.range()), w.to_string()));
+                }
+                Some(Shape {
+                    n: system.n(),
+                    dim: system.dim(),
+                    time_dependent: system.time_dependent(),
+                    separable: system.separable(),
+                    psi_identically_zero: system.psi_identically_zero(),
+                })
             }
-            None
-        }
+            Err(e) => {
+                for e in &e.0 {
+                    // A parameter's error is about a name beside the text: at its key.
+                    let span = match &e.kind {
+                        ErrorKind::BadParameter { name, .. } => key(name),
+                        _ => at(e.span.range()),
+                    };
+                    errors.push((span, e.to_string()));
+                }
+                None
+            }
+        },
     };
 
     // Parameters the text does not name (a typo, a parameter of another model), as
@@ -119,13 +143,22 @@ pub(super) fn check(
     Some((
         TextHamiltonian {
             source: expression.to_string(),
-            n: system.n(),
-            dim: system.dim(),
-            time_dependent: system.time_dependent(),
-            separable: system.separable(),
-            psi_identically_zero: system.psi_identically_zero(),
+            n: system.n,
+            dim: system.dim,
+            time_dependent: system.time_dependent,
+            separable: system.separable,
+            psi_identically_zero: system.psi_identically_zero,
             warnings: Vec::new(),
         },
         values,
     ))
+}
+
+/// What validation needs of a compiled text, written out or in loops.
+struct Shape {
+    n: usize,
+    dim: usize,
+    time_dependent: bool,
+    separable: bool,
+    psi_identically_zero: bool,
 }

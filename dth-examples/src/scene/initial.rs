@@ -334,6 +334,9 @@ pub(super) fn declared_sizes(source: &str) -> Vec<(String, f64)> {
     sizes
 }
 
+/// A state read from a CSV file: `q`, `p` and the time, if the file has a `t` column.
+type CsvState = (Vec<f64>, Vec<f64>, Option<f64>);
+
 /// The state in the CSV file `file` (relative to the scene file `scene_file`): `q`, `p` and
 /// the column `t` of its last row, or `None` with the error pushed to `errors` at `span` (the
 /// `file` value).
@@ -343,7 +346,7 @@ pub(super) fn csv(
     span: Range<usize>,
     n: usize,
     errors: &mut Errors,
-) -> Option<(Vec<f64>, Vec<f64>, Option<f64>)> {
+) -> Option<CsvState> {
     let path = Path::new(scene_file)
         .parent()
         .unwrap_or(Path::new(""))
@@ -363,7 +366,7 @@ pub(super) fn csv(
 
 /// The state of `n` degrees of freedom in the last row of the CSV `text` (see the module
 /// docs), or why there is none.
-fn csv_state(text: &str, n: usize) -> Result<(Vec<f64>, Vec<f64>, Option<f64>), String> {
+fn csv_state(text: &str, n: usize) -> Result<CsvState, String> {
     let mut lines = text.lines().filter(|l| !l.trim().is_empty());
     let header: Vec<&str> = lines
         .next()

@@ -194,7 +194,10 @@ mod tests {
         let at = s.source.find("4096").unwrap();
         assert_eq!(s.origin(at..at + 4), Origin::Scene(14..18));
         let q0 = s.source.find("q[0]").unwrap();
-        assert_eq!(s.origin(q0..q0 + 4), Origin::Text(CHAIN.find("q[0]").unwrap()..CHAIN.find("q[0]").unwrap() + 4));
+        assert_eq!(
+            s.origin(q0..q0 + 4),
+            Origin::Text(CHAIN.find("q[0]").unwrap()..CHAIN.find("q[0]").unwrap() + 4)
+        );
         // Before the edit, nothing moves.
         assert_eq!(s.origin(0..3), Origin::Text(0..3));
     }
@@ -207,7 +210,10 @@ mod tests {
         assert_eq!(s.source, format!("{text} where N = 5"));
         let with_where = "sum(i = 1..N, p[i]^2/2 + q[i]^2/2) where q[0] = 0";
         let s = apply(with_where, &sizes("sizes = { N = 5 }"), &mut errors).unwrap();
-        assert_eq!(s.source, "sum(i = 1..N, p[i]^2/2 + q[i]^2/2) where N = 5, q[0] = 0");
+        assert_eq!(
+            s.source,
+            "sum(i = 1..N, p[i]^2/2 + q[i]^2/2) where N = 5, q[0] = 0"
+        );
         assert!(errors.is_empty(), "{errors:?}");
         // The text read with it is the engine's lattice of 5 sites.
         let h = dth::runtime::RuntimeHamiltonian::new(&s.source, &[]).unwrap();
@@ -221,7 +227,9 @@ mod tests {
         assert!(apply(CHAIN, &sizes(line), &mut errors).is_none());
         assert_eq!(errors.len(), 2, "{errors:?}");
         assert_eq!(errors[0].0, 10..11, "{errors:?}");
-        assert!(errors[0].1.contains("`M` is not a name the Hamiltonian uses: it declares `N`"));
+        assert!(errors[0]
+            .1
+            .contains("`M` is not a name the Hamiltonian uses: it declares `N`"));
         assert_eq!(errors[1].0, 21..23, "{errors:?}");
         assert!(errors[1].1.contains("0 or more"), "{errors:?}");
     }

@@ -313,10 +313,9 @@ fn validate(raw: RawScene, systems: &dyn SystemLookup, cx: &mut Ctxt<'_>) -> Opt
                 Some(text) => {
                     let mut given = system.params.clone();
                     for spec in systems.info(name.get_ref()).map_or(&[][..], |i| i.params) {
-                        if let (Some(default), false) = (
-                            spec.default,
-                            given.keys().any(|k| k.get_ref() == spec.name),
-                        ) {
+                        if let (Some(default), false) =
+                            (spec.default, given.keys().any(|k| k.get_ref() == spec.name))
+                        {
                             given.insert(
                                 Spanned::new(name.span(), spec.name.to_string()),
                                 Spanned::new(name.span(), default),
@@ -378,9 +377,14 @@ fn validate(raw: RawScene, systems: &dyn SystemLookup, cx: &mut Ctxt<'_>) -> Opt
     let (init_span, mut initial) = table(raw.initial, "initial", "`q` and `p`", cx);
     let n = info.map(|i| i.n);
     // Formulas and files become numbers, checked below as a list would be.
-    let mut names = hamiltonian
+    // The sizes a text declares (after `sizes` set them), or a sizable catalogue system's
+    // (`fput_alpha`'s N = 32).
+    let sized_source = hamiltonian
         .as_ref()
-        .map(|h| initial::declared_sizes(&h.source))
+        .map(|h| h.source.as_str())
+        .or(info.as_ref().and_then(|i| i.sized_text));
+    let mut names = sized_source
+        .map(initial::declared_sizes)
         .unwrap_or_default();
     names.extend(params.iter().map(|(k, v)| (k.clone(), *v)));
     let mut errors = Vec::new();
