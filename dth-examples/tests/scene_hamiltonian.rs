@@ -610,6 +610,12 @@ fn one_chain_scene_serves_every_size() {
         check_scene(&text, "fput-16.toml", &Catalogue::builtin()).unwrap_or_else(|e| panic!("{e}"));
     let h = scene.hamiltonian.as_ref().unwrap();
     assert_eq!((h.n, scene.q.len()), (16, 16));
+    // Its title is the scene's; the system's name says the size the scene set.
+    assert!(
+        scene.system.ends_with("(sizes set by the scene: N = 16)"),
+        "{}",
+        scene.system
+    );
     // N in the formula is the scene's 16, not the text's 4096.
     let want = 10.0 * (std::f64::consts::PI / 17.0).sin();
     assert!(

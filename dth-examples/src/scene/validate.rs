@@ -338,15 +338,27 @@ fn validate(raw: RawScene, systems: &dyn SystemLookup, cx: &mut Ctxt<'_>) -> Opt
             }
         }
         (None, Some(source)) => {
+            // Named by its expression as written, with the sizes the scene set (which the
+            // text's own `where N = ..` no longer says).
+            let sizes: String = system
+                .sizes
+                .iter()
+                .map(|(k, v)| format!(", {} = {}", k.get_ref(), v.get_ref()))
+                .collect();
             let title = match &system.title {
                 Some(t) => t.get_ref().clone(),
                 None => format!(
-                    "H = {}",
+                    "H = {}{}",
                     source
                         .get_ref()
                         .split_whitespace()
                         .collect::<Vec<_>>()
-                        .join(" ")
+                        .join(" "),
+                    if sizes.is_empty() {
+                        String::new()
+                    } else {
+                        format!(" (sizes set by the scene: {})", &sizes[2..])
+                    }
                 ),
             };
             let (name, info, params, h) =
