@@ -284,11 +284,12 @@ fn validate(raw: RawScene, systems: &dyn SystemLookup, cx: &mut Ctxt<'_>) -> Opt
                     "`title` names a Hamiltonian given as text (`hamiltonian`): a catalogue system is named by `name` (give the scene a `title` at the top instead)",
                 );
             }
+            let entry = systems.info(name.get_ref());
             let sized = match system.sizes.iter().next() {
                 None => None,
                 Some((size, _)) => {
-                    let text = systems.info(name.get_ref()).and_then(|i| i.sized_text);
-                    if text.is_none() && systems.info(name.get_ref()).is_some() {
+                    let text = entry.as_ref().and_then(|i| i.sized_text);
+                    if text.is_none() && entry.is_some() {
                         let sizable: Vec<String> = systems
                             .names()
                             .into_iter()
@@ -312,7 +313,7 @@ fn validate(raw: RawScene, systems: &dyn SystemLookup, cx: &mut Ctxt<'_>) -> Opt
                 // entry (its parameters' defaults filled in, located at the name).
                 Some(text) => {
                     let mut given = system.params.clone();
-                    for spec in systems.info(name.get_ref()).map_or(&[][..], |i| i.params) {
+                    for spec in entry.as_ref().map_or(&[][..], |i| i.params) {
                         if let (Some(default), false) =
                             (spec.default, given.keys().any(|k| k.get_ref() == spec.name))
                         {
