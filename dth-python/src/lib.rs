@@ -25,6 +25,11 @@ pub mod state;
 #[pymodule]
 fn _dth(m: &Bound<'_, PyModule>) -> PyResult<()> {
     let py = m.py();
+    // numpy's C API is loaded on its first use, which runs Python code (numpy's version
+    // check). Loaded here, at import, no later call runs Python code before its worker
+    // starts, so a Ctrl-C in that window stays pending for the worker's poll (`interrupt`)
+    // instead of interrupting the load (which the numpy crate turns into a panic).
+    numpy::PyArray1::<f64>::zeros(py, 0, false);
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add(
         "HamiltonianError",

@@ -14,12 +14,18 @@ import numpy as np
 import dth
 
 # A run long enough never to finish by itself in these tests (10^9 steps of an oscillator).
+# The child installs Python's own Ctrl-C handler itself: a process that a non-interactive
+# shell started in the background (as CI runners and `cmd &` in a script do) inherits SIGINT
+# *ignored*, and Python then installs no KeyboardInterrupt handler, so the signal would never
+# reach the run and this test would hang instead of testing the extension. "started" is
+# printed inside the `try`, so a signal that lands before the call is caught as well.
 LONG_RUN = textwrap.dedent(
     """
-    import sys, dth
+    import signal, sys, dth
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     h = dth.Hamiltonian("p1^2/2 + q1^2/2")
-    print("started", flush=True)
     try:
+        print("started", flush=True)
         dth.integrate(h, [1.0, 0.0], dtau=0.01, steps=10**9, every=10**9)
     except KeyboardInterrupt:
         print("interrupted", flush=True)
