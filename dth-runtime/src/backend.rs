@@ -102,6 +102,14 @@ impl Compiled {
         matches!(self.runner, Runner::Jit(_))
     }
 
+    /// The compiled code this function runs, if it runs compiled code.
+    pub(crate) fn jit(&self) -> Option<&JitFunction> {
+        match &self.runner {
+            Runner::Jit(f) => Some(f),
+            Runner::Interpreter(_) => None,
+        }
+    }
+
     /// Runs at `z0`, `z1` (the same point for a one-point function) into `out`.
     pub(crate) fn run(
         &self,

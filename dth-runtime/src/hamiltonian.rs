@@ -333,6 +333,36 @@ impl RuntimeHamiltonian {
         }
     }
 
+    /// The bytes of machine code the JIT compiled for this Hamiltonian (every function);
+    /// `None` when the interpreter runs. A lattice whose sums loop compiles the same code at
+    /// every size (but for the width of the constants that hold its sizes).
+    ///
+    /// ```
+    /// use dth_runtime::RuntimeHamiltonian;
+    /// let chain = |n: usize| {
+    ///     RuntimeHamiltonian::new(
+    ///         &format!("sum(i = 1..N, p[i]^2/2 + (q[i+1] - q[i])^4/4) where N = {n}, q[N+1] = 0"),
+    ///         &[],
+    ///     )
+    /// };
+    /// let small = chain(64)?.code_bytes().unwrap_or(0);
+    /// let large = chain(4096)?.code_bytes().unwrap_or(0);
+    /// // The same code: only the sites' counts in its instructions are wider.
+    /// assert!(small > 0 && large.abs_diff(small) * 100 <= small);
+    /// # Ok::<(), dth_runtime::RuntimeError>(())
+    /// ```
+    pub fn code_bytes(&self) -> Option<usize> {
+        if self.backend() != Backend::Jit {
+            return None;
+        }
+        Some(match &self.form {
+            Form::Written { functions, .. } => {
+                crate::jit::code_bytes(functions.iter().filter_map(Compiled::jit))
+            }
+            Form::Looped(lattice) => crate::jit::code_bytes(lattice.jit()),
+        })
+    }
+
     /// Why the JIT was asked for but the interpreter runs.
     pub fn fallback_reason(&self) -> Option<&JitError> {
         self.fallback.as_ref()

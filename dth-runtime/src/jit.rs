@@ -48,6 +48,8 @@ type Entry = unsafe extern "C" fn(*const f64, *const f64, *const f64, *mut f64);
 /// The owner of a module's machine code and of the kernels its code points to.
 pub struct Code {
     module: Option<JITModule>,
+    /// The bytes of machine code its functions hold.
+    bytes: usize,
     /// Each distinct kernel the programs call, allocated before the code is written and
     /// never resized, so the addresses baked into the code stay valid.
     _kernels: Box<[Kernel]>,
@@ -88,6 +90,17 @@ impl std::fmt::Debug for JitFunction {
 }
 
 impl JitFunction {
+    /// The bytes of machine code of the whole module this function was compiled into
+    /// (shared with the module's other functions).
+    pub(crate) fn module_bytes(&self) -> usize {
+        self._code.bytes
+    }
+
+    /// `true` when `self` and `other` point into the same module.
+    fn same_module(&self, other: &JitFunction) -> bool {
+        Arc::ptr_eq(&self._code, &other._code)
+    }
+
     /// Runs the program at `z`, `z1` (equal for a one-point program) with `params`, writing
     /// its outputs to `out`.
     ///
@@ -100,6 +113,17 @@ impl JitFunction {
         // SAFETY: the caller's contract; the code only touches these four ranges.
         unsafe { (self.entry)(z.as_ptr(), z1.as_ptr(), params.as_ptr(), out.as_mut_ptr()) }
     }
+}
+
+/// The bytes of machine code of the modules `functions` were compiled into, each module once.
+pub fn code_bytes<'a>(functions: impl IntoIterator<Item = &'a JitFunction>) -> usize {
+    let mut seen: Vec<&JitFunction> = Vec::new();
+    for f in functions {
+        if !seen.iter().any(|s| s.same_module(f)) {
+            seen.push(f);
+        }
+    }
+    seen.iter().map(|f| f.module_bytes()).sum()
 }
 
 /// Compiles each `(function, program)` pair into one module; the programs are checked
@@ -296,6 +320,7 @@ fn build(jobs: &[Job], what: &mut &'static str) -> Result<Vec<JitFunction>, JitE
     let kernels: Box<[Kernel]> = distinct.into_boxed_slice();
     let mut entries = Vec::with_capacity(jobs.len());
     let mut count = 0u32;
+    let mut bytes = 0;
     for job in jobs {
         *what = job.name();
         let mut emitter = Emitter {
@@ -306,6 +331,7 @@ fn build(jobs: &[Job], what: &mut &'static str) -> Result<Vec<JitFunction>, JitE
             kernels: &kernels,
             ptr,
             count: &mut count,
+            bytes: &mut bytes,
             what: job.name(),
         };
         let id = match *job {
@@ -322,6 +348,7 @@ fn build(jobs: &[Job], what: &mut &'static str) -> Result<Vec<JitFunction>, JitE
         .collect();
     let code = Arc::new(Code {
         module: Some(module),
+        bytes,
         _kernels: kernels,
     });
     Ok(addresses
@@ -345,6 +372,8 @@ struct Emitter<'a> {
     ptr: types::Type,
     /// Functions defined so far in the module (their names).
     count: &'a mut u32,
+    /// The bytes of machine code defined so far.
+    bytes: &'a mut usize,
     /// The program's name, for errors.
     what: &'static str,
 }
@@ -436,7 +465,12 @@ impl Emitter<'_> {
         self.ctx.func = func;
         self.module
             .define_function(id, self.ctx)
-            .map_err(|e| self.error(e))
+            .map_err(|e| self.error(e))?;
+        *self.bytes += self
+            .ctx
+            .compiled_code()
+            .map_or(0, |c| c.code_buffer().len());
+        Ok(())
     }
 
     fn error(&self, e: cranelift_module::ModuleError) -> JitError {

@@ -75,6 +75,11 @@ impl Lattice {
         self.code.is_some()
     }
 
+    /// The compiled code of the functions (empty for the interpreter).
+    pub(crate) fn jit(&self) -> &[JitFunction] {
+        self.code.as_deref().unwrap_or(&[])
+    }
+
     /// Runs `f` into `out` (zeroed first), no length checks (the caller's).
     fn raw(
         &self,
