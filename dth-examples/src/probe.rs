@@ -60,11 +60,18 @@ impl PsiSignChange {
     /// The warning `dth check` prints: where `Psi` changed sign, what DTH will do there, and
     /// the fix (a regularization where one applies, else robust mode).
     pub fn warning(&self) -> String {
-        let state: Vec<String> = self
+        let mut state: Vec<String> = self
             .state
             .iter()
+            .take(SHOWN_COORDINATES)
             .map(|(name, x)| format!("{name} = {x:.6}"))
             .collect();
+        if self.state.len() > SHOWN_COORDINATES {
+            state.push(format!(
+                "... {} more coordinates",
+                self.state.len() - SHOWN_COORDINATES
+            ));
+        }
         let consequence = if self.robust {
             "its robust mode will fall back to discrete-gradient steps there (second order, and DTH's vertex invariants do not hold across them)"
         } else {
@@ -91,6 +98,10 @@ impl PsiSignChange {
         )
     }
 }
+
+/// The most coordinates of the state a warning names: a 64-body cluster's 384 would bury
+/// the warning (a run writes the whole state; the warning says where in time).
+const SHOWN_COORDINATES: usize = 8;
 
 /// Six significant digits, in the exponent form where the fixed one would hide them.
 fn short(x: f64) -> String {
@@ -178,4 +189,36 @@ where
         step,
         regularization: regularization(system, &z),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn change(coordinates: usize) -> PsiSignChange {
+        PsiSignChange {
+            method: "dth".to_string(),
+            robust: false,
+            psi0: 1.0,
+            t: 0.35,
+            state: (1..=coordinates).map(|i| (format!("q{i}"), 0.5)).collect(),
+            psi: -1.0,
+            step: 33,
+            regularization: None,
+        }
+    }
+
+    #[test]
+    fn the_warning_names_a_small_state_whole_and_cuts_a_large_one() {
+        let small = change(4).warning();
+        assert!(small.contains("(q1 = 0.500000, q2 = 0.500000, q3 = 0.500000, q4 = 0.500000)"));
+        // A 64-body cluster in space: 384 coordinates, of which the first eight are named.
+        let large = change(384).warning();
+        assert!(
+            large.contains("q8 = 0.500000, ... 376 more coordinates)"),
+            "{large}"
+        );
+        assert!(!large.contains("q9 ="), "{large}");
+        assert!(large.len() < 900, "{} characters", large.len());
+    }
 }
