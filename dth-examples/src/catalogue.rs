@@ -38,8 +38,9 @@ use crate::simulate::{initial_state, preflight, stop_for, RunOptions};
 use crate::step_time;
 use crate::system::{SceneSystem, WithoutDth};
 use crate::systems::{
-    DoublePendulum, ForcedOscillator, FputAlpha32, FputBeta32, FreeParticle, HarmonicOscillator,
-    HenonHeiles, Kepler, NBody2d3, NBody3d3, Pendulum, TodaChain10, TodaChain4, TodaFixedEnds32,
+    CalogeroMoser8, DoublePendulum, ForcedOscillator, FputAlpha32, FputBeta32, FreeParticle,
+    Gravity3d4, HarmonicOscillator, HenonHeiles, Kepler, NBody2d3, NBody3d3, Pendulum, TodaChain10,
+    TodaChain4, TodaFixedEnds32,
 };
 
 type RunFn =
@@ -607,6 +608,26 @@ impl Catalogue {
                     Ok(NBody3d3 { m1, m2, m3, g })
                 },
             ),
+            SystemEntry::runnable::<24, Gravity3d4, _>(
+                "gravity_3d",
+                "N gravitating point masses m in space, all pairs (N = 4; any N by a scene's sizes): H = sum |p_i|^2/(2 m) - g m^2 sum_{i<j} 1/|q_i - q_j|, body i at (q_{3i-2}, q_{3i-1}, q_{3i}), n = 3N",
+                &[
+                    ParamSpec::new("m", Some(1.0), "mass of each body").positive(),
+                    ParamSpec::new("g", Some(1.0), "gravitational constant").positive(),
+                ],
+                |p| {
+                    let [m, g] = params("gravity_3d", p, ["m", "g"])?;
+                    Ok(Gravity3d4 { m, g })
+                },
+            )
+            .with_sizes("sum(i = 1..N, (p[3*i-2]^2 + p[3*i-1]^2 + p[3*i]^2)/(2*m)) - g*m^2*sum(1 <= i < j <= N, ((q[3*i-2] - q[3*j-2])^2 + (q[3*i-1] - q[3*j-1])^2 + (q[3*i] - q[3*j])^2)^(-1/2)) where N = 4"),
+            SystemEntry::runnable::<16, CalogeroMoser8, _>(
+                "calogero_moser",
+                "Calogero-Moser system of N unit masses on a line (N = 8; any N by a scene's sizes): H = sum p_i^2/2 + g^2 sum_{i<j} (q_i - q_j)^-2, n = N",
+                &[ParamSpec::new("g", Some(0.5), "coupling")],
+                |p| Ok(CalogeroMoser8 { g: param("calogero_moser", p, "g")? }),
+            )
+            .with_sizes("sum(i = 1..N, p[i]^2/2) + g^2*sum(1 <= i < j <= N, (q[i] - q[j])^(-2)) where N = 8"),
             SystemEntry::runnable::<4, ForcedOscillator, _>(
                 "forced_oscillator",
                 "time-dependent H = p1^2/2 + omega0^2 q1^2/2 - f q1 cos(omega t), n = 1 (extended phase space)",
@@ -774,6 +795,8 @@ mod tests {
                 "toda_fixed_ends",
                 "nbody_2d",
                 "nbody_3d",
+                "gravity_3d",
+                "calogero_moser",
                 "forced_oscillator",
                 "free_particle"
             ]
@@ -833,7 +856,16 @@ mod tests {
                 assert_eq!(g_text, g, "{} at {scale}", e.name());
             }
         }
-        assert_eq!(sizable, ["fput_alpha", "fput_beta", "toda_fixed_ends"]);
+        assert_eq!(
+            sizable,
+            [
+                "fput_alpha",
+                "fput_beta",
+                "toda_fixed_ends",
+                "gravity_3d",
+                "calogero_moser"
+            ]
+        );
     }
 
     const KEPLER: &str = "[system]\nname = \"kepler\"\nparams = { m = -1.0 }\n[initial]\n\

@@ -316,6 +316,32 @@ dth::hamiltonian! {
         - g*m2*m3*((q4 - q7)^2 + (q5 - q8)^2 + (q6 - q9)^2)^(-1/2)
 }
 
+dth::hamiltonian! {
+    /// `N` gravitating point masses `m` in space, all pairs, the pair sum written once (and
+    /// looped): `H = sum |p_i|^2/(2 m) - g m^2 sum_{i<j} 1/|q_i - q_j|`, body `i` at
+    /// `(q_{3i-2}, q_{3i-1}, q_{3i})`; `N = 4` here, any `N` from a scene's `sizes`.
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    pub struct Gravity3d4 {
+        /// Mass of each body.
+        pub m: f64,
+        /// Gravitational constant `G`.
+        pub g: f64,
+    } = sum(i = 1..N, (p[3*i-2]^2 + p[3*i-1]^2 + p[3*i]^2)/(2*m)) - g*m^2*sum(1 <= i < j <= N,
+        ((q[3*i-2] - q[3*j-2])^2 + (q[3*i-1] - q[3*j-1])^2 + (q[3*i] - q[3*j])^2)^(-1/2))
+        where N = 4
+}
+
+dth::hamiltonian! {
+    /// The Calogero-Moser system of `N` unit masses on a line, the pair sum written once (and
+    /// looped): `H = sum p_i^2/2 + g^2 sum_{i<j} (q_i - q_j)^(-2)`; `N = 8` here, any `N` from
+    /// a scene's `sizes`.
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    pub struct CalogeroMoser8 {
+        /// Coupling `g`.
+        pub g: f64,
+    } = sum(i = 1..N, p[i]^2/2) + g^2*sum(1 <= i < j <= N, (q[i] - q[j])^(-2)) where N = 8
+}
+
 /// The chains with fixed ends whose harmonic part is the unit-spring chain (the `normal_modes`
 /// effect's modes, [`crate::normal_modes`]).
 impl SceneSystem<Const<64>> for FputAlpha32 {
@@ -382,6 +408,34 @@ impl SceneSystem<Const<18>> for NBody3d3 {
 
     fn invariants(&self, z: &SVector<f64, 18>, out: &mut [f64]) {
         spatial_momenta(z, out);
+    }
+}
+
+impl SceneSystem<Const<24>> for Gravity3d4 {
+    fn invariant_names(&self) -> &'static [&'static str] {
+        &[
+            "momentum_x",
+            "momentum_y",
+            "momentum_z",
+            "angular_momentum_x",
+            "angular_momentum_y",
+            "angular_momentum_z",
+        ]
+    }
+
+    fn invariants(&self, z: &SVector<f64, 24>, out: &mut [f64]) {
+        spatial_momenta(z, out);
+    }
+}
+
+/// The pair forces cancel: the total momentum is conserved.
+impl SceneSystem<Const<16>> for CalogeroMoser8 {
+    fn invariant_names(&self) -> &'static [&'static str] {
+        &["momentum"]
+    }
+
+    fn invariants(&self, z: &SVector<f64, 16>, out: &mut [f64]) {
+        out[0] = z.as_slice()[8..].iter().sum();
     }
 }
 

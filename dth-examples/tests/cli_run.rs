@@ -278,9 +278,17 @@ fn every_shipped_scene_runs() {
         };
         // The FPUT scene takes 134,000 DTH steps at D = 64 (dense Newton: over a minute in the
         // dev profile); `tests/fput.rs` runs it at reduced length instead.
-        // `fput-4096.toml` is a benchmark scene (10,000 steps of 4,096 sites, for release);
-        // `tests/scene_hamiltonian.rs` runs it at 16 sites.
-        if f == "fput.toml" || f == "fput-4096.toml" {
+        // `fput-4096.toml`, `cluster-64.toml` and `calogero-256.toml` are benchmark scenes
+        // (4,096 sites; 64 and 256 bodies with dense Newton matrices: for release);
+        // `tests/scene_hamiltonian.rs` runs them at reduced sizes.
+        if [
+            "fput.toml",
+            "fput-4096.toml",
+            "cluster-64.toml",
+            "calogero-256.toml",
+        ]
+        .contains(&f.as_str())
+        {
             continue;
         }
         n += 1;

@@ -433,7 +433,7 @@ fn the_shipped_text_scenes_are_valid() {
 
 /// A shipped scene, validated.
 fn shipped(name: &str) -> Scene {
-    let path = format!("{}/scenes/{name}", env!("CARGO_MANIFEST_DIR"));
+    let path = scene_path(name);
     let text = fs::read_to_string(&path).unwrap();
     check_scene(&text, &path, &Catalogue::builtin()).unwrap_or_else(|e| panic!("{e}"))
 }
@@ -564,8 +564,17 @@ fn a_four_dimensional_text_runs_at_a_fixed_size_and_ends_where_the_builtin_keple
 /// The shipped `fput-4096.toml` with `[system] sizes = { N = n }` added: the same text, the
 /// same formulas, another size.
 fn fput_at(n: usize) -> String {
-    let path = format!("{}/scenes/fput-4096.toml", env!("CARGO_MANIFEST_DIR"));
-    let text = fs::read_to_string(path).unwrap();
+    shipped_at("fput-4096.toml", n)
+}
+
+/// The path of the shipped scene `file`.
+fn scene_path(file: &str) -> String {
+    format!("{}/scenes/{file}", env!("CARGO_MANIFEST_DIR"))
+}
+
+/// The shipped scene `file` with `[system] sizes = { N = n }` added.
+fn shipped_at(file: &str, n: usize) -> String {
+    let text = fs::read_to_string(scene_path(file)).unwrap();
     assert!(text.contains("[system]\n"));
     text.replacen(
         "[system]\n",
@@ -644,6 +653,78 @@ fn one_chain_scene_serves_every_size() {
     assert_eq!(rows[0].q, scene.q);
     assert!(rows.iter().all(|r| r.q.len() == 16));
     assert!(rows.windows(2).all(|w| w[1].t > w[0].t));
+}
+
+/// The N-body scenes from one line (`calogero-256.toml`, `cluster-64.toml`: pair sums, looped),
+/// at reduced sizes set by `sizes` (the cluster's start read from its CSV by column name, the
+/// first bodies): DTH (robust for the collapsing cluster) keeps the energy at every midpoint
+/// to roundoff.
+#[test]
+fn the_n_body_scenes_from_one_line_keep_their_energy() {
+    for (file, n, dof) in [("calogero-256.toml", 16, 16), ("cluster-64.toml", 8, 24)] {
+        let text = shipped_at(file, n);
+        let mut scene = check_scene(&text, &scene_path(file), &Catalogue::builtin())
+            .unwrap_or_else(|e| panic!("{file}: {e}"));
+        assert_eq!((scene.q.len(), scene.p.len()), (dof, dof), "{file}");
+        let (q, p) = (&scene.q, &scene.p);
+        // The magnitude of H's terms (kinetic, and every pair's), all summed: the scale of
+        // the roundoff of H (each of `pairs + kinetic` additions rounds by eps of at most this).
+        let kinetic: f64 = p.iter().map(|x| x * x / 2.0).sum();
+        let (pairs, potential) = if file.starts_with("calogero") {
+            let g2 = 0.25;
+            let mut sum = 0.0;
+            for i in 0..n {
+                for j in i + 1..n {
+                    sum += g2 / (q[i] - q[j]).powi(2);
+                }
+            }
+            (n * (n - 1) / 2, sum)
+        } else {
+            let mut sum = 0.0;
+            for i in 0..n {
+                for j in i + 1..n {
+                    let d: f64 = (0..3).map(|c| (q[3 * i + c] - q[3 * j + c]).powi(2)).sum();
+                    sum += 1.0 / d.sqrt();
+                }
+            }
+            (n * (n - 1) / 2, sum)
+        };
+        let tolerance = (pairs + n) as f64 * f64::EPSILON * (kinetic + potential);
+        scene.duration = Duration::Steps(40);
+        let system = TextSystem::build(&scene).unwrap();
+        let results = compute(&system, &scene, &quiet()).unwrap();
+        let dth = &results[0];
+        assert!(dth.failure.is_none(), "{file}: {:?}", dth.failure);
+        let energy = dth.summary.energy.as_ref().unwrap();
+        assert!(
+            energy.points.max <= tolerance,
+            "{file}: {:?}, tolerance {tolerance:e}",
+            energy.points
+        );
+    }
+}
+
+/// The catalogue's N-body systems take their size from a scene, as its chains do.
+#[test]
+fn the_catalogues_n_body_systems_take_their_size_from_a_scene() {
+    for (name, sizes, dof) in [("gravity_3d", 5, 15), ("calogero_moser", 12, 12)] {
+        let text = format!(
+            "method = [{{ kind = \"dth\", dtau = 0.01 }}]\n[system]\nname = \"{name}\"\n\
+             sizes = {{ N = {sizes} }}\n[initial]\nq = \"2*i + 0.1*random\"\np = \"0\"\n\
+             [duration]\nsteps = 10\n"
+        );
+        let scene = check_scene(&text, "n.toml", &Catalogue::builtin())
+            .unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert_eq!(scene.q.len(), dof, "{name}");
+        assert_eq!(scene.system, format!("{name}, N = {sizes}"));
+        let system = TextSystem::build(&scene).unwrap();
+        let results = compute(&system, &scene, &quiet()).unwrap();
+        assert!(
+            results[0].failure.is_none(),
+            "{name}: {:?}",
+            results[0].failure
+        );
+    }
 }
 
 #[test]

@@ -33,6 +33,8 @@ __all__ = [
     "toda_fixed_ends",
     "nbody_2d",
     "nbody_3d",
+    "gravity_3d",
+    "calogero_moser",
     "forced_oscillator",
     "free_particle",
 ]
@@ -180,6 +182,30 @@ def nbody_3d(masses: Sequence[float] = (1.0, 1.0, 1.0), g: float = 1.0) -> Hamil
     (q_{3i-2}, q_{3i-1}, q_{3i}); parameters m1..mn and g. Three unit masses are the
     catalogue's `nbody_3d`."""
     return _nbody("nbody_3d", 3, masses, g)
+
+
+def gravity_3d(n: int = 4, m: float = 1.0, g: float = 1.0) -> Hamiltonian:
+    """n gravitating point masses m in space, all pairs, the pair sum written once (it
+    compiles to loops, so n = 1024 builds as fast as n = 4):
+    H = sum |p_i|^2/(2 m) - g m^2 sum_{i<j} 1/|q_i - q_j|, body i at (q_{3i-2}, q_{3i-1}, q_{3i})."""
+    return _twin(
+        "gravity_3d",
+        "sum(i = 1..N, (p[3*i-2]^2 + p[3*i-1]^2 + p[3*i]^2)/(2*m)) - g*m^2*sum(1 <= i < j <= N,"
+        " ((q[3*i-2] - q[3*j-2])^2 + (q[3*i-1] - q[3*j-1])^2 + (q[3*i] - q[3*j])^2)^(-1/2))"
+        f" where N = {_count(n, 2, 'n')}",
+        {"m": m, "g": g},
+    )
+
+
+def calogero_moser(n: int = 8, g: float = 0.5) -> Hamiltonian:
+    """The Calogero-Moser system of n unit masses on a line, the pair sum written once (it
+    compiles to loops): H = sum p_i^2/2 + g^2 sum_{i<j} (q_i - q_j)^-2."""
+    return _twin(
+        "calogero_moser",
+        "sum(i = 1..N, p[i]^2/2) + g^2*sum(1 <= i < j <= N, (q[i] - q[j])^(-2))"
+        f" where N = {_count(n, 2, 'n')}",
+        {"g": g},
+    )
 
 
 def free_particle(m: float = 1.0) -> Hamiltonian:
