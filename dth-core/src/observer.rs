@@ -35,7 +35,8 @@ use nalgebra::{DefaultAllocator, Dim, OVector};
 #[non_exhaustive]
 pub enum StepKind {
     /// A step of a fixed-step method (`dth_core::methods`), or its initial state: `z` is the
-    /// state `z_k` at `t_k = t_0 + k dt`.
+    /// state `z_k` at `t_k = t_0 + k dt` (a run's last step and a landing on a chosen time,
+    /// [`Observer::on_landing`]: a step of what is left).
     Fixed,
     /// A DTH step (the initial midpoint counts as one): `z` is a midpoint with
     /// `H(zbar) = H(zbar_0)`, [`DthRecord::vertex`] the left vertex of its segment.
@@ -166,6 +167,17 @@ where
     fn on_finish(&mut self, last_vertex: &OVector<f64, D>, last_vertex_time: f64) {
         let _ = (last_vertex, last_vertex_time);
     }
+    /// Called with the state at a chosen time (`Solve::save_at` in [`crate::solve`]), landed
+    /// beside the run: from the start of the step that reaches the time, a step shortened to
+    /// end on it (DTH: its `dtau` scaled, [`StepKind::Shortened`] or [`StepKind::Fallback`];
+    /// a fixed-step method: a step of what is left, [`StepKind::Fixed`]), after which the run
+    /// goes on from where it was, so the run's own steps ([`Observer::on_step`]) are those of
+    /// a run without chosen times. Its `k` is the index of the step it shortens; it comes
+    /// before that step's [`Observer::on_step`].
+    #[inline(always)]
+    fn on_landing(&mut self, record: &StepRecord<D>) {
+        let _ = record;
+    }
 }
 
 impl<D: Dim> Observer<D> for () where DefaultAllocator: Alloc<D> {}
@@ -193,6 +205,11 @@ where
     fn on_finish(&mut self, last_vertex: &OVector<f64, D>, last_vertex_time: f64) {
         self.0.on_finish(last_vertex, last_vertex_time);
         self.1.on_finish(last_vertex, last_vertex_time);
+    }
+    #[inline(always)]
+    fn on_landing(&mut self, record: &StepRecord<D>) {
+        self.0.on_landing(record);
+        self.1.on_landing(record);
     }
 }
 
@@ -250,6 +267,11 @@ where
     #[inline(always)]
     fn on_finish(&mut self, last_vertex: &OVector<f64, D>, last_vertex_time: f64) {
         self.inner.on_finish(last_vertex, last_vertex_time);
+    }
+    /// Every landing: chosen times are chosen, not sampled.
+    #[inline(always)]
+    fn on_landing(&mut self, record: &StepRecord<D>) {
+        self.inner.on_landing(record);
     }
 }
 

@@ -34,8 +34,14 @@
 //! ([`Dth::step_toward`]; the step is marked [`StepKind::Shortened`]); a fixed-step method
 //! takes steps of `dt` and a last step of what is left (its record stays
 //! [`StepKind::Fixed`]; its time is `T` itself). [`Solve::save_at`] lands on each of its
-//! times the same way, so the saved states are the method's own states there, not
-//! interpolations.
+//! times the same way, but beside the run: from the start of the step that reaches a time, a
+//! step shortened onto it gives the state there ([`Observer::on_landing`]), and the run goes
+//! on from where it was. The saved states are the method's own states (a DTH midpoint with
+//! its energy exact, not an interpolation), each the state a run ending at that time ends
+//! with, and the run's own steps, invariants and end do not depend on the times chosen
+//! (landing on them in the run itself would restart its grid at each, and jump DTH's vertex
+//! invariants there). A landing costs one step of a fixed-step method, about three of DTH
+//! (the secant on the step's scale).
 //!
 //! # Time-dependent Hamiltonians
 //! The clock of a time-dependent `H` (extended phase space `z = (q, t, p, p_t)`) is the `t`
@@ -49,8 +55,8 @@ use crate::dth::{Dth, DthOptions};
 use crate::error::RunError;
 use crate::hamiltonian::Alloc;
 use crate::methods::{
-    DiscreteGradient, FixedRun, GaussLegendre2, ImplicitMidpoint, OneStepMethod, Rk4, Span,
-    StormerVerlet, Trapezoidal,
+    steps_until, DiscreteGradient, FixedRun, GaussLegendre2, ImplicitMidpoint, OneStepMethod, Rk4,
+    Span, StormerVerlet, Trapezoidal,
 };
 use crate::observer::{Observer, StepKind, StepRecord};
 use crate::{Error, Hamiltonian};
@@ -223,15 +229,6 @@ impl Plan<'_> {
         }
         Ok(())
     }
-
-    /// The landing times in order, the end last (a time run).
-    fn landings(&self) -> impl Iterator<Item = f64> + '_ {
-        let end = match self.end {
-            End::Time(t) => Some(t),
-            End::Steps(_) => None,
-        };
-        self.times.iter().copied().chain(end)
-    }
 }
 
 impl<D: Dim, H: Hamiltonian<D>> Integrator<D, H> for Method
@@ -324,11 +321,16 @@ where
     let mut check = |k: usize| plan.check(k, f64::NAN);
     let result = match plan.end {
         End::Steps(n) => run.advance(&mut method, h, dt, Span::Steps(n), &mut check, sink),
-        End::Time(_) => plan.landings().try_for_each(|target| {
-            run.advance(&mut method, h, dt, Span::Until(target), &mut check, sink)?;
-            sink.landed();
-            Ok(())
-        }),
+        End::Time(t_end) => plan
+            .times
+            .iter()
+            .try_for_each(|&target| {
+                // On to the last grid time before the target, then a step beside the run.
+                let before = steps_until(t0, target, dt).saturating_sub(1 + run.end.steps);
+                run.advance(&mut method, h, dt, Span::Steps(before), &mut check, sink)?;
+                run.land(&mut method, h, target, sink)
+            })
+            .and_then(|()| run.advance(&mut method, h, dt, Span::Until(t_end), &mut check, sink)),
     };
     result.map_err(|e| with_time(e, run.end.t))
 }
@@ -359,18 +361,20 @@ where
                 dth.run(1, sink)?;
             }
         }
-        End::Time(_) => {
-            for target in plan.landings() {
-                loop {
-                    plan.check(dth.k() + 1, dth.tbar())
-                        .map_err(|e| with_time(e, dth.tbar()))?;
-                    let reached = dth.advance_toward(target)?;
-                    dth.run(0, sink)?;
-                    if reached {
-                        break;
-                    }
+        End::Time(t_end) => {
+            let mut times = plan.times.iter().copied().peekable();
+            loop {
+                plan.check(dth.k() + 1, dth.tbar())
+                    .map_err(|e| with_time(e, dth.tbar()))?;
+                let reached = dth.advance_toward(t_end)?;
+                // The chosen times this step reached, landed on beside the run.
+                while let Some(target) = times.next_if(|&t| t <= dth.tbar() || reached) {
+                    sink.on_landing(&dth.land_within_last(target)?);
                 }
-                sink.landed();
+                dth.run(0, sink)?;
+                if reached {
+                    break;
+                }
             }
         }
     }
@@ -426,6 +430,10 @@ where
     #[inline(always)]
     fn on_finish(&mut self, last_vertex: &OVector<f64, D>, last_vertex_time: f64) {
         self.0.on_finish(last_vertex, last_vertex_time);
+    }
+    #[inline(always)]
+    fn on_landing(&mut self, record: &StepRecord<D>) {
+        self.0.on_landing(record);
     }
 }
 
@@ -494,18 +502,58 @@ where
     /// Keep every `n`-th state (`k = 0, n, 2n, ...`) and the last (default: every state).
     /// Replaces an earlier [`Solve::save_at`].
     pub fn save_every(mut self, n: usize) -> Self {
+        // One saving rule: the last one given (the times of a save_at no longer landed on).
+        if self.save == Save::At {
+            self.times.clear();
+        }
         self.save = Save::Every(n);
-        // One saving rule: the last one given (times no longer landed on).
-        self.times.clear();
         self
     }
 
-    /// Keep only the states at these times (ascending, not before the start), landing on each
-    /// exactly as at the end, and the end's (a failed run: the last state reached instead).
+    /// Keep only the states at these times (ascending, not before the start), landed on beside
+    /// the run (see the [module docs](self)), and the end's (a failed run: the last state
+    /// reached instead).
     /// Without [`Solve::until`], the last time is the end. Replaces an earlier
     /// [`Solve::save_every`].
     pub fn save_at(mut self, times: impl IntoIterator<Item = f64>) -> Self {
         self.save = Save::At;
+        self.times = times.into_iter().collect();
+        self
+    }
+
+    /// Land on these times (ascending, after the start, not after the end) beside the run, as
+    /// [`Solve::save_at`] does, and show each state there to the observer
+    /// ([`Observer::on_landing`]) without keeping it in the [`Solution`], which keeps what the
+    /// saving rule says: for an observer that keeps what it needs. Replaces the times of an
+    /// earlier `land_at` or `save_at`. The run needs an end of its own ([`Solve::until`]).
+    ///
+    /// ```
+    /// use dth_core::nalgebra::Vector4;
+    /// use dth_core::observer::{Observer, StepRecord};
+    /// use dth_core::solve::{solve, Method};
+    /// use dth_core::{nalgebra::Const, systems::Kepler, DthOptions};
+    ///
+    /// /// Keeps the times of the landed states.
+    /// struct Landed(Vec<f64>);
+    /// impl Observer<Const<4>> for Landed {
+    ///     fn on_landing(&mut self, r: &StepRecord<Const<4>>) {
+    ///         self.0.push(r.t);
+    ///     }
+    /// }
+    /// let mut landed = Landed(Vec::new());
+    /// let z0 = Vector4::new(0.5, 0.0, 0.0, 1.2);
+    /// let run = solve(&Kepler::thesis(), z0, Method::Dth(DthOptions::new(0.02)?))
+    ///     .until(3.0)
+    ///     .save_every(usize::MAX) // the first and last states only
+    ///     .land_at([1.0, 2.0])
+    ///     .observer(&mut landed)
+    ///     .run()?;
+    /// assert_eq!(run.len(), 2);
+    /// assert_eq!(landed.0.len(), 2);
+    /// assert!((landed.0[1] - 2.0).abs() <= 8.0 * f64::EPSILON);
+    /// # Ok::<(), dth_core::Error>(())
+    /// ```
+    pub fn land_at(mut self, times: impl IntoIterator<Item = f64>) -> Self {
         self.times = times.into_iter().collect();
         self
     }
@@ -669,6 +717,11 @@ where
             None => invalid("start_time", t0, "must be finite"),
         };
     }
+    let times_name = if save == Save::At {
+        "save_at"
+    } else {
+        "land_at"
+    };
     if let Save::Every(0) = save {
         return invalid("save_every", 0.0, "must be at least 1");
     }
@@ -676,10 +729,10 @@ where
         .windows(2)
         .find(|w| w[0].partial_cmp(&w[1]) != Some(std::cmp::Ordering::Less))
     {
-        return invalid("save_at", w[1], "times must be finite and ascending");
+        return invalid(times_name, w[1], "times must be finite and ascending");
     }
     if let Some(&t) = times.iter().find(|t| !t.is_finite() || **t < t0) {
-        return invalid("save_at", t, "must be finite and not before the start");
+        return invalid(times_name, t, "must be finite and not before the start");
     }
     let end = match (end, times.last()) {
         (Some(end), _) => end,
@@ -692,14 +745,14 @@ where
         }
         End::Time(t_end) if times.last().is_some_and(|&t| t > t_end) => {
             return invalid(
-                "save_at",
+                times_name,
                 times.last().copied().unwrap_or(t_end),
                 "times must not lie after the end",
             );
         }
         End::Steps(_) if !times.is_empty() => {
             return invalid(
-                "save_at",
+                times_name,
                 times[0],
                 "a run to a number of steps cannot land on times: end it with until",
             );
@@ -880,13 +933,6 @@ impl<D: Dim, O: Observer<D>> Sink<'_, D, O>
 where
     DefaultAllocator: Alloc<D>,
 {
-    /// The last state reported landed on a chosen time (or the end).
-    fn landed(&mut self) {
-        if self.save == Save::At {
-            self.keep_last();
-        }
-    }
-
     /// Saves the last state reported, once.
     fn keep_last(&mut self) {
         if let Some((record, saved)) = self.last.take() {
@@ -936,6 +982,14 @@ where
                 *was_saved = saved;
             }
             None => self.last = Some((r.clone(), saved)),
+        }
+    }
+
+    fn on_landing(&mut self, r: &StepRecord<D>) {
+        self.user.on_landing(r);
+        self.solution.newton_iterations += u64::from(r.iterations);
+        if self.save == Save::At {
+            self.keep(r);
         }
     }
 

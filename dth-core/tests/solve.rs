@@ -116,28 +116,57 @@ fn a_dividing_grid_is_the_plain_run() {
     assert!(run.newton_iterations > 0);
 }
 
-/// `save_at` keeps the method's own state at each time: the same as a run that ends there
-/// (the run lands on each time as it lands on its end).
+/// `save_at` keeps the method's own state at each time, landed on beside the run: the run's
+/// own steps and end are those of a run without the times; a fixed-step method's state at a
+/// time is the one a run ending there ends with (bit for bit), a DTH one an exact midpoint of
+/// a step shortened onto it (energy at roundoff), as accurate as the method.
 #[test]
-fn save_at_lands_on_each_time() {
+fn save_at_lands_on_each_time_beside_the_run() {
     let kepler = Kepler::thesis();
-    let times = [0.0, 1.5, 2.75, 4.0];
+    // Two times within one step, and one on the fixed steps' grid.
+    let times = [0.0, 1.5, 1.5005, 2.75, 4.0];
+    let t_end = 4.5;
+    let exact = KeplerOrbit::new(&kepler, &thesis_z0()).unwrap();
     for method in every_method() {
         let run = solve(&kepler, thesis_z0(), method)
             .save_at(times)
+            .until(t_end)
             .run()
             .unwrap();
-        assert_eq!(run.len(), times.len(), "{}", run.method);
-        for (t, want) in run.t.iter().zip(times) {
-            assert!(landed(&method, *t, want), "{}: {t} for {want}", run.method);
+        let name = run.method;
+        assert_eq!(run.len(), times.len() + 1, "{name}: the times and the end");
+        for (t, want) in run.t.iter().zip(times.iter().chain([&t_end])) {
+            assert!(landed(&method, *t, *want), "{name}: {t} for {want}");
         }
         assert_eq!(run.z[0], thesis_z0());
-        let first = solve(&kepler, thesis_z0(), method)
-            .until(1.5)
+        let plain = solve(&kepler, thesis_z0(), method)
+            .until(t_end)
             .run()
             .unwrap();
-        assert_eq!(run.z[1], *first.end_state().unwrap(), "{}", run.method);
-        assert_eq!(run.k[1], first.steps);
+        assert_eq!(run.end_state(), plain.end_state(), "{name}: the run itself");
+        assert_eq!(run.steps, plain.steps, "{name}");
+        for (i, &want) in times.iter().enumerate().skip(1) {
+            let z = &run.z[i];
+            // Every method here is accurate to 1e-2 at these steps (see above).
+            let error = (z - exact.state_at(run.t[i])).amax();
+            assert!(error < 1e-2, "{name}: error {error:e} at {want}");
+            match method {
+                Method::Dth(_) => {
+                    // Each term of H is at most ~2 here: roundoff is a few eps of that.
+                    let drift = (kepler.value(z) - kepler.value(&thesis_z0())).abs();
+                    assert!(drift <= 16.0 * f64::EPSILON, "{name}: |H - H0| = {drift:e}");
+                    assert_ne!(run.kinds[i], StepKind::Fallback, "{name}");
+                }
+                _ => {
+                    let to = solve(&kepler, thesis_z0(), method)
+                        .until(want)
+                        .run()
+                        .unwrap();
+                    assert_eq!(z, to.end_state().unwrap(), "{name} at {want}");
+                    assert_eq!(run.k[i], to.steps, "{name} at {want}");
+                }
+            }
+        }
     }
     // With an end of its own the end is kept too, after the chosen times.
     let run = solve(&kepler, thesis_z0(), Method::Rk4 { dt: 0.1 })
@@ -146,6 +175,48 @@ fn save_at_lands_on_each_time() {
         .run()
         .unwrap();
     assert_eq!(run.t, [1.0, 2.0, 3.0]);
+}
+
+/// Robust DTH lands on chosen times inside its fallback stretches too (Kepler e = 0.9, whose
+/// pericentre passage is one), with the energy exact there and the run unchanged.
+#[test]
+fn robust_dth_lands_inside_fallback_stretches() {
+    let kepler = Kepler::thesis();
+    // At pericentre r = 0.5 of H = p^2 - 1/r, p^2 = 1 + e (e = 0.44: the thesis's 1.2).
+    let z0 = Vector4::new(0.5, 0.0, 0.0, 1.9_f64.sqrt());
+    let options = DthOptions::new(0.01).unwrap().with_robust(true);
+    let t_end = 2.0;
+    let times: Vec<f64> = (1..40).map(|i| f64::from(i) * 0.05).collect();
+    let run = solve(&kepler, z0, Method::Dth(options))
+        .save_at(times.iter().copied())
+        .until(t_end)
+        .run()
+        .unwrap();
+    let plain = solve(&kepler, z0, Method::Dth(options))
+        .until(t_end)
+        .run()
+        .unwrap();
+    assert!(plain.fallback_steps > 0, "the stretch this test is about");
+    assert_eq!(run.end_state(), plain.end_state());
+    assert_eq!(run.len(), times.len() + 1, "the times and the end");
+    let h0 = kepler.value(&z0);
+    let fallback = run
+        .kinds
+        .iter()
+        .filter(|k| **k == StepKind::Fallback)
+        .count();
+    assert!(fallback > 0, "some times lie in the fallback stretch");
+    for (t, z) in run.t.iter().zip(&run.z) {
+        // |H| terms are at most ~4 near pericentre: roundoff is a few eps of that.
+        let drift = (kepler.value(z) - h0).abs();
+        assert!(drift <= 32.0 * f64::EPSILON, "|H - H0| = {drift:e} at {t}");
+    }
+    for (t, want) in run.t.iter().zip(&times) {
+        assert!(
+            (t - want).abs() <= 4.0 * f64::EPSILON * want.max(1.0),
+            "{t} for {want}"
+        );
+    }
 }
 
 #[test]

@@ -722,6 +722,86 @@ where
         if full_t < t_end - 0.5 * (full_t - t0) {
             return Ok(false);
         }
+        self.land_last(t0, t_end)
+    }
+
+    /// The state at the time `t` within the last step (from its start's midpoint time to the
+    /// current one), landed on beside the run: the last step redone from its start with its
+    /// `dtau` scaled so that its midpoint lands on `t`, as [`Dth::step_toward`] lands a run's
+    /// last step (and in robust mode, where that scaling cannot land, fallback steps of the
+    /// time left). The stepper is then put back where it was, so a run that lands on chosen
+    /// times this way takes the steps of a run without them. (A run that ends at `t` lands
+    /// the same way, but may stretch the step before instead when `t` lies in the first half
+    /// of this one.) The record is [`StepKind::Shortened`] (or
+    /// [`StepKind::Fallback`]), its `k` the index of the last step; at either end of the
+    /// step it is that state's own record.
+    ///
+    /// ```
+    /// use dth_core::dth::{Dth, DthOptions};
+    /// use dth_core::{nalgebra::Vector4, systems::Kepler, Hamiltonian};
+    /// let z0 = Vector4::new(0.5, 0.0, 0.0, 1.2);
+    /// let mut run = Dth::new(Kepler::thesis(), z0, DthOptions::thesis_kepler())?;
+    /// while run.tbar() < 1.0 {
+    ///     run.step()?;
+    /// }
+    /// let after = (run.zbar().clone(), run.tbar());
+    /// let at_one = run.land_within_last(1.0)?;
+    /// assert_eq!((run.zbar().clone(), run.tbar()), after); // the run is where it was
+    /// assert!((at_one.t - 1.0).abs() <= 4.0 * f64::EPSILON);
+    /// // An exact DTH midpoint: its energy is the start's, to roundoff.
+    /// let h = Kepler::thesis();
+    /// assert!((h.value(&at_one.z) - h.value(&z0)).abs() <= 8.0 * f64::EPSILON);
+    /// # Ok::<(), dth_core::Error>(())
+    /// ```
+    ///
+    /// # Errors
+    /// [`Error::InvalidOption`] (`t`) for a time outside the last step;
+    /// [`Error::EndNotReached`] when no try lands on `t`; the failures of [`Dth::step`]. The
+    /// stepper is put back where it was in every case.
+    pub fn land_within_last(&mut self, t: f64) -> Result<StepRecord<D>, Error> {
+        let (t0, full_t) = (self.work.saved_record.t, self.work.record.t);
+        let tolerance = END_TOLERANCE * f64::EPSILON * t.abs().max(t0.abs());
+        if (t - t0).abs() <= tolerance + 2.0 * self.work.saved.time_noise {
+            return Ok(self.work.saved_record.clone());
+        }
+        if (t - full_t).abs() <= tolerance + 2.0 * self.s.time_noise {
+            return Ok(self.work.record.clone());
+        }
+        if !(t0 < t && t < full_t) {
+            return Err(Error::InvalidOption {
+                name: "t",
+                value: t,
+                reason: "must lie within the last step (from its start's midpoint time to the current one)",
+            });
+        }
+        let kept = (
+            self.s.clone(),
+            self.work.record.clone(),
+            self.work.saved.clone(),
+            self.work.saved_record.clone(),
+        );
+        // The full step is the secant's first try; in robust mode a landing by fallback steps
+        // may take more than one of them.
+        let mut landed = self.land_last(t0, t);
+        while let Ok(false) = landed {
+            landed = self.advance_toward(t);
+        }
+        let record = landed.map(|_| self.work.record.clone());
+        let (state, last, saved, saved_record) = kept;
+        self.s.assign(&state);
+        self.work.record.copy_from(&last);
+        self.work.saved.assign(&saved);
+        self.work.saved_record.copy_from(&saved_record);
+        record
+    }
+
+    /// The end of [`Dth::advance_toward`] once the full step (the current state, from the
+    /// saved start at `t0`) ends near or past `t_end`: the landing.
+    fn land_last(&mut self, t0: f64, t_end: f64) -> Result<bool, Error> {
+        let tolerance = END_TOLERANCE * f64::EPSILON * t_end.abs().max(t0.abs());
+        let accepted = |gap: f64, time_noise: f64| gap <= tolerance + 2.0 * time_noise;
+        let dtau = self.options.dtau();
+        let full_t = self.work.record.t;
         // The last step: secant iteration on the scale s of dtau, F(s) = tbar(s) - t_end, from
         // F(0) = t0 - t_end < 0 and F(1) (just computed).
         let landing = Landing {

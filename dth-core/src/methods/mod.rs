@@ -280,6 +280,8 @@ where
 {
     /// The last accepted state.
     pub(crate) end: RunEnd<D>,
+    /// The start time: step `k` ends at `t0 + k dt` (the clock is not a running sum).
+    t0: f64,
     /// The next state, written by the method and swapped with `end.z` once accepted.
     next: OVector<f64, D>,
     /// The record shown to the observer.
@@ -342,6 +344,7 @@ where
         Ok(FixedRun {
             next: z0.clone(),
             end,
+            t0,
             record,
             iterations: method.newton_iterations(),
         })
@@ -351,11 +354,11 @@ where
     /// is asked before step `k` and stops the run with its error. On error the run stays at
     /// its last accepted state.
     ///
-    /// The clock is `t_a + j dt` from the time `t_a` the call starts at (not a running sum:
-    /// no accumulated rounding); with [`Span::Until`] the last of the `m` steps is
-    /// `t_b - (t_a + (m - 1) dt)` and its time `t_b` itself, where `m` is the least number of
-    /// steps that reaches `t_b` (a last step that would only make up the rounding of
-    /// `(t_b - t_a) / dt` is merged into the one before).
+    /// The clock is `t0 + k dt` from the run's start `t0` (not a running sum: no accumulated
+    /// rounding); with [`Span::Until`] the run goes on to step `m - 1` and a last step of
+    /// `t_b - (t0 + (m - 1) dt)` ends at `t_b` itself, where `m = steps_until(t0, t_b, dt)`
+    /// is the least number of steps from the start that reaches `t_b` (a last step that would
+    /// only make up the rounding of `(t_b - t0) / dt` is merged into the one before).
     pub(crate) fn advance<H, M, O>(
         &mut self,
         method: &mut M,
@@ -370,17 +373,16 @@ where
         M: OneStepMethod<D, H>,
         O: Observer<D>,
     {
-        let t_a = self.end.t;
         let steps = match span {
             Span::Steps(n) => n,
-            Span::Until(t_b) => steps_until(t_a, t_b, dt),
+            Span::Until(t_b) => steps_until(self.t0, t_b, dt).saturating_sub(self.end.steps),
         };
         for j in 1..=steps {
             let k = self.end.steps + 1;
             check(k)?;
             let (size, t) = match span {
-                Span::Until(t_b) if j == steps => (t_b - (t_a + (j - 1) as f64 * dt), t_b),
-                _ => (dt, t_a + j as f64 * dt),
+                Span::Until(t_b) if j == steps => (t_b - self.end.t, t_b),
+                _ => (dt, self.t0 + k as f64 * dt),
             };
             // The run's first step on its own (`h` may differ from the method's last), then
             // steps on one `h`.
@@ -412,6 +414,52 @@ where
             self.iterations = total;
             observer.on_step(&self.record);
         }
+        Ok(())
+    }
+
+    /// The state at `target` (after the last accepted state, at most a step `dt` on), shown to
+    /// `observer` as a landing ([`Observer::on_landing`]): one step of `target - t` from the
+    /// last state, beside the run, which stays where it was. With steps of `dt` up to the
+    /// last grid time before `target` (`steps_until(t0, target, dt) - 1` steps), the landed
+    /// state is the one a run [`Span::Until`] `target` ends with.
+    pub(crate) fn land<H, M, O>(
+        &mut self,
+        method: &mut M,
+        h: &H,
+        target: f64,
+        observer: &mut O,
+    ) -> Result<(), Error>
+    where
+        H: Hamiltonian<D>,
+        M: OneStepMethod<D, H>,
+        O: Observer<D>,
+    {
+        let k = self.end.steps + 1;
+        let size = target - self.end.t;
+        let stepped = if k == 1 {
+            method.step_into(h, &self.end.z, size, &mut self.next)
+        } else {
+            method.continue_into(h, &self.end.z, size, &mut self.next)
+        };
+        match stepped {
+            Ok(()) if self.next.iter().all(|v| v.is_finite()) => {}
+            Ok(()) => {
+                return Err(Error::MethodNonFinite {
+                    method: M::NAME,
+                    step: k,
+                    what: "state",
+                })
+            }
+            Err(error) => return Err(at_step(error, k)),
+        }
+        let total = method.newton_iterations();
+        self.record.k = k;
+        self.record.t = target;
+        self.record.z.copy_from(&self.next);
+        self.record.iterations =
+            u32::try_from(total.saturating_sub(self.iterations)).unwrap_or(u32::MAX);
+        self.iterations = total;
+        observer.on_landing(&self.record);
         Ok(())
     }
 }
