@@ -20,7 +20,11 @@
 //!
 //! `cargo bench -p dth-examples --bench pair_sums` (release), numbers in docs/benchmarks.md.
 
-use std::time::{Duration, Instant};
+mod timing;
+
+use std::time::Duration;
+
+use timing::{median, timed};
 
 use dth::dth::{Dth, DthOptions};
 use dth::nalgebra::DVector;
@@ -50,17 +54,6 @@ fn start(n: usize, dim: usize) -> DVector<f64> {
         }
     }
     z
-}
-
-fn median(mut t: Vec<Duration>) -> Duration {
-    t.sort_unstable();
-    t[t.len() / 2]
-}
-
-fn timed<T>(f: impl FnOnce() -> T) -> (T, Duration) {
-    let t = Instant::now();
-    let out = f();
-    (out, t.elapsed())
 }
 
 fn ms(d: Duration) -> String {

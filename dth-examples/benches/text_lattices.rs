@@ -27,7 +27,11 @@
 //! `cargo bench -p dth-examples --bench text_lattices` (release), numbers in
 //! docs/benchmarks.md.
 
-use std::time::{Duration, Instant};
+mod timing;
+
+use std::time::Duration;
+
+use timing::{median, timed};
 
 use dth::dth::{Dth, DthOptions};
 use dth::nalgebra::{DVector, SVector};
@@ -69,17 +73,6 @@ fn start(n: usize) -> Vec<f64> {
             0.1 * (2.0 * ((s >> 11) as f64 / (1u64 << 53) as f64) - 1.0)
         })
         .collect()
-}
-
-fn median(mut t: Vec<Duration>) -> Duration {
-    t.sort_unstable();
-    t[t.len() / 2]
-}
-
-fn timed<T>(f: impl FnOnce() -> T) -> (T, Duration) {
-    let t = Instant::now();
-    let out = f();
-    (out, t.elapsed())
 }
 
 /// A DTH stepper on `h` from the seeded state, with 20 untimed steps taken.
@@ -200,34 +193,23 @@ fn effect_rows() {
         .expect("the scene's effect line");
     let base = SCENE.replace("steps = 10000", "steps = 1000");
     let with = |effects: &str| base.replace(effects_line, &format!("effect = [{effects}]"));
-    let cases = [
-        ("none", with("")),
-        (
-            "energy_deviation, every step (default)",
-            with(r#"{ kind = "energy_deviation" }"#),
-        ),
-        (
-            "energy_deviation, every 10 (the scene's)",
-            with(r#"{ kind = "energy_deviation", every = 10 }"#),
-        ),
-        (
-            "normal_modes, every step (default)",
-            with(r#"{ kind = "normal_modes" }"#),
-        ),
-        (
-            "normal_modes, every 50 (the scene's)",
-            with(r#"{ kind = "normal_modes", every = 50 }"#),
-        ),
-        (
-            "space_time, every step (default)",
-            with(r#"{ kind = "space_time" }"#),
-        ),
-        (
-            "space_time, every 50 (the scene's)",
-            with(r#"{ kind = "space_time", every = 50 }"#),
-        ),
-        ("as shipped (all three)", base.clone()),
-    ];
+    // Each effect alone at its default sampling (every step) and at the scene's.
+    let mut cases = vec![("none".to_string(), with(""))];
+    for (kind, every) in [
+        ("energy_deviation", 10),
+        ("normal_modes", 50),
+        ("space_time", 50),
+    ] {
+        cases.push((
+            format!("{kind}, every step (default)"),
+            with(&format!("{{ kind = \"{kind}\" }}")),
+        ));
+        cases.push((
+            format!("{kind}, every {every} (the scene's)"),
+            with(&format!("{{ kind = \"{kind}\", every = {every} }}")),
+        ));
+    }
+    cases.push(("as shipped (all three)".to_string(), base.clone()));
     let dir = tempfile::tempdir().expect("a temporary directory");
     // One untimed run (first touches of the code and the allocator), then the cases in
     // turn, round after round, so a change of load falls on all of them alike.
@@ -250,7 +232,7 @@ fn effect_rows() {
     );
     println!("|---|---|---|");
     for ((name, _), s) in cases.iter().zip(&medians) {
-        let added = if *name == "none" {
+        let added = if name == "none" {
             "-".to_string()
         } else {
             format!("{:+.1}%", 100.0 * (s / none - 1.0))

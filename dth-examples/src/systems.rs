@@ -369,6 +369,16 @@ fn planar_momenta<const D: usize>(z: &SVector<f64, D>, out: &mut [f64]) {
         .sum();
 }
 
+/// The names of [`spatial_momenta`]' components.
+const SPATIAL_MOMENTA: &[&str] = &[
+    "momentum_x",
+    "momentum_y",
+    "momentum_z",
+    "angular_momentum_x",
+    "angular_momentum_y",
+    "angular_momentum_z",
+];
+
 /// The conserved total momentum and angular momentum `sum q_i x p_i` of `B` bodies in space,
 /// body `i` at `(q_{3i-2}, q_{3i-1}, q_{3i})`: `(P_x, P_y, P_z, L_x, L_y, L_z)`.
 fn spatial_momenta<const D: usize>(z: &SVector<f64, D>, out: &mut [f64]) {
@@ -396,14 +406,7 @@ impl SceneSystem<Const<12>> for NBody2d3 {
 
 impl SceneSystem<Const<18>> for NBody3d3 {
     fn invariant_names(&self) -> &'static [&'static str] {
-        &[
-            "momentum_x",
-            "momentum_y",
-            "momentum_z",
-            "angular_momentum_x",
-            "angular_momentum_y",
-            "angular_momentum_z",
-        ]
+        SPATIAL_MOMENTA
     }
 
     fn invariants(&self, z: &SVector<f64, 18>, out: &mut [f64]) {
@@ -413,14 +416,7 @@ impl SceneSystem<Const<18>> for NBody3d3 {
 
 impl SceneSystem<Const<24>> for Gravity3d4 {
     fn invariant_names(&self) -> &'static [&'static str] {
-        &[
-            "momentum_x",
-            "momentum_y",
-            "momentum_z",
-            "angular_momentum_x",
-            "angular_momentum_y",
-            "angular_momentum_z",
-        ]
+        SPATIAL_MOMENTA
     }
 
     fn invariants(&self, z: &SVector<f64, 24>, out: &mut [f64]) {
