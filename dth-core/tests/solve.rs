@@ -537,3 +537,29 @@ fn without_energy_errors_h_is_not_evaluated() {
         assert_eq!(h.1.get(), 1 + run.len(), "H(z0) and one per saved state");
     }
 }
+
+/// DTH lands on any time, however close to the start of the step that reaches it (a dense
+/// grid of times puts some within a millionth of a step of it), at every order.
+#[test]
+fn dth_lands_on_times_close_to_a_step_start() {
+    let kepler = Kepler::thesis();
+    let t_end = 7.5;
+    let times: Vec<f64> = (1..750).map(|i| f64::from(i) * 0.01).collect();
+    for dtau in [0.005, 0.01, 0.02] {
+        for order in [2, 4] {
+            let options = DthOptions::new(dtau).unwrap().with_order(order).unwrap();
+            let run = solve(&kepler, thesis_z0(), Method::Dth(options))
+                .save_at(times.iter().copied())
+                .until(t_end)
+                .run()
+                .unwrap_or_else(|e| panic!("dtau {dtau}, order {order}: {}", e.error));
+            assert_eq!(run.len(), times.len() + 1);
+            for (t, want) in run.t.iter().zip(&times) {
+                assert!(
+                    (t - want).abs() <= 4.0 * f64::EPSILON * t_end,
+                    "{t} for {want}"
+                );
+            }
+        }
+    }
+}

@@ -914,7 +914,10 @@ where
             let secant = s_b - f_b * (s_b - s_a) / (f_b - f_a);
             let scale = match bracket {
                 Some((lo, hi)) if bisect || !(lo < secant && secant < hi) => 0.5 * (lo + hi),
-                _ => secant.clamp(1e-3, 4.0),
+                // Inside the bracket, as small as it is: a time just after the step's start
+                // (a landing beside the run, `land_within_last`) needs a scale near 0.
+                Some(_) => secant,
+                None => secant.clamp(1e-3, 4.0),
             };
             self.restore();
             match how {
