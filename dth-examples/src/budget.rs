@@ -13,7 +13,7 @@
 
 use crate::driver::Stop;
 use crate::error::Error;
-use crate::scene::{Direction, EffectSpec, MethodKind, Scene, StepSpec};
+use crate::scene::{Direction, EffectSpec, MethodKind, Sampling, Scene, StepSpec};
 use crate::system::SceneSystem;
 use dth::nalgebra::{DefaultAllocator, Dim};
 use dth::Alloc;
@@ -69,12 +69,23 @@ where
             // Saturating: a scene may ask for up to 2^63 steps, and a wrapped estimate would
             // pass the check.
             let samples = |every: usize| (n / every.max(1) as u64).saturating_add(1);
+            // States at times `t0 + offset + j step` up to the end (none without an end time).
+            let span = stop.limit.end_time().map_or(0.0, |t_end| t_end - scene.t0);
+            let timed = |offset: f64, step: f64| ((span - offset) / step).max(0.0) as u64 + 1;
             let mut values = scene
                 .effects
                 .iter()
                 .map(|e| match *e {
                     EffectSpec::FinalState => d + 3,
-                    EffectSpec::Trajectory { every } => samples(every).saturating_mul(d + 3),
+                    EffectSpec::Trajectory { ref sampling } => match sampling {
+                        Sampling::Steps(every) => samples(*every),
+                        Sampling::EveryTime(dt) => timed(0.0, *dt),
+                        Sampling::Times(times) => times.len() as u64,
+                    }
+                    .saturating_mul(d + 3),
+                    EffectSpec::Stroboscopic { period, phase, .. } => {
+                        timed(phase, period).saturating_mul(3)
+                    }
                     EffectSpec::EnergyDeviation { every } => samples(every).saturating_mul(3 * dth),
                     EffectSpec::Invariants { every } => {
                         samples(every).saturating_mul(3 * dth * invariants)

@@ -33,6 +33,16 @@ pub enum Limit {
     },
 }
 
+impl Limit {
+    /// The end time of a run until a time (`None`: a number of steps).
+    pub fn end_time(&self) -> Option<f64> {
+        match *self {
+            Limit::Time { t_end, .. } => Some(t_end),
+            Limit::Steps(_) => None,
+        }
+    }
+}
+
 /// When a run stops: at its [`Limit`], or at the next step boundary once its interrupt flag
 /// is set (the `dth` command sets it on SIGINT or SIGTERM; a library caller through
 /// `RunOptions::with_interrupt`). An interrupted run ends with
@@ -49,23 +59,27 @@ pub enum Limit {
 /// assert_eq!(stop.interruption(3).map(|f| f.step), Some(4));
 /// ```
 #[derive(Debug, Clone, Copy)]
-pub struct Stop {
+pub struct Stop<'a> {
     /// How long the run lasts.
     pub limit: Limit,
     /// Set: stop before the next step.
     interrupt: Option<&'static AtomicBool>,
+    /// Times to land on beside the run, strictly inside it and ascending
+    /// ([`crate::output_times::OutputTimes::landings`]).
+    times: &'a [f64],
 }
 
-impl From<Limit> for Stop {
+impl From<Limit> for Stop<'static> {
     fn from(limit: Limit) -> Self {
         Stop {
             limit,
             interrupt: None,
+            times: &[],
         }
     }
 }
 
-impl Stop {
+impl Stop<'static> {
     /// After `n` steps ([`Limit::Steps`]), not interruptible.
     pub fn steps(n: usize) -> Self {
         Limit::Steps(n).into()
@@ -75,17 +89,35 @@ impl Stop {
     pub fn time(t_end: f64, max_steps: usize) -> Self {
         Limit::Time { t_end, max_steps }.into()
     }
+}
 
+impl<'a> Stop<'a> {
     /// The same stop, interrupted once `flag` is set (`None`: never).
     pub fn with_interrupt(mut self, flag: Option<&'static AtomicBool>) -> Self {
         self.interrupt = flag;
         self
     }
 
-    /// The same interrupt flag with another limit.
+    /// The same interrupt flag (and times) with another limit.
     pub fn with_limit(mut self, limit: Limit) -> Self {
         self.limit = limit;
         self
+    }
+
+    /// The same stop, with the run landing on `times` beside itself (ascending, strictly
+    /// inside a run that ends at a time) and showing the states there to its observer as
+    /// landings (`dth::observer::Observer::on_landing`).
+    pub fn with_times<'b>(self, times: &'b [f64]) -> Stop<'b> {
+        Stop {
+            limit: self.limit,
+            interrupt: self.interrupt,
+            times,
+        }
+    }
+
+    /// The times it lands on ([`Stop::with_times`]).
+    pub fn times(&self) -> &'a [f64] {
+        self.times
     }
 
     /// `true` once the interrupt flag is set.
@@ -160,6 +192,9 @@ where
         Limit::Steps(n) => run.steps(n),
         Limit::Time { t_end, max_steps } => run.until(t_end).max_steps(max_steps),
     };
+    if !stop.times.is_empty() {
+        run = run.land_at(stop.times.iter().copied());
+    }
     if let Some(flag) = stop.interrupt {
         run = run.interrupt(flag);
     }

@@ -11,7 +11,8 @@ use dth::Alloc;
 use serde::Serialize;
 
 use crate::normal_modes::ChainModes;
-use crate::scene::{Coord, Direction, EffectSpec};
+use crate::output_times::{OutputTimes, Wanted};
+use crate::scene::{Coord, Direction, EffectSpec, Sampling};
 use crate::system::SceneSystem;
 
 /// Mean and max of `|Q_k - Q_ref|` over `k = 1..N` (Table 4.1's "average absolute deviation").
@@ -139,18 +140,76 @@ impl Tracked {
 /// A Poincare section's crossings `(t, x, y)`.
 pub type Crossings = Vec<(f64, f64, f64)>;
 
+/// A section: where its points come from, and the points.
 struct Section<D: Dim>
 where
     DefaultAllocator: Alloc<D>,
 {
-    coordinate: Coord,
-    value: f64,
-    direction: Direction,
-    interpolate: bool,
     x: Coord,
     y: Coord,
-    previous: Option<(f64, OVector<f64, D>)>,
+    how: Cut<D>,
     crossings: Crossings,
+}
+
+/// How a [`Section`] finds its points.
+enum Cut<D: Dim>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    /// Crossings of `coordinate = value` between consecutive states (`poincare`).
+    Level {
+        coordinate: Coord,
+        value: f64,
+        direction: Direction,
+        interpolate: bool,
+        previous: Option<(f64, OVector<f64, D>)>,
+    },
+    /// The states at chosen times, landed on (`stroboscopic`).
+    Times(Wanted),
+}
+
+/// A state as the effects that take states at chosen times record it.
+struct Point<D: Dim>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    k: usize,
+    t: f64,
+    z: OVector<f64, D>,
+    lambda: Option<f64>,
+    kind: StepKind,
+}
+
+impl<D: Dim> Point<D>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    fn of(r: &StepRecord<D>) -> Self {
+        Point {
+            k: r.k,
+            t: r.t,
+            z: r.z.clone(),
+            lambda: r.dth.as_ref().map(|d| d.lambda),
+            kind: r.kind,
+        }
+    }
+
+    /// `self = r`, in place (no allocation per step for a `Dyn` state).
+    fn set(&mut self, r: &StepRecord<D>) {
+        self.k = r.k;
+        self.t = r.t;
+        self.z.copy_from(&r.z);
+        self.lambda = r.dth.as_ref().map(|d| d.lambda);
+        self.kind = r.kind;
+    }
+}
+
+/// When the `trajectory` effect records a row.
+enum RowsAt {
+    /// Every `n`-th step.
+    Steps(usize),
+    /// At chosen times (landed on).
+    Times(Wanted),
 }
 
 /// The state of a method at the end of its run.
@@ -288,7 +347,7 @@ where
 {
     system: &'s S,
     final_state: Option<Option<FinalState>>,
-    trajectory: Option<(usize, Vec<TrajectoryRow>)>,
+    trajectory: Option<(RowsAt, Vec<TrajectoryRow>)>,
     energy: Option<Tracked>,
     invariants: Option<Vec<Tracked>>,
     invariant_buf: Vec<f64>,
@@ -299,15 +358,26 @@ where
     normal_modes: Option<ModeSamples>,
     space_time: Option<SpaceTimeSamples>,
     calls: usize,
+    /// Landings seen ([`Observer::on_landing`]): the index of the next one.
+    landings: usize,
+    /// The last state seen, kept for effects that want the run's end (`None`: none does, or
+    /// none seen yet while `keep_last`).
+    last: Option<Point<D>>,
+    /// Some effect wants the run's end.
+    keep_last: bool,
+    /// The chosen times of this run.
+    times: &'s OutputTimes,
 }
 
 impl<'s, D: Dim, S: SceneSystem<D>> Effects<'s, D, S>
 where
     DefaultAllocator: Alloc<D>,
 {
-    /// Observers for `specs` only. Returns `None` when `specs` is empty: then there is nothing
-    /// to observe and the runner uses `()`.
-    pub fn new(system: &'s S, specs: &[EffectSpec]) -> Option<Self> {
+    /// Observers for `specs` only, the chosen times of the run resolved in `times`
+    /// ([`OutputTimes::new`] of the same `specs`; the run lands on
+    /// [`OutputTimes::landings`]). Returns `None` when `specs` is empty: then there is
+    /// nothing to observe and the runner uses `()`.
+    pub fn new(system: &'s S, specs: &[EffectSpec], times: &'s OutputTimes) -> Option<Self> {
         if specs.is_empty() {
             return None;
         }
@@ -325,6 +395,10 @@ where
             normal_modes: None,
             space_time: None,
             calls: 0,
+            landings: 0,
+            last: None,
+            keep_last: false,
+            times,
         };
         let names = system.invariant_names();
         let want_invariants = |every: usize, e: &mut Self| {
@@ -338,10 +412,25 @@ where
                 }
             }
         };
-        for spec in specs {
+        for (i, spec) in specs.iter().enumerate() {
+            // Times asked for, resolved; `Wanted::default()` (none) only for a spec missing
+            // from `times` (not built from these specs).
+            let wanted = || times.wanted(i).unwrap_or_default();
             match *spec {
                 EffectSpec::FinalState => e.final_state = Some(None),
-                EffectSpec::Trajectory { every } => e.trajectory = Some((every, Vec::new())),
+                EffectSpec::Trajectory { ref sampling } => {
+                    let at = match sampling {
+                        Sampling::Steps(every) => RowsAt::Steps(*every),
+                        Sampling::EveryTime(_) | Sampling::Times(_) => RowsAt::Times(wanted()),
+                    };
+                    e.trajectory = Some((at, Vec::new()));
+                }
+                EffectSpec::Stroboscopic { x, y, .. } => e.sections.push(Section {
+                    x,
+                    y,
+                    how: Cut::Times(wanted()),
+                    crossings: Vec::new(),
+                }),
                 EffectSpec::EnergyDeviation { every } => match &mut e.energy {
                     Some(t) => t.every = every,
                     None => e.energy = Some(Tracked::new("energy", every)),
@@ -363,13 +452,15 @@ where
                     x,
                     y,
                 } => e.sections.push(Section {
-                    coordinate,
-                    value,
-                    direction,
-                    interpolate,
                     x,
                     y,
-                    previous: None,
+                    how: Cut::Level {
+                        coordinate,
+                        value,
+                        direction,
+                        interpolate,
+                        previous: None,
+                    },
                     crossings: Vec::new(),
                 }),
                 EffectSpec::PhasePlot { x, y, every, until } => e.phase.push(PhaseSamples {
@@ -398,7 +489,36 @@ where
                 }
             }
         }
+        let wants_end = |w: &Wanted| w.end;
+        e.keep_last = matches!(&e.trajectory, Some((RowsAt::Times(w), _)) if wants_end(w))
+            || e.sections
+                .iter()
+                .any(|s| matches!(&s.how, Cut::Times(w) if wants_end(w)));
         Some(e)
+    }
+
+    /// The state `p`, at a time chosen by the effects for which `pick` says so: a trajectory
+    /// row, a stroboscopic section's point.
+    fn at_time(&mut self, p: &Point<D>, mut pick: impl FnMut(&mut Wanted) -> bool) {
+        if let Some((RowsAt::Times(w), rows)) = &mut self.trajectory {
+            if pick(w) {
+                rows.push(TrajectoryRow {
+                    step: p.k,
+                    t: p.t,
+                    z: p.z.iter().copied().collect(),
+                    lambda: p.lambda,
+                    kind: p.kind,
+                });
+            }
+        }
+        for s in &mut self.sections {
+            if let Cut::Times(w) = &mut s.how {
+                if pick(w) {
+                    let at = |c: Coord| c.value(p.t, p.z.as_slice());
+                    s.crossings.push((p.t, at(s.x), at(s.y)));
+                }
+            }
+        }
     }
 
     /// How many states were observed.
@@ -417,6 +537,7 @@ where
                 .trajectory
                 .as_ref()
                 .map_or(0, |(_, rows)| rows.len() * (d + 3))
+            + self.last.as_ref().map_or(0, |p| p.z.len() + 4)
             + self.energy.as_ref().map_or(0, series)
             + self
                 .invariants
@@ -439,8 +560,16 @@ where
                 .map_or(0, |s| s.rows.iter().map(|r| r.q.len() + 1).sum())
     }
 
-    /// Ends observation and hands over the results.
-    pub fn finish(self) -> EffectOutputs {
+    /// Ends observation and hands over the results (the run's last state goes to the effects
+    /// that asked for its end time, when it reached it).
+    pub fn finish(mut self) -> EffectOutputs {
+        if let Some(p) = self
+            .last
+            .take()
+            .filter(|p| p.k > 0 && self.times.is_end(p.t))
+        {
+            self.at_time(&p, |w| w.end);
+        }
         EffectOutputs {
             final_state: self.final_state.flatten(),
             trajectory: self.trajectory.map(|(_, r)| r),
@@ -465,8 +594,24 @@ impl<D: Dim, S: SceneSystem<D>> Observer<D> for Effects<'_, D, S>
 where
     DefaultAllocator: Alloc<D>,
 {
+    fn on_landing(&mut self, r: &StepRecord<D>) {
+        self.calls += 1;
+        let index = self.landings;
+        self.landings += 1;
+        self.at_time(&Point::of(r), |w| w.takes(index));
+    }
+
     fn on_step(&mut self, r: &StepRecord<D>) {
         self.calls += 1;
+        if r.k == 0 {
+            self.at_time(&Point::of(r), |w| w.start);
+        }
+        if self.keep_last {
+            match &mut self.last {
+                Some(p) => p.set(r),
+                None => self.last = Some(Point::of(r)),
+            }
+        }
         let (step, t, z) = (r.k, r.t, &r.z);
         let lambda = r.dth.as_ref().map(|d| d.lambda);
         // The vertex of a shortened last step belongs to a segment of its own dtau, not to the
@@ -485,7 +630,7 @@ where
                 lambda,
             });
         }
-        if let Some((every, rows)) = &mut self.trajectory {
+        if let Some((RowsAt::Steps(every), rows)) = &mut self.trajectory {
             if step.is_multiple_of(*every) {
                 rows.push(TrajectoryRow {
                     step,
@@ -516,17 +661,27 @@ where
             }
         }
         for s in &mut self.sections {
-            let c1 = at(s.coordinate, t, z) - s.value;
-            if let Some((t0, z0)) = &s.previous {
-                let c0 = at(s.coordinate, *t0, z0) - s.value;
+            let Cut::Level {
+                coordinate,
+                value,
+                direction,
+                interpolate,
+                previous,
+            } = &mut s.how
+            else {
+                continue;
+            };
+            let c1 = at(*coordinate, t, z) - *value;
+            if let Some((t0, z0)) = previous.as_ref() {
+                let c0 = at(*coordinate, *t0, z0) - *value;
                 let up = c0 < 0.0 && c1 >= 0.0;
                 let down = c0 > 0.0 && c1 <= 0.0;
-                let hit = match s.direction {
+                let hit = match direction {
                     Direction::Up => up,
                     Direction::Down => down,
                     Direction::Both => up || down,
                 };
-                if hit && !s.interpolate {
+                if hit && !*interpolate {
                     // The thesis's sections (Section 4.2): the state just after the crossing,
                     // projected onto the section (its other coordinates kept).
                     s.crossings.push((t, at(s.x, t, z), at(s.y, t, z)));
@@ -539,13 +694,13 @@ where
                     s.crossings.push((tc, at(s.x, tc, &zc), at(s.y, tc, &zc)));
                 }
             }
-            match &mut s.previous {
+            match previous {
                 // The stored state is overwritten: no allocation per step for `Dyn`.
                 Some((tp, zp)) => {
                     *tp = t;
                     zp.copy_from(z);
                 }
-                None => s.previous = Some((t, z.clone())),
+                None => *previous = Some((t, z.clone())),
             }
         }
         if let Some(m) = &mut self.normal_modes {
@@ -597,7 +752,8 @@ mod tests {
             x: Coord::T,
             y: Coord::P(0),
         }];
-        let mut e = Effects::new(&sys, &spec).unwrap();
+        let times = OutputTimes::none();
+        let mut e = Effects::new(&sys, &spec, &times).unwrap();
         for k in 0..=(6.0 / h) as usize {
             let t = k as f64 * h;
             let z = dth::nalgebra::SVector::<f64, 2>::new(t.cos(), -t.sin());

@@ -90,6 +90,15 @@ pub enum Error {
         /// Why.
         reason: String,
     },
+    /// An effect asks for states at times the run does not reach (before its start, after
+    /// its end, or in a run of a number of steps; exit code 2: the scene is wrong).
+    #[error("effect `{effect}` {reason}")]
+    ChosenTime {
+        /// The effect's kind.
+        effect: &'static str,
+        /// What it asks and what the run covers.
+        reason: String,
+    },
     /// The output folder cannot be used (exit code 2: the user's argument is wrong).
     #[error("refusing to write to `{}`: {reason}", path.display())]
     OutputRefused {
@@ -197,6 +206,7 @@ impl Error {
             | Error::InitialState { .. }
             | Error::TooManySteps { .. }
             | Error::StepUnresolved { .. }
+            | Error::ChosenTime { .. }
             | Error::Allocation { .. } => 2,
             _ => 1,
         }

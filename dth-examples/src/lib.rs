@@ -68,6 +68,7 @@ pub mod effects;
 pub mod fallback;
 pub mod method;
 pub mod normal_modes;
+pub mod output_times;
 pub mod singularity;
 
 pub mod budget;

@@ -22,7 +22,7 @@ use crate::system::SceneSystem;
 
 /// The system's exact solution ([`SceneSystem::exact_solution`]) sampled at `t0 + k dt` from
 /// `z0` until `stop` (a run until a time: its last sample at that time), shown to `observer`
-/// like a fixed-step method's states.
+/// like a fixed-step method's states, and at the stop's chosen times as landings.
 pub fn run_exact<D: Dim, S: SceneSystem<D>, O: Observer<D>>(
     system: &S,
     dt: f64,
@@ -41,6 +41,7 @@ where
         Limit::Time { t_end, .. } => Some((steps_until(t0, t_end, dt), t_end)),
         Limit::Steps(_) => None,
     };
+    let mut times = stop.times().iter().copied().peekable();
     for k in 1..=stop.fixed_steps(t0, dt) {
         if let Some(interrupted) = stop.interruption(record.k) {
             return Err(interrupted);
@@ -49,10 +50,18 @@ where
             Some((last, t_end)) if k == last => t_end,
             _ => t0 + k as f64 * dt,
         };
-        record.z = system.exact_solution(&z0, t - t0).ok_or(MethodFailure {
-            step: k,
-            cause: FailureCause::NoExactSolution { t },
-        })?;
+        let exact = |t: f64| {
+            system.exact_solution(&z0, t - t0).ok_or(MethodFailure {
+                step: k,
+                cause: FailureCause::NoExactSolution { t },
+            })
+        };
+        // The chosen times before this sample, as the integrators land on them.
+        while let Some(&at) = times.peek().filter(|&&at| at < t) {
+            times.next();
+            observer.on_landing(&StepRecord::fixed(k, at, exact(at)?));
+        }
+        record.z = exact(t)?;
         record.k = k;
         record.t = t;
         observer.on_step(&record);

@@ -237,6 +237,28 @@ where
     DefaultAllocator: Alloc<D>,
 {
     fn on_step(&mut self, r: &StepRecord<Dyn>) {
+        self.physical(r);
+        self.observer.on_step(&self.record);
+    }
+
+    fn on_landing(&mut self, r: &StepRecord<Dyn>) {
+        self.physical(r);
+        self.observer.on_landing(&self.record);
+    }
+
+    fn on_finish(&mut self, last_vertex: &DVector<f64>, last_vertex_time: f64) {
+        self.map
+            .physical_into(last_vertex.as_slice(), Slice::of(&mut self.vertex).0);
+        self.observer.on_finish(&self.vertex, last_vertex_time);
+    }
+}
+
+impl<D: Dim, O> PhysicalView<'_, D, O>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    /// `self.record` = `r` in physical coordinates.
+    fn physical(&mut self, r: &StepRecord<Dyn>) {
         let w = r.z.as_slice();
         let record = &mut self.record;
         record.k = r.k;
@@ -261,12 +283,5 @@ where
             }
             None => record.dth = None,
         }
-        self.observer.on_step(record);
-    }
-
-    fn on_finish(&mut self, last_vertex: &DVector<f64>, last_vertex_time: f64) {
-        self.map
-            .physical_into(last_vertex.as_slice(), Slice::of(&mut self.vertex).0);
-        self.observer.on_finish(&self.vertex, last_vertex_time);
     }
 }

@@ -17,6 +17,7 @@ use crate::effects::{DeviationStats, EffectOutputs, Effects, FinalState};
 use crate::error::Error;
 use crate::fallback::{Fallback, FallbackWatch};
 use crate::method::{run_method, unavailable};
+use crate::output_times::OutputTimes;
 use crate::scene::{Duration, Ensemble, MethodKind, MethodSpec, Scene, StepSpec};
 use crate::singularity::regularization;
 use crate::system::SceneSystem;
@@ -342,7 +343,7 @@ pub fn stop_for<D: Dim, S: SceneSystem<D>>(
     scene: &Scene,
     z0: &OVector<f64, D>,
     options: &RunOptions,
-) -> Result<Stop, Error>
+) -> Result<Stop<'static>, Error>
 where
     DefaultAllocator: Alloc<D>,
 {
@@ -371,7 +372,10 @@ where
 ///   e.g. `exact` on an unbound Kepler orbit);
 /// - a step too small to change the state in double precision ([`Error::StepUnresolved`]);
 /// - a fixed-step method given a duration in time that would need more than
-///   `options.max_steps` steps ([`Error::TooManySteps`]: the cap would stop it short).
+///   `options.max_steps` steps ([`Error::TooManySteps`]: the cap would stop it short);
+/// - chosen times outside the run ([`OutputTimes::new`]).
+///
+/// Returns the run's chosen times, resolved.
 ///
 /// A single run checks this in [`compute`]; `dth check` too (`Catalogue::estimate`).
 pub fn preflight<D: Dim, S: SceneSystem<D>>(
@@ -379,7 +383,7 @@ pub fn preflight<D: Dim, S: SceneSystem<D>>(
     scene: &Scene,
     z0: &OVector<f64, D>,
     stop: Stop,
-) -> Result<(), Error>
+) -> Result<OutputTimes, Error>
 where
     DefaultAllocator: Alloc<D>,
 {
@@ -445,7 +449,7 @@ where
             }
         }
     }
-    Ok(())
+    OutputTimes::new(&scene.effects, scene.t0, stop.limit.end_time())
 }
 
 /// Progress as an observer: moves the bar every 1024 steps (nothing else per step).
@@ -555,25 +559,27 @@ where
     let z0 = initial_state(system, scene)?;
     let stop = stop_for(system, scene, &z0, options)?;
     budget::check(system, scene, stop, options.memory_limit())?;
-    preflight(system, scene, &z0, stop)?;
+    let times = preflight(system, scene, &z0, stop)?;
+    let stop = stop.with_times(times.landings());
     let mut results = Vec::new();
     for m in &scene.methods {
         let bar = progress_bar(m, scene.t0, stop, options);
         let progress = (Progress(bar.clone()), FallbackWatch::new(scene.q.len()));
-        let (end, outputs, calls, stored, watch) = match Effects::new(system, &scene.effects) {
-            Some(effects) => {
-                let mut observers = (progress, effects);
-                let end = run_method(m, system, z0.clone(), scene.t0, stop, &mut observers)?;
-                let ((_, watch), effects) = observers;
-                let (calls, stored) = (effects.observer_calls(), effects.stored_values());
-                (end, effects.finish(), calls, stored, watch)
-            }
-            None => {
-                let mut observers = progress;
-                let end = run_method(m, system, z0.clone(), scene.t0, stop, &mut observers)?;
-                (end, EffectOutputs::default(), 0, 0, observers.1)
-            }
-        };
+        let (end, outputs, calls, stored, watch) =
+            match Effects::new(system, &scene.effects, &times) {
+                Some(effects) => {
+                    let mut observers = (progress, effects);
+                    let end = run_method(m, system, z0.clone(), scene.t0, stop, &mut observers)?;
+                    let ((_, watch), effects) = observers;
+                    let (calls, stored) = (effects.observer_calls(), effects.stored_values());
+                    (end, effects.finish(), calls, stored, watch)
+                }
+                None => {
+                    let mut observers = progress;
+                    let end = run_method(m, system, z0.clone(), scene.t0, stop, &mut observers)?;
+                    (end, EffectOutputs::default(), 0, 0, observers.1)
+                }
+            };
         bar.finish_and_clear();
         let (steps, t_end, failure) = match &end {
             Ok(e) => (e.steps, e.t, None),

@@ -673,3 +673,40 @@ fn derive_says_how_to_declare_a_parameter() {
     );
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
 }
+
+#[test]
+fn chosen_times() {
+    let timed = BASE.replace("steps = 100", "time = 1.0");
+    let effect = |scene: &str, keys: &str| format!("{scene}[[effect]]\n{keys}\n");
+    rejects(
+        &effect(BASE, "kind = \"trajectory\"\nevery_time = 0.1"),
+        "12:8",
+        "effect `trajectory` records states at chosen times, which a run of a number of steps does not reach exactly: give the duration as `time` or `orbits`",
+    );
+    rejects(
+        &effect(&timed, "kind = \"trajectory\"\nevery = 2\nevery_time = 0.1"),
+        "14:14",
+        "give one of `every` (steps), `every_time` (a time step) or `times` (a list of times), not more",
+    );
+    rejects(
+        &effect(&timed, "kind = \"trajectory\"\ntimes = [0.5, 0.2]"),
+        "13:9",
+        "`times` must be ascending: 0.5 is followed by 0.2",
+    );
+    rejects(
+        &effect(&timed, "kind = \"trajectory\"\nevery_time = 0.0"),
+        "13:14",
+        "`every_time`",
+    );
+    rejects(
+        &effect(&timed, "kind = \"stroboscopic\"\nx = \"q1\"\ny = \"p1\""),
+        "12:8",
+        "effect `stroboscopic` needs `period`",
+    );
+    // Known only once the run's end is: refused by `check` and `run` before any method runs.
+    refuses(
+        &effect(&timed, "kind = \"trajectory\"\ntimes = [0.5, 2.0]"),
+        2,
+        &["effect `trajectory` asks for the state at t = 2, outside the run from t = 0 to t = 1"],
+    );
+}

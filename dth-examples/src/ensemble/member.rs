@@ -14,7 +14,8 @@ use crate::effects::{Crossings, Effects};
 use crate::error::Error;
 use crate::fallback::FallbackWatch;
 use crate::method::{run_method, unavailable};
-use crate::scene::{ChaosIndicator, EffectSpec, Members, MethodSpec, Scene};
+use crate::output_times::OutputTimes;
+use crate::scene::{ChaosIndicator, Members, MethodSpec, Scene};
 use crate::simulate::{initial_state, stop_for, Failure, RunOptions};
 use crate::system::SceneSystem;
 
@@ -129,7 +130,9 @@ where
         megno: chaos.map(|ChaosIndicator::Megno| Megno::new(system)),
         fallback: FallbackWatch::new(scene.q.len()),
     };
-    let (end, watch, crossings) = match Effects::new(system, &scene.effects) {
+    let times = OutputTimes::new(&scene.effects, scene.t0, stop.limit.end_time())?;
+    let stop = stop.with_times(times.landings());
+    let (end, watch, crossings) = match Effects::new(system, &scene.effects, &times) {
         Some(effects) => {
             let mut obs = (watch, effects);
             let end = run_method(m, system, z0.clone(), scene.t0, stop, &mut obs)?;
@@ -274,11 +277,7 @@ where
     Ok(result)
 }
 
-/// The number of `poincare` effects of `scene` (one list of crossings each).
+/// The number of sections (`poincare`, `stroboscopic`) of `scene` (one list of points each).
 fn sections(scene: &Scene) -> usize {
-    scene
-        .effects
-        .iter()
-        .filter(|e| matches!(e, EffectSpec::Poincare { .. }))
-        .count()
+    scene.effects.iter().filter(|e| e.is_section()).count()
 }

@@ -14,7 +14,7 @@ use crate::error::Error;
 use crate::plot::{Figure, Mark, Raster, Series};
 use crate::report::html::escape;
 use crate::report::{write_file, write_json, EnsembleCounts as Counts, StepCheck};
-use crate::scene::{component_names, Axis, EffectSpec, Members, Sampler, Scene};
+use crate::scene::{component_names, Axis, Coord, EffectSpec, Members, Sampler, Scene};
 use crate::simulate::Failure;
 
 /// One row of the table: one member run with one method.
@@ -186,12 +186,13 @@ pub fn csv(scene: &Scene, d: usize, t: &Table) -> String {
     s
 }
 
-/// The sections of the scene (its `poincare` effects), in order.
-fn sections(scene: &Scene) -> Vec<&EffectSpec> {
+/// The sections of the scene (its `poincare` and `stroboscopic` effects), in order: name and
+/// axes.
+fn sections(scene: &Scene) -> Vec<(String, Coord, Coord)> {
     scene
         .effects
         .iter()
-        .filter(|e| matches!(e, EffectSpec::Poincare { .. }))
+        .filter_map(EffectSpec::section)
         .collect()
 }
 
@@ -220,17 +221,7 @@ pub fn crossings_csv(results: &[MemberResult]) -> String {
 /// member.
 fn section_figures(scene: &Scene, results: &[MemberResult]) -> Vec<(String, Figure)> {
     let mut figs = Vec::new();
-    for (i, e) in sections(scene).into_iter().enumerate() {
-        let EffectSpec::Poincare {
-            coordinate,
-            value,
-            x,
-            y,
-            ..
-        } = e
-        else {
-            continue;
-        };
+    for (i, (name, x, y)) in sections(scene).into_iter().enumerate() {
         for (mi, m) in scene.methods.iter().enumerate() {
             let mut members = 0;
             let mut points = 0;
@@ -254,10 +245,8 @@ fn section_figures(scene: &Scene, results: &[MemberResult]) -> Vec<(String, Figu
                 );
             }
             f.title = format!(
-                "{}: section {} = {value} by {}, {members} members, {points} crossings",
-                scene.title,
-                coordinate.name(),
-                m.label
+                "{}: {name} by {}, {members} members, {points} points",
+                scene.title, m.label
             );
             figs.push((format!("section{}_{}", i + 1, m.label), f));
         }

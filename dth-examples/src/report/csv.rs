@@ -6,7 +6,10 @@
 //! its path) or `step` (the state after a step of a fixed-step method or of a fallback
 //! step, and a fixed-step method's initial state). Rows have the header's number of cells:
 //! a value a row does not have (DTH's `lambda` on a fixed-step row, the vertex of DTH's last,
-//! shortened step) is an empty cell.
+//! shortened step) is an empty cell. A trajectory at chosen times (`every_time`, `times`)
+//! has a row at each of them: the method's own state landed on there (a DTH midpoint of a
+//! step shortened onto the time, `step_kind` `shortened`; `step` is the index of the step it
+//! shortens), the same times for every method.
 //!
 //! Each trajectory is also written as `LABEL_trajectory.npy` ([`super::npy`]) for readers that
 //! do not parse CSV: a `rows x (3 + D)` array of the CSV's numeric columns in its order,
@@ -21,7 +24,7 @@ use super::write_file;
 use crate::effects::{Series, TrajectoryRow};
 use crate::error::Error;
 use crate::fallback::kind_name;
-use crate::scene::{component_names, EffectKind, EffectSpec, Scene};
+use crate::scene::{component_names, EffectSpec, Scene};
 use crate::simulate::MethodResult;
 use dth::observer::StepKind;
 
@@ -109,12 +112,9 @@ pub fn write(dir: &Path, scene: &Scene, results: &[MethodResult]) -> Result<Vec<
             }
             put(format!("{l}_time_law.csv"), s, &mut files)?;
         }
-        for (i, (c, (x, y))) in o
-            .poincare
-            .iter()
-            .zip(axes(scene, EffectKind::Poincare))
-            .enumerate()
-        {
+        let sections = scene.effects.iter().filter_map(EffectSpec::section);
+        for (i, (c, (_, x, y))) in o.poincare.iter().zip(sections).enumerate() {
+            let (x, y) = (x.name(), y.name());
             let mut s = format!("t,{x},{y}\n");
             for (t, x, y) in c {
                 let _ = writeln!(s, "{t:e},{x:e},{y:e}");
@@ -186,12 +186,7 @@ pub fn write(dir: &Path, scene: &Scene, results: &[MethodResult]) -> Result<Vec<
             }
             put(format!("{l}_ensemble.csv"), s, &mut files)?;
         }
-        for (i, (pts, (x, y))) in o
-            .phase
-            .iter()
-            .zip(axes(scene, EffectKind::PhasePlot))
-            .enumerate()
-        {
+        for (i, (pts, (x, y))) in o.phase.iter().zip(phase_axes(scene)).enumerate() {
             // `t` first, unless it is one of the plot's axes already.
             let with_t = x != "t" && y != "t";
             let mut s = if with_t {
@@ -211,17 +206,14 @@ pub fn write(dir: &Path, scene: &Scene, results: &[MethodResult]) -> Result<Vec<
     Ok(files)
 }
 
-/// The `(x, y)` coordinate names of the scene's effects of `kind` (`poincare` or
-/// `phase_plot`), in scene order: the columns of their CSV files (`q1,p1`, `t,q1`).
-fn axes(scene: &Scene, kind: EffectKind) -> Vec<(String, String)> {
+/// The `(x, y)` coordinate names of the scene's phase plots, in scene order: the columns of
+/// their CSV files (`q1,p1`, `t,q1`).
+fn phase_axes(scene: &Scene) -> Vec<(String, String)> {
     scene
         .effects
         .iter()
-        .filter(|e| e.kind() == kind)
         .filter_map(|e| match e {
-            EffectSpec::PhasePlot { x, y, .. } | EffectSpec::Poincare { x, y, .. } => {
-                Some((x.name(), y.name()))
-            }
+            EffectSpec::PhasePlot { x, y, .. } => Some((x.name(), y.name())),
             _ => None,
         })
         .collect()

@@ -83,22 +83,11 @@ pub fn write(
                     figs.push(("time_law_lambda".into(), fl));
                 }
             }
-            EffectSpec::Poincare {
-                coordinate,
-                value,
-                x,
-                y,
-                ..
-            } => {
-                let mut f = Figure::new(
-                    &format!(
-                        "{}: Poincare section {} = {value}",
-                        scene.title,
-                        coordinate.name()
-                    ),
-                    &x.name(),
-                    &y.name(),
-                );
+            EffectSpec::Poincare { .. } | EffectSpec::Stroboscopic { .. } => {
+                let Some((name, x, y)) = spec.section() else {
+                    continue;
+                };
+                let mut f = Figure::new(&format!("{}: {name}", scene.title), &x.name(), &y.name());
                 for r in results {
                     if let Some(c) = r.outputs.poincare.get(poincare_i) {
                         f = f.with_series(PlotSeries::new(

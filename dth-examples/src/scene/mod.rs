@@ -60,6 +60,6 @@ pub(crate) use schema::thousands;
 pub use schema::{
     component_names, Axis, AxisRange, ChaosIndicator, Coord, Direction, Duration, EffectKind,
     EffectSpec, EnergyShell, Ensemble, Members, MethodKind, MethodSpec, Regularization,
-    RegularizeMap, Sampler, Scene, StepSpec, TextHamiltonian,
+    RegularizeMap, Sampler, Sampling, Scene, StepSpec, TextHamiltonian,
 };
 pub use validate::{line_col, parse, ParamRule, ParamSpec, SystemInfo, SystemLookup};

@@ -111,4 +111,8 @@ pub(super) struct RawEffect {
     pub(super) until: Option<Spanned<f64>>,
     pub(super) crossing: Option<Spanned<String>>,
     pub(super) modes: Option<Spanned<i64>>,
+    pub(super) every_time: Option<Spanned<f64>>,
+    pub(super) times: Option<Spanned<Vec<f64>>>,
+    pub(super) period: Option<Spanned<f64>>,
+    pub(super) phase: Option<Spanned<f64>>,
 }

@@ -416,10 +416,10 @@ pub enum Direction {
 pub enum EffectSpec {
     /// The final state of each method (JSON summary).
     FinalState,
-    /// States every `every` steps (CSV).
+    /// States every `every` steps, or at chosen physical times (CSV).
     Trajectory {
-        /// Sampling stride in steps.
-        every: usize,
+        /// When a state is recorded.
+        sampling: Sampling,
     },
     /// `|H - H_0|` per step: mean and max in the summary, samples in CSV, a figure.
     EnergyDeviation {
@@ -443,6 +443,18 @@ pub enum EffectSpec {
         /// `false`: the thesis's way (Section 4.2), the state just after the crossing,
         /// projected onto the section.
         interpolate: bool,
+        /// Horizontal axis of the figure.
+        x: Coord,
+        /// Vertical axis of the figure.
+        y: Coord,
+    },
+    /// A stroboscopic section of a driven system: the state at `t0 + phase + j period`
+    /// (`j = 0, 1, ...`, up to the end), landed on exactly, plotted in `(x, y)`.
+    Stroboscopic {
+        /// The period (of the drive).
+        period: f64,
+        /// The section's time within a period, from `t0`.
+        phase: f64,
         /// Horizontal axis of the figure.
         x: Coord,
         /// Vertical axis of the figure.
@@ -483,7 +495,63 @@ pub enum EffectSpec {
     },
 }
 
+/// When the `trajectory` effect records a state.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Sampling {
+    /// Every `n`-th step (`k = 0, n, 2n, ...`), whatever its time.
+    Steps(usize),
+    /// At `t0, t0 + dt, t0 + 2 dt, ...` up to the end, each landed on exactly.
+    EveryTime(f64),
+    /// At these physical times (ascending, within the run), each landed on exactly.
+    Times(Vec<f64>),
+}
+
 impl EffectSpec {
+    /// `true` for a section (`poincare`, `stroboscopic`): each writes one list of points,
+    /// kept in scene order in `EffectOutputs::poincare`.
+    pub fn is_section(&self) -> bool {
+        matches!(
+            self,
+            EffectSpec::Poincare { .. } | EffectSpec::Stroboscopic { .. }
+        )
+    }
+
+    /// A section's name in titles (`section q2 = 0`, `stroboscopic section t = t0 + 0 +
+    /// j 6.283`) and its axes; `None` for any other effect.
+    pub fn section(&self) -> Option<(String, Coord, Coord)> {
+        match self {
+            EffectSpec::Poincare {
+                coordinate,
+                value,
+                x,
+                y,
+                ..
+            } => Some((format!("section {} = {value}", coordinate.name()), *x, *y)),
+            EffectSpec::Stroboscopic {
+                period,
+                phase,
+                x,
+                y,
+            } => {
+                // Four decimals are enough to tell sections apart in a title.
+                let short = |v: f64| {
+                    let s = format!("{v:.4}");
+                    s.trim_end_matches('0').trim_end_matches('.').to_string()
+                };
+                let at = match *phase {
+                    0.0 => String::new(),
+                    phase => format!(" + {}", short(phase)),
+                };
+                Some((
+                    format!("stroboscopic section t = t0{at} + j {}", short(*period)),
+                    *x,
+                    *y,
+                ))
+            }
+            _ => None,
+        }
+    }
+
     /// Which effect this is.
     pub fn kind(&self) -> EffectKind {
         match self {
@@ -492,6 +560,7 @@ impl EffectSpec {
             EffectSpec::EnergyDeviation { .. } => EffectKind::EnergyDeviation,
             EffectSpec::Invariants { .. } => EffectKind::Invariants,
             EffectSpec::Poincare { .. } => EffectKind::Poincare,
+            EffectSpec::Stroboscopic { .. } => EffectKind::Stroboscopic,
             EffectSpec::TimeLaw { .. } => EffectKind::TimeLaw,
             EffectSpec::PhasePlot { .. } => EffectKind::PhasePlot,
             EffectSpec::ComparisonTable => EffectKind::ComparisonTable,
@@ -515,6 +584,8 @@ pub enum EffectKind {
     Invariants,
     /// [`EffectSpec::Poincare`].
     Poincare,
+    /// [`EffectSpec::Stroboscopic`].
+    Stroboscopic,
     /// [`EffectSpec::TimeLaw`].
     TimeLaw,
     /// [`EffectSpec::PhasePlot`].
@@ -529,12 +600,13 @@ pub enum EffectKind {
 
 impl EffectKind {
     /// Every effect, in the order `dth list` shows them.
-    pub const ALL: [EffectKind; 10] = [
+    pub const ALL: [EffectKind; 11] = [
         EffectKind::FinalState,
         EffectKind::Trajectory,
         EffectKind::EnergyDeviation,
         EffectKind::Invariants,
         EffectKind::Poincare,
+        EffectKind::Stroboscopic,
         EffectKind::TimeLaw,
         EffectKind::PhasePlot,
         EffectKind::ComparisonTable,
@@ -550,6 +622,7 @@ impl EffectKind {
             EffectKind::EnergyDeviation => "energy_deviation",
             EffectKind::Invariants => "invariants",
             EffectKind::Poincare => "poincare",
+            EffectKind::Stroboscopic => "stroboscopic",
             EffectKind::TimeLaw => "time_law",
             EffectKind::PhasePlot => "phase_plot",
             EffectKind::ComparisonTable => "comparison_table",
@@ -564,23 +637,27 @@ impl EffectKind {
     }
 
     /// `true` when a scene may ask for it more than once (with different keys): each
-    /// `phase_plot` is a figure and each `poincare` a section of its own; a run keeps one of
-    /// every other effect.
+    /// `phase_plot` is a figure and each `poincare` or `stroboscopic` a section of its own; a
+    /// run keeps one of every other effect.
     pub fn repeatable(self) -> bool {
-        matches!(self, EffectKind::PhasePlot | EffectKind::Poincare)
+        matches!(
+            self,
+            EffectKind::PhasePlot | EffectKind::Poincare | EffectKind::Stroboscopic
+        )
     }
 
     /// The keys a scene may give it (besides `kind`).
     pub fn keys(self) -> &'static [&'static str] {
         match self {
             EffectKind::FinalState | EffectKind::ComparisonTable => &[],
-            EffectKind::Trajectory
-            | EffectKind::EnergyDeviation
+            EffectKind::Trajectory => &["every", "every_time", "times"],
+            EffectKind::EnergyDeviation
             | EffectKind::Invariants
             | EffectKind::TimeLaw
             | EffectKind::SpaceTime => &["every"],
             EffectKind::PhasePlot => &["x", "y", "every", "until"],
             EffectKind::Poincare => &["coordinate", "value", "direction", "crossing", "x", "y"],
+            EffectKind::Stroboscopic => &["period", "phase", "x", "y"],
             EffectKind::NormalModes => &["modes", "every"],
         }
     }
@@ -589,7 +666,8 @@ impl EffectKind {
     pub fn doc(self) -> &'static str {
         match self {
             EffectKind::FinalState => "final state of each method (summary.json)",
-            EffectKind::Trajectory => "states every `every` steps (CSV); key every (default 1)",
+            EffectKind::Trajectory => "states every `every` steps (default 1), or at physical times: every_time = dt (t0, t0 + dt, ... up to the end) or times = [..], landed on exactly by every method (CSV); keys every | every_time | times",
+            EffectKind::Stroboscopic => "the state at t0 + phase + j period (a driven system's stroboscopic section), landed on exactly, figure of y against x; keys period, phase (default 0), x, y",
             EffectKind::EnergyDeviation => "|H - H0| per step: mean/max, CSV, figure; key every",
             EffectKind::Invariants => "deviation of the system's quadratic invariants; key every",
             EffectKind::Poincare => "section crossings; keys coordinate, value (default 0), direction = \"up\" | \"down\" | \"both\", crossing = \"interpolate\" | \"project\" (thesis), x, y",

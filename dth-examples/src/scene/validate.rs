@@ -14,8 +14,8 @@ use dth::dth::{Composition, Solver};
 use dth::runtime::{Backend, RuntimeHamiltonian};
 
 use super::schema::{
-    Coord, Direction, Duration, EffectKind, EffectSpec, Ensemble, MethodKind, MethodSpec, Scene,
-    StepSpec, TextHamiltonian,
+    Coord, Direction, Duration, EffectKind, EffectSpec, Ensemble, MethodKind, MethodSpec, Sampling,
+    Scene, StepSpec, TextHamiltonian,
 };
 use crate::error::{Error, SceneDiagnostic, SceneErrors};
 
@@ -604,6 +604,23 @@ fn validate(raw: RawScene, systems: &dyn SystemLookup, cx: &mut Ctxt<'_>) -> Opt
         }
     }
 
+    // States at chosen times are landed on by a run that ends at a time.
+    if let Some(Duration::Steps(_)) = duration {
+        for (spec, span) in effects.iter().zip(&effect_spans) {
+            let timed = match spec {
+                EffectSpec::Trajectory { sampling } => !matches!(sampling, Sampling::Steps(_)),
+                EffectSpec::Stroboscopic { .. } => true,
+                _ => false,
+            };
+            if timed {
+                cx.error(
+                    span.clone(),
+                    format!("effect `{}` records states at chosen times, which a run of a number of steps does not reach exactly: give the duration as `time` or `orbits`", spec.kind().name()),
+                );
+            }
+        }
+    }
+
     // A Hamiltonian given as text declares its energy and nothing else.
     if text {
         for (spec, span) in effects.iter().zip(&effect_spans) {
@@ -666,10 +683,10 @@ fn validate(raw: RawScene, systems: &dyn SystemLookup, cx: &mut Ctxt<'_>) -> Opt
         // An ensemble scene collects the section crossings of every member; its table holds
         // each member's final state and energy error.
         for (spec, span) in effects.iter().zip(&effect_spans) {
-            if !matches!(spec, EffectSpec::Poincare { .. }) {
+            if !spec.is_section() {
                 cx.error(
                     span.clone(),
-                    format!("effect `{}` is not collected over an ensemble: expected `poincare` (the ensemble's table has every member's final state and energy error)", spec.kind().name()),
+                    format!("effect `{}` is not collected over an ensemble: expected `poincare` or `stroboscopic` (the ensemble's table has every member's final state and energy error)", spec.kind().name()),
                 );
             }
         }
@@ -1182,8 +1199,12 @@ fn validate_effect(
         return None;
     };
     let allowed = kind.keys();
-    let present: [(&str, Option<Range<usize>>); 9] = [
+    let present: [(&str, Option<Range<usize>>); 13] = [
         ("modes", e.modes.as_ref().map(|v| v.span())),
+        ("every_time", e.every_time.as_ref().map(|v| v.span())),
+        ("times", e.times.as_ref().map(|v| v.span())),
+        ("period", e.period.as_ref().map(|v| v.span())),
+        ("phase", e.phase.as_ref().map(|v| v.span())),
         ("crossing", e.crossing.as_ref().map(|v| v.span())),
         ("until", e.until.as_ref().map(|v| v.span())),
         ("every", e.every.as_ref().map(|v| v.span())),
@@ -1238,7 +1259,43 @@ fn validate_effect(
     Some(match kind {
         EffectKind::FinalState => EffectSpec::FinalState,
         EffectKind::ComparisonTable => EffectSpec::ComparisonTable,
-        EffectKind::Trajectory => EffectSpec::Trajectory { every: every? },
+        EffectKind::Trajectory => EffectSpec::Trajectory {
+            sampling: sampling(&e, every, cx)?,
+        },
+        EffectKind::Stroboscopic => {
+            let period = match &e.period {
+                Some(v) => positive(v, "period", cx),
+                None => {
+                    cx.error(
+                        e.kind.span(),
+                        "effect `stroboscopic` needs `period` (the drive's period: the section is at t0 + phase + j period)",
+                    );
+                    None
+                }
+            };
+            let phase = match &e.phase {
+                None => Some(0.0),
+                Some(v) if v.get_ref().is_finite() && *v.get_ref() >= 0.0 => Some(*v.get_ref()),
+                Some(v) => {
+                    cx.error(
+                        v.span(),
+                        format!(
+                            "`phase` = {}: expected a finite number >= 0 (a time after t0)",
+                            v.get_ref()
+                        ),
+                    );
+                    None
+                }
+            };
+            let x = need(&e.x, "x", cx);
+            let y = need(&e.y, "y", cx);
+            EffectSpec::Stroboscopic {
+                period: period?,
+                phase: phase?,
+                x: x?,
+                y: y?,
+            }
+        }
         EffectKind::EnergyDeviation => EffectSpec::EnergyDeviation { every: every? },
         EffectKind::Invariants => EffectSpec::Invariants { every: every? },
         EffectKind::TimeLaw => EffectSpec::TimeLaw { every: every? },
@@ -1333,6 +1390,55 @@ fn validate_effect(
             }
         }
     })
+}
+
+/// The `trajectory` effect's sampling: `every` steps (`every`, already checked: `None` when
+/// it was bad), or one of `every_time`, `times` (a positive step; finite ascending times).
+fn sampling(e: &RawEffect, every: Option<usize>, cx: &mut Ctxt<'_>) -> Option<Sampling> {
+    let given: Vec<Range<usize>> = [
+        e.every.as_ref().map(|v| v.span()),
+        e.every_time.as_ref().map(|v| v.span()),
+        e.times.as_ref().map(|v| v.span()),
+    ]
+    .into_iter()
+    .flatten()
+    .collect();
+    if given.len() > 1 {
+        cx.error(
+            given[1].clone(),
+            "give one of `every` (steps), `every_time` (a time step) or `times` (a list of times), not more",
+        );
+        return None;
+    }
+    if let Some(v) = &e.every_time {
+        return positive(v, "every_time", cx).map(Sampling::EveryTime);
+    }
+    if let Some(v) = &e.times {
+        let times = v.get_ref();
+        if times.is_empty() {
+            cx.error(v.span(), "`times` is empty: expected at least one time");
+            return None;
+        }
+        if let Some(t) = times.iter().find(|t| !t.is_finite()) {
+            cx.error(
+                v.span(),
+                format!("`times` holds {t}: expected finite times"),
+            );
+            return None;
+        }
+        if let Some(w) = times.windows(2).find(|w| w[0] >= w[1]) {
+            cx.error(
+                v.span(),
+                format!(
+                    "`times` must be ascending: {} is followed by {}",
+                    w[0], w[1]
+                ),
+            );
+            return None;
+        }
+        return Some(Sampling::Times(times.clone()));
+    }
+    every.map(Sampling::Steps)
 }
 
 /// A TOML or serde message in the scene's words: TOML's types where serde names Rust's
