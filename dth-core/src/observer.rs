@@ -167,13 +167,14 @@ where
     fn on_finish(&mut self, last_vertex: &OVector<f64, D>, last_vertex_time: f64) {
         let _ = (last_vertex, last_vertex_time);
     }
-    /// Called with the state at a chosen time (`Solve::save_at` in [`crate::solve`]), landed
-    /// beside the run: from the start of the step that reaches the time, a step shortened to
-    /// end on it (DTH: its `dtau` scaled, [`StepKind::Shortened`] or [`StepKind::Fallback`];
-    /// a fixed-step method: a step of what is left, [`StepKind::Fixed`]), after which the run
-    /// goes on from where it was, so the run's own steps ([`Observer::on_step`]) are those of
-    /// a run without chosen times. Its `k` is the index of the step it shortens; it comes
-    /// before that step's [`Observer::on_step`].
+    /// Called with the state at a chosen time (`Solve::save_at`, in
+    /// [`crate::solve`](mod@crate::solve)), landed beside the run: from the start of the step
+    /// that reaches the time, a step shortened to end on it (DTH: its `dtau` scaled,
+    /// [`StepKind::Shortened`] or [`StepKind::Fallback`]; a fixed-step method: a step of what
+    /// is left, [`StepKind::Fixed`]), after which the run goes on from where it was, so the
+    /// run's own steps ([`Observer::on_step`]) are those of a run without chosen times. Its
+    /// `k` is the index of the step it shortens; it comes before that step's
+    /// [`Observer::on_step`].
     #[inline(always)]
     fn on_landing(&mut self, record: &StepRecord<D>) {
         let _ = record;

@@ -37,8 +37,9 @@
 //! times the same way, but beside the run: from the start of the step that reaches a time, a
 //! step shortened onto it gives the state there ([`Observer::on_landing`]), and the run goes
 //! on from where it was. The saved states are the method's own states (a DTH midpoint with
-//! its energy exact, not an interpolation), each the state a run ending at that time ends
-//! with, and the run's own steps, invariants and end do not depend on the times chosen
+//! its energy exact, not an interpolation; a fixed-step method's, bit for bit, the state a run
+//! ending at that time ends with), and the run's own steps, invariants and end do not depend
+//! on the times chosen
 //! (landing on them in the run itself would restart its grid at each, and jump DTH's vertex
 //! invariants there). A landing costs one step of a fixed-step method, about three of DTH
 //! (the secant on the step's scale).

@@ -384,37 +384,54 @@ where
                 Span::Until(t_b) if j == steps => (t_b - self.end.t, t_b),
                 _ => (dt, self.t0 + k as f64 * dt),
             };
-            // The run's first step on its own (`h` may differ from the method's last), then
-            // steps on one `h`.
-            let stepped = if k == 1 {
-                method.step_into(h, &self.end.z, size, &mut self.next)
-            } else {
-                method.continue_into(h, &self.end.z, size, &mut self.next)
-            };
-            match stepped {
-                Ok(()) if self.next.iter().all(|v| v.is_finite()) => {}
-                Ok(()) => {
-                    return Err(Error::MethodNonFinite {
-                        method: M::NAME,
-                        step: k,
-                        what: "state",
-                    })
-                }
-                Err(error) => return Err(at_step(error, k)),
-            }
+            self.step_next(method, h, size, k)?;
             std::mem::swap(&mut self.end.z, &mut self.next);
             self.end.t = t;
             self.end.steps = k;
-            let total = method.newton_iterations();
-            self.record.k = k;
-            self.record.t = t;
+            self.record(method, k, t);
             self.record.z.copy_from(&self.end.z);
-            self.record.iterations =
-                u32::try_from(total.saturating_sub(self.iterations)).unwrap_or(u32::MAX);
-            self.iterations = total;
             observer.on_step(&self.record);
         }
         Ok(())
+    }
+
+    /// Step `k` of `size` from the last state into `self.next`, checked finite.
+    fn step_next<H, M>(&mut self, method: &mut M, h: &H, size: f64, k: usize) -> Result<(), Error>
+    where
+        H: Hamiltonian<D>,
+        M: OneStepMethod<D, H>,
+    {
+        // The run's first step on its own (`h` may differ from the method's last), then steps
+        // on one `h`.
+        let stepped = if k == 1 {
+            method.step_into(h, &self.end.z, size, &mut self.next)
+        } else {
+            method.continue_into(h, &self.end.z, size, &mut self.next)
+        };
+        match stepped {
+            Ok(()) if self.next.iter().all(|v| v.is_finite()) => Ok(()),
+            Ok(()) => Err(Error::MethodNonFinite {
+                method: M::NAME,
+                step: k,
+                what: "state",
+            }),
+            Err(error) => Err(at_step(error, k)),
+        }
+    }
+
+    /// `self.record`'s step `k`, time `t` and the method's Newton iterations since the last
+    /// record (the caller copies the state in).
+    fn record<H, M>(&mut self, method: &M, k: usize, t: f64)
+    where
+        H: Hamiltonian<D>,
+        M: OneStepMethod<D, H>,
+    {
+        let total = method.newton_iterations();
+        self.record.k = k;
+        self.record.t = t;
+        self.record.iterations =
+            u32::try_from(total.saturating_sub(self.iterations)).unwrap_or(u32::MAX);
+        self.iterations = total;
     }
 
     /// The state at `target` (after the last accepted state, at most a step `dt` on), shown to
@@ -435,30 +452,9 @@ where
         O: Observer<D>,
     {
         let k = self.end.steps + 1;
-        let size = target - self.end.t;
-        let stepped = if k == 1 {
-            method.step_into(h, &self.end.z, size, &mut self.next)
-        } else {
-            method.continue_into(h, &self.end.z, size, &mut self.next)
-        };
-        match stepped {
-            Ok(()) if self.next.iter().all(|v| v.is_finite()) => {}
-            Ok(()) => {
-                return Err(Error::MethodNonFinite {
-                    method: M::NAME,
-                    step: k,
-                    what: "state",
-                })
-            }
-            Err(error) => return Err(at_step(error, k)),
-        }
-        let total = method.newton_iterations();
-        self.record.k = k;
-        self.record.t = target;
+        self.step_next(method, h, target - self.end.t, k)?;
+        self.record(method, k, target);
         self.record.z.copy_from(&self.next);
-        self.record.iterations =
-            u32::try_from(total.saturating_sub(self.iterations)).unwrap_or(u32::MAX);
-        self.iterations = total;
         observer.on_landing(&self.record);
         Ok(())
     }
