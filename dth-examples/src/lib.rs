@@ -84,6 +84,7 @@ pub mod pipeline;
 pub mod runtime_system;
 
 pub mod catalogue;
+pub mod cli;
 
 pub mod derive;
 pub mod workprecision;

@@ -1,13 +1,24 @@
-//! With the `mpi` feature: `mpirun -n 2 dth run SCENE` writes the same bytes as one rank.
-//! Needs OpenMPI's `mpirun` (`.ci/run` installs it); as root it also needs
+//! With the `mpi` feature: `mpirun -n 2 dth-mpi run SCENE` writes the same bytes as one
+//! rank. Needs OpenMPI's `mpirun` (`.ci/run` installs it); as root it also needs
 //! `OMPI_ALLOW_RUN_AS_ROOT=1` and `OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1`, which this test sets.
-#![cfg(feature = "mpi")]
 
-mod common;
-
-use common::files;
+use std::collections::BTreeMap;
 use std::path::Path;
 use std::process::Command;
+
+/// The files of `dir` (not recursive) by name, with their bytes.
+fn files(dir: &Path) -> BTreeMap<String, Vec<u8>> {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| {
+            let e = e.unwrap();
+            (
+                e.file_name().to_string_lossy().into_owned(),
+                std::fs::read(e.path()).unwrap(),
+            )
+        })
+        .collect()
+}
 
 const SCENE: &str = "title = \"HH ranks\"\n[system]\nname = \"henon_heiles\"\n\
     [initial]\nq = [0.0, 0.0]\np = [0.0, 0.0]\n\
@@ -18,7 +29,12 @@ const SCENE: &str = "title = \"HH ranks\"\n[system]\nname = \"henon_heiles\"\n\
 
 fn mpirun(ranks: &str, dir: &Path, out: &str) {
     let o = Command::new("mpirun")
-        .args(["-n", ranks, "--oversubscribe", env!("CARGO_BIN_EXE_dth")])
+        .args([
+            "-n",
+            ranks,
+            "--oversubscribe",
+            env!("CARGO_BIN_EXE_dth-mpi"),
+        ])
         .args(["run", "scene.toml", "--out", out, "--threads", "1"])
         .env("OMPI_ALLOW_RUN_AS_ROOT", "1")
         .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
