@@ -83,9 +83,8 @@ where
                         Sampling::Times(times) => times.len() as u64,
                     }
                     .saturating_mul(d + 3),
-                    EffectSpec::Stroboscopic { period, phase, .. } => {
-                        timed(phase, period).saturating_mul(3)
-                    }
+                    // At most one a period.
+                    EffectSpec::Stroboscopic { period, .. } => timed(0.0, period).saturating_mul(3),
                     EffectSpec::EnergyDeviation { every } => samples(every).saturating_mul(3 * dth),
                     EffectSpec::Invariants { every } => {
                         samples(every).saturating_mul(3 * dth * invariants)

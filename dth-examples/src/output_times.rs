@@ -1,5 +1,6 @@
 //! The physical times a scene's effects ask a run to land on (a `trajectory` with
-//! `every_time` or `times`, `stroboscopic` sections), resolved against the run's start `t0` and
+//! `every_time` or `times`: `t0, t0 + dt, ...` or the listed times; `stroboscopic` sections:
+//! `t = phase + j period`, the drive's clock), resolved against the run's start `t0` and
 //! end `T`: the ascending list the driver lands on beside the run (`dth::solve`'s `save_at`
 //! landings, `dth::observer::Observer::on_landing`), and for each effect which of those states
 //! are its own, and whether it wants the start and the end (the run's own first and last
@@ -56,22 +57,27 @@ pub struct OutputTimes {
 /// The times effect `spec` asks for from `t0` to `t_end`, `None` for an effect that samples by
 /// steps or crossings.
 fn requested(spec: &EffectSpec, t0: f64, t_end: f64) -> Option<Vec<f64>> {
-    // Times `t0 + offset + j step` up to the end (the end itself when the grid meets it within
-    // the rounding of its sum).
-    let grid = |offset: f64, step: f64| {
-        let reach = t_end + tolerance(t0, t_end);
-        (0u64..)
-            .map(move |j| t0 + offset + j as f64 * step)
-            .take_while(move |&t| t <= reach)
+    // Times `origin + j step` from the start to the end (either included when the grid meets
+    // it within the rounding of its sum).
+    let tol = tolerance(t0, t_end);
+    let grid = |origin: f64, step: f64| {
+        let mut first = ((t0 - origin) / step).ceil().max(0.0) as u64;
+        if first > 0 && origin + (first - 1) as f64 * step >= t0 - tol {
+            first -= 1;
+        }
+        (first..)
+            .map(move |j| origin + j as f64 * step)
+            .take_while(move |&t| t <= t_end + tol)
             .collect()
     };
     match spec {
         EffectSpec::Trajectory {
             sampling: Sampling::EveryTime(dt),
-        } => Some(grid(0.0, *dt)),
+        } => Some(grid(t0, *dt)),
         EffectSpec::Trajectory {
             sampling: Sampling::Times(times),
         } => Some(times.clone()),
+        // `t mod period = phase`: the drive's clock, whatever the start.
         EffectSpec::Stroboscopic { period, phase, .. } => Some(grid(*phase, *period)),
         _ => None,
     }
@@ -215,6 +221,23 @@ mod tests {
         let taken: Vec<usize> = (0..5).filter(|&i| s.takes(i)).collect();
         assert_eq!(taken, [0, 3]);
         assert!(times.is_end(3.0) && !times.is_end(2.5));
+    }
+
+    #[test]
+    fn a_stroboscopic_section_keeps_the_drives_clock() {
+        // t mod 0.5 = 0.25 from t0 = 0.7: 0.75, 1.25, 1.75 (not 0.95, 1.45, ...).
+        let section = [EffectSpec::Stroboscopic {
+            period: 0.5,
+            phase: 0.25,
+            x: Coord::Q(0),
+            y: Coord::P(0),
+        }];
+        let times = OutputTimes::new(&section, 0.7, Some(2.0)).unwrap();
+        assert_eq!(times.landings(), [0.75, 1.25, 1.75]);
+        // A start on the section is its first point.
+        let times = OutputTimes::new(&section, 0.25, Some(1.0)).unwrap();
+        assert_eq!(times.landings(), [0.75]);
+        assert!(times.wanted(0).unwrap().start);
     }
 
     #[test]

@@ -448,12 +448,13 @@ pub enum EffectSpec {
         /// Vertical axis of the figure.
         y: Coord,
     },
-    /// A stroboscopic section of a driven system: the state at `t0 + phase + j period`
-    /// (`j = 0, 1, ...`, up to the end), landed on exactly, plotted in `(x, y)`.
+    /// A stroboscopic section of a driven system: the state at every `t = phase + j period`
+    /// (`t mod period = phase`) from the start to the end, landed on exactly, plotted in
+    /// `(x, y)`.
     Stroboscopic {
         /// The period (of the drive).
         period: f64,
-        /// The section's time within a period, from `t0`.
+        /// The section's time within a period (`t mod period`).
         phase: f64,
         /// Horizontal axis of the figure.
         x: Coord,
@@ -516,8 +517,8 @@ impl EffectSpec {
         )
     }
 
-    /// A section's name in titles (`section q2 = 0`, `stroboscopic section t = t0 + 0 +
-    /// j 6.283`) and its axes; `None` for any other effect.
+    /// A section's name in titles (`section q2 = 0`, `stroboscopic section t mod 6.2832 = 0`)
+    /// and its axes; `None` for any other effect.
     pub fn section(&self) -> Option<(String, Coord, Coord)> {
         match self {
             EffectSpec::Poincare {
@@ -538,12 +539,12 @@ impl EffectSpec {
                     let s = format!("{v:.4}");
                     s.trim_end_matches('0').trim_end_matches('.').to_string()
                 };
-                let at = match *phase {
-                    0.0 => String::new(),
-                    phase => format!(" + {}", short(phase)),
-                };
                 Some((
-                    format!("stroboscopic section t = t0{at} + j {}", short(*period)),
+                    format!(
+                        "stroboscopic section t mod {} = {}",
+                        short(*period),
+                        short(*phase)
+                    ),
                     *x,
                     *y,
                 ))
@@ -667,7 +668,7 @@ impl EffectKind {
         match self {
             EffectKind::FinalState => "final state of each method (summary.json)",
             EffectKind::Trajectory => "states every `every` steps (default 1), or at physical times: every_time = dt (t0, t0 + dt, ... up to the end) or times = [..], landed on exactly by every method (CSV); keys every | every_time | times",
-            EffectKind::Stroboscopic => "the state at t0 + phase + j period (a driven system's stroboscopic section), landed on exactly, figure of y against x; keys period, phase (default 0), x, y",
+            EffectKind::Stroboscopic => "the state at every t = phase + j period, t mod period = phase (a driven system's stroboscopic section), landed on exactly, figure of y against x; keys period, phase (default 0), x, y",
             EffectKind::EnergyDeviation => "|H - H0| per step: mean/max, CSV, figure; key every",
             EffectKind::Invariants => "deviation of the system's quadratic invariants; key every",
             EffectKind::Poincare => "section crossings; keys coordinate, value (default 0), direction = \"up\" | \"down\" | \"both\", crossing = \"interpolate\" | \"project\" (thesis), x, y",

@@ -1268,7 +1268,7 @@ fn validate_effect(
                 None => {
                     cx.error(
                         e.kind.span(),
-                        "effect `stroboscopic` needs `period` (the drive's period: the section is at t0 + phase + j period)",
+                        "effect `stroboscopic` needs `period` (the drive's period: the section is at t = phase + j period)",
                     );
                     None
                 }
@@ -1280,7 +1280,7 @@ fn validate_effect(
                     cx.error(
                         v.span(),
                         format!(
-                            "`phase` = {}: expected a finite number >= 0 (a time after t0)",
+                            "`phase` = {}: expected a finite number >= 0 (the section is at t = phase + j period)",
                             v.get_ref()
                         ),
                     );
