@@ -546,13 +546,19 @@ pub fn main() -> ExitCode {
     match main_inner(cli) {
         Ok(code) => code,
         Err(e) => {
-            eprintln!("error: {e}");
-            let mut source = std::error::Error::source(&e);
-            while let Some(s) = source {
-                eprintln!("  caused by: {s}");
-                source = s.source();
-            }
+            print_error(&e);
             ExitCode::from(e.exit_code() as u8)
         }
+    }
+}
+
+/// Prints `e` on stderr as `error: ...`, then each error it was caused by on a line of its
+/// own (`  caused by: ...`): how the binaries of this crate report a failure.
+pub fn print_error(e: &dyn std::error::Error) {
+    eprintln!("error: {e}");
+    let mut source = e.source();
+    while let Some(s) = source {
+        eprintln!("  caused by: {s}");
+        source = s.source();
     }
 }
