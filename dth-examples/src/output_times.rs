@@ -100,7 +100,7 @@ impl OutputTimes {
         for spec in effects {
             let times = match t_end {
                 Some(t_end) => requested(spec, t0, t_end),
-                None if requested(spec, t0, t0).is_some() => {
+                None if spec.lands_on_times() => {
                     return Err(unavailable(
                         spec,
                         "lands on chosen times, and this run ends after a number of steps: give the duration as `time` or `orbits`".into(),

@@ -223,6 +223,11 @@ const MAX_END_ITERATIONS: usize = 64;
 /// `eps |t|` per addition, and the secant's last iterate carries that of its two brackets.
 const END_TOLERANCE: f64 = 4.0;
 
+/// The rounding of a time sum between `t0` and `t_end`: `END_TOLERANCE eps` of the larger.
+fn end_tolerance(t0: f64, t_end: f64) -> f64 {
+    END_TOLERANCE * f64::EPSILON * t_end.abs().max(t0.abs())
+}
+
 /// What [`Dth::step_toward`]'s last step scales to land on `t_end`.
 #[derive(Clone, Copy, Debug)]
 enum End {
@@ -702,7 +707,7 @@ where
         // The time sum's rounding; a landing is accepted within it plus twice the noise of the
         // landed try's time (the secant stops there: its tries differ by that much for the
         // same scale).
-        let tolerance = END_TOLERANCE * f64::EPSILON * t_end.abs().max(t0.abs());
+        let tolerance = end_tolerance(t0, t_end);
         let accepted = |gap: f64, time_noise: f64| gap <= tolerance + 2.0 * time_noise;
         // Already there, as a landing would accept it.
         if accepted((t0 - t_end).abs(), self.s.time_noise) {
@@ -760,7 +765,7 @@ where
     /// stepper is put back where it was in every case.
     pub fn land_within_last(&mut self, t: f64) -> Result<StepRecord<D>, Error> {
         let (t0, full_t) = (self.work.saved_record.t, self.work.record.t);
-        let tolerance = END_TOLERANCE * f64::EPSILON * t.abs().max(t0.abs());
+        let tolerance = end_tolerance(t0, t);
         if (t - t0).abs() <= tolerance + 2.0 * self.work.saved.time_noise {
             return Ok(self.work.saved_record.clone());
         }
@@ -798,7 +803,7 @@ where
     /// The end of [`Dth::advance_toward`] once the full step (the current state, from the
     /// saved start at `t0`) ends near or past `t_end`: the landing.
     fn land_last(&mut self, t0: f64, t_end: f64) -> Result<bool, Error> {
-        let tolerance = END_TOLERANCE * f64::EPSILON * t_end.abs().max(t0.abs());
+        let tolerance = end_tolerance(t0, t_end);
         let accepted = |gap: f64, time_noise: f64| gap <= tolerance + 2.0 * time_noise;
         let dtau = self.options.dtau();
         let full_t = self.work.record.t;

@@ -4,13 +4,9 @@
 //!
 //! Results are gathered by member number, whatever thread or rank computed them, so the files
 //! are the same bytes for any thread count and any number of ranks: each member's run depends
-//! on nothing but its own state (no shared accumulator, no reduction in thread order).
-//!
-//! Across ranks the members go out in chunks on demand (self-scheduling): rank 0 works
-//! through chunks like every rank and, between them, a dispatcher on its main thread hands the
-//! next chunk to whichever rank asks, so a rank that drew slow members simply asks less often
-//! and uneven member costs even out. Rank 0 gathers the results and writes the files; the
-//! other ranks write nothing.
+//! on nothing but its own state (no shared accumulator, no reduction in thread order). How
+//! MPI's ranks share the members out is `dth-mpi`'s (its crate docs); the first rank writes
+//! the files, the others nothing ([`is_worker_rank`]).
 
 use std::sync::OnceLock;
 

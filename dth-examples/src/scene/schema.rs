@@ -517,6 +517,16 @@ impl EffectSpec {
         )
     }
 
+    /// `true` for an effect that records states at chosen times (a `trajectory` with
+    /// `every_time` or `times`, a `stroboscopic` section): the run must end at a time.
+    pub fn lands_on_times(&self) -> bool {
+        match self {
+            EffectSpec::Trajectory { sampling } => !matches!(sampling, Sampling::Steps(_)),
+            EffectSpec::Stroboscopic { .. } => true,
+            _ => false,
+        }
+    }
+
     /// A section's name in titles (`section q2 = 0`, `stroboscopic section t mod 6.2832 = 0`)
     /// and its axes; `None` for any other effect.
     pub fn section(&self) -> Option<(String, Coord, Coord)> {

@@ -607,12 +607,7 @@ fn validate(raw: RawScene, systems: &dyn SystemLookup, cx: &mut Ctxt<'_>) -> Opt
     // States at chosen times are landed on by a run that ends at a time.
     if let Some(Duration::Steps(_)) = duration {
         for (spec, span) in effects.iter().zip(&effect_spans) {
-            let timed = match spec {
-                EffectSpec::Trajectory { sampling } => !matches!(sampling, Sampling::Steps(_)),
-                EffectSpec::Stroboscopic { .. } => true,
-                _ => false,
-            };
-            if timed {
+            if spec.lands_on_times() {
                 cx.error(
                     span.clone(),
                     format!("effect `{}` records states at chosen times, which a run of a number of steps does not reach exactly: give the duration as `time` or `orbits`", spec.kind().name()),
