@@ -187,6 +187,15 @@ pub enum Error {
         /// Where the closest try of the last step ended.
         reached: f64,
     },
+    /// An event's condition ([`crate::event::Event`]) is NaN at a state of the run: it cannot
+    /// say whether the condition holds.
+    #[error("event `{name}`: its condition is NaN at t = {t}")]
+    EventNotANumber {
+        /// The event's name.
+        name: String,
+        /// The time of the state.
+        t: f64,
+    },
     /// A run ([`crate::solve`](mod@crate::solve)) was to end at `t_end` but took its step limit
     /// ([`Solve::max_steps`](crate::solve::Solve::max_steps)) first: what it computed is kept,
     /// and the run is a failure, not a shorter success.

@@ -29,6 +29,7 @@ mod dense_newton;
 pub mod diagnostics;
 pub mod dth;
 pub mod error;
+pub mod event;
 pub mod hamiltonian;
 pub mod kepler;
 pub mod linalg;

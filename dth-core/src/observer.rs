@@ -179,6 +179,15 @@ where
     fn on_landing(&mut self, record: &StepRecord<D>) {
         let _ = record;
     }
+    /// Called with the state where event number `event` (in the order of
+    /// `Solve::event`, [`crate::event`]) fired, located to roundoff inside the step that
+    /// crossed it and landed on beside the run as [`Observer::on_landing`] lands; it comes
+    /// after that step's landings and before its [`Observer::on_step`]. An event that stops the
+    /// run is reported here, then its state again as the run's last step.
+    #[inline(always)]
+    fn on_event(&mut self, event: usize, record: &StepRecord<D>) {
+        let _ = (event, record);
+    }
 }
 
 impl<D: Dim> Observer<D> for () where DefaultAllocator: Alloc<D> {}
@@ -211,6 +220,11 @@ where
     fn on_landing(&mut self, record: &StepRecord<D>) {
         self.0.on_landing(record);
         self.1.on_landing(record);
+    }
+    #[inline(always)]
+    fn on_event(&mut self, event: usize, record: &StepRecord<D>) {
+        self.0.on_event(event, record);
+        self.1.on_event(event, record);
     }
 }
 
@@ -273,6 +287,11 @@ where
     #[inline(always)]
     fn on_landing(&mut self, record: &StepRecord<D>) {
         self.inner.on_landing(record);
+    }
+    /// Every event.
+    #[inline(always)]
+    fn on_event(&mut self, event: usize, record: &StepRecord<D>) {
+        self.inner.on_event(event, record);
     }
 }
 

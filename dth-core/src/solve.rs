@@ -54,10 +54,11 @@ use nalgebra::{DefaultAllocator, Dim, OVector};
 
 use crate::dth::{Dth, DthOptions};
 use crate::error::RunError;
+use crate::event::{Action, Event, Fired, Watch};
 use crate::hamiltonian::Alloc;
 use crate::methods::{
-    steps_until, DiscreteGradient, FixedRun, GaussLegendre2, ImplicitMidpoint, OneStepMethod, Rk4,
-    Span, StormerVerlet, Trapezoidal,
+    Advanced, Beside, DiscreteGradient, FixedRun, GaussLegendre2, ImplicitMidpoint, OneStepMethod,
+    Rk4, Span, StormerVerlet, Trapezoidal,
 };
 use crate::observer::{Observer, StepKind, StepRecord};
 use crate::{Error, Hamiltonian};
@@ -176,7 +177,7 @@ where
     /// The method's name.
     fn name(&self) -> &'static str;
 
-    /// Runs from `z0` at `t0` along `plan`, reporting to `sink`.
+    /// Runs from `z0` at `t0` along `plan`, watching `watch`'s events, reporting to `sink`.
     #[doc(hidden)]
     fn drive<O: Observer<D>>(
         self,
@@ -184,6 +185,7 @@ where
         z0: &OVector<f64, D>,
         t0: f64,
         plan: &Plan<'_>,
+        watch: &mut Watch<'_, D>,
         sink: &mut Sink<'_, D, O>,
     ) -> Result<(), Error>;
 }
@@ -246,25 +248,26 @@ where
         z0: &OVector<f64, D>,
         t0: f64,
         plan: &Plan<'_>,
+        watch: &mut Watch<'_, D>,
         sink: &mut Sink<'_, D, O>,
     ) -> Result<(), Error> {
         match self {
-            Method::Dth(options) => drive_dth(h, z0, t0, options, plan, sink),
+            Method::Dth(options) => drive_dth(h, z0, t0, options, plan, watch, sink),
             Method::Trapezoidal { dt } => {
-                drive_fixed(Trapezoidal::new(), dt, h, z0, t0, plan, sink)
+                drive_fixed(Trapezoidal::new(), dt, h, z0, t0, plan, watch, sink)
             }
             Method::Midpoint { dt } => {
-                drive_fixed(ImplicitMidpoint::new(), dt, h, z0, t0, plan, sink)
+                drive_fixed(ImplicitMidpoint::new(), dt, h, z0, t0, plan, watch, sink)
             }
             Method::GaussLegendre2 { dt } => {
-                drive_fixed(GaussLegendre2::new(), dt, h, z0, t0, plan, sink)
+                drive_fixed(GaussLegendre2::new(), dt, h, z0, t0, plan, watch, sink)
             }
-            Method::Rk4 { dt } => drive_fixed(Rk4::new(), dt, h, z0, t0, plan, sink),
+            Method::Rk4 { dt } => drive_fixed(Rk4::new(), dt, h, z0, t0, plan, watch, sink),
             Method::StormerVerlet { dt } => {
-                drive_fixed(StormerVerlet::<D>::new(), dt, h, z0, t0, plan, sink)
+                drive_fixed(StormerVerlet::<D>::new(), dt, h, z0, t0, plan, watch, sink)
             }
             Method::DiscreteGradient { dt } => {
-                drive_fixed(DiscreteGradient::new(), dt, h, z0, t0, plan, sink)
+                drive_fixed(DiscreteGradient::new(), dt, h, z0, t0, plan, watch, sink)
             }
         }
     }
@@ -284,13 +287,15 @@ where
         z0: &OVector<f64, D>,
         t0: f64,
         plan: &Plan<'_>,
+        watch: &mut Watch<'_, D>,
         sink: &mut Sink<'_, D, O>,
     ) -> Result<(), Error> {
-        drive_fixed(self.method, self.dt, h, z0, t0, plan, sink)
+        drive_fixed(self.method, self.dt, h, z0, t0, plan, watch, sink)
     }
 }
 
 /// A fixed-step method along `plan`.
+#[allow(clippy::too_many_arguments)] // the method, its step, and `Integrator::drive`'s own
 fn drive_fixed<D: Dim, H: Hamiltonian<D>, M: OneStepMethod<D, H>, O: Observer<D>>(
     mut method: M,
     dt: f64,
@@ -298,6 +303,7 @@ fn drive_fixed<D: Dim, H: Hamiltonian<D>, M: OneStepMethod<D, H>, O: Observer<D>
     z0: &OVector<f64, D>,
     t0: f64,
     plan: &Plan<'_>,
+    watch: &mut Watch<'_, D>,
     sink: &mut Sink<'_, D, O>,
 ) -> Result<(), Error>
 where
@@ -320,20 +326,24 @@ where
     }
     let mut run = FixedRun::start(&method, h, z0, t0, dt, sink).map_err(|e| e.error)?;
     let mut check = |k: usize| plan.check(k, f64::NAN);
-    let result = match plan.end {
-        End::Steps(n) => run.advance(&mut method, h, dt, Span::Steps(n), &mut check, sink),
-        End::Time(t_end) => plan
-            .times
-            .iter()
-            .try_for_each(|&target| {
-                // On to the last grid time before the target, then a step beside the run.
-                let before = steps_until(t0, target, dt).saturating_sub(1 + run.end.steps);
-                run.advance(&mut method, h, dt, Span::Steps(before), &mut check, sink)?;
-                run.land(&mut method, h, target, sink)
-            })
-            .and_then(|()| run.advance(&mut method, h, dt, Span::Until(t_end), &mut check, sink)),
+    let span = match plan.end {
+        End::Steps(n) => Span::Steps(n),
+        End::Time(t_end) => Span::Until(t_end),
     };
-    result.map_err(|e| with_time(e, run.end.t))
+    let result = watch.start(t0, z0).and_then(|()| {
+        let mut beside = Beside {
+            check: Some(&mut check),
+            times: plan.times,
+            watch: (!watch.is_empty()).then_some(&mut *watch),
+        };
+        run.advance(&mut method, h, dt, span, &mut beside, sink)
+    });
+    match result {
+        Ok(Advanced::Stopped) => sink.stopped(),
+        Ok(Advanced::Done) => {}
+        Err(e) => return Err(with_time(e, run.end.t)),
+    }
+    Ok(())
 }
 
 /// DTH along `plan`.
@@ -343,6 +353,7 @@ fn drive_dth<D: Dim, H: Hamiltonian<D>, O: Observer<D>>(
     t0: f64,
     options: DthOptions,
     plan: &Plan<'_>,
+    watch: &mut Watch<'_, D>,
     sink: &mut Sink<'_, D, O>,
 ) -> Result<(), Error>
 where
@@ -354,29 +365,52 @@ where
     }
     // `run(0, ..)` reports the current midpoint once and the right vertex of its segment.
     dth.run(0, sink)?;
-    match plan.end {
-        End::Steps(n) => {
-            for _ in 0..n {
-                plan.check(dth.k() + 1, dth.tbar())
-                    .map_err(|e| with_time(e, dth.tbar()))?;
-                dth.run(1, sink)?;
-            }
+    watch.start(dth.tbar(), dth.zbar())?;
+    let mut times = plan.times.iter().copied().peekable();
+    let mut taken = 0;
+    loop {
+        if matches!(plan.end, End::Steps(n) if taken >= n) {
+            break;
         }
-        End::Time(t_end) => {
-            let mut times = plan.times.iter().copied().peekable();
-            loop {
-                plan.check(dth.k() + 1, dth.tbar())
-                    .map_err(|e| with_time(e, dth.tbar()))?;
-                let reached = dth.advance_toward(t_end)?;
-                // The chosen times this step reached, landed on beside the run.
-                while let Some(target) = times.next_if(|&t| t <= dth.tbar() || reached) {
-                    sink.on_landing(&dth.land_within_last(target)?);
-                }
-                dth.run(0, sink)?;
-                if reached {
-                    break;
-                }
+        plan.check(dth.k() + 1, dth.tbar())
+            .map_err(|e| with_time(e, dth.tbar()))?;
+        let reached = match plan.end {
+            End::Steps(n) => {
+                dth.step_unreported()?;
+                taken += 1;
+                taken >= n
             }
+            End::Time(t_end) => dth.advance_toward(t_end)?,
+        };
+        // The events of this step, located; the run ends at the first that stops it.
+        let fired = if watch.crossed(dth.tbar(), dth.zbar())? {
+            watch.locate(&mut |t| dth.land_within_last(t))?
+        } else {
+            Vec::new()
+        };
+        // (The time it was landed on, and its own.)
+        let stop = fired
+            .last()
+            .filter(|(i, _, _)| watch.action(*i) == Action::Stop)
+            .map(|(_, asked, r)| (*asked, r.t));
+        // The chosen times this step reached (up to a stop), landed on beside the run.
+        let last_t = stop.map_or(if reached { f64::INFINITY } else { dth.tbar() }, |s| s.1);
+        while let Some(target) = times.next_if(|&t| t <= last_t) {
+            sink.on_landing(&dth.land_within_last(target)?);
+        }
+        for (i, _, record) in &fired {
+            sink.on_event(*i, record);
+        }
+        if let Some((asked, _)) = stop {
+            // The same landing, kept: the event's state is the run's last.
+            dth.end_within_last(asked)?;
+            dth.run(0, sink)?;
+            sink.stopped();
+            break;
+        }
+        dth.run(0, sink)?;
+        if reached {
+            break;
         }
     }
     Ok(())
@@ -413,6 +447,7 @@ where
     max_steps: usize,
     interrupt: Option<&'a AtomicBool>,
     energy: bool,
+    events: Vec<Event<'a, D>>,
     observer: O,
 }
 
@@ -435,6 +470,10 @@ where
     #[inline(always)]
     fn on_landing(&mut self, record: &StepRecord<D>) {
         self.0.on_landing(record);
+    }
+    #[inline(always)]
+    fn on_event(&mut self, event: usize, record: &StepRecord<D>) {
+        self.0.on_event(event, record);
     }
 }
 
@@ -470,6 +509,7 @@ where
         max_steps: usize::MAX,
         interrupt: None,
         energy: true,
+        events: Vec::new(),
         observer: (),
     }
 }
@@ -573,6 +613,16 @@ where
         self
     }
 
+    /// Watch `event` ([`crate::event`]): where its condition becomes true, the run locates
+    /// the time to roundoff, keeps the state there in [`Solution::events`] (and shows it to the
+    /// observer, [`Observer::on_event`]) and, for an event that stops the run
+    /// ([`Event::stop`]), ends there ([`Solution::stopped`]). Events are numbered in the order
+    /// they are added.
+    pub fn event(mut self, event: Event<'a, D>) -> Self {
+        self.events.push(event);
+        self
+    }
+
     /// Do not compute [`Solution::energy_error`] (it stays empty, and `energy0` is NaN): the run
     /// then evaluates `H` only where its method does, for a caller that computes only what it
     /// is asked for.
@@ -605,6 +655,7 @@ where
             max_steps: self.max_steps,
             interrupt: self.interrupt,
             energy: self.energy,
+            events: self.events,
             observer,
         }
     }
@@ -631,8 +682,10 @@ where
             max_steps,
             interrupt,
             energy,
+            events,
             mut observer,
         } = self;
+        let mut watch = Watch::new(events);
         // H is evaluated only for the energy errors, and only at a state of its dimension (a
         // run-time Hamiltonian panics on another; the method reports it as an error).
         let energy = energy && crate::methods::check_state(h, &z0, "z0").is_ok();
@@ -660,7 +713,8 @@ where
                 },
             )
         });
-        let result = planned.and_then(|(t0, plan)| method.drive(h, &z0, t0, &plan, &mut sink));
+        let result =
+            planned.and_then(|(t0, plan)| method.drive(h, &z0, t0, &plan, &mut watch, &mut sink));
         let mut solution = sink.finish();
         match result {
             Ok(()) => Ok(solution),
@@ -805,6 +859,11 @@ where
     /// `None` for a run that reached its end; else what stopped it (the states are those up
     /// to the last accepted step).
     pub failure: Option<Error>,
+    /// The events that fired ([`Solve::event`]), in the order of their times.
+    pub events: Vec<Fired<D>>,
+    /// The index of the event that ended the run ([`Event::stop`]): its state is the last
+    /// one; `None` for a run that went to its end (or failed).
+    pub stopped: Option<usize>,
 }
 
 /// DTH's own quantities at the saved midpoints of a [`Solution`].
@@ -845,6 +904,8 @@ where
             fallback_steps: 0,
             newton_iterations: 0,
             failure: None,
+            events: Vec::new(),
+            stopped: None,
         }
     }
 
@@ -944,6 +1005,11 @@ where
         }
     }
 
+    /// The run ended at the event that fired last.
+    fn stopped(&mut self) {
+        self.solution.stopped = self.solution.events.last().map(|f| f.event);
+    }
+
     /// The solution: the last state reached saved, DTH's last vertex shown to the user.
     fn finish(mut self) -> Solution<D> {
         self.keep_last();
@@ -992,6 +1058,16 @@ where
         if self.save == Save::At {
             self.keep(r);
         }
+    }
+
+    fn on_event(&mut self, event: usize, r: &StepRecord<D>) {
+        self.user.on_event(event, r);
+        self.solution.events.push(Fired {
+            event,
+            t: r.t,
+            z: r.z.clone(),
+            k: r.k,
+        });
     }
 
     fn on_finish(&mut self, last_vertex: &OVector<f64, D>, last_vertex_time: f64) {

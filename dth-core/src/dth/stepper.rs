@@ -764,9 +764,28 @@ where
     /// [`Error::EndNotReached`] when no try lands on `t`; the failures of [`Dth::step`]. The
     /// stepper is put back where it was in every case.
     pub fn land_within_last(&mut self, t: f64) -> Result<StepRecord<D>, Error> {
+        self.within_last(t, false)
+    }
+
+    /// The last step redone to end at the time `t` within it, as [`Dth::land_within_last`]
+    /// lands there, but kept: the run now ends there (where an event stopped it), and
+    /// [`Dth::run`] reports that state (if it has not reported the full step) and its vertex.
+    ///
+    /// # Errors
+    /// As [`Dth::land_within_last`]; the stepper is then where it was.
+    pub fn end_within_last(&mut self, t: f64) -> Result<StepRecord<D>, Error> {
+        self.within_last(t, true)
+    }
+
+    /// [`Dth::land_within_last`], the stepper put back unless `keep` (and the landing
+    /// succeeded).
+    fn within_last(&mut self, t: f64, keep: bool) -> Result<StepRecord<D>, Error> {
         let (t0, full_t) = (self.work.saved_record.t, self.work.record.t);
         let tolerance = end_tolerance(t0, t);
         if (t - t0).abs() <= tolerance + 2.0 * self.work.saved.time_noise {
+            if keep {
+                self.restore();
+            }
             return Ok(self.work.saved_record.clone());
         }
         if (t - full_t).abs() <= tolerance + 2.0 * self.s.time_noise {
@@ -792,6 +811,9 @@ where
             landed = self.advance_toward(t);
         }
         let record = landed.map(|_| self.work.record.clone());
+        if keep && record.is_ok() {
+            return record;
+        }
         let (state, last, saved, saved_record) = kept;
         self.s.assign(&state);
         self.work.record.copy_from(&last);
@@ -1473,6 +1495,15 @@ where
             Ok(()) => Ok(t),
             Err(error) => Err(RunError { error, partial: t }),
         }
+    }
+
+    /// One (composed) step, not reported yet: the next [`Dth::run`] reports it. (What a
+    /// driver calls when it looks at a step before its observer does.)
+    pub(crate) fn step_unreported(&mut self) -> Result<(), Error> {
+        self.composed_step(
+            self.options.composition().coefficients(),
+            self.options.dtau(),
+        )
     }
 
     /// Take `steps` steps without storing anything.

@@ -47,6 +47,7 @@ use crate::hamiltonian::Alloc;
 use nalgebra::{DefaultAllocator, Dim, OVector};
 pub mod discrete_gradient;
 pub mod discrete_mechanics;
+mod fixed_run;
 pub mod gauss_legendre;
 mod kept;
 pub mod midpoint;
@@ -57,6 +58,7 @@ pub mod verlet;
 
 pub use discrete_gradient::DiscreteGradient;
 pub use discrete_mechanics::DiscreteMechanics;
+pub(crate) use fixed_run::{Advanced, Beside, FixedRun, Span};
 pub use gauss_legendre::GaussLegendre2;
 pub use midpoint::ImplicitMidpoint;
 pub use newton::NewtonOptions;
@@ -68,7 +70,7 @@ pub use verlet::StormerVerlet;
 /// A run that stopped early: the error, and in `partial` the last good [`RunEnd`] (the
 /// observer has seen it and every state before it). The same type as the DTH stepper's.
 pub use crate::error::RunError;
-use crate::observer::{Observer, StepRecord};
+use crate::observer::Observer;
 use crate::{Error, Hamiltonian};
 
 /// A fixed-step one-step method for the Hamiltonian `H` on `R^D`.
@@ -179,7 +181,7 @@ where
 }
 
 /// `dt` finite and non-zero (negative integrates backwards).
-fn check_dt(dt: f64) -> Result<(), Error> {
+pub(crate) fn check_dt(dt: f64) -> Result<(), Error> {
     if dt.is_finite() && dt != 0.0 {
         Ok(())
     } else {
@@ -254,209 +256,19 @@ where
     O: Observer<D>,
 {
     let mut run = FixedRun::start(method, h, z0, t0, dt, observer)?;
-    match run.advance(method, h, dt, Span::Steps(steps), &mut |_| Ok(()), observer) {
-        Ok(()) => Ok(run.end),
+    match run.advance(
+        method,
+        h,
+        dt,
+        Span::Steps(steps),
+        &mut Beside::nothing(),
+        observer,
+    ) {
+        Ok(_) => Ok(run.end),
         Err(error) => Err(RunError {
             error,
             partial: run.end,
         }),
-    }
-}
-
-/// How far [`FixedRun::advance`] steps.
-#[derive(Clone, Copy, Debug)]
-pub(crate) enum Span {
-    /// This many steps of `dt`.
-    Steps(usize),
-    /// Steps of `dt` (`dt > 0`) until this time, the last one shortened to land on it exactly.
-    Until(f64),
-}
-
-/// A fixed-step run between calls of [`FixedRun::advance`]: the last state (its time and step
-/// count), and the storage the steps reuse.
-pub(crate) struct FixedRun<D: Dim>
-where
-    DefaultAllocator: Alloc<D>,
-{
-    /// The last accepted state.
-    pub(crate) end: RunEnd<D>,
-    /// The start time: step `k` ends at `t0 + k dt` (the clock is not a running sum).
-    t0: f64,
-    /// The next state, written by the method and swapped with `end.z` once accepted.
-    next: OVector<f64, D>,
-    /// The record shown to the observer.
-    record: StepRecord<D>,
-    /// The method's Newton iterations before the next step.
-    iterations: usize,
-}
-
-impl<D: Dim> FixedRun<D>
-where
-    DefaultAllocator: Alloc<D>,
-{
-    /// Checks the input (`dt` finite and non-zero, `z0` of `h`'s dimension and finite, `t0`
-    /// finite) and shows the initial state to `observer`.
-    pub(crate) fn start<H, M, O>(
-        method: &M,
-        h: &H,
-        z0: &OVector<f64, D>,
-        t0: f64,
-        dt: f64,
-        observer: &mut O,
-    ) -> Result<Self, RunError<RunEnd<D>>>
-    where
-        H: Hamiltonian<D>,
-        M: OneStepMethod<D, H>,
-        O: Observer<D>,
-    {
-        let end = RunEnd {
-            z: z0.clone(),
-            t: t0,
-            steps: 0,
-        };
-        let checked = check_dt(dt)
-            .and_then(|()| check_state(h, z0, "z0"))
-            .and_then(
-                |()| match z0.iter().enumerate().find(|(_, v)| !v.is_finite()) {
-                    Some((index, &value)) => Err(Error::NonFiniteInitialState { index, value }),
-                    None => Ok(()),
-                },
-            )
-            .and_then(|()| {
-                if t0.is_finite() {
-                    Ok(())
-                } else {
-                    Err(Error::InvalidOption {
-                        name: "t0",
-                        value: t0,
-                        reason: "must be finite",
-                    })
-                }
-            });
-        if let Err(error) = checked {
-            return Err(RunError {
-                error,
-                partial: end,
-            });
-        }
-        let record = StepRecord::fixed(0, t0, z0.clone());
-        observer.on_step(&record);
-        Ok(FixedRun {
-            next: z0.clone(),
-            end,
-            t0,
-            record,
-            iterations: method.newton_iterations(),
-        })
-    }
-
-    /// Steps `span` on from the last state, showing each new state to `observer`; `check(k)`
-    /// is asked before step `k` and stops the run with its error. On error the run stays at
-    /// its last accepted state.
-    ///
-    /// The clock is `t0 + k dt` from the run's start `t0` (not a running sum: no accumulated
-    /// rounding); with [`Span::Until`] the run goes on to step `m - 1` and a last step of
-    /// `t_b - (t0 + (m - 1) dt)` ends at `t_b` itself, where `m = steps_until(t0, t_b, dt)`
-    /// is the least number of steps from the start that reaches `t_b` (a last step that would
-    /// only make up the rounding of `(t_b - t0) / dt` is merged into the one before).
-    pub(crate) fn advance<H, M, O>(
-        &mut self,
-        method: &mut M,
-        h: &H,
-        dt: f64,
-        span: Span,
-        check: &mut dyn FnMut(usize) -> Result<(), Error>,
-        observer: &mut O,
-    ) -> Result<(), Error>
-    where
-        H: Hamiltonian<D>,
-        M: OneStepMethod<D, H>,
-        O: Observer<D>,
-    {
-        let steps = match span {
-            Span::Steps(n) => n,
-            Span::Until(t_b) => steps_until(self.t0, t_b, dt).saturating_sub(self.end.steps),
-        };
-        for j in 1..=steps {
-            let k = self.end.steps + 1;
-            check(k)?;
-            let (size, t) = match span {
-                Span::Until(t_b) if j == steps => (t_b - self.end.t, t_b),
-                _ => (dt, self.t0 + k as f64 * dt),
-            };
-            self.step_next(method, h, size, k)?;
-            std::mem::swap(&mut self.end.z, &mut self.next);
-            self.end.t = t;
-            self.end.steps = k;
-            self.record(method, k, t);
-            self.record.z.copy_from(&self.end.z);
-            observer.on_step(&self.record);
-        }
-        Ok(())
-    }
-
-    /// Step `k` of `size` from the last state into `self.next`, checked finite.
-    fn step_next<H, M>(&mut self, method: &mut M, h: &H, size: f64, k: usize) -> Result<(), Error>
-    where
-        H: Hamiltonian<D>,
-        M: OneStepMethod<D, H>,
-    {
-        // The run's first step on its own (`h` may differ from the method's last), then steps
-        // on one `h`.
-        let stepped = if k == 1 {
-            method.step_into(h, &self.end.z, size, &mut self.next)
-        } else {
-            method.continue_into(h, &self.end.z, size, &mut self.next)
-        };
-        match stepped {
-            Ok(()) if self.next.iter().all(|v| v.is_finite()) => Ok(()),
-            Ok(()) => Err(Error::MethodNonFinite {
-                method: M::NAME,
-                step: k,
-                what: "state",
-            }),
-            Err(error) => Err(at_step(error, k)),
-        }
-    }
-
-    /// `self.record`'s step `k`, time `t` and the method's Newton iterations since the last
-    /// record (the caller copies the state in).
-    fn record<H, M>(&mut self, method: &M, k: usize, t: f64)
-    where
-        H: Hamiltonian<D>,
-        M: OneStepMethod<D, H>,
-    {
-        let total = method.newton_iterations();
-        self.record.k = k;
-        self.record.t = t;
-        self.record.iterations =
-            u32::try_from(total.saturating_sub(self.iterations)).unwrap_or(u32::MAX);
-        self.iterations = total;
-    }
-
-    /// The state at `target` (after the last accepted state, at most a step `dt` on), shown to
-    /// `observer` as a landing ([`Observer::on_landing`]): one step of `target - t` from the
-    /// last state, beside the run, which stays where it was. With steps of `dt` up to the
-    /// last grid time before `target` (`steps_until(t0, target, dt) - 1` steps), the landed
-    /// state is the one a run [`Span::Until`] `target` ends with.
-    pub(crate) fn land<H, M, O>(
-        &mut self,
-        method: &mut M,
-        h: &H,
-        target: f64,
-        observer: &mut O,
-    ) -> Result<(), Error>
-    where
-        H: Hamiltonian<D>,
-        M: OneStepMethod<D, H>,
-        O: Observer<D>,
-    {
-        let k = self.end.steps + 1;
-        self.step_next(method, h, target - self.end.t, k)?;
-        self.record(method, k, target);
-        self.record.z.copy_from(&self.next);
-        observer.on_landing(&self.record);
-        Ok(())
     }
 }
 
@@ -545,6 +357,7 @@ where
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::observer::StepRecord;
     use crate::systems::HarmonicOscillator;
     use nalgebra::Const;
     use nalgebra::{Matrix2, Vector2};
