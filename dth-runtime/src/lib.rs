@@ -42,7 +42,8 @@
 //! 4. [`jit`]: programs to machine code.
 //! 5. [`backend`]: the JIT or the interpreter behind one call that checks lengths and
 //!    finiteness.
-//! 6. [`hamiltonian`]: [`RuntimeHamiltonian`], the public face.
+//! 6. [`hamiltonian`]: [`RuntimeHamiltonian`], the public face; [`function`]: a function of
+//!    the state from text ([`StateFunction`], an event's condition), compiled the same way.
 //! 7. [`typed`]: `RuntimeHamiltonian` as a `dth_core::Hamiltonian<Dyn>`, and [`Typed`], the
 //!    same checked for a `Const<D>` named at compile time, so the stepper and the peers run it.
 //!
@@ -85,6 +86,7 @@
 
 pub mod backend;
 pub mod error;
+pub mod function;
 pub mod hamiltonian;
 pub mod jit;
 pub mod lattice;
@@ -95,6 +97,7 @@ pub mod typed;
 
 pub use backend::Backend;
 pub use error::{JitError, RuntimeError};
+pub use function::StateFunction;
 pub use hamiltonian::{Derivatives, RuntimeHamiltonian};
 pub use layout::Function;
 pub use typed::{Fixed, Typed};

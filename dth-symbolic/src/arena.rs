@@ -229,6 +229,11 @@ impl Arena {
         self.size
     }
 
+    /// Every node's id, in the order built (children before their parents).
+    pub fn ids(&self) -> impl Iterator<Item = Id> {
+        (0..self.nodes.len() as u32).map(Id)
+    }
+
     /// Number of distinct nodes.
     pub fn len(&self) -> usize {
         self.nodes.len()

@@ -209,6 +209,14 @@ pub enum ErrorKind {
         /// Why, lowercase (`"the Hamiltonian is not planar (...)"`).
         reason: &'static str,
     },
+    /// A function of a system's state (an event's condition) names a coordinate the system
+    /// does not have.
+    NotInSystem {
+        /// The name (`q3`).
+        name: String,
+        /// The system's degrees of freedom.
+        n: u32,
+    },
     /// `H` uses no momentum `p1..pN`: the flow would not move `q`.
     NoMomentum,
     /// `H` uses no variable at all.
@@ -428,6 +436,10 @@ impl fmt::Display for Error {
             CannotRegularize { name, reason } => {
                 write!(f, "cannot regularize with {name}: {reason}")
             }
+            NotInSystem { name, n } => write!(
+                f,
+                "`{name}` is not a coordinate of this system: it has q1..q{n}, p1..p{n} and t"
+            ),
             // A repeated name is not a bad name: nothing to add.
             BadParameter { name, reason } if *reason == "is declared twice" => {
                 write!(f, "parameter `{name}` {reason}")
