@@ -270,9 +270,11 @@ fn run(
             println!("{}", table41::markdown(&table));
         }
     }
-    let fallback = report
-        .fallback_summary()
-        .map_or(String::new(), |f| format!(" ({f})"));
+    let fallback: String = [report.fallback_summary(), report.events_summary()]
+        .into_iter()
+        .flatten()
+        .map(|f| format!(" ({f})"))
+        .collect();
     println!(
         "{}: wrote {} files to {}{fallback}",
         report.title,

@@ -8,6 +8,7 @@
 //! Nothing here knows scenes or systems beyond `dth::Hamiltonian`.
 
 use dth::dth::{DthOptions, Solver};
+use dth::event::Event;
 use dth::methods::{steps_until, OneStepMethod, RunEnd};
 use dth::nalgebra::{DefaultAllocator, Dim, OVector};
 use dth::observer::Observer;
@@ -67,6 +68,37 @@ pub struct Stop<'a> {
     /// Times to land on beside the run, strictly inside it and ascending
     /// ([`crate::output_times::OutputTimes::landings`]).
     times: &'a [f64],
+    /// The events the run watches ([`Stop::with_events`]).
+    events: &'a [Watched<'a>],
+}
+
+/// A function of the state an event watches (`dth::event`): it fires where the value turns
+/// negative. `z` is in the run's layout (the system's `(q, p)`, or its extended state), `t` its
+/// time; `scratch` is the caller's, kept from call to call.
+pub trait Condition: Sync {
+    /// The value at `z` at time `t` (NaN where it cannot be computed: the run then fails
+    /// naming the event).
+    fn value(&self, t: f64, z: &[f64], scratch: &mut Vec<f64>) -> f64;
+}
+
+/// An event a run watches: its name, whether it ends the run, its condition.
+#[derive(Clone, Copy)]
+pub struct Watched<'a> {
+    /// Its name.
+    pub name: &'a str,
+    /// The run ends where it fires.
+    pub stop: bool,
+    /// Fires where this turns negative.
+    pub condition: &'a dyn Condition,
+}
+
+impl std::fmt::Debug for Watched<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Watched")
+            .field("name", &self.name)
+            .field("stop", &self.stop)
+            .finish_non_exhaustive()
+    }
 }
 
 impl From<Limit> for Stop<'static> {
@@ -75,6 +107,7 @@ impl From<Limit> for Stop<'static> {
             limit,
             interrupt: None,
             times: &[],
+            events: &[],
         }
     }
 }
@@ -107,17 +140,41 @@ impl<'a> Stop<'a> {
     /// The same stop, with the run landing on `times` beside itself (ascending, strictly
     /// inside a run that ends at a time) and showing the states there to its observer as
     /// landings (`dth::observer::Observer::on_landing`).
-    pub fn with_times<'b>(self, times: &'b [f64]) -> Stop<'b> {
+    pub fn with_times<'b>(self, times: &'b [f64]) -> Stop<'b>
+    where
+        'a: 'b,
+    {
         Stop {
             limit: self.limit,
             interrupt: self.interrupt,
             times,
+            events: self.events,
         }
     }
 
     /// The times it lands on ([`Stop::with_times`]).
     pub fn times(&self) -> &'a [f64] {
         self.times
+    }
+
+    /// The same stop, watching `events` (and no other): each is located where it fires,
+    /// shown to the observer (`dth::observer::Observer::on_event`, numbered in this order),
+    /// and a stop ends the run there.
+    pub fn with_events<'b>(self, events: &'b [Watched<'b>]) -> Stop<'b>
+    where
+        'a: 'b,
+    {
+        Stop {
+            limit: self.limit,
+            interrupt: self.interrupt,
+            times: self.times,
+            events,
+        }
+    }
+
+    /// The events it watches ([`Stop::with_events`]).
+    pub fn events(&self) -> &'a [Watched<'a>] {
+        self.events
     }
 
     /// `true` once the interrupt flag is set.
@@ -197,6 +254,13 @@ where
     }
     if let Some(flag) = stop.interrupt {
         run = run.interrupt(flag);
+    }
+    for w in stop.events {
+        let mut scratch = Vec::new();
+        let event = Event::new(w.name, move |t, z: &OVector<f64, D>| {
+            w.condition.value(t, z.as_slice(), &mut scratch)
+        });
+        run = run.event(if w.stop { event.stop() } else { event });
     }
     match run.observer(observer).run() {
         Ok(solution) => match (solution.end_state(), solution.end_time()) {

@@ -24,8 +24,9 @@
 //! 5. [`method`] (a scene's method name to an integrator), [`normal_modes`] (a chain's linear
 //!    normal modes and their energies), [`effects`] (observers for the requested effects),
 //!    [`singularity`] (whether a regularization applies at a state: a `1/r`-like singularity
-//!    in two or three degrees of freedom) and [`fallback`] (what robust DTH's fallback steps
-//!    were and why, from the step records);
+//!    in two or three degrees of freedom), [`fallback`] (what robust DTH's fallback steps
+//!    were and why, from the step records) and [`events`] (a scene's `[[event]]` conditions
+//!    compiled, and what fired);
 //! 6. [`budget`] (the memory a run's effects will keep, checked before it runs), then
 //!    [`simulate`]: every method of a scene on a system, results in memory, and [`probe`]
 //!    (`dth check`'s look at the sign of `Psi` along a scene's orbit);
@@ -65,6 +66,7 @@ pub mod system;
 pub mod systems;
 
 pub mod effects;
+pub mod events;
 pub mod fallback;
 pub mod method;
 pub mod normal_modes;

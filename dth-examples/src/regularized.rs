@@ -41,7 +41,7 @@ use dth::regularize::{KustaanheimoStiefel, LeviCivita};
 use dth::runtime::{RuntimeError, RuntimeHamiltonian};
 use dth::{Alloc, Hamiltonian};
 
-use crate::driver::{DthRunner, MethodFailure, Stop};
+use crate::driver::{Condition, DthRunner, MethodFailure, Stop, Watched};
 use crate::scene::{translated, IndexedCentre, Regularization, RegularizeMap};
 
 /// The most physical coordinates a map has (`q`, `p` in space).
@@ -196,6 +196,22 @@ impl Regularized {
             vertex: z0,
             observer,
         };
+        // The events' conditions are on the physical state.
+        let mapped: Vec<Physical> = stop
+            .events()
+            .iter()
+            .map(|w| Physical {
+                map: self,
+                condition: w.condition,
+            })
+            .collect();
+        let watched: Vec<Watched> = stop
+            .events()
+            .iter()
+            .zip(&mapped)
+            .map(|(w, condition)| Watched { condition, ..*w })
+            .collect();
+        let stop = stop.with_events(&watched);
         let end = runner.run::<Dyn, _, _>(&self.k, w0, t0, stop, &mut view)?;
         let mut z = view.vertex;
         let t = self.physical_into(end.z.as_slice(), Slice::of(&mut z).0);
@@ -204,6 +220,20 @@ impl Regularized {
             t,
             steps: end.steps,
         })
+    }
+}
+
+/// A condition on the physical state, read on the regularized one.
+struct Physical<'a> {
+    map: &'a Regularized,
+    condition: &'a dyn Condition,
+}
+
+impl Condition for Physical<'_> {
+    fn value(&self, t: f64, w: &[f64], scratch: &mut Vec<f64>) -> f64 {
+        let mut z = [0.0; MAX_PHYSICAL];
+        self.map.physical_into(w, &mut z);
+        self.condition.value(t, &z[..2 * self.map.map.n()], scratch)
     }
 }
 
@@ -244,6 +274,11 @@ where
     fn on_landing(&mut self, r: &StepRecord<Dyn>) {
         self.physical(r);
         self.observer.on_landing(&self.record);
+    }
+
+    fn on_event(&mut self, event: usize, r: &StepRecord<Dyn>) {
+        self.physical(r);
+        self.observer.on_event(event, &self.record);
     }
 
     fn on_finish(&mut self, last_vertex: &DVector<f64>, last_vertex_time: f64) {

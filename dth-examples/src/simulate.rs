@@ -15,6 +15,7 @@ use crate::budget;
 use crate::driver::{FailureCause, Limit, MethodFailure, Stop};
 use crate::effects::{DeviationStats, EffectOutputs, Effects, FinalState};
 use crate::error::Error;
+use crate::events::{Conditions, EventHit, EventLog};
 use crate::fallback::{Fallback, FallbackWatch};
 use crate::method::{run_method, unavailable};
 use crate::output_times::OutputTimes;
@@ -152,6 +153,16 @@ pub struct MethodSummary {
     /// The steps that fell back to discrete-gradient steps (DTH's robust mode), their share of
     /// the steps and of the physical time, and why; zero for every other method.
     pub fallback: Fallback,
+    /// The scene's events that fired (`[[event]]`), in time order; the last one ended the run
+    /// if it is a stop (`t_end` is its time).
+    pub events: Vec<EventHit>,
+}
+
+impl MethodSummary {
+    /// The event that ended the run, if one did.
+    pub fn stopped_by(&self) -> Option<&EventHit> {
+        self.events.iter().find(|e| e.stopped)
+    }
 }
 
 impl MethodSummary {
@@ -251,7 +262,8 @@ where
     let starts = ensemble_starts(system, e, z0)?;
     let mut members =
         budget::vec_with_capacity(starts.len(), || "the square's ensemble members".to_string())?;
-    let stop = stop.with_limit(Limit::Steps(e.steps));
+    // The square's members run their steps: the scene's events are its own run's.
+    let stop = stop.with_limit(Limit::Steps(e.steps)).with_events(&[]);
     for z in starts {
         let (x0, y0) = (z[ix], z[iy]);
         if let Some(reason) = unavailable(m, system, &z) {
@@ -560,24 +572,36 @@ where
     let stop = stop_for(system, scene, &z0, options)?;
     budget::check(system, scene, stop, options.memory_limit())?;
     let times = preflight(system, scene, &z0, stop)?;
-    let stop = stop.with_times(times.landings());
+    let conditions = Conditions::compile(scene, system.flags().time_dependent).map_err(|e| {
+        Error::NotAvailable {
+            what: "event conditions of scene",
+            name: scene.title.clone(),
+            reason: e.to_string(),
+        }
+    })?;
+    let watched = conditions.watched();
+    let stop = stop.with_times(times.landings()).with_events(&watched);
     let mut results = Vec::new();
     for m in &scene.methods {
         let bar = progress_bar(m, scene.t0, stop, options);
-        let progress = (Progress(bar.clone()), FallbackWatch::new(scene.q.len()));
-        let (end, outputs, calls, stored, watch) =
+        let progress = (
+            (Progress(bar.clone()), FallbackWatch::new(scene.q.len())),
+            EventLog::new(scene),
+        );
+        let (end, outputs, calls, stored, (watch, log)) =
             match Effects::new(system, &scene.effects, &times) {
                 Some(effects) => {
                     let mut observers = (progress, effects);
                     let end = run_method(m, system, z0.clone(), scene.t0, stop, &mut observers)?;
-                    let ((_, watch), effects) = observers;
+                    let (((_, watch), log), effects) = observers;
                     let (calls, stored) = (effects.observer_calls(), effects.stored_values());
-                    (end, effects.finish(), calls, stored, watch)
+                    (end, effects.finish(), calls, stored, (watch, log))
                 }
                 None => {
                     let mut observers = progress;
                     let end = run_method(m, system, z0.clone(), scene.t0, stop, &mut observers)?;
-                    (end, EffectOutputs::default(), 0, 0, observers.1)
+                    let ((_, watch), log) = observers;
+                    (end, EffectOutputs::default(), 0, 0, (watch, log))
                 }
             };
         bar.finish_and_clear();
@@ -612,6 +636,7 @@ where
                 .unwrap_or_default(),
             final_state: outputs.final_state.clone(),
             fallback: fallback_of(system, &watch),
+            events: log.hits,
         };
         let mut interrupted = matches!(&end, Err(f) if f.cause == FailureCause::Interrupted);
         let (ensemble, ensemble_interrupted) = match &scene.ensemble {

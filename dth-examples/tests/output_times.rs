@@ -1,6 +1,8 @@
-//! States at chosen times through the `dth` command: a `trajectory` with `every_time` and a
-//! `stroboscopic` section give every method rows at the same times, each the method's own
-//! state there (DTH's with its energy exact), whose error is the method's own.
+//! States at chosen times and at events through the `dth` command: a `trajectory` with
+//! `every_time` and a `stroboscopic` section give every method rows at the same times, each
+//! the method's own state there (DTH's with its energy exact), whose error is the method's
+//! own; an `[[event]]` is located where its condition turns true, to the method's accuracy
+//! against the exact solution, and a stop ends the run there.
 
 mod common;
 
@@ -165,5 +167,75 @@ y = \"p1\"
             error > 1e-6,
             "{label}: {error:e} (the reference is the method itself?)"
         );
+    }
+}
+
+/// The shipped close encounter: from the apocentre `r = 1` of an orbit with pericentre 0.02,
+/// the event `close` (r < 0.05) stops each method where the orbit first comes that close, and
+/// `inside` (r < 0.5) is recorded on the way. Against Kepler's equation: regularized DTH of
+/// order 8 locates both to 1e-12, Gauss-Legendre at its step to its own error; each event's
+/// state is on its radius to roundoff; the run ends at the stop, and says so.
+#[test]
+fn a_close_encounter_stops_each_method_at_the_exact_time() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = manifest_dir().join("scenes/kepler-close-encounter.toml");
+    std::fs::copy(&scene, dir.path().join("scene.toml")).unwrap();
+    let o = dth(&["run", "scene.toml", "--out", "out"], dir.path());
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(
+        stdout(&o).contains("dth_order8 stopped by `close` at t = 0.80374160885"),
+        "{}",
+        stdout(&o)
+    );
+    let out = dir.path().join("out");
+    // The exact crossing times, from the scene's start at the apocentre (eccentric anomaly
+    // pi): H = p2^2 - 1, a = -1/(2H), e = 1/a - 1, n = sqrt(2/a^3) (mu = k/m = 2), and on the
+    // way in r = a (1 - e cos E) with E in (pi, 2 pi), t = (E - e sin E - pi)/n.
+    let p2: f64 = 0.14002800840280114;
+    let a = -1.0 / (2.0 * (p2 * p2 - 1.0));
+    let e = 1.0 / a - 1.0;
+    let n = (2.0 / (a * a * a)).sqrt();
+    let exact = |r: f64| {
+        let big_e = 2.0 * std::f64::consts::PI - ((1.0 - r / a) / e).acos();
+        (big_e - e * big_e.sin() - std::f64::consts::PI) / n
+    };
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    // DTH of order 8 on the regularized K: its time error at this step is at roundoff (the
+    // times are ~0.8, their rounding 1e-16; 1e-12 leaves the roundoff of the root search and
+    // of K's t coordinate over ~300 steps). Gauss-Legendre (order 4) at dt = 0.0005: 3.7e-10
+    // measured, its own error near the pericentre.
+    for (label, tolerance) in [("dth_order8", 1e-12), ("gauss_legendre2", 1e-9)] {
+        let events = read_csv(&out.join(format!("{label}_events.csv")));
+        assert_eq!(events.1.len(), 2, "{label}: inside, then close");
+        let t = column(&events, "t");
+        let (q1, q2) = (column(&events, "q1"), column(&events, "q2"));
+        for (k, radius) in [0.5, 0.05].into_iter().enumerate() {
+            let error = (t[k] - exact(radius)).abs();
+            assert!(
+                error <= tolerance,
+                "{label}: r = {radius} at t = {} ({error:e} from exact)",
+                t[k]
+            );
+            // On its radius to roundoff: the root search's bracket is within 8 eps t, across
+            // which r moves by at most |v| 8 eps t (|v| <= 10 here).
+            let r = q1[k].hypot(q2[k]);
+            assert!((r - radius).abs() <= 1e-13, "{label}: r = {r} at the event");
+        }
+        let method = summary["methods"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|m| m["label"] == label)
+            .unwrap();
+        assert_eq!(
+            method["t_end"].as_f64(),
+            Some(t[1]),
+            "{label}: the run ended at the stop"
+        );
+        assert_eq!(method["events"][1]["name"], "close");
+        assert_eq!(method["events"][1]["stopped"], true);
+        assert_eq!(method["events"][0]["stopped"], false);
+        assert!(method["failure"].is_null(), "{label}: a stop is no failure");
     }
 }

@@ -11,6 +11,9 @@
 //! step shortened onto the time, `step_kind` `shortened`; `step` is the index of the step it
 //! shortens), the same times for every method.
 //!
+//! A scene with events writes `LABEL_events.csv` per method: one row per event that fired
+//! (`event`, its located `t`, the state there, `action` `record` or `stop`).
+//!
 //! Each trajectory is also written as `LABEL_trajectory.npy` ([`super::npy`]) for readers that
 //! do not parse CSV: a `rows x (3 + D)` array of the CSV's numeric columns in its order,
 //! `step, t, <state>, lambda` (`lambda` NaN for fixed-step methods); `step_kind` and `row`
@@ -103,6 +106,22 @@ pub fn write(dir: &Path, scene: &Scene, results: &[MethodResult]) -> Result<Vec<
                     )?;
                 }
             }
+        }
+        if !scene.events.is_empty() {
+            // Every event that fired, at its located time; a header only when none did.
+            let d = r.summary.events.first().map_or(0, |e| e.z.len());
+            let mut s = format!(
+                "event,t,{},action\n",
+                component_names(scene.q.len(), d).join(",")
+            );
+            for e in &r.summary.events {
+                let _ = write!(s, "{},{:e}", e.name, e.t);
+                for x in &e.z {
+                    let _ = write!(s, ",{x:e}");
+                }
+                let _ = writeln!(s, ",{}", if e.stopped { "stop" } else { "record" });
+            }
+            put(format!("{l}_events.csv"), s, &mut files)?;
         }
         if let Some(rows) = &o.time_law {
             let mut s = String::from("step,t,lambda\n");

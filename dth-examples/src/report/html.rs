@@ -74,9 +74,14 @@ pub fn index(scene: &Scene, report: &RunReport) -> String {
     );
     for m in &report.methods {
         let step: Vec<String> = m.step.iter().map(|(k, v)| format!("{k} = {v}")).collect();
-        let status = match &m.failure {
-            None => "ok".to_string(),
-            Some(f) => format!(
+        let status = match (&m.failure, m.stopped_by()) {
+            (None, Some(e)) => format!(
+                "stopped by event <b>{}</b> at t = {}",
+                escape(&e.name),
+                num(e.t)
+            ),
+            (None, None) => "ok".to_string(),
+            (Some(f), _) => format!(
                 "<span class=\"fail\">failed at step {}: {}</span>",
                 f.step,
                 escape(&f.reason)
@@ -104,6 +109,13 @@ pub fn index(scene: &Scene, report: &RunReport) -> String {
         );
     }
     h.push_str("</table>\n");
+    if let Some(events) = report.events_summary() {
+        let _ = writeln!(
+            h,
+            "<p>{} (every one located to roundoff on the method's own states: <code>LABEL_events.csv</code>).</p>",
+            escape(&events)
+        );
+    }
     for warning in report.fallback_warnings() {
         let _ = writeln!(h, "<p class=\"warn\">Warning: {}.</p>", escape(&warning));
     }

@@ -194,6 +194,21 @@ impl RunReport {
         (!parts.is_empty()).then(|| format!("fallback steps: {}", parts.join("; ")))
     }
 
+    /// "events: dth stopped by `close` at t = 2.7531; midpoint: 3 recorded" for the methods
+    /// whose runs an event fired in, for the command's summary line; `None` when none did.
+    pub fn events_summary(&self) -> Option<String> {
+        let parts: Vec<String> = self
+            .methods
+            .iter()
+            .filter(|m| !m.events.is_empty())
+            .map(|m| match m.stopped_by() {
+                Some(e) => format!("{} stopped by `{}` at t = {}", m.label, e.name, e.t),
+                None => format!("{}: {} recorded", m.label, m.events.len()),
+            })
+            .collect();
+        (!parts.is_empty()).then(|| format!("events: {}", parts.join("; ")))
+    }
+
     /// The warnings about methods with more than `fallback::WARN_ABOVE` of their steps
     /// fallen back (`Fallback::warning`).
     pub fn fallback_warnings(&self) -> impl Iterator<Item = String> + '_ {

@@ -2,7 +2,8 @@
 //! systems a [`SystemLookup`] knows, with every error located at `file:line:column`.
 //!
 //! Layers, imports pointing down: `validate` (the rules) -> `members` (ensemble scenes),
-//! `expression` (a Hamiltonian given as text, read by the symbolic engine) and
+//! `expression` (a Hamiltonian given as text, read by the symbolic engine), `events`
+//! (`[[event]]` conditions, compiled by the same engine) and
 //! `regularization` (`[system] regularize`, checked by the engine) -> `toml_string`
 //! (where each byte of a TOML string comes from in the file) -> `raw` (the serde types, as
 //! written), `schema` (the validated types the rest of the crate works with) and `suggest`
@@ -43,6 +44,7 @@
 //! of `hamiltonian!` (`hamiltonian = "(p1^2 + p2^2)/(2*m) - k*(q1^2 + q2^2)^(-1/2)"`, with
 //! `params` and an optional `title`): see `expression` and [`TextHamiltonian`].
 
+mod events;
 mod expression;
 mod initial;
 mod members;
@@ -59,7 +61,7 @@ pub use regularization::{translated, IndexedCentre};
 pub(crate) use schema::thousands;
 pub use schema::{
     component_names, Axis, AxisRange, ChaosIndicator, Coord, Direction, Duration, EffectKind,
-    EffectSpec, EnergyShell, Ensemble, Members, MethodKind, MethodSpec, Regularization,
+    EffectSpec, EnergyShell, Ensemble, EventSpec, Members, MethodKind, MethodSpec, Regularization,
     RegularizeMap, Sampler, Sampling, Scene, StepSpec, TextHamiltonian,
 };
 pub use validate::{line_col, parse, ParamRule, ParamSpec, SystemInfo, SystemLookup};

@@ -20,6 +20,8 @@ pub(super) struct RawScene {
     pub(super) duration: Option<Spanned<RawDuration>>,
     #[serde(rename = "effect", default)]
     pub(super) effects: Vec<Spanned<RawEffect>>,
+    #[serde(rename = "event", default)]
+    pub(super) events: Vec<Spanned<RawEvent>>,
     pub(super) ensemble: Option<Spanned<RawEnsemble>>,
     pub(super) thesis_figures: Option<Spanned<bool>>,
 }
@@ -115,4 +117,13 @@ pub(super) struct RawEffect {
     pub(super) times: Option<Spanned<Vec<f64>>>,
     pub(super) period: Option<Spanned<f64>>,
     pub(super) phase: Option<Spanned<f64>>,
+}
+
+/// `[[event]]` (`super::events`).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawEvent {
+    pub(super) name: Option<Spanned<String>>,
+    pub(super) when: Spanned<String>,
+    pub(super) action: Option<Spanned<String>>,
 }

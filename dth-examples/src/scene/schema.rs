@@ -38,6 +38,8 @@ pub struct Scene {
     pub duration: Duration,
     /// Requested effects, in scene order (nothing else is computed).
     pub effects: Vec<EffectSpec>,
+    /// Conditions every method's run watches (`[[event]]`), in scene order.
+    pub events: Vec<EventSpec>,
     /// A square of initial conditions run for a few steps (thesis Figures 4.10-4.13).
     pub ensemble: Option<Ensemble>,
     /// An ensemble scene (`[ensemble]` with `kind = "grid" | "random" | "list"`): every member
@@ -398,6 +400,21 @@ pub fn component_names(n: usize, d: usize) -> Vec<String> {
         names.push("p_t".into());
     }
     names
+}
+
+/// An event a run watches (`[[event]]`, `super::events`): where its condition becomes true,
+/// located to roundoff, the state is recorded, and the run ends there if it is a stop.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EventSpec {
+    /// Its name (default `event1`, `event2`, ... in scene order).
+    pub name: String,
+    /// The condition as written (`q1^2 + q2^2 < 0.05^2`).
+    pub when: String,
+    /// The function of the state whose negative values are the condition: `(lhs) - (rhs)`
+    /// for `lhs < rhs`, `(rhs) - (lhs)` for `lhs > rhs`.
+    pub g: String,
+    /// `action = "stop"`: the run ends where it fires.
+    pub stop: bool,
 }
 
 /// Direction of a Poincare section crossing.

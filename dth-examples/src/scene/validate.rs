@@ -9,7 +9,7 @@ use toml::Spanned;
 
 use super::raw::{RawEffect, RawMethod, RawScene};
 use super::suggest::did_you_mean;
-use super::{expression, initial, members, regularization};
+use super::{events, expression, initial, members, regularization};
 use dth::dth::{Composition, Solver};
 use dth::runtime::{Backend, RuntimeHamiltonian};
 
@@ -687,6 +687,27 @@ fn validate(raw: RawScene, systems: &dyn SystemLookup, cx: &mut Ctxt<'_>) -> Opt
         }
     }
 
+    // Events: conditions in the Hamiltonian's grammar, over this system's coordinates.
+    let event_spans: Vec<Range<usize>> = raw.events.iter().map(Spanned::span).collect();
+    let events = {
+        let values: Vec<(&str, f64)> = params.iter().map(|(k, v)| (k.as_str(), *v)).collect();
+        let time_dependent = info.is_some_and(|i| i.time_dependent);
+        let mut errors = Vec::new();
+        let events = events::check(cx.text, raw.events, n, time_dependent, &values, &mut errors);
+        for (span, message) in errors {
+            cx.error(span, message);
+        }
+        events
+    };
+    if members.is_some() {
+        if let Some(span) = event_spans.first() {
+            cx.error(
+                span.clone(),
+                "events are watched in single runs: an ensemble scene collects sections (`poincare`, `stroboscopic`), not events",
+            );
+        }
+    }
+
     let thesis_figures = match raw.thesis_figures {
         Some(t) if *t.get_ref() => {
             if members.is_some() {
@@ -734,6 +755,7 @@ fn validate(raw: RawScene, systems: &dyn SystemLookup, cx: &mut Ctxt<'_>) -> Opt
         methods,
         duration: duration?,
         effects,
+        events,
         ensemble,
         members,
         thesis_figures,
