@@ -184,6 +184,9 @@ fn a_regular_orbits_verdict_does_not_depend_on_the_step() {
         "[[method]]\nkind = \"dth\"\ndtau = 0.05\n",
         "[[method]]\nkind = \"midpoint\"\ndt = 0.1\n",
         "[[method]]\nkind = \"midpoint\"\ndt = 0.05\n",
+        // A fourth-order method with the fourth-order tangent step: 4.05 with the midpoint's.
+        "[[method]]\nkind = \"gauss_legendre2\"\ndt = 0.1\n",
+        "[[method]]\nkind = \"dth\"\ndtau = 0.2\norder = 4\n",
     ] {
         let (y, _) = megno_until("0.125", 0.3, 0.05, method, 1000.0);
         assert!(
@@ -195,10 +198,12 @@ fn a_regular_orbits_verdict_does_not_depend_on_the_step() {
 
 #[test]
 fn a_chaos_map_checks_its_verdicts_at_half_the_step() {
-    // The regular orbit above, t = 1000: Gauss-Legendre at dt = 0.05 reads <Y> = 2.7 (called
-    // not regular) and 2.2 at dt = 0.025 (a fourth-order trajectory under a second-order
-    // tangent step, docs/theory.md): the check must say the verdict changed. DTH at the shipped
-    // dtau = 0.1 reads 2.06 and 1.9 at half: unchanged.
+    // The regular orbit above, t = 1000: Stormer-Verlet at dt = 0.05 reads <Y> = 3.15 (called
+    // not regular) and below 2.5 at dt = 0.025 (the tangent step along its states is not the
+    // derivative of its own map, as it is for the implicit midpoint rule: its O(h^2) defect
+    // shows as a drift of <Y>): the check must say the verdict changed. DTH at the shipped
+    // dtau = 0.1 reads 2.06 and 1.9 at half, and Gauss-Legendre at dt = 0.05 (fourth-order
+    // tangent step) 1.876 at both: unchanged.
     let check = |method: &str| {
         let scene = henon_heiles(
             "kind = \"list\"\nmembers = \"\"\"\nq2, p2\n0.3, 0.05\n\"\"\"",
@@ -219,10 +224,12 @@ fn a_chaos_map_checks_its_verdicts_at_half_the_step() {
         );
         check
     };
-    let gl = check("[[method]]\nkind = \"gauss_legendre2\"\ndt = 0.05\n");
-    assert_eq!((gl.compared, gl.changed), (1, 1));
+    let verlet = check("[[method]]\nkind = \"stormer_verlet\"\ndt = 0.05\n");
+    assert_eq!((verlet.compared, verlet.changed), (1, 1));
     let dth = check("[[method]]\nkind = \"dth\"\ndtau = 0.1\n");
     assert_eq!((dth.compared, dth.changed), (1, 0));
+    let gl = check("[[method]]\nkind = \"gauss_legendre2\"\ndt = 0.05\n");
+    assert_eq!((gl.compared, gl.changed), (1, 0));
 }
 
 #[test]

@@ -127,7 +127,7 @@ where
         h0: None,
         energy_error: 0.0,
         last: None,
-        megno: chaos.map(|ChaosIndicator::Megno| Megno::new(system)),
+        megno: chaos.map(|ChaosIndicator::Megno| Megno::new(system).with_order(m.order())),
         fallback: FallbackWatch::new(scene.q.len()),
     };
     let times = OutputTimes::new(&scene.effects, scene.t0, stop.limit.end_time())?;

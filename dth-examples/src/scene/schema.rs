@@ -169,6 +169,19 @@ pub struct MethodSpec {
     pub step: StepSpec,
 }
 
+impl MethodSpec {
+    /// The method's classical order: DTH's `order` (2 to 8), 4 for Gauss-Legendre and RK4, 2
+    /// for the others; the exact solution counts as 4 (what the indicators computed along it
+    /// can resolve with the fourth-order tangent step).
+    pub fn order(&self) -> u32 {
+        match (self.kind, self.step) {
+            (_, StepSpec::Dth { order, .. }) => order,
+            (MethodKind::GaussLegendre2 | MethodKind::Rk4 | MethodKind::Exact, _) => 4,
+            _ => 2,
+        }
+    }
+}
+
 /// The step parameters of a method.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum StepSpec {
