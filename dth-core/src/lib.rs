@@ -8,7 +8,8 @@
 //! # Layers
 //! Each layer imports only from the layers above it:
 //! 1. [`error`], [`hamiltonian`] (the traits), [`observer`] (the one per-step protocol every
-//!    integrator reports to), `linalg` (small dense LU), `dense_newton` (the dense Newton
+//!    integrator reports to), [`event`] (conditions a run watches, and the root search that
+//!    locates where they turn true), `linalg` (small dense LU), `dense_newton` (the dense Newton
 //!    matrix `I - c J Hess H` of small systems: that LU, or for a separable `H` the LU of its
 //!    half-size Schur complement), [`structured`] (banded LU and the
 //!    sparse Newton matrices of large systems) and `newton` (the one Newton stopping rule and

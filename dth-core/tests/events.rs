@@ -5,7 +5,7 @@ use dth_core::event::Event;
 use dth_core::kepler::KeplerOrbit;
 use dth_core::nalgebra::{Const, Vector4};
 use dth_core::observer::{Observer, StepRecord};
-use dth_core::solve::{solve, Method};
+use dth_core::solve::{solve, Method, Solution};
 use dth_core::systems::Kepler;
 use dth_core::{DthOptions, Error};
 
@@ -52,18 +52,22 @@ fn methods(h: f64) -> Vec<(Method, u32)> {
     ]
 }
 
+/// The run of `method` from the pericentre that stops where `r > 1` turns true.
+fn stopped_going_out(method: Method) -> Solution<Const<4>> {
+    let out = Event::new("out", |_t, z: &Vector4<f64>| 1.0 - r(z)).stop();
+    solve(&Kepler::thesis(), z0(), method)
+        .until(10.0)
+        .event(out)
+        .run()
+        .unwrap()
+}
+
 #[test]
 fn a_stop_event_ends_the_run_where_its_condition_turns_true() {
-    let kepler = Kepler::thesis();
     let t_exact = exact_time_out(1.0);
     for h in [0.04, 0.02] {
         for (method, _) in methods(h) {
-            let out = Event::new("out", |_t, z: &Vector4<f64>| 1.0 - r(z)).stop();
-            let run = solve(&kepler, z0(), method)
-                .until(10.0)
-                .event(out)
-                .run()
-                .unwrap();
+            let run = stopped_going_out(method);
             let name = run.method;
             assert_eq!(run.stopped, Some(0), "{name}");
             assert_eq!(run.events.len(), 1, "{name}");
@@ -92,17 +96,8 @@ fn a_stop_event_ends_the_run_where_its_condition_turns_true() {
 
 #[test]
 fn the_event_time_converges_at_the_method_order() {
-    let kepler = Kepler::thesis();
     let t_exact = exact_time_out(1.0);
-    let time_at = |method: Method| {
-        let out = Event::new("out", |_t, z: &Vector4<f64>| 1.0 - r(z)).stop();
-        let run = solve(&kepler, z0(), method)
-            .until(10.0)
-            .event(out)
-            .run()
-            .unwrap();
-        run.events[0].t
-    };
+    let time_at = |method: Method| stopped_going_out(method).events[0].t;
     for ((coarse, order), (fine, _)) in methods(0.04).into_iter().zip(methods(0.02)) {
         let (e1, e2) = (
             (time_at(coarse) - t_exact).abs(),
