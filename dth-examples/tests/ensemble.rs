@@ -186,6 +186,8 @@ fn a_regular_orbits_verdict_does_not_depend_on_the_step() {
         "[[method]]\nkind = \"midpoint\"\ndt = 0.05\n",
         // A fourth-order method with the fourth-order tangent step: 4.05 with the midpoint's.
         "[[method]]\nkind = \"gauss_legendre2\"\ndt = 0.1\n",
+        // Stormer-Verlet with its own tangent map: 4.09 with the midpoint's.
+        "[[method]]\nkind = \"stormer_verlet\"\ndt = 0.1\n",
         "[[method]]\nkind = \"dth\"\ndtau = 0.2\norder = 4\n",
     ] {
         let (y, _) = megno_until("0.125", 0.3, 0.05, method, 1000.0);
@@ -198,19 +200,15 @@ fn a_regular_orbits_verdict_does_not_depend_on_the_step() {
 
 #[test]
 fn a_chaos_map_checks_its_verdicts_at_half_the_step() {
-    // The regular orbit above, t = 1000: Stormer-Verlet at dt = 0.05 reads <Y> = 3.15 (called
-    // not regular) and below 2.5 at dt = 0.025 (the tangent step along its states is not the
-    // derivative of its own map, as it is for the implicit midpoint rule: its O(h^2) defect
-    // shows as a drift of <Y>): the check must say the verdict changed. DTH at the shipped
-    // dtau = 0.1 reads 2.06 and 1.9 at half, and Gauss-Legendre at dt = 0.05 (fourth-order
-    // tangent step) 1.876 at both: unchanged.
-    let check = |method: &str| {
+    // One member, `member` at energy `energy` to time `time`, with `method`: the check's
+    // counts, as summary.json has them too.
+    let check = |member: &str, energy: &str, time: f64, method: &str| {
         let scene = henon_heiles(
-            "kind = \"list\"\nmembers = \"\"\"\nq2, p2\n0.3, 0.05\n\"\"\"",
-            "0.125",
+            &format!("kind = \"list\"\nmembers = \"\"\"\nq2, p2\n{member}\n\"\"\""),
+            energy,
             "chaos = \"megno\"",
             method,
-            1000.0,
+            time,
         );
         let dir = tempfile::tempdir().unwrap();
         let out = dir.path().join("out");
@@ -222,14 +220,28 @@ fn a_chaos_map_checks_its_verdicts_at_half_the_step() {
             summary["ensemble"]["step_check"]["changed"].as_u64(),
             Some(check.changed as u64)
         );
-        check
+        (check.compared, check.changed)
     };
-    let verlet = check("[[method]]\nkind = \"stormer_verlet\"\ndt = 0.05\n");
-    assert_eq!((verlet.compared, verlet.changed), (1, 1));
-    let dth = check("[[method]]\nkind = \"dth\"\ndtau = 0.1\n");
-    assert_eq!((dth.compared, dth.changed), (1, 0));
-    let gl = check("[[method]]\nkind = \"gauss_legendre2\"\ndt = 0.05\n");
-    assert_eq!((gl.compared, gl.changed), (1, 0));
+    // At E = 1/6 from q2 = 0.4, p2 = 0, t = 500, DTH at dtau = 0.2 reads <Y> = 7.5 (SALI
+    // 8e-7: chaotic) but 1.05 at dtau = 0.1 and 1.08 at 0.025 (regular): a coarse step whose
+    // trajectory leaves the torus, which the check must report.
+    let dth = "[[method]]\nkind = \"dth\"\ndtau = 0.2\n";
+    assert_eq!(check("0.4, 0.0", "0.16666666666666666", 500.0, dth), (1, 1));
+    // The regular orbit above (E = 1/8), t = 1000: unchanged at half the step for DTH at the
+    // shipped dtau = 0.1 (2.06, then 1.9), Gauss-Legendre at dt = 0.05 (fourth-order tangent
+    // step: 1.876 at both) and Stormer-Verlet at dt = 0.05 (its own tangent map: 1.877; the
+    // midpoint step along its states read 3.15, then below 2.5 at half).
+    for method in [
+        "[[method]]\nkind = \"dth\"\ndtau = 0.1\n",
+        "[[method]]\nkind = \"gauss_legendre2\"\ndt = 0.05\n",
+        "[[method]]\nkind = \"stormer_verlet\"\ndt = 0.05\n",
+    ] {
+        assert_eq!(
+            check("0.3, 0.05", "0.125", 1000.0, method),
+            (1, 0),
+            "{method}"
+        );
+    }
 }
 
 #[test]

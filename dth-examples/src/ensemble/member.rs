@@ -7,7 +7,7 @@ use std::collections::BTreeMap;
 
 use dth::observer::{Observer, StepRecord};
 
-use super::chaos::Megno;
+use super::chaos::{Megno, Tangent};
 use super::sample::{on_shell, Candidate, Shell};
 use crate::driver::Stop;
 use crate::effects::{Crossings, Effects};
@@ -15,7 +15,7 @@ use crate::error::Error;
 use crate::fallback::FallbackWatch;
 use crate::method::{run_method, unavailable};
 use crate::output_times::OutputTimes;
-use crate::scene::{ChaosIndicator, Members, MethodSpec, Scene};
+use crate::scene::{ChaosIndicator, Members, MethodKind, MethodSpec, Scene};
 use crate::simulate::{initial_state, stop_for, Failure, RunOptions};
 use crate::system::SceneSystem;
 
@@ -127,7 +127,7 @@ where
         h0: None,
         energy_error: 0.0,
         last: None,
-        megno: chaos.map(|ChaosIndicator::Megno| Megno::new(system).with_order(m.order())),
+        megno: chaos.map(|ChaosIndicator::Megno| Megno::new(system).with_tangent(tangent(m))),
         fallback: FallbackWatch::new(scene.q.len()),
     };
     let times = OutputTimes::new(&scene.effects, scene.t0, stop.limit.end_time())?;
@@ -280,4 +280,15 @@ where
 /// The number of sections (`poincare`, `stroboscopic`) of `scene` (one list of points each).
 fn sections(scene: &Scene) -> usize {
     scene.effects.iter().filter(|e| e.is_section()).count()
+}
+
+/// The tangent step that follows method `m` (`super::chaos`): Stormer-Verlet's own map after
+/// it, the fourth-order step after a method of order 4 or more, the implicit midpoint's
+/// otherwise.
+fn tangent(m: &MethodSpec) -> Tangent {
+    match m.kind {
+        MethodKind::StormerVerlet => Tangent::Verlet,
+        _ if m.order() >= 4 => Tangent::Fourth,
+        _ => Tangent::Midpoint,
+    }
 }
