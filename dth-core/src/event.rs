@@ -144,9 +144,10 @@ where
     pub k: usize,
 }
 
-/// The events of a run, with `g` at the last state checked (the driver's, in
-/// `Solve::run`).
-#[doc(hidden)]
+/// The events of a run, with `g` at the last state checked: what `Solve::run` watches, and
+/// what a driver of its own (an exact solution sampled on a grid) watches the same way:
+/// [`Watch::start`] at the first state, [`Watch::crossed`] after each step, and on a step
+/// where it says `true`, [`Watch::locate`] with the driver's landing inside the step.
 #[derive(Debug)]
 pub struct Watch<'a, D: Dim>
 where
@@ -165,7 +166,8 @@ impl<'a, D: Dim> Watch<'a, D>
 where
     DefaultAllocator: Alloc<D>,
 {
-    pub(crate) fn new(events: Vec<Event<'a, D>>) -> Self {
+    /// Watches `events` (numbered in this order).
+    pub fn new(events: Vec<Event<'a, D>>) -> Self {
         Watch {
             last: vec![f64::NAN; events.len()],
             events,
@@ -175,17 +177,32 @@ where
         }
     }
 
-    pub(crate) fn is_empty(&self) -> bool {
+    /// `true` when it watches no event.
+    pub fn is_empty(&self) -> bool {
         self.events.is_empty()
     }
 
     /// The action of event `i`.
-    pub(crate) fn action(&self, i: usize) -> Action {
+    pub fn action(&self, i: usize) -> Action {
         self.events[i].action
     }
 
+    /// The event among `fired` (what [`Watch::locate`] returned) that ends the run: the last,
+    /// if it is a stop.
+    pub fn stopping<'f>(
+        &self,
+        fired: &'f [(usize, f64, StepRecord<D>)],
+    ) -> Option<&'f (usize, f64, StepRecord<D>)> {
+        fired
+            .last()
+            .filter(|(i, _, _)| self.events[*i].action == Action::Stop)
+    }
+
     /// `g` at the run's first state.
-    pub(crate) fn start(&mut self, t: f64, z: &OVector<f64, D>) -> Result<(), Error> {
+    ///
+    /// # Errors
+    /// [`Error::EventNotANumber`] for a condition that is NaN there.
+    pub fn start(&mut self, t: f64, z: &OVector<f64, D>) -> Result<(), Error> {
         self.t_last = t;
         for (event, last) in self.events.iter_mut().zip(&mut self.last) {
             *last = event.value(t, z)?;
@@ -195,7 +212,10 @@ where
 
     /// Checks the step to the state `z` at `t`: `true` when an event fired in it (then
     /// [`Watch::locate`] finds where).
-    pub(crate) fn crossed(&mut self, t: f64, z: &OVector<f64, D>) -> Result<bool, Error> {
+    ///
+    /// # Errors
+    /// [`Error::EventNotANumber`] for a condition that is NaN there.
+    pub fn crossed(&mut self, t: f64, z: &OVector<f64, D>) -> Result<bool, Error> {
         self.crossed.clear();
         (self.t_before, self.t_last) = (self.t_last, t);
         for (i, event) in self.events.iter_mut().enumerate() {
@@ -212,7 +232,10 @@ where
     /// `land(t)`, the run's state at a time `t` inside the step: in the order of their times, up
     /// to the first that stops the run, each with the time it was landed on (`land(t)` again
     /// gives its state).
-    pub(crate) fn locate(
+    ///
+    /// # Errors
+    /// The landing's, and [`Error::EventNotANumber`].
+    pub fn locate(
         &mut self,
         land: &mut dyn FnMut(f64) -> Result<StepRecord<D>, Error>,
     ) -> Result<Vec<(usize, f64, StepRecord<D>)>, Error> {

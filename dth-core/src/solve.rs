@@ -54,7 +54,7 @@ use nalgebra::{DefaultAllocator, Dim, OVector};
 
 use crate::dth::{Dth, DthOptions};
 use crate::error::RunError;
-use crate::event::{Action, Event, Fired, Watch};
+use crate::event::{Event, Fired, Watch};
 use crate::hamiltonian::Alloc;
 use crate::methods::{
     Advanced, Beside, DiscreteGradient, FixedRun, GaussLegendre2, ImplicitMidpoint, OneStepMethod,
@@ -389,10 +389,7 @@ where
             Vec::new()
         };
         // (The time it was landed on, and its own.)
-        let stop = fired
-            .last()
-            .filter(|(i, _, _)| watch.action(*i) == Action::Stop)
-            .map(|(_, asked, r)| (*asked, r.t));
+        let stop = watch.stopping(&fired).map(|(_, asked, r)| (*asked, r.t));
         // The chosen times this step reached (up to a stop), landed on beside the run.
         let last_t = stop.map_or(if reached { f64::INFINITY } else { dth.tbar() }, |s| s.1);
         while let Some(target) = times.next_if(|&t| t <= last_t) {

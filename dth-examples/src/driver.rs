@@ -92,6 +92,27 @@ pub struct Watched<'a> {
     pub condition: &'a dyn Condition,
 }
 
+/// The library's events (`dth::event::Event`) for the `watched` ones, in their order.
+pub fn events<'a, D: Dim>(watched: &'a [Watched<'a>]) -> Vec<Event<'a, D>>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    watched
+        .iter()
+        .map(|w| {
+            let mut scratch = Vec::new();
+            let event = Event::new(w.name, move |t, z: &OVector<f64, D>| {
+                w.condition.value(t, z.as_slice(), &mut scratch)
+            });
+            if w.stop {
+                event.stop()
+            } else {
+                event
+            }
+        })
+        .collect()
+}
+
 impl std::fmt::Debug for Watched<'_> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Watched")
@@ -255,12 +276,8 @@ where
     if let Some(flag) = stop.interrupt {
         run = run.interrupt(flag);
     }
-    for w in stop.events {
-        let mut scratch = Vec::new();
-        let event = Event::new(w.name, move |t, z: &OVector<f64, D>| {
-            w.condition.value(t, z.as_slice(), &mut scratch)
-        });
-        run = run.event(if w.stop { event.stop() } else { event });
+    for event in events(stop.events) {
+        run = run.event(event);
     }
     match run.observer(observer).run() {
         Ok(solution) => match (solution.end_state(), solution.end_time()) {

@@ -7,6 +7,7 @@
 //! discrete mechanics through [`SceneSystem::run_discrete_mechanics`] (central-force systems
 //! only), and the system's exact solution sampled every `dt` ([`run_exact`]).
 
+use dth::event::Watch;
 use dth::methods::{
     steps_until, DiscreteGradient, GaussLegendre2, ImplicitMidpoint, Rk4, RunEnd, StormerVerlet,
     Trapezoidal,
@@ -15,14 +16,16 @@ use dth::nalgebra::{DefaultAllocator, Dim, OVector};
 use dth::observer::{Observer, StepRecord};
 use dth::Alloc;
 
-use crate::driver::{run_peer, DthRunner, FailureCause, Limit, MethodFailure, Stop};
+use crate::driver::{events, run_peer, DthRunner, FailureCause, Limit, MethodFailure, Stop};
 use crate::error::Error;
 use crate::scene::{MethodKind, MethodSpec, StepSpec};
 use crate::system::SceneSystem;
 
 /// The system's exact solution ([`SceneSystem::exact_solution`]) sampled at `t0 + k dt` from
 /// `z0` until `stop` (a run until a time: its last sample at that time), shown to `observer`
-/// like a fixed-step method's states, and at the stop's chosen times as landings.
+/// like a fixed-step method's states, and at the stop's chosen times as landings; the stop's
+/// events are located on the exact solution between samples (`dth::event::Watch`), and one
+/// that stops the run ends it there.
 pub fn run_exact<D: Dim, S: SceneSystem<D>, O: Observer<D>>(
     system: &S,
     dt: f64,
@@ -36,6 +39,11 @@ where
 {
     let mut record = StepRecord::fixed(0, t0, z0.clone());
     observer.on_step(&record);
+    // The events, located on the exact solution itself between two samples.
+    let mut watch = Watch::new(events(stop.events()));
+    watch
+        .start(t0, &z0)
+        .map_err(|e| MethodFailure::integrator(0, e))?;
     // Every `dt`, and a run until a time lands on it, as the integrators do.
     let landing = match stop.limit {
         Limit::Time { t_end, .. } => Some((steps_until(t0, t_end, dt), t_end)),
@@ -56,15 +64,49 @@ where
                 cause: FailureCause::NoExactSolution { t },
             })
         };
-        // The chosen times before this sample, as the integrators land on them.
-        while let Some(&at) = times.peek().filter(|&&at| at < t) {
+        let z = exact(t)?;
+        let crossed = watch
+            .crossed(t, &z)
+            .map_err(|e| MethodFailure::integrator(k, e))?;
+        let fired = if crossed {
+            let mut missing = None;
+            let mut land = |t: f64| match exact(t) {
+                Ok(z) => Ok(StepRecord::fixed(k, t, z)),
+                Err(failure) => {
+                    missing = Some(failure);
+                    Err(dth::Error::MissingEnd)
+                }
+            };
+            let located = watch.locate(&mut land);
+            match (located, missing) {
+                (Ok(fired), _) => fired,
+                (Err(_), Some(failure)) => return Err(failure),
+                (Err(e), None) => return Err(MethodFailure::integrator(k, e)),
+            }
+        } else {
+            Vec::new()
+        };
+        let stopped = watch.stopping(&fired).map(|(_, _, r)| r.clone());
+        let stops = stopped.is_some();
+        // The chosen times before this sample (and before a stop), as the integrators land on
+        // them.
+        let last = stopped.as_ref().map_or(t, |r| r.t);
+        while let Some(&at) = times.peek().filter(|&&at| at < t && at <= last) {
             times.next();
             observer.on_landing(&StepRecord::fixed(k, at, exact(at)?));
         }
-        record.z = exact(t)?;
+        for (i, _, r) in &fired {
+            observer.on_event(*i, r);
+        }
+        (record.z, record.t) = match stopped {
+            Some(r) => (r.z, r.t),
+            None => (z, t),
+        };
         record.k = k;
-        record.t = t;
         observer.on_step(&record);
+        if stops {
+            break;
+        }
     }
     if let Some(failure) = stop.cut_short(record.k, record.t) {
         return Err(failure);

@@ -239,3 +239,38 @@ fn a_close_encounter_stops_each_method_at_the_exact_time() {
         assert!(method["failure"].is_null(), "{label}: a stop is no failure");
     }
 }
+
+/// The exact solution locates an event on itself: on the thesis orbit from its pericentre
+/// (a = 1/1.12, e = 0.44), `r > 1` turns true where Kepler's equation says, to roundoff;
+/// DTH's event in the same scene is its own estimate, within its error at this step.
+#[test]
+fn the_exact_solution_locates_an_event_to_roundoff() {
+    let scene = "[system]\nname = \"kepler\"\n[initial]\nq = [0.5, 0.0]\np = [0.0, 1.2]\n\
+                 [[method]]\nkind = \"exact\"\ndt = 0.1\n[[method]]\nkind = \"dth\"\ndtau = 0.01\n\
+                 [duration]\ntime = 10.0\n\
+                 [[event]]\nname = \"out\"\nwhen = \"q1^2 + q2^2 > 1\"\naction = \"stop\"\n";
+    let dir = tempfile::tempdir().unwrap();
+    let out = run(scene, dir.path());
+    let (a, e) = (1.0 / 1.12, 0.44);
+    let period = 2.0 * std::f64::consts::PI * (a * a * a / 2.0f64).sqrt();
+    let big_e = ((1.0 - 1.0 / a) / e).acos();
+    let exact = (big_e - e * big_e.sin()) * period / (2.0 * std::f64::consts::PI);
+    for (label, tolerance) in [("exact", 1e-14), ("dth", 1e-3)] {
+        let events = read_csv(&out.join(format!("{label}_events.csv")));
+        let t = column(&events, "t");
+        assert_eq!(t.len(), 1, "{label}");
+        // The exact solution: the search's bracket (8 eps t) and Kepler's equation solved to
+        // roundoff. DTH at dtau = 0.01: its phase error after a third of an orbit.
+        assert!(
+            (t[0] - exact).abs() <= tolerance,
+            "{label}: {} vs {exact}",
+            t[0]
+        );
+    }
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    for m in summary["methods"].as_array().unwrap() {
+        // Each run ended at its event.
+        assert_eq!(m["t_end"], m["events"][0]["t"], "{}", m["label"]);
+    }
+}

@@ -6,7 +6,7 @@ use nalgebra::{DefaultAllocator, Dim, OVector};
 
 use super::{at_step, check_dt, check_state, steps_until, OneStepMethod, RunEnd};
 use crate::error::RunError;
-use crate::event::{Action, Watch};
+use crate::event::Watch;
 use crate::hamiltonian::Alloc;
 use crate::observer::{Observer, StepRecord};
 use crate::{Error, Hamiltonian};
@@ -183,11 +183,10 @@ where
                     iterations += self.spent(method);
                 }
             }
-            let stop = fired
-                .last()
-                .filter(|(i, _, _)| {
-                    beside.watch.as_ref().map(|w| w.action(*i)) == Some(Action::Stop)
-                })
+            let stop = beside
+                .watch
+                .as_ref()
+                .and_then(|w| w.stopping(&fired))
                 .map(|(_, _, r)| r.clone());
             let last_t = stop.as_ref().map_or(t, |r| r.t);
             while let Some((&target, rest)) = beside.times.split_first() {
