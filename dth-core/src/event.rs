@@ -182,11 +182,6 @@ where
         self.events.is_empty()
     }
 
-    /// The action of event `i`.
-    pub fn action(&self, i: usize) -> Action {
-        self.events[i].action
-    }
-
     /// The event among `fired` (what [`Watch::locate`] returned) that ends the run: the last,
     /// if it is a stop.
     pub fn stopping<'f>(

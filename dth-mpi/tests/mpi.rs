@@ -2,23 +2,12 @@
 //! rank. Needs OpenMPI's `mpirun` (`.ci/run` installs it); as root it also needs
 //! `OMPI_ALLOW_RUN_AS_ROOT=1` and `OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1`, which this test sets.
 
-use std::collections::BTreeMap;
 use std::path::Path;
 use std::process::Command;
 
-/// The files of `dir` (not recursive) by name, with their bytes.
-fn files(dir: &Path) -> BTreeMap<String, Vec<u8>> {
-    std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| {
-            let e = e.unwrap();
-            (
-                e.file_name().to_string_lossy().into_owned(),
-                std::fs::read(e.path()).unwrap(),
-            )
-        })
-        .collect()
-}
+#[path = "../../dth-examples/tests/common/files.rs"]
+mod files;
+use files::files;
 
 const SCENE: &str = "title = \"HH ranks\"\n[system]\nname = \"henon_heiles\"\n\
     [initial]\nq = [0.0, 0.0]\np = [0.0, 0.0]\n\

@@ -107,7 +107,13 @@ where
     broken: bool,
     /// How `delta` is carried over a step.
     tangent: Tangent,
+    /// Stormer-Verlet's tangent map: the last step's end and `HessH` there (the next step's
+    /// first kick).
+    verlet_end: Option<AtState<D>>,
 }
+
+/// A state and `HessH` there.
+type AtState<D> = (OVector<f64, D>, OMatrix<f64, D, D>);
 
 /// How the observer carries the tangent vectors over a step (see the module docs).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -155,6 +161,7 @@ where
             y_integral: 0.0,
             broken: false,
             tangent: Tangent::Midpoint,
+            verlet_end: None,
         }
     }
 
@@ -177,7 +184,7 @@ where
     /// The step's map `delta_{k+1} = lhs^(-1) rhs delta_k` from `z0` at `t0` to `z1` over
     /// `h`, as `(lhs, rhs)`.
     fn tangent_step(
-        &self,
+        &mut self,
         h: f64,
         z0: &OVector<f64, D>,
         z1: &OVector<f64, D>,
@@ -193,17 +200,7 @@ where
             Tangent::Fourth => {}
         }
         // The Hermite interpolant's derivatives at the ends: J grad H.
-        let slope = |z: &OVector<f64, D>| {
-            let g = self.system.gradient(z);
-            let n = g.len() / 2;
-            OVector::<f64, D>::from_fn_generic(d, dth::nalgebra::U1, |i, _| {
-                if i < n {
-                    g[n + i]
-                } else {
-                    -g[i - n]
-                }
-            })
-        };
+        let slope = |z: &OVector<f64, D>| dth::j_times(&self.system.gradient(z));
         let (f0, f1) = (slope(z0), slope(z1));
         let at = |theta: f64| {
             let (t2, t3) = (theta * theta, theta * theta * theta);
@@ -229,7 +226,7 @@ where
     /// half kick with `HessH`'s q-block at `z0`, the drift with its p-block at the half-kicked
     /// state, the half kick at `z1`; `id` is the identity.
     fn verlet_map(
-        &self,
+        &mut self,
         h: f64,
         z0: &OVector<f64, D>,
         z1: &OVector<f64, D>,
@@ -241,7 +238,7 @@ where
         for i in 0..n {
             kicked[n + i] -= h / 2.0 * g0[i];
         }
-        let kick = |hess: OMatrix<f64, D, D>| {
+        let kick = |hess: &OMatrix<f64, D, D>| {
             let mut m = id.clone();
             for r in 0..n {
                 for c in 0..n {
@@ -257,7 +254,15 @@ where
                 drift[(r, n + c)] += h * hess[(n + r, n + c)];
             }
         }
-        kick(self.system.hessian(z1)) * drift * kick(self.system.hessian(z0))
+        // HessH at the step's start: the last step's end's, kept, when the run goes on from it.
+        let at_start = match self.verlet_end.take() {
+            Some((z, hess)) if z == *z0 => hess,
+            _ => self.system.hessian(z0),
+        };
+        let at_end = self.system.hessian(z1);
+        let map = kick(&at_end) * drift * kick(&at_start);
+        self.verlet_end = Some((z1.clone(), at_end));
+        map
     }
 
     /// MEGNO `<Y>` and the Lyapunov estimate so far (`None` before any time has passed or
@@ -360,7 +365,7 @@ mod tests {
         let h = 0.1;
         let mut verlet = StormerVerlet::new();
         let z1 = verlet.step(&system, &z0, h).unwrap();
-        let m = Megno::new(&system).with_tangent(Tangent::Verlet);
+        let mut m = Megno::new(&system).with_tangent(Tangent::Verlet);
         let d = m.delta.shape_generic().0;
         let id = OMatrix::<f64, dth::nalgebra::Const<4>, dth::nalgebra::Const<4>>::identity_generic(
             d, d,
