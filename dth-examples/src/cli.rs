@@ -24,6 +24,8 @@ enum CliError {
     Scene(#[from] Error),
     #[error("work-precision benchmark failed")]
     WorkPrecision(#[source] workprecision::Error),
+    #[error(transparent)]
+    Gallery(#[from] crate::gallery::Error),
 }
 
 impl CliError {
@@ -33,6 +35,7 @@ impl CliError {
             CliError::Scene(e) => e.exit_code(),
             CliError::WorkPrecision(workprecision::Error::UnknownProblem { .. }) => 2,
             CliError::WorkPrecision(_) => 1,
+            CliError::Gallery(e) => e.exit_code(),
         }
     }
 }
@@ -53,8 +56,8 @@ struct Cli {
     limits: Limits,
 }
 
-/// The limits of a scene's run: for `run`, `check` (the memory estimate), `table41` and the
-/// default run; the other subcommands run no scene and do not take them.
+/// The limits of a scene's run: for `run`, `check` (the memory estimate), `table41`, `gallery`
+/// and the default run; the other subcommands run no scene and do not take them.
 #[derive(clap::Args, Clone, Copy, Default)]
 struct Limits {
     /// The most memory a run's effects may keep, e.g. 4G, 4GB, 4GiB, 512M (default: half the
@@ -175,7 +178,7 @@ enum Command {
         limits: Limits,
     },
     /// Work-precision diagrams for every method: error against wall time on seven problems
-    /// (docs/benchmarks.md has the tables).
+    /// (docs/performance.md has the tables).
     Workprecision {
         /// Output folder (default: dth-out/workprecision).
         #[arg(long)]
@@ -187,6 +190,18 @@ enum Command {
         /// kepler_e09_regularized, henon_heiles, pendulum, forced_oscillator.
         #[arg(long = "problem")]
         problems: Vec<String>,
+    },
+    /// Redraw the documentation's figure gallery: run every scene (and work-precision
+    /// problem) the manifest names, copy the figures it lists (PNG) into figures/ beside it and
+    /// write gallery.md there from their captions. The runs' whole outputs stay in
+    /// dth-out/gallery/. Run it from the repository's root.
+    Gallery {
+        /// The manifest (TOML: one [[figure]] per figure, with name, scene or workprecision,
+        /// draws, title, caption).
+        #[arg(default_value = "docs/gallery.toml")]
+        manifest: PathBuf,
+        #[command(flatten)]
+        limits: Limits,
     },
     /// Show what the symbolic engine derives from a Hamiltonian (the `hamiltonian!` grammar):
     /// the simplified gradient, the Hessian's nonzero entries, Psi = (J gradH)^T HessH (J gradH),
@@ -397,6 +412,15 @@ fn list() {
     }
 }
 
+/// Whether `dth ARGS...` parses (for the docs' check that every command they show is one the
+/// command accepts); the error is clap's message.
+#[cfg(test)]
+pub(crate) fn accepts(args: &[String]) -> Result<(), String> {
+    Cli::try_parse_from(std::iter::once("dth").chain(args.iter().map(String::as_str)))
+        .map(drop)
+        .map_err(|e| e.to_string())
+}
+
 fn main_inner(cli: Cli) -> Result<ExitCode, CliError> {
     match cli.command {
         None => {
@@ -461,6 +485,17 @@ fn main_inner(cli: Cli) -> Result<ExitCode, CliError> {
             if let Some(path) = json {
                 crate::report::write_json(&path, &table)?;
             }
+            Ok(ExitCode::SUCCESS)
+        }
+        Some(Command::Gallery { manifest, limits }) => {
+            let runs = Path::new(DEFAULT_OUT).join("gallery");
+            let built = crate::gallery::build(&manifest, &runs, &limits.options())?;
+            println!(
+                "wrote {} figures and {} (the runs' outputs are in {})",
+                built.files.len(),
+                built.page.display(),
+                runs.display()
+            );
             Ok(ExitCode::SUCCESS)
         }
         Some(Command::Derive {

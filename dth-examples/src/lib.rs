@@ -38,6 +38,9 @@
 //!    name, each bound to the pipeline, and the same path for a text Hamiltonian; then this
 //!    file and `main.rs`.
 //!
+//! [`gallery`] (the documentation's figures, `dth gallery`) runs scenes and the benchmark
+//! through this file's [`run_scene`], so it sits at the top with the command.
+//!
 //! [`workprecision`] (the benchmark behind `dth workprecision`) and [`derive`](mod@derive) (what the
 //! symbolic engine derives from a Hamiltonian as text, `dth derive`) sit beside the scene
 //! stack and use only layer 1 (and `derive` the scene's names of the regularizations).
@@ -87,6 +90,10 @@ pub mod runtime_system;
 
 pub mod catalogue;
 pub mod cli;
+pub mod gallery;
+
+#[cfg(test)]
+mod docs_check;
 
 pub mod derive;
 pub mod workprecision;
