@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Recompute the numbers docs/theory.md quotes, independently of the Rust code.
+"""Recompute the numbers docs/theory.md and docs/thesis.md quote, independently of the Rust code.
 
 Standard library only: `python3 docs/theory_check.py` (about half a minute). A deliberately
 plain reimplementation (dense Gaussian elimination, joint Newton with the plain energy residual
@@ -12,7 +12,7 @@ Prints:
 - the spurious root: one joint Newton iteration from zbar_k lands on (zbar_k, -lambda_k);
 - a DTH run at the thesis's Table 4.1 settings: mean lambda, orbits reached, the spread of the
   law-of-time product lambda^3 Psi, and the DTH rows of Table 4.1 with the vertex reference
-  z^(0) (the convention of docs/theory.md#table-4-1) and, for contrast, zbar_0;
+  z^(0) (the convention of docs/thesis.md#table-4-1) and, for contrast, zbar_0;
 - the trapezoidal and implicit-midpoint rows of Table 4.1 (reference: the initial value).
 """
 
@@ -78,7 +78,7 @@ def newton_matrix(z, c):
 
 
 def joint_newton(zk, lk, h, energy, z, lam, max_iterations=50):
-    """Joint Newton on (z, lambda) for one DTH step (docs/theory.md#joint-newton)."""
+    """Joint Newton on (z, lambda) for one DTH step (docs/solver.md#joint-newton)."""
     gk = gradient(zk)
     last = math.inf
     for iteration in range(1, max_iterations + 1):
@@ -106,7 +106,7 @@ def kepler_orbit():
     a = k / (2 * abs(e_))
     ecc = math.sqrt(1 + 2 * e_ * l_**2 / (m * k * k))
     period = 2 * math.pi * math.sqrt(m * a**3 / k)
-    print("Kepler orbit of thesis Section 4.2 (docs/theory.md#kepler-orbit)")
+    print("Kepler orbit of thesis Section 4.2 (docs/thesis.md#kepler-orbit)")
     print(f"  E = {e_}, L = {l_}, a = {a:.6f}, e = {ecc:.6f}")
     print(f"  pericentre {a * (1 - ecc):.6f}, apocentre {a * (1 + ecc):.6f}")
     print(f"  period (Kepler's third law) {period:.6f}")
@@ -162,7 +162,7 @@ def dth_table41(h, n, period):
     for k in range(n):
         tbar += 0.5 * h * (lam[k] + lam[k + 1])
     law = [lam[k] ** 3 * psi(zbar[k]) for k in range(n + 1)]
-    print(f"DTH at dtau = {h}, lambda_0 = 1, {n} steps (docs/theory.md#table-4-1)")
+    print(f"DTH at dtau = {h}, lambda_0 = 1, {n} steps (docs/thesis.md#table-4-1)")
     print(f"  mean lambda {sum(lam[:n]) / n:.4f} (0.15/dtau = {0.15 / h:.4f}); "
           f"tbar_N = {tbar:.2f} = {tbar / period:.2f} orbits; mean Newton iterations "
           f"{iterations / n:.2f}")

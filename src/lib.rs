@@ -1,4 +1,4 @@
-#![doc = include_str!("../README.md")]
+#![doc = include_str!("../docs/library.md")]
 #![warn(missing_docs)]
 
 pub use dth_core::*;
@@ -39,4 +39,16 @@ pub mod runtime {
 pub mod __private {
     pub use dth_core;
     pub use nalgebra;
+}
+
+/// The Rust examples of the README and the guide's pages, compiled and run as doctests so they
+/// cannot go stale (the front page above is `docs/library.md`).
+#[cfg(doctest)]
+mod docs {
+    #[doc = include_str!("../README.md")]
+    struct Readme;
+    #[doc = include_str!("../docs/grammar.md")]
+    struct Grammar;
+    #[doc = include_str!("../docs/limits.md")]
+    struct Limits;
 }

@@ -79,7 +79,7 @@ pub struct Flags {
     /// [`Hamiltonian::hessian_nonzeros`], never forming a `D x D` matrix; `false` for the
     /// dense LU, the faster one for small `D`. Without a pattern it has no effect.
     /// `hamiltonian!` sets it per generated type from the measured crossover (see
-    /// `docs/benchmarks.md`).
+    /// `docs/performance.md`).
     pub structured_newton: bool,
     /// The implementation is a regularization `K = g(z) (H + p_t)` in the extended phase
     /// space (with [`Flags::time_dependent`]): the flow's parameter is a fictitious time `s`

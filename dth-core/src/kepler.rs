@@ -28,7 +28,7 @@ use crate::Error;
 /// `p = (0, 1.2)` of `H = p1^2 + p2^2 - (q1^2 + q2^2)^(-1/2)` (25 points per orbit, 400 orbits).
 /// The average is the mean over `k = 1..N` of `|Q_k - Q_ref|`, with `Q_ref` the initial value
 /// (fixed-step methods), `H(zbar_0)` (DTH midpoints) or the value at the first vertex `z^(0)`
-/// (DTH vertices); see `docs/theory.md#table-4-1`.
+/// (DTH vertices); see `docs/thesis.md#table-4-1`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Table41Row {
     /// `trapezoidal`, `midpoint`, `discrete_mechanics`, `dth_midpoints` or `dth_vertices`.

@@ -12,7 +12,7 @@
 //! `p_i` interleave), so a Newton iteration is linear in `D`. For a dense Hessian (all-pairs
 //! N-body) the bandwidth is `D`: the dense fixed-size LU of `linalg` is then the faster path,
 //! and generated types choose between the two ([`Flags::structured_newton`](crate::Flags::structured_newton)).
-//! `docs/benchmarks.md` records the measured crossover and the comparison with a general
+//! `docs/performance.md` records the measured crossover and the comparison with a general
 //! sparse LU (faer).
 //!
 //! # Pivoting

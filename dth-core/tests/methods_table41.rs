@@ -1,6 +1,6 @@
 //! Thesis Table 4.1, fixed-step rows: Kepler `H = p1^2 + p2^2 - 1/r` from q = (0.5, 0),
 //! p = (0, 1.2), dt = 0.15, 10,000 steps; average absolute deviation over k = 1..N of energy and
-//! angular momentum from their initial values (`docs/theory.md#table-4-1`).
+//! angular momentum from their initial values (`docs/thesis.md#table-4-1`).
 //!
 //! Acceptance: entries that are not at roundoff within 1% of the thesis; roundoff entries at
 //! most 3e-14.

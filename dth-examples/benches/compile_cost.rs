@@ -5,7 +5,7 @@
 //! straight-line operations (one `let` each), against the number of nonzero entries of the
 //! Hessian's upper triangle.
 //!
-//! Criterion groups `expand/toda_<n>`; the table printed first is what `docs/benchmarks.md`
+//! Criterion groups `expand/toda_<n>`; the table printed first is what `docs/performance.md`
 //! records. The bound "operations / Hessian nonzeros" is asserted by a test
 //! (`tests/macro_systems.rs`), not here.
 
@@ -59,7 +59,7 @@ fn hessian_nonzeros(system: &System) -> usize {
         .count()
 }
 
-/// The table for `docs/benchmarks.md`: median of 25 in-process expansions per size.
+/// The table for `docs/performance.md`: median of 25 in-process expansions per size.
 fn table() {
     println!("| n | D | Hessian nonzeros (upper) | ops, fused | ops, discrete gradient | ops, emitted in all | ops / nonzero | engine time (median) | time / nonzero |");
     println!("|---|---|---|---|---|---|---|---|---|");

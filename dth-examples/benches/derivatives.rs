@@ -7,7 +7,7 @@
 //! and `hessian` and assembles Psi), `hand-fused` (a careful fused version written here, with
 //! Psi in closed form) and `num-dual`. Each
 //! iteration evaluates the same 16 seeded points (inputs and outputs through `black_box`), so
-//! the time per evaluation is the reported time / 16. Ratios go into `docs/benchmarks.md`
+//! the time per evaluation is the reported time / 16. Ratios go into `docs/performance.md`
 //! from one run of `cargo bench -p dth-examples --bench derivatives -- --noplot`.
 
 use dth::nalgebra::Const;

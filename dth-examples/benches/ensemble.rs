@@ -1,5 +1,5 @@
 //! Ensemble scenes on 1 and 2 threads, side by side in one run: the speed-up of rayon over the
-//! members (`docs/benchmarks.md`, "Ensembles").
+//! members (`docs/performance.md`, "Ensembles: threads and MPI ranks").
 //!
 //! Groups `ensemble/<members>` for 64 and 1,024 members: Henon-Heiles at E = 1/8, a square grid
 //! of starts on the shell (all feasible), DTH with `dtau = 0.1` to t = 200 with MEGNO alongside

@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Regularized DTH against REBOUND's IAS15 on eccentric Kepler orbits, in one run
-(docs/benchmarks.md).
+(docs/performance.md).
 
     python3 dth-examples/benches/ias15_kepler.py [--quick] [--repeats N] [--venv DIR]
 

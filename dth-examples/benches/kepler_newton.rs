@@ -13,7 +13,8 @@
 //!
 //! Before benching, the Newton iterations and LU factorizations per step of each are printed.
 //! Run with `cargo bench -p dth-examples --bench kepler_newton -- --noplot` (add `--quick` for
-//! a smoke run); the ratios are the figures of `docs/benchmarks.md` ("Small systems").
+//! a smoke run); the ratios are the figures of `docs/performance.md` ("Step cost: DTH against
+//! the implicit midpoint rule").
 
 use dth::nalgebra::Const;
 use std::hint::black_box;

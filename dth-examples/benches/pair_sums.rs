@@ -18,7 +18,7 @@
 //!   (`dth_symbolic::compile`, no JIT), once, up to 128 bodies (or its error: the written-out
 //!   expression has a size limit).
 //!
-//! `cargo bench -p dth-examples --bench pair_sums` (release), numbers in docs/benchmarks.md.
+//! `cargo bench -p dth-examples --bench pair_sums` (release), numbers in docs/performance.md.
 
 mod timing;
 

@@ -11,7 +11,7 @@
 //! (parse, differentiate, lower the eight programs: `Backend::Interpreter`) and `engine+jit`
 //! (the same and compiling them: `Backend::Jit`); the JIT's own cost is the difference.
 //!
-//! Ratios go into `docs/benchmarks.md` from one run of
+//! Ratios go into `docs/performance.md` from one run of
 //! `cargo bench -p dth-examples --bench runtime -- --noplot`.
 
 use dth::nalgebra::Const;

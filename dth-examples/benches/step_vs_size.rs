@@ -21,7 +21,7 @@
 //! release-profile run of the test `dth_keeps_the_energy_of_the_512_particle_chain_on_a_2mb_stack`).
 //!
 //! The crossover of `hamiltonian!` (`STRUCTURED_NEWTON` from `D = 8`) and the table of
-//! `docs/benchmarks.md` come from this bench. Run with
+//! `docs/performance.md` come from this bench. Run with
 //! `cargo bench -p dth-examples --bench step_vs_size -- --noplot` (add `--quick` for a smoke run).
 
 use dth::nalgebra::Const;

@@ -25,7 +25,7 @@
 //! of 5 rounds that run every case in turn (after one untimed run).
 //!
 //! `cargo bench -p dth-examples --bench text_lattices` (release), numbers in
-//! docs/benchmarks.md.
+//! docs/performance.md.
 
 mod timing;
 

@@ -1,5 +1,5 @@
 //! Regularized DTH on eccentric Kepler orbits, the Rust half of the side-by-side benchmark
-//! against REBOUND's IAS15 (docs/benchmarks.md). The whole comparison, both sides in one
+//! against REBOUND's IAS15 (docs/performance.md). The whole comparison, both sides in one
 //! run, is `python3 dth-examples/benches/ias15_kepler.py`, which builds and runs this binary.
 //!
 //! Thesis units (`H = p1^2 + p2^2 - 1/r`: `m = 1/2`, `k = 1`, `mu = 2`), start at pericentre

@@ -1,4 +1,4 @@
-//! The log-log figure of `docs/benchmarks.md` ("Step cost against size"): one implicit-midpoint
+//! The log-log figure of `docs/performance.md` ("Cost against system size"): one implicit-midpoint
 //! step against the number of particles, structured and dense Newton, and one DTH step
 //! (structured), FPUT-alpha and Toda, read from the medians criterion stored for the
 //! `step_vs_size` bench.

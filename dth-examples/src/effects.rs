@@ -76,7 +76,7 @@ impl Accumulator {
 
 /// Deviation statistics of one quantity at the states (DTH: midpoints) and, for DTH, at the
 /// vertices (reference: the first vertex `z^(0)`, the convention of the thesis's Table 4.1,
-/// `docs/theory.md#table-4-1`).
+/// `docs/thesis.md#table-4-1`).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct DeviationStats {
     /// Quantity name (`energy` or an invariant's name).

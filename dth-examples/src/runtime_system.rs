@@ -9,8 +9,8 @@
 //! A text of small dimension runs at a fixed size: [`dispatch`] hands the pipeline a
 //! [`Fixed<N>`] (`Hamiltonian<Const<N>>`, the same compiled code) for `D = 4`, so the stepper and the peers use nalgebra's fixed-size linear algebra
 //! (stack storage, unrolled loops) as for a catalogue system; any other `D` runs as
-//! [`TextSystem`] (`Dyn`). Measured on Kepler (`docs/benchmarks.md`, "Run-time compiled
-//! Hamiltonians", "A whole `dth run`"): 300,000 DTH and midpoint steps took 1.3-1.4x the
+//! [`TextSystem`] (`Dyn`). Measured on Kepler (`docs/performance.md`, "Run-time
+//! compiled text against the macro"): 300,000 DTH and midpoint steps took 1.3-1.4x the
 //! built-in system's CPU time at the fixed size, 2.05x at `Dyn` (3.3x before the `Dyn` DTH
 //! step stopped allocating). Each fixed size is one more
 //! instance of the whole pipeline to compile (measured: about a quarter more build time of

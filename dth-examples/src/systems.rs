@@ -844,7 +844,7 @@ mod tests {
     #[test]
     fn kepler_period_is_the_thesis_period() {
         // T = 2 pi sqrt(m a^3 / k) = 3.7483 for q = (0.5, 0), p = (0, 1.2): H = -0.56,
-        // a = 1/1.12 (docs/theory.md#kepler-orbit).
+        // a = 1/1.12 (docs/thesis.md#kepler-orbit).
         let t = Kepler::thesis()
             .period(&SVector::<f64, 4>::new(0.5, 0.0, 0.0, 1.2))
             .unwrap_or(f64::NAN);

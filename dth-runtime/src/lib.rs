@@ -62,7 +62,7 @@
 //!
 //! Building compiles eight programs (value, gradient, Hessian, Psi, the fused derivatives,
 //! the discrete gradient, the energy difference and the defect) into one module; the
-//! measured compile times against expression size are in `docs/benchmarks.md`. The code is
+//! measured compile times against expression size are in `docs/performance.md`. The code is
 //! freed when the Hamiltonian is dropped. An evaluation checks the slice lengths, makes one
 //! call into compiled code, and checks its outputs are finite; a non-finite output is
 //! [`RuntimeError::NonFinite`], not a NaN passed on. The interpreter backend allocates its

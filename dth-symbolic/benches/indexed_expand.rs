@@ -7,7 +7,7 @@
 //! programs) and emit the loops (`dth_symbolic::emit::lattice::looped_impl`), neither of which
 //! grows with `N`. Needs the `emit` feature: `cargo bench -p dth-symbolic --features emit
 //! --bench indexed_expand`. Criterion groups `indexed_expand/fput_<N>`
-//! and `indexed_expand/looped_<N>`; the tables printed first are what `docs/benchmarks.md`
+//! and `indexed_expand/looped_<N>`; the tables printed first are what `docs/performance.md`
 //! records.
 
 use std::hint::black_box;

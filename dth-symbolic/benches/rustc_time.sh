@@ -10,7 +10,7 @@
 #     bash dth-symbolic/benches/rustc_time.sh fput [SIZES...]   # default 64 4096
 #
 # `toda`: a Toda chain between walls written out term by term, n degrees of freedom, every
-# trait method used (docs/benchmarks.md, "Compile cost of hamiltonian!"; the engine's own time
+# trait method used (docs/performance.md, "Compile cost of hamiltonian!"; the engine's own time
 # is `dth-examples/benches/compile_cost.rs`). `fput`: the FPUT-alpha chain written once as a
 # sum, `N` sites, compiled to loops, every method a large chain can use (all but the dense
 # `hessian` and `derivatives`, a D x D matrix: 512 MB at D = 8192) ("Lattices written once";

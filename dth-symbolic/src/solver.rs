@@ -4,8 +4,8 @@
 
 /// The smallest dimension from which generated types take the structured Newton path
 /// (`Flags::structured_newton`): below it the dense fixed-size path is faster. Measured side by
-/// side (`dth-examples/benches/step_vs_size.rs`, `docs/benchmarks.md`, "Step cost against
-/// size"), one implicit-midpoint step, FPUT and Toda chains: a non-separable type's dense path
+/// side (`dth-examples/benches/step_vs_size.rs`, `docs/performance.md`, "Cost against
+/// system size"), one implicit-midpoint step, FPUT and Toda chains: a non-separable type's dense path
 /// is the `D x D` LU, 1.4-1.6x faster than the structured one at `D = 4`, within 10-15% at
 /// `D = 8` (structured ahead), 2.7x slower at `D = 16`; a separable type's dense path factors
 /// the `D/2 x D/2` Schur complement (`dth_core`'s dense Newton matrix), 1.6-1.8x faster than

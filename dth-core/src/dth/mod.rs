@@ -37,7 +37,7 @@
 //!   of the Hessian is nonzero) take the banded LU of [`crate::structured`] on the Hessian's
 //!   nonzeros, analysed once in [`Dth::new`], and never form a `D x D` matrix: a step of a
 //!   chain (FPUT, Toda) costs time linear in the number of particles and a few vectors of
-//!   stack (the chain of 512 particles steps on a 2 MB thread). `docs/benchmarks.md`
+//!   stack (the chain of 512 particles steps on a 2 MB thread). `docs/performance.md`
 //!   ("Step cost against size") has the measurements.
 //! - **Ending at a time** ([`Dth::step_toward`]): the last step is shortened in `tau` so that
 //!   the last midpoint lands on the requested time to roundoff.

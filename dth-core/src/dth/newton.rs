@@ -55,7 +55,8 @@ const CF_FROM: f64 = 1e-5;
 /// from the observed contraction, so it stops such a linearly converging tail at roundoff just
 /// as it stops Newton's (one more iteration where the contraction is not below `4 eps /
 /// update`). On the thesis Kepler orbit this keeps the iterations per step and takes the
-/// factorizations from 3.00 to 2.34 per step (`docs/benchmarks.md`, "Small systems").
+/// factorizations from 3.00 to 2.34 per step (`docs/performance.md`, "Step cost: DTH
+/// against the implicit midpoint rule").
 const REFACTOR_ABOVE: f64 = 1e-4;
 
 /// One solved DTH segment: its midpoint, multiplier and both vertices.

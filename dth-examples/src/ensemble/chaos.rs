@@ -50,7 +50,7 @@
 //! midpoint step along Verlet's states is not the derivative of its map, and its `O(h^2)` defect
 //! drifted `<Y>` on a regular orbit to 4.1 at `dt = 0.1` (2 is right).
 //!
-//! Why not the DTH step's own tangent map: `docs/theory.md#chaos-indicators`.
+//! Why not the DTH step's own tangent map: `docs/ensembles.md#chaos-indicators`.
 
 use dth::linalg::Lu;
 use dth::nalgebra::{DefaultAllocator, Dim, OMatrix, OVector};

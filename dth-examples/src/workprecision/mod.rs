@@ -26,7 +26,7 @@
 //!   factorizations, inner and outer).
 //!
 //! Output in the chosen directory: `workprecision.json` and `workprecision.csv` (one row per
-//! run), `summary.md` (the tables of `docs/benchmarks.md`), and one PNG + SVG diagram per
+//! run), `summary.md` (the tables of `docs/performance.md`), and one PNG + SVG diagram per
 //! system and error kind, `<system>_<kind>.{png,svg}` (error against wall time, log-log).
 //!
 //! ```no_run

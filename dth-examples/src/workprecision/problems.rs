@@ -367,7 +367,7 @@ struct RegularizedKeplerProblem(Problem<Kepler, 4>);
 const LONG_FINEST: f64 = 8192.0;
 
 /// Finest rung of the order-8 ladders over 100 orbits: regularized DTH-8 reaches its floor
-/// near 32 steps per orbit (docs/benchmarks.md, against IAS15), robust DTH-8 near 700.
+/// near 32 steps per orbit (docs/performance.md, against IAS15), robust DTH-8 near 700.
 const LONG_FINEST_HIGH: f64 = 512.0;
 
 impl Sweep for RegularizedKeplerProblem {

@@ -12,7 +12,7 @@
 //! site, listed only at the sites that reach a boundary. Neither the code nor the compiler's
 //! work on it grows with `N`: a constant pattern would make every build of the user's crate
 //! write out its `3N - 1` entries in the constant evaluator (which grew the build by about
-//! 0.3 s in dev and 0.8 s in release at `N = 4096`, docs/benchmarks.md).
+//! 0.3 s in dev and 0.8 s in release at `N = 4096`, docs/performance.md).
 
 use proc_macro2::{Ident, TokenStream};
 use quote::quote;
