@@ -275,3 +275,20 @@ fn anchors_are_github_slugs() {
         [(1, "b.md#c".to_string()), (1, "figures/f.png".to_string())]
     );
 }
+
+#[test]
+fn the_docs_index_links_every_page() {
+    let docs = root().join("docs");
+    let index = read(&docs.join("README.md"));
+    let linked: Vec<String> = links(&index).into_iter().map(|(_, t)| t).collect();
+    let missing: Vec<String> = pages()
+        .iter()
+        .filter(|p| p.parent().is_some_and(|d| d.ends_with("docs")))
+        .filter_map(|p| p.file_name().map(|n| n.to_string_lossy().into_owned()))
+        .filter(|name| name != "README.md" && !linked.iter().any(|t| t == name))
+        .collect();
+    assert!(
+        missing.is_empty(),
+        "docs/README.md does not link {missing:?}"
+    );
+}
