@@ -481,10 +481,11 @@ fn main_inner(cli: Cli) -> Result<ExitCode, CliError> {
         Some(Command::Table41 { json, limits }) => {
             let options = limits.options();
             let table = crate::table41(&options)?;
-            print!("{}", table41::markdown(&table));
+            // The file before the printing: a closed stdout ends the process (SIGPIPE).
             if let Some(path) = json {
                 crate::report::write_json(&path, &table)?;
             }
+            print!("{}", table41::markdown(&table));
             Ok(ExitCode::SUCCESS)
         }
         Some(Command::Gallery { manifest, limits }) => {
@@ -545,6 +546,19 @@ fn main_inner(cli: Cli) -> Result<ExitCode, CliError> {
     }
 }
 
+/// A closed stdout (`dth derive ... | head`) ends the process quietly, as it does other Unix
+/// tools, instead of a panic in `println!`: SIGPIPE gets back its default action, which Rust's
+/// runtime sets to "ignore". Nothing is lost: every command prints only after its output
+/// folder or file is committed.
+#[cfg(unix)]
+fn restore_sigpipe() {
+    // SAFETY: restores a signal's default disposition, first thing in `main`, before any
+    // other thread exists; no handler runs Rust code.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
+}
+
 /// Exit code of a run stopped by SIGINT or SIGTERM (128 + SIGINT, the shell's convention).
 const INTERRUPTED: i32 = 130;
 
@@ -576,6 +590,8 @@ fn on_signal() {
 /// The `dth` command on the process's arguments: its exit code (0, 1 for a failed run, 2 for
 /// bad input, 130 when interrupted), errors printed with their chain.
 pub fn main() -> ExitCode {
+    #[cfg(unix)]
+    restore_sigpipe();
     if let Err(e) = ctrlc::set_handler(on_signal) {
         eprintln!("warning: cannot install the SIGINT/SIGTERM handler ({e}): an interrupted run may leave a temporary folder behind");
     }

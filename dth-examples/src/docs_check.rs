@@ -292,3 +292,16 @@ fn the_docs_index_links_every_page() {
         "docs/README.md does not link {missing:?}"
     );
 }
+
+/// An unclosed code fence turns the rest of a page into code (the library guide is also the
+/// crate's rustdoc front page, where it would swallow the sections after it).
+#[test]
+fn every_code_fence_is_closed() {
+    for page in pages() {
+        let fences = read(&page)
+            .lines()
+            .filter(|l| l.trim_start().starts_with("```"))
+            .count();
+        assert!(fences % 2 == 0, "{}: an unclosed ``` fence", page.display());
+    }
+}

@@ -710,3 +710,37 @@ fn chosen_times() {
         &["effect `trajectory` asks for the state at t = 2, outside the run from t = 0 to t = 1"],
     );
 }
+
+/// A reader that stops early (`dth derive ... | head -1`) ends `dth` quietly, by SIGPIPE as
+/// other Unix tools end, not by a panic in `println!` with a backtrace on stderr.
+#[cfg(unix)]
+#[test]
+fn a_closed_stdout_ends_dth_quietly() {
+    use std::io::{BufRead, BufReader};
+    use std::os::unix::process::ExitStatusExt;
+    use std::process::{Command, Stdio};
+    // Far more than a pipe's buffer (64 KB): `dth` is still printing when the reader goes.
+    let lattice = "sum(i = 1..N, p[i]^2/2 + exp(q[i] - q[i+1])) where N = 300, q[N+1] = 0";
+    let mut child = Command::new(env!("CARGO_BIN_EXE_dth"))
+        .args(["derive", lattice])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("dth starts");
+    let mut first = String::new();
+    let stdout = child.stdout.take().expect("piped");
+    BufReader::new(stdout)
+        .read_line(&mut first)
+        .expect("a line");
+    assert!(first.starts_with("H = "), "{first}");
+    // The reader is dropped here: the pipe is closed.
+    let o = child.wait_with_output().expect("dth ends");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!err.contains("panicked"), "{err}");
+    assert_eq!(
+        o.status.signal(),
+        Some(libc::SIGPIPE),
+        "{:?}: {err}",
+        o.status
+    );
+}
