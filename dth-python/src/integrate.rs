@@ -5,8 +5,11 @@ use std::sync::atomic::AtomicBool;
 
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
+use pyo3::types::PyDict;
 
+use dth::event::Event;
 use dth::nalgebra::{DVector, DefaultAllocator, Dim, OVector};
+use dth::runtime::{RuntimeHamiltonian, StateFunction};
 use dth::solve::Integrator;
 use dth::{solve, Alloc};
 
@@ -26,6 +29,95 @@ struct Request {
     save_at: Option<Vec<f64>>,
     max_steps: Option<usize>,
     energy_errors: bool,
+    events: Events,
+}
+
+/// The events a run watches (`events=`, `stop_on=`): each name, its condition compiled as the
+/// function whose negative values are the condition, and whether it ends the run.
+#[derive(Default)]
+pub(crate) struct Events {
+    names: Vec<String>,
+    functions: Vec<StateFunction>,
+    stops: Vec<bool>,
+}
+
+impl Events {
+    /// `events` (a dict of name to `"lhs < rhs"` or `"lhs > rhs"`, in the grammar of `h`'s
+    /// text over its coordinates, `t` and parameters) and `stop_on` (a name or a list of
+    /// names) compiled for `h`; a `ValueError` naming the event for a condition that does not
+    /// compile, or a `stop_on` name that is not an event.
+    fn read(
+        h: &RuntimeHamiltonian,
+        events: Option<&Bound<'_, PyDict>>,
+        stop_on: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Events> {
+        let params: Vec<(&str, f64)> = h.parameters().collect();
+        let mut read = Events::default();
+        for (name, when) in events.into_iter().flat_map(|d| d.iter()) {
+            let name: String = name.extract().map_err(|_| {
+                PyTypeError::new_err("events: the keys are the events' names (str)")
+            })?;
+            let when: String = when.extract().map_err(|_| {
+                PyTypeError::new_err(format!(
+                    "event `{name}`: its condition is a str, `lhs < rhs` or `lhs > rhs`"
+                ))
+            })?;
+            let refused = |why: String| PyValueError::new_err(format!("event `{name}`: {why}"));
+            let g = dth_examples::scene::condition_function(&when).map_err(refused)?;
+            let f = StateFunction::new(&g, h.degrees_of_freedom(), h.time_dependent(), &params)
+                .map_err(|e| refused(e.to_string()))?;
+            read.names.push(name);
+            read.functions.push(f);
+            read.stops.push(false);
+        }
+        let stop_on: Vec<String> = match stop_on {
+            None => Vec::new(),
+            Some(s) => match s.extract::<String>() {
+                Ok(one) => vec![one],
+                Err(_) => s.extract().map_err(|_| {
+                    PyTypeError::new_err("stop_on is an event's name or a list of names")
+                })?,
+            },
+        };
+        for name in stop_on {
+            let Some(i) = read.names.iter().position(|n| *n == name) else {
+                return Err(PyValueError::new_err(format!(
+                    "stop_on names `{name}`, which is not one of the events ({})",
+                    if read.names.is_empty() {
+                        "none given: add it to events=".to_string()
+                    } else {
+                        read.names.join(", ")
+                    }
+                )));
+            };
+            read.stops[i] = true;
+        }
+        Ok(read)
+    }
+
+    /// The events as the driver watches them.
+    fn watched<D: Dim>(&self) -> impl Iterator<Item = Event<'_, D>>
+    where
+        DefaultAllocator: Alloc<D>,
+    {
+        self.names
+            .iter()
+            .zip(&self.functions)
+            .zip(&self.stops)
+            .map(|((name, f), &stop)| {
+                let mut scratch = Vec::new();
+                // A value that is not finite is the run's `EventNotANumber`, naming the event.
+                let event = Event::new(name.clone(), move |t, z: &OVector<f64, D>| {
+                    f.value_at(t, z.as_slice(), &mut scratch)
+                        .unwrap_or(f64::NAN)
+                });
+                if stop {
+                    event.stop()
+                } else {
+                    event
+                }
+            })
+    }
 }
 
 /// Integrates `h` from `z0` with `method`, saving every `every`-th state, and returns a
@@ -34,7 +126,8 @@ struct Request {
 ///
 /// integrate(h, z0, method="dth", *, dtau=None, dt=None, order=None, robust=None,
 ///           lambda0=None, steps=None, t_end=None, orbits=None, t0=0.0, every=None,
-///           save_at=None, max_steps=None, energy_errors=True, raise_on_failure=False)
+///           save_at=None, max_steps=None, energy_errors=True, raise_on_failure=False,
+///           events=None, stop_on=None)
 ///
 /// Arguments:
 ///   h: a `dth.Hamiltonian`.
@@ -70,6 +163,14 @@ struct Request {
 ///   energy_errors: compute H - H(z0) at the saved states (default True).
 ///   raise_on_failure: raise `IntegrationError` (with the partial solution as `.solution`)
 ///     instead of returning a Solution whose `failure` says what stopped it.
+///   events: a dict of name to condition, `"lhs < rhs"` or `"lhs > rhs"` in the grammar of the
+///     Hamiltonian's text (its coordinates q1..qn, p1..pn, `t` and its parameters), e.g.
+///     `{"close": "q1^2 + q2^2 < 0.05^2"}`. An event fires where its condition becomes true
+///     between two states of the run (one true at the start waits until it has stopped
+///     holding); its time is located to roundoff on the method's own states, and it is
+///     recorded in the Solution's `events` as (name, t, z).
+///   stop_on: an event's name, or a list of them, that ends the run where it fires: the
+///     run's last state is the event's (`Solution.stopped` names it); the run is complete.
 ///
 /// Ctrl-C stops a run within a fraction of a second with KeyboardInterrupt.
 ///
@@ -80,11 +181,17 @@ struct Request {
 /// 10.0
 /// >>> bool(abs(s.energy_error).max() < 1e-15)
 /// True
+/// >>> s = dth.integrate(h, [1.0, 0.0], dtau=0.01, t_end=10.0,
+/// ...                   events={"zero": "q1 < 0"}, stop_on="zero")
+/// >>> name, t, z = s.events[0]   # q1 = cos t: zero near pi/2, to the method's accuracy
+/// >>> s.stopped, bool(abs(z[0]) < 1e-14), bool(abs(t - 1.5707963) < 1e-4), float(s.t[-1]) == t
+/// ('zero', True, True, True)
 #[pyfunction]
 #[pyo3(signature = (
     h, z0, method = "dth", *, dtau = None, dt = None, order = None, robust = None,
     lambda0 = None, steps = None, t_end = None, orbits = None, t0 = 0.0, every = None,
-    save_at = None, max_steps = None, energy_errors = true, raise_on_failure = false
+    save_at = None, max_steps = None, energy_errors = true, raise_on_failure = false,
+    events = None, stop_on = None
 ))]
 #[allow(clippy::too_many_arguments)]
 pub fn integrate(
@@ -106,6 +213,8 @@ pub fn integrate(
     max_steps: Option<usize>,
     energy_errors: bool,
     raise_on_failure: bool,
+    events: Option<&Bound<'_, PyDict>>,
+    stop_on: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<Solution> {
     let z0 = start(&h.h, z0, "z0", t0)?;
     let chosen = args::method(method, dtau, dt, order, robust, lambda0)?;
@@ -125,6 +234,7 @@ pub fn integrate(
         ));
     }
     let every = every.unwrap_or(1);
+    let events = Events::read(&h.h, events, stop_on)?;
     let request = Request {
         end,
         t0,
@@ -132,6 +242,7 @@ pub fn integrate(
         save_at,
         max_steps,
         energy_errors,
+        events,
     };
     let job = Run {
         py,
@@ -176,7 +287,13 @@ impl Job for Run<'_, '_> {
     {
         let dim = self.z0.len();
         let result = drive(self.py, h, state(self.z0), method, self.request)?;
-        finish(self.py, result, dim, self.raise_on_failure)
+        finish(
+            self.py,
+            result,
+            dim,
+            &self.request.events.names,
+            self.raise_on_failure,
+        )
     }
 }
 
@@ -212,6 +329,9 @@ where
         if !request.energy_errors {
             run = run.without_energy_errors();
         }
+        for event in request.events.watched() {
+            run = run.event(event);
+        }
         run.run().map_err(Box::new)
     })
 }
@@ -223,13 +343,14 @@ fn finish<D: Dim>(
     py: Python<'_>,
     result: Outcome<D>,
     dim: usize,
+    events: &[String],
     raise_on_failure: bool,
 ) -> PyResult<Solution>
 where
     DefaultAllocator: Alloc<D>,
 {
     match result {
-        Ok(solution) => Ok(Solution::new(py, solution, dim)),
+        Ok(solution) => Ok(Solution::new(py, solution, dim, events)),
         Err(failed) => {
             let error = failed.error;
             // Refused before the first step: bad arguments, not a failed run.
@@ -240,7 +361,7 @@ where
             if partial.failure.is_none() {
                 partial.failure = Some(error);
             }
-            let solution = Solution::new(py, partial, dim);
+            let solution = Solution::new(py, partial, dim, events);
             if raise_on_failure {
                 let message = format!(
                     "the run stopped before its end: {}",

@@ -31,6 +31,8 @@ use dth::Alloc;
 ///   newton_iterations: over all steps.
 ///   failure: None for a run that reached its end, else what stopped it (the arrays hold the
 ///     states up to the last accepted step); completed: failure is None.
+///   events: the events that fired (`events=`), in order: (name, t, z) with z the state there.
+///   stopped: the name of the event that ended the run (`stop_on=`), or None.
 #[pyclass(module = "dth", name = "Solution", frozen)]
 pub struct Solution {
     #[pyo3(get)]
@@ -63,6 +65,10 @@ pub struct Solution {
     newton_iterations: u64,
     #[pyo3(get)]
     failure: Option<String>,
+    #[pyo3(get)]
+    events: Vec<(String, f64, Py<PyArray1<f64>>)>,
+    #[pyo3(get)]
+    stopped: Option<String>,
     /// The failure's variant name (`NewtonDiverged`, `Breakdown`, `Interrupted`, ...).
     pub(crate) failure_kind: Option<String>,
 }
@@ -105,8 +111,14 @@ fn variant(e: &dth::Error) -> String {
 }
 
 impl Solution {
-    /// From the driver's solution of a system of dimension `dim`.
-    pub fn new<D: Dim>(py: Python<'_>, s: dth::Solution<D>, dim: usize) -> Solution
+    /// From the driver's solution of a system of dimension `dim` whose events (`events=`) are
+    /// named `names`, in the order watched.
+    pub fn new<D: Dim>(
+        py: Python<'_>,
+        s: dth::Solution<D>,
+        dim: usize,
+        names: &[String],
+    ) -> Solution
     where
         DefaultAllocator: Alloc<D>,
     {
@@ -125,8 +137,19 @@ impl Solution {
             ),
             None => (None, None, None, None),
         };
+        let name = |i: usize| names.get(i).cloned().unwrap_or_default();
+        let events = s
+            .events
+            .iter()
+            .map(|f| {
+                let z: Vec<f64> = f.z.iter().copied().collect();
+                (name(f.event), f.t, z.into_pyarray(py).unbind())
+            })
+            .collect();
         Solution {
             method: s.method,
+            events,
+            stopped: s.stopped.map(name),
             z: matrix(py, &s.z, dim).unbind(),
             t: s.t.into_pyarray(py).unbind(),
             k: s.k.into_pyarray(py).unbind(),

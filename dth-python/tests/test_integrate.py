@@ -319,3 +319,57 @@ def test_a_state_of_the_wrong_length_names_z0(kepler):
 def test_the_hamiltonian_must_be_one(thesis_z0):
     with pytest.raises(TypeError):
         dth.integrate("p1^2", thesis_z0, dtau=0.1, steps=1)
+
+
+def radius(z):
+    return float(np.hypot(z[0], z[1]))
+
+
+def test_an_event_is_located_on_the_methods_own_states(kepler, thesis_z0):
+    # r > 1 from the thesis's pericentre (0.5; apocentre 1.29): the exact solution locates it
+    # to roundoff, DTH of order 8 to its own (tiny) error.
+    when = {"far": "q1^2 + q2^2 > 1"}
+    exact = dth.integrate(kepler, thesis_z0, "exact", dt=0.05, t_end=5.0, events=when, stop_on="far")
+    dth8 = dth.integrate(kepler, thesis_z0, dtau=0.02, order=8, t_end=5.0, events=when, stop_on="far")
+    for s in (exact, dth8):
+        assert s.completed and s.stopped == "far"
+        name, t, z = s.events[0]
+        assert name == "far" and len(s.events) == 1
+        # The run ends on the event: its last state is the event's, bit for bit.
+        assert s.t[-1] == t and np.array_equal(s.z[-1], z)
+        # r = 1 to roundoff (r^2 - 1 is located to 8 eps in t; dr/dt is of order 1).
+        assert abs(radius(z) - 1.0) < 1e-13
+    assert abs(dth8.events[0][1] - exact.events[0][1]) < 1e-9
+
+
+def test_a_recorded_event_leaves_the_run_as_it_was(kepler, thesis_z0):
+    # Every orbit crosses r = 1 outwards once: three orbits, three events.
+    plain = dth.integrate(kepler, thesis_z0, dtau=0.05, orbits=3)
+    s = dth.integrate(kepler, thesis_z0, dtau=0.05, orbits=3, events={"out": "q1^2 + q2^2 > 1"})
+    assert [e[0] for e in s.events] == ["out"] * 3 and s.stopped is None
+    assert all(abs(radius(z) - 1.0) < 1e-13 for _, _, z in s.events)
+    assert np.array_equal(s.z, plain.z) and np.array_equal(s.t, plain.t)
+
+
+def test_an_event_on_time_and_a_peer(thesis_z0, kepler):
+    # `t` is the run's time, for an autonomous H too; a peer lands on it as DTH does.
+    for method, step in [("dth", {"dtau": 0.05}), ("midpoint", {"dt": 0.1})]:
+        s = dth.integrate(kepler, thesis_z0, method, t_end=5.0, events={"late": "t > 1.25"}, stop_on=["late"], **step)
+        assert s.stopped == "late"
+        assert abs(s.t[-1] - 1.25) <= 8 * EPS * 1.25
+
+
+@pytest.mark.parametrize(
+    "events, stop_on, pattern",
+    [
+        ({"r": "q1^2 + q2^2"}, None, "event `r`: expected one comparison"),
+        ({"r": "q1 < 1 < q2"}, None, "event `r`: expected one comparison"),
+        ({"r": "q1 <"}, None, "event `r`: a side of the comparison is empty"),
+        ({"r": "q3 < 1"}, None, "event `r`"),
+        ({"r": "q1 < 1"}, "s", "stop_on names `s`, which is not one of the events \\(r\\)"),
+        (None, "s", "stop_on names `s`.*none given"),
+    ],
+)
+def test_a_bad_event_is_a_value_error_naming_it(events, stop_on, pattern, kepler, thesis_z0):
+    with pytest.raises(ValueError, match=pattern):
+        dth.integrate(kepler, thesis_z0, dtau=0.05, t_end=1.0, events=events, stop_on=stop_on)

@@ -49,12 +49,23 @@ fn comparison(when: &str) -> Result<Comparison, String> {
     })
 }
 
-/// The function whose negative values are the condition: `(lhs) - (rhs)` for `lhs < rhs`,
-/// `(rhs) - (lhs)` for `lhs > rhs`.
-pub(crate) fn condition_function(when: &str) -> Option<String> {
-    let c = comparison(when).ok()?;
+/// The function whose negative values are the condition `when` (`lhs < rhs` or `lhs > rhs`,
+/// as a scene's `[[event]] when` and Python's `dth.integrate(events=...)` write it):
+/// `(lhs) - (rhs)` for `lhs < rhs`, `(rhs) - (lhs)` for `lhs > rhs`; or why `when` is not one
+/// comparison of two sides.
+///
+/// ```
+/// use dth_examples::scene::condition_function;
+/// assert_eq!(condition_function("q1 > 10").as_deref(), Ok("( 10) - (q1 )"));
+/// assert!(condition_function("q1 <").is_err());
+/// ```
+pub fn condition_function(when: &str) -> Result<String, String> {
+    let c = comparison(when)?;
     let (lhs, rhs) = (&when[c.lhs], &when[c.rhs]);
-    Some(if c.less {
+    if lhs.trim().is_empty() || rhs.trim().is_empty() {
+        return Err("a side of the comparison is empty".into());
+    }
+    Ok(if c.less {
         format!("({lhs}) - ({rhs})")
     } else {
         format!("({rhs}) - ({lhs})")
@@ -138,7 +149,7 @@ pub(super) fn check(
                 false
             }
         };
-        if let (true, Some(g)) = (sound, condition_function(when)) {
+        if let (true, Ok(g)) = (sound, condition_function(when)) {
             events.push(EventSpec {
                 name,
                 when: when.clone(),
@@ -223,11 +234,11 @@ mod tests {
     fn a_condition_is_one_comparison_turned_into_a_function_below_zero() {
         assert_eq!(
             condition_function("q1^2 + q2^2 < 0.05^2").as_deref(),
-            Some("(q1^2 + q2^2 ) - ( 0.05^2)")
+            Ok("(q1^2 + q2^2 ) - ( 0.05^2)")
         );
         assert_eq!(
             condition_function("q1 >= 10").as_deref(),
-            Some("( 10) - (q1 )")
+            Ok("( 10) - (q1 )")
         );
         assert!(comparison("q1").is_err());
         assert!(comparison("0 < q1 < 1").is_err());

@@ -57,6 +57,7 @@ mod suggest;
 mod toml_string;
 mod validate;
 
+pub use events::condition_function;
 pub use regularization::{translated, IndexedCentre};
 pub(crate) use schema::thousands;
 pub use schema::{

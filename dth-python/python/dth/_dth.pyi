@@ -90,6 +90,10 @@ class Solution:
     def failure_kind(self) -> Optional[str]: ...
     @property
     def completed(self) -> bool: ...
+    @property
+    def events(self) -> list[tuple[str, float, npt.NDArray[np.float64]]]: ...
+    @property
+    def stopped(self) -> Optional[str]: ...
     def __len__(self) -> int: ...
 
 def integrate(
@@ -111,6 +115,8 @@ def integrate(
     max_steps: Optional[int] = None,
     energy_errors: bool = True,
     raise_on_failure: bool = False,
+    events: Optional[Mapping[str, str]] = None,
+    stop_on: Union[str, Sequence[str], None] = None,
 ) -> Solution: ...
 
 class Ensemble:
