@@ -131,23 +131,66 @@ pub struct Manifest {
     pub figures: Vec<Figure>,
 }
 
-/// One figure of the gallery.
+/// One figure of the gallery (a `[[figure]]` table with exactly one of `scene` and
+/// `workprecision`).
 #[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(try_from = "RawFigure")]
 pub struct Figure {
     /// Its file stem under `figures/` (`[a-z0-9_]`, unique).
     pub name: String,
-    /// The scene that draws it, from the manifest's folder (one of `scene`, `workprecision`;
-    /// read both through [`Figure::source`]).
-    scene: Option<PathBuf>,
-    /// The work-precision problem that draws it (as `dth workprecision --problem NAME`).
-    workprecision: Option<String>,
+    /// What draws it ([`Figure::source`]).
+    drawn_by: DrawnBy,
     /// The stem of the figure in that run's output folder (`fig4_1`, `poincare1`, ...).
     pub draws: String,
     /// The heading above it.
     pub title: String,
     /// What it shows (markdown).
     pub caption: String,
+}
+
+/// A `[[figure]]` table as written.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawFigure {
+    name: String,
+    /// The scene that draws it, from the manifest's folder.
+    scene: Option<PathBuf>,
+    /// The work-precision problem that draws it (as `dth workprecision --problem NAME`).
+    workprecision: Option<String>,
+    draws: String,
+    title: String,
+    caption: String,
+}
+
+/// What draws a figure, owned.
+#[derive(Debug)]
+enum DrawnBy {
+    Scene(PathBuf),
+    WorkPrecision(String),
+}
+
+impl TryFrom<RawFigure> for Figure {
+    type Error = String;
+
+    fn try_from(raw: RawFigure) -> Result<Self, String> {
+        let drawn_by = match (raw.scene, raw.workprecision) {
+            (Some(scene), None) => DrawnBy::Scene(scene),
+            (None, Some(problem)) => DrawnBy::WorkPrecision(problem),
+            _ => {
+                return Err(format!(
+                    "figure `{}`: give exactly one of `scene` and `workprecision`",
+                    raw.name
+                ))
+            }
+        };
+        Ok(Figure {
+            name: raw.name,
+            drawn_by,
+            draws: raw.draws,
+            title: raw.title,
+            caption: raw.caption,
+        })
+    }
 }
 
 /// What draws a figure.
@@ -160,12 +203,11 @@ pub enum Source<'a> {
 }
 
 impl Figure {
-    /// What draws it (validated by [`Manifest::parse`]: exactly one is given).
+    /// What draws it.
     pub fn source(&self) -> Source<'_> {
-        match (&self.scene, &self.workprecision) {
-            (Some(scene), _) => Source::Scene(scene),
-            (None, Some(problem)) => Source::WorkPrecision(problem),
-            (None, None) => unreachable!("Manifest::parse requires a scene or a problem"),
+        match &self.drawn_by {
+            DrawnBy::Scene(scene) => Source::Scene(scene),
+            DrawnBy::WorkPrecision(problem) => Source::WorkPrecision(problem),
         }
     }
 
@@ -197,7 +239,8 @@ impl Manifest {
     }
 
     /// Parses and validates a manifest's text (`file` names it in errors): every figure has
-    /// exactly one of `scene` and `workprecision`, and a unique name of `[a-z0-9_]`.
+    /// exactly one of `scene` and `workprecision` (`Figure`'s form), and a unique name of
+    /// `[a-z0-9_]`.
     pub fn parse(text: &str, file: &str) -> Result<Self, Error> {
         let invalid = |message: String| Error::Invalid {
             file: file.to_string(),
@@ -219,12 +262,6 @@ impl Manifest {
             }
             if !names.insert(f.name.as_str()) {
                 return Err(invalid(format!("figure `{}` is named twice", f.name)));
-            }
-            if f.scene.is_some() == f.workprecision.is_some() {
-                return Err(invalid(format!(
-                    "figure `{}`: give exactly one of `scene` and `workprecision`",
-                    f.name
-                )));
             }
         }
         Ok(manifest)
