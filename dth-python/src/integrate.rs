@@ -183,8 +183,8 @@ impl Events {
 /// True
 /// >>> s = dth.integrate(h, [1.0, 0.0], dtau=0.01, t_end=10.0,
 /// ...                   events={"zero": "q1 < 0"}, stop_on="zero")
-/// >>> name, t, z = s.events[0]   # q1 = cos t: zero near pi/2, to the method's accuracy
-/// >>> s.stopped, bool(abs(z[0]) < 1e-14), bool(abs(t - 1.5707963) < 1e-4), float(s.t[-1]) == t
+/// >>> ((name, t, z),) = s.events   # q1 = cos t: zero near pi/2, to the method's accuracy
+/// >>> s.stopped, bool(abs(z.item(0)) < 1e-14), bool(abs(t - 1.5707963) < 1e-4), float(s.t[-1]) == t
 /// ('zero', True, True, True)
 #[pyfunction]
 #[pyo3(signature = (
