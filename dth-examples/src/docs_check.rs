@@ -30,22 +30,32 @@ fn read(path: &Path) -> String {
     std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }
 
+/// Per line of `text`, the code block it belongs to: `Some(info)` (the opening fence's info
+/// string, `sh`, `rust`, ...) for a fence and the lines between, `None` for prose.
+fn code_blocks(text: &str) -> Vec<Option<&str>> {
+    let mut open: Option<&str> = None;
+    text.lines()
+        .map(|line| match line.trim_start().strip_prefix("```") {
+            Some(info) => match open.take() {
+                None => {
+                    open = Some(info.trim());
+                    open
+                }
+                closed => closed,
+            },
+            None => open,
+        })
+        .collect()
+}
+
 /// `(line number, line)` of the lines inside fenced blocks of `lang` (```` ```sh ````).
 fn fenced<'a>(text: &'a str, lang: &str) -> Vec<(usize, &'a str)> {
-    let mut inside = None;
-    let mut lines = Vec::new();
-    for (i, line) in text.lines().enumerate() {
-        let t = line.trim_start();
-        if let Some(info) = t.strip_prefix("```") {
-            inside = match inside {
-                None => Some(info.trim() == lang),
-                Some(_) => None,
-            };
-        } else if inside == Some(true) {
-            lines.push((i + 1, line));
-        }
-    }
-    lines
+    text.lines()
+        .zip(code_blocks(text))
+        .enumerate()
+        .filter(|(_, (line, block))| *block == Some(lang) && !line.trim_start().starts_with("```"))
+        .map(|(i, (line, _))| (i + 1, line))
+        .collect()
 }
 
 /// The arguments of a shell line that runs the `dth` command (`cargo run --release -- ARGS`,
@@ -153,9 +163,8 @@ fn slug(heading: &str) -> String {
 /// its `<a id="...">` / `<a name="...">`.
 fn anchors(text: &str) -> Vec<String> {
     let mut found: Vec<String> = Vec::new();
-    let code = fenced_all(text);
-    for (i, line) in text.lines().enumerate() {
-        if code.contains(&i) {
+    for (line, block) in text.lines().zip(code_blocks(text)) {
+        if block.is_some() {
             continue;
         }
         if let Some(h) = line.strip_prefix('#') {
@@ -181,28 +190,11 @@ fn anchors(text: &str) -> Vec<String> {
     found
 }
 
-/// The 0-based indices of lines inside or fencing any code block.
-fn fenced_all(text: &str) -> Vec<usize> {
-    let mut inside = false;
-    let mut lines = Vec::new();
-    for (i, line) in text.lines().enumerate() {
-        let fence = line.trim_start().starts_with("```");
-        if inside || fence {
-            lines.push(i);
-        }
-        if fence {
-            inside = !inside;
-        }
-    }
-    lines
-}
-
 /// The targets of the markdown links and images in `text` outside code: `(line, target)`.
 fn links(text: &str) -> Vec<(usize, String)> {
-    let code = fenced_all(text);
     let mut found = Vec::new();
-    for (i, line) in text.lines().enumerate() {
-        if code.contains(&i) {
+    for (i, (line, block)) in text.lines().zip(code_blocks(text)).enumerate() {
+        if block.is_some() {
             continue;
         }
         // Inline code spans are not links.

@@ -35,7 +35,7 @@ struct Request {
 /// The events a run watches (`events=`, `stop_on=`): each name, its condition compiled as the
 /// function whose negative values are the condition, and whether it ends the run.
 #[derive(Default)]
-pub(crate) struct Events {
+struct Events {
     names: Vec<String>,
     functions: Vec<StateFunction>,
     stops: Vec<bool>,
