@@ -5,17 +5,23 @@
 //! The estimate counts the numbers the requested effects keep (the same accounting as
 //! [`Effects::stored_values`](crate::effects::Effects::stored_values)), per method, from the
 //! number of steps the duration implies: exact for `steps` and for fixed-step methods run for a
-//! time; for DTH run for a time it assumes the initial step `lambda0 dtau` throughout (DTH's
-//! time step varies along the orbit, so this is an estimate). Poincare crossings are bounded by
+//! time. DTH's time step `lambda dtau` follows the state along the orbit (and a regularized
+//! run's physical step is `|u|^2` times its fictitious one: ~40x `dtau lambda0` on average on
+//! the e = 0.99 scene, which starts at pericentre), so for DTH run for a time the count is an
+//! estimate: from the average step over the short DTH run `dth check` probes `Psi` on
+//! (`crate::probe::time_per_step`: an orbit where the system knows its period, else up to 2,000
+//! steps), or from the initial step `lambda0 dtau` where that probe is not run
+//! ([`Measure`]). Poincare crossings are bounded by
 //! one per two steps (one per step for `direction = "both"`). The thesis figures keep every
 //! state of their long runs. An ensemble scene multiplies the effects by its members and adds
 //! its table (a row per member and method, as numbers and as the text of its two files).
 
 use crate::driver::Stop;
 use crate::error::Error;
+use crate::probe;
 use crate::scene::{Direction, EffectSpec, MethodKind, Sampling, Scene, StepSpec};
 use crate::system::SceneSystem;
-use dth::nalgebra::{DefaultAllocator, Dim};
+use dth::nalgebra::{DefaultAllocator, Dim, OVector};
 use dth::Alloc;
 
 /// Bytes per stored number (`f64`).
@@ -43,17 +49,58 @@ impl MemoryEstimate {
     }
 }
 
-/// The steps a method takes until `stop` (see the module docs for DTH run for a time).
-fn steps(step: StepSpec, t0: f64, stop: Stop) -> u64 {
+/// When [`check`] measures DTH's average step (`crate::probe::time_per_step`) instead of
+/// assuming its initial one.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Measure {
+    /// Always (`dth check`, which reports the estimate: a probe of milliseconds for most
+    /// scenes, up to 2,000 steps of the scene's system).
+    Always,
+    /// Only when the estimate from the initial step is above the limit, so that a run is not
+    /// refused on it (a run: the probe would add to every run what it rarely changes).
+    AboveLimit,
+}
+
+/// The steps a method takes until `stop`, a DTH step covering `per_unit` times its `dtau
+/// lambda0` (see the module docs for DTH run for a time).
+fn steps(step: StepSpec, t0: f64, stop: Stop, per_unit: f64) -> u64 {
     let dt = match step {
         StepSpec::Fixed { dt } => dt,
-        StepSpec::Dth { dtau, lambda0, .. } => dtau * lambda0,
+        StepSpec::Dth { dtau, lambda0, .. } => dtau * lambda0 * per_unit,
     };
     stop.fixed_steps(t0, dt) as u64
 }
 
-/// The memory the effects of `scene` would keep when run on `system` from `z0` until `stop`.
+/// The memory the effects of `scene` would keep when run on `system` until `stop`, a DTH run
+/// for a time counted from its initial step `lambda0 dtau` (see the module docs).
 pub fn estimate<D: Dim, S: SceneSystem<D>>(system: &S, scene: &Scene, stop: Stop) -> MemoryEstimate
+where
+    DefaultAllocator: Alloc<D>,
+{
+    estimate_with(system, scene, stop, 1.0)
+}
+
+/// [`estimate`] with DTH's average step measured on the probe's run from `z0`
+/// (`crate::probe::time_per_step`), where the scene is probed.
+pub fn estimate_measured<D: Dim, S: SceneSystem<D>>(
+    system: &S,
+    scene: &Scene,
+    (z0, stop): (&OVector<f64, D>, Stop),
+) -> MemoryEstimate
+where
+    DefaultAllocator: Alloc<D>,
+{
+    let per_unit = probe::time_per_step(system, scene, z0).unwrap_or(1.0);
+    estimate_with(system, scene, stop, per_unit)
+}
+
+/// [`estimate`] with a DTH step of `per_unit` times its `dtau lambda0`.
+fn estimate_with<D: Dim, S: SceneSystem<D>>(
+    system: &S,
+    scene: &Scene,
+    stop: Stop,
+    per_unit: f64,
+) -> MemoryEstimate
 where
     DefaultAllocator: Alloc<D>,
 {
@@ -64,7 +111,7 @@ where
         .iter()
         .enumerate()
         .map(|(i, m)| {
-            let n = steps(m.step, scene.t0, stop);
+            let n = steps(m.step, scene.t0, stop, per_unit);
             let dth = u64::from(matches!(m.step, StepSpec::Dth { .. })) + 1;
             // Saturating: a scene may ask for up to 2^63 steps, and a wrapped estimate would
             // pass the check.
@@ -186,21 +233,32 @@ fn about(bytes: u64) -> String {
     }
 }
 
-/// Refuses a run whose effects would keep more than `limit` bytes, naming the estimate and the
-/// largest consumer.
+/// Refuses a run from `z0` until `stop` whose effects would keep more than `limit` bytes,
+/// naming the estimate and the largest consumer; DTH's average step measured as `measure`
+/// says.
 pub fn check<D: Dim, S: SceneSystem<D>>(
     system: &S,
     scene: &Scene,
-    stop: Stop,
+    (z0, stop): (&OVector<f64, D>, Stop),
     limit: u64,
+    measure: Measure,
 ) -> Result<MemoryEstimate, Error>
 where
     DefaultAllocator: Alloc<D>,
 {
-    let e = estimate(system, scene, stop);
+    let fits = |e: &MemoryEstimate| e.bytes() <= limit && e.bytes() < u64::MAX;
+    let mut e = estimate(system, scene, stop);
+    let dth_for_a_time = stop.limit.end_time().is_some()
+        && scene
+            .methods
+            .iter()
+            .any(|m| matches!(m.step, StepSpec::Dth { .. }));
+    if dth_for_a_time && (measure == Measure::Always || !fits(&e)) {
+        e = estimate_measured(system, scene, (z0, stop));
+    }
     let total = e.bytes();
     // A saturated estimate is more than any limit can allow (`u64::MAX` itself included).
-    if total <= limit && total < u64::MAX {
+    if fits(&e) {
         return Ok(e);
     }
     let largest = e

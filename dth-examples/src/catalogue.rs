@@ -26,7 +26,7 @@ use dth::{Alloc, ConstFlags};
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use crate::budget::{self, MemoryEstimate};
+use crate::budget::{self, Measure, MemoryEstimate};
 use crate::ensemble;
 use crate::error::Error;
 use crate::pipeline::{run_system, RunError};
@@ -146,7 +146,13 @@ where
     let system = make(&scene.params)?;
     let z0 = initial_state(&system, scene)?;
     let stop = stop_for(&system, scene, &z0, options)?;
-    let estimate = budget::check(&system, scene, stop, options.memory_limit())?;
+    let estimate = budget::check(
+        &system,
+        scene,
+        (&z0, stop),
+        options.memory_limit(),
+        Measure::Always,
+    )?;
     if scene.members.is_none() {
         // What a single run refuses before it starts, `dth check` reports too (an ensemble's
         // members each have their own state: a member that cannot run is a row of its table).
@@ -163,7 +169,11 @@ fn probe_built<D: Dim, S: SceneSystem<D>>(
 where
     DefaultAllocator: Alloc<D>,
 {
-    Ok(probe_psi(&make(&scene.params)?, scene))
+    let system = make(&scene.params)?;
+    // A start the scene cannot run from is the estimate's error (`dth check` asks it first).
+    Ok(initial_state(&system, scene)
+        .ok()
+        .and_then(|z0| probe_psi(&system, scene, &z0)))
 }
 
 /// [`probe_built`] on a scene's text Hamiltonian.

@@ -6,6 +6,9 @@
 //! says which (`regularize = "levi-civita"` or `"ks"` under `[system]`), else it suggests
 //! robust mode.
 //!
+//! The same run measures DTH's average step ([`time_per_step`]), from which `crate::budget`
+//! counts the steps of a DTH run for a time (and `dth check` its time).
+//!
 //! **What the probe runs, and why.** `Psi` is sampled where DTH itself evaluates it: at the
 //! midpoints of a short run of the scene's first `dth` method (its `dtau`, `lambda0` and
 //! solver), of order 2 whatever the scene's order (a composed step's sub-steps sample the same
@@ -24,7 +27,6 @@ use dth::Alloc;
 
 use crate::driver::{DthRunner, Stop};
 use crate::scene::{component_names, Duration, Scene, StepSpec};
-use crate::simulate::initial_state;
 use crate::singularity::{regularization, Regularization};
 use crate::system::SceneSystem;
 
@@ -141,10 +143,16 @@ where
     }
 }
 
-/// Probes `Psi` along the orbit of `scene` on `system` (see the [module docs](self)): where it
-/// changes sign, where and the fix; `None` where it keeps its sign over the probe, or the
-/// scene is not probed.
-pub fn probe_psi<D: Dim, S: SceneSystem<D>>(system: &S, scene: &Scene) -> Option<PsiSignChange>
+/// The probe's run (see the [module docs](self)) on `system` from `z0`, every record shown to
+/// `observer`: the probed method's label, whether it is robust, and its `dtau lambda0`; `None`
+/// when the scene is not probed. A failed probe run (Newton, the step cap) has shown the
+/// observer what it computed: enough.
+fn probe_run<D: Dim, S: SceneSystem<D>, O: Observer<D>>(
+    system: &S,
+    scene: &Scene,
+    z0: &OVector<f64, D>,
+    observer: &mut O,
+) -> Option<(String, bool, f64)>
 where
     DefaultAllocator: Alloc<D>,
 {
@@ -163,20 +171,33 @@ where
             StepSpec::Fixed { .. } => None,
         })?;
     let runner = DthRunner::new(dtau, lambda0, solver, true, 2).ok()?;
-    let z0 = initial_state(system, scene).ok()?;
-    let period = system.period(&z0).filter(|p| p.is_finite() && *p > 0.0);
+    let period = system.period(z0).filter(|p| p.is_finite() && *p > 0.0);
     let stop = match (scene.duration, period) {
         (Duration::Steps(n), Some(p)) => Stop::time(scene.t0 + p, n.min(PROBE_STEPS)),
         (Duration::Steps(n), None) => Stop::steps(n.min(PROBE_STEPS)),
         (Duration::Time(t), p) => Stop::time(scene.t0 + p.map_or(t, |p| p.min(t)), PROBE_STEPS),
         (Duration::Orbits(k), p) => Stop::time(scene.t0 + k.min(1.0) * p?, PROBE_STEPS),
     };
+    let _ = system.run_dth(&runner, z0.clone(), scene.t0, stop, observer)?;
+    Some((method, robust, dtau * lambda0))
+}
+
+/// Probes `Psi` along the orbit of `scene` on `system` from its initial state `z0` (see the
+/// [module docs](self)): where it changes sign, where and the fix; `None` where it keeps its
+/// sign over the probe, or the scene is not probed.
+pub fn probe_psi<D: Dim, S: SceneSystem<D>>(
+    system: &S,
+    scene: &Scene,
+    z0: &OVector<f64, D>,
+) -> Option<PsiSignChange>
+where
+    DefaultAllocator: Alloc<D>,
+{
     let mut watch = SignWatch {
         psi0: None,
         found: None,
     };
-    // A failed probe (Newton, the step cap) has shown the watch what it computed: enough.
-    let _ = system.run_dth(&runner, z0.clone(), scene.t0, stop, &mut watch)?;
+    let (method, robust, _) = probe_run(system, scene, z0, &mut watch)?;
     let (step, t, z, psi) = watch.found?;
     let names = component_names(scene.q.len(), z.len());
     Some(PsiSignChange {
@@ -189,6 +210,50 @@ where
         step,
         regularization: regularization(system, &z),
     })
+}
+
+/// Counts a run's steps and keeps its last time: the last midpoint's, then the last vertex's
+/// when the run finishes.
+struct Clock {
+    steps: usize,
+    t: f64,
+}
+
+impl<D: Dim> Observer<D> for Clock
+where
+    DefaultAllocator: Alloc<D>,
+{
+    fn on_step(&mut self, r: &StepRecord<D>) {
+        self.steps = r.k;
+        self.t = r.t;
+    }
+
+    fn on_finish(&mut self, _last_vertex: &OVector<f64, D>, last_vertex_time: f64) {
+        self.t = last_vertex_time;
+    }
+}
+
+/// The physical time a DTH step of `scene` on `system` covers on average, per unit of its
+/// `dtau lambda0`, measured on the probe's run from `z0` (see the [module docs](self)):
+/// DTH's step `dt = lambda dtau` follows the state (`lambda` grows where `|Psi|` falls, and a
+/// regularized run's physical step is `|u|^2` times its fictitious one), so the step count of
+/// a run for a time is this over a probed orbit, not `dtau lambda0` from the start. `None`
+/// when the scene is not probed or its probe did not advance.
+pub fn time_per_step<D: Dim, S: SceneSystem<D>>(
+    system: &S,
+    scene: &Scene,
+    z0: &OVector<f64, D>,
+) -> Option<f64>
+where
+    DefaultAllocator: Alloc<D>,
+{
+    let mut clock = Clock {
+        steps: 0,
+        t: scene.t0,
+    };
+    let (_, _, unit) = probe_run(system, scene, z0, &mut clock)?;
+    let per_step = (clock.t - scene.t0) / clock.steps as f64;
+    (clock.steps > 0 && per_step.is_finite() && per_step > 0.0).then_some(per_step / unit)
 }
 
 #[cfg(test)]

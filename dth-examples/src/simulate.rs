@@ -11,7 +11,7 @@ use dth::observer::{Observer, StepRecord};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
 
-use crate::budget;
+use crate::budget::{self, Measure};
 use crate::driver::{FailureCause, Limit, MethodFailure, Stop};
 use crate::effects::{DeviationStats, EffectOutputs, Effects, FinalState};
 use crate::error::Error;
@@ -570,7 +570,13 @@ where
 {
     let z0 = initial_state(system, scene)?;
     let stop = stop_for(system, scene, &z0, options)?;
-    budget::check(system, scene, stop, options.memory_limit())?;
+    budget::check(
+        system,
+        scene,
+        (&z0, stop),
+        options.memory_limit(),
+        Measure::AboveLimit,
+    )?;
     let times = preflight(system, scene, &z0, stop)?;
     let conditions = Conditions::compile(scene, system.flags().time_dependent).map_err(|e| {
         Error::NotAvailable {

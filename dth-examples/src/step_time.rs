@@ -3,7 +3,7 @@
 //! same code `dth run` runs: the compiled type or the text compiled at the scene's sizes, the
 //! structured Newton at 4,096 sites as at 4), times the steps the duration needs (those of
 //! [`crate::budget`]'s memory estimate: exact for `steps` and fixed-step methods, for DTH run
-//! for a time from its initial step).
+//! for a time from its average step over the `Psi` probe's run).
 //!
 //! **What is measured.** A method runs 2, then 8, 32, ... steps without effects until a run
 //! takes [`MEASURE_SECONDS`] or [`MEASURE_STEPS`] steps (or the method stops early), and the

@@ -210,8 +210,75 @@ fn an_absurd_memory_limit_is_an_error_not_a_panic() {
     let scene = scene(&i64::MAX.to_string());
     let scene = dth_examples::check_scene(&scene, "max.toml", &Catalogue::builtin()).unwrap();
     let stop = Stop::steps(usize::MAX);
+    let z0 = dth_examples::simulate::initial_state(&Kepler::thesis(), &scene).unwrap();
     assert!(matches!(
-        dth_examples::budget::check(&Kepler::thesis(), &scene, stop, u64::MAX),
+        dth_examples::budget::check(
+            &Kepler::thesis(),
+            &scene,
+            (&z0, stop),
+            u64::MAX,
+            dth_examples::budget::Measure::Always
+        ),
         Err(dth_examples::Error::MemoryLimit { .. })
     ));
+}
+
+/// DTH's step `lambda dtau` follows the state, and a regularized run's physical step is `|u|^2`
+/// times its fictitious one: the shipped e = 0.99 scene starts at pericentre, where its step is
+/// ~40x smaller than on average, so counting from the initial step estimated 7.5 MB for a run
+/// that keeps 0.15 MB, and a limit between the two refused the run. The count now comes from
+/// the average step of the probe's run: the estimate is within 5% of what the runs keep (the
+/// probe is a run of order 2 over one orbit or up to 2,000 steps; the scenes' order-8 methods
+/// and landings differ from it by a few steps), and that limit lets the run through while a
+/// lower one still refuses it.
+#[test]
+fn a_dth_run_for_a_time_is_counted_from_its_average_step() {
+    let dir = tempfile::tempdir().unwrap();
+    let catalogue = Catalogue::builtin();
+    let options = RunOptions::default().with_progress(false);
+    for name in [
+        "kepler-e099-regularized.toml",
+        "kepler-e09-robust.toml",
+        "three-body-close-approach.toml",
+    ] {
+        let text = std::fs::read_to_string(manifest_dir().join("scenes").join(name)).unwrap();
+        std::fs::write(dir.path().join(name), &text).unwrap();
+        let scene = dth_examples::check_scene(&text, name, &catalogue).unwrap();
+        let estimate = catalogue.estimate(&scene, &options).unwrap();
+        let out = format!("out-{name}");
+        let o = dth(&["run", name, "--out", &out], dir.path());
+        assert_eq!(o.status.code(), Some(0), "{name}: {}", stderr(&o));
+        let summary: serde_json::Value = serde_json::from_str(
+            &std::fs::read_to_string(dir.path().join(&out).join("summary.json")).unwrap(),
+        )
+        .unwrap();
+        let kept: u64 = summary["methods"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|m| 8 * m["stored_values"].as_u64().unwrap())
+            .sum();
+        let ratio = estimate.bytes() as f64 / kept as f64;
+        assert!(
+            (0.95..1.05).contains(&ratio),
+            "{name}: estimated {estimate:?}, kept {kept} bytes"
+        );
+    }
+    let name = "kepler-e099-regularized.toml";
+    for (limit, code) in [("1MB", 0), ("100kB", 2)] {
+        for command in ["check", "run"] {
+            let out = format!("out-{limit}");
+            let mut args = vec![command, name, "--max-memory", limit];
+            if command == "run" {
+                args.extend(["--out", &out]);
+            }
+            let o = dth(&args, dir.path());
+            assert_eq!(
+                o.status.code(),
+                Some(code),
+                "{command} at {limit}: {}",
+                stderr(&o)
+            );
+        }
+    }
 }
