@@ -25,18 +25,20 @@ use dth::{Alloc, ConstFlags};
 
 use std::collections::BTreeMap;
 use std::path::Path;
+use std::sync::Arc;
 
 use crate::budget::{self, Measure, MemoryEstimate};
 use crate::ensemble;
 use crate::error::Error;
 use crate::pipeline::{run_system, RunError};
 use crate::probe::{probe_psi, PsiSignChange};
+use crate::regularized::Regularized;
 use crate::report::RunReport;
 use crate::runtime_system::{self, MakeSystem, TextJob};
-use crate::scene::{ParamSpec, Scene, SystemInfo, SystemLookup};
+use crate::scene::{ParamSpec, Regularization, Scene, SystemInfo, SystemLookup};
 use crate::simulate::{initial_state, preflight, stop_for, RunOptions};
 use crate::step_time;
-use crate::system::{SceneSystem, WithoutDth};
+use crate::system::{Regularizable, SceneSystem, WithoutDth};
 use crate::systems::{
     CalogeroMoser8, DoublePendulum, ForcedOscillator, FputAlpha32, FputBeta32, FreeParticle,
     Gravity3d4, HarmonicOscillator, HenonHeiles, Kepler, NBody2d3, NBody3d3, Pendulum, TodaChain10,
@@ -65,7 +67,8 @@ pub struct SystemEntry {
     fixed_end_chain: bool,
     dth: bool,
     psi_identically_zero: bool,
-    sized_text: Option<String>,
+    text: Option<String>,
+    sizable: bool,
     run: Box<RunFn>,
     estimate: Box<EstimateFn>,
     probe: Box<ProbeFn>,
@@ -354,8 +357,9 @@ impl SystemEntry {
         let specs = std::sync::Arc::new(params.to_vec());
         // The one place parameters become a system: a scene built by hand skipped validation,
         // so hold it to the same parameter rules, and a builder never sees a value its entry
-        // declares invalid.
-        let make = move |name: &str, params: &Params| {
+        // declares invalid. A scene's regularization (validated on the entry's text) is
+        // compiled here with these parameters (an ensemble member's own).
+        let make = move |name: &str, params: &Params, regularize: Option<&Regularization>| {
             let unavailable = |reason| Error::NotAvailable {
                 what: "system",
                 name: name.to_string(),
@@ -366,7 +370,18 @@ impl SystemEntry {
                     p.check(name, v).map_err(unavailable)?;
                 }
             }
-            build(params).map_err(unavailable)
+            let system = build(params).map_err(unavailable)?;
+            let k = match regularize {
+                None => None,
+                Some(r) => {
+                    let named: Vec<(&str, f64)> =
+                        params.iter().map(|(k, &v)| (k.as_str(), v)).collect();
+                    let k =
+                        Regularized::compile(r, &named).map_err(|e| unavailable(e.to_string()))?;
+                    Some(Arc::new(k))
+                }
+            };
+            Ok(Regularizable(system, k))
         };
         let (run_name, estimate_name, probe_name, step_time_name, evaluate_name) = (
             name.to_string(),
@@ -390,28 +405,27 @@ impl SystemEntry {
             fixed_end_chain: S::FIXED_END_CHAIN,
             dth,
             psi_identically_zero: S::FLAGS.psi_identically_zero,
-            sized_text: None,
+            text: None,
+            sizable: false,
             run: Box::new(move |scene, out, options| {
-                run_built::<Const<D>, S>(&|p: &Params| make(&run_name, p), scene, out, options)
+                let make = |p: &Params| make(&run_name, p, scene.regularize.as_ref());
+                run_built::<Const<D>, Regularizable<S>>(&make, scene, out, options)
             }),
             estimate: Box::new(move |scene, options| {
-                estimate_built::<Const<D>, S>(
-                    &|p: &Params| make_too(&estimate_name, p),
-                    scene,
-                    options,
-                )
+                let make = |p: &Params| make_too(&estimate_name, p, scene.regularize.as_ref());
+                estimate_built::<Const<D>, Regularizable<S>>(&make, scene, options)
             }),
             probe: Box::new(move |scene| {
-                probe_built::<Const<D>, S>(&|p: &Params| make_probe(&probe_name, p), scene)
+                let make = |p: &Params| make_probe(&probe_name, p, scene.regularize.as_ref());
+                probe_built::<Const<D>, Regularizable<S>>(&make, scene)
             }),
             step_time: Box::new(move |scene| {
-                step_time_built::<Const<D>, S>(
-                    &|p: &Params| make_step_time(&step_time_name, p),
-                    scene,
-                )
+                let make =
+                    |p: &Params| make_step_time(&step_time_name, p, scene.regularize.as_ref());
+                step_time_built::<Const<D>, Regularizable<S>>(&make, scene)
             }),
             evaluate: Box::new(move |params, z| {
-                let system = make_evaluate(&evaluate_name, params)?;
+                let Regularizable(system, _) = make_evaluate(&evaluate_name, params, None)?;
                 if z.len() != D {
                     return Err(Error::NotAvailable {
                         what: "state for system",
@@ -451,7 +465,18 @@ impl SystemEntry {
     /// `H` and its gradient to the bit); a scene that sets other sizes (`[system] sizes = { N
     /// = 4096 }`) runs the text at those sizes, compiled at run time.
     pub fn with_sizes(mut self, text: &str) -> Self {
-        self.sized_text = Some(text.to_string());
+        self.text = Some(text.to_string());
+        self.sizable = true;
+        self
+    }
+
+    /// The entry with its text, the Hamiltonian in the grammar of `hamiltonian!` with the
+    /// entry's parameters by name, for a system of fixed size: a scene that regularizes it
+    /// (`[system] regularize = "levi-civita" | "ks"`) runs DTH on this text's regularized `K`
+    /// and everything else on the compiled system. The text must be the compiled system (a
+    /// unit test compares `H` and its gradient to the bit, as for [`SystemEntry::with_sizes`]).
+    pub fn with_text(mut self, text: &str) -> Self {
+        self.text = Some(text.to_string());
         self
     }
 
@@ -478,7 +503,8 @@ impl SystemEntry {
             fixed_end_chain: self.fixed_end_chain,
             dth: self.dth,
             psi_identically_zero: self.psi_identically_zero,
-            sized_text: self.sized_text.as_deref(),
+            text: self.text.as_deref(),
+            sizable: self.sizable,
         }
     }
 }
@@ -508,7 +534,8 @@ impl Catalogue {
                     ParamSpec::new("k", Some(1.0), "force constant").positive(),
                 ],
                 |p| Ok(Kepler { m: param("kepler", p, "m")?, k: param("kepler", p, "k")? }),
-            ),
+            )
+            .with_text("(p1^2 + p2^2)/(2*m) - k*(q1^2 + q2^2)^(-1/2)"),
             SystemEntry::runnable::<2, HarmonicOscillator, _>(
                 "harmonic_oscillator",
                 "H = p1^2/(2 m) + k q1^2/2, n = 1",
@@ -836,18 +863,18 @@ mod tests {
         }
     }
 
-    /// At its declared size, the text of a sizable entry is the compiled system: `H` and its
-    /// gradient to the bit at states of every scale (the run-time programs perform the
+    /// An entry's text (at its declared size, for a sizable one) is the compiled system: `H`
+    /// and its gradient to the bit at states of every scale (the run-time programs perform the
     /// macro's operations in its order).
     #[test]
-    fn a_sizable_entrys_text_is_its_compiled_system() {
+    fn an_entrys_text_is_its_compiled_system() {
         let c = Catalogue::builtin();
-        let mut sizable = Vec::new();
+        let mut texts = Vec::new();
         for e in c.entries() {
-            let Some(text) = e.info().sized_text else {
+            let Some(text) = e.info().text else {
                 continue;
             };
-            sizable.push(e.name());
+            texts.push((e.name(), e.info().sizable));
             let params: Params = e
                 .params
                 .iter()
@@ -867,13 +894,14 @@ mod tests {
             }
         }
         assert_eq!(
-            sizable,
+            texts,
             [
-                "fput_alpha",
-                "fput_beta",
-                "toda_fixed_ends",
-                "gravity_3d",
-                "calogero_moser"
+                ("kepler", false),
+                ("fput_alpha", true),
+                ("fput_beta", true),
+                ("toda_fixed_ends", true),
+                ("gravity_3d", true),
+                ("calogero_moser", true)
             ]
         );
     }

@@ -10,7 +10,7 @@ use crate::budget;
 use crate::catalogue::Catalogue;
 use crate::output::Staging;
 use crate::report::table41;
-use crate::scene::{EffectKind, MethodKind};
+use crate::scene::{EffectKind, MethodKind, RegularizeMap};
 use crate::simulate::RunOptions;
 use crate::step_time;
 use crate::workprecision::{self, WorkPrecisionOptions};
@@ -359,7 +359,7 @@ fn list() {
             })
             .collect();
         println!(
-            "  {:<20} n = {}{}{}\n  {:<20} {}\n  {:<20} params: {}",
+            "  {:<20} n = {}{}{}{}\n  {:<20} {}\n  {:<20} params: {}",
             e.name(),
             info.n,
             if info.time_dependent {
@@ -367,10 +367,20 @@ fn list() {
             } else {
                 ""
             },
-            if info.sized_text.is_some() {
+            if info.sizable {
                 " (any size: `sizes = { N = .. }` in [system])"
             } else {
                 ""
+            },
+            // A text of the size a map regularizes.
+            match RegularizeMap::ALL.into_iter().find(|m| m.n() == info.n) {
+                Some(m) if info.text.is_some() => {
+                    format!(
+                        " (regularizable: `regularize = \"{}\"` in [system])",
+                        m.name()
+                    )
+                }
+                _ => String::new(),
             },
             "",
             e.doc(),

@@ -69,19 +69,18 @@ pub struct Regularized {
 }
 
 impl Regularized {
-    /// `K` of the Hamiltonian `source` (parameters `params`) under `regularization`: the text
-    /// translated to its centre (`crate::scene::translated`), then regularized and compiled
-    /// (`RuntimeHamiltonian::levi_civita` or `::kustaanheimo_stiefel`).
+    /// `K` of the Hamiltonian `regularization.source` (parameters `params`) under
+    /// `regularization`: the text translated to its centre (`crate::scene::translated`), then
+    /// regularized and compiled (`RuntimeHamiltonian::levi_civita` or `::kustaanheimo_stiefel`).
     ///
     /// # Errors
     /// [`RegularizeError::Text`] with the engine's error, as `RuntimeHamiltonian::levi_civita`
     /// gives it; [`RegularizeError::IndexedCentre`] from `crate::scene::translated`.
     pub fn compile(
-        source: &str,
-        params: &[(&str, f64)],
         regularization: &Regularization,
+        params: &[(&str, f64)],
     ) -> Result<Self, RegularizeError> {
-        let text = translated(source, &regularization.centre)?;
+        let text = translated(&regularization.source, &regularization.centre)?;
         let k = match regularization.map {
             RegularizeMap::LeviCivita => RuntimeHamiltonian::levi_civita(&text, params),
             RegularizeMap::Ks => RuntimeHamiltonian::kustaanheimo_stiefel(&text, params),

@@ -102,7 +102,7 @@ impl TextSystem {
             RuntimeHamiltonian::new(&h.source, &params).map_err(|e| refused(e.to_string()))?;
         let regularized = match &scene.regularize {
             Some(r) => Some(Arc::new(
-                Regularized::compile(&h.source, &params, r).map_err(|e| refused(e.to_string()))?,
+                Regularized::compile(r, &params).map_err(|e| refused(e.to_string()))?,
             )),
             None => None,
         };

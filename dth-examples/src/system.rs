@@ -1,6 +1,9 @@
-//! What a scene needs from a system beyond `dth::Hamiltonian` ([`SceneSystem`]), and
-//! [`WithoutDth`], the wrapper that runs a system whose `Psi` is identically zero with every
-//! method but DTH.
+//! What a scene needs from a system beyond `dth::Hamiltonian` ([`SceneSystem`]), and the
+//! wrappers that change how method `dth` runs on it: [`WithoutDth`] runs a system whose `Psi`
+//! is identically zero with every method but DTH, [`Regularizable`] runs DTH on a
+//! regularized `K` of the system.
+
+use std::sync::Arc;
 
 use dth::methods::RunEnd;
 use dth::nalgebra::{DefaultAllocator, Dim, OMatrix, OVector};
@@ -9,6 +12,7 @@ use dth::Alloc;
 use dth::{ConstFlags, Flags, Hamiltonian};
 
 use crate::driver::{DthRunner, MethodFailure, Stop};
+use crate::regularized::Regularized;
 
 /// What a scene needs from a system beyond [`Hamiltonian`]: its quadratic invariants (for the
 /// `invariants` effect) and, optionally, an orbit period (for durations in `orbits`).
@@ -97,6 +101,121 @@ where
     }
 }
 
+/// The [`Hamiltonian`] and [`SceneSystem`] impls of a wrapper `$wrapper<S>` around a system in
+/// its field `.0`: every item forwards to `S` but [`SceneSystem::run_dth`], which is `$run_dth`
+/// (the one thing a wrapper changes).
+macro_rules! forward_to_system {
+    ($wrapper:ident, $($run_dth:tt)*) => {
+        impl<S: ConstFlags> ConstFlags for $wrapper<S> {
+            const FLAGS: Flags = S::FLAGS;
+        }
+
+        impl<D: Dim, S: Hamiltonian<D>> Hamiltonian<D> for $wrapper<S>
+        where
+            DefaultAllocator: Alloc<D>,
+        {
+            #[inline]
+            fn dim(&self) -> D {
+                self.0.dim()
+            }
+            #[inline]
+            fn flags(&self) -> Flags {
+                self.0.flags()
+            }
+            #[inline]
+            fn hessian_pattern(&self) -> Option<&[(usize, usize)]> {
+                self.0.hessian_pattern()
+            }
+            #[inline]
+            fn value(&self, z: &OVector<f64, D>) -> f64 {
+                self.0.value(z)
+            }
+            #[inline]
+            fn gradient_into(&self, z: &OVector<f64, D>, out: &mut OVector<f64, D>) {
+                self.0.gradient_into(z, out)
+            }
+            #[inline]
+            fn hessian_into(&self, z: &OVector<f64, D>, out: &mut OMatrix<f64, D, D>) {
+                self.0.hessian_into(z, out)
+            }
+            #[inline]
+            fn hessian_nonzeros(&self, z: &OVector<f64, D>, values: &mut [f64]) {
+                self.0.hessian_nonzeros(z, values)
+            }
+            #[inline]
+            fn psi(&self, z: &OVector<f64, D>) -> f64 {
+                self.0.psi(z)
+            }
+            #[inline]
+            fn derivatives_into(&self, z: &OVector<f64, D>, out: &mut dth::Derivatives<D>) {
+                self.0.derivatives_into(z, out)
+            }
+            #[inline]
+            fn discrete_gradient_into(
+                &self,
+                z0: &OVector<f64, D>,
+                z1: &OVector<f64, D>,
+                out: &mut OVector<f64, D>,
+            ) {
+                self.0.discrete_gradient_into(z0, z1, out)
+            }
+            #[inline]
+            fn discrete_gradient_defect_into(
+                &self,
+                z0: &OVector<f64, D>,
+                z1: &OVector<f64, D>,
+                gbar: &OVector<f64, D>,
+                out: &mut OVector<f64, D>,
+            ) {
+                self.0.discrete_gradient_defect_into(z0, z1, gbar, out)
+            }
+            #[inline]
+            fn energy_difference(&self, z0: &OVector<f64, D>, z1: &OVector<f64, D>) -> f64 {
+                self.0.energy_difference(z0, z1)
+            }
+        }
+
+        impl<D: Dim, S: SceneSystem<D>> SceneSystem<D> for $wrapper<S>
+        where
+            DefaultAllocator: Alloc<D>,
+        {
+            const HAS_PERIOD: bool = S::HAS_PERIOD;
+            const HAS_EXACT: bool = S::HAS_EXACT;
+            const CENTRAL_FORCE: bool = S::CENTRAL_FORCE;
+            const FIXED_END_CHAIN: bool = S::FIXED_END_CHAIN;
+
+            fn invariant_names(&self) -> &'static [&'static str] {
+                self.0.invariant_names()
+            }
+
+            fn invariants(&self, z: &OVector<f64, D>, out: &mut [f64]) {
+                self.0.invariants(z, out);
+            }
+
+            fn exact_solution(&self, z0: &OVector<f64, D>, t: f64) -> Option<OVector<f64, D>> {
+                self.0.exact_solution(z0, t)
+            }
+
+            fn period(&self, z0: &OVector<f64, D>) -> Option<f64> {
+                self.0.period(z0)
+            }
+
+            fn run_discrete_mechanics<O: Observer<D>>(
+                &self,
+                dt: f64,
+                z0: OVector<f64, D>,
+                t0: f64,
+                stop: Stop,
+                observer: &mut O,
+            ) -> Option<Result<RunEnd<D>, MethodFailure>> {
+                self.0.run_discrete_mechanics(dt, z0, t0, stop, observer)
+            }
+
+            $($run_dth)*
+        }
+    };
+}
+
 /// A system run without DTH: every [`Hamiltonian`] and [`SceneSystem`] item forwards to `S`,
 /// except [`SceneSystem::run_dth`], which returns `None` without instantiating the DTH stepper
 /// for `S`. This is how systems whose `Psi` is identically zero run scenes (the stepper rejects
@@ -125,111 +244,8 @@ where
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct WithoutDth<S>(pub S);
 
-impl<S: ConstFlags> ConstFlags for WithoutDth<S> {
-    const FLAGS: Flags = S::FLAGS;
-}
-
-impl<D: Dim, S: Hamiltonian<D>> Hamiltonian<D> for WithoutDth<S>
-where
-    DefaultAllocator: Alloc<D>,
-{
-    #[inline]
-    fn dim(&self) -> D {
-        self.0.dim()
-    }
-    #[inline]
-    fn flags(&self) -> Flags {
-        self.0.flags()
-    }
-    #[inline]
-    fn hessian_pattern(&self) -> Option<&[(usize, usize)]> {
-        self.0.hessian_pattern()
-    }
-    #[inline]
-    fn value(&self, z: &OVector<f64, D>) -> f64 {
-        self.0.value(z)
-    }
-    #[inline]
-    fn gradient_into(&self, z: &OVector<f64, D>, out: &mut OVector<f64, D>) {
-        self.0.gradient_into(z, out)
-    }
-    #[inline]
-    fn hessian_into(&self, z: &OVector<f64, D>, out: &mut OMatrix<f64, D, D>) {
-        self.0.hessian_into(z, out)
-    }
-    #[inline]
-    fn hessian_nonzeros(&self, z: &OVector<f64, D>, values: &mut [f64]) {
-        self.0.hessian_nonzeros(z, values)
-    }
-    #[inline]
-    fn psi(&self, z: &OVector<f64, D>) -> f64 {
-        self.0.psi(z)
-    }
-    #[inline]
-    fn derivatives_into(&self, z: &OVector<f64, D>, out: &mut dth::Derivatives<D>) {
-        self.0.derivatives_into(z, out)
-    }
-    #[inline]
-    fn discrete_gradient_into(
-        &self,
-        z0: &OVector<f64, D>,
-        z1: &OVector<f64, D>,
-        out: &mut OVector<f64, D>,
-    ) {
-        self.0.discrete_gradient_into(z0, z1, out)
-    }
-    #[inline]
-    fn discrete_gradient_defect_into(
-        &self,
-        z0: &OVector<f64, D>,
-        z1: &OVector<f64, D>,
-        gbar: &OVector<f64, D>,
-        out: &mut OVector<f64, D>,
-    ) {
-        self.0.discrete_gradient_defect_into(z0, z1, gbar, out)
-    }
-    #[inline]
-    fn energy_difference(&self, z0: &OVector<f64, D>, z1: &OVector<f64, D>) -> f64 {
-        self.0.energy_difference(z0, z1)
-    }
-}
-
-impl<D: Dim, S: SceneSystem<D>> SceneSystem<D> for WithoutDth<S>
-where
-    DefaultAllocator: Alloc<D>,
-{
-    const HAS_PERIOD: bool = S::HAS_PERIOD;
-    const HAS_EXACT: bool = S::HAS_EXACT;
-    const CENTRAL_FORCE: bool = S::CENTRAL_FORCE;
-    const FIXED_END_CHAIN: bool = S::FIXED_END_CHAIN;
-
-    fn invariant_names(&self) -> &'static [&'static str] {
-        self.0.invariant_names()
-    }
-
-    fn invariants(&self, z: &OVector<f64, D>, out: &mut [f64]) {
-        self.0.invariants(z, out);
-    }
-
-    fn exact_solution(&self, z0: &OVector<f64, D>, t: f64) -> Option<OVector<f64, D>> {
-        self.0.exact_solution(z0, t)
-    }
-
-    fn period(&self, z0: &OVector<f64, D>) -> Option<f64> {
-        self.0.period(z0)
-    }
-
-    fn run_discrete_mechanics<O: Observer<D>>(
-        &self,
-        dt: f64,
-        z0: OVector<f64, D>,
-        t0: f64,
-        stop: Stop,
-        observer: &mut O,
-    ) -> Option<Result<RunEnd<D>, MethodFailure>> {
-        self.0.run_discrete_mechanics(dt, z0, t0, stop, observer)
-    }
-
+forward_to_system!(
+    WithoutDth,
     /// `None`: DTH is not offered (see [`WithoutDth`]).
     fn run_dth<O: Observer<D>>(
         &self,
@@ -242,4 +258,31 @@ where
         let _ = (runner, z0, t0, stop, observer);
         None
     }
-}
+);
+
+/// A system whose scene may ask for `[system] regularize`: with `Some` regularized `K`
+/// (built from the system's text, `catalogue::SystemEntry::with_text`), method `dth` runs on
+/// `K` and every record is mapped back to the physical state ([`Regularized::run`]); every
+/// other item is the system's own, so its invariants, exact solution, period and peer methods
+/// stay what they are. With `None` it is the system itself. The catalogue runs its systems
+/// through it.
+#[derive(Debug, Clone)]
+pub struct Regularizable<S>(pub S, pub Option<Arc<Regularized>>);
+
+forward_to_system!(
+    Regularizable,
+    /// DTH on the regularized `K` when there is one, else the system's own.
+    fn run_dth<O: Observer<D>>(
+        &self,
+        runner: &DthRunner,
+        z0: OVector<f64, D>,
+        t0: f64,
+        stop: Stop,
+        observer: &mut O,
+    ) -> Option<Result<RunEnd<D>, MethodFailure>> {
+        match &self.1 {
+            Some(k) => Some(k.run(runner, &self.0, z0, t0, stop, observer)),
+            None => self.0.run_dth(runner, z0, t0, stop, observer),
+        }
+    }
+);

@@ -9,8 +9,12 @@
 //! centre = [0.99, 0.0]           # optional: the point of the close approaches (default: the origin)
 //! ```
 //!
-//! Refused, each at the key or value concerned: an unknown map; a catalogue system (its `H` is
-//! compiled Rust, not text the engine can rewrite: write it as `hamiltonian`); a Hamiltonian
+//! A catalogue system with a text (`kepler`; `dth list` shows which) is regularized as its
+//! text is, and runs everything but method `dth` as the compiled system, its invariants and
+//! exact solution included (`crate::system::Regularizable`).
+//!
+//! Refused, each at the key or value concerned: an unknown map; a catalogue system without a
+//! text (compiled Rust only, which the engine cannot rewrite: write it as `hamiltonian`); a Hamiltonian
 //! of the wrong size for the map (Levi-Civita maps `n = 2`, KS `n = 3`); a centre of the wrong
 //! length or not finite, or without `regularize`; what the engine refuses (a text that uses
 //! `t`); a scene without method `dth` (nothing would be regularized); and, in
@@ -22,7 +26,7 @@ use std::ops::Range;
 use toml::Spanned;
 
 use super::members::Errors;
-use super::schema::{Regularization, RegularizeMap, TextHamiltonian};
+use super::schema::{Regularization, RegularizeMap};
 use dth_symbolic::lexer::{lex, TokenKind};
 
 /// What [`check`] needs of the rest of the scene.
@@ -37,12 +41,21 @@ pub(super) struct Context<'a> {
     pub(super) q: Option<(&'a [f64], Range<usize>)>,
 }
 
-/// Reads `regularize` and `centre` of a `[system]` whose Hamiltonian is `text` with the
-/// parameters named (`None`: a catalogue system); `None` when there is no regularization, or
-/// with every independent error pushed to `errors`.
+/// The Hamiltonian [`check`] regularizes: its text (a scene's `hamiltonian`, or a catalogue
+/// system's own, `catalogue::SystemEntry::with_text`), its degrees of freedom and the names of
+/// its parameters.
+pub(super) struct Text<'a> {
+    pub(super) source: &'a str,
+    pub(super) n: usize,
+    pub(super) params: &'a [&'a str],
+}
+
+/// Reads `regularize` and `centre` of a `[system]` whose Hamiltonian is `text` (`None`: a
+/// catalogue system without one); `None` when there is no regularization, or with every
+/// independent error pushed to `errors`.
 pub(super) fn check(
     (regularize, centre): (Option<&Spanned<String>>, Option<&Spanned<Vec<f64>>>),
-    text: Option<(&TextHamiltonian, &[&str])>,
+    text: Option<Text<'_>>,
     scene: Context<'_>,
     errors: &mut Errors,
 ) -> Option<Regularization> {
@@ -70,15 +83,16 @@ pub(super) fn check(
         ));
         return None;
     };
-    let Some((h, params)) = text else {
+    let Some(h) = text else {
         errors.push((
             at.clone(),
             format!(
-                "`regularize` rewrites a Hamiltonian given as text, and `{name}` is a catalogue system (compiled Rust): give its H as `hamiltonian = \"...\"` instead of `name`"
+                "`regularize` rewrites a Hamiltonian's text, and `{name}` is a catalogue system compiled from Rust without one: give its H as `hamiltonian = \"...\"` instead of `name`"
             ),
         ));
         return None;
     };
+    let params = h.params;
     if !has_dth {
         errors.push((
             at.clone(),
@@ -127,7 +141,7 @@ pub(super) fn check(
         }
     };
     // What the engine makes of the translated text (it refuses a text that uses `t`).
-    let source = match translated(&h.source, &centre) {
+    let source = match translated(h.source, &centre) {
         Ok(source) => source,
         Err(e) => {
             errors.push((centre_at, e.to_string()));
@@ -153,7 +167,11 @@ pub(super) fn check(
             ));
         }
     }
-    Some(Regularization { map, centre })
+    Some(Regularization {
+        map,
+        centre,
+        source: h.source.to_string(),
+    })
 }
 
 /// A centre given with a text that indexes `q[..]` (in a sum): [`translated`] rewrites only

@@ -88,6 +88,9 @@ pub struct Regularization {
     /// The centre `c` of the map, `q = c + q(u)`: the point the close approaches are to (one
     /// value per degree of freedom; zeros when the scene gives none).
     pub centre: Vec<f64>,
+    /// The text of the Hamiltonian regularized: the scene's `hamiltonian`, or the catalogue
+    /// system's own text (`catalogue::SystemEntry::with_text`).
+    pub source: String,
 }
 
 /// The regularizing maps a scene (`[system] regularize`) and `dth derive --regularize` name

@@ -140,9 +140,12 @@ pub struct SystemInfo<'a> {
     /// `true` when `Psi` is identically zero (`Flags::psi_identically_zero`): the reason
     /// DTH is not offered, when it is not.
     pub psi_identically_zero: bool,
-    /// The system as text with its sizes after `where`, for a system whose size a scene may
-    /// set (`[system] sizes`): the scene then runs this text at its sizes.
-    pub sized_text: Option<&'a str>,
+    /// The system as text, in the grammar of a scene's `hamiltonian` (with its sizes after
+    /// `where` for a sizable system): a scene that sets its sizes runs this text at them, and
+    /// a scene that regularizes it (`[system] regularize`) runs DTH on this text's `K`.
+    pub text: Option<&'a str>,
+    /// `true` when a scene may set the system's sizes (`[system] sizes`; it has a `text`).
+    pub sizable: bool,
 }
 
 impl SystemInfo<'_> {
@@ -288,12 +291,12 @@ fn validate(raw: RawScene, systems: &dyn SystemLookup, cx: &mut Ctxt<'_>) -> Opt
             let sized = match system.sizes.iter().next() {
                 None => None,
                 Some((size, _)) => {
-                    let text = entry.as_ref().and_then(|i| i.sized_text);
+                    let text = entry.as_ref().filter(|i| i.sizable).and_then(|i| i.text);
                     if text.is_none() && entry.is_some() {
                         let sizable: Vec<String> = systems
                             .names()
                             .into_iter()
-                            .filter(|n| systems.info(n).is_some_and(|i| i.sized_text.is_some()))
+                            .filter(|n| systems.info(n).is_some_and(|i| i.sizable))
                             .map(|n| format!("`{n}`"))
                             .collect();
                         cx.error(
@@ -395,7 +398,7 @@ fn validate(raw: RawScene, systems: &dyn SystemLookup, cx: &mut Ctxt<'_>) -> Opt
     let sized_source = hamiltonian
         .as_ref()
         .map(|h| h.source.as_str())
-        .or(info.as_ref().and_then(|i| i.sized_text));
+        .or(info.as_ref().and_then(|i| i.text));
     let mut names = sized_source
         .map(initial::declared_sizes)
         .unwrap_or_default();
@@ -512,9 +515,19 @@ fn validate(raw: RawScene, systems: &dyn SystemLookup, cx: &mut Ctxt<'_>) -> Opt
     // Regularization: method `dth` on the regularized K of a Hamiltonian given as text.
     let names: Vec<&str> = params.keys().map(String::as_str).collect();
     let mut errors = Vec::new();
+    let source = hamiltonian
+        .as_ref()
+        .map(|h| h.source.as_str())
+        .or(info.as_ref().and_then(|i| i.text));
     let regularize = regularization::check(
         (system.regularize.as_ref(), system.centre.as_ref()),
-        hamiltonian.as_ref().map(|h| (h, names.as_slice())),
+        source
+            .zip(info.as_ref())
+            .map(|(source, i)| regularization::Text {
+                source,
+                n: i.n,
+                params: &names,
+            }),
         regularization::Context {
             name: &name,
             known: info.is_some(),
@@ -916,7 +929,8 @@ fn text_info(h: &TextHamiltonian) -> SystemInfo<'static> {
         fixed_end_chain: false,
         dth: !h.psi_identically_zero,
         psi_identically_zero: h.psi_identically_zero,
-        sized_text: None,
+        text: None,
+        sizable: false,
     }
 }
 
