@@ -157,8 +157,9 @@ impl Regularized {
         t
     }
 
-    /// `dt/ds = dK/dp_t = |u|^2` at the regularized state `w`.
-    fn dt_ds(&self, w: &[f64]) -> f64 {
+    /// `dt/ds = dK/dp_t = |u|^2` at the regularized state `w`: DTH's multiplier on `K` times
+    /// this is the physical `dt/dtau`.
+    pub fn dt_ds(&self, w: &[f64]) -> f64 {
         let u = match self.map {
             RegularizeMap::LeviCivita => &w[..2],
             RegularizeMap::Ks => &w[..4],

@@ -179,7 +179,7 @@ impl Hamiltonian {
 
     /// The text it was built from.
     #[getter]
-    fn text(&self) -> &str {
+    pub(crate) fn text(&self) -> &str {
         &self.text
     }
 

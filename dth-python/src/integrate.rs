@@ -17,6 +17,7 @@ use crate::args::{self, start, Chosen, End};
 use crate::catalogue::Special;
 use crate::errors::IntegrationError;
 use crate::hamiltonian::Hamiltonian;
+use crate::regularized::Physical;
 use crate::sized::{self, Job};
 use crate::solution::Solution;
 
@@ -30,6 +31,8 @@ struct Request {
     max_steps: Option<usize>,
     energy_errors: bool,
     events: Events,
+    /// `regularize=`: the run is on `K`, and everything it reports is mapped back.
+    physical: Option<Physical>,
 }
 
 /// The events a run watches (`events=`, `stop_on=`): each name, its condition compiled as the
@@ -95,8 +98,12 @@ impl Events {
         Ok(read)
     }
 
-    /// The events as the driver watches them.
-    fn watched<D: Dim>(&self) -> impl Iterator<Item = Event<'_, D>>
+    /// The events as the driver watches them: on the run's states, or on their physical
+    /// `(q, p)` in a regularized run (`physical`).
+    fn watched<'a, D: Dim>(
+        &'a self,
+        physical: Option<&'a Physical>,
+    ) -> impl Iterator<Item = Event<'a, D>>
     where
         DefaultAllocator: Alloc<D>,
     {
@@ -104,12 +111,15 @@ impl Events {
             .iter()
             .zip(&self.functions)
             .zip(&self.stops)
-            .map(|((name, f), &stop)| {
+            .map(move |((name, f), &stop)| {
                 let mut scratch = Vec::new();
                 // A value that is not finite is the run's `EventNotANumber`, naming the event.
                 let event = Event::new(name.clone(), move |t, z: &OVector<f64, D>| {
-                    f.value_at(t, z.as_slice(), &mut scratch)
-                        .unwrap_or(f64::NAN)
+                    let value = match physical {
+                        Some(p) => f.value_at(t, &p.state(z.as_slice()), &mut scratch),
+                        None => f.value_at(t, z.as_slice(), &mut scratch),
+                    };
+                    value.unwrap_or(f64::NAN)
                 });
                 if stop {
                     event.stop()
@@ -127,7 +137,7 @@ impl Events {
 /// integrate(h, z0, method="dth", *, dtau=None, dt=None, order=None, robust=None,
 ///           lambda0=None, steps=None, t_end=None, orbits=None, t0=0.0, every=None,
 ///           save_at=None, max_steps=None, energy_errors=True, raise_on_failure=False,
-///           events=None, stop_on=None)
+///           events=None, stop_on=None, regularize=None, centre=None)
 ///
 /// Arguments:
 ///   h: a `dth.Hamiltonian`.
@@ -171,6 +181,15 @@ impl Events {
 ///     recorded in the Solution's `events` as (name, t, z).
 ///   stop_on: an event's name, or a list of them, that ends the run where it fires: the
 ///     run's last state is the event's (`Solution.stopped` names it); the run is complete.
+///   regularize: "levi-civita" (planar, n = 2) or "ks" (Kustaanheimo-Stiefel, in space,
+///     n = 3), method "dth" only: DTH runs on the regularized K = |u|^2 (H + p_t) of the
+///     Hamiltonian's text, a harmonic oscillator for Kepler, whose Psi keeps its sign through
+///     close approaches, so eccentric orbits and collisions need no robust mode. Everything
+///     stays physical: z0 is (q, p), every saved state, vertex and event state is (q, p),
+///     times are physical (t_end is landed on exactly), `lam` is dt/dtau, the energy errors
+///     are those of H; only `psi` is K's. As a scene's `[system] regularize`.
+///   centre: the point of the close approaches (default: the origin), substituted into the
+///     text as q = c + q'; write that point in H with the same digits (0.99 cancels 0.99).
 ///
 /// Ctrl-C stops a run within a fraction of a second with KeyboardInterrupt.
 ///
@@ -191,7 +210,7 @@ impl Events {
     h, z0, method = "dth", *, dtau = None, dt = None, order = None, robust = None,
     lambda0 = None, steps = None, t_end = None, orbits = None, t0 = 0.0, every = None,
     save_at = None, max_steps = None, energy_errors = true, raise_on_failure = false,
-    events = None, stop_on = None
+    events = None, stop_on = None, regularize = None, centre = None
 ))]
 #[allow(clippy::too_many_arguments)]
 pub fn integrate(
@@ -215,6 +234,8 @@ pub fn integrate(
     raise_on_failure: bool,
     events: Option<&Bound<'_, PyDict>>,
     stop_on: Option<&Bound<'_, PyAny>>,
+    regularize: Option<&str>,
+    centre: Option<Vec<f64>>,
 ) -> PyResult<Solution> {
     let z0 = start(&h.h, z0, "z0", t0)?;
     let chosen = args::method(method, dtau, dt, order, robust, lambda0)?;
@@ -235,6 +256,19 @@ pub fn integrate(
     }
     let every = every.unwrap_or(1);
     let events = Events::read(&h.h, events, stop_on)?;
+    if centre.is_some() && regularize.is_none() {
+        return Err(PyTypeError::new_err(
+            "centre is the centre of a regularization: give regularize too",
+        ));
+    }
+    let mut physical = regularize
+        .map(|r| Physical::read(&h.h, h.text(), r, centre, method))
+        .transpose()?;
+    let start = match &mut physical {
+        Some(p) => p.start(&z0, t0)?,
+        None => z0.clone(),
+    };
+    let regularized = physical.is_some();
     let request = Request {
         end,
         t0,
@@ -243,13 +277,19 @@ pub fn integrate(
         max_steps,
         energy_errors,
         events,
+        physical,
     };
     let job = Run {
         py,
-        z0: &z0,
+        z0: &start,
         request: &request,
         raise_on_failure,
     };
+    if let (Some(p), Chosen::Method(method)) = (&request.physical, &chosen) {
+        // K's dimension (6 or 10) runs at `Dyn`.
+        return job.run(p.k(), *method, DVector::clone);
+    }
+    debug_assert!(!regularized, "Physical::read accepts method \"dth\" only");
     match chosen {
         Chosen::Method(method) => sized::dispatch(&h.h, method, job)?,
         Chosen::Special(special, dt) => {
@@ -285,13 +325,14 @@ impl Job for Run<'_, '_> {
         OVector<f64, D>: Send,
         dth::Solution<D>: Send,
     {
-        let dim = self.z0.len();
         let result = drive(self.py, h, state(self.z0), method, self.request)?;
+        let names = &self.request.events.names;
+        let physical = self.request.physical.as_ref();
         finish(
             self.py,
             result,
-            dim,
-            &self.request.events.names,
+            (self.z0.len(), physical),
+            names,
             self.raise_on_failure,
         )
     }
@@ -329,7 +370,7 @@ where
         if !request.energy_errors {
             run = run.without_energy_errors();
         }
-        for event in request.events.watched() {
+        for event in request.events.watched(request.physical.as_ref()) {
             run = run.event(event);
         }
         run.run().map_err(Box::new)
@@ -342,7 +383,7 @@ where
 fn finish<D: Dim>(
     py: Python<'_>,
     result: Outcome<D>,
-    dim: usize,
+    dim: (usize, Option<&Physical>),
     events: &[String],
     raise_on_failure: bool,
 ) -> PyResult<Solution>

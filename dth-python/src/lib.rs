@@ -16,6 +16,7 @@ pub mod errors;
 pub mod hamiltonian;
 pub mod integrate;
 pub mod interrupt;
+pub mod regularized;
 pub mod scene;
 pub mod sized;
 pub mod solution;

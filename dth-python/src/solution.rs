@@ -9,6 +9,8 @@ use dth::nalgebra::{DefaultAllocator, Dim, OVector};
 use dth::observer::StepKind;
 use dth::Alloc;
 
+use crate::regularized::Physical;
+
 /// The result of `dth.integrate`: the saved states and their times (for DTH, the midpoints
 /// zbar_k at the midpoint times, where H(zbar_k) = H(zbar_0) to roundoff), what produced each
 /// state, the energy errors, and DTH's own series.
@@ -26,7 +28,8 @@ use dth::Alloc;
 ///   lam: DTH's multipliers lambda_k = dt/dtau, shape (M,); None for other methods.
 ///   vertices: DTH's left vertices z^(k), shape (M, D); None for other methods.
 ///   vertex_t: their times, shape (M,); None for other methods.
-///   psi: Psi(zbar_k), shape (M,); None for other methods.
+///   psi: Psi(zbar_k), shape (M,); None for other methods (in a run with `regularize`, the
+///     regularized K's Psi, the one whose sign DTH needs; every other array is physical).
 ///   steps: steps taken (saved or not); fallback_steps: robust-mode fallback steps among them;
 ///   newton_iterations: over all steps.
 ///   failure: None for a run that reached its end, else what stopped it (the arrays hold the
@@ -73,16 +76,20 @@ pub struct Solution {
     pub(crate) failure_kind: Option<String>,
 }
 
-/// States as an (M, D) array.
+/// The width of a saved state and how a state becomes it: the state itself, or its physical
+/// `(q, p)` in a regularized run.
+type Rows<'a> = (usize, &'a dyn Fn(&[f64]) -> Vec<f64>);
+
+/// States as an (M, dim) array, each through `row` ([`Rows`]).
 fn matrix<'py, D: Dim>(
     py: Python<'py>,
     states: &[OVector<f64, D>],
-    dim: usize,
+    (dim, row): Rows<'_>,
 ) -> Bound<'py, PyArray2<f64>>
 where
     DefaultAllocator: Alloc<D>,
 {
-    let flat: Vec<f64> = states.iter().flat_map(|z| z.iter().copied()).collect();
+    let flat: Vec<f64> = states.iter().flat_map(|z| row(z.as_slice())).collect();
     // The length is M * dim by construction.
     Array2::from_shape_vec((states.len(), dim), flat)
         .unwrap_or_else(|_| Array2::zeros((0, dim)))
@@ -112,16 +119,35 @@ fn variant(e: &dth::Error) -> String {
 
 impl Solution {
     /// From the driver's solution of a system of dimension `dim` whose events (`events=`) are
-    /// named `names`, in the order watched.
+    /// named `names`, in the order watched; for a run on a regularized `K` (`physical`), every
+    /// state in physical coordinates, `lam` the physical `dt/dtau` and the energy errors
+    /// those of `H` (see `crate::regularized`).
     pub fn new<D: Dim>(
         py: Python<'_>,
-        s: dth::Solution<D>,
-        dim: usize,
+        mut s: dth::Solution<D>,
+        (dim, physical): (usize, Option<&Physical>),
         names: &[String],
     ) -> Solution
     where
         DefaultAllocator: Alloc<D>,
     {
+        let identity = |z: &[f64]| z.to_vec();
+        let state = |z: &[f64]| physical.map_or_else(|| z.to_vec(), |p| p.state(z));
+        let rows: Rows<'_> = match physical {
+            Some(p) => (p.dim(), &state),
+            None => (dim, &identity),
+        };
+        if let Some(p) = physical {
+            if !s.energy_error.is_empty() {
+                s.energy_error = s.z.iter().map(|w| p.energy_error(w.as_slice())).collect();
+                s.energy0 = p.energy0();
+            }
+            if let Some(series) = &mut s.dth {
+                for (lambda, w) in series.lambda.iter_mut().zip(&s.z) {
+                    *lambda *= p.time_rate(w.as_slice());
+                }
+            }
+        }
         let kinds = s
             .kinds
             .iter()
@@ -131,7 +157,7 @@ impl Solution {
         let (lam, vertices, vertex_t, psi) = match s.dth {
             Some(series) => (
                 Some(series.lambda.into_pyarray(py).unbind()),
-                Some(matrix(py, &series.vertex, dim).unbind()),
+                Some(matrix(py, &series.vertex, rows).unbind()),
                 Some(series.vertex_time.into_pyarray(py).unbind()),
                 Some(series.psi.into_pyarray(py).unbind()),
             ),
@@ -142,7 +168,7 @@ impl Solution {
             .events
             .iter()
             .map(|f| {
-                let z: Vec<f64> = f.z.iter().copied().collect();
+                let z: Vec<f64> = (rows.1)(f.z.as_slice());
                 (name(f.event), f.t, z.into_pyarray(py).unbind())
             })
             .collect();
@@ -150,7 +176,7 @@ impl Solution {
             method: s.method,
             events,
             stopped: s.stopped.map(name),
-            z: matrix(py, &s.z, dim).unbind(),
+            z: matrix(py, &s.z, rows).unbind(),
             t: s.t.into_pyarray(py).unbind(),
             k: s.k.into_pyarray(py).unbind(),
             kinds,

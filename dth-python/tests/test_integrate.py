@@ -373,3 +373,100 @@ def test_an_event_on_time_and_a_peer(thesis_z0, kepler):
 def test_a_bad_event_is_a_value_error_naming_it(events, stop_on, pattern, kepler, thesis_z0):
     with pytest.raises(ValueError, match=pattern):
         dth.integrate(kepler, thesis_z0, dtau=0.05, t_end=1.0, events=events, stop_on=stop_on)
+
+
+# Pericentre 0.5 with e = 0.99 in the thesis normalisation: |p|^2 = 1 + e; period 500 pi.
+E099 = np.array([0.5, 0.0, 0.0, np.sqrt(1.99)])
+
+
+def test_regularize_runs_dth_through_an_eccentric_orbit_in_physical_coordinates(kepler):
+    # Unregularized, plain DTH breaks down near the first pericentre passage.
+    plain = dth.integrate(kepler, E099, dtau=0.05, orbits=1)
+    assert plain.failure_kind == "Breakdown"
+    s = dth.integrate(kepler, E099, dtau=0.05, order=8, orbits=10, regularize="levi-civita")
+    assert s.completed and s.fallback_steps == 0
+    assert s.z.shape[1] == 4 and s.vertices.shape[1] == 4
+    # The physical end: K's t coordinate lands on it to its rounding over ~6,000 steps.
+    assert abs(s.t[-1] - 10 * 500 * np.pi) <= 1e-12 * 10 * 500 * np.pi
+    # |H - E| against the terms |p|^2 + 1/r (3.99 at pericentre, eps of which is 9e-16).
+    assert np.abs(s.energy_error).max() < 4e-15
+    assert s.energy0 == kepler.value(E099)
+    # Order 8 is back at pericentre after 10 orbits.
+    assert np.abs(s.z[-1] - E099).max() < 1e-8
+    # lam is the physical dt/dtau: the saved times advance by about it.
+    assert (s.lam > 0).all()
+    steps = np.diff(s.t[:-1])
+    assert np.allclose(steps, 0.05 * (s.lam[:-2] + s.lam[1:-1]) / 2, rtol=1e-2)
+
+
+def test_regularize_is_the_scenes_regularization_to_the_bit():
+    text = "p1^2 + p2^2 - (q1^2 + q2^2)^(-1/2)"
+    t_end = 2 * 500 * np.pi
+    s = dth.integrate(dth.Hamiltonian(text), E099, dtau=0.3, t_end=t_end, regularize="levi-civita")
+    scene = f"""
+[system]
+hamiltonian = "{text}"
+regularize = "levi-civita"
+[initial]
+q = [0.5, 0.0]
+p = [0.0, {float(E099[3])!r}]
+[[method]]
+kind = "dth"
+dtau = 0.3
+[duration]
+time = {t_end!r}
+[[effect]]
+kind = "final_state"
+"""
+    method = dth.run_scene(scene).summary["methods"][0]
+    assert method["fallback"]["steps"] == 0 and method["steps"] == s.steps
+    assert method["final_state"]["t"] == s.t[-1]
+    assert method["final_state"]["z"] == list(s.z[-1])
+
+
+def test_regularize_in_space_keeps_the_orbit_and_its_energy():
+    h = dth.Hamiltonian("p1^2 + p2^2 + p3^2 - (q1^2 + q2^2 + q3^2)^(-1/2)")
+    # An inclined orbit at e = 0.99 from pericentre 0.5.
+    v = np.sqrt(1.99)
+    z0 = np.array([0.5, 0.0, 0.0, 0.0, v * np.cos(0.6), v * np.sin(0.6)])
+    s = dth.integrate(h, z0, dtau=0.05, order=8, t_end=500 * np.pi, regularize="ks")
+    assert s.completed and s.fallback_steps == 0 and s.z.shape[1] == 6
+    assert np.abs(s.energy_error).max() < 4e-15
+    assert np.abs(s.z[-1] - z0).max() < 1e-8
+
+
+def test_regularize_events_are_on_the_physical_state(kepler):
+    s = dth.integrate(
+        kepler, E099, dtau=0.05, order=8, t_end=500 * np.pi, regularize="levi-civita",
+        events={"out": "q1^2 + q2^2 > 1"}, stop_on="out",
+    )
+    ((name, t, z),) = s.events
+    assert name == "out" and s.stopped == "out"
+    assert abs(np.hypot(z[0], z[1]) - 1) < 1e-13
+    assert float(s.t[-1]) == t and np.array_equal(s.z[-1], z)
+
+
+@pytest.mark.parametrize(
+    "kwargs, error, words",
+    [
+        ({"method": "midpoint", "regularize": "levi-civita"}, ValueError, "applies to method \"dth\""),
+        ({"regularize": "levi_civita"}, ValueError, "expected \"levi-civita\""),
+        ({"regularize": "ks"}, ValueError, "use \"levi-civita\""),
+        ({"regularize": "levi-civita", "centre": [0.0]}, ValueError, "centre has 1 values, expected 2"),
+        ({"regularize": "levi-civita", "centre": [0.0, float("nan")]}, ValueError, "centre[1] is not finite"),
+        ({"centre": [0.0, 0.0]}, TypeError, "give regularize too"),
+        ({"regularize": "levi-civita", "centre": [0.5, 0.0]}, ValueError, "z0"),
+    ],
+)
+def test_regularize_refuses_what_does_not_apply(kepler, kwargs, error, words):
+    step = {"dt": 0.1} if "method" in kwargs else {"dtau": 0.05}
+    kwargs = {**step, "t_end": 1.0, **kwargs}
+    with pytest.raises(error) as e:
+        dth.integrate(kepler, E099, **kwargs)
+    assert words in str(e.value)
+
+
+def test_regularize_refuses_a_hamiltonian_it_does_not_apply_to():
+    spring = dth.Hamiltonian("p1^2/2 + q1^2/2")
+    with pytest.raises(ValueError, match="n = 2 degrees of freedom, and this one has n = 1"):
+        dth.integrate(spring, [1.0, 0.0], dtau=0.1, t_end=1.0, regularize="levi-civita")

@@ -117,6 +117,8 @@ def integrate(
     raise_on_failure: bool = False,
     events: Optional[Mapping[str, str]] = None,
     stop_on: Union[str, Sequence[str], None] = None,
+    regularize: Optional[str] = None,
+    centre: Optional[Sequence[float]] = None,
 ) -> Solution: ...
 
 class Ensemble:

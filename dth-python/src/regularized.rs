@@ -1,0 +1,131 @@
+//! `dth.integrate(h, z0, "dth", ..., regularize="levi-civita" | "ks", centre=...)`: DTH on the
+//! regularized `K = |u|^2 (H + p_t)` of the Hamiltonian's text, as a scene's `[system]
+//! regularize` runs it (`dth_examples::regularized`, the one place the map lives): `z0` is the
+//! physical `(q, p)`, and every saved state, vertex and event state comes back as `(q, p)`,
+//! every time is physical (the run ends exactly at `t_end`), `lam` is the physical
+//! `dt/dtau = |u|^2 lambda_K`, the energy errors are those of `H`; `psi` stays `K`'s, the one
+//! whose sign DTH needs. The peers run on `H` itself, so they refuse `regularize`.
+
+use std::sync::Arc;
+
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+
+use dth::nalgebra::DVector;
+use dth::runtime::RuntimeHamiltonian;
+use dth_examples::regularized::Regularized;
+use dth_examples::scene::{Regularization, RegularizeMap};
+
+/// The most physical coordinates a map has (`q`, `p` in space).
+const MAX_PHYSICAL: usize = 6;
+
+/// A run's regularization: the compiled `K`, the map back, and the physical `H` and energy.
+pub struct Physical {
+    h: Arc<RuntimeHamiltonian>,
+    k: Regularized,
+    n: usize,
+    energy0: f64,
+}
+
+impl Physical {
+    /// `regularize` (a map's name) about `centre` (default: the origin) for `h` (its text and
+    /// parameters) run by `method`, from the physical state `z0` at `t0`; a `ValueError`
+    /// saying what does not apply (a peer method, an unknown map, a Hamiltonian of the wrong
+    /// size or time-dependent, a centre of the wrong length, `z0` at the centre).
+    pub fn read(
+        h: &Arc<RuntimeHamiltonian>,
+        text: &str,
+        regularize: &str,
+        centre: Option<Vec<f64>>,
+        method: &str,
+    ) -> PyResult<Self> {
+        if method != "dth" {
+            return Err(PyValueError::new_err(format!(
+                "regularize applies to method \"dth\", and method is {method:?}: the peers run on H itself (drop regularize for them)"
+            )));
+        }
+        let map = RegularizeMap::from_name(regularize).ok_or_else(|| {
+            PyValueError::new_err(format!(
+                "regularize={regularize:?}: expected \"levi-civita\" (planar, n = 2) or \"ks\" (Kustaanheimo-Stiefel, in space, n = 3)"
+            ))
+        })?;
+        let n = h.degrees_of_freedom();
+        if n != map.n() {
+            let other = RegularizeMap::ALL
+                .into_iter()
+                .find(|m| m.n() == n)
+                .map_or(String::new(), |m| format!(": use \"{}\"", m.name()));
+            return Err(PyValueError::new_err(format!(
+                "\"{}\" regularizes a Hamiltonian of n = {} degrees of freedom, and this one has n = {n}{other}",
+                map.name(),
+                map.n()
+            )));
+        }
+        let centre = centre.unwrap_or_else(|| vec![0.0; n]);
+        if centre.len() != n {
+            return Err(PyValueError::new_err(format!(
+                "centre has {} values, expected {n} (one per degree of freedom)",
+                centre.len()
+            )));
+        }
+        if let Some(i) = centre.iter().position(|c| !c.is_finite()) {
+            return Err(PyValueError::new_err(format!("centre[{i}] is not finite")));
+        }
+        let params: Vec<(&str, f64)> = h.parameters().collect();
+        let regularization = Regularization {
+            map,
+            centre,
+            source: text.to_string(),
+        };
+        let k = Regularized::compile(&regularization, &params)
+            .map_err(|e| PyValueError::new_err(format!("regularize: {e}")))?;
+        Ok(Physical {
+            h: Arc::clone(h),
+            k,
+            n,
+            energy0: f64::NAN,
+        })
+    }
+
+    /// The compiled `K` DTH runs on.
+    pub fn k(&self) -> &RuntimeHamiltonian {
+        self.k.k()
+    }
+
+    /// The regularized start of the physical `z0` at `t0` (on `K = 0`), keeping `H(z0)` as
+    /// the energy the errors are measured from; a `ValueError` for a `z0` at the centre.
+    pub fn start(&mut self, z0: &DVector<f64>, t0: f64) -> PyResult<DVector<f64>> {
+        self.energy0 = dth::Hamiltonian::value(&*self.h, z0);
+        self.k
+            .start(z0.as_slice(), t0, self.energy0)
+            .map_err(|e| PyValueError::new_err(format!("z0: {e}")))
+    }
+
+    /// Physical coordinates: `2n`.
+    pub fn dim(&self) -> usize {
+        2 * self.n
+    }
+
+    /// `H(z0)`.
+    pub fn energy0(&self) -> f64 {
+        self.energy0
+    }
+
+    /// `H(q, p) - H(z0)` at the regularized state `w`.
+    pub fn energy_error(&self, w: &[f64]) -> f64 {
+        let z = DVector::from_vec(self.state(w));
+        dth::Hamiltonian::value(&*self.h, &z) - self.energy0
+    }
+
+    /// The physical `(q, p)` of the regularized state `w`.
+    pub fn state(&self, w: &[f64]) -> Vec<f64> {
+        let mut z = [0.0; MAX_PHYSICAL];
+        self.k.physical_into(w, &mut z);
+        z[..self.dim()].to_vec()
+    }
+
+    /// `dt/ds = |u|^2` at `w`: DTH's multiplier on `K` times this is the physical `dt/dtau`.
+    pub fn time_rate(&self, w: &[f64]) -> f64 {
+        self.k.dt_ds(w)
+    }
+}
