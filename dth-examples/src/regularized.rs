@@ -102,7 +102,10 @@ impl Regularized {
     ///
     /// # Errors
     /// `dth::Error::NonFiniteInitialState` for a value that is not finite,
-    /// `dth::Error::InvalidOption` (`q`) at the centre, where the momenta have no image, and
+    /// `dth::Error::InvalidOption` (`q`) at the centre, where the momenta have no image,
+    /// `dth::Error::InvalidOption` (`H(z0)`) for an energy that is zero to the roundoff of
+    /// `H`'s terms (a parabolic orbit: `K`'s `Psi` is proportional to the energy for a
+    /// Kepler-like `H`, so its sign, which DTH needs, is rounding noise there), and
     /// `dth::Error::WrongStateLength` for a `z` that is not `2n` long.
     pub fn start(&self, z: &[f64], t: f64, energy: f64) -> Result<DVector<f64>, dth::Error> {
         let n = self.map.n();
@@ -118,7 +121,7 @@ impl Regularized {
         for (q, c) in shifted.iter_mut().zip(&self.centre) {
             *q -= c;
         }
-        Ok(match self.map {
+        let w = match self.map {
             RegularizeMap::LeviCivita => {
                 let w = LeviCivita::start(&Vector4::from_column_slice(&shifted[..4]), t, energy)?;
                 DVector::from_column_slice(w.as_slice())
@@ -128,7 +131,24 @@ impl Regularized {
                     KustaanheimoStiefel::start(&Vector6::from_column_slice(&shifted), t, energy)?;
                 DVector::from_column_slice(w.as_slice())
             }
-        })
+        };
+        // The terms of H at z, sum |z_i dH/dz_i|, from K's: dK/dw = |u|^2 dH/dw off p_t.
+        let gradient = dth::Hamiltonian::gradient(&self.k, &w);
+        let terms = w
+            .iter()
+            .zip(gradient.iter())
+            .take(w.len() - 1)
+            .map(|(x, g)| (x * g).abs())
+            .sum::<f64>()
+            / self.dt_ds(w.as_slice());
+        if energy.abs() <= 8.0 * f64::EPSILON * terms {
+            return Err(dth::Error::InvalidOption {
+                name: "H(z0)",
+                value: energy,
+                reason: "the energy is zero to the roundoff of H's terms (a parabolic orbit about the centre): the regularized K's Psi is proportional to the energy for a Kepler-like H, so its sign, which DTH needs, is rounding noise; start on a clearly elliptic (E < 0) or hyperbolic (E > 0) orbit, or run unregularized in robust mode",
+            });
+        }
+        Ok(w)
     }
 
     /// The physical state `(q, p)` of the regularized state `w` into `out` (its first `2n`

@@ -459,3 +459,23 @@ fn a_catalogue_kepler_regularizes_as_its_text_does() {
     let text = run(&scene(&text));
     assert_eq!(text[0].summary.final_state.as_ref().unwrap().z, *z);
 }
+
+/// A parabolic start (E = H(z0) zero to roundoff) is refused with its reason: `K`'s `Psi` is
+/// proportional to `E` for Kepler, so its sign is noise (it failed at step 1 with "a
+/// non-physical root with lambda = -1"). The method fails at step 0; the scene's other
+/// methods run.
+#[test]
+fn a_parabolic_start_is_refused_with_its_reason() {
+    let text = format!(
+        "[system]\nhamiltonian = \"p1^2 + p2^2 - (q1^2 + q2^2)^(-1/2)\"\nregularize = \"levi-civita\"\n\
+         [initial]\nq = [0.5, 0.0]\np = [0.0, {:?}]\n\
+         [[method]]\nkind = \"dth\"\ndtau = 0.05\n[[method]]\nkind = \"midpoint\"\ndt = 0.01\n\
+         [duration]\ntime = 1.0\n",
+        2f64.sqrt()
+    );
+    let results = run(&scene(&text));
+    let failure = results[0].summary.failure.as_ref().expect("refused");
+    assert_eq!(failure.step, 0, "{failure:?}");
+    assert!(failure.reason.contains("parabolic orbit"), "{failure:?}");
+    assert!(results[1].summary.failure.is_none());
+}

@@ -470,3 +470,15 @@ def test_regularize_refuses_a_hamiltonian_it_does_not_apply_to():
     spring = dth.Hamiltonian("p1^2/2 + q1^2/2")
     with pytest.raises(ValueError, match="n = 2 degrees of freedom, and this one has n = 1"):
         dth.integrate(spring, [1.0, 0.0], dtau=0.1, t_end=1.0, regularize="levi-civita")
+
+
+def test_regularize_refuses_a_parabolic_start_with_the_reason():
+    # E = H(z0) = 4e-16, zero to roundoff: K's Psi (proportional to E) has no sign DTH can
+    # keep; it used to fail at step 1 with "a non-physical root with lambda = -1".
+    h = dth.Hamiltonian("p1^2 + p2^2 - (q1^2 + q2^2)^(-1/2)")
+    with pytest.raises(ValueError, match="parabolic orbit"):
+        dth.integrate(h, [0.5, 0.0, 0.0, np.sqrt(2.0)], dtau=0.05, t_end=1.0, regularize="levi-civita")
+    # A hyperbolic orbit runs: Psi keeps its sign on it.
+    s = dth.integrate(h, [0.5, 0.0, 0.0, 1.5], dtau=0.05, t_end=50.0, regularize="levi-civita")
+    assert s.completed and s.energy0 == 0.25
+    assert np.abs(s.energy_error).max() < 4e-15
