@@ -23,24 +23,24 @@ use dth::nalgebra::{Const, DMatrix, DVector, DefaultAllocator, Dim, Dyn};
 use dth::runtime::{Fixed, RuntimeHamiltonian};
 use dth::{Alloc, Derivatives, Flags, Hamiltonian};
 
-use dth::methods::RunEnd;
-use dth::observer::Observer;
-
-use crate::driver::{DthRunner, MethodFailure, Stop};
 use crate::error::Error;
 use crate::regularized::Regularized;
 use crate::scene::{Scene, TextHamiltonian};
-use crate::system::SceneSystem;
+use crate::system::{Regularizable, SceneSystem};
 
 /// A scene's Hamiltonian given as text, compiled: cloning shares the compiled code (the DTH
 /// stepper owns its Hamiltonian; each thread of an ensemble holds a clone). It has its energy
 /// and nothing else: no invariants, period or exact solution (validation refuses the effects
 /// and methods that need them).
 ///
-/// The first field is `H`; the second, for a scene with `[system] regularize`, the regularized
-/// `K` method `dth` runs on ([`Regularized`]; the peers run on `H`).
+/// A scene runs it as [`SceneText`], which for `[system] regularize` runs method `dth` on the
+/// regularized `K` ([`Regularizable`]; the peers run on `H`).
 #[derive(Debug, Clone)]
-pub struct TextSystem(pub Arc<RuntimeHamiltonian>, Option<Arc<Regularized>>);
+pub struct TextSystem(pub Arc<RuntimeHamiltonian>);
+
+/// What a scene whose Hamiltonian is given as text runs: its [`TextSystem`], with the
+/// regularized `K` method `dth` runs on when the scene asks for `[system] regularize`.
+pub type SceneText = Regularizable<TextSystem>;
 
 impl TextSystem {
     /// The scene's Hamiltonian given as text, compiled with the scene's parameters.
@@ -60,13 +60,15 @@ impl TextSystem {
     ///     &Catalogue::builtin(),
     /// )?;
     /// let h = TextSystem::build(&scene)?;
-    /// assert_eq!(h.0.value_slice(&[1.0, 0.0]).unwrap(), 2.0);
+    /// assert_eq!(h.0 .0.value_slice(&[1.0, 0.0]).unwrap(), 2.0);
     /// # Ok::<(), dth_examples::Error>(())
     /// ```
-    pub fn build(scene: &Scene) -> Result<Self, Error> {
-        Self::compile(scene, text(scene)?, &scene.params)
+    pub fn build(scene: &Scene) -> Result<SceneText, Error> {
+        compile(scene, text(scene)?, &scene.params)
     }
+}
 
+impl SceneText {
     /// The same Hamiltonian with the parameters `params` (an ensemble member's): this one
     /// when they are the ones it was built with, else compiled anew.
     ///
@@ -77,37 +79,38 @@ impl TextSystem {
         scene: &Scene,
         params: &BTreeMap<String, f64>,
     ) -> Result<Self, Error> {
-        let same = self
-            .0
+        let h = &self.0 .0;
+        let same = h
             .parameters()
             .all(|(name, value)| params.get(name) == Some(&value));
-        if same && params.len() == self.0.parameters().count() {
+        if same && params.len() == h.parameters().count() {
             return Ok(self.clone());
         }
-        Self::compile(scene, text(scene)?, params)
+        compile(scene, text(scene)?, params)
     }
+}
 
-    fn compile(
-        scene: &Scene,
-        h: &TextHamiltonian,
-        params: &BTreeMap<String, f64>,
-    ) -> Result<Self, Error> {
-        let params: Vec<(&str, f64)> = params.iter().map(|(k, &v)| (k.as_str(), v)).collect();
-        let refused = |reason: String| Error::NotAvailable {
-            what: "system",
-            name: scene.system.clone(),
-            reason,
-        };
-        let runtime =
-            RuntimeHamiltonian::new(&h.source, &params).map_err(|e| refused(e.to_string()))?;
-        let regularized = match &scene.regularize {
-            Some(r) => Some(Arc::new(
-                Regularized::compile(r, &params).map_err(|e| refused(e.to_string()))?,
-            )),
-            None => None,
-        };
-        Ok(TextSystem(Arc::new(runtime), regularized))
-    }
+/// The scene's text `h` compiled with `params`, and its regularized `K` when the scene asks.
+fn compile(
+    scene: &Scene,
+    h: &TextHamiltonian,
+    params: &BTreeMap<String, f64>,
+) -> Result<SceneText, Error> {
+    let params: Vec<(&str, f64)> = params.iter().map(|(k, &v)| (k.as_str(), v)).collect();
+    let refused = |reason: String| Error::NotAvailable {
+        what: "system",
+        name: scene.system.clone(),
+        reason,
+    };
+    let runtime =
+        RuntimeHamiltonian::new(&h.source, &params).map_err(|e| refused(e.to_string()))?;
+    let regularized = match &scene.regularize {
+        Some(r) => Some(Arc::new(
+            Regularized::compile(r, &params).map_err(|e| refused(e.to_string()))?,
+        )),
+        None => None,
+    };
+    Ok(Regularizable(TextSystem(Arc::new(runtime)), regularized))
 }
 
 /// The scene's [`TextHamiltonian`].
@@ -180,24 +183,8 @@ impl Hamiltonian<Dyn> for TextSystem {
     }
 }
 
-/// Energy only: the defaults (no invariants, period, exact solution, central force). DTH runs
-/// on `H`, or for a regularized scene on its `K`, every record mapped back to `H`'s physical
-/// coordinates ([`Regularized::run`]).
-impl SceneSystem<Dyn> for TextSystem {
-    fn run_dth<O: Observer<Dyn>>(
-        &self,
-        runner: &DthRunner,
-        z0: DVector<f64>,
-        t0: f64,
-        stop: Stop,
-        observer: &mut O,
-    ) -> Option<Result<RunEnd<Dyn>, MethodFailure>> {
-        Some(match &self.1 {
-            Some(k) => k.run(runner, self, z0, t0, stop, observer),
-            None => runner.run(self, z0, t0, stop, observer),
-        })
-    }
-}
+/// Energy only: the defaults (no invariants, period, exact solution, central force).
+impl SceneSystem<Dyn> for TextSystem {}
 
 /// Energy only, as [`TextSystem`]: the fixed-size view of the same compiled code.
 impl<const N: usize> SceneSystem<Const<N>> for Fixed<N> {}
@@ -227,20 +214,20 @@ pub trait TextJob {
 pub fn dispatch<J: TextJob>(scene: &Scene, job: J) -> Result<J::Output, Error> {
     let system = TextSystem::build(scene)?;
     fn fixed<const N: usize>(
-        system: &TextSystem,
+        system: &SceneText,
         scene: &Scene,
         params: &BTreeMap<String, f64>,
     ) -> Result<Fixed<N>, Error> {
         let text = system.with_params(scene, params)?;
-        Fixed::new(text.0).map_err(|e| Error::NotAvailable {
+        Fixed::new(text.0 .0).map_err(|e| Error::NotAvailable {
             what: "system",
             name: scene.system.clone(),
             reason: e.to_string(),
         })
     }
     // A regularized scene's DTH runs on K at `Dyn` whatever the size of H.
-    Ok(match (system.0.dimension(), &scene.regularize) {
+    Ok(match (system.0 .0.dimension(), &scene.regularize) {
         (4, None) => job.run::<Const<4>, Fixed<4>>(&|p| fixed(&system, scene, p)),
-        _ => job.run::<Dyn, TextSystem>(&|p| system.with_params(scene, p)),
+        _ => job.run::<Dyn, SceneText>(&|p| system.with_params(scene, p)),
     })
 }

@@ -83,8 +83,8 @@ where
         None
     }
 
-    /// Runs the DTH stepper (`runner`) on this system. Keep the default (a text Hamiltonian
-    /// overrides it to run a regularized scene on its `K`, `crate::regularized`): it is the
+    /// Runs the DTH stepper (`runner`) on this system. Keep the default (the wrapper
+    /// [`Regularizable`] overrides it to run a regularized scene on its `K`): it is the
     /// only place the scene runner instantiates the stepper for `Self`, so a system whose `Psi` is
     /// identically zero (rejected by the stepper with `Error::PsiIdenticallyZero`) runs through [`WithoutDth`]
     /// instead, which returns `None` here ([`SystemEntry::runnable_without_dth`](crate::catalogue::SystemEntry::runnable_without_dth)
@@ -264,8 +264,8 @@ forward_to_system!(
 /// (built from the system's text, `catalogue::SystemEntry::with_text`), method `dth` runs on
 /// `K` and every record is mapped back to the physical state ([`Regularized::run`]); every
 /// other item is the system's own, so its invariants, exact solution, period and peer methods
-/// stay what they are. With `None` it is the system itself. The catalogue runs its systems
-/// through it.
+/// stay what they are. With `None` it is the system itself. The catalogue's systems and a
+/// scene's text (`crate::runtime_system::SceneText`) run through it.
 #[derive(Debug, Clone)]
 pub struct Regularizable<S>(pub S, pub Option<Arc<Regularized>>);
 

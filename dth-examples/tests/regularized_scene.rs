@@ -279,7 +279,7 @@ fn a_ks_scene_about_a_centre_runs_in_space() {
     let start: Vec<f64> = (0..6)
         .map(|i| if i < 3 { z0[i] + c[i] } else { z0[i] })
         .collect();
-    let energy = h.0.value_slice(&start).unwrap();
+    let energy = h.0 .0.value_slice(&start).unwrap();
     let w0 = KustaanheimoStiefel::start(&z0, 0.0, energy).unwrap();
     let (w, _) = by_hand(&k, w0.as_slice(), 0.3, 3141.592653589793);
     let w = dth::nalgebra::SVector::<f64, 10>::from_column_slice(w.as_slice());

@@ -25,7 +25,7 @@ use dth::runtime::Fixed;
 use dth::Alloc;
 use dth_examples::catalogue::Catalogue;
 use dth_examples::error::SceneDiagnostic;
-use dth_examples::runtime_system::{dispatch, MakeSystem, TextJob, TextSystem};
+use dth_examples::runtime_system::{dispatch, MakeSystem, SceneText, TextJob, TextSystem};
 use dth_examples::scene::{line_col, Duration, EffectSpec, MethodKind, Scene};
 use dth_examples::simulate::{compute, MethodResult, RunOptions};
 use dth_examples::system::SceneSystem;
@@ -542,13 +542,13 @@ fn a_four_dimensional_text_runs_at_a_fixed_size_and_ends_where_the_builtin_keple
     let morse = shipped("morse.toml");
     assert_eq!(
         dispatch(&morse, SystemType).unwrap(),
-        std::any::type_name::<TextSystem>()
+        std::any::type_name::<SceneText>()
     );
 
     // What `dth run` runs on it, against the built-in system: 2,000 steps of each method.
     scene.duration = Duration::Steps(2000);
     scene.effects = vec![EffectSpec::FinalState];
-    let text = Fixed::<4>::new(TextSystem::build(&scene).unwrap().0).unwrap();
+    let text = Fixed::<4>::new(TextSystem::build(&scene).unwrap().0 .0).unwrap();
     let from_text = final_states(&compute(&text, &scene, &quiet()).unwrap());
     let builtin = Kepler {
         m: scene.params["m"],
