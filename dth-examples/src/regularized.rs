@@ -44,8 +44,9 @@ use dth::{Alloc, Hamiltonian};
 use crate::driver::{Condition, DthRunner, MethodFailure, Stop, Watched};
 use crate::scene::{translated, IndexedCentre, Regularization, RegularizeMap};
 
-/// The most physical coordinates a map has (`q`, `p` in space).
-const MAX_PHYSICAL: usize = 6;
+/// The most physical coordinates a map has (`q`, `p` in space): room for
+/// [`Regularized::physical_state`].
+pub const MAX_PHYSICAL: usize = 6;
 
 /// Why a scene's regularized `K` was not built.
 #[derive(Debug, thiserror::Error)]
@@ -177,6 +178,13 @@ impl Regularized {
         t
     }
 
+    /// The physical `(q, p)` of the regularized state `w`, in `out` (no allocation: what
+    /// conditions on the physical state read at every step).
+    pub fn physical_state<'a>(&self, w: &[f64], out: &'a mut [f64; MAX_PHYSICAL]) -> &'a [f64] {
+        self.physical_into(w, out);
+        &out[..2 * self.map.n()]
+    }
+
     /// `dt/ds = dK/dp_t = |u|^2` at the regularized state `w`: DTH's multiplier on `K` times
     /// this is the physical `dt/dtau`.
     pub fn dt_ds(&self, w: &[f64]) -> f64 {
@@ -252,8 +260,8 @@ struct Physical<'a> {
 impl Condition for Physical<'_> {
     fn value(&self, t: f64, w: &[f64], scratch: &mut Vec<f64>) -> f64 {
         let mut z = [0.0; MAX_PHYSICAL];
-        self.map.physical_into(w, &mut z);
-        self.condition.value(t, &z[..2 * self.map.map.n()], scratch)
+        let z = self.map.physical_state(w, &mut z);
+        self.condition.value(t, z, scratch)
     }
 }
 

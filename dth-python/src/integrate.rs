@@ -20,6 +20,7 @@ use crate::hamiltonian::Hamiltonian;
 use crate::regularized::Physical;
 use crate::sized::{self, Job};
 use crate::solution::Solution;
+use dth_examples::regularized::MAX_PHYSICAL;
 
 /// What a run is asked to do, read from the keyword arguments.
 struct Request {
@@ -116,7 +117,10 @@ impl Events {
                 // A value that is not finite is the run's `EventNotANumber`, naming the event.
                 let event = Event::new(name.clone(), move |t, z: &OVector<f64, D>| {
                     let value = match physical {
-                        Some(p) => f.value_at(t, &p.state(z.as_slice()), &mut scratch),
+                        Some(p) => {
+                            let mut physical = [0.0; MAX_PHYSICAL];
+                            f.value_at(t, p.state_in(z.as_slice(), &mut physical), &mut scratch)
+                        }
                         None => f.value_at(t, z.as_slice(), &mut scratch),
                     };
                     value.unwrap_or(f64::NAN)

@@ -13,11 +13,8 @@ use pyo3::prelude::*;
 
 use dth::nalgebra::DVector;
 use dth::runtime::RuntimeHamiltonian;
-use dth_examples::regularized::Regularized;
+use dth_examples::regularized::{Regularized, MAX_PHYSICAL};
 use dth_examples::scene::{Regularization, RegularizeMap};
-
-/// The most physical coordinates a map has (`q`, `p` in space).
-const MAX_PHYSICAL: usize = 6;
 
 /// A run's regularization: the compiled `K`, the map back, and the physical `H` and energy.
 pub struct Physical {
@@ -119,9 +116,12 @@ impl Physical {
 
     /// The physical `(q, p)` of the regularized state `w`.
     pub fn state(&self, w: &[f64]) -> Vec<f64> {
-        let mut z = [0.0; MAX_PHYSICAL];
-        self.k.physical_into(w, &mut z);
-        z[..self.dim()].to_vec()
+        self.k.physical_state(w, &mut [0.0; MAX_PHYSICAL]).to_vec()
+    }
+
+    /// [`Physical::state`] in `out`, without allocating (an event's condition, every step).
+    pub fn state_in<'a>(&self, w: &[f64], out: &'a mut [f64; MAX_PHYSICAL]) -> &'a [f64] {
+        self.k.physical_state(w, out)
     }
 
     /// `dt/ds = |u|^2` at `w`: DTH's multiplier on `K` times this is the physical `dt/dtau`.
