@@ -272,7 +272,6 @@ pub fn integrate(
         Some(p) => p.start(&z0, t0)?,
         None => z0.clone(),
     };
-    let regularized = physical.is_some();
     let request = Request {
         end,
         t0,
@@ -293,7 +292,10 @@ pub fn integrate(
         // K's dimension (6 or 10) runs at `Dyn`.
         return job.run(p.k(), *method, DVector::clone);
     }
-    debug_assert!(!regularized, "Physical::read accepts method \"dth\" only");
+    debug_assert!(
+        request.physical.is_none(),
+        "Physical::read accepts method \"dth\" only"
+    );
     match chosen {
         Chosen::Method(method) => sized::dispatch(&h.h, method, job)?,
         Chosen::Special(special, dt) => {
