@@ -247,22 +247,27 @@ where
         (a.is_finite() && b.is_finite()).then_some((a, b))
     }
 
-    /// `A` entry by entry, `delta_ij - c (J Hess)_ij`, factored by the pivoted LU.
+    /// `A = I - c J Hess`, column by column (`J Hess` is `Hess` with its halves exchanged and
+    /// one negated), factored by the pivoted LU.
     fn factor_lu(&mut self, c: f64) -> Result<(), Pivot> {
         let hessian = &self.derivatives.hessian;
-        let n = hessian.nrows() / 2;
-        self.lu.factor_from(|i, j| {
-            let jh = if i < n {
-                hessian[(i + n, j)]
-            } else {
-                -hessian[(i - n, j)]
-            };
-            if i == j {
-                1.0 - jh * c
-            } else {
-                -(jh * c)
+        let dim = hessian.nrows();
+        let n = dim / 2;
+        let a = self.lu.storage_mut().as_mut_slice();
+        let columns = a
+            .chunks_exact_mut(dim)
+            .zip(hessian.as_slice().chunks_exact(dim));
+        for (j, (column, h)) in columns.enumerate() {
+            let (top, bottom) = column.split_at_mut(n);
+            for (x, hv) in top.iter_mut().zip(&h[n..]) {
+                *x = -(hv * c);
             }
-        })
+            for (x, hv) in bottom.iter_mut().zip(&h[..n]) {
+                *x = hv * c;
+            }
+            column[j] += 1.0;
+        }
+        self.lu.factor_in_place()
     }
 
     /// `S = I + P Q` into the leading block, `P` to its right, `Q` below it, and `S` factored

@@ -44,6 +44,9 @@ where
 {
     lu: OMatrix<f64, D, D>,
     perm: OVector<usize, D>,
+    /// `1 / U_ii`: back substitution multiplies by it (a division is several times the
+    /// latency of a product, on the dependent chain of a substitution).
+    inv: OVector<f64, D>,
 }
 
 impl<D: Dim> Lu<D>
@@ -58,6 +61,7 @@ where
         let mut lu = Lu {
             lu: a.clone(),
             perm: OVector::from_element_generic(d, U1, 0usize),
+            inv: OVector::zeros_generic(d, U1),
         };
         lu.eliminate()?;
         Ok(lu)
@@ -69,6 +73,7 @@ where
         Lu {
             lu: OMatrix::zeros_generic(d, d),
             perm: OVector::from_element_generic(d, U1, 0usize),
+            inv: OVector::zeros_generic(d, U1),
         }
     }
 
@@ -90,6 +95,12 @@ where
         self.eliminate()
     }
 
+    /// Factor the matrix the caller wrote into [`storage_mut`](Self::storage_mut), in place;
+    /// errors as [`factor`](Self::factor).
+    pub(crate) fn factor_in_place(&mut self) -> Result<(), Pivot> {
+        self.eliminate()
+    }
+
     /// Gaussian elimination with partial pivoting of `self.lu` in place.
     fn eliminate(&mut self) -> Result<(), Pivot> {
         let n = self.n();
@@ -101,16 +112,22 @@ where
     /// place, a pivot at or below `tiny` being [`Pivot::Singular`]. Rows are exchanged over the
     /// whole width, so entries right of the block move with their rows (the permutation is
     /// [`row`](Self::row)); rows below the block are not touched.
+    #[inline]
     pub(crate) fn eliminate_leading(&mut self, m: usize, tiny: f64) -> Result<(), Pivot> {
-        let Lu { lu, perm } = self;
+        let Lu { lu, perm, inv } = self;
         for (i, p) in perm.iter_mut().enumerate() {
             *p = i;
         }
+        // Column-oriented (right-looking, column by column on the column-major storage): the
+        // inner loops run over contiguous slices, without per-entry index checks.
+        let n = lu.nrows();
+        let a = lu.as_mut_slice();
         for k in 0..m {
+            let column = &a[k * n..k * n + m];
             let mut piv = k;
-            let mut best = lu[(k, k)].abs();
-            for i in k + 1..m {
-                let v = lu[(i, k)].abs();
+            let mut best = column[k].abs();
+            for (i, x) in column.iter().enumerate().skip(k + 1) {
+                let v = x.abs();
                 if v > best {
                     best = v;
                     piv = i;
@@ -123,15 +140,22 @@ where
                 return Err(Pivot::Singular);
             }
             if piv != k {
-                lu.swap_rows(piv, k);
+                for j in 0..n {
+                    a.swap(j * n + piv, j * n + k);
+                }
                 perm.swap_rows(piv, k);
             }
-            let inv = 1.0 / lu[(k, k)];
-            for i in k + 1..m {
-                let l = lu[(i, k)] * inv;
-                lu[(i, k)] = l;
-                for j in k + 1..m {
-                    lu[(i, j)] -= l * lu[(k, j)];
+            inv[k] = 1.0 / a[k * n + k];
+            // Multipliers below the pivot, then each later column minus multiple of them.
+            let (left, right) = a.split_at_mut((k + 1) * n);
+            let multipliers = &mut left[k * n + k + 1..k * n + m];
+            for l in multipliers.iter_mut() {
+                *l *= inv[k];
+            }
+            for column in right.chunks_exact_mut(n).take(m - k - 1) {
+                let ukj = column[k];
+                for (x, l) in column[k + 1..m].iter_mut().zip(multipliers.iter()) {
+                    *x -= l * ukj;
                 }
             }
         }
@@ -177,20 +201,27 @@ where
 
     /// Forward and back substitution with the factored leading `m x m` block of a permuted
     /// right-hand side in `x[..m]` (the rest of `x` is not touched).
+    #[inline]
     pub(crate) fn substitute_leading(&self, m: usize, x: &mut OVector<f64, D>) {
-        for i in 0..m {
-            let mut s = x[i];
-            for j in 0..i {
-                s -= self.lu[(i, j)] * x[j];
+        // Column-oriented, like the elimination: each solved entry is subtracted from the rest
+        // along a contiguous column.
+        let n = self.lu.nrows();
+        let a = self.lu.as_slice();
+        let x = &mut x.as_mut_slice()[..m];
+        for j in 0..m {
+            let (done, rest) = x.split_at_mut(j + 1);
+            let xj = done[j];
+            for (xi, l) in rest.iter_mut().zip(&a[j * n + j + 1..j * n + m]) {
+                *xi -= l * xj;
             }
-            x[i] = s;
         }
-        for i in (0..m).rev() {
-            let mut s = x[i];
-            for j in i + 1..m {
-                s -= self.lu[(i, j)] * x[j];
+        for j in (0..m).rev() {
+            let (rest, solved) = x.split_at_mut(j);
+            solved[0] *= self.inv[j];
+            let xj = solved[0];
+            for (xi, u) in rest.iter_mut().zip(&a[j * n..j * n + j]) {
+                *xi -= u * xj;
             }
-            x[i] = s / self.lu[(i, i)];
         }
     }
 
@@ -199,26 +230,15 @@ where
     where
         DefaultAllocator: nalgebra::allocator::Allocator<D, C>,
     {
-        let n = self.n();
+        let (d, _) = self.lu.shape_generic();
         let mut x = b.clone();
+        let mut column = OVector::zeros_generic(d, U1);
         for c in 0..b.ncols() {
-            for i in 0..n {
-                x[(i, c)] = b[(self.perm[i], c)];
+            for (i, y) in column.iter_mut().enumerate() {
+                *y = b[(self.perm[i], c)];
             }
-            for i in 0..n {
-                let mut s = x[(i, c)];
-                for j in 0..i {
-                    s -= self.lu[(i, j)] * x[(j, c)];
-                }
-                x[(i, c)] = s;
-            }
-            for i in (0..n).rev() {
-                let mut s = x[(i, c)];
-                for j in i + 1..n {
-                    s -= self.lu[(i, j)] * x[(j, c)];
-                }
-                x[(i, c)] = s / self.lu[(i, i)];
-            }
+            self.substitute(&mut column);
+            x.set_column(c, &column);
         }
         x
     }

@@ -59,15 +59,33 @@ where
 /// `max |x_i|` over `entries`: infinite when one is infinite, NaN when one is NaN (so not
 /// finite exactly when an entry is not). The Hessian's size at an evaluation, and the sizes
 /// the DTH Newton loop measures its iterates, residuals and updates by.
-pub(crate) fn largest<'a>(entries: impl IntoIterator<Item = &'a f64>) -> f64 {
-    let mut max = 0.0f64;
-    for x in entries {
-        if x.is_nan() {
-            return f64::NAN;
-        }
-        max = max.max(x.abs());
+///
+/// Four running maxima and a NaN flag, with no branch and no early return: a fold through one
+/// `f64::max` is a chain of dependent, NaN-aware compares, and on a 6 x 6 Hessian at every
+/// Newton iterate that chain was about a sixth of a regularized Kepler run's time.
+#[inline]
+pub(crate) fn largest(entries: &[f64]) -> f64 {
+    fn fold(lane: &mut f64, nan: &mut bool, x: f64) {
+        let a = x.abs();
+        *nan |= a.is_nan();
+        *lane = if a > *lane { a } else { *lane };
     }
-    max
+    let mut lanes = [0.0f64; 4];
+    let mut nan = false;
+    let mut chunks = entries.chunks_exact(4);
+    for chunk in &mut chunks {
+        for (lane, &x) in lanes.iter_mut().zip(chunk) {
+            fold(lane, &mut nan, x);
+        }
+    }
+    for (lane, &x) in lanes.iter_mut().zip(chunks.remainder()) {
+        fold(lane, &mut nan, x);
+    }
+    if nan {
+        f64::NAN
+    } else {
+        lanes[0].max(lanes[1]).max(lanes[2].max(lanes[3]))
+    }
 }
 
 impl<D: Dim> Point<D>
@@ -117,7 +135,7 @@ where
         out.value = d.value;
         out.gradient.copy_from(&d.gradient);
         out.psi = d.psi;
-        out.hessian_max = largest(d.hessian.iter());
+        out.hessian_max = largest(d.hessian.as_slice());
     }
 
     fn factor(&mut self, c: f64) -> Result<(), Pivot> {
@@ -156,7 +174,7 @@ where
     fn evaluate<H: Hamiltonian<D>>(&mut self, ham: &H, z: &OVector<f64, D>, out: &mut Point<D>) {
         let nonzeros = self.matrix.hessian_mut(0);
         ham.hessian_nonzeros(z, nonzeros);
-        out.hessian_max = largest(nonzeros.iter());
+        out.hessian_max = largest(nonzeros);
         out.value = ham.value(z);
         ham.gradient_into(z, &mut out.gradient);
         out.psi = ham.psi(z);

@@ -401,8 +401,8 @@ where
         move_max = move_max.max(m.abs());
     }
     // Roundoff scales: the magnitudes of the terms each residual is a difference of.
-    let scale_f = largest(z.iter())
-        .max(largest(v.iter()))
+    let scale_f = largest(z.as_slice())
+        .max(largest(v.as_slice()))
         .max(move_max)
         .max(f64::MIN_POSITIVE);
     let r_plain = d.value - energy;
@@ -412,7 +412,7 @@ where
         .max(roundoff_scale(z, &d.gradient))
         .max(f64::MIN_POSITIVE);
     e.plain_residual = r_plain.abs() / scale_r;
-    e.f_residual = largest(e.f.iter()) / scale_f;
+    e.f_residual = largest(e.f.as_slice()) / scale_f;
     e.scale_f = scale_f;
     e.r = r_plain;
     e.scale_r = scale_r;
@@ -481,7 +481,7 @@ where
     } else {
         e.scale_r
     };
-    e.f_residual = largest(e.f.iter()) / e.scale_f;
+    e.f_residual = largest(e.f.as_slice()) / e.scale_f;
     e.cf = true;
     e.r_cf = r_cf;
     e.cf_scale = scale;
@@ -561,7 +561,7 @@ fn relative_update<D: Dim>(dz: &OVector<f64, D>, z: &OVector<f64, D>, dl: f64, l
 where
     DefaultAllocator: Alloc<D>,
 {
-    (largest(dz.iter()) / largest(z.iter()).max(f64::MIN_POSITIVE))
+    (largest(dz.as_slice()) / largest(z.as_slice()).max(f64::MIN_POSITIVE))
         .max(dl.abs() / lambda.abs().max(f64::MIN_POSITIVE))
 }
 
@@ -791,17 +791,14 @@ where
             // The cancellation-free residual (a discrete gradient and its defect) only where it
             // can matter. Far from the solution (relative update above `CF_FROM`, and its
             // square above the plain residual's noise in lambda, `eps scale_r / |g_lambda
-            // lambda|`) the two residuals differ by roundoff far below the update, so the
-            // plain one gives the same iterates to within that roundoff and the following
-            // cancellation-free iterations remove it. Newton stops only at an iterate reached
-            // by a cancellation-free update (below `CF_FROM` a stop after a plain update
-            // cannot happen with quadratic convergence; if it does, one more iteration).
+            // lambda|`: see `cf_pays`) the two residuals differ by roundoff far below the
+            // update, so the plain one gives the same iterates to within that roundoff and the
+            // following cancellation-free iterations remove it. Newton stops only at an iterate
+            // reached by a cancellation-free update (below `CF_FROM` a stop after a plain update
+            // cannot happen with quadratic convergence; if it does, one more iteration). The
+            // start, where no update is known yet, is decided after its first update (below).
             let near = match (convergence.last(), last) {
-                (Some(u), Some(lin)) => {
-                    u <= CF_FROM
-                        || u * u
-                            <= 64.0 * f64::EPSILON * w.e.scale_r / (lin.g_lambda * lambda).abs()
-                }
+                (Some(u), Some(lin)) => cf_pays(u, &w.e, lin, lambda),
                 _ => false,
             };
             if stop.is_some() || near {
@@ -841,14 +838,23 @@ where
             solved = false;
         }
         cf_update = w.e.cf;
-        // Bordered system [[A, -(h/2) J g], [g^T, 0]] (dz, dl) = -(f, r):
-        // dz = u + z_lambda dl with A u = -f, and g^T dz = -r.
-        if !solved {
-            minus_solve(solver, &w.e.f, &mut w.u);
-        }
-        let dl = -(w.e.r + w.e.d.gradient.dot(&w.u)) / w.lin.g_lambda;
-        for ((dz, u), zl) in w.dz.iter_mut().zip(w.u.iter()).zip(w.lin.z_lambda.iter()) {
-            *dz = u + zl * dl;
+        let mut dl = bordered_update(solver, w, solved);
+        // The first update, from the predictor, with the plain residual: where it is as small
+        // as the plain residual's noise in lambda (the stepper's start is often that good,
+        // see `refine_start` there), most of it is that noise, and a third update would take
+        // it out again. Redo it with the cancellation-free residual (one more solve with the
+        // same factorization, no evaluation).
+        if let (None, Some(p), false) = (convergence.last(), &anchor.previous, w.e.cf) {
+            if cf_pays(
+                relative_update(&w.dz, &w.z, dl, lambda),
+                &w.e,
+                &w.lin,
+                lambda,
+            ) {
+                add_cancellation_free(ham, p, h, &w.z, lambda, step, &mut w.e)?;
+                cf_update = true;
+                dl = bordered_update(solver, w, false);
+            }
         }
         w.z += &w.dz;
         lambda += dl;
@@ -860,6 +866,34 @@ where
         }
         convergence.push(relative_update(&w.dz, &w.z, dl, lambda));
     }
+}
+
+/// Whether the cancellation-free residual pays at an iterate reached by a relative update `u`
+/// (`e` evaluated there, `lin` the last linearization): near the solution (`u <= CF_FROM`,
+/// after which quadratic convergence can stop at the next iterate), or where `u` is within
+/// the square root of the plain residual's noise in lambda, `eps scale_r / |g_lambda lambda|`.
+fn cf_pays<D: Dim>(u: f64, e: &Eval<D>, lin: &Linearization<D>, lambda: f64) -> bool
+where
+    DefaultAllocator: Alloc<D>,
+{
+    u <= CF_FROM || u * u <= 64.0 * f64::EPSILON * e.scale_r / (lin.g_lambda * lambda).abs()
+}
+
+/// The joint Newton update from the bordered system `[[A, -(h/2) J g], [g^T, 0]] (dz, dl) =
+/// -(f, r)`: `dz = u + z_lambda dl` with `A u = -f` (solved here unless `solved`: `w.u` holds
+/// it), and `g^T dz = -r`. `dz` goes into `w.dz`; returns `dl`.
+fn bordered_update<L: Linear<D>, D: Dim>(solver: &mut L, w: &mut Work<D>, solved: bool) -> f64
+where
+    DefaultAllocator: Alloc<D>,
+{
+    if !solved {
+        minus_solve(solver, &w.e.f, &mut w.u);
+    }
+    let dl = -(w.e.r + w.e.d.gradient.dot(&w.u)) / w.lin.g_lambda;
+    for ((dz, u), zl) in w.dz.iter_mut().zip(w.u.iter()).zip(w.lin.z_lambda.iter()) {
+        *dz = u + zl * dl;
+    }
+    dl
 }
 
 /// The inner Newton's workspace in [`nested`].

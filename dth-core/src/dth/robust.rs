@@ -331,7 +331,7 @@ where
     }
     solver.solve_into(&w.f, &mut w.delta);
     // (A NaN fails the comparison.)
-    largest(w.delta.iter()) <= tolerance
+    largest(w.delta.as_slice()) <= tolerance
 }
 
 /// Label a peer method's error (step 0 for a direct call) with the run's step index.
@@ -522,7 +522,7 @@ mod tests {
         let residual = work.f.amax();
         assert!(residual > 10.0 * tolerance, "{:e}", residual / scale);
         assert!(converged(&Pair, &z0, dt, tolerance, &mut dense, &mut work));
-        assert!(largest(work.delta.iter()) <= f64::EPSILON * scale);
+        assert!(largest(work.delta.as_slice()) <= f64::EPSILON * scale);
         let energy = Pair.value(&z0);
         let result = fallback_step(&Pair, &z0, dt, energy, &options, 3, &mut dense, &mut work);
         assert!(result.is_ok(), "{result:?}");
@@ -540,7 +540,7 @@ mod tests {
         residual_into(&z0, dt, &mut work);
         let tolerance = options.residual_tolerance() * scale;
         assert!(!converged(&Pair, &z0, dt, tolerance, &mut dense, &mut work));
-        let moved = largest(work.delta.iter()) / scale;
+        let moved = largest(work.delta.as_slice()) / scale;
         assert!((0.5e-9..2e-9).contains(&moved), "{moved:e}");
     }
 }
