@@ -1609,8 +1609,9 @@ fn refine_start<H: Hamiltonian<D>, D: Dim>(
         ham.gradient_into(z, g);
         add_j_times(v, g, c, next);
         let moved = change(next, z);
-        // (A NaN change fails the test too.)
-        if !(moved <= 0.5 * last) {
+        // (A NaN change does not contract either.)
+        let contracts = moved <= 0.5 * last;
+        if !contracts {
             return;
         }
         std::mem::swap(z, next);
