@@ -19,6 +19,7 @@
 //! dense path's storage, nothing here allocates, for `Const<N>` or `Dyn` dimensions alike.
 
 use crate::hamiltonian::Alloc;
+pub(crate) use crate::linalg::largest;
 use crate::linalg::Pivot;
 use crate::methods::Structured;
 use crate::structured::NewtonMatrix;
@@ -53,38 +54,6 @@ where
     /// Whether every Hessian entry is finite.
     pub(crate) fn hessian_finite(&self) -> bool {
         self.hessian_max.is_finite()
-    }
-}
-
-/// `max |x_i|` over `entries`: infinite when one is infinite, NaN when one is NaN (so not
-/// finite exactly when an entry is not). The Hessian's size at an evaluation, and the sizes
-/// the DTH Newton loop measures its iterates, residuals and updates by.
-///
-/// Four running maxima and a NaN flag, with no branch and no early return: a fold through one
-/// `f64::max` is a chain of dependent, NaN-aware compares, and on a 6 x 6 Hessian at every
-/// Newton iterate that chain was about a sixth of a regularized Kepler run's time.
-#[inline]
-pub(crate) fn largest(entries: &[f64]) -> f64 {
-    fn fold(lane: &mut f64, nan: &mut bool, x: f64) {
-        let a = x.abs();
-        *nan |= a.is_nan();
-        *lane = if a > *lane { a } else { *lane };
-    }
-    let mut lanes = [0.0f64; 4];
-    let mut nan = false;
-    let mut chunks = entries.chunks_exact(4);
-    for chunk in &mut chunks {
-        for (lane, &x) in lanes.iter_mut().zip(chunk) {
-            fold(lane, &mut nan, x);
-        }
-    }
-    for (lane, &x) in lanes.iter_mut().zip(chunks.remainder()) {
-        fold(lane, &mut nan, x);
-    }
-    if nan {
-        f64::NAN
-    } else {
-        lanes[0].max(lanes[1]).max(lanes[2].max(lanes[3]))
     }
 }
 
