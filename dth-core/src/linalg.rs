@@ -182,7 +182,7 @@ where
                 perm.swap_rows(piv, k);
             }
             inv[k] = 1.0 / a[k * n + k];
-            // Multipliers below the pivot, then each later column minus multiple of them.
+            // Multipliers below the pivot, then each later column minus a multiple of them.
             let (left, right) = a.split_at_mut((k + 1) * n);
             let multipliers = &mut left[k * n + k + 1..k * n + m];
             for l in multipliers.iter_mut() {
