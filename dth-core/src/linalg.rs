@@ -385,8 +385,8 @@ fn pivot_step<const N: usize>(
 ) -> Result<(), Pivot> {
     let mut piv = k;
     let mut best = a[k][k].abs();
-    for i in k + 1..N {
-        let v = a[k][i].abs();
+    for (i, x) in a[k].iter().enumerate().skip(k + 1) {
+        let v = x.abs();
         if v > best {
             best = v;
             piv = i;
@@ -405,8 +405,8 @@ fn pivot_step<const N: usize>(
         perm.swap(piv, k);
     }
     inv[k] = 1.0 / a[k][k];
-    for i in k + 1..N {
-        a[k][i] *= inv[k];
+    for x in a[k].iter_mut().skip(k + 1) {
+        *x *= inv[k];
     }
     let multipliers = a[k];
     for column in a.iter_mut().skip(k + 1) {
