@@ -5,8 +5,8 @@
     python3 dth-examples/benches/ias15_kepler.py [--quick] [--repeats N] [--venv DIR]
 
 What it does, one command, one table:
-1. makes sure `rebound` (PyPI) is importable: if not, creates a venv (default
-   `target/ias15-venv`), `pip install rebound` there and re-runs itself with it. rebound is not
+1. makes sure `rebound` and `mpmath` (PyPI) are importable: if not, creates a venv (default
+   `target/ias15-venv`), `pip install rebound mpmath` there and re-runs itself with it. rebound is not
    a dependency of the crates;
 2. builds and runs the Rust side, `cargo run --release -p dth-examples --example
    regularized_vs_ias15 -- --json` (respects CARGO_TARGET_DIR): regularized DTH (Levi-Civita,
@@ -15,8 +15,12 @@ What it does, one command, one table:
 3. runs IAS15 (default settings: epsilon 1e-9, adaptive step, exact finish time) on the same
    orbits: G = 1, a central mass 2 at rest and a test particle, so that the relative motion is
    the thesis's `H = |p|^2 - 1/r` (m = 1/2, k = 1, mu = 2) with `v = 2p`;
-4. measures both errors the same way: max-norm of `(q, p)` at the end against Kepler's equation
-   (solved here; checked against the Rust side's `KeplerOrbit` at T), and prints the table.
+4. measures both errors the same way: max-norm of `(q, p)` at T against the exact solution
+   through the start as stored (Kepler's equation solved with mpmath at 50 digits, passed to
+   the Rust side with `--reference`), and prints the table with the floor of each row: how far
+   the exact state at T moves when the start's `p` moves by one unit in the last place. No
+   method that starts from doubles can be expected below it (at e = 0.99 and 0.999 it is above
+   the target 1e-10: there the methods are compared at IAS15's own error).
 
 Times are wall times of the integration alone (median of the repeats), both sides on the same
 machine in the same run; compare them only as ratios.
@@ -37,6 +41,7 @@ ROOT = Path(__file__).resolve().parents[2]
 
 def ensure_rebound(venv):
     try:
+        import mpmath  # noqa: F401
         import rebound  # noqa: F401
 
         return
@@ -49,51 +54,49 @@ def ensure_rebound(venv):
     if not python.exists():
         print(f"creating venv {venv} and installing rebound from PyPI", file=sys.stderr)
         subprocess.run([sys.executable, "-m", "venv", str(venv)], check=True)
-    subprocess.run([str(python), "-m", "pip", "install", "-q", "rebound"], check=True)
+    subprocess.run([str(python), "-m", "pip", "install", "-q", "rebound", "mpmath"], check=True)
     os.execv(str(python), [str(python), *sys.argv])
 
 
-def kepler_state(e, t):
-    """The thesis's orbit from pericentre q = (0.5, 0), p = (0, sqrt(1 + e)) at time t:
-    (q1, q2, p1, p2). Kepler's equation E - e sin E = M solved by Newton safeguarded by
-    bisection on M in (-pi, pi]; 1 - e cos E and cos E - e without cancellation near
-    pericentre. The elements are those of the start as stored (p rounded): at e = 0.999 the
-    orbit of p = sqrt(1 + e) rounded and that of e itself are 7e-6 apart after 100 orbits."""
-    mu = 2.0
-    p = math.sqrt(1.0 + e)
-    energy = p * p - 2.0  # |p|^2 - 1/r at the start
-    e = p * p - 1.0  # r v^2 / mu - 1 at pericentre; 1 - e = -energy exactly
-    a = -1.0 / (2.0 * energy)
-    period = 2.0 * math.pi * math.sqrt(a**3 / mu)
-    n = 2.0 * math.pi / period
-    m = n * math.fmod(t, period)
-    m = math.remainder(m, 2.0 * math.pi)  # (-pi, pi]
-    lo, hi = -math.pi, math.pi
-    x = m / (1.0 - e) if abs(m) < 1e-3 else m + e * math.sin(m)
-    x = min(max(x, lo), hi)
-    for _ in range(200):
-        f = x - e * math.sin(x) - m
-        if f == 0.0:
-            break
-        if f > 0.0:
-            hi = x
-        else:
-            lo = x
-        y = x - f / ((1.0 - e) + 2.0 * e * math.sin(0.5 * x) ** 2)
-        if not (lo <= y <= hi):
-            y = 0.5 * (lo + hi)
-        if abs(y - x) <= 1e-16 * abs(x) or lo == hi:
-            x = y
-            break
-        x = y
-    s2 = math.sin(0.5 * x) ** 2
-    b = a * math.sqrt((1.0 - e) * (1.0 + e))
-    q1 = a * ((1.0 - e) - 2.0 * s2)
-    q2 = b * math.sin(x)
-    edot = n / ((1.0 - e) + 2.0 * e * s2)
-    v1 = -a * math.sin(x) * edot
-    v2 = b * math.cos(x) * edot
-    return (q1, q2, 0.5 * v1, 0.5 * v2)
+def kepler_state(e, t, p0=None):
+    """The exact state `(q1, q2, p1, p2)` at time `t` of the orbit through the start as
+    stored, pericentre `q = (0.5, 0)`, `p = (0, p0)` with `p0 = sqrt(1 + e)` rounded to a
+    double (or the `p0` given), computed with mpmath at 50 digits and rounded to doubles.
+
+    The orbit's elements follow from the stored start exactly (`E = p0^2 - 2`, `e = p0^2 - 1`
+    without rounding), Kepler's equation is solved by Newton at that precision, and `t` is
+    reduced modulo the exact period. A solution in doubles cannot do this: after 100 orbits
+    at e = 0.99 (0.999) the rounding of `p0^2 - 2` alone moves the state by 4e-9 (2e-6), and
+    the rounding of the period, multiplied by 100, by as much again."""
+    from mpmath import mp, mpf
+
+    with mp.workdps(50):
+        p = mpf(math.sqrt(1.0 + e) if p0 is None else p0)
+        energy = p * p - 2  # |p|^2 - 1/r at r = 0.5
+        a = -1 / (2 * energy)
+        ecc = p * p - 1  # r v^2 / mu - 1 at pericentre
+        n = mp.sqrt(2 / a**3)  # mu = 2
+        m = mp.fmod(n * mpf(t), 2 * mp.pi)
+        x = m
+        for _ in range(200):
+            step = (x - ecc * mp.sin(x) - m) / (1 - ecc * mp.cos(x))
+            x -= step
+            if abs(step) < mpf(10) ** -45:
+                break
+        b = a * mp.sqrt(1 - ecc * ecc)
+        edot = n / (1 - ecc * mp.cos(x))
+        q1, q2 = a * (mp.cos(x) - ecc), b * mp.sin(x)
+        v1, v2 = -a * mp.sin(x) * edot, b * mp.cos(x) * edot
+        return tuple(float(c) for c in (q1, q2, v1 / 2, v2 / 2))
+
+
+def conditioning(e, t):
+    """How far the exact state at `t` moves when the start's `p0` moves by one unit in the last
+    place: the error floor of any method that starts from that double (one rounding of the
+    start, or of its energy, costs about this much)."""
+    p0 = math.sqrt(1.0 + e)
+    z, z1 = kepler_state(e, t), kepler_state(e, t, math.nextafter(p0, 2.0))
+    return max(abs(a - b) for a, b in zip(z, z1))
 
 
 def ias15(e, t_end, repeats):
@@ -132,7 +135,7 @@ def t_end_of(e):
     return 100.0 * (2.0 * math.pi * math.sqrt(a * a * a / 2.0))
 
 
-def rust_side(args, matches):
+def rust_side(args, matches, exact):
     cmd = ["cargo", "run", "--release", "-q", "-p", "dth-examples"]
     cmd += ["--example", "regularized_vs_ias15", "--", "--json"]
     cmd += ["--repeats", str(args.repeats), "--target", str(args.target)]
@@ -140,6 +143,8 @@ def rust_side(args, matches):
         cmd.append("--quick")
     for e, err in matches.items():
         cmd += ["--match", f"{e}={err!r}"]
+    for e, z in exact.items():
+        cmd += ["--reference", f"{e}=" + ",".join(repr(c) for c in z)]
     print("$ " + " ".join(cmd), file=sys.stderr)
     out = subprocess.run(cmd, cwd=ROOT, check=True, stdout=subprocess.PIPE, text=True).stdout
     return [json.loads(line) for line in out.splitlines() if line.startswith("{")]
@@ -170,15 +175,21 @@ def main():
         args.repeats = 1
     ensure_rebound(args.venv)
 
+    # The exact end states (both sides measure against them) and the floor at each e.
+    exact = {e: kepler_state(e, t_end_of(e)) for e in ECCENTRICITIES}
+    floors = {e: conditioning(e, t_end_of(e)) for e in ECCENTRICITIES}
     peers = {e: ias15(e, t_end_of(e), args.repeats) for e in ECCENTRICITIES}
     for e, r in peers.items():
-        r["error"] = max(abs(a - b) for a, b in zip(r["z"], kepler_state(e, r["t"])))
+        if r["t"] != t_end_of(e):
+            sys.exit(f"e = {e}: IAS15 ended at {r['t']!r}, not at T = {t_end_of(e)!r}")
+        r["error"] = max(abs(a - b) for a, b in zip(r["z"], exact[e]))
     # Where IAS15 misses the target, DTH is also timed at IAS15's own error.
     matches = {e: r["error"] for e, r in peers.items() if r["error"] > args.target}
-    records = rust_side(args, matches)
+    records = rust_side(args, matches, exact)
     orbits = {r["e"]: r for r in records if r["kind"] == "orbit"}
     print(
         f"Kepler (thesis units), pericentre r = 0.5, 100 orbits, target {args.target:.0e}; "
+        f"errors against the exact solution through the stored start; "
         f"time: median of {args.repeats}; ratio: time / IAS15's"
     )
     print()
@@ -187,13 +198,14 @@ def main():
     for e in ECCENTRICITIES:
         orbit, ref = orbits[e], peers[e]
         if orbit["t_end"] != t_end_of(e):
-            print(f"warning: e = {e}: T differs from the Rust side's", file=sys.stderr)
-        # The reference checked against the Rust side's KeplerOrbit at T.
-        check = max(abs(a - b) for a, b in zip(kepler_state(e, orbit["t_end"]), orbit["exact_end"]))
-        print(f"e = {e}: Kepler references (here, Rust) differ by {check:.0e} at T", file=sys.stderr)
-        if ref["t"] == orbit["t_end"]:
-            # IAS15 ended at T exactly: its error against the same reference as DTH's.
-            ref["error"] = max(abs(a - b) for a, b in zip(ref["z"], orbit["exact_end"]))
+            sys.exit(f"e = {e}: T differs from the Rust side's")
+        # What a solution in doubles gives (the Rust side's KeplerOrbit) against the exact one.
+        doubles = max(abs(a - b) for a, b in zip(exact[e], orbit["kepler_orbit_end"]))
+        print(
+            f"e = {e}: one ulp of the start's p moves the state at T by {floors[e]:.1e}; "
+            f"Kepler's equation in doubles is {doubles:.1e} off",
+            file=sys.stderr,
+        )
         reached = "" if ref["error"] <= args.target else " (not reached)"
         print(
             f"| {e} | IAS15 (REBOUND {ref['version']}, default) | adaptive | {ref['steps']} | - "
@@ -201,6 +213,7 @@ def main():
         )
         for r in (r for r in records if r["kind"] == "dth" and r["e"] == e):
             print(dth_row(e, r, ref))
+        print(f"| {e} | (one ulp of the start's p moves the state at T by) | | | | {floors[e]:.1e} | | |")
 
 
 if __name__ == "__main__":
