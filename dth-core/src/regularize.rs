@@ -10,6 +10,16 @@
 //! `q`: [`LeviCivita::start`] takes the root with `u1 >= 0`, computed without cancellation)
 //! and `P = 2 A(u)^T p`. The run starts on `K = 0`: `p_t = -H(q, p)`.
 //!
+//! **The energy sets the period.** `p_t` is a coordinate DTH keeps exactly, and for a Kepler
+//! problem the regularized orbit's period follows it (`T ~ |E|^(-3/2)`): pass the start's
+//! energy to full relative precision where many orbits matter. At high eccentricity `E` is a
+//! small difference of large terms (`|p|^2 - k/r` at pericentre): the plain sum carries one
+//! rounding of the terms, `eps |p|^2`, which at e = 0.999 is 1e-13 of `E` and moves the state
+//! by 2e-6 after 100 orbits; computed with one rounding (`p.mul_add(p, -k / r)` where `k / r`
+//! is exact), DTH-8 ends within 4e-8 of the exact orbit at 45 or more steps per orbit (the
+//! `regularized_vs_ias15` example of `dth-examples`). The same holds for
+//! [`KustaanheimoStiefel`].
+//!
 //! ```
 //! use dth_core::nalgebra::Vector4;
 //! use dth_core::regularize::LeviCivita;
@@ -48,7 +58,8 @@ pub struct LeviCivita;
 impl LeviCivita {
     /// The regularized start `(u1, u2, t, P1, P2, p_t)` of the physical state
     /// `z = (q1, q2, p1, p2)` at time `t` whose energy is `energy = H(z)` (`p_t = -energy`, so
-    /// that `K = 0`).
+    /// that `K = 0`). The orbit's period is as accurate as `energy` (see the
+    /// [module docs](self)).
     ///
     /// # Errors
     /// [`Error::NonFiniteInitialState`] for a component, time or energy that is not finite;
