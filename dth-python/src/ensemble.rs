@@ -24,6 +24,7 @@ use dth_examples::ensemble::chaos::{Indicators, Megno};
 use crate::args::{self, Chosen, End};
 use crate::catalogue::Special;
 use crate::hamiltonian::Hamiltonian;
+use crate::regularized::Physical;
 use crate::sized::{self, Job};
 
 /// The result of `dth.ensemble`, one row per member (in the order of `z0s`, or of the
@@ -102,13 +103,21 @@ struct Plan<'a> {
     flag: &'a AtomicBool,
     /// Compute MEGNO and the Lyapunov estimate.
     chaos: bool,
+    /// The length of a reported state (physical).
+    dim: usize,
+    /// `regularize=`: every member runs DTH on this `K` and reports the physical `(q, p)`,
+    /// time and energy error.
+    physical: Option<&'a Physical>,
 }
 
 /// One member to run: its initial state, its end and (a parameter grid) its parameters.
 struct Start {
+    /// The state the method starts from (regularized: `K`'s, from the physical row).
     z0: DVector<f64>,
     end: End,
     params: Vec<(String, f64)>,
+    /// Regularized: the physical row's `H(z0)`, which the energy errors are measured from.
+    energy0: f64,
 }
 
 /// One member's run, as a [`Job`]: the largest energy error over every step, observed as it
@@ -133,12 +142,15 @@ impl Job for Run<'_> {
     {
         let plan = self.plan;
         let z0 = state(&self.start.z0);
-        let dim = z0.len();
         let h0 = h.value(&z0);
         let mut worst = 0.0f64;
         let mut megno = plan.chaos.then(|| Megno::new(h));
         let observe = |r: &StepRecord<D>| {
-            worst = worst.max((h.value(&r.z) - h0).abs());
+            let error = match plan.physical {
+                Some(p) => p.energy_error_from(r.z.as_slice(), self.start.energy0),
+                None => h.value(&r.z) - h0,
+            };
+            worst = worst.max(error.abs());
             if let Some(m) = megno.as_mut() {
                 m.on_step(r);
             }
@@ -158,9 +170,11 @@ impl Job for Run<'_> {
             Err(e) => (e.partial, Some(e.error.to_string())),
         };
         let failure = failure.or_else(|| solution.failure.as_ref().map(|e| e.to_string()));
-        let (last, t) = match (solution.z.last(), solution.t.last()) {
-            (Some(z), Some(&t)) => (z.iter().copied().collect(), t),
-            _ => (vec![f64::NAN; dim], f64::NAN),
+        let (last, t) = match (solution.z.last(), solution.t.last(), plan.physical) {
+            // (A regularized run's midpoint times are its `t` coordinate: physical.)
+            (Some(w), Some(&t), Some(p)) => (p.state(w.as_slice()), t),
+            (Some(z), Some(&t), None) => (z.iter().copied().collect(), t),
+            _ => (vec![f64::NAN; plan.dim], f64::NAN),
         };
         Member {
             last,
@@ -175,10 +189,14 @@ impl Job for Run<'_> {
 }
 
 /// A member that did not start: Ctrl-C came first.
-fn not_started(start: &Start, t0: f64) -> Member {
+fn not_started(start: &Start, plan: &Plan<'_>) -> Member {
+    let last = match plan.physical {
+        Some(p) => p.state(start.z0.as_slice()),
+        None => start.z0.iter().copied().collect(),
+    };
     Member {
-        last: start.z0.iter().copied().collect(),
-        t: t0,
+        last,
+        t: plan.t0,
         energy_error: 0.0,
         steps: 0,
         fallback_steps: 0,
@@ -196,9 +214,13 @@ fn member(
     plan: &Plan<'_>,
 ) -> PyResult<Member> {
     if plan.flag.load(Ordering::Relaxed) {
-        return Ok(not_started(start, plan.t0));
+        return Ok(not_started(start, plan));
     }
     let job = Run { start, plan };
+    if let (Some(p), Chosen::Method(method)) = (plan.physical, chosen) {
+        // K's dimension (6 or 10) runs at `Dyn`; `Physical::read` accepts method "dth" only.
+        return Ok(job.run(p.k(), method, DVector::clone));
+    }
     match chosen {
         Chosen::Method(method) => sized::dispatch(h, method, job),
         Chosen::Special(special, dt) => crate::catalogue::dispatch(catalogue, h, special, dt, job),
@@ -211,7 +233,8 @@ fn member(
 ///
 /// ensemble(h, z0s, method="dth", *, dtau=None, dt=None, order=None, robust=None,
 ///          lambda0=None, steps=None, t_end=None, orbits=None, t0=0.0, max_steps=None,
-///          threads=None, params=None, megno=False, lyapunov=False)
+///          threads=None, params=None, megno=False, lyapunov=False, regularize=None,
+///          centre=None)
 ///
 /// Arguments are those of `integrate`, with:
 ///   z0s: the initial states, an (M, D) array (for a time-dependent H also (M, D - 2): the
@@ -228,6 +251,11 @@ fn member(
 ///     estimate from the variational equations along each member's run (the scene
 ///     ensembles' own observer: the tangent vector carried by the trapezoidal rule from
 ///     state to state with the exact Hessian); either one fills both `megno` and `lyapunov`.
+///   regularize, centre: as in `integrate` (method "dth" only): every member runs DTH on the
+///     regularized K, from its physical row; `final`, `t_end` and `energy_error` are
+///     physical ((q, p), the time, |H - H(z0)|), `steps` are K's. Not with `params` (K is
+///     compiled once, with h's parameters) nor with megno/lyapunov (the variational equations
+///     would run in K's fictitious time).
 ///
 /// A member that fails does not stop the others: its `failure` says why and its row holds
 /// the last state it reached. Ctrl-C stops the whole ensemble with KeyboardInterrupt.
@@ -246,7 +274,8 @@ fn member(
 #[pyo3(signature = (
     h, z0s, method = "dth", *, dtau = None, dt = None, order = None, robust = None,
     lambda0 = None, steps = None, t_end = None, orbits = None, t0 = 0.0, max_steps = None,
-    threads = None, params = None, megno = false, lyapunov = false
+    threads = None, params = None, megno = false, lyapunov = false, regularize = None,
+    centre = None
 ))]
 #[allow(clippy::too_many_arguments)]
 pub fn ensemble(
@@ -268,10 +297,19 @@ pub fn ensemble(
     params: Option<BTreeMap<String, Vec<f64>>>,
     megno: bool,
     lyapunov: bool,
+    regularize: Option<&str>,
+    centre: Option<Vec<f64>>,
 ) -> PyResult<Ensemble> {
     let dim = h.h.dimension();
     let chosen = args::method(method, dtau, dt, order, robust, lambda0)?;
     let duration = args::end(steps, t_end, orbits)?;
+    let physical = regularized(
+        &h,
+        method,
+        (regularize, centre),
+        params.is_some(),
+        megno || lyapunov,
+    )?;
     let grid = params.map(|p| grid(&h, p)).transpose()?;
     let rows = states(&h, z0s, grid.as_ref().map(Vec::len))?;
     // Each member's start and end, with its own parameters (a grid: a scratch copy of `h`).
@@ -302,6 +340,10 @@ pub fn ensemble(
                 |e: PyErr| PyValueError::new_err(format!("member {i}: {}", e.value(py)));
             let end =
                 args::resolve_end(duration, h.catalogue(), runtime, &z0, t0).map_err(in_member)?;
+            let (z0, energy0) = match &physical {
+                Some(p) => p.start_of(&z0, t0).map_err(in_member)?,
+                None => (z0, f64::NAN),
+            };
             if let Chosen::Special(Special::Exact, _) = chosen {
                 if let Some(reason) =
                     crate::catalogue::exact_unavailable(h.catalogue(), runtime, &z0)?
@@ -309,7 +351,12 @@ pub fn ensemble(
                     return Err(in_member(PyValueError::new_err(reason)));
                 }
             }
-            Ok(Start { z0, end, params })
+            Ok(Start {
+                z0,
+                end,
+                params,
+                energy0,
+            })
         })
         .collect::<PyResult<Vec<Start>>>()?;
     let pool = {
@@ -330,6 +377,8 @@ pub fn ensemble(
         max_steps,
         flag: &flag,
         chaos: megno || lyapunov,
+        dim,
+        physical: physical.as_ref(),
     };
     let shared: &Arc<RuntimeHamiltonian> = &h.h;
     let catalogue = h.catalogue();
@@ -399,6 +448,37 @@ pub fn ensemble(
         }),
         failure: members.into_iter().map(|r| r.failure).collect(),
     })
+}
+
+/// `regularize=` and `centre=` read as `integrate` reads them ([`Physical::read`]), refused
+/// with a parameter grid (`K` is compiled once, with `h`'s parameters) and with the chaos
+/// indicators (their variational equations would run in `K`'s fictitious time).
+fn regularized(
+    h: &Hamiltonian,
+    method: &str,
+    (regularize, centre): (Option<&str>, Option<Vec<f64>>),
+    grid: bool,
+    chaos: bool,
+) -> PyResult<Option<Physical>> {
+    let Some(regularize) = regularize else {
+        if centre.is_some() {
+            return Err(PyTypeError::new_err(
+                "centre is the centre of a regularization: give regularize too",
+            ));
+        }
+        return Ok(None);
+    };
+    if grid {
+        return Err(PyValueError::new_err(
+            "regularize with params: the regularized K is compiled once, with h's parameters; run one ensemble per parameter value (h.set_parameter(name, value) between them), or a grid of initial states",
+        ));
+    }
+    if chaos {
+        return Err(PyValueError::new_err(
+            "regularize with megno or lyapunov: the variational equations would run in K's fictitious time, and the indicators would not be the physical ones; drop regularize (robust=True runs through a breakdown) or the indicators",
+        ));
+    }
+    Physical::read(&h.h, h.text(), regularize, centre, method).map(Some)
 }
 
 /// The parameter grid `params`: per member, its (name, value) pairs; every array of the same

@@ -92,10 +92,20 @@ impl Physical {
     /// The regularized start of the physical `z0` at `t0` (on `K = 0`), keeping `H(z0)` as
     /// the energy the errors are measured from; a `ValueError` for a `z0` at the centre.
     pub fn start(&mut self, z0: &DVector<f64>, t0: f64) -> PyResult<DVector<f64>> {
-        self.energy0 = dth::Hamiltonian::value(&*self.h, z0);
-        self.k
-            .start(z0.as_slice(), t0, self.energy0)
-            .map_err(|e| PyValueError::new_err(format!("z0: {e}")))
+        let (w0, energy0) = self.start_of(z0, t0)?;
+        self.energy0 = energy0;
+        Ok(w0)
+    }
+
+    /// The regularized start of the physical `z0` at `t0` and `H(z0)`, for one of many runs
+    /// on this `K` (an ensemble's member); a `ValueError` for a `z0` at the centre.
+    pub fn start_of(&self, z0: &DVector<f64>, t0: f64) -> PyResult<(DVector<f64>, f64)> {
+        let energy0 = dth::Hamiltonian::value(&*self.h, z0);
+        let w0 = self
+            .k
+            .start(z0.as_slice(), t0, energy0)
+            .map_err(|e| PyValueError::new_err(format!("z0: {e}")))?;
+        Ok((w0, energy0))
     }
 
     /// Physical coordinates: `2n`.
@@ -110,8 +120,15 @@ impl Physical {
 
     /// `H(q, p) - H(z0)` at the regularized state `w`.
     pub fn energy_error(&self, w: &[f64]) -> f64 {
-        let z = DVector::from_vec(self.state(w));
-        dth::Hamiltonian::value(&*self.h, &z) - self.energy0
+        self.energy_error_from(w, self.energy0)
+    }
+
+    /// `H(q, p) - energy0` at the regularized state `w` (a run started by
+    /// [`Physical::start_of`]).
+    pub fn energy_error_from(&self, w: &[f64], energy0: f64) -> f64 {
+        let mut physical = [0.0; MAX_PHYSICAL];
+        let z = DVector::from_column_slice(self.state_in(w, &mut physical));
+        dth::Hamiltonian::value(&*self.h, &z) - energy0
     }
 
     /// The physical `(q, p)` of the regularized state `w`.

@@ -214,3 +214,45 @@ time = 200.0
     assert np.array_equal(e.lyapunov, table["lyapunov"])
     ends = np.column_stack([table[f"end_{c}"] for c in ("q1", "q2", "p1", "p2")])
     assert np.array_equal(e.final, ends)
+
+
+# Pericentre 0.5 in the thesis normalisation (|p|^2 = 1 + e) at e = 0.9, 0.99, 0.999.
+ECCENTRIC = np.array([[0.5, 0.0, 0.0, np.sqrt(1 + e)] for e in (0.9, 0.99, 0.999)])
+
+
+def test_regularize_runs_each_member_as_integrate_does(kepler):
+    # Unregularized, plain DTH breaks down near the first pericentre passage of every member.
+    plain = dth.ensemble(kepler, ECCENTRIC, dtau=0.05, t_end=100.0)
+    assert plain.failed == 3
+    e = dth.ensemble(kepler, ECCENTRIC, dtau=0.05, order=8, t_end=100.0, regularize="levi-civita")
+    assert e.failed == 0 and e.final.shape == (3, 4)
+    assert (e.fallback_steps == 0).all()
+    for i, z0 in enumerate(ECCENTRIC):
+        s = dth.integrate(kepler, z0, dtau=0.05, order=8, t_end=100.0, regularize="levi-civita")
+        # The same run, to the bit: physical end state and time, K's steps.
+        assert np.array_equal(e.final[i], s.z[-1]) and e.t_end[i] == s.t[-1] == 100.0
+        assert e.steps[i] == s.steps
+        # |H - H(z0)| of the physical H, against the terms |p|^2 + 1/r (at most 4 at
+        # pericentre, eps of which is 9e-16).
+        assert e.energy_error[i] == np.abs(s.energy_error).max()
+        assert e.energy_error[i] < 4e-15
+
+
+def test_regularize_in_an_ensemble_says_what_it_cannot_do(kepler):
+    with pytest.raises(ValueError, match="regularize with params"):
+        spring = dth.Hamiltonian("p1^2 + p2^2 - k*(q1^2 + q2^2)^(-1/2)", params={"k": 1.0})
+        dth.ensemble(spring, ECCENTRIC[0], dtau=0.05, steps=5, params={"k": [1.0, 2.0]},
+                     regularize="levi-civita")
+    with pytest.raises(ValueError, match="regularize with megno"):
+        dth.ensemble(kepler, ECCENTRIC, dtau=0.05, steps=5, megno=True, regularize="levi-civita")
+    with pytest.raises(ValueError, match="applies to method \"dth\""):
+        dth.ensemble(kepler, ECCENTRIC, "gauss_legendre2", dt=0.01, steps=5,
+                     regularize="levi-civita")
+    with pytest.raises(ValueError, match="regularizes a Hamiltonian of n = 3"):
+        dth.ensemble(kepler, ECCENTRIC, dtau=0.05, steps=5, regularize="ks")
+    with pytest.raises(TypeError, match="give regularize too"):
+        dth.ensemble(kepler, ECCENTRIC, dtau=0.05, steps=5, centre=[0.0, 0.0])
+    # A member at the centre: its row, named.
+    with pytest.raises(ValueError, match=r"member 1|z0s\[1\]"):
+        dth.ensemble(kepler, [ECCENTRIC[0], [0.0, 0.0, 0.0, 1.0]], dtau=0.05, steps=5,
+                     regularize="levi-civita")

@@ -161,6 +161,8 @@ def ensemble(
     params: Optional[Mapping[str, npt.ArrayLike]] = None,
     megno: bool = False,
     lyapunov: bool = False,
+    regularize: Optional[str] = None,
+    centre: Optional[Sequence[float]] = None,
 ) -> Ensemble: ...
 
 class SceneError(ValueError): ...
