@@ -179,22 +179,7 @@ where
         let n = lu.nrows();
         let a = lu.as_mut_slice();
         for k in 0..m {
-            let column = &a[k * n..k * n + m];
-            let mut piv = k;
-            let mut best = column[k].abs();
-            for (i, x) in column.iter().enumerate().skip(k + 1) {
-                let v = x.abs();
-                if v > best {
-                    best = v;
-                    piv = i;
-                }
-            }
-            if !best.is_finite() {
-                return Err(Pivot::NonFinite);
-            }
-            if best <= tiny || best == 0.0 {
-                return Err(Pivot::Singular);
-            }
+            let piv = k + choose_pivot(&a[k * n + k..k * n + m], tiny)?;
             if piv != k {
                 for j in 0..n {
                     a.swap(j * n + piv, j * n + k);
@@ -341,6 +326,30 @@ where
     }
 }
 
+/// Partial pivoting's choice among a column's candidate `entries` (the diagonal entry first):
+/// the index of the first of the largest `|x|`; [`Pivot::NonFinite`] when that is not finite,
+/// [`Pivot::Singular`] when it is at or below `tiny` (or zero). Shared by the dense
+/// eliminations here and the banded one ([`crate::structured`]).
+#[inline(always)]
+pub(crate) fn choose_pivot(entries: &[f64], tiny: f64) -> Result<usize, Pivot> {
+    let mut piv = 0;
+    let mut best = entries.first().map_or(f64::NAN, |x| x.abs());
+    for (i, x) in entries.iter().enumerate().skip(1) {
+        let v = x.abs();
+        if v > best {
+            best = v;
+            piv = i;
+        }
+    }
+    if !best.is_finite() {
+        return Err(Pivot::NonFinite);
+    }
+    if best <= tiny || best == 0.0 {
+        return Err(Pivot::Singular);
+    }
+    Ok(piv)
+}
+
 /// `$step(k)?` for each `k` in `0..$n` (`$n <= 8`, the dimensions [`Lu`] dispatches to the
 /// kernels below), each `k` a literal: after inlining every loop bound in the step is a
 /// constant, and the compiler unrolls the step's loops completely.
@@ -383,21 +392,7 @@ fn pivot_step<const N: usize>(
     inv: &mut [f64; N],
     tiny: f64,
 ) -> Result<(), Pivot> {
-    let mut piv = k;
-    let mut best = a[k][k].abs();
-    for (i, x) in a[k].iter().enumerate().skip(k + 1) {
-        let v = x.abs();
-        if v > best {
-            best = v;
-            piv = i;
-        }
-    }
-    if !best.is_finite() {
-        return Err(Pivot::NonFinite);
-    }
-    if best <= tiny || best == 0.0 {
-        return Err(Pivot::Singular);
-    }
+    let piv = k + choose_pivot(&a[k][k..], tiny)?;
     if piv != k {
         for column in a.iter_mut() {
             column.swap(piv, k);

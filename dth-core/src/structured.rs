@@ -46,6 +46,7 @@
 
 use std::collections::VecDeque;
 
+use crate::linalg::choose_pivot;
 pub use crate::linalg::Pivot;
 
 /// A sparsity pattern that cannot describe an `m x m` matrix.
@@ -185,21 +186,8 @@ impl BandedLu {
         let mut ju = 0;
         for j in 0..m {
             let km = kl.min(m - 1 - j);
-            let mut jp = 0;
-            let mut best = ab[at(j, j)].abs();
-            for r in 1..=km {
-                let v = ab[at(j + r, j)].abs();
-                if v > best {
-                    best = v;
-                    jp = r;
-                }
-            }
-            if !best.is_finite() {
-                return Err(Pivot::NonFinite);
-            }
-            if best <= tiny || best == 0.0 {
-                return Err(Pivot::Singular);
-            }
+            // The column's band from the diagonal down is contiguous.
+            let jp = choose_pivot(&ab[at(j, j)..=at(j + km, j)], tiny)?;
             self.pivots[j] = j + jp;
             ju = ju.max((j + ku + jp).min(m - 1));
             if jp != 0 {
