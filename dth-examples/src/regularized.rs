@@ -98,6 +98,19 @@ impl Regularized {
         &self.k
     }
 
+    /// Sets `K`'s parameter `name`, as the physical Hamiltonian's is set (no recompilation): a
+    /// parameter of `H` that the regularization cancelled is not one of `K`'s, and setting it
+    /// changes nothing.
+    ///
+    /// # Errors
+    /// `RuntimeError::NonFiniteParameter` for a value that is not finite.
+    pub fn set_parameter(&mut self, name: &str, value: f64) -> Result<(), RuntimeError> {
+        match self.k.set_parameter(name, value) {
+            Err(RuntimeError::UnknownParameter { .. }) if value.is_finite() => Ok(()),
+            result => result,
+        }
+    }
+
     /// The regularized start of the physical state `z = (q, p)` at time `t` with
     /// `energy = H(z)` (`p_t = -energy`, so `K = 0`).
     ///

@@ -105,9 +105,6 @@ struct Plan<'a> {
     chaos: bool,
     /// The length of a reported state (physical).
     dim: usize,
-    /// `regularize=`: every member runs DTH on this `K` and reports the physical `(q, p)`,
-    /// time and energy error.
-    physical: Option<&'a Physical>,
 }
 
 /// One member to run: its initial state, its end and (a parameter grid) its parameters.
@@ -125,6 +122,9 @@ struct Start {
 struct Run<'a> {
     start: &'a Start,
     plan: &'a Plan<'a>,
+    /// `regularize=`: the member runs DTH on this `K` (with its parameters) and reports the
+    /// physical `(q, p)`, time and energy error.
+    physical: Option<&'a Physical>,
 }
 
 impl Job for Run<'_> {
@@ -146,7 +146,7 @@ impl Job for Run<'_> {
         let mut worst = 0.0f64;
         let mut megno = plan.chaos.then(|| Megno::new(h));
         let observe = |r: &StepRecord<D>| {
-            let error = match plan.physical {
+            let error = match self.physical {
                 Some(p) => p.energy_error_from(r.z.as_slice(), self.start.energy0),
                 None => h.value(&r.z) - h0,
             };
@@ -170,7 +170,7 @@ impl Job for Run<'_> {
             Err(e) => (e.partial, Some(e.error.to_string())),
         };
         let failure = failure.or_else(|| solution.failure.as_ref().map(|e| e.to_string()));
-        let (last, t) = match (solution.z.last(), solution.t.last(), plan.physical) {
+        let (last, t) = match (solution.z.last(), solution.t.last(), self.physical) {
             // (A regularized run's midpoint times are its `t` coordinate: physical.)
             (Some(w), Some(&t), Some(p)) => (p.state(w.as_slice()), t),
             (Some(z), Some(&t), None) => (z.iter().copied().collect(), t),
@@ -189,8 +189,8 @@ impl Job for Run<'_> {
 }
 
 /// A member that did not start: Ctrl-C came first.
-fn not_started(start: &Start, plan: &Plan<'_>) -> Member {
-    let last = match plan.physical {
+fn not_started(start: &Start, plan: &Plan<'_>, physical: Option<&Physical>) -> Member {
+    let last = match physical {
         Some(p) => p.state(start.z0.as_slice()),
         None => start.z0.iter().copied().collect(),
     };
@@ -205,19 +205,24 @@ fn not_started(start: &Start, plan: &Plan<'_>) -> Member {
     }
 }
 
-/// Runs one member on `h` (with its parameters set) with the method chosen.
+/// Runs one member on `h` (with its parameters set), or on the regularized `K` of
+/// `physical` (likewise), with the method chosen.
 fn member(
-    h: &Arc<RuntimeHamiltonian>,
+    (h, physical): (&Arc<RuntimeHamiltonian>, Option<&Physical>),
     catalogue: Option<&str>,
     chosen: Chosen,
     start: &Start,
     plan: &Plan<'_>,
 ) -> PyResult<Member> {
     if plan.flag.load(Ordering::Relaxed) {
-        return Ok(not_started(start, plan));
+        return Ok(not_started(start, plan, physical));
     }
-    let job = Run { start, plan };
-    if let (Some(p), Chosen::Method(method)) = (plan.physical, chosen) {
+    let job = Run {
+        start,
+        plan,
+        physical,
+    };
+    if let (Some(p), Chosen::Method(method)) = (physical, chosen) {
         // K's dimension (6 or 10) runs at `Dyn`; `Physical::read` accepts method "dth" only.
         return Ok(job.run(p.k(), method, DVector::clone));
     }
@@ -253,9 +258,9 @@ fn member(
 ///     state to state with the exact Hessian); either one fills both `megno` and `lyapunov`.
 ///   regularize, centre: as in `integrate` (method "dth" only): every member runs DTH on the
 ///     regularized K, from its physical row; `final`, `t_end` and `energy_error` are
-///     physical ((q, p), the time, |H - H(z0)|), `steps` are K's. Not with `params` (K is
-///     compiled once, with h's parameters) nor with megno/lyapunov (the variational equations
-///     would run in K's fictitious time).
+///     physical ((q, p), the time, |H - H(z0)|), `steps` are K's; with `params`, K has each
+///     member's. Not with megno/lyapunov (the variational equations would run in K's
+///     fictitious time).
 ///
 /// A member that fails does not stop the others: its `failure` says why and its row holds
 /// the last state it reached. Ctrl-C stops the whole ensemble with KeyboardInterrupt.
@@ -303,26 +308,32 @@ pub fn ensemble(
     let dim = h.h.dimension();
     let chosen = args::method(method, dtau, dt, order, robust, lambda0)?;
     let duration = args::end(steps, t_end, orbits)?;
-    let physical = regularized(
-        &h,
-        method,
-        (regularize, centre),
-        params.is_some(),
-        megno || lyapunov,
-    )?;
+    let physical = regularized(&h, method, (regularize, centre), megno || lyapunov)?;
     let grid = params.map(|p| grid(&h, p)).transpose()?;
     let rows = states(&h, z0s, grid.as_ref().map(Vec::len))?;
-    // Each member's start and end, with its own parameters (a grid: a scratch copy of `h`).
+    // Each member's start and end, with its own parameters (a grid: a scratch copy of `h`,
+    // and of the regularization).
     let source = h.source();
     let mut scratch = match &grid {
         Some(_) => Some(source.compile()?),
         None => None,
+    };
+    let mut scratch_physical = match (&grid, &physical) {
+        (Some(_), Some(p)) => Some(p.copy_for(source.compile()?)?),
+        _ => None,
     };
     let starts = rows
         .into_iter()
         .enumerate()
         .map(|(i, row)| {
             let params = grid.as_ref().map(|g| g[i].clone()).unwrap_or_default();
+            if let Some(p) = scratch_physical.as_mut() {
+                for (name, value) in &params {
+                    p.set_parameter(name, *value).map_err(|e| {
+                        PyValueError::new_err(format!("params[{name:?}][{i}]: {}", e.value(py)))
+                    })?;
+                }
+            }
             let runtime: &RuntimeHamiltonian = match scratch.as_mut() {
                 Some(copy) => {
                     for (name, value) in &params {
@@ -340,7 +351,7 @@ pub fn ensemble(
                 |e: PyErr| PyValueError::new_err(format!("member {i}: {}", e.value(py)));
             let end =
                 args::resolve_end(duration, h.catalogue(), runtime, &z0, t0).map_err(in_member)?;
-            let (z0, energy0) = match &physical {
+            let (z0, energy0) = match scratch_physical.as_ref().or(physical.as_ref()) {
                 Some(p) => p.start_of(&z0, t0).map_err(in_member)?,
                 None => (z0, f64::NAN),
             };
@@ -378,7 +389,6 @@ pub fn ensemble(
         flag: &flag,
         chaos: megno || lyapunov,
         dim,
-        physical: physical.as_ref(),
     };
     let shared: &Arc<RuntimeHamiltonian> = &h.h;
     let catalogue = h.catalogue();
@@ -386,15 +396,26 @@ pub fn ensemble(
         pool.install(|| match grid {
             None => starts
                 .par_iter()
-                .map(|start| member(shared, catalogue, chosen, start, &plan))
+                .map(|start| {
+                    let run_on = (shared, physical.as_ref());
+                    member(run_on, catalogue, chosen, start, &plan)
+                })
                 .collect::<PyResult<Vec<Member>>>(),
-            // Each thread its own copy of `h`, its parameters set per member.
+            // Each thread its own copy of `h` (and of the regularization), its parameters set
+            // per member.
             Some(_) => starts
                 .par_iter()
                 .map_init(
-                    || source.compile().map(Arc::new),
-                    |copy, start| {
-                        let copy = copy
+                    || -> PyResult<(Arc<RuntimeHamiltonian>, Option<Physical>)> {
+                        let copy = Arc::new(source.compile()?);
+                        let regularized = match &physical {
+                            Some(p) => Some(p.copy_for(source.compile()?)?),
+                            None => None,
+                        };
+                        Ok((copy, regularized))
+                    },
+                    |init, start| {
+                        let (copy, regularized) = init
                             .as_mut()
                             .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
                         let runtime = Arc::get_mut(copy).ok_or_else(|| {
@@ -406,8 +427,12 @@ pub fn ensemble(
                             runtime
                                 .set_parameter(name, *value)
                                 .map_err(|e| PyValueError::new_err(e.to_string()))?;
+                            if let Some(p) = regularized.as_mut() {
+                                p.set_parameter(name, *value)?;
+                            }
                         }
-                        member(copy, catalogue, chosen, start, &plan)
+                        let run_on = (&*copy, regularized.as_ref());
+                        member(run_on, catalogue, chosen, start, &plan)
                     },
                 )
                 .collect::<PyResult<Vec<Member>>>(),
@@ -451,13 +476,12 @@ pub fn ensemble(
 }
 
 /// `regularize=` and `centre=` read as `integrate` reads them ([`Physical::read`]), refused
-/// with a parameter grid (`K` is compiled once, with `h`'s parameters) and with the chaos
-/// indicators (their variational equations would run in `K`'s fictitious time).
+/// with the chaos indicators (their variational equations would run in `K`'s fictitious
+/// time).
 fn regularized(
     h: &Hamiltonian,
     method: &str,
     (regularize, centre): (Option<&str>, Option<Vec<f64>>),
-    grid: bool,
     chaos: bool,
 ) -> PyResult<Option<Physical>> {
     let Some(regularize) = regularize else {
@@ -468,11 +492,6 @@ fn regularized(
         }
         return Ok(None);
     };
-    if grid {
-        return Err(PyValueError::new_err(
-            "regularize with params: the regularized K is compiled once, with h's parameters; run one ensemble per parameter value (h.set_parameter(name, value) between them), or a grid of initial states",
-        ));
-    }
     if chaos {
         return Err(PyValueError::new_err(
             "regularize with megno or lyapunov: the variational equations would run in K's fictitious time, and the indicators would not be the physical ones; drop regularize (robust=True runs through a breakdown) or the indicators",

@@ -20,6 +20,8 @@ use dth_examples::scene::{Regularization, RegularizeMap};
 pub struct Physical {
     h: Arc<RuntimeHamiltonian>,
     k: Regularized,
+    /// What `K` was compiled from (for [`Physical::copy_for`]).
+    regularization: Regularization,
     n: usize,
     energy0: f64,
 }
@@ -68,20 +70,48 @@ impl Physical {
         if let Some(i) = centre.iter().position(|c| !c.is_finite()) {
             return Err(PyValueError::new_err(format!("centre[{i}] is not finite")));
         }
-        let params: Vec<(&str, f64)> = h.parameters().collect();
         let regularization = Regularization {
             map,
             centre,
             source: text.to_string(),
         };
+        Self::compile(Arc::clone(h), regularization, n)
+    }
+
+    /// `K` of `regularization` compiled with `h`'s parameters.
+    fn compile(
+        h: Arc<RuntimeHamiltonian>,
+        regularization: Regularization,
+        n: usize,
+    ) -> PyResult<Self> {
+        let params: Vec<(&str, f64)> = h.parameters().collect();
         let k = Regularized::compile(&regularization, &params)
             .map_err(|e| PyValueError::new_err(format!("regularize: {e}")))?;
         Ok(Physical {
-            h: Arc::clone(h),
+            h,
             k,
+            regularization,
             n,
             energy0: f64::NAN,
         })
+    }
+
+    /// The same regularization of `h`, a copy of the Hamiltonian this one was read for (an
+    /// ensemble's scratch copy, or a thread's, whose members set their own parameters):
+    /// `K` compiled anew, owned with `h`.
+    pub fn copy_for(&self, h: RuntimeHamiltonian) -> PyResult<Self> {
+        Self::compile(Arc::new(h), self.regularization.clone(), self.n)
+    }
+
+    /// Sets parameter `name` of `H` and of `K` (a parameter grid's member); a `ValueError`
+    /// naming what the engine refused.
+    pub fn set_parameter(&mut self, name: &str, value: f64) -> PyResult<()> {
+        let h = Arc::get_mut(&mut self.h).ok_or_else(|| {
+            PyValueError::new_err("internal error: a regularization's Hamiltonian is shared")
+        })?;
+        h.set_parameter(name, value)
+            .and_then(|()| self.k.set_parameter(name, value))
+            .map_err(|e| PyValueError::new_err(e.to_string()))
     }
 
     /// The compiled `K` DTH runs on.

@@ -238,11 +238,22 @@ def test_regularize_runs_each_member_as_integrate_does(kepler):
         assert e.energy_error[i] < 4e-15
 
 
+def test_regularize_with_a_parameter_grid_gives_each_member_its_own_k():
+    text = "p1^2 + p2^2 - k*(q1^2 + q2^2)^(-1/2)"
+    ks = np.array([1.0, 1.5, 3.0])
+    e = dth.ensemble(dth.Hamiltonian(text, params={"k": 1.0}), ECCENTRIC[1], dtau=0.05,
+                     order=8, t_end=50.0, params={"k": ks}, regularize="levi-civita", threads=2)
+    assert e.failed == 0
+    for i, k in enumerate(ks):
+        s = dth.integrate(dth.Hamiltonian(text, params={"k": k}), ECCENTRIC[1], dtau=0.05,
+                          order=8, t_end=50.0, regularize="levi-civita")
+        assert np.array_equal(e.final[i], s.z[-1]) and e.steps[i] == s.steps
+        assert e.energy_error[i] == np.abs(s.energy_error).max()
+    # The members differ: k is K's parameter too, not only H's.
+    assert not np.array_equal(e.final[0], e.final[1])
+
+
 def test_regularize_in_an_ensemble_says_what_it_cannot_do(kepler):
-    with pytest.raises(ValueError, match="regularize with params"):
-        spring = dth.Hamiltonian("p1^2 + p2^2 - k*(q1^2 + q2^2)^(-1/2)", params={"k": 1.0})
-        dth.ensemble(spring, ECCENTRIC[0], dtau=0.05, steps=5, params={"k": [1.0, 2.0]},
-                     regularize="levi-civita")
     with pytest.raises(ValueError, match="regularize with megno"):
         dth.ensemble(kepler, ECCENTRIC, dtau=0.05, steps=5, megno=True, regularize="levi-civita")
     with pytest.raises(ValueError, match="applies to method \"dth\""):
