@@ -23,7 +23,7 @@ use dth_examples::ensemble::chaos::{Indicators, Megno};
 
 use crate::args::{self, Chosen, End};
 use crate::catalogue::Special;
-use crate::hamiltonian::Hamiltonian;
+use crate::hamiltonian::{Hamiltonian, Source};
 use crate::regularized::Physical;
 use crate::sized::{self, Job};
 
@@ -202,6 +202,45 @@ fn not_started(start: &Start, plan: &Plan<'_>, physical: Option<&Physical>) -> M
         fallback_steps: 0,
         failure: Some("interrupted before it started".to_string()),
         indicators: None,
+    }
+}
+
+/// A thread's own copy of what its members run on (a parameter grid's: each member sets its
+/// parameters on it): the Hamiltonian, or the regularization (its `K` and physical `H`).
+enum ThreadCopy {
+    Plain(Arc<RuntimeHamiltonian>),
+    Regularized(Box<Physical>),
+}
+
+impl ThreadCopy {
+    /// Compiled from `source`, regularized as `physical` is when given.
+    fn new(source: &Source, physical: Option<&Physical>) -> PyResult<Self> {
+        let h = source.compile()?;
+        Ok(match physical {
+            Some(p) => ThreadCopy::Regularized(Box::new(p.copy_for(h)?)),
+            None => ThreadCopy::Plain(Arc::new(h)),
+        })
+    }
+
+    /// Sets parameter `name` (of `K` too, regularized).
+    fn set_parameter(&mut self, name: &str, value: f64) -> PyResult<()> {
+        match self {
+            ThreadCopy::Plain(h) => Arc::get_mut(h)
+                .ok_or_else(|| {
+                    PyRuntimeError::new_err("internal error: a member's Hamiltonian is shared")
+                })?
+                .set_parameter(name, value)
+                .map_err(|e| PyValueError::new_err(e.to_string())),
+            ThreadCopy::Regularized(p) => p.set_parameter(name, value),
+        }
+    }
+
+    /// What [`member`] runs on.
+    fn run_on(&self) -> (&Arc<RuntimeHamiltonian>, Option<&Physical>) {
+        match self {
+            ThreadCopy::Plain(h) => (h, None),
+            ThreadCopy::Regularized(p) => (p.hamiltonian(), Some(p)),
+        }
     }
 }
 
@@ -406,33 +445,15 @@ pub fn ensemble(
             Some(_) => starts
                 .par_iter()
                 .map_init(
-                    || -> PyResult<(Arc<RuntimeHamiltonian>, Option<Physical>)> {
-                        let copy = Arc::new(source.compile()?);
-                        let regularized = match &physical {
-                            Some(p) => Some(p.copy_for(source.compile()?)?),
-                            None => None,
-                        };
-                        Ok((copy, regularized))
-                    },
-                    |init, start| {
-                        let (copy, regularized) = init
+                    || ThreadCopy::new(&source, physical.as_ref()),
+                    |copy, start| {
+                        let copy = copy
                             .as_mut()
                             .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
-                        let runtime = Arc::get_mut(copy).ok_or_else(|| {
-                            PyRuntimeError::new_err(
-                                "internal error: a member's Hamiltonian is shared",
-                            )
-                        })?;
                         for (name, value) in &start.params {
-                            runtime
-                                .set_parameter(name, *value)
-                                .map_err(|e| PyValueError::new_err(e.to_string()))?;
-                            if let Some(p) = regularized.as_mut() {
-                                p.set_parameter(name, *value)?;
-                            }
+                            copy.set_parameter(name, *value)?;
                         }
-                        let run_on = (&*copy, regularized.as_ref());
-                        member(run_on, catalogue, chosen, start, &plan)
+                        member(copy.run_on(), catalogue, chosen, start, &plan)
                     },
                 )
                 .collect::<PyResult<Vec<Member>>>(),
@@ -475,8 +496,8 @@ pub fn ensemble(
     })
 }
 
-/// `regularize=` and `centre=` read as `integrate` reads them ([`Physical::read`]), refused
-/// with the chaos indicators (their variational equations would run in `K`'s fictitious
+/// `regularize=` and `centre=` read as `integrate` reads them ([`Physical::from_args`]),
+/// refused with the chaos indicators (their variational equations would run in `K`'s fictitious
 /// time).
 fn regularized(
     h: &Hamiltonian,
@@ -484,20 +505,12 @@ fn regularized(
     (regularize, centre): (Option<&str>, Option<Vec<f64>>),
     chaos: bool,
 ) -> PyResult<Option<Physical>> {
-    let Some(regularize) = regularize else {
-        if centre.is_some() {
-            return Err(PyTypeError::new_err(
-                "centre is the centre of a regularization: give regularize too",
-            ));
-        }
-        return Ok(None);
-    };
-    if chaos {
+    if chaos && regularize.is_some() {
         return Err(PyValueError::new_err(
             "regularize with megno or lyapunov: the variational equations would run in K's fictitious time, and the indicators would not be the physical ones; drop regularize (robust=True runs through a breakdown) or the indicators",
         ));
     }
-    Physical::read(&h.h, h.text(), regularize, centre, method).map(Some)
+    Physical::from_args(&h.h, h.text(), (regularize, centre), method)
 }
 
 /// The parameter grid `params`: per member, its (name, value) pairs; every array of the same

@@ -260,14 +260,7 @@ pub fn integrate(
     }
     let every = every.unwrap_or(1);
     let events = Events::read(&h.h, events, stop_on)?;
-    if centre.is_some() && regularize.is_none() {
-        return Err(PyTypeError::new_err(
-            "centre is the centre of a regularization: give regularize too",
-        ));
-    }
-    let mut physical = regularize
-        .map(|r| Physical::read(&h.h, h.text(), r, centre, method))
-        .transpose()?;
+    let mut physical = Physical::from_args(&h.h, h.text(), (regularize, centre), method)?;
     let start = match &mut physical {
         Some(p) => p.start(&z0, t0)?,
         None => z0.clone(),

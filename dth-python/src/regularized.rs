@@ -8,7 +8,7 @@
 
 use std::sync::Arc;
 
-use pyo3::exceptions::PyValueError;
+use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 
 use dth::nalgebra::DVector;
@@ -27,6 +27,23 @@ pub struct Physical {
 }
 
 impl Physical {
+    /// The `regularize=` and `centre=` arguments of `integrate` and `ensemble`: `None` without
+    /// a regularization (a `TypeError` for a `centre` alone), else [`Physical::read`].
+    pub fn from_args(
+        h: &Arc<RuntimeHamiltonian>,
+        text: &str,
+        (regularize, centre): (Option<&str>, Option<Vec<f64>>),
+        method: &str,
+    ) -> PyResult<Option<Self>> {
+        match regularize {
+            Some(r) => Self::read(h, text, r, centre, method).map(Some),
+            None if centre.is_some() => Err(PyTypeError::new_err(
+                "centre is the centre of a regularization: give regularize too",
+            )),
+            None => Ok(None),
+        }
+    }
+
     /// `regularize` (a map's name) about `centre` (default: the origin) for `h` (its text and
     /// parameters) run by `method`, from the physical state `z0` at `t0`; a `ValueError`
     /// saying what does not apply (a peer method, an unknown map, a Hamiltonian of the wrong
@@ -112,6 +129,11 @@ impl Physical {
         h.set_parameter(name, value)
             .and_then(|()| self.k.set_parameter(name, value))
             .map_err(|e| PyValueError::new_err(e.to_string()))
+    }
+
+    /// The physical `H`.
+    pub fn hamiltonian(&self) -> &Arc<RuntimeHamiltonian> {
+        &self.h
     }
 
     /// The compiled `K` DTH runs on.
