@@ -69,6 +69,23 @@ pub enum Pivot {
     NonFinite,
 }
 
+/// `$self.$kernel::<N>($args)` for the dimension `N = $m` when it is 2-8 (the sizes with
+/// constant-size kernels below), `None` otherwise.
+macro_rules! at_constant_size {
+    ($m:expr, $self:ident . $kernel:ident ( $($arg:expr),* )) => {
+        match $m {
+            2 => $self.$kernel::<2>($($arg),*),
+            3 => $self.$kernel::<3>($($arg),*),
+            4 => $self.$kernel::<4>($($arg),*),
+            5 => $self.$kernel::<5>($($arg),*),
+            6 => $self.$kernel::<6>($($arg),*),
+            7 => $self.$kernel::<7>($($arg),*),
+            8 => $self.$kernel::<8>($($arg),*),
+            _ => None,
+        }
+    };
+}
+
 /// `P A = L U`, stored in place (unit lower `L` below the diagonal, `U` on and above).
 #[derive(Clone, Debug)]
 pub struct Lu<D: Dim>
@@ -151,17 +168,7 @@ where
     #[inline]
     pub(crate) fn eliminate_leading(&mut self, m: usize, tiny: f64) -> Result<(), Pivot> {
         if m == self.n() {
-            let done = match m {
-                2 => self.eliminate_small::<2>(tiny),
-                3 => self.eliminate_small::<3>(tiny),
-                4 => self.eliminate_small::<4>(tiny),
-                5 => self.eliminate_small::<5>(tiny),
-                6 => self.eliminate_small::<6>(tiny),
-                7 => self.eliminate_small::<7>(tiny),
-                8 => self.eliminate_small::<8>(tiny),
-                _ => None,
-            };
-            if let Some(result) = done {
+            if let Some(result) = at_constant_size!(m, self.eliminate_small(tiny)) {
                 return result;
             }
         }
@@ -255,20 +262,8 @@ where
     /// right-hand side in `x[..m]` (the rest of `x` is not touched).
     #[inline]
     pub(crate) fn substitute_leading(&self, m: usize, x: &mut OVector<f64, D>) {
-        if m == self.n() {
-            let done = match m {
-                2 => self.substitute_small::<2>(x),
-                3 => self.substitute_small::<3>(x),
-                4 => self.substitute_small::<4>(x),
-                5 => self.substitute_small::<5>(x),
-                6 => self.substitute_small::<6>(x),
-                7 => self.substitute_small::<7>(x),
-                8 => self.substitute_small::<8>(x),
-                _ => None,
-            };
-            if done.is_some() {
-                return;
-            }
+        if m == self.n() && at_constant_size!(m, self.substitute_small(x)).is_some() {
+            return;
         }
         self.substitute_general(m, x);
     }
