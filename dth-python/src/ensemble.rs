@@ -350,16 +350,13 @@ pub fn ensemble(
     let physical = regularized(&h, method, (regularize, centre), megno || lyapunov)?;
     let grid = params.map(|p| grid(&h, p)).transpose()?;
     let rows = states(&h, z0s, grid.as_ref().map(Vec::len))?;
-    // Each member's start and end, with its own parameters (a grid: a scratch copy of `h`,
-    // and of the regularization).
+    // Each member's start and end, with its own parameters (a grid: a scratch copy of `h`, or
+    // of the regularization, which holds its own `h`).
     let source = h.source();
-    let mut scratch = match &grid {
-        Some(_) => Some(source.compile()?),
-        None => None,
-    };
-    let mut scratch_physical = match (&grid, &physical) {
-        (Some(_), Some(p)) => Some(p.copy_for(source.compile()?)?),
-        _ => None,
+    let (mut scratch, mut scratch_physical) = match (&grid, &physical) {
+        (Some(_), None) => (Some(source.compile()?), None),
+        (Some(_), Some(p)) => (None, Some(p.copy_for(source.compile()?)?)),
+        (None, _) => (None, None),
     };
     let starts = rows
         .into_iter()
@@ -373,8 +370,8 @@ pub fn ensemble(
                     })?;
                 }
             }
-            let runtime: &RuntimeHamiltonian = match scratch.as_mut() {
-                Some(copy) => {
+            let runtime: &RuntimeHamiltonian = match (scratch.as_mut(), &scratch_physical) {
+                (Some(copy), _) => {
                     for (name, value) in &params {
                         copy.set_parameter(name, *value).map_err(|e| {
                             PyValueError::new_err(format!("params[{name:?}][{i}]: {e}"))
@@ -382,7 +379,9 @@ pub fn ensemble(
                     }
                     copy
                 }
-                None => &h.h,
+                // (Its parameters set above.)
+                (None, Some(p)) => p.hamiltonian(),
+                (None, None) => &h.h,
             };
             let name = format!("z0s[{i}]");
             let z0 = args::start_from(runtime, row, &name, t0)?;
