@@ -142,12 +142,16 @@ impl Job for Run<'_> {
     {
         let plan = self.plan;
         let z0 = state(&self.start.z0);
-        let h0 = h.value(&z0);
+        // The energy the errors are measured from: the physical row's (regularized), or `h`'s.
+        let h0 = match self.physical {
+            Some(_) => self.start.energy0,
+            None => h.value(&z0),
+        };
         let mut worst = 0.0f64;
         let mut megno = plan.chaos.then(|| Megno::new(h));
         let observe = |r: &StepRecord<D>| {
             let error = match self.physical {
-                Some(p) => p.energy_error_from(r.z.as_slice(), self.start.energy0),
+                Some(p) => p.energy_error_from(r.z.as_slice(), h0),
                 None => h.value(&r.z) - h0,
             };
             worst = worst.max(error.abs());

@@ -178,9 +178,11 @@ impl Physical {
     /// `H(q, p) - energy0` at the regularized state `w` (a run started by
     /// [`Physical::start_of`]).
     pub fn energy_error_from(&self, w: &[f64], energy0: f64) -> f64 {
+        // On the stack: an ensemble's observer calls this at every step. (`H` has the
+        // physical dimension `2n` the map gives, so `value_slice` cannot refuse it.)
         let mut physical = [0.0; MAX_PHYSICAL];
-        let z = DVector::from_column_slice(self.state_in(w, &mut physical));
-        dth::Hamiltonian::value(&*self.h, &z) - energy0
+        let z = self.state_in(w, &mut physical);
+        self.h.value_slice(z).map_or(f64::NAN, |h| h - energy0)
     }
 
     /// The physical `(q, p)` of the regularized state `w`.
