@@ -23,6 +23,7 @@
 //! ```
 
 use crate::hamiltonian::Alloc;
+use crate::linalg::two_sum;
 use nalgebra::Vector4;
 use nalgebra::{DefaultAllocator, Dim, OVector};
 
@@ -33,7 +34,7 @@ pub fn planar_angular_momentum(z: &Vector4<f64>) -> f64 {
     z[0] * z[3] - z[1] * z[2]
 }
 
-/// Neumaier's compensated sum: the mean of 10^4 deviations of size 1e-16 keeps its digits.
+/// A compensated sum (Neumaier's, through [`two_sum`]): the mean of 10^4 deviations of size 1e-16 keeps its digits.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 struct CompensatedSum {
     sum: f64,
@@ -42,13 +43,9 @@ struct CompensatedSum {
 
 impl CompensatedSum {
     fn add(&mut self, x: f64) {
-        let t = self.sum + x;
-        if self.sum.abs() >= x.abs() {
-            self.compensation += (self.sum - t) + x;
-        } else {
-            self.compensation += (x - t) + self.sum;
-        }
-        self.sum = t;
+        let (sum, error) = two_sum(self.sum, x);
+        self.compensation += error;
+        self.sum = sum;
     }
 
     fn value(&self) -> f64 {

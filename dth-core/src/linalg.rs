@@ -1,4 +1,5 @@
-//! Small dense LU with partial pivoting on `OMatrix<f64, D, D>`, generic over `const D` without
+//! Small dense LU with partial pivoting on `OMatrix<f64, D, D>` (and the two floating-point
+//! kernels the rest shares: [`largest`], [`two_sum`]), generic over `const D` without
 //! the `DimMin` bounds nalgebra's `lu()` would push onto every caller. No heap allocation.
 //! Shared by the DTH Newton solvers and the implicit peer methods; the fastest path for small
 //! `D` (see [`crate::structured`] for large sparse systems). Public for code that integrates
@@ -16,6 +17,17 @@
 
 use crate::hamiltonian::Alloc;
 use nalgebra::{DefaultAllocator, Dim, OMatrix, OVector, U1};
+
+/// `a + b` rounded, and its rounding error: `a + b = sum + error` exactly, for any magnitudes
+/// (Knuth's two-sum). The compensated sums of the diagnostics and of a regularized run's state
+/// (`dth::compensated`).
+#[inline]
+pub(crate) fn two_sum(a: f64, b: f64) -> (f64, f64) {
+    let sum = a + b;
+    let b_virtual = sum - a;
+    let error = (a - (sum - b_virtual)) + (b - b_virtual);
+    (sum, error)
+}
 
 /// `max |x_i|` over `entries`: infinite when one is infinite, NaN when one is NaN (so not
 /// finite exactly when an entry is not). The Hessian's size at an evaluation, the sizes the
@@ -452,6 +464,19 @@ fn back_step<const N: usize>(
 mod tests {
     use super::*;
     use nalgebra::{Matrix3, Vector3};
+
+    #[test]
+    fn two_sum_is_exact() {
+        assert_eq!(two_sum(1.0, 2f64.powi(-60)), (1.0, 2f64.powi(-60)));
+        assert_eq!(two_sum(2f64.powi(53), 1.0), (2f64.powi(53), 1.0));
+        // 0.1 + 0.2 (as doubles) is 0.30000000000000004 less 2.7755575615628914e-17 exactly.
+        assert_eq!(
+            two_sum(0.1, 0.2),
+            (0.30000000000000004, -2.7755575615628914e-17)
+        );
+        // Any order of magnitudes.
+        assert_eq!(two_sum(2f64.powi(-60), 1.0), (1.0, 2f64.powi(-60)));
+    }
 
     /// The constant-size kernels against the general loop, to the bit, at every size they
     /// serve: random matrices (pivoting on most columns), a singular one and one with a NaN.

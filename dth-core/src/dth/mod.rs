@@ -69,6 +69,7 @@
 //! (Chapter II, Section 4.1); *A Discrete-Time Formulation of Hamiltonian Dynamics*, 1998
 //! (Theorem 1, Corollary 1).
 
+mod compensated;
 mod composition;
 mod extended;
 mod linear;

@@ -3,6 +3,7 @@
 use crate::hamiltonian::Alloc;
 use nalgebra::{DefaultAllocator, Dim, OVector};
 
+use super::compensated::Compensated;
 use super::linear::{self, Dense, Linear, Point};
 use super::newton::{add_j_times, all_finite, Work};
 use super::newton::{predict_into, project, roundoff_scale, solve_segment, Anchor, Previous};
@@ -158,11 +159,9 @@ where
     /// a fictitious one (`Flags::regularized`): midpoint and vertex times are then read from
     /// it. `None`: the time is the sum of the steps' `h lambda`.
     clock: Option<usize>,
-    /// The clock's compensation: `(t, low)` where the physical time of the midpoint whose
-    /// `t` coordinate is `t` is `t + low`, to about `eps^2 t` (see [`advance_clock`]). Paired
-    /// with the coordinate it belongs to, so a step that sets `t` any other way (a fallback
-    /// step, a landing) starts the compensation afresh.
-    clock_low: (f64, f64),
+    /// The low part of the midpoint of a regularized run (where `clock` is set): see
+    /// `dth::compensated`.
+    compensated: Option<Compensated<D>>,
 }
 
 impl<D: Dim> State<D>
@@ -188,7 +187,7 @@ where
             h_edge,
             time_noise,
             clock,
-            clock_low,
+            compensated,
         } = other;
         self.zbar.copy_from(zbar);
         self.gradient.copy_from(gradient);
@@ -197,7 +196,11 @@ where
         (self.reported, self.psi_scale, self.mode, self.step_kind) =
             (*reported, *psi_scale, *mode, *step_kind);
         (self.law, self.h_edge, self.time_noise) = (*law, *h_edge, *time_noise);
-        (self.clock, self.clock_low) = (*clock, *clock_low);
+        self.clock = *clock;
+        match (&mut self.compensated, compensated) {
+            (Some(mine), Some(theirs)) => mine.assign(theirs),
+            (mine, theirs) => mine.clone_from(theirs),
+        }
     }
 }
 
@@ -423,7 +426,7 @@ where
             h_edge: options.dtau() * options.composition().coefficients()[0],
             time_noise: 0.0,
             clock: (flags.regularized && flags.time_dependent).then(|| dim.value() / 2 - 1),
-            clock_low: (f64::NAN, 0.0),
+            compensated: (flags.regularized && flags.time_dependent).then(|| Compensated::new(dim)),
         };
         let work = Box::new(Workspace {
             newton: Work::new(dim),
@@ -1419,6 +1422,9 @@ where
                 lambda_predicted: s.lambda,
             });
         }
+        if let Some(c) = &mut self.s.compensated {
+            c.carry(&self.s.zbar, &w.newton.z);
+        }
         if cancellation_free {
             let from_scale = roundoff_scale(&self.s.zbar, &self.s.gradient);
             project(
@@ -1432,17 +1438,12 @@ where
             )?;
         }
         self.s.tbar += 0.5 * h * (self.s.lambda + s.lambda);
+        if let Some(c) = &mut self.s.compensated {
+            let old = (&self.s.zbar, &self.s.gradient, self.s.lambda);
+            c.settle(h, old, (&mut w.newton.z, &w.newton.e.d.gradient, s.lambda));
+        }
         if let Some(i) = self.s.clock {
-            let new = &mut w.newton.z;
-            let pairs = (&self.s.zbar, &self.s.gradient, self.s.lambda);
-            self.s.clock_low = advance_clock(
-                i,
-                h,
-                pairs,
-                (new, &w.newton.e.d.gradient, s.lambda),
-                self.s.clock_low,
-            );
-            self.s.tbar = new[i];
+            self.s.tbar = w.newton.z[i];
         }
         self.s.lambda = s.lambda;
         std::mem::swap(&mut self.s.zbar, &mut w.newton.z);
@@ -1630,55 +1631,6 @@ fn refine_start<H: Hamiltonian<D>, D: Dim>(
         std::mem::swap(z, next);
         last = moved;
     }
-}
-
-/// The physical time of a regularized DTH step's new midpoint, compensated: set its `t`
-/// coordinate `new.0[i]` from the old midpoint's `old.0[i] + low` and returns the new `(t,
-/// low)` pair.
-///
-/// The step equations give the clock's advance from midpoint to midpoint exactly,
-/// `(h/2) (lambda_k dK/dp_t(zbar_k) + lambda_{k+1} dK/dp_t(zbar_{k+1}))` (the `t` row of
-/// `zbar_{k+1} - zbar_k = (h/2) J (lambda_k grad K_k + lambda_{k+1} grad K_{k+1})`), a small
-/// number known to a few eps of itself. Newton solves for the new `t` itself, which it can
-/// only hold to half an ulp of `t`; over a run those roundings random-walk (after 100 orbits of
-/// Kepler at e = 0.99, 64 DTH-8 steps per orbit, they put the state 7e-8 from Kepler's
-/// equation, where the orbit itself is good to 2e-13: `the_clock_keeps_up_over_100_orbits`
-/// in the workspace tests). Summing the advances with a compensated (two-sum) running sum
-/// keeps the coordinate within an ulp of the true time at every step.
-///
-/// Only where `K` does not depend on `t` (`dK/dt` exactly zero at both midpoints, as the
-/// regularization of an autonomous `H` has it): nothing else in the state then depends on
-/// `t`, and moving it by its rounding changes nothing but the time. Elsewhere, and when
-/// `low` does not belong to the old `t` (set by another kind of step), the coordinate is
-/// Newton's and the compensation starts afresh.
-fn advance_clock<D: Dim>(
-    i: usize,
-    h: f64,
-    (old, old_gradient, old_lambda): (&OVector<f64, D>, &OVector<f64, D>, f64),
-    (new, new_gradient, new_lambda): (&mut OVector<f64, D>, &OVector<f64, D>, f64),
-    (paired, low): (f64, f64),
-) -> (f64, f64)
-where
-    DefaultAllocator: Alloc<D>,
-{
-    let p_t = i + old.len() / 2;
-    if old_gradient[i] != 0.0 || new_gradient[i] != 0.0 {
-        return (new[i], 0.0);
-    }
-    let low = if paired.to_bits() == old[i].to_bits() {
-        low
-    } else {
-        0.0
-    };
-    let advance = 0.5 * h * (old_lambda * old_gradient[p_t] + new_lambda * new_gradient[p_t]);
-    // Two-sum: t + advance = sum + error exactly; then the running low part.
-    let sum = old[i] + advance;
-    let b = sum - old[i];
-    let error = (old[i] - (sum - b)) + (advance - b);
-    let low = low + error;
-    let t = sum + low;
-    new[i] = t;
-    (t, low - (t - sum))
 }
 
 /// `H` at a predicted midpoint `z` into `out`, through the stepper's linear algebra: `true`
