@@ -1,5 +1,5 @@
 //! Small dense LU with partial pivoting on `OMatrix<f64, D, D>` (and the two floating-point
-//! kernels the rest shares: [`largest`], [`two_sum`]), generic over `const D` without
+//! kernels the rest shares: `largest`, `two_sum`), generic over `const D` without
 //! the `DimMin` bounds nalgebra's `lu()` would push onto every caller. No heap allocation.
 //! Shared by the DTH Newton solvers and the implicit peer methods; the fastest path for small
 //! `D` (see [`crate::structured`] for large sparse systems). Public for code that integrates
