@@ -4,7 +4,8 @@
 //! phase space, and bit-for-bit agreement with the engine's program for every kernel.
 
 use dth::nalgebra::Const;
-#[path = "../dth-core/tests/hard_support/dd.rs"]
+#[path = "../dth-symbolic/src/double_double.rs"]
+#[allow(dead_code)]
 mod dd;
 
 use dd::Dd;

@@ -1,6 +1,7 @@
 //! The interpreter: runs a [`Program`] on `f64`s. It tests the engine without a compiler and
 //! is the run-time path for Hamiltonians read from text.
 
+use crate::double_double::Dd;
 use crate::error::EvalError;
 use crate::lower::{Op, Output, Program};
 
@@ -41,20 +42,7 @@ impl Program {
     /// assert_eq!(e.hessian, vec![12.0, 0.0, 0.0, 2.0]);
     /// ```
     pub fn eval(&self, z: &[f64], params: &[f64]) -> Result<Evaluation, EvalError> {
-        if z.len() != self.dim {
-            return Err(EvalError::WrongLength {
-                what: "z",
-                expected: self.dim,
-                found: z.len(),
-            });
-        }
-        if params.len() != self.params {
-            return Err(EvalError::WrongLength {
-                what: "params",
-                expected: self.params,
-                found: params.len(),
-            });
-        }
+        self.check_lengths(&[("z", z)], params)?;
         let v = self.run(z, z, params);
         let d = self.dim;
         let mut e = Evaluation {
@@ -99,22 +87,7 @@ impl Program {
         z1: &[f64],
         params: &[f64],
     ) -> Result<PairEvaluation, EvalError> {
-        for (what, z) in [("z0", z0), ("z1", z1)] {
-            if z.len() != self.dim {
-                return Err(EvalError::WrongLength {
-                    what,
-                    expected: self.dim,
-                    found: z.len(),
-                });
-            }
-        }
-        if params.len() != self.params {
-            return Err(EvalError::WrongLength {
-                what: "params",
-                expected: self.params,
-                found: params.len(),
-            });
-        }
+        self.check_lengths(&[("z0", z0), ("z1", z1)], params)?;
         let v = self.run(z0, z1, params);
         let mut e = PairEvaluation {
             discrete_gradient: vec![0.0; self.dim],
@@ -130,6 +103,93 @@ impl Program {
             }
         }
         Ok(e)
+    }
+
+    /// `H(z)` in double-double arithmetic, rounded once to a double: the value a start's energy
+    /// should have where it is a small difference of large terms (a regularized orbit's period
+    /// follows it; see `dth_core::regularize`). Sums, products, quotients, square roots and
+    /// integer and half-integer powers are carried to about 2^-106 of the terms, so the result
+    /// is the double nearest `H(z)` for the program's constants unless `H` calls a function or
+    /// a power with another exponent: those are evaluated in doubles at their argument rounded
+    /// to a double (as [`Program::eval`] does), and their one rounding stays.
+    ///
+    /// ```
+    /// use dth_symbolic::{compile, Method};
+    /// // Kepler at pericentre, e = 0.999: |p|^2 - 1/r = 1.999 - 2, a difference of large terms.
+    /// let h = compile("p1^2 + p2^2 - (q1^2 + q2^2)^(-1/2)", &[]).unwrap();
+    /// let p = 1.999f64.sqrt();
+    /// let z = [0.5, 0.0, 0.0, p];
+    /// let value = h.program(Method::Value);
+    /// // One rounding (1/r = 2 exactly): the plain sum loses the low bits of p^2.
+    /// assert_eq!(value.value_double_double(&z, &[]).unwrap(), p.mul_add(p, -2.0));
+    /// assert_ne!(value.eval(&z, &[]).unwrap().value, p.mul_add(p, -2.0));
+    /// ```
+    ///
+    /// # Errors
+    /// [`EvalError::WrongLength`] for `z` or `params` of the wrong length.
+    pub fn value_double_double(&self, z: &[f64], params: &[f64]) -> Result<f64, EvalError> {
+        self.check_lengths(&[("z", z)], params)?;
+        let v = self.run_double_double(z, params);
+        Ok(self
+            .outputs
+            .iter()
+            .find(|(out, _)| *out == Output::Value)
+            .map_or(0.0, |&(_, s)| v[s as usize].to_f64()))
+    }
+
+    /// Every slot's value in double-double (see [`Program::value_double_double`]), for `z` and
+    /// `params` of the program's lengths (it panics on shorter ones). A two-point program runs
+    /// with `z0 = z1 = z`.
+    pub fn run_double_double(&self, z: &[f64], params: &[f64]) -> Vec<Dd> {
+        let mut v: Vec<Dd> = Vec::with_capacity(self.ops.len());
+        for op in &self.ops {
+            let g = |s: u32| v[s as usize];
+            let x = match *op {
+                Op::Input(k) | Op::Input1(k) => Dd::new(z[k as usize]),
+                Op::Param(k) => Dd::new(params[k as usize]),
+                Op::Const(c) => Dd::new(c),
+                Op::Add(a, b) => g(a) + g(b),
+                Op::Sub(a, b) => g(a) - g(b),
+                Op::Mul(a, b) => g(a) * g(b),
+                Op::Div(a, b) => g(a) / g(b),
+                Op::Neg(a) => -g(a),
+                Op::Sqrt(a) => g(a).sqrt(),
+                Op::Powf(a, e) => power(g(a), e),
+                Op::Call(f, a) => Dd::new(f.apply(g(a).to_f64())),
+                Op::Kernel(k, a, b) => Dd::new(k.apply(g(a).to_f64(), g(b).to_f64())),
+            };
+            v.push(x);
+        }
+        v
+    }
+
+    /// `true` when [`Program::run_double_double`] carries every operation to about 2^-106
+    /// (no function call, kernel or power other than an integer or half-integer one).
+    pub fn exact_in_double_double(&self) -> bool {
+        self.ops.iter().all(|op| match *op {
+            Op::Call(..) | Op::Kernel(..) => false,
+            Op::Powf(_, e) => exact_power(e).is_some(),
+            _ => true,
+        })
+    }
+
+    /// Each point `(name, z)` of length `D` and `params` of the declared number.
+    fn check_lengths(
+        &self,
+        points: &[(&'static str, &[f64])],
+        params: &[f64],
+    ) -> Result<(), EvalError> {
+        let lengths = points.iter().map(|&(what, z)| (what, self.dim, z.len()));
+        for (what, expected, found) in lengths.chain([("params", self.params, params.len())]) {
+            if found != expected {
+                return Err(EvalError::WrongLength {
+                    what,
+                    expected,
+                    found,
+                });
+            }
+        }
+        Ok(())
     }
 
     /// Every slot's value; lengths already checked.
@@ -154,5 +214,105 @@ impl Program {
             v.push(x);
         }
         v
+    }
+}
+
+/// The largest `|2 e|` computed by repeated multiplication (a program's powers are small
+/// integers and halves: `x^2`, `r^(-3/2)`).
+const MAX_HALF_POWER: f64 = 64.0;
+
+/// `e = m / 2` with `m` an integer of at most [`MAX_HALF_POWER`]: `Some(m)`.
+fn exact_power(e: f64) -> Option<i32> {
+    let m = 2.0 * e;
+    (m == m.trunc() && m.abs() <= MAX_HALF_POWER).then_some(m as i32)
+}
+
+/// `x^e` in double-double where `e` is a small integer or half-integer (by squaring, and one
+/// square root for the half); in doubles at the rounded `x` otherwise.
+fn power(x: Dd, e: f64) -> Dd {
+    let Some(m) = exact_power(e) else {
+        return Dd::new(x.to_f64().powf(e));
+    };
+    // x^(m/2) = (sqrt x)^m for odd m, x^(m/2) for even m; a negative power inverts.
+    let (mut base, mut n) = if m % 2 == 0 {
+        (x, m.unsigned_abs() / 2)
+    } else {
+        (x.sqrt(), m.unsigned_abs())
+    };
+    let mut result = Dd::new(1.0);
+    while n > 0 {
+        if n & 1 == 1 {
+            result = result * base;
+        }
+        base = base * base;
+        n >>= 1;
+    }
+    if m < 0 {
+        Dd::new(1.0) / result
+    } else {
+        result
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{compile, Method};
+
+    /// Kepler's energy at the pericentre `q = (0.5, 0)` (`1/r = 2` exactly), `|p|^2 = 1 + e`
+    /// rounded: `H = p^2 - 2` with one rounding is the fused `p.mul_add(p, -2)`, at every
+    /// eccentricity, where the plain evaluation loses more of `E = e - 1` the nearer `e` is
+    /// to 1.
+    #[test]
+    fn kepler_energy_at_pericentre_is_rounded_once() {
+        let h = compile("p1^2 + p2^2 - (q1^2 + q2^2)^(-1/2)", &[]).unwrap();
+        let value = h.program(Method::Value);
+        let mut plain_misses = 0;
+        for e in [0.44, 0.9, 0.99, 0.999, 0.9999, 0.99999, 0.999999] {
+            let p = (1.0f64 + e).sqrt();
+            let z = [0.5, 0.0, 0.0, p];
+            let exact = p.mul_add(p, -2.0);
+            assert_eq!(
+                value.value_double_double(&z, &[]).unwrap(),
+                exact,
+                "e = {e}"
+            );
+            plain_misses += usize::from(value.eval(&z, &[]).unwrap().value != exact);
+        }
+        assert!(plain_misses >= 3, "{plain_misses}");
+    }
+
+    /// Integer and half-integer powers carried in double-double: `x^(3/2) x^(-3/2) = 1` and
+    /// `x^5 = x x x x x` to about 2^-106.
+    #[test]
+    fn half_integer_powers_are_carried_exactly() {
+        let x = Dd::new(1.0) / Dd::new(3.0);
+        let one = power(x, 1.5) * power(x, -1.5) - Dd::new(1.0);
+        assert!(one.to_f64().abs() < 1e-30, "{one:?}");
+        let five = power(x, 5.0) - x * x * x * x * x;
+        assert!(five.to_f64().abs() < 1e-30 * power(x, 5.0).hi, "{five:?}");
+        assert_eq!(exact_power(0.25), None);
+        assert_eq!(power(Dd::new(2.0), 0.25).to_f64(), 2f64.powf(0.25));
+    }
+
+    /// A function is evaluated in doubles at its rounded argument: the value stays within a
+    /// rounding of the terms of the plain one, and the program is not exact in double-double.
+    #[test]
+    fn functions_are_evaluated_in_doubles() {
+        let h = compile("p1^2/2 - cos(q1)", &[]).unwrap();
+        let value = h.program(Method::Value);
+        let z = [0.7, 1.3];
+        let plain = value.eval(&z, &[]).unwrap().value;
+        let dd = value.value_double_double(&z, &[]).unwrap();
+        assert!((dd - plain).abs() <= 2.0 * f64::EPSILON * (0.845 + 0.765));
+        assert!(!value.exact_in_double_double());
+        assert!(compile("p1^2 + q1^4", &[])
+            .unwrap()
+            .program(Method::Value)
+            .exact_in_double_double());
+        assert!(matches!(
+            value.value_double_double(&[0.7], &[]),
+            Err(EvalError::WrongLength { what: "z", .. })
+        ));
     }
 }

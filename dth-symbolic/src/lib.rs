@@ -5,7 +5,8 @@
 //!
 //! One module per stage; each imports only from the modules listed before it:
 //!
-//! 1. [`span`], [`number`], [`error`]: byte ranges, exact numbers, the errors.
+//! 1. [`span`], [`number`], [`error`], [`double_double`]: byte ranges, exact numbers, the
+//!    errors, double-double arithmetic.
 //! 2. [`lexer`] -> [`parser`]: `&str` to a syntax tree with byte spans.
 //! 3. [`arena`] -> [`simplify`] -> [`check`] -> `build`: the hash-consed expression arena,
 //!    its simplifying constructors (the only way nodes enter it), name resolution, and the
@@ -17,7 +18,8 @@
 //! 7. [`divided`] -> [`defect`]: the exact, cancellation-free discrete gradient by divided
 //!    differences, and its trapezoid defect `g0 + g1 - 2 gbar`, also without cancellation,
 //!    lowered to two-point programs.
-//! 8. [`eval`]: an interpreter for programs.
+//! 8. [`eval`]: an interpreter for programs (in doubles, and a program's value in
+//!    double-double).
 //! 9. [`system`]: [`compile`], the whole pipeline (gradient, Hessian upper triangle, Psi, and
 //!    the programs).
 //! 10. [`looped`]: lattices (`sum(i = 1..N, ...)`) compiled once per summand and evaluated in
@@ -60,6 +62,7 @@ pub mod defect;
 pub mod diff;
 pub mod display;
 pub mod divided;
+pub mod double_double;
 #[cfg(feature = "emit")]
 pub mod emit;
 pub mod error;

@@ -2,6 +2,7 @@
 //! reference solve of one DTH step on Kepler, and a close gravitating pair far from the origin.
 #![allow(dead_code)]
 
+#[path = "../../../dth-symbolic/src/double_double.rs"]
 pub mod dd;
 pub mod pair;
 

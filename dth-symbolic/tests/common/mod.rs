@@ -253,30 +253,12 @@ pub fn output_bound(p: &Program, bounds: &[f64], which: dth_symbolic::Output) ->
         .map_or(0.0, |&(_, s)| bounds[s as usize])
 }
 
-#[path = "../../../dth-core/tests/hard_support/dd.rs"]
-pub mod dd;
+pub use dth_symbolic::double_double as dd;
 
-/// Runs a one-point program in double-double: `None` when it calls a function (only
-/// arithmetic and square roots are available). Its constants are the program's `f64`s, so it
-/// evaluates the same function as the program, about 2^-106 relatively.
+/// Runs a one-point program in double-double: `None` unless every operation is carried to
+/// about 2^-106 (`Program::exact_in_double_double`). Its constants are the program's `f64`s,
+/// so it evaluates the same function as the program, about 2^-106 relatively.
 pub fn eval_dd(p: &Program, z: &[f64], params: &[f64]) -> Option<Vec<dd::Dd>> {
-    use dd::Dd;
-    let mut v: Vec<Dd> = Vec::with_capacity(p.ops.len());
-    for op in &p.ops {
-        let g = |s: u32| v[s as usize];
-        let x = match *op {
-            Op::Input(k) => Dd::from(z[k as usize]),
-            Op::Param(k) => Dd::from(params[k as usize]),
-            Op::Const(c) => Dd::from(c),
-            Op::Add(a, b) => g(a) + g(b),
-            Op::Sub(a, b) => g(a) - g(b),
-            Op::Mul(a, b) => g(a) * g(b),
-            Op::Div(a, b) => g(a) / g(b),
-            Op::Neg(a) => -g(a),
-            Op::Sqrt(a) => g(a).sqrt(),
-            Op::Input1(_) | Op::Powf(..) | Op::Call(..) | Op::Kernel(..) => return None,
-        };
-        v.push(x);
-    }
-    Some(v)
+    p.exact_in_double_double()
+        .then(|| p.run_double_double(z, params))
 }

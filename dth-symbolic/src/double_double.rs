@@ -1,19 +1,22 @@
-//! Double-double arithmetic (about 106 bits) for reference solutions in the tests: `Dd` is an
-//! unevaluated sum `hi + lo` with `|lo| <= ulp(hi) / 2`. Error-free transformations (Knuth's
-//! two-sum, fused-multiply-add two-product) as in Dekker (1971) and Hida, Li and Bailey's QD
-//! library (2001); one Newton correction for the quotient and the square root.
+//! Double-double arithmetic (about 106 bits): [`Dd`] is an unevaluated sum `hi + lo` with
+//! `|lo| <= ulp(hi) / 2`. Error-free transformations (Knuth's two-sum, fused-multiply-add
+//! two-product) as in Dekker (1971) and Hida, Li and Bailey's QD library (2001); one Newton
+//! correction for the quotient and the square root.
 //!
-//! The one copy for every test tree: `dth-core`'s `hard_*` tests, `dth-symbolic`'s
-//! (`tests/common/mod.rs`) and the facade's `tests/macro_discrete_gradient.rs` include this file
-//! with `#[path = ...]`. Not every tree uses every function.
-#![allow(dead_code)]
+//! What [`Program::value_double_double`](crate::lower::Program::value_double_double) computes
+//! with (a Hamiltonian's value at a start, whose rounding would otherwise set a regularized
+//! orbit's period), and the reference arithmetic of the tests: the test trees of `dth-core`
+//! (which does not depend on this crate) include this file with `#[path = ...]`, so it imports
+//! nothing.
 
 use std::ops::{Add, Div, Mul, Neg, Sub};
 
 /// `hi + lo`, a double-double number.
 #[derive(Clone, Copy, Debug, PartialEq, PartialOrd, Default)]
 pub struct Dd {
+    /// The leading double.
     pub hi: f64,
+    /// The trailing double, at most half an ulp of `hi`.
     pub lo: f64,
 }
 
@@ -34,12 +37,15 @@ fn two_prod(a: f64, b: f64) -> (f64, f64) {
 }
 
 impl Dd {
+    /// `x` exactly.
     pub const fn new(x: f64) -> Self {
         Dd { hi: x, lo: 0.0 }
     }
+    /// The double nearest `hi + lo`.
     pub fn to_f64(self) -> f64 {
         self.hi + self.lo
     }
+    /// `|x|`.
     pub fn abs(self) -> Self {
         if self.hi < 0.0 {
             -self
@@ -47,6 +53,7 @@ impl Dd {
             self
         }
     }
+    /// `sqrt(x)` (NaN below zero).
     pub fn sqrt(self) -> Self {
         // sqrt(0) = 0 (the Newton step below would divide by zero); negative gives NaN.
         if self.hi <= 0.0 {
@@ -118,6 +125,7 @@ impl Div for Dd {
     }
 }
 
+#[cfg(test)]
 #[test]
 fn double_double_is_about_32_digits() {
     // (1 + 2^-60)^2 = 1 + 2^-59 + 2^-120: f64 loses the 2^-59 term, dd keeps it.
