@@ -38,8 +38,8 @@ use dth::methods::RunEnd;
 use dth::nalgebra::{DVector, DefaultAllocator, Dim, Dyn, OVector, SVector, Vector4, Vector6};
 use dth::observer::{DthRecord, Observer, StepRecord};
 use dth::regularize::{KustaanheimoStiefel, LeviCivita};
-use dth::runtime::{RuntimeError, RuntimeHamiltonian};
-use dth::{Alloc, Hamiltonian};
+use dth::runtime::{Backend, RuntimeError, RuntimeHamiltonian};
+use dth::Alloc;
 
 use crate::driver::{Condition, DthRunner, MethodFailure, Stop, Watched};
 use crate::scene::{translated, IndexedCentre, Regularization, RegularizeMap};
@@ -65,6 +65,9 @@ pub enum RegularizeError {
 #[derive(Debug)]
 pub struct Regularized {
     k: RuntimeHamiltonian,
+    /// The physical `H` (interpreted: it gives the start's energy once per run, in
+    /// double-double, whatever type the scene's system is).
+    h: RuntimeHamiltonian,
     map: RegularizeMap,
     centre: Vec<f64>,
 }
@@ -86,8 +89,11 @@ impl Regularized {
             RegularizeMap::LeviCivita => RuntimeHamiltonian::levi_civita(&text, params),
             RegularizeMap::Ks => RuntimeHamiltonian::kustaanheimo_stiefel(&text, params),
         }?;
+        let h =
+            RuntimeHamiltonian::with_backend(&regularization.source, params, Backend::Interpreter)?;
         Ok(Regularized {
             k,
+            h,
             map: regularization.map,
             centre: regularization.centre.clone(),
         })
@@ -105,6 +111,7 @@ impl Regularized {
     /// # Errors
     /// `RuntimeError::NonFiniteParameter` for a value that is not finite.
     pub fn set_parameter(&mut self, name: &str, value: f64) -> Result<(), RuntimeError> {
+        self.h.set_parameter(name, value)?;
         match self.k.set_parameter(name, value) {
             Err(RuntimeError::UnknownParameter { .. }) if value.is_finite() => Ok(()),
             result => result,
@@ -208,16 +215,16 @@ impl Regularized {
         u.iter().map(|x| x * x).sum()
     }
 
-    /// Runs DTH (`runner`) on `K` from the physical start `z0` at `t0` (the energy from
-    /// `physical`, the physical `H`) until `stop`, every record shown to `observer` in
-    /// physical coordinates (see the [module docs](self)); the end is physical.
+    /// Runs DTH (`runner`) on `K` from the physical start `z0` at `t0` until `stop`, every
+    /// record shown to `observer` in physical coordinates (see the [module docs](self)); the
+    /// end is physical. The start's energy is `H(z0)` in double-double: the rounding of the
+    /// plain sum would set the period.
     ///
     /// A start the map refuses (the centre, a value that is not finite) is the method's
     /// failure at step 0.
-    pub fn run<D: Dim, H: Hamiltonian<D>, O: Observer<D>>(
+    pub fn run<D: Dim, O: Observer<D>>(
         &self,
         runner: &DthRunner,
-        physical: &H,
         z0: OVector<f64, D>,
         t0: f64,
         stop: Stop,
@@ -226,8 +233,14 @@ impl Regularized {
     where
         DefaultAllocator: Alloc<D>,
     {
-        let energy = physical.value(&z0);
         let physical_z0: Vec<f64> = z0.iter().copied().collect();
+        // In double-double: the orbit's period follows it (`dth::regularize`), and at an
+        // eccentric pericentre the plain sum loses digits of it. (A `z0` of the wrong length
+        // gets NaN here and its own error from `start`, which checks the length first.)
+        let energy = self
+            .h
+            .value_double_double_slice(&physical_z0)
+            .unwrap_or(f64::NAN);
         let w0 = self
             .start(&physical_z0, t0, energy)
             .map_err(|e| MethodFailure::integrator(0, e))?;

@@ -281,7 +281,7 @@ forward_to_system!(
         observer: &mut O,
     ) -> Option<Result<RunEnd<D>, MethodFailure>> {
         match &self.1 {
-            Some(k) => Some(k.run(runner, &self.0, z0, t0, stop, observer)),
+            Some(k) => Some(k.run(runner, z0, t0, stop, observer)),
             None => self.0.run_dth(runner, z0, t0, stop, observer),
         }
     }

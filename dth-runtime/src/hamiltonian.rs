@@ -3,7 +3,7 @@
 
 use dth_symbolic::lexer::{lex, TokenKind};
 use dth_symbolic::looped::{self, Looped};
-use dth_symbolic::System;
+use dth_symbolic::{Program, System};
 
 use crate::backend::{Backend, Compiled};
 use crate::error::{JitError, RuntimeError};
@@ -66,6 +66,8 @@ enum Form {
         system: Box<System>,
         /// One per [`Function`], in the order of [`Function::ALL`].
         functions: Vec<Compiled>,
+        /// The value's program, kept for [`RuntimeHamiltonian::value_double_double_slice`].
+        value: Program,
     },
     /// A lattice whose sums loop, compiled as the macro compiles it (boxed: it is large).
     Looped(Box<Lattice>),
@@ -216,6 +218,8 @@ impl RuntimeHamiltonian {
             .iter()
             .map(|&f| Ok((f, f.program(&system)?)))
             .collect::<Result<Vec<_>, RuntimeError>>()?;
+        // `programs` follows `Function::ALL`, whose order is the enum's.
+        let value = programs[Function::Value as usize].1.clone();
         let (functions, fallback) = Compiled::all(programs, backend)?;
         Ok(RuntimeHamiltonian {
             separable: system.separable(),
@@ -224,6 +228,7 @@ impl RuntimeHamiltonian {
             form: Form::Written {
                 system: Box::new(system),
                 functions,
+                value,
             },
             names,
             values,
@@ -471,6 +476,32 @@ impl RuntimeHamiltonian {
         let mut out = [0.0];
         self.run(Function::Value, z, z, &mut out)?;
         Ok(out[0])
+    }
+
+    /// `H(z)` in double-double arithmetic, rounded once: the start's energy of a regularized
+    /// run, whose period follows it (see `dth_core::regularize`). Where `H(z)` is a small
+    /// difference of large terms (Kepler near the pericentre of an eccentric orbit) this keeps
+    /// the digits [`RuntimeHamiltonian::value_slice`] loses (three of `E` at e = 0.999); see
+    /// [`Program::value_double_double`] for what is carried (functions stay in doubles). A
+    /// lattice in loops is evaluated as `value_slice` does.
+    ///
+    /// ```
+    /// use dth_runtime::RuntimeHamiltonian;
+    /// let kepler = RuntimeHamiltonian::new("p1^2 + p2^2 - (q1^2 + q2^2)^(-1/2)", &[])?;
+    /// let p = 1.999f64.sqrt(); // e = 0.999 at the pericentre r = 0.5
+    /// let energy = kepler.value_double_double_slice(&[0.5, 0.0, 0.0, p])?;
+    /// assert_eq!(energy, p.mul_add(p, -2.0)); // E = p^2 - 2 rounded once
+    /// # Ok::<(), dth_runtime::RuntimeError>(())
+    /// ```
+    ///
+    /// # Errors
+    /// [`RuntimeError::Interpreter`] for a `z` of the wrong length (and for a lattice, as
+    /// `value_slice`).
+    pub fn value_double_double_slice(&self, z: &[f64]) -> Result<f64, RuntimeError> {
+        match &self.form {
+            Form::Written { value, .. } => Ok(value.value_double_double(z, &self.values)?),
+            Form::Looped(_) => self.value_slice(z),
+        }
     }
 
     /// `grad H(z)` into `out` (length `D`).
