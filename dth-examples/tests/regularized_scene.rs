@@ -468,10 +468,11 @@ fn a_catalogue_kepler_regularizes_as_its_text_does() {
 
 /// A regularized scene takes the start's energy in double-double: Kepler at e = 0.999, where
 /// the plain sum `|p|^2 - 1/r` keeps only 13 digits of `E = -0.001` and the regularized orbit's
-/// period follows `E`, ends 10 orbits within 1e-8 of the exact solution (measured 5e-11; with
-/// the plain sum's energy 1.4e-7: a rounding of `|p|^2 = 1.999`, 2.2e-16, is 2.2e-13 of `E`,
-/// which shifts the period by 3.3e-13 of 49,673 and the state at the pericentre, moving at
-/// 2.8, by 5e-8 per orbit). The exact state at `T` is `kepler_state` of
+/// period follows `E`, ends 10 orbits within 1e-8 of the exact solution (measured 7.7e-10;
+/// with the plain sum's energy 2.1e-7: a rounding of `|p|^2 = 1.999`, up to 2.2e-16, is up to
+/// 2.2e-13 of `E`, which shifts the period by up to 3.3e-13 of 49,673 and the state at the
+/// pericentre, moving at 2.8, by up to 4.6e-8 per orbit). The exact state at `T` is
+/// `kepler_state` of
 /// `dth-examples/benches/ias15_kepler.py` (Kepler's equation at 50 digits for the start as
 /// stored).
 #[test]
