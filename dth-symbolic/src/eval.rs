@@ -129,7 +129,7 @@ impl Program {
     /// [`EvalError::WrongLength`] for `z` or `params` of the wrong length.
     pub fn value_double_double(&self, z: &[f64], params: &[f64]) -> Result<f64, EvalError> {
         self.check_lengths(&[("z", z)], params)?;
-        let v = self.run_double_double(z, params);
+        let v = self.run_double_double(z, z, params);
         Ok(self
             .outputs
             .iter()
@@ -137,15 +137,16 @@ impl Program {
             .map_or(0.0, |&(_, s)| v[s as usize].to_f64()))
     }
 
-    /// Every slot's value in double-double (see [`Program::value_double_double`]), for `z` and
-    /// `params` of the program's lengths (it panics on shorter ones). A two-point program runs
-    /// with `z0 = z1 = z`.
-    pub fn run_double_double(&self, z: &[f64], params: &[f64]) -> Vec<Dd> {
+    /// Every slot's value in double-double (see [`Program::value_double_double`]) at `z0` (and
+    /// `z1`, the second point of a two-point program), for points and `params` of the program's
+    /// lengths (it panics on shorter ones).
+    pub fn run_double_double(&self, z0: &[f64], z1: &[f64], params: &[f64]) -> Vec<Dd> {
         let mut v: Vec<Dd> = Vec::with_capacity(self.ops.len());
         for op in &self.ops {
             let g = |s: u32| v[s as usize];
             let x = match *op {
-                Op::Input(k) | Op::Input1(k) => Dd::new(z[k as usize]),
+                Op::Input(k) => Dd::new(z0[k as usize]),
+                Op::Input1(k) => Dd::new(z1[k as usize]),
                 Op::Param(k) => Dd::new(params[k as usize]),
                 Op::Const(c) => Dd::new(c),
                 Op::Add(a, b) => g(a) + g(b),

@@ -15,7 +15,7 @@ mod common;
 
 use common::dd::Dd;
 use common::*;
-use dth_symbolic::{compile, Method, Op, Output, Program};
+use dth_symbolic::{compile, Method, Output, Program};
 use proptest::prelude::*;
 
 const EPS: f64 = f64::EPSILON;
@@ -33,28 +33,14 @@ fn bound_of(
         .collect()
 }
 
-/// Runs a program at `z0`, `z1` in double-double (arithmetic and square roots only).
+/// Runs a program at `z0`, `z1` in double-double (one carried to about 2^-106: arithmetic,
+/// square roots, integer and half-integer powers).
 fn eval_pair_dd(p: &Program, z0: &[f64], z1: &[f64]) -> Vec<Dd> {
-    let mut v: Vec<Dd> = Vec::with_capacity(p.ops.len());
-    for op in &p.ops {
-        let g = |s: u32| v[s as usize];
-        let x = match *op {
-            Op::Input(k) => Dd::from(z0[k as usize]),
-            Op::Input1(k) => Dd::from(z1[k as usize]),
-            Op::Const(c) => Dd::from(c),
-            Op::Add(a, b) => g(a) + g(b),
-            Op::Sub(a, b) => g(a) - g(b),
-            Op::Mul(a, b) => g(a) * g(b),
-            Op::Div(a, b) => g(a) / g(b),
-            Op::Neg(a) => -g(a),
-            Op::Sqrt(a) => g(a).sqrt(),
-            Op::Param(_) | Op::Powf(..) | Op::Call(..) | Op::Kernel(..) => {
-                panic!("not algebraic: {op:?}")
-            }
-        };
-        v.push(x);
-    }
-    v
+    assert!(
+        p.exact_in_double_double(),
+        "not exact in double-double: {p:?}"
+    );
+    p.run_double_double(z0, z1, &[])
 }
 
 fn outputs_dd(p: &Program, v: &[Dd], which: impl Fn(usize) -> Output, dim: usize) -> Vec<Dd> {

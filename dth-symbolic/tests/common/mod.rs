@@ -260,5 +260,5 @@ pub use dth_symbolic::double_double as dd;
 /// so it evaluates the same function as the program, about 2^-106 relatively.
 pub fn eval_dd(p: &Program, z: &[f64], params: &[f64]) -> Option<Vec<dd::Dd>> {
     p.exact_in_double_double()
-        .then(|| p.run_double_double(z, params))
+        .then(|| p.run_double_double(z, z, params))
 }
