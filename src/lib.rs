@@ -38,6 +38,7 @@ pub mod runtime {
 #[doc(hidden)]
 pub mod __private {
     pub use dth_core;
+    pub use dth_symbolic::double_double;
     pub use nalgebra;
 }
 

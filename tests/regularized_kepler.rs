@@ -618,3 +618,75 @@ fn solve_refuses_a_wrong_length_state() {
         );
     }
 }
+
+dth::hamiltonian! {
+    /// Kepler with its mass and coupling as fields, regularized at compile time.
+    #[regularize(levi_civita)]
+    #[derive(Clone, Copy, Debug)]
+    struct KeplerLcMk { m: f64, k: f64 } = (p1^2 + p2^2)/(2*m) - k*(q1^2 + q2^2)^(-1/2)
+}
+
+/// A regularized `hamiltonian!` type starts a run from its physical energy in double-double,
+/// as the run-time text does: `start(z, t)` is `dth::regularize`'s start with
+/// `p_t = -physical_energy(z)`, and `physical_energy` is the engine's double-double value of
+/// the physical `H` (the same program the run-time text keeps), bit for bit. At the pericentre
+/// `r = 0.5` the energy is `p^2 - 2` with one rounding (`1/r = 2` exactly), which the plain
+/// `f64` sum of `H`'s terms misses at several eccentricities; the mass and coupling are read
+/// from the type's fields.
+#[test]
+fn a_regularized_type_starts_from_its_physical_energy_in_double_double() {
+    use dth::regularize::KustaanheimoStiefel;
+    let text = regularized();
+    let mut plain_misses = 0;
+    for e in [0.44, 0.9, 0.99, 0.999, 0.9999, 0.99999, 0.999999] {
+        let z = pericentre(e);
+        let p = z[3];
+        let exact = p.mul_add(p, -2.0);
+        let energy = KeplerLc.physical_energy(&z);
+        assert_eq!(energy, exact, "e = {e}");
+        assert_eq!(text.physical_energy_slice(z.as_slice()).unwrap(), energy);
+        plain_misses += usize::from(Kepler::thesis().value(&z) != exact);
+        let w = KeplerLc.start(&z, 1.5).unwrap();
+        assert_eq!(w, LeviCivita::start(&z, 1.5, exact).unwrap());
+        // The same Hamiltonian with m = 1/2, k = 1 as fields; and k = 2 doubles the potential.
+        let mk = KeplerLcMk { m: 0.5, k: 1.0 };
+        assert_eq!(mk.physical_energy(&z), exact);
+        let k2 = KeplerLcMk { m: 0.5, k: 2.0 };
+        assert_eq!(k2.physical_energy(&z), p.mul_add(p, -4.0));
+    }
+    assert!(plain_misses >= 3, "{plain_misses}");
+    // In space: the inclined orbit's energy, against the run-time text's and a double-double
+    // sum of the squares (|q| = 0.5 exactly).
+    let text = RuntimeHamiltonian::kustaanheimo_stiefel(
+        "p1^2 + p2^2 + p3^2 - (q1^2 + q2^2 + q3^2)^(-1/2)",
+        &[],
+    )
+    .unwrap();
+    let z = inclined(0.999);
+    let energy = KeplerKs.physical_energy(&z);
+    assert_eq!(text.physical_energy_slice(z.as_slice()).unwrap(), energy);
+    // |q| = 0.5 exactly, so H = p2^2 + p3^2 - 2: summed in double-double, rounded once.
+    let dd = dth_symbolic::double_double::Dd::new;
+    let (p2, p3) = (dd(z[4]), dd(z[5]));
+    assert_eq!(energy, (p2 * p2 + p3 * p3 - dd(2.0)).to_f64());
+    assert_ne!(
+        energy,
+        kepler_3d(&z),
+        "the plain sum rounds differently here"
+    );
+    assert_eq!(
+        KeplerKs.start(&z, 0.0).unwrap(),
+        KustaanheimoStiefel::start(&z, 0.0, energy).unwrap()
+    );
+    // Not a regularization: no physical energy apart from the value.
+    assert!(matches!(
+        RuntimeHamiltonian::new(KEPLER, &[])
+            .unwrap()
+            .physical_energy_slice(z.as_slice()),
+        Err(dth::runtime::RuntimeError::NotRegularized)
+    ));
+    // A start at the centre is the map's error.
+    assert!(KeplerLc
+        .start(&Vector4::new(0.0, 0.0, 0.0, 1.0), 0.0)
+        .is_err());
+}

@@ -17,10 +17,13 @@
 //! rounding of the terms, `eps |p|^2`, which at e = 0.999 is 1e-13 of `E` and moves the state
 //! by 2e-6 after 100 orbits; computed with one rounding (`p.mul_add(p, -k / r)` where `k / r`
 //! is exact), DTH-8 ends within 6e-9 of the exact orbit at 64 or more steps per orbit (the
-//! `regularized_vs_ias15` example of `dth-examples`; what is left is that one rounding of `E`). The same holds for
-//! [`KustaanheimoStiefel`]. Scenes with `regularize` and Python's `regularize=` take the energy
-//! of a Hamiltonian given as text in double-double
-//! (`dth::runtime::RuntimeHamiltonian::value_double_double_slice`), rounded once.
+//! `regularized_vs_ias15` example of `dth-examples`). The same holds for
+//! [`KustaanheimoStiefel`]. So the regularized Hamiltonians compute it for you, from the
+//! physical `H` they were built from, in double-double arithmetic rounded once: a
+//! `hamiltonian!` type with `#[regularize(levi_civita)]` (or `kustaanheimo_stiefel`) has
+//! `start(&z, t)` (this module's `start` with `p_t = -physical_energy(&z)`), and a run-time
+//! `K` has `dth::runtime::RuntimeHamiltonian::physical_energy_slice`; scenes with `regularize`
+//! and Python's `regularize=` start that way.
 //!
 //! ```
 //! use dth_core::nalgebra::Vector4;

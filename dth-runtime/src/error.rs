@@ -130,6 +130,10 @@ pub enum RuntimeError {
         /// Its value.
         value: f64,
     },
+    /// A physical-state operation ([`crate::RuntimeHamiltonian::physical_energy_slice`]) on a
+    /// Hamiltonian that is not a regularization, whose states are already physical.
+    #[error("not a regularization: its own value is the physical energy (use value_double_double_slice)")]
+    NotRegularized,
 }
 
 /// `?` from the run-time path into `dth_core::Error` (the one error type of the `dth` crates):

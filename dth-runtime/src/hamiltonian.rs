@@ -504,6 +504,32 @@ impl RuntimeHamiltonian {
         }
     }
 
+    /// For a regularization's `K` ([`RuntimeHamiltonian::levi_civita`],
+    /// [`RuntimeHamiltonian::kustaanheimo_stiefel`]), the physical Hamiltonian `H(q, p)` of the
+    /// text at `z = (q, p)` (length 4 in the plane, 6 in space) in double-double, rounded once
+    /// ([`Program::value_double_double`]): the energy a regularized run starts from
+    /// (`p_t = -H`, which sets a Kepler orbit's period; see `dth_core::regularize`).
+    ///
+    /// ```
+    /// use dth_runtime::RuntimeHamiltonian;
+    /// let k = RuntimeHamiltonian::levi_civita("p1^2 + p2^2 - (q1^2 + q2^2)^(-1/2)", &[])?;
+    /// let p = 1.999f64.sqrt(); // e = 0.999 at the pericentre r = 0.5
+    /// assert_eq!(k.physical_energy_slice(&[0.5, 0.0, 0.0, p])?, p.mul_add(p, -2.0));
+    /// # Ok::<(), dth_runtime::RuntimeError>(())
+    /// ```
+    ///
+    /// # Errors
+    /// [`RuntimeError::NotRegularized`] for a Hamiltonian that is not a regularization;
+    /// [`RuntimeError::Interpreter`] for a `z` of the wrong length.
+    pub fn physical_energy_slice(&self, z: &[f64]) -> Result<f64, RuntimeError> {
+        let physical = match &self.form {
+            Form::Written { system, .. } => system.physical_value(),
+            Form::Looped(_) => None,
+        };
+        let physical = physical.ok_or(RuntimeError::NotRegularized)?;
+        Ok(physical.value_double_double(z, &self.values)?)
+    }
+
     /// `grad H(z)` into `out` (length `D`).
     pub fn gradient_slice(&self, z: &[f64], out: &mut [f64]) -> Result<(), RuntimeError> {
         self.run(Function::Gradient, z, z, out)

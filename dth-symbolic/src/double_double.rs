@@ -67,6 +67,47 @@ impl Dd {
     }
 }
 
+/// The largest `|2 e|` [`Dd::powf`] computes by repeated multiplication (a program's powers
+/// are small integers and halves: `x^2`, `r^(-3/2)`).
+const MAX_HALF_POWER: f64 = 64.0;
+
+impl Dd {
+    /// `e = m / 2` with `m` an integer of at most 64 in size: `Some(m)`, the exponents
+    /// [`Dd::powf`] carries in double-double.
+    pub fn exact_power(e: f64) -> Option<i32> {
+        let m = 2.0 * e;
+        (m == m.trunc() && m.abs() <= MAX_HALF_POWER).then_some(m as i32)
+    }
+
+    /// `x^e` in double-double where `e` is a small integer or half-integer
+    /// ([`Dd::exact_power`]: by squaring, and one square root for the half); in doubles at the
+    /// rounded `x` otherwise.
+    pub fn powf(self, e: f64) -> Dd {
+        let Some(m) = Dd::exact_power(e) else {
+            return Dd::new(self.to_f64().powf(e));
+        };
+        // x^(m/2) = (sqrt x)^m for odd m, x^(m/2) for even m; a negative power inverts.
+        let (mut base, mut n) = if m % 2 == 0 {
+            (self, m.unsigned_abs() / 2)
+        } else {
+            (self.sqrt(), m.unsigned_abs())
+        };
+        let mut result = Dd::new(1.0);
+        while n > 0 {
+            if n & 1 == 1 {
+                result = result * base;
+            }
+            base = base * base;
+            n >>= 1;
+        }
+        if m < 0 {
+            Dd::new(1.0) / result
+        } else {
+            result
+        }
+    }
+}
+
 impl From<f64> for Dd {
     fn from(x: f64) -> Self {
         Dd::new(x)

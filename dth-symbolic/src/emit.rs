@@ -54,7 +54,11 @@ pub fn looped_source_impl(source: &str, name: &Ident, params: &[Ident]) -> Optio
 /// `self.params[k]`); the type itself is declared by the caller.
 pub fn hamiltonian_impl(system: &System, name: &Ident, params: &[Ident]) -> TokenStream {
     let d = system.dim();
-    let cx = Context { name, params };
+    let cx = Context {
+        name,
+        params,
+        arithmetic: Arithmetic::Double,
+    };
     let nalgebra = quote!(::dth::__private::nalgebra);
     let core = quote!(::dth::__private::dth_core);
     let (td, sep, psi0) = (
@@ -104,6 +108,7 @@ pub fn hamiltonian_impl(system: &System, name: &Ident, params: &[Ident]) -> Toke
     let structured = structured_newton(d, nnz, diagonal, sep);
     let source = system_source(system);
     let regularized = system.regularized();
+    let start = start_impl(system, &cx);
     quote! {
         #[doc = #source]
         #[automatically_derived]
@@ -195,6 +200,63 @@ pub fn hamiltonian_impl(system: &System, name: &Ident, params: &[Ident]) -> Toke
                 *out = { #defect };
             }
         }
+
+        #start
+    }
+}
+
+/// For a regularization's `K` ([`System::physical_value`]), the type's inherent
+/// `physical_energy` (the physical `H` at `(q, p)` in double-double, rounded once) and
+/// `start` (the regularized state of a physical one, `p_t = -physical_energy`, through
+/// `dth_core::regularize`): where a Kepler orbit's period follows the start's energy, the plain
+/// `f64` sum of `H`'s terms would set it. Empty for any other system.
+fn start_impl(system: &System, cx: &Context) -> TokenStream {
+    let Some(physical) = system.physical_value() else {
+        return TokenStream::new();
+    };
+    let (name, d, pd) = (cx.name, system.dim(), physical.dim);
+    let nalgebra = quote!(::dth::__private::nalgebra);
+    let core = quote!(::dth::__private::dth_core);
+    // The physical dimension names the map: a plane (Levi-Civita) or space (KS).
+    let map = if pd == 4 {
+        quote!(LeviCivita)
+    } else {
+        quote!(KustaanheimoStiefel)
+    };
+    let cx = Context {
+        arithmetic: Arithmetic::DoubleDouble,
+        ..*cx
+    };
+    let energy = body(physical, &cx, |v| {
+        let v = &v.value;
+        quote!(#v.to_f64())
+    });
+    quote! {
+        #[automatically_derived]
+        #[allow(unused_variables, clippy::all, clippy::pedantic, clippy::nursery)]
+        impl #name {
+            /// The physical Hamiltonian `H(q, p)` (before the regularization) at
+            /// `z = (q, p)`, in double-double arithmetic rounded once: the energy a regularized
+            /// run starts from. (Functions other than square roots and integer or
+            /// half-integer powers are evaluated in doubles.)
+            pub fn physical_energy(&self, z: &#nalgebra::SVector<f64, #pd>) -> f64 {
+                #energy
+            }
+
+            /// The regularized start of the physical state `z = (q, p)` at time `t`, with
+            /// `p_t = -H(z)` from [`Self::physical_energy`] (so that `K = 0` and the orbit's
+            /// period is as accurate as the energy can be).
+            ///
+            /// # Errors
+            /// As `dth::regularize`'s `start`: a value that is not finite, `q` at the centre.
+            pub fn start(
+                &self,
+                z: &#nalgebra::SVector<f64, #pd>,
+                t: f64,
+            ) -> ::core::result::Result<#nalgebra::SVector<f64, #d>, #core::Error> {
+                #core::regularize::#map::start(z, t, self.physical_energy(z))
+            }
+        }
     }
 }
 
@@ -207,10 +269,38 @@ fn system_source(system: &System) -> String {
 }
 
 /// What the emitted code refers to: the type (for the chunk functions' receiver) and the
-/// declared parameters.
+/// declared parameters; and the arithmetic of its locals.
 struct Context<'a> {
     name: &'a Ident,
     params: &'a [Ident],
+    arithmetic: Arithmetic,
+}
+
+/// The arithmetic of the emitted locals: `f64` (every trait method), or double-double for a
+/// regularization's start energy ([`start_impl`]), with the operations of
+/// [`Program::run_double_double`] in the same order.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Arithmetic {
+    Double,
+    DoubleDouble,
+}
+
+impl Arithmetic {
+    /// The type of a local.
+    fn local_type(self) -> TokenStream {
+        match self {
+            Arithmetic::Double => quote!(f64),
+            Arithmetic::DoubleDouble => quote!(::dth::__private::double_double::Dd),
+        }
+    }
+
+    /// An output a program does not compute.
+    fn zero(self) -> TokenStream {
+        match self {
+            Arithmetic::Double => quote!(0.0f64),
+            Arithmetic::DoubleDouble => quote!(::dth::__private::double_double::Dd::new(0.0f64)),
+        }
+    }
 }
 
 /// The outputs of a program as expressions: a local, a load from the spill array, or `0.0`
@@ -324,24 +414,35 @@ fn local(s: u32) -> Ident {
     format_ident!("v{}", s)
 }
 
-/// `let vi: f64 = ...;` for operation `i`; parameters are fields of `receiver`.
-fn define(i: usize, op: &Op, params: &[Ident], receiver: &TokenStream) -> TokenStream {
+/// `let vi: f64 = ...;` for operation `i` (or `Dd` in double-double, [`Arithmetic`]);
+/// parameters are fields of `receiver`.
+fn define(i: usize, op: &Op, cx: &Context, receiver: &TokenStream) -> TokenStream {
     let v = local;
     let lhs = v(i as u32);
+    let ty = cx.arithmetic.local_type();
+    let double_double = cx.arithmetic == Arithmetic::DoubleDouble;
+    // A double read in: exact in double-double.
+    let read = |x: TokenStream| {
+        if double_double {
+            quote!(#ty::new(#x))
+        } else {
+            x
+        }
+    };
     let rhs = match *op {
         Op::Input(k) => {
             let k = k as usize;
-            quote!(z[#k])
+            read(quote!(z[#k]))
         }
         Op::Input1(k) => {
             let k = k as usize;
-            quote!(z1[#k])
+            read(quote!(z1[#k]))
         }
         Op::Param(k) => {
-            let p = &params[k as usize];
-            quote!(#receiver.#p)
+            let p = &cx.params[k as usize];
+            read(quote!(#receiver.#p))
         }
-        Op::Const(c) => constant(c),
+        Op::Const(c) => read(constant(c)),
         Op::Add(a, b) => {
             let (a, b) = (v(a), v(b));
             quote!(#a + #b)
@@ -362,21 +463,43 @@ fn define(i: usize, op: &Op, params: &[Ident], receiver: &TokenStream) -> TokenS
             let a = v(a);
             quote!(-#a)
         }
+        Op::Sqrt(a) if double_double => {
+            let a = v(a);
+            quote!(#a.sqrt())
+        }
         Op::Sqrt(a) => {
             let a = v(a);
             quote!(::core::primitive::f64::sqrt(#a))
+        }
+        Op::Powf(a, e) if double_double => {
+            let (a, e) = (v(a), constant(e));
+            quote!(#a.powf(#e))
         }
         Op::Powf(a, e) => {
             let (a, e) = (v(a), constant(e));
             quote!(::core::primitive::f64::powf(#a, #e))
         }
+        // Functions and kernels in doubles at their rounded arguments, as the interpreter's
+        // double-double run does.
+        Op::Call(f, a) if double_double => {
+            let (a, f) = (v(a), format_ident!("{}", f.name()));
+            quote!(#ty::new(::core::primitive::f64::#f(#a.to_f64())))
+        }
         Op::Call(f, a) => {
             let (a, f) = (v(a), format_ident!("{}", f.name()));
             quote!(::core::primitive::f64::#f(#a))
         }
+        Op::Kernel(k, a, b) if double_double => {
+            let (x, y) = (format_ident!("x"), format_ident!("y"));
+            let (a, b, k) = (v(a), v(b), kernel(k, &x, &y));
+            quote!({
+                let (#x, #y) = (#a.to_f64(), #b.to_f64());
+                #ty::new(#k)
+            })
+        }
         Op::Kernel(k, a, b) => kernel(k, &v(a), &v(b)),
     };
-    quote!(let #lhs: f64 = #rhs;)
+    quote!(let #lhs: #ty = #rhs;)
 }
 
 /// The operands an operation reads.
@@ -430,7 +553,7 @@ fn body(program: &Program, cx: &Context, finish: impl Fn(&Values) -> TokenStream
             quote!(#v)
         }
     };
-    let zero = quote!(0.0f64);
+    let zero = cx.arithmetic.zero();
     let mut values = Values {
         value: zero.clone(),
         psi: zero.clone(),
@@ -459,7 +582,7 @@ fn body(program: &Program, cx: &Context, finish: impl Fn(&Values) -> TokenStream
             .ops
             .iter()
             .enumerate()
-            .map(|(i, op)| define(i, op, cx.params, &receiver));
+            .map(|(i, op)| define(i, op, cx, &receiver));
         return quote! {
             let _ = z;
             #(#lets)*
@@ -487,13 +610,14 @@ fn body(program: &Program, cx: &Context, finish: impl Fn(&Values) -> TokenStream
             .collect();
         loaded.sort_unstable();
         loaded.dedup();
+        let ty = cx.arithmetic.local_type();
         let loads = loaded.iter().map(|&a| {
             let (v, k) = (local(a), spill[a as usize]);
-            quote!(let #v: f64 = spill[#k];)
+            quote!(let #v: #ty = spill[#k];)
         });
         let lets = ops.iter().enumerate().map(|(i, op)| {
             let i = first + i;
-            let def = define(i, op, cx.params, &receiver);
+            let def = define(i, op, cx, &receiver);
             match spill[i] {
                 Some(k) => {
                     let v = local(i as u32);
@@ -509,7 +633,7 @@ fn body(program: &Program, cx: &Context, finish: impl Fn(&Values) -> TokenStream
                 this: &#name,
                 z: &#nalgebra::SVector<f64, #d>,
                 #z1_param
-                spill: &mut [f64; #spilled],
+                spill: &mut [#ty; #spilled],
             ) {
                 let _ = (this, z);
                 #(#loads)*
@@ -518,9 +642,10 @@ fn body(program: &Program, cx: &Context, finish: impl Fn(&Values) -> TokenStream
         });
         calls.push(quote!(#f(self, z, #z1_arg &mut spill);));
     }
+    let zero = cx.arithmetic.zero();
     quote! {
         #(#chunks)*
-        let mut spill = [0.0f64; #spilled];
+        let mut spill = [#zero; #spilled];
         #(#calls)*
         #out
     }

@@ -155,7 +155,7 @@ impl Program {
                 Op::Div(a, b) => g(a) / g(b),
                 Op::Neg(a) => -g(a),
                 Op::Sqrt(a) => g(a).sqrt(),
-                Op::Powf(a, e) => power(g(a), e),
+                Op::Powf(a, e) => g(a).powf(e),
                 Op::Call(f, a) => Dd::new(f.apply(g(a).to_f64())),
                 Op::Kernel(k, a, b) => Dd::new(k.apply(g(a).to_f64(), g(b).to_f64())),
             };
@@ -169,7 +169,7 @@ impl Program {
     pub fn exact_in_double_double(&self) -> bool {
         self.ops.iter().all(|op| match *op {
             Op::Call(..) | Op::Kernel(..) => false,
-            Op::Powf(_, e) => exact_power(e).is_some(),
+            Op::Powf(_, e) => Dd::exact_power(e).is_some(),
             _ => true,
         })
     }
@@ -218,43 +218,6 @@ impl Program {
     }
 }
 
-/// The largest `|2 e|` computed by repeated multiplication (a program's powers are small
-/// integers and halves: `x^2`, `r^(-3/2)`).
-const MAX_HALF_POWER: f64 = 64.0;
-
-/// `e = m / 2` with `m` an integer of at most [`MAX_HALF_POWER`]: `Some(m)`.
-fn exact_power(e: f64) -> Option<i32> {
-    let m = 2.0 * e;
-    (m == m.trunc() && m.abs() <= MAX_HALF_POWER).then_some(m as i32)
-}
-
-/// `x^e` in double-double where `e` is a small integer or half-integer (by squaring, and one
-/// square root for the half); in doubles at the rounded `x` otherwise.
-fn power(x: Dd, e: f64) -> Dd {
-    let Some(m) = exact_power(e) else {
-        return Dd::new(x.to_f64().powf(e));
-    };
-    // x^(m/2) = (sqrt x)^m for odd m, x^(m/2) for even m; a negative power inverts.
-    let (mut base, mut n) = if m % 2 == 0 {
-        (x, m.unsigned_abs() / 2)
-    } else {
-        (x.sqrt(), m.unsigned_abs())
-    };
-    let mut result = Dd::new(1.0);
-    while n > 0 {
-        if n & 1 == 1 {
-            result = result * base;
-        }
-        base = base * base;
-        n >>= 1;
-    }
-    if m < 0 {
-        Dd::new(1.0) / result
-    } else {
-        result
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -288,12 +251,12 @@ mod tests {
     #[test]
     fn half_integer_powers_are_carried_exactly() {
         let x = Dd::new(1.0) / Dd::new(3.0);
-        let one = power(x, 1.5) * power(x, -1.5) - Dd::new(1.0);
+        let one = x.powf(1.5) * x.powf(-1.5) - Dd::new(1.0);
         assert!(one.to_f64().abs() < 1e-30, "{one:?}");
-        let five = power(x, 5.0) - x * x * x * x * x;
-        assert!(five.to_f64().abs() < 1e-30 * power(x, 5.0).hi, "{five:?}");
-        assert_eq!(exact_power(0.25), None);
-        assert_eq!(power(Dd::new(2.0), 0.25).to_f64(), 2f64.powf(0.25));
+        let five = x.powf(5.0) - x * x * x * x * x;
+        assert!(five.to_f64().abs() < 1e-30 * x.powf(5.0).hi, "{five:?}");
+        assert_eq!(Dd::exact_power(0.25), None);
+        assert_eq!(Dd::new(2.0).powf(0.25).to_f64(), 2f64.powf(0.25));
     }
 
     /// A function is evaluated in doubles at its rounded argument: the value stays within a

@@ -51,9 +51,11 @@
 //! ```
 
 use crate::arena::{Arena, Id, Node, Var};
+use crate::build::coordinates;
 use crate::error::{Error, ErrorKind, Errors};
 use crate::number::{Fault, Num};
 use crate::system::{derive_value, expression, System};
+use crate::{Output, Program};
 use std::collections::HashMap;
 
 /// A regularizing point transformation `q = (L(u) u)_i`, `p = (L(u) P)_i / (2 |u|^2)` for
@@ -146,12 +148,19 @@ fn regularize(src: &str, params: &[&str], map: &Map) -> Result<System, Errors> {
         return Err(cannot(map.wrong_dimension));
     }
     let fault = |f: Fault| Errors(vec![Error::new(ErrorKind::Fault(f), whole)]);
+    // The physical H's value on (q, p), kept for a start's energy (`System::physical_value`).
+    let physical = Program::lower(
+        &arena,
+        &coordinates(map.physical, false),
+        &[(Output::Value, h)],
+    );
     let k = Substitution::new(&mut arena, map)
         .and_then(|mut sub| sub.regularized(&mut arena, h))
         .map_err(fault)?;
     let n = map.rows.len();
     let mut system = derive_value(arena, k, n, true, whole).map_err(|e| Errors(vec![e]))?;
     system.regularized = true;
+    system.physical = Some(physical);
     Ok(system)
 }
 

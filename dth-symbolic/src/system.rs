@@ -54,6 +54,9 @@ pub struct System {
     /// A regularization's `K` ([`crate::regularize`]): the flow's parameter is a fictitious
     /// time, the `t` coordinate the physical one.
     pub(crate) regularized: bool,
+    /// A regularization's physical `H`, the program of its value on `(q, p)`
+    /// ([`System::physical_value`]).
+    pub(crate) physical: Option<Program>,
 }
 
 /// [`crate::compile`] with every sum written out site by site (at most [`crate::MAX_INDEX`]
@@ -262,6 +265,7 @@ pub(crate) fn derive_value(
         warnings: Vec::new(),
         psi_assembled: false,
         regularized: false,
+        physical: None,
     };
     if !system.psi_identically_zero() {
         let symbolic = system.program(Method::All).ops.len();
@@ -325,6 +329,22 @@ impl System {
     /// flow's parameter a fictitious time `s` and `t` the physical time (`dt/ds = dK/dp_t`).
     pub fn regularized(&self) -> bool {
         self.regularized
+    }
+
+    /// A regularization's physical Hamiltonian `H(q, p)`, before the map: the program of its
+    /// value on `z = (q1..qn, p1..pn)` (`n` the map's physical degrees of freedom: 2 for
+    /// Levi-Civita, 3 for Kustaanheimo-Stiefel), with the parameters of `K`. What a run's start
+    /// takes its energy from, in double-double ([`Program::value_double_double`]): `p_t = -H`
+    /// sets a Kepler orbit's period. `None` for a Hamiltonian that is not a regularization.
+    ///
+    /// ```
+    /// let k = dth_symbolic::regularize::levi_civita("p1^2 + p2^2 - (q1^2 + q2^2)^(-1/2)", &[]).unwrap();
+    /// let h = k.physical_value().unwrap();
+    /// let p = 1.999f64.sqrt(); // e = 0.999 at the pericentre r = 0.5
+    /// assert_eq!(h.value_double_double(&[0.5, 0.0, 0.0, p], &[]).unwrap(), p.mul_add(p, -2.0));
+    /// ```
+    pub fn physical_value(&self) -> Option<&Program> {
+        self.physical.as_ref()
     }
 
     /// `true` when the block of the Hessian between the first and second halves of `z`

@@ -17,7 +17,7 @@
 use proc_macro2::{Ident, TokenStream};
 use quote::quote;
 
-use super::{body, Context, Values, CHUNK_OPS};
+use super::{body, Arithmetic, Context, Values, CHUNK_OPS};
 use crate::looped::diagonals::{layout, Place};
 use crate::looped::{Looped, Site};
 use crate::{Method, Output, Program};
@@ -30,7 +30,11 @@ fn pruned(programs: &[Program], keep: fn(Output) -> bool) -> Vec<Program> {
 /// `impl Hamiltonian<Const<D>>` for a looped lattice, or `None` when a summand's program is
 /// too long for one loop body (the caller emits the site-by-site code instead).
 pub fn looped_impl(looped: &Looped, name: &Ident, params: &[Ident]) -> Option<TokenStream> {
-    let cx = Context { name, params };
+    let cx = Context {
+        name,
+        params,
+        arithmetic: Arithmetic::Double,
+    };
     let programs = |m: Method| -> Vec<Program> {
         looped.sums.iter().map(|s| s.summand().program(m)).collect()
     };
