@@ -38,7 +38,7 @@ use dth::methods::RunEnd;
 use dth::nalgebra::{DVector, DefaultAllocator, Dim, Dyn, OVector, SVector, Vector4, Vector6};
 use dth::observer::{DthRecord, Observer, StepRecord};
 use dth::regularize::{KustaanheimoStiefel, LeviCivita};
-use dth::runtime::{Backend, RuntimeError, RuntimeHamiltonian};
+use dth::runtime::{RuntimeError, RuntimeHamiltonian};
 use dth::Alloc;
 
 use crate::driver::{Condition, DthRunner, MethodFailure, Stop, Watched};
@@ -64,10 +64,10 @@ pub enum RegularizeError {
 /// A scene's regularized `K`, compiled, with the map between its states and the physical ones.
 #[derive(Debug)]
 pub struct Regularized {
+    /// `K`, which also keeps the physical `H`'s value program: the start's energy, in
+    /// double-double (`RuntimeHamiltonian::physical_energy_slice`), whatever type the scene's
+    /// system is.
     k: RuntimeHamiltonian,
-    /// The physical `H` (interpreted: it gives the start's energy once per run, in
-    /// double-double, whatever type the scene's system is).
-    h: RuntimeHamiltonian,
     map: RegularizeMap,
     centre: Vec<f64>,
 }
@@ -89,11 +89,8 @@ impl Regularized {
             RegularizeMap::LeviCivita => RuntimeHamiltonian::levi_civita(&text, params),
             RegularizeMap::Ks => RuntimeHamiltonian::kustaanheimo_stiefel(&text, params),
         }?;
-        let h =
-            RuntimeHamiltonian::with_backend(&regularization.source, params, Backend::Interpreter)?;
         Ok(Regularized {
             k,
-            h,
             map: regularization.map,
             centre: regularization.centre.clone(),
         })
@@ -111,15 +108,16 @@ impl Regularized {
     /// # Errors
     /// `RuntimeError::NonFiniteParameter` for a value that is not finite.
     pub fn set_parameter(&mut self, name: &str, value: f64) -> Result<(), RuntimeError> {
-        self.h.set_parameter(name, value)?;
         match self.k.set_parameter(name, value) {
             Err(RuntimeError::UnknownParameter { .. }) if value.is_finite() => Ok(()),
             result => result,
         }
     }
 
-    /// The regularized start of the physical state `z = (q, p)` at time `t` with
-    /// `energy = H(z)` (`p_t = -energy`, so `K = 0`).
+    /// The regularized start of the physical state `z = (q, p)` at time `t`, and its energy
+    /// `H(z)`: `p_t = -H(z)` (so `K = 0`), with `H(z)` in double-double at the state as it is
+    /// represented about the centre (`RuntimeHamiltonian::physical_energy_slice`): the orbit's
+    /// period follows it, and at an eccentric pericentre the plain sum loses digits of it.
     ///
     /// # Errors
     /// `dth::Error::NonFiniteInitialState` for a value that is not finite,
@@ -128,7 +126,7 @@ impl Regularized {
     /// `H`'s terms (a parabolic orbit: `K`'s `Psi` is proportional to the energy for a
     /// Kepler-like `H`, so its sign, which DTH needs, is rounding noise there), and
     /// `dth::Error::WrongStateLength` for a `z` that is not `2n` long.
-    pub fn start(&self, z: &[f64], t: f64, energy: f64) -> Result<DVector<f64>, dth::Error> {
+    pub fn start(&self, z: &[f64], t: f64) -> Result<(DVector<f64>, f64), dth::Error> {
         let n = self.map.n();
         if z.len() != 2 * n {
             return Err(dth::Error::WrongStateLength {
@@ -142,6 +140,7 @@ impl Regularized {
         for (q, c) in shifted.iter_mut().zip(&self.centre) {
             *q -= c;
         }
+        let energy = self.k.physical_energy_slice(&shifted[..2 * n])?;
         let w = match self.map {
             RegularizeMap::LeviCivita => {
                 let w = LeviCivita::start(&Vector4::from_column_slice(&shifted[..4]), t, energy)?;
@@ -169,7 +168,7 @@ impl Regularized {
                 reason: "the energy is zero to the roundoff of H's terms (a parabolic orbit about the centre): the regularized K's Psi is proportional to the energy for a Kepler-like H, so its sign, which DTH needs, is rounding noise; start on a clearly elliptic (E < 0) or hyperbolic (E > 0) orbit, or run unregularized in robust mode",
             });
         }
-        Ok(w)
+        Ok((w, energy))
     }
 
     /// The physical state `(q, p)` of the regularized state `w` into `out` (its first `2n`
@@ -217,8 +216,8 @@ impl Regularized {
 
     /// Runs DTH (`runner`) on `K` from the physical start `z0` at `t0` until `stop`, every
     /// record shown to `observer` in physical coordinates (see the [module docs](self)); the
-    /// end is physical. The start's energy is `H(z0)` in double-double: the rounding of the
-    /// plain sum would set the period.
+    /// end is physical. The start's energy is `H(z0)` in double-double ([`Regularized::start`]):
+    /// the rounding of the plain sum would set the period.
     ///
     /// A start the map refuses (the centre, a value that is not finite) is the method's
     /// failure at step 0.
@@ -234,15 +233,8 @@ impl Regularized {
         DefaultAllocator: Alloc<D>,
     {
         let physical_z0: Vec<f64> = z0.iter().copied().collect();
-        // In double-double: the orbit's period follows it (`dth::regularize`), and at an
-        // eccentric pericentre the plain sum loses digits of it. (A `z0` of the wrong length
-        // gets NaN here and its own error from `start`, which checks the length first.)
-        let energy = self
-            .h
-            .value_double_double_slice(&physical_z0)
-            .unwrap_or(f64::NAN);
-        let w0 = self
-            .start(&physical_z0, t0, energy)
+        let (w0, _) = self
+            .start(&physical_z0, t0)
             .map_err(|e| MethodFailure::integrator(0, e))?;
         let mut view = PhysicalView {
             map: self,

@@ -169,12 +169,9 @@ fn the_final_state_is_the_regularized_end_mapped_back() {
     let k =
         RuntimeHamiltonian::levi_civita(&translated(source, &[0.99, 0.0]).unwrap(), &[]).unwrap();
     let z0 = Vector4::new(1.04 - 0.99, 0.0, 0.0, 1.09);
-    // The energy as the scene computes it: the text's H at the physical start, in
-    // double-double.
-    let physical = RuntimeHamiltonian::new(source, &[]).unwrap();
-    let energy = physical
-        .value_double_double_slice(&[1.04, 0.0, 0.0, 1.09])
-        .unwrap();
+    // The energy as the scene computes it: the text's H, about the centre, at the start about
+    // the centre, in double-double.
+    let energy = k.physical_energy_slice(z0.as_slice()).unwrap();
     let w0 = LeviCivita::start(&z0, 0.0, energy).unwrap();
     let (w, steps) = by_hand(&k, w0.as_slice(), 0.02, 5.0);
     let (z, t) = LeviCivita::physical(&Vector6::from_column_slice(w.as_slice()));
@@ -279,13 +276,9 @@ fn a_ks_scene_about_a_centre_runs_in_space() {
     let source = scene.hamiltonian.as_ref().unwrap().source.as_str();
     let k =
         RuntimeHamiltonian::kustaanheimo_stiefel(&translated(source, &c).unwrap(), &[]).unwrap();
-    // The energy as the scene computes it: the text's H at the physical start, in
-    // double-double.
-    let h = TextSystem::build(&scene).unwrap();
-    let start: Vec<f64> = (0..6)
-        .map(|i| if i < 3 { z0[i] + c[i] } else { z0[i] })
-        .collect();
-    let energy = h.0 .0.value_double_double_slice(&start).unwrap();
+    // The energy as the scene computes it: the text's H, about the centre, at the start about
+    // the centre, in double-double.
+    let energy = k.physical_energy_slice(z0.as_slice()).unwrap();
     let w0 = KustaanheimoStiefel::start(&z0, 0.0, energy).unwrap();
     let (w, _) = by_hand(&k, w0.as_slice(), 0.3, 3141.592653589793);
     let w = dth::nalgebra::SVector::<f64, 10>::from_column_slice(w.as_slice());

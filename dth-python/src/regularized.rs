@@ -152,17 +152,11 @@ impl Physical {
     /// The regularized start of the physical `z0` at `t0` and `H(z0)`, for one of many runs
     /// on this `K` (an ensemble's member); a `ValueError` for a `z0` at the centre.
     pub fn start_of(&self, z0: &DVector<f64>, t0: f64) -> PyResult<(DVector<f64>, f64)> {
-        // In double-double: the regularized orbit's period follows it (`dth::regularize`),
-        // and at an eccentric pericentre the plain sum loses digits of it.
-        let energy0 = self
-            .h
-            .value_double_double_slice(z0.as_slice())
-            .map_err(|e| PyValueError::new_err(format!("z0: {e}")))?;
-        let w0 = self
-            .k
-            .start(z0.as_slice(), t0, energy0)
-            .map_err(|e| PyValueError::new_err(format!("z0: {e}")))?;
-        Ok((w0, energy0))
+        // The energy in double-double (`Regularized::start`): the regularized orbit's period
+        // follows it, and at an eccentric pericentre the plain sum loses digits of it.
+        self.k
+            .start(z0.as_slice(), t0)
+            .map_err(|e| PyValueError::new_err(format!("z0: {e}")))
     }
 
     /// Physical coordinates: `2n`.
