@@ -14,9 +14,11 @@
 //! rounding dropped in a low part, and adding the energy projection's move to it, keeps every
 //! coordinate within an ulp of the exact sum of the advances: the same runs end 4.5e-13 to
 //! 1.4e-10 away (median 3.4e-11; `tests/regularized_kepler.rs`,
-//! `the_compensated_state_keeps_e099_within_1e_10_of_the_exact_orbit`). What remains is about
-//! the rounding of the energy `E = -p_t` itself (half an ulp of `E = -0.01` moves the state
-//! after 100 orbits by 6e-11), which no compensation of the state can remove.
+//! `the_compensated_state_keeps_e099_within_1e_10_of_the_exact_orbit`). What remains is a shift
+//! along the orbit, the clock against the phase of `(u, P)`, of about 1e-16 of the time
+//! elapsed: the rounding of the energy `E = -p_t` is part of it (half an ulp of `E = -0.01`
+//! moves the state after 100 orbits by 6e-11), the rest is not found yet (docs/performance.md,
+//! "What the e = 0.999 floor is").
 //!
 //! The evaluations of `K` and its derivatives see the high part only: the low part moves the
 //! point by less than an ulp, which changes each advance by a relative `eps h |Hess K|`, far
