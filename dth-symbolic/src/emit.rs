@@ -650,3 +650,38 @@ fn body(program: &Program, cx: &Context, finish: impl Fn(&Values) -> TokenStream
         #out
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proc_macro2::Span;
+
+    fn emitted(system: &System) -> String {
+        let name = Ident::new("K", Span::call_site());
+        hamiltonian_impl(system, &name, &[]).to_string()
+    }
+
+    /// A regularization's type gains `physical_energy` (its physical `H` in double-double, on
+    /// the physical dimension: 4 in the plane, 6 in space) and `start` through the map of its
+    /// dimension; any other type gains neither.
+    #[test]
+    fn only_a_regularization_emits_its_start() {
+        let kepler = "p1^2 + p2^2 - (q1^2 + q2^2)^(-1/2)";
+        let plane = emitted(&crate::regularize::levi_civita(kepler, &[]).unwrap());
+        assert!(plane.contains("pub fn physical_energy (& self , z : & :: dth :: __private :: nalgebra :: SVector < f64 , 4usize >)"), "{plane}");
+        assert!(plane.contains("double_double :: Dd :: new (z [3usize])"));
+        assert!(plane
+            .contains("regularize :: LeviCivita :: start (z , t , self . physical_energy (z))"));
+        let space = emitted(
+            &crate::regularize::kustaanheimo_stiefel(
+                "p1^2 + p2^2 + p3^2 - (q1^2 + q2^2 + q3^2)^(-1/2)",
+                &[],
+            )
+            .unwrap(),
+        );
+        assert!(space.contains("SVector < f64 , 6usize >) -> f64"));
+        assert!(space.contains("regularize :: KustaanheimoStiefel :: start"));
+        let plain = emitted(&crate::compile(kepler, &[]).unwrap());
+        assert!(!plain.contains("physical_energy") && !plain.contains("double_double"));
+    }
+}
