@@ -129,6 +129,12 @@ fn kepler_at_e09_and_e099_converges_at_second_order_and_ends_at_t() {
             let end = robust_to(&kepler, z0, dtau, 2, t_end);
             assert!(end.fallback > 0, "e {e}: Psi changes sign on this orbit");
             *error = checked(&format!("kepler e {e}"), dtau, &end, t_end, &exact);
+            // The bar for the robust mode at e = 0.9: within 1e-3 of Kepler's
+            // equation at `dtau = 0.001` after three orbits (1.15e-2 when it was filed, 1.41e-3
+            // with a fallback law bounded at DTH's edge value; 9.2e-4 now, `dth::robust`).
+            if e == 0.9 && dtau == 0.001 {
+                assert!(*error <= 1e-3, "e 0.9, dtau 0.001: {error:e}");
+            }
         }
         assert_second_order(&format!("kepler e {e}"), &errors);
     }
@@ -195,9 +201,10 @@ fn kepler_at_e09_runs_dth_wherever_psi_keeps_its_sign() {
     assert!(arc_min > 0.2, "{arc_min}");
     assert_eq!(apocentre_fallback, 0);
     assert!(apocentre_dth > 10 && negative_dth > 10);
-    // The robust mode leaves DTH below 5% and resumes from 10%, deciding at the end of each
-    // step: a DTH midpoint may lie one step inside the band, a fallback node one step past its
-    // edge. Neither lies deep inside the other's region (a quarter of 5%, a doubling of 10%).
+    // The robust mode leaves DTH below 6.5% (order 2) and resumes from 10%, deciding at the end
+    // of each step: a DTH midpoint may lie one step inside the band, a fallback node one step
+    // past its edge. Neither lies deep inside the other's region (under a quarter of 6.5%, a
+    // doubling of 10%).
     assert!(dth_min >= 0.0125, "{dth_min}");
     assert!(fallback_max < 0.2, "{fallback_max}");
 }

@@ -106,7 +106,7 @@ fn pendulum_rotation_just_above_the_separatrix_breaks_down_then_robust_mode_rota
         );
         // DTH runs where Psi = p^2 cos q + sin^2 q does not cancel, on both sides of its sign
         // changes: at every DTH midpoint |Psi| is at least a few percent of the sum of its
-        // terms' magnitudes (the robust mode leaves DTH below 5%, and one step of dtau = 0.03
+        // terms' magnitudes (the robust mode leaves DTH below 6.5%, and one step of dtau = 0.03
         // moves the ratio by a few percent), and fallback steps bridge only the bands where
         // it passes through zero.
         let ratio = |z: &Vector2<f64>| {

@@ -283,7 +283,8 @@ impl DthOptions {
     ///   sends the physical step to infinity. So the robust mode measures how much the terms
     ///   of `Psi = sum_ij v_i H_ij v_j` (`v = J grad H`, `H_ij` the Hessian) cancel,
     ///   `|Psi| / sum_ij |v_i H_ij v_j|` (independent of the units of `q` and `p`),
-    ///   and leaves DTH where that ratio falls below 5%, resuming where it is back above 10%,
+    ///   and leaves DTH where that ratio falls below 6.5% (5% at order 4-8), resuming where it
+    ///   is back above 10%,
     ///   on either side of the sign change, with the `lambda` of the run's law of time. A DTH
     ///   step that breaks down or whose Newton fails ([`Error::Breakdown`],
     ///   [`Error::NewtonDiverged`], [`Error::SpuriousRoot`], [`Error::SingularMatrix`],
@@ -297,10 +298,11 @@ impl DthOptions {
     ///   whose residual fails the plain check is kept when the Newton correction it implies is
     ///   below the tolerance (the residual of a converged step near a collision is the
     ///   positions' rounding amplified by `dt |Hess H|`).
-    ///   Their physical size is a function of the state and `dtau` only,
-    ///   `dtau (law / max(|Psi|, 0.05 sum))^(1/3)` with `law = lambda_0^3 max(|Psi_0|,
-    ///   0.05 sum_0)`: DTH's own law of time at the band's edge, bounded inside it, so both
-    ///   kinds of step shrink with `dtau` and the run converges at second order. Where a
+    ///   Their physical size is a function of the state and `dtau` only: DTH's own law of
+    ///   time `dtau (law / |Psi|)^(1/3)` (`law = lambda_0^3 |Psi_0|`) where the ratio is at
+    ///   least 10%, below that its value at 10% times a factor going linearly from 1 there to
+    ///   0.3 where `Psi` changes sign: continuous where DTH resumes, bounded inside the band,
+    ///   so both kinds of step shrink with `dtau` and the run converges at second order. Where a
     ///   fallback step's Newton fails, the step is halved, down to `2^-20` of that size; below
     ///   that (or on a non-finite `H`, or a failed energy check) the run stops with that error.
     /// - **Order 4-8** ([`with_order`](Self::with_order)): a composed step is all DTH steps or
@@ -309,9 +311,9 @@ impl DthOptions {
     ///   fails, or any of whose midpoints reaches into a band (ratio below 5%), is redone from
     ///   its start as fallback steps.
     ///
-    /// Where the ratio stays above 5% and no step fails, the run is bit-identical to one
-    /// without robust mode. The vertex invariants of DTH (paper Theorem 7) do not hold across
-    /// fallback steps (a fallback node is its own vertex).
+    /// Where the ratio stays above 6.5% (5% at order 4-8) and no step fails, the run is
+    /// bit-identical to one without robust mode. The vertex invariants of DTH (paper Theorem 7)
+    /// do not hold across fallback steps (a fallback node is its own vertex).
     pub fn with_robust(mut self, robust: bool) -> Self {
         self.robust = robust;
         self

@@ -358,37 +358,80 @@ fn at_step(mut error: Error, k: usize) -> Error {
 // (in the extended phase space `H_tt` is one of the terms, so a drive's `f''(t)` that cancels
 // the rest is seen too). Each term is unchanged by rescaling a coordinate and its conjugate
 // momentum (`q_i -> a q_i`, `p_i -> p_i / a`: units), so the ratio does not depend on them.
-// DTH runs where the ratio is at least `LEAVE_BELOW`, on either side of a sign change (the
+// DTH runs where the ratio is at least [`leave_below`], on either side of a sign change (the
 // run's law of time keeps its magnitude: `lambda^3 |Psi| = law`); fallback steps bridge the
-// bands around the sign changes, with the physical step
-// `dt = dtau (law / max(|Psi|, LEAVE_BELOW Psi_scale))^(1/3)`: a function of the state and
-// `dtau` only, equal to DTH's law of time at the edge of the band and bounded inside it, so
-// that both kinds of step shrink with `dtau` and the run converges at the order of its steps.
+// bands around the sign changes, with the physical step `dt = dtau lambda`, `lambda` the law of
+// time's [`lambda_of`]: DTH's own `(law / |Psi|)^(1/3)` from the ratio at which DTH resumes
+// ([`RESUME_ABOVE`]) up, a fraction of it that shrinks linearly toward the sign change below:
+// a function of the state and `dtau` only, continuous where DTH resumes and bounded inside the
+// band, so that both kinds of step shrink with `dtau` and the run converges at the order of
+// its steps.
 // ---------------------------------------------------------------------------------------------
 
-/// Ratio `|Psi| / Psi_scale` below which the robust mode leaves DTH for fallback steps. On the
-/// Kepler problem (pericentre 0.5, thesis normalisation) the ratio stays above 0.21 along the
-/// whole orbit for e <= 0.7 and above 0.11 for e = 0.75, so those runs never fall back; at
-/// e >= 0.8 it passes through zero. At the band's edge DTH's `lambda` is
-/// `LEAVE_BELOW^(-1/3) ~ 2.7` times what it would be where nothing cancels.
+/// Ratio `|Psi| / Psi_scale` below which an order-2 run leaves DTH for fallback steps (see
+/// [`leave_below`]). On the Kepler problem (pericentre 0.5, thesis normalisation) the ratio
+/// stays above 0.21 along the whole orbit for e <= 0.7 and above 0.11 for e = 0.75, so those
+/// runs never fall back; at e >= 0.8 it passes through zero. At the band's edge DTH's `lambda`
+/// is `LEAVE_BELOW^(-1/3) ~ 2.5` times what it would be where nothing cancels.
 ///
-/// At order 4-8 no DTH midpoint below it is kept: a composed step any of whose sub-steps ends
-/// below it is redone from its start as fallback steps. A composed step spans
-/// several `dtau` and its sub-steps go back and forth; those that reached into a band kept its
-/// growing `lambda`, and their local errors dominated the run's. Measured on Kepler e = 0.9,
-/// order 8, three orbits, when only sub-steps below a quarter of it were rejected: the error
-/// stayed at 4e-5 to 1e-4 for `dtau` 0.04 down to 0.01 (single composed steps with lambda
-/// 100-135 and local errors of 3e-6), then fell by 10^4 within two halvings; rejecting below
-/// it, 7e-5, 1.4e-5, 3.7e-6, 4.5e-8, 3.0e-9 for `dtau` 0.04, 0.028, 0.02, 0.014, 0.01, at the
-/// same cost (2% more Newton iterations). A single DTH step (order 2) that ends below it is
-/// kept, and the next step is a fallback step: redoing it instead changed the Kepler errors by
-/// under 1% and lowered the driven pendulum's observed order from 2 to 1.89.
-pub(crate) const LEAVE_BELOW: f64 = 0.05;
+/// A single DTH step (order 2) that ends below it is kept, and the next step is a fallback
+/// step: redoing it instead changed the Kepler errors by under 1% and lowered the driven
+/// pendulum's observed order from 2 to 1.89. Above [`LEAVE_BELOW_COMPOSED`] for order 2: the
+/// DTH step that ends inside the band (its `lambda` growing as `Psi` cancels) made most of the
+/// pendulum in rotation's error, by an amount that varies irregularly with `dtau`. Measured
+/// with the law of [`lambda_of`], order 2: error / `dtau^2` of the pendulum in rotation
+/// (`p0 = 2.5`, `t = 20`) over 48 `dtau` from 0.01 to 0.00125, median 3.4 and largest 11.0 at
+/// 0.05, 2.8 and 7.6 at 0.065; of the driven pendulum (12 `dtau`), median 5.0 and 3.0; Kepler
+/// e = 0.9, three orbits, `dtau` 0.001: 9.0e-4 and 9.2e-4.
+pub(crate) const LEAVE_BELOW: f64 = 0.065;
 
-/// Ratio at a fallback node from which DTH resumes: twice [`LEAVE_BELOW`], so that a run does
-/// not flip between the two kinds of step at the band's edge (one DTH step changes the ratio
-/// by `O(dtau)`).
-pub(crate) const RESUME_ABOVE: f64 = 2.0 * LEAVE_BELOW;
+/// Ratio below which a composed run (orders 4-8) leaves DTH: no DTH midpoint below it is kept,
+/// a composed step any of whose sub-steps ends below it is redone from its start as fallback
+/// steps. A composed step spans several `dtau` and its sub-steps go back and forth; those that
+/// reached into a band kept its growing `lambda`, and their local errors dominated the run's.
+/// Measured on Kepler e = 0.9, order 8, three orbits, when only sub-steps below a quarter of it
+/// were rejected: the error stayed at 4e-5 to 1e-4 for `dtau` 0.04 down to 0.01 (single
+/// composed steps with lambda 100-135 and local errors of 3e-6), then fell by 10^4 within two
+/// halvings; rejecting below it, 7e-5, 1.4e-5, 3.7e-6, 4.5e-8, 3.0e-9 for `dtau` 0.04, 0.028,
+/// 0.02, 0.014, 0.01, at the same cost (2% more Newton iterations). Lower than order 2's: with
+/// 0.07 here, order 8's fitted order (the range of `robust_convergence`, shifted by
+/// `2^(-j/12)`, j = 0..11) fell from a median of 6.1 to 5.4, the lowest from 4.7 to 3.7.
+pub(crate) const LEAVE_BELOW_COMPOSED: f64 = 0.05;
+
+/// The ratio below which a run of `stages` sub-steps per step leaves DTH.
+pub(crate) fn leave_below(stages: usize) -> f64 {
+    if stages > 1 {
+        LEAVE_BELOW_COMPOSED
+    } else {
+        LEAVE_BELOW
+    }
+}
+
+/// Ratio at a fallback node from which DTH resumes: above both [`LEAVE_BELOW`]s, so that a run
+/// does not flip between the two kinds of step at the band's edge (one DTH step changes the
+/// ratio by `O(dtau)`).
+pub(crate) const RESUME_ABOVE: f64 = 0.1;
+
+/// The fallback law's `lambda`, relative to DTH's at [`RESUME_ABOVE`], where `Psi` changes
+/// sign: below `RESUME_ABOVE` the law goes linearly from DTH's value there down to this
+/// fraction of it. The fallback steps at the band's edge, where DTH's `lambda` had grown by
+/// `RESUME_ABOVE^(-1/3)`, carried half the run's error (Kepler e = 0.9, order 2, `dtau` 0.001:
+/// 1.41e-3, a step law bounded at DTH's edge value); shrinking them toward the sign change left
+/// 9.2e-4 at 11% more steps. A law with no such bound in between (`lambda^3 Psi_scale = law`)
+/// left 8.1e-4, but the pendulum in rotation's error then varied irregularly with `dtau`.
+const BAND_CENTRE: f64 = 0.3;
+
+/// `lambda (Psi_scale / law)^(1/3)` of the law of time at the ratio `r = |Psi| / Psi_scale`:
+/// DTH's `r^(-1/3)` from [`RESUME_ABOVE`] up, linear down to [`BAND_CENTRE`] of it at `r = 0`.
+fn law_factor(r: f64) -> f64 {
+    let edge = RESUME_ABOVE.cbrt().recip();
+    if r >= RESUME_ABOVE {
+        r.cbrt().recip()
+    } else {
+        let x = r / RESUME_ABOVE;
+        edge * (BAND_CENTRE + (1.0 - BAND_CENTRE) * x)
+    }
+}
 
 /// What the robust mode's next step is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -435,19 +478,29 @@ where
     solver.hessian_abs_form(&work.v)
 }
 
-/// The robust mode's law of time `lambda^3 max(|Psi|, LEAVE_BELOW Psi_scale) = law` through
-/// `(lambda, Psi, Psi_scale)` at a point: `None` when not positive and finite (`Psi` and its
-/// scale both zero there: the law is then taken at the first point where it is).
+/// The robust mode's law of time `law` through `(lambda, Psi, Psi_scale)` at a point (the
+/// inverse of [`lambda_of`]; `lambda^3 |Psi|` from [`RESUME_ABOVE`] up): `None` when not
+/// positive and finite (`Psi` and its scale both zero there: the law is then taken at the first
+/// point where it is).
 pub(crate) fn law_through(lambda: f64, psi: f64, scale: f64) -> Option<f64> {
-    let law = lambda.powi(3) * psi.abs().max(LEAVE_BELOW * scale);
+    let law = if psi.abs() >= RESUME_ABOVE * scale {
+        lambda.powi(3) * psi.abs()
+    } else {
+        scale * (lambda / law_factor(psi.abs() / scale)).powi(3)
+    };
     (law.is_finite() && law > 0.0).then_some(law)
 }
 
 /// The multiplier the law of time `law` gives at a point with `(Psi, Psi_scale)`: DTH's own
-/// `(law / |Psi|)^(1/3)` where `Psi` does not cancel, bounded inside the bands where it does;
-/// `None` when not positive and finite.
+/// `(law / |Psi|)^(1/3)` where `Psi` does not cancel (from [`RESUME_ABOVE`] up), bounded and
+/// shrinking toward the sign change inside the bands where it does; `None` when not positive
+/// and finite.
 pub(crate) fn lambda_of(law: f64, psi: f64, scale: f64) -> Option<f64> {
-    let lambda = (law / psi.abs().max(LEAVE_BELOW * scale)).cbrt();
+    let lambda = if psi.abs() >= RESUME_ABOVE * scale {
+        (law / psi.abs()).cbrt()
+    } else {
+        (law / scale).cbrt() * law_factor(psi.abs() / scale)
+    };
     (lambda.is_finite() && lambda > 0.0).then_some(lambda)
 }
 

@@ -143,7 +143,7 @@ where
     /// What produced the current midpoint, as its record says: [`StepKind::Fallback`] if any
     /// sub-step of the last step was one.
     step_kind: StepKind,
-    /// The robust mode's law of time `lambda^3 max(|Psi|, LEAVE_BELOW Psi_scale)` (see
+    /// The robust mode's law of time (`lambda^3 |Psi|` where `Psi` does not cancel, see
     /// `dth::robust`), set at the first midpoint where it is positive (0 before). It sizes the
     /// fallback steps and gives DTH its `lambda` where it resumes, so that the resolution the
     /// user chose with `lambda_0` is kept across fallback stretches.
@@ -416,7 +416,9 @@ where
             reported: false,
             psi_scale,
             // A start inside a band where Psi cancels starts with fallback steps.
-            mode: if robust::cancellation_ratio(d.psi, psi_scale) < robust::LEAVE_BELOW {
+            mode: if robust::cancellation_ratio(d.psi, psi_scale)
+                < robust::leave_below(options.composition().coefficients().len())
+            {
                 Mode::Fallback
             } else {
                 Mode::Dth
@@ -1080,8 +1082,9 @@ where
                 robust::law_through(self.s.lambda, self.s.psi, self.s.psi_scale).unwrap_or(0.0);
         }
         let ratio = robust::cancellation_ratio(self.s.psi, self.s.psi_scale);
+        let leave = robust::leave_below(self.options.composition().coefficients().len());
         match self.s.mode {
-            Mode::Dth if ratio < robust::LEAVE_BELOW => self.s.mode = Mode::Fallback,
+            Mode::Dth if ratio < leave => self.s.mode = Mode::Fallback,
             Mode::Fallback if ratio >= robust::RESUME_ABOVE => {
                 // Resume DTH at this node, with the lambda of the run's law of time (the
                 // record keeps the fallback step's).
@@ -1103,7 +1106,7 @@ where
 
     /// The DTH sub-steps of a composed step; in robust mode each midpoint's `Psi_scale` is
     /// evaluated, and at order 4-8 a midpoint inside a band where `Psi` cancels
-    /// ([`robust::LEAVE_BELOW`]) fails the step as a breakdown.
+    /// ([`robust::LEAVE_BELOW_COMPOSED`]) fails the step as a breakdown.
     fn dth_composed(
         &mut self,
         gammas: &[f64],
@@ -1126,7 +1129,7 @@ where
             solved?;
             if self.options.robust() {
                 let ratio = robust::cancellation_ratio(self.s.psi, self.s.psi_scale);
-                if gammas.len() > 1 && ratio < robust::LEAVE_BELOW {
+                if gammas.len() > 1 && ratio < robust::LEAVE_BELOW_COMPOSED {
                     return Err(Error::Breakdown {
                         step,
                         time: self.work.saved.tbar,
