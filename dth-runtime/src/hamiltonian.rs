@@ -3,7 +3,7 @@
 
 use dth_symbolic::lexer::{lex, TokenKind};
 use dth_symbolic::looped::{self, Looped};
-use dth_symbolic::{Program, System};
+use dth_symbolic::{Method, System};
 
 use crate::backend::{Backend, Compiled};
 use crate::error::{JitError, RuntimeError};
@@ -66,8 +66,6 @@ enum Form {
         system: Box<System>,
         /// One per [`Function`], in the order of [`Function::ALL`].
         functions: Vec<Compiled>,
-        /// The value's program, kept for [`RuntimeHamiltonian::value_double_double_slice`].
-        value: Program,
     },
     /// A lattice whose sums loop, compiled as the macro compiles it (boxed: it is large).
     Looped(Box<Lattice>),
@@ -218,8 +216,6 @@ impl RuntimeHamiltonian {
             .iter()
             .map(|&f| Ok((f, f.program(&system)?)))
             .collect::<Result<Vec<_>, RuntimeError>>()?;
-        // `programs` follows `Function::ALL`, whose order is the enum's.
-        let value = programs[Function::Value as usize].1.clone();
         let (functions, fallback) = Compiled::all(programs, backend)?;
         Ok(RuntimeHamiltonian {
             separable: system.separable(),
@@ -228,7 +224,6 @@ impl RuntimeHamiltonian {
             form: Form::Written {
                 system: Box::new(system),
                 functions,
-                value,
             },
             names,
             values,
@@ -482,8 +477,8 @@ impl RuntimeHamiltonian {
     /// run, whose period follows it (see `dth_core::regularize`). Where `H(z)` is a small
     /// difference of large terms (Kepler near the pericentre of an eccentric orbit) this keeps
     /// the digits [`RuntimeHamiltonian::value_slice`] loses (three of `E` at e = 0.999); see
-    /// [`Program::value_double_double`] for what is carried (functions stay in doubles). A
-    /// lattice in loops is evaluated as `value_slice` does.
+    /// [`dth_symbolic::Program::value_double_double`] for what is carried (functions stay in
+    /// doubles). A lattice in loops is evaluated as `value_slice` does.
     ///
     /// ```
     /// use dth_runtime::RuntimeHamiltonian;
@@ -496,10 +491,13 @@ impl RuntimeHamiltonian {
     ///
     /// # Errors
     /// [`RuntimeError::Interpreter`] for a `z` of the wrong length (and for a lattice, as
-    /// `value_slice`).
+    /// `value_slice`). The value's program is lowered again for it (a run start's one
+    /// evaluation; a `RuntimeHamiltonian` keeps only the compiled functions).
     pub fn value_double_double_slice(&self, z: &[f64]) -> Result<f64, RuntimeError> {
         match &self.form {
-            Form::Written { value, .. } => Ok(value.value_double_double(z, &self.values)?),
+            Form::Written { system, .. } => Ok(system
+                .program(Method::Value)
+                .value_double_double(z, &self.values)?),
             Form::Looped(_) => self.value_slice(z),
         }
     }
@@ -507,8 +505,8 @@ impl RuntimeHamiltonian {
     /// For a regularization's `K` ([`RuntimeHamiltonian::levi_civita`],
     /// [`RuntimeHamiltonian::kustaanheimo_stiefel`]), the physical Hamiltonian `H(q, p)` of the
     /// text at `z = (q, p)` (length 4 in the plane, 6 in space) in double-double, rounded once
-    /// ([`Program::value_double_double`]): the energy a regularized run starts from
-    /// (`p_t = -H`, which sets a Kepler orbit's period; see `dth_core::regularize`).
+    /// ([`dth_symbolic::Program::value_double_double`]): the energy a regularized run starts
+    /// from (`p_t = -H`, which sets a Kepler orbit's period; see `dth_core::regularize`).
     ///
     /// ```
     /// use dth_runtime::RuntimeHamiltonian;
