@@ -346,6 +346,22 @@ where
     fn energy_difference(&self, z0: &OVector<f64, D>, z1: &OVector<f64, D>) -> f64 {
         self.value(z1) - self.value(z0)
     }
+
+    /// `grad H` at the double-double point `hi + lo` (each `|lo_i|` at most half an ulp of
+    /// `hi_i`), in double-double arithmetic, written as `out_hi + out_lo`; `false` (and
+    /// nothing written) where it is not provided, the default.
+    ///
+    /// A regularized DTH run started in double-double ([`Dth::with_low`](crate::dth::Dth::with_low),
+    /// `solve`'s `start_low`) solves its steps with it beyond double precision:
+    /// `hamiltonian!` types with `#[regularize(...)]` provide it.
+    fn gradient_double_double_into(
+        &self,
+        z: (&OVector<f64, D>, &OVector<f64, D>),
+        out: (&mut OVector<f64, D>, &mut OVector<f64, D>),
+    ) -> bool {
+        let _ = (z, out);
+        false
+    }
 }
 
 /// A shared reference is the Hamiltonian it points to: one `H` (a text compiled at run time
@@ -438,6 +454,13 @@ where
     }
     fn energy_difference(&self, z0: &OVector<f64, D>, z1: &OVector<f64, D>) -> f64 {
         (**self).energy_difference(z0, z1)
+    }
+    fn gradient_double_double_into(
+        &self,
+        z: (&OVector<f64, D>, &OVector<f64, D>),
+        out: (&mut OVector<f64, D>, &mut OVector<f64, D>),
+    ) -> bool {
+        (**self).gradient_double_double_into(z, out)
     }
 }
 

@@ -28,6 +28,11 @@ extern crate self as dth_core;
 
 mod dense_newton;
 pub mod diagnostics;
+/// Double-double arithmetic: the symbolic engine's (one source; this crate does not depend
+/// on the engine), for the starts of runs solved in double-double.
+#[allow(dead_code)]
+#[path = "../../dth-symbolic/src/double_double.rs"]
+mod double_double;
 pub mod dth;
 pub mod error;
 pub mod event;

@@ -37,8 +37,57 @@
 //! ```
 
 use nalgebra::{SVector, Vector4, Vector6};
+use std::ops::{Add, Div, Mul, Neg, Sub};
 
+use crate::double_double::Dd;
 use crate::Error;
+
+/// The arithmetic of a start: `f64` ([`LeviCivita::start`]) or double-double
+/// ([`LeviCivita::start_double_double`]), the same operations in the same order.
+trait Real:
+    Copy
+    + Add<Output = Self>
+    + Sub<Output = Self>
+    + Mul<Output = Self>
+    + Div<Output = Self>
+    + Neg<Output = Self>
+{
+    fn of(x: f64) -> Self;
+    fn sqrt(self) -> Self;
+    /// `sqrt(self^2 + other^2)`.
+    fn hypot(self, other: Self) -> Self;
+}
+
+impl Real for f64 {
+    fn of(x: f64) -> Self {
+        x
+    }
+    fn sqrt(self) -> Self {
+        f64::sqrt(self)
+    }
+    fn hypot(self, other: Self) -> Self {
+        f64::hypot(self, other)
+    }
+}
+
+impl Real for Dd {
+    fn of(x: f64) -> Self {
+        Dd::new(x)
+    }
+    fn sqrt(self) -> Self {
+        Dd::sqrt(self)
+    }
+    fn hypot(self, other: Self) -> Self {
+        (self * self + other * other).sqrt()
+    }
+}
+
+/// A double-double vector as its rounding and what the rounding dropped.
+fn split<const N: usize>(x: [Dd; N]) -> (SVector<f64, N>, SVector<f64, N>) {
+    let high = SVector::from_fn(|i, _| x[i].to_f64());
+    let low = SVector::from_fn(|i, _| (x[i] - Dd::new(high[i])).to_f64());
+    (high, low)
+}
 
 /// A start's checks: every value (the state's components, then `t` and the energy) finite,
 /// and `q` away from the centre (its length `r`), where the momenta have no regularized image.
@@ -71,26 +120,53 @@ impl LeviCivita {
     /// [`Error::InvalidOption`] (`q`) at the centre `q = 0`, where the momenta have no
     /// regularized image.
     pub fn start(z: &Vector4<f64>, t: f64, energy: f64) -> Result<Vector6<f64>, Error> {
-        let (q1, q2) = (z[0], z[1]);
+        check_start(&[z[0], z[1], z[2], z[3], t, energy], z[0].hypot(z[1]))?;
+        Ok(Vector6::from(Self::map(z, t, energy)))
+    }
+
+    /// [`LeviCivita::start`] in double-double, from the energy `hi + lo`: the state rounded
+    /// and its low part (what the rounding of each coordinate dropped), for a run solved in
+    /// double-double ([`Dth::with_low`](crate::dth::Dth::with_low)). The state is
+    /// [`LeviCivita::start`]'s to an ulp.
+    ///
+    /// # Errors
+    /// As [`LeviCivita::start`].
+    pub fn start_double_double(
+        z: &Vector4<f64>,
+        t: f64,
+        (hi, lo): (f64, f64),
+    ) -> Result<(Vector6<f64>, Vector6<f64>), Error> {
+        check_start(&[z[0], z[1], z[2], z[3], t, hi, lo], z[0].hypot(z[1]))?;
+        Ok(split(Self::map(z, t, Dd { hi, lo })))
+    }
+
+    /// The map of a checked start, in `T`'s arithmetic.
+    fn map<T: Real>(z: &Vector4<f64>, t: f64, energy: T) -> [T; 6] {
+        let [q1, q2, p1, p2] = [z[0], z[1], z[2], z[3]].map(T::of);
         let r = q1.hypot(q2);
-        check_start(&[z[0], z[1], z[2], z[3], t, energy], r)?;
+        let half = T::of(0.5);
+        let two = T::of(2.0);
         // u^2 = q as complex numbers; the larger of |u1|, |u2| from a sum without cancellation.
-        let (u1, u2) = if q1 >= 0.0 {
-            let u1 = (0.5 * (r + q1)).sqrt();
-            (u1, q2 / (2.0 * u1))
+        let (u1, u2) = if z[0] >= 0.0 {
+            let u1 = (half * (r + q1)).sqrt();
+            (u1, q2 / (two * u1))
         } else {
-            let u2 = (0.5 * (r - q1)).sqrt().copysign(q2);
-            (q2 / (2.0 * u2), u2)
+            let u2 = (half * (r - q1)).sqrt();
+            let u2 = if z[1] < 0.0 || (z[1] == 0.0 && z[1].is_sign_negative()) {
+                -u2
+            } else {
+                u2
+            };
+            (q2 / (two * u2), u2)
         };
-        let (p1, p2) = (z[2], z[3]);
-        Ok(Vector6::new(
+        [
             u1,
             u2,
-            t,
-            2.0 * (u1 * p1 + u2 * p2),
-            2.0 * (-u2 * p1 + u1 * p2),
+            T::of(t),
+            two * (u1 * p1 + u2 * p2),
+            two * (-u2 * p1 + u1 * p2),
             -energy,
-        ))
+        ]
     }
 
     /// The physical state `(q1, q2, p1, p2)` and time `t` of a regularized state
@@ -146,28 +222,53 @@ impl KustaanheimoStiefel {
     /// # Errors
     /// As [`LeviCivita::start`].
     pub fn start(z: &Vector6<f64>, t: f64, energy: f64) -> Result<SVector<f64, 10>, Error> {
-        let (q1, q2, q3) = (z[0], z[1], z[2]);
+        let values = [z[0], z[1], z[2], z[3], z[4], z[5], t, energy];
+        check_start(&values, z[0].hypot(z[1]).hypot(z[2]))?;
+        Ok(SVector::from(Self::map(z, t, energy)))
+    }
+
+    /// [`KustaanheimoStiefel::start`] in double-double, from the energy `hi + lo`: the state
+    /// rounded and its low part, as [`LeviCivita::start_double_double`].
+    ///
+    /// # Errors
+    /// As [`LeviCivita::start`].
+    pub fn start_double_double(
+        z: &Vector6<f64>,
+        t: f64,
+        (hi, lo): (f64, f64),
+    ) -> Result<(SVector<f64, 10>, SVector<f64, 10>), Error> {
+        let values = [z[0], z[1], z[2], z[3], z[4], z[5], t, hi, lo];
+        check_start(&values, z[0].hypot(z[1]).hypot(z[2]))?;
+        Ok(split(Self::map(z, t, Dd { hi, lo })))
+    }
+
+    /// The map of a checked start, in `T`'s arithmetic.
+    fn map<T: Real>(z: &Vector6<f64>, t: f64, energy: T) -> [T; 10] {
+        let [q1, q2, q3] = [z[0], z[1], z[2]].map(T::of);
         let r = q1.hypot(q2).hypot(q3);
-        check_start(&[z[0], z[1], z[2], z[3], z[4], z[5], t, energy], r)?;
-        let u = if q1 >= 0.0 {
-            let u1 = (0.5 * (r + q1)).sqrt();
-            [u1, q2 / (2.0 * u1), q3 / (2.0 * u1), 0.0]
+        let (half, two, zero) = (T::of(0.5), T::of(2.0), T::of(0.0));
+        let u = if z[0] >= 0.0 {
+            let u1 = (half * (r + q1)).sqrt();
+            [u1, q2 / (two * u1), q3 / (two * u1), zero]
         } else {
-            let u2 = (0.5 * (r - q1)).sqrt();
-            [q2 / (2.0 * u2), u2, 0.0, q3 / (2.0 * u2)]
+            let u2 = (half * (r - q1)).sqrt();
+            [q2 / (two * u2), u2, zero, q3 / (two * u2)]
         };
         // P = 2 L(u)^T (p, 0): L^T has the rows of L's columns.
-        let p = [z[3], z[4], z[5], 0.0];
+        let p = [z[3], z[4], z[5], 0.0].map(T::of);
         let [u1, u2, u3, u4] = u;
-        let pp = [
-            2.0 * (u1 * p[0] + u2 * p[1] + u3 * p[2] + u4 * p[3]),
-            2.0 * (-u2 * p[0] + u1 * p[1] + u4 * p[2] - u3 * p[3]),
-            2.0 * (-u3 * p[0] - u4 * p[1] + u1 * p[2] + u2 * p[3]),
-            2.0 * (u4 * p[0] - u3 * p[1] + u2 * p[2] - u1 * p[3]),
-        ];
-        Ok(SVector::<f64, 10>::from_column_slice(&[
-            u[0], u[1], u[2], u[3], t, pp[0], pp[1], pp[2], pp[3], -energy,
-        ]))
+        [
+            u1,
+            u2,
+            u3,
+            u4,
+            T::of(t),
+            two * (u1 * p[0] + u2 * p[1] + u3 * p[2] + u4 * p[3]),
+            two * (-u2 * p[0] + u1 * p[1] + u4 * p[2] - u3 * p[3]),
+            two * (-u3 * p[0] - u4 * p[1] + u1 * p[2] + u2 * p[3]),
+            two * (u4 * p[0] - u3 * p[1] + u2 * p[2] - u1 * p[3]),
+            -energy,
+        ]
     }
 
     /// The physical state `(q1, q2, q3, p1, p2, p3)` and time `t` of a regularized state.

@@ -173,6 +173,14 @@ macro_rules! forward_to_system {
             fn energy_difference(&self, z0: &OVector<f64, D>, z1: &OVector<f64, D>) -> f64 {
                 self.0.energy_difference(z0, z1)
             }
+            #[inline]
+            fn gradient_double_double_into(
+                &self,
+                z: (&OVector<f64, D>, &OVector<f64, D>),
+                out: (&mut OVector<f64, D>, &mut OVector<f64, D>),
+            ) -> bool {
+                self.0.gradient_double_double_into(z, out)
+            }
         }
 
         impl<D: Dim, S: SceneSystem<D>> SceneSystem<D> for $wrapper<S>

@@ -5,9 +5,10 @@
 //!
 //! What [`Program::value_double_double`](crate::lower::Program::value_double_double) computes
 //! with (a Hamiltonian's value at a start, whose rounding would otherwise set a regularized
-//! orbit's period), and the reference arithmetic of the tests: the test trees of `dth-core`
-//! (which does not depend on this crate) include this file with `#[path = ...]`, so it imports
-//! nothing.
+//! orbit's period), what a regularized `hamiltonian!` type's gradient in double-double is
+//! emitted in, and the reference arithmetic of the tests. `dth-core` (which does not depend on
+//! this crate) includes this file with `#[path = ...]` for the starts of runs solved in
+//! double-double (`dth_core::regularize`), and so do its test trees: so it imports nothing.
 
 use std::ops::{Add, Div, Mul, Neg, Sub};
 

@@ -109,6 +109,7 @@ pub fn hamiltonian_impl(system: &System, name: &Ident, params: &[Ident]) -> Toke
     let source = system_source(system);
     let regularized = system.regularized();
     let start = start_impl(system, &cx);
+    let gradient_double_double = double_double_gradient(system, &cx);
     quote! {
         #[doc = #source]
         #[automatically_derived]
@@ -199,6 +200,7 @@ pub fn hamiltonian_impl(system: &System, name: &Ident, params: &[Ident]) -> Toke
                 let z = z0;
                 *out = { #defect };
             }
+            #gradient_double_double
         }
 
         #start
@@ -229,8 +231,9 @@ fn start_impl(system: &System, cx: &Context) -> TokenStream {
     };
     let energy = body(physical, &cx, |v| {
         let v = &v.value;
-        quote!(#v.to_f64())
+        quote!((#v.hi, #v.lo))
     });
+    let dd = quote!(::dth::__private::double_double::Dd);
     quote! {
         #[automatically_derived]
         #[allow(unused_variables, clippy::all, clippy::pedantic, clippy::nursery)]
@@ -240,6 +243,17 @@ fn start_impl(system: &System, cx: &Context) -> TokenStream {
             /// run starts from. (Functions other than square roots and integer or
             /// half-integer powers are evaluated in doubles.)
             pub fn physical_energy(&self, z: &#nalgebra::SVector<f64, #pd>) -> f64 {
+                let (hi, lo) = self.physical_energy_double_double(z);
+                hi + lo
+            }
+
+            /// [`Self::physical_energy`] before its rounding: `(hi, lo)`, the energy
+            /// `hi + lo` in double-double.
+            pub fn physical_energy_double_double(
+                &self,
+                z: &#nalgebra::SVector<f64, #pd>,
+            ) -> (f64, f64) {
+                let z: &[#dd; #pd] = &::core::array::from_fn(|k| #dd::new(z[k]));
                 #energy
             }
 
@@ -256,6 +270,70 @@ fn start_impl(system: &System, cx: &Context) -> TokenStream {
             ) -> ::core::result::Result<#nalgebra::SVector<f64, #d>, #core::Error> {
                 #core::regularize::#map::start(z, t, self.physical_energy(z))
             }
+
+            /// [`Self::start`] in double-double: the state and its low part, from the
+            /// energy in double-double, for a run solved in double-double (`dth::solve`'s
+            /// `start_low`, `Dth::with_low`): at e = 0.999 over 100 orbits it ends within
+            /// its truncation error where a run from doubles stays 1e-9 off.
+            ///
+            /// # Errors
+            /// As [`Self::start`].
+            pub fn start_double_double(
+                &self,
+                z: &#nalgebra::SVector<f64, #pd>,
+                t: f64,
+            ) -> ::core::result::Result<
+                (#nalgebra::SVector<f64, #d>, #nalgebra::SVector<f64, #d>),
+                #core::Error,
+            > {
+                #core::regularize::#map::start_double_double(
+                    z,
+                    t,
+                    self.physical_energy_double_double(z),
+                )
+            }
+        }
+    }
+}
+
+/// For a regularization's `K`, the trait's `gradient_double_double_into`: `grad K` at the
+/// point `hi + lo` in double-double (the DTH stepper solves a regularized run's steps with it,
+/// `dth_core::dth::compensated`). Empty for any other system (the trait's default says it is
+/// not provided).
+fn double_double_gradient(system: &System, cx: &Context) -> TokenStream {
+    if system.physical_value().is_none() {
+        return TokenStream::new();
+    }
+    let d = system.dim();
+    let nalgebra = quote!(::dth::__private::nalgebra);
+    let dd = quote!(::dth::__private::double_double::Dd);
+    let cx = Context {
+        arithmetic: Arithmetic::DoubleDouble,
+        ..*cx
+    };
+    let gradient = body(&system.program(Method::Gradient), &cx, |v| {
+        let mut entries = vec![cx.arithmetic.zero(); d];
+        for (i, e) in &v.gradient {
+            entries[*i] = e.clone();
+        }
+        quote!([#(#entries),*])
+    });
+    quote! {
+        /// `grad K` at `hi + lo`, in double-double arithmetic (see `physical_energy` for what
+        /// is carried), as `out_hi + out_lo`.
+        #[inline]
+        fn gradient_double_double_into(
+            &self,
+            (hi, lo): (&#nalgebra::SVector<f64, #d>, &#nalgebra::SVector<f64, #d>),
+            (out_hi, out_lo): (&mut #nalgebra::SVector<f64, #d>, &mut #nalgebra::SVector<f64, #d>),
+        ) -> bool {
+            let z: &[#dd; #d] = &::core::array::from_fn(|k| #dd { hi: hi[k], lo: lo[k] });
+            let g: [#dd; #d] = { #gradient };
+            for (k, x) in g.iter().enumerate() {
+                out_hi[k] = x.hi;
+                out_lo[k] = x.lo;
+            }
+            true
         }
     }
 }
@@ -291,6 +369,15 @@ impl Arithmetic {
         match self {
             Arithmetic::Double => quote!(f64),
             Arithmetic::DoubleDouble => quote!(::dth::__private::double_double::Dd),
+        }
+    }
+
+    /// The type of the point `z` the emitted code reads: the method's `&SVector<f64, d>`, or
+    /// an array of `Dd` bound from it (with or without low parts).
+    fn point_type(self, d: usize) -> TokenStream {
+        match self {
+            Arithmetic::Double => quote!(&::dth::__private::nalgebra::SVector<f64, #d>),
+            Arithmetic::DoubleDouble => quote!(&[::dth::__private::double_double::Dd; #d]),
         }
     }
 
@@ -430,9 +517,11 @@ fn define(i: usize, op: &Op, cx: &Context, receiver: &TokenStream) -> TokenStrea
         }
     };
     let rhs = match *op {
+        // Inputs are locals' type already: `z` is an array of `Dd` in double-double (the
+        // point may carry low parts).
         Op::Input(k) => {
             let k = k as usize;
-            read(quote!(z[#k]))
+            quote!(z[#k])
         }
         Op::Input1(k) => {
             let k = k as usize;
@@ -598,6 +687,7 @@ fn body(program: &Program, cx: &Context, finish: impl Fn(&Values) -> TokenStream
     } else {
         (quote!(), quote!())
     };
+    let z_type = cx.arithmetic.point_type(d);
     let receiver = quote!(this);
     let mut chunks = Vec::new();
     let mut calls = Vec::new();
@@ -631,7 +721,7 @@ fn body(program: &Program, cx: &Context, finish: impl Fn(&Values) -> TokenStream
             #[inline(never)]
             fn #f(
                 this: &#name,
-                z: &#nalgebra::SVector<f64, #d>,
+                z: #z_type,
                 #z1_param
                 spill: &mut [#ty; #spilled],
             ) {
@@ -669,9 +759,12 @@ mod tests {
         let kepler = "p1^2 + p2^2 - (q1^2 + q2^2)^(-1/2)";
         let plane = emitted(&crate::regularize::levi_civita(kepler, &[]).unwrap());
         assert!(plane.contains("pub fn physical_energy (& self , z : & :: dth :: __private :: nalgebra :: SVector < f64 , 4usize >)"), "{plane}");
-        assert!(plane.contains("double_double :: Dd :: new (z [3usize])"));
+        assert!(plane.contains("double_double :: Dd :: new (z [k])"));
         assert!(plane
             .contains("regularize :: LeviCivita :: start (z , t , self . physical_energy (z))"));
+        // The start in double-double, and K's gradient in double-double for its runs.
+        assert!(plane.contains("regularize :: LeviCivita :: start_double_double"));
+        assert!(plane.contains("fn gradient_double_double_into"), "{plane}");
         let space = emitted(
             &crate::regularize::kustaanheimo_stiefel(
                 "p1^2 + p2^2 + p3^2 - (q1^2 + q2^2 + q3^2)^(-1/2)",
@@ -681,6 +774,7 @@ mod tests {
         );
         assert!(space.contains("SVector < f64 , 6usize >) -> f64"));
         assert!(space.contains("regularize :: KustaanheimoStiefel :: start"));
+        assert!(space.contains("fn gradient_double_double_into"));
         let plain = emitted(&crate::compile(kepler, &[]).unwrap());
         assert!(!plain.contains("physical_energy") && !plain.contains("double_double"));
     }
