@@ -869,3 +869,58 @@ fn a_low_part_that_does_not_fit_is_an_error() {
         matches!(wrong, Err(e) if matches!(e.error, dth::Error::WrongStateLength { what: "low", .. }))
     );
 }
+
+/// The run-time text solves in double-double as the macro's type does: its start in
+/// double-double (energy from the text's physical `H` in double-double, through
+/// `LeviCivita::start_double_double`) and its gradient in double-double (the interpreter, the
+/// emitted code's operations in the same order) are the type's bit for bit, so a DTH-8 run
+/// started from them ends on the same state; a text that is not a regularization has no
+/// gradient in double-double (an error naming why), and slices of another length are refused.
+#[test]
+fn the_text_solves_in_double_double_as_the_macro_does() {
+    let k = regularized();
+    let z0 = pericentre(0.99);
+    let energy = k
+        .physical_energy_double_double_slice(z0.as_slice())
+        .unwrap();
+    assert_eq!(energy, KeplerLc.physical_energy_double_double(&z0));
+    let (w0, low) = LeviCivita::start_double_double(&z0, 0.0, energy).unwrap();
+    assert_eq!((w0, low), KeplerLc.start_double_double(&z0, 0.0).unwrap());
+    let (mut th, mut tl) = (vec![0.0; 6], vec![0.0; 6]);
+    k.gradient_double_double_slice((w0.as_slice(), low.as_slice()), (&mut th, &mut tl))
+        .unwrap();
+    let (mut gh, mut gl) = (Vector6::zeros(), Vector6::zeros());
+    assert!(KeplerLc.gradient_double_double_into((&w0, &low), (&mut gh, &mut gl)));
+    assert_eq!(
+        (th.as_slice(), tl.as_slice()),
+        (gh.as_slice(), gl.as_slice())
+    );
+    let options = DthOptions::new(0.3).unwrap().with_order(8).unwrap();
+    let t_end = 3.0 * period(&z0);
+    let typed = solve(&KeplerLc, w0, Method::Dth(options))
+        .start_low(low)
+        .until(t_end)
+        .run()
+        .unwrap();
+    let dyn_w0 = DVector::from_column_slice(w0.as_slice());
+    let text = solve(&k, dyn_w0, Method::Dth(options))
+        .start_low(DVector::from_column_slice(low.as_slice()))
+        .until(t_end)
+        .run()
+        .unwrap();
+    assert_eq!(typed.steps, text.steps);
+    assert_eq!(
+        typed.end_state().unwrap().as_slice(),
+        text.end_state().unwrap().as_slice()
+    );
+    assert!(matches!(
+        RuntimeHamiltonian::new(KEPLER, &[])
+            .unwrap()
+            .gradient_double_double_slice((&[0.0; 4], &[0.0; 4]), (&mut [0.0; 4], &mut [0.0; 4])),
+        Err(dth::runtime::RuntimeError::NotRegularized)
+    ));
+    assert!(matches!(
+        k.gradient_double_double_slice((&[0.0; 6], &[0.0; 5]), (&mut th, &mut tl)),
+        Err(dth::runtime::RuntimeError::WrongLength { what: "low", .. })
+    ));
+}

@@ -181,6 +181,14 @@ impl Hamiltonian<Dyn> for TextSystem {
     fn energy_difference(&self, z0: &DVector<f64>, z1: &DVector<f64>) -> f64 {
         Hamiltonian::energy_difference(self.0.as_ref(), z0, z1)
     }
+    #[inline]
+    fn gradient_double_double_into(
+        &self,
+        z: (&DVector<f64>, &DVector<f64>),
+        out: (&mut DVector<f64>, &mut DVector<f64>),
+    ) -> bool {
+        Hamiltonian::gradient_double_double_into(self.0.as_ref(), z, out)
+    }
 }
 
 /// Energy only: the defaults (no invariants, period, exact solution, central force).

@@ -1,9 +1,10 @@
 //! [`RuntimeHamiltonian`]: a Hamiltonian read from text, its derivatives compiled when it is
 //! built, evaluated into buffers the caller owns.
 
+use dth_symbolic::double_double::Dd;
 use dth_symbolic::lexer::{lex, TokenKind};
 use dth_symbolic::looped::{self, Looped};
-use dth_symbolic::{Method, System};
+use dth_symbolic::{Method, Output, Program, System};
 
 use crate::backend::{Backend, Compiled};
 use crate::error::{JitError, RuntimeError};
@@ -66,6 +67,10 @@ enum Form {
         system: Box<System>,
         /// One per [`Function`], in the order of [`Function::ALL`].
         functions: Vec<Compiled>,
+        /// A regularization's gradient program, which
+        /// [`RuntimeHamiltonian::gradient_double_double_slice`] interprets in double-double
+        /// (`None` for any other system).
+        gradient: Option<Program>,
     },
     /// A lattice whose sums loop, compiled as the macro compiles it (boxed: it is large).
     Looped(Box<Lattice>),
@@ -217,6 +222,9 @@ impl RuntimeHamiltonian {
             .map(|&f| Ok((f, f.program(&system)?)))
             .collect::<Result<Vec<_>, RuntimeError>>()?;
         let (functions, fallback) = Compiled::all(programs, backend)?;
+        let gradient = system
+            .physical_value()
+            .map(|_| system.program(Method::Gradient));
         Ok(RuntimeHamiltonian {
             separable: system.separable(),
             psi_identically_zero: system.psi_identically_zero(),
@@ -224,6 +232,7 @@ impl RuntimeHamiltonian {
             form: Form::Written {
                 system: Box::new(system),
                 functions,
+                gradient,
             },
             names,
             values,
@@ -520,12 +529,84 @@ impl RuntimeHamiltonian {
     /// [`RuntimeError::NotRegularized`] for a Hamiltonian that is not a regularization;
     /// [`RuntimeError::Interpreter`] for a `z` of the wrong length.
     pub fn physical_energy_slice(&self, z: &[f64]) -> Result<f64, RuntimeError> {
+        let (hi, lo) = self.physical_energy_double_double_slice(z)?;
+        Ok(hi + lo)
+    }
+
+    /// [`RuntimeHamiltonian::physical_energy_slice`] before its rounding: `(hi, lo)`, the
+    /// energy `hi + lo` in double-double (the start of a run solved in double-double,
+    /// `dth_core::regularize::LeviCivita::start_double_double`).
+    ///
+    /// # Errors
+    /// As [`RuntimeHamiltonian::physical_energy_slice`].
+    pub fn physical_energy_double_double_slice(
+        &self,
+        z: &[f64],
+    ) -> Result<(f64, f64), RuntimeError> {
         let physical = match &self.form {
             Form::Written { system, .. } => system.physical_value(),
             Form::Looped(_) => None,
         };
         let physical = physical.ok_or(RuntimeError::NotRegularized)?;
-        Ok(physical.value_double_double(z, &self.values)?)
+        let energy = physical.value_in_double_double(z, &self.values)?;
+        Ok((energy.hi, energy.lo))
+    }
+
+    /// A regularization's `grad K` at `hi + lo` in double-double, into `out_hi + out_lo` (all
+    /// of length `D`): the interpreter's double-double run of `K`'s gradient program (what
+    /// is carried: [`dth_symbolic::Program::value_double_double`]), the operations of the
+    /// `hamiltonian!` type's `gradient_double_double_into` in the same order, so the same
+    /// bits. A DTH run started in double-double solves its steps with it
+    /// (`dth_core::dth::Dth::with_low`). Its scratch is one buffer per thread, kept: nothing
+    /// is allocated per call after a thread's first.
+    ///
+    /// # Errors
+    /// [`RuntimeError::NotRegularized`] when the text is not a regularization;
+    /// [`RuntimeError::WrongLength`] for a slice of another length.
+    pub fn gradient_double_double_slice(
+        &self,
+        (hi, lo): (&[f64], &[f64]),
+        (out_hi, out_lo): (&mut [f64], &mut [f64]),
+    ) -> Result<(), RuntimeError> {
+        let Form::Written {
+            gradient: Some(program),
+            ..
+        } = &self.form
+        else {
+            return Err(RuntimeError::NotRegularized);
+        };
+        let d = program.dim;
+        let lengths = [
+            ("z", hi.len()),
+            ("low", lo.len()),
+            ("out", out_hi.len()),
+            ("out", out_lo.len()),
+        ];
+        if let Some(&(what, found)) = lengths.iter().find(|&&(_, n)| n != d) {
+            return Err(RuntimeError::WrongLength {
+                what,
+                expected: d,
+                found,
+            });
+        }
+        thread_local! {
+            static SLOTS: std::cell::RefCell<Vec<Dd>> = const { std::cell::RefCell::new(Vec::new()) };
+        }
+        SLOTS.with_borrow_mut(|v| {
+            let point = |k: usize| Dd {
+                hi: hi[k],
+                lo: lo[k],
+            };
+            program.run_double_double_into((point, point), &self.values, v);
+            out_hi.fill(0.0);
+            out_lo.fill(0.0);
+            for &(output, s) in &program.outputs {
+                if let Output::Gradient(i) = output {
+                    (out_hi[i], out_lo[i]) = (v[s as usize].hi, v[s as usize].lo);
+                }
+            }
+        });
+        Ok(())
     }
 
     /// `grad H(z)` into `out` (length `D`).

@@ -485,6 +485,22 @@ macro_rules! evaluations {
                 z1.as_slice(),
             )
         }
+
+        /// A regularization's gradient in double-double
+        /// ([`RuntimeHamiltonian::gradient_double_double_slice`]); `false` for any other text
+        /// (and for slices of another length, which only a `Dyn` vector can be).
+        fn gradient_double_double_into(
+            &self,
+            (hi, lo): (&OVector<f64, $d>, &OVector<f64, $d>),
+            (out_hi, out_lo): (&mut OVector<f64, $d>, &mut OVector<f64, $d>),
+        ) -> bool {
+            self.runtime()
+                .gradient_double_double_slice(
+                    (hi.as_slice(), lo.as_slice()),
+                    (out_hi.as_mut_slice(), out_lo.as_mut_slice()),
+                )
+                .is_ok()
+        }
     };
 }
 

@@ -128,25 +128,47 @@ impl Program {
     /// # Errors
     /// [`EvalError::WrongLength`] for `z` or `params` of the wrong length.
     pub fn value_double_double(&self, z: &[f64], params: &[f64]) -> Result<f64, EvalError> {
+        Ok(self.value_in_double_double(z, params)?.to_f64())
+    }
+
+    /// [`Program::value_double_double`] before its rounding.
+    ///
+    /// # Errors
+    /// As [`Program::value_double_double`].
+    pub fn value_in_double_double(&self, z: &[f64], params: &[f64]) -> Result<Dd, EvalError> {
         self.check_lengths(&[("z", z)], params)?;
         let v = self.run_double_double(z, z, params);
         Ok(self
             .outputs
             .iter()
             .find(|(out, _)| *out == Output::Value)
-            .map_or(0.0, |&(_, s)| v[s as usize].to_f64()))
+            .map_or(Dd::new(0.0), |&(_, s)| v[s as usize]))
     }
 
     /// Every slot's value in double-double (see [`Program::value_double_double`]) at `z0` (and
     /// `z1`, the second point of a two-point program), for points and `params` of the program's
     /// lengths (it panics on shorter ones).
     pub fn run_double_double(&self, z0: &[f64], z1: &[f64], params: &[f64]) -> Vec<Dd> {
-        let mut v: Vec<Dd> = Vec::with_capacity(self.ops.len());
+        let mut v = Vec::with_capacity(self.ops.len());
+        self.run_double_double_into((|k| Dd::new(z0[k]), |k| Dd::new(z1[k])), params, &mut v);
+        v
+    }
+
+    /// [`Program::run_double_double`] at points given entry by entry in double-double
+    /// (`points.0(k)` is `z0[k]`, `points.1(k)` is `z1[k]`), into `v` (cleared; its capacity
+    /// is kept, so a caller that keeps `v` allocates nothing per call).
+    pub fn run_double_double_into(
+        &self,
+        points: (impl Fn(usize) -> Dd, impl Fn(usize) -> Dd),
+        params: &[f64],
+        v: &mut Vec<Dd>,
+    ) {
+        v.clear();
         for op in &self.ops {
             let g = |s: u32| v[s as usize];
             let x = match *op {
-                Op::Input(k) => Dd::new(z0[k as usize]),
-                Op::Input1(k) => Dd::new(z1[k as usize]),
+                Op::Input(k) => points.0(k as usize),
+                Op::Input1(k) => points.1(k as usize),
                 Op::Param(k) => Dd::new(params[k as usize]),
                 Op::Const(c) => Dd::new(c),
                 Op::Add(a, b) => g(a) + g(b),
@@ -161,7 +183,6 @@ impl Program {
             };
             v.push(x);
         }
-        v
     }
 
     /// `true` when [`Program::run_double_double`] carries every operation to about 2^-106

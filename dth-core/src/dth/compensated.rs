@@ -14,15 +14,26 @@
 //! rounding dropped in a low part, and adding the energy projection's move to it, keeps every
 //! coordinate within an ulp of the exact sum of the advances: the same runs end 4.5e-13 to
 //! 1.4e-10 away (median 3.4e-11; `tests/regularized_kepler.rs`,
-//! `the_compensated_state_keeps_e099_within_1e_10_of_the_exact_orbit`). What remains is a shift
-//! along the orbit, the clock against the phase of `(u, P)`, of about 1e-16 of the time
-//! elapsed: the rounding of the energy `E = -p_t` is part of it (half an ulp of `E = -0.01`
-//! moves the state after 100 orbits by 6e-11), the rest is not found yet (docs/performance.md,
-//! "What the e = 0.999 floor is").
+//! `the_compensated_state_keeps_e099_within_1e_10_of_the_exact_orbit`).
 //!
-//! The evaluations of `K` and its derivatives see the high part only: the low part moves the
-//! point by less than an ulp, which changes each advance by a relative `eps h |Hess K|`, far
-//! below what is compensated (the rounding of `zbar` itself, `eps |zbar|` per step).
+//! **Solved in double-double.** What remains is a shift along the orbit, the clock against the
+//! phase of `(u, P)`, of about 1e-16 of the time elapsed (1e-9 at the pericentre after 100
+//! orbits at e = 0.999). Two roundings make it, both measured: each advance is computed from
+//! `grad K` rounded to doubles at the high part of the point (adding only `Hess K low` to the
+//! gradient left 2e-10), and the start itself, whose `K` after rounding is some 1e-16 off
+//! zero, which for Kepler is a gravitational parameter off by as much (and the energy
+//! `E = -p_t` rounded: half an ulp of `E = -0.01` moves the state by 6e-11). A run started in
+//! double-double ([`Compensated::start_from`], `Dth::with_low`: the regularized types'
+//! `start_double_double` maps the physical start exactly, energy included) therefore solves
+//! each step's equation beyond double precision ([`Compensated::settle_exact`]: one
+//! correction with a double-double residual, `grad K` in double-double from the Hamiltonian),
+//! and its last step lands on the physical time with the clock's low part. At e = 0.999, 100
+//! orbits, DTH-8 then ends 1.3e-11 from the exact state at 91 steps per orbit and 8e-13 at 128
+//! (within its truncation error: an all-double-double DTH-8 gives the same) where the run from
+//! doubles ends 1.8e-9 and 4.4e-9 away, for about 18% more per step. A run from doubles keeps
+//! the cheaper compensation above: the evaluations of `K` and its derivatives see the high
+//! part only, which changes each advance by a relative `eps h |Hess K|`, far below what is
+//! compensated (the rounding of `zbar` itself, `eps |zbar|` per step).
 //!
 //! A step that sets the midpoint any other way (a fallback step) leaves a midpoint whose bits
 //! are not the ones the low part belongs to: the low part is then zero, and the compensation
