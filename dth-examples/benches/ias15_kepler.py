@@ -152,6 +152,8 @@ def rust_side(args, matches, exact):
 
 def dth_row(e, r, ref):
     order = f"DTH order {r['order']}"
+    if r.get("double_double"):
+        order += ", double-double"
     if r["goal"] == "match":
         order += " at IAS15's error"
     if "failed" in r:

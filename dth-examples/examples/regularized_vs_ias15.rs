@@ -10,7 +10,9 @@
 //! `n`, and `dtau = pi / (n sqrt(1 - e))`: the same `n` is the same resolution of the
 //! oscillator at every `e`.
 //!
-//! For each `e` and each order (2, 4, 6, 8) the ladder `n = 8, 11, 16, 23, 32, ...` (factors of
+//! For each `e` and each order (2, 4, 6, 8), and for DTH-8 solved in double-double (from
+//! `KeplerLc::start_double_double` with `Solve::start_low`: every step's equation solved
+//! beyond double precision, about 18% more per step), the ladder `n = 8, 11, 16, 23, 32, ...` (factors of
 //! `sqrt 2`) is run until the error reaches the target on two consecutive rungs (so a lucky
 //! cancellation on one rung is not taken for convergence) or the run's cost passes a cap; the
 //! first of the two is reported, its wall time the median of `--repeats` runs. The error is the
@@ -46,7 +48,9 @@ dth::hamiltonian! {
 }
 
 const ECCENTRICITIES: [f64; 4] = [0.44, 0.9, 0.99, 0.999];
-const ORDERS: [u32; 4] = [2, 4, 6, 8];
+/// `(order, double_double)`: DTH of orders 2-8 from a start in doubles, and DTH-8 solved in
+/// double-double from its start in double-double (`start_double_double`, `start_low`).
+const VARIANTS: [(u32, bool); 5] = [(2, false), (4, false), (6, false), (8, false), (8, true)];
 
 struct Settings {
     json: bool,
@@ -88,19 +92,22 @@ fn run_once(
     reference: &dyn Fn(f64) -> Vector4<f64>,
     t_end: f64,
     dtau: f64,
-    order: u32,
+    (order, double_double): (u32, bool),
 ) -> Result<Run, Box<dyn Error>> {
     let options = DthOptions::new(dtau)?.with_order(order)?;
     let clock = Instant::now();
     // The start's energy in double-double, rounded once (`KeplerLc::physical_energy`): the
     // plain sum rounds `p2^2` first, which at e = 0.999 is 1e-13 of `E = e - 1`, and the
     // regularized orbit's period, which follows `p_t = -E`, is as accurate as `E` (after 100
-    // orbits: 2e-6 at pericentre).
-    let w0 = KeplerLc.start(z0, 0.0)?;
-    let solution = solve(&KeplerLc, w0, Method::Dth(options))
-        .until(t_end)
-        .save_every(usize::MAX)
-        .run()?;
+    // orbits: 2e-6 at pericentre). Solved in double-double, the start keeps the energy's low
+    // part too, and the state's.
+    let run = if double_double {
+        let (w0, low) = KeplerLc.start_double_double(z0, 0.0)?;
+        solve(&KeplerLc, w0, Method::Dth(options)).start_low(low)
+    } else {
+        solve(&KeplerLc, KeplerLc.start(z0, 0.0)?, Method::Dth(options))
+    };
+    let solution = run.until(t_end).save_every(usize::MAX).run()?;
     let w = *solution.end_state().ok_or("the run saved no end state")?;
     let seconds = clock.elapsed().as_secs_f64();
     let (z, t) = LeviCivita::physical(&Vector6::from(w));
@@ -225,7 +232,9 @@ fn run() -> Result<(), Box<dyn Error>> {
         if let Some(&(_, err)) = settings.matches.iter().find(|(m, _)| *m == e) {
             goals.push(("match", err));
         }
-        for order in ORDERS {
+        for variant in VARIANTS {
+            let (order, double_double) = variant;
+            let arithmetic = if double_double { " double-double" } else { "" };
             // Rungs n = 8 * 2^(k/2) steps per orbit. Per goal: the first of two consecutive
             // rungs reaching it.
             let mut found: Vec<Option<(f64, Run)>> = vec![None; goals.len()];
@@ -238,7 +247,7 @@ fn run() -> Result<(), Box<dyn Error>> {
                     break;
                 }
                 let dtau = orbit_s / n;
-                let run = match run_once(&z0, &reference, t_end, dtau, order) {
+                let run = match run_once(&z0, &reference, t_end, dtau, variant) {
                     Ok(run) => run,
                     Err(err_box) => {
                         let mut err = err_box.to_string();
@@ -247,7 +256,7 @@ fn run() -> Result<(), Box<dyn Error>> {
                             err = format!("{err}: {s}");
                             source = s.source();
                         }
-                        eprintln!("e = {e}, order {order}, n = {n}: {err}");
+                        eprintln!("e = {e}, order {order}{arithmetic}, n = {n}: {err}");
                         failure = Some(format!("n = {n}: {err}"));
                         for (g, f) in found.iter_mut().enumerate() {
                             if !confirmed[g] {
@@ -258,7 +267,7 @@ fn run() -> Result<(), Box<dyn Error>> {
                     }
                 };
                 eprintln!(
-                    "e = {e}, order {order}, n = {n:>5} (dtau {dtau:.4e}): error {:.3e}, {} steps, {} Newton, {:.2} ms",
+                    "e = {e}, order {order}{arithmetic}, n = {n:>5} (dtau {dtau:.4e}): error {:.3e}, {} steps, {} Newton, {:.2} ms",
                     run.error,
                     run.steps,
                     run.newton,
@@ -293,17 +302,18 @@ fn run() -> Result<(), Box<dyn Error>> {
                     if settings.json {
                         println!(
                             "{}",
-                            json!({"kind": "dth", "goal": label, "e": e, "order": order, "failed": why})
+                            json!({"kind": "dth", "goal": label, "e": e, "order": order,
+                                   "double_double": double_double, "failed": why})
                         );
                     } else {
-                        println!("{e:>6} {order:>5} failed: {why}");
+                        println!("{e:>6} {order:>5}{arithmetic} failed: {why}");
                     }
                     continue;
                 };
                 let dtau = orbit_s / n;
                 let mut times = vec![first.seconds];
                 for _ in 1..settings.repeats {
-                    times.push(run_once(&z0, &reference, t_end, dtau, order)?.seconds);
+                    times.push(run_once(&z0, &reference, t_end, dtau, variant)?.seconds);
                 }
                 let seconds = median(times);
                 if settings.json {
@@ -311,14 +321,15 @@ fn run() -> Result<(), Box<dyn Error>> {
                         "{}",
                         json!({
                             "kind": "dth", "goal": label, "goal_error": goal, "e": e,
-                            "order": order, "steps_per_orbit": n, "dtau": dtau,
+                            "order": order, "double_double": double_double,
+                            "steps_per_orbit": n, "dtau": dtau,
                             "reached": reached, "error": first.error, "t_end": first.t_end,
                             "steps": first.steps, "newton": first.newton, "seconds": seconds,
                         })
                     );
                 } else {
                     println!(
-                        "{e:>6} {order:>5} {n:>7} {dtau:>10.4e} {:>9} {:>9} {:>10.2e}{} {:>10.3} {label}",
+                        "{e:>6} {order:>5} {n:>7} {dtau:>10.4e} {:>9} {:>9} {:>10.2e}{} {:>10.3} {label}{arithmetic}",
                         first.steps,
                         first.newton,
                         first.error,
