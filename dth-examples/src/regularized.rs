@@ -127,6 +127,32 @@ impl Regularized {
     /// Kepler-like `H`, so its sign, which DTH needs, is rounding noise there), and
     /// `dth::Error::WrongStateLength` for a `z` that is not `2n` long.
     pub fn start(&self, z: &[f64], t: f64) -> Result<(DVector<f64>, f64), dth::Error> {
+        let (w, _, energy) = self.start_in(z, t, false)?;
+        Ok((w, energy))
+    }
+
+    /// [`Regularized::start`] in double-double: the start, its low part (what the roundings
+    /// of the state dropped, the energy's included: `dth_core::regularize`'s
+    /// `start_double_double`) and `H(z)` rounded, for a run solved in double-double
+    /// (`dth::Solve::start_low`).
+    ///
+    /// # Errors
+    /// As [`Regularized::start`].
+    pub fn start_double_double(
+        &self,
+        z: &[f64],
+        t: f64,
+    ) -> Result<(DVector<f64>, DVector<f64>, f64), dth::Error> {
+        self.start_in(z, t, true)
+    }
+
+    /// [`Regularized::start`], with the low part when `double_double` (zeros otherwise).
+    fn start_in(
+        &self,
+        z: &[f64],
+        t: f64,
+        double_double: bool,
+    ) -> Result<(DVector<f64>, DVector<f64>, f64), dth::Error> {
         let n = self.map.n();
         if z.len() != 2 * n {
             return Err(dth::Error::WrongStateLength {
@@ -140,16 +166,30 @@ impl Regularized {
         for (q, c) in shifted.iter_mut().zip(&self.centre) {
             *q -= c;
         }
-        let energy = self.k.physical_energy_slice(&shifted[..2 * n])?;
-        let w = match self.map {
-            RegularizeMap::LeviCivita => {
+        let (hi, lo) = self
+            .k
+            .physical_energy_double_double_slice(&shifted[..2 * n])?;
+        let energy = hi + lo;
+        let dvector = |w: &[f64]| DVector::from_column_slice(w);
+        let (w, low) = match (self.map, double_double) {
+            (RegularizeMap::LeviCivita, false) => {
                 let w = LeviCivita::start(&Vector4::from_column_slice(&shifted[..4]), t, energy)?;
-                DVector::from_column_slice(w.as_slice())
+                (dvector(w.as_slice()), DVector::zeros(6))
             }
-            RegularizeMap::Ks => {
+            (RegularizeMap::LeviCivita, true) => {
+                let z = Vector4::from_column_slice(&shifted[..4]);
+                let (w, low) = LeviCivita::start_double_double(&z, t, (hi, lo))?;
+                (dvector(w.as_slice()), dvector(low.as_slice()))
+            }
+            (RegularizeMap::Ks, false) => {
                 let w =
                     KustaanheimoStiefel::start(&Vector6::from_column_slice(&shifted), t, energy)?;
-                DVector::from_column_slice(w.as_slice())
+                (dvector(w.as_slice()), DVector::zeros(10))
+            }
+            (RegularizeMap::Ks, true) => {
+                let z = Vector6::from_column_slice(&shifted);
+                let (w, low) = KustaanheimoStiefel::start_double_double(&z, t, (hi, lo))?;
+                (dvector(w.as_slice()), dvector(low.as_slice()))
             }
         };
         // The terms of H at z, sum |z_i dH/dz_i|, from K's: dK/dw = |u|^2 dH/dw off p_t.
@@ -168,7 +208,7 @@ impl Regularized {
                 reason: "the energy is zero to the roundoff of H's terms (a parabolic orbit about the centre): the regularized K's Psi is proportional to the energy for a Kepler-like H, so its sign, which DTH needs, is rounding noise; start on a clearly elliptic (E < 0) or hyperbolic (E > 0) orbit, or run unregularized in robust mode",
             });
         }
-        Ok((w, energy))
+        Ok((w, low, energy))
     }
 
     /// The physical state `(q, p)` of the regularized state `w` into `out` (its first `2n`

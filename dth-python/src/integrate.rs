@@ -34,6 +34,8 @@ struct Request {
     events: Events,
     /// `regularize=`: the run is on `K`, and everything it reports is mapped back.
     physical: Option<Physical>,
+    /// `double_double=True`: the start's low part (the run solves its steps in double-double).
+    low: Option<DVector<f64>>,
 }
 
 /// The events a run watches (`events=`, `stop_on=`): each name, its condition compiled as the
@@ -141,7 +143,7 @@ impl Events {
 /// integrate(h, z0, method="dth", *, dtau=None, dt=None, order=None, robust=None,
 ///           lambda0=None, steps=None, t_end=None, orbits=None, t0=0.0, every=None,
 ///           save_at=None, max_steps=None, energy_errors=True, raise_on_failure=False,
-///           events=None, stop_on=None, regularize=None, centre=None)
+///           events=None, stop_on=None, regularize=None, centre=None, double_double=False)
 ///
 /// Arguments:
 ///   h: a `dth.Hamiltonian`.
@@ -194,6 +196,10 @@ impl Events {
 ///     are those of H; only `psi` is K's. As a scene's `[system] regularize`.
 ///   centre: the point of the close approaches (default: the origin), substituted into the
 ///     text as q = c + q'; write that point in H with the same digits (0.99 cancels 0.99).
+///   double_double: with regularize, start from the exact image of z0 (the energy in
+///     double-double) and solve every DTH step in double-double: about 20% more per step, and
+///     the run ends within DTH's truncation error where one from doubles stays about 1e-16 of
+///     the time elapsed off (Kepler at e = 0.999 after 100 orbits: 1.3e-11 instead of 1e-9).
 ///
 /// Ctrl-C stops a run within a fraction of a second with KeyboardInterrupt.
 ///
@@ -214,7 +220,7 @@ impl Events {
     h, z0, method = "dth", *, dtau = None, dt = None, order = None, robust = None,
     lambda0 = None, steps = None, t_end = None, orbits = None, t0 = 0.0, every = None,
     save_at = None, max_steps = None, energy_errors = true, raise_on_failure = false,
-    events = None, stop_on = None, regularize = None, centre = None
+    events = None, stop_on = None, regularize = None, centre = None, double_double = false
 ))]
 #[allow(clippy::too_many_arguments)]
 pub fn integrate(
@@ -240,6 +246,7 @@ pub fn integrate(
     stop_on: Option<&Bound<'_, PyAny>>,
     regularize: Option<&str>,
     centre: Option<Vec<f64>>,
+    double_double: bool,
 ) -> PyResult<Solution> {
     let z0 = start(&h.h, z0, "z0", t0)?;
     let chosen = args::method(method, dtau, dt, order, robust, lambda0)?;
@@ -260,10 +267,19 @@ pub fn integrate(
     }
     let every = every.unwrap_or(1);
     let events = Events::read(&h.h, events, stop_on)?;
+    if double_double && regularize.is_none() {
+        return Err(PyTypeError::new_err(
+            "double_double solves a regularized run in double-double: give regularize too",
+        ));
+    }
     let mut physical = Physical::from_args(&h.h, h.text(), (regularize, centre), method)?;
-    let start = match &mut physical {
-        Some(p) => p.start(&z0, t0)?,
-        None => z0.clone(),
+    let (start, low) = match &mut physical {
+        Some(p) if double_double => {
+            let (w0, low) = p.start_double_double(&z0, t0)?;
+            (w0, Some(low))
+        }
+        Some(p) => (p.start(&z0, t0)?, None),
+        None => (z0.clone(), None),
     };
     let request = Request {
         end,
@@ -274,6 +290,7 @@ pub fn integrate(
         energy_errors,
         events,
         physical,
+        low,
     };
     let job = Run {
         py,
@@ -324,7 +341,8 @@ impl Job for Run<'_, '_> {
         OVector<f64, D>: Send,
         dth::Solution<D>: Send,
     {
-        let result = drive(self.py, h, state(self.z0), method, self.request)?;
+        let low = self.request.low.as_ref().map(&state);
+        let result = drive(self.py, h, (state(self.z0), low), method, self.request)?;
         let names = &self.request.events.names;
         let physical = self.request.physical.as_ref();
         finish(
@@ -346,7 +364,7 @@ type Outcome<D> = Result<dth::Solution<D>, Box<dth::RunError<dth::Solution<D>>>>
 fn drive<D: Dim, H: dth::Hamiltonian<D> + Sync, I: Integrator<D, H> + Send>(
     py: Python<'_>,
     h: &H,
-    z0: OVector<f64, D>,
+    (z0, low): (OVector<f64, D>, Option<OVector<f64, D>>),
     method: I,
     request: &Request,
 ) -> PyResult<Outcome<D>>
@@ -358,6 +376,9 @@ where
     let flag = AtomicBool::new(false);
     crate::interrupt::run(py, &flag, || {
         let mut run = solve(h, z0, method).start_time(request.t0).interrupt(&flag);
+        if let Some(low) = low {
+            run = run.start_low(low);
+        }
         run = request.end.apply(run);
         run = match &request.save_at {
             Some(times) => run.save_at(times.iter().copied()),

@@ -149,6 +149,21 @@ impl Physical {
         Ok(w0)
     }
 
+    /// [`Physical::start`] in double-double (`double_double=True`): the start and its low part,
+    /// for a run that solves its steps in double-double.
+    pub fn start_double_double(
+        &mut self,
+        z0: &DVector<f64>,
+        t0: f64,
+    ) -> PyResult<(DVector<f64>, DVector<f64>)> {
+        let (w0, low, energy0) = self
+            .k
+            .start_double_double(z0.as_slice(), t0)
+            .map_err(|e| PyValueError::new_err(format!("z0: {e}")))?;
+        self.energy0 = energy0;
+        Ok((w0, low))
+    }
+
     /// The regularized start of the physical `z0` at `t0` and `H(z0)`, for one of many runs
     /// on this `K` (an ensemble's member); a `ValueError` for a `z0` at the centre.
     pub fn start_of(&self, z0: &DVector<f64>, t0: f64) -> PyResult<(DVector<f64>, f64)> {

@@ -119,6 +119,7 @@ def integrate(
     stop_on: Union[str, Sequence[str], None] = None,
     regularize: Optional[str] = None,
     centre: Optional[Sequence[float]] = None,
+    double_double: bool = False,
 ) -> Solution: ...
 
 class Ensemble:
