@@ -248,7 +248,7 @@ impl<'a> Stop<'a> {
 fn drive<D: Dim, H, I, O>(
     integrator: I,
     system: &H,
-    z0: OVector<f64, D>,
+    (z0, low): (OVector<f64, D>, Option<OVector<f64, D>>),
     t0: f64,
     stop: Stop,
     observer: &mut O,
@@ -262,6 +262,9 @@ where
     let mut run = solve(system, z0, integrator)
         .save_every(usize::MAX)
         .without_energy_errors();
+    if let Some(low) = low {
+        run = run.start_low(low);
+    }
     // A time-dependent H's clock is its t coordinate.
     if !system.flags().time_dependent {
         run = run.start_time(t0);
@@ -338,7 +341,14 @@ where
     M: OneStepMethod<D, H>,
     O: Observer<D>,
 {
-    drive(Peer::new(method, dt), system, z0, t0, stop, observer)
+    drive(
+        Peer::new(method, dt),
+        system,
+        (z0, None),
+        t0,
+        stop,
+        observer,
+    )
 }
 
 /// The DTH stepper (`dth::dth::Dth`) driven until a [`Stop`]: every midpoint `zbar_k` is shown
@@ -347,6 +357,9 @@ where
 pub struct DthRunner {
     /// Step, `lambda_0` and Newton settings.
     pub options: DthOptions,
+    /// A regularized run starts in double-double and solves its steps so
+    /// ([`DthRunner::with_double_double`]).
+    pub double_double: bool,
 }
 
 impl DthRunner {
@@ -368,7 +381,16 @@ impl DthRunner {
                 .with_order(order)?
                 .with_solver(solver)
                 .with_robust(robust),
+            double_double: false,
         })
+    }
+
+    /// A regularized run (`crate::regularized::Regularized::run`) starts from the exact
+    /// image of the physical start and solves every step in double-double (a scene's
+    /// `double_double = true`); other runs are unaffected.
+    pub fn with_double_double(mut self, double_double: bool) -> Self {
+        self.double_double = double_double;
+        self
     }
 
     /// Runs from the first midpoint `zbar_0 = z0` at time `t0` (for a time-dependent `H` the
@@ -377,11 +399,13 @@ impl DthRunner {
     /// its last step is shortened (or stretched, by at most half a step) in `tau` so that the
     /// last midpoint lands on `t_end` to roundoff (`dth::dth::Dth::step_toward`), and that
     /// midpoint and its time are the run's end (its segment has its own `dtau`, so the vertex
-    /// invariants of plain DTH jump once at its vertex).
+    /// invariants of plain DTH jump once at its vertex). `start` is `(z0, low)`: from the
+    /// midpoint `z0 + low` where `low` is given (a start in double-double, a regularized run's
+    /// with [`DthRunner::with_double_double`]: see `dth::Solve::start_low`).
     pub fn run<D: Dim, H: Hamiltonian<D>, O: Observer<D>>(
         &self,
         system: &H,
-        z0: OVector<f64, D>,
+        start: (OVector<f64, D>, Option<OVector<f64, D>>),
         t0: f64,
         stop: Stop,
         observer: &mut O,
@@ -389,6 +413,6 @@ impl DthRunner {
     where
         DefaultAllocator: Alloc<D>,
     {
-        drive(Method::Dth(self.options), system, z0, t0, stop, observer)
+        drive(Method::Dth(self.options), system, start, t0, stop, observer)
     }
 }

@@ -172,10 +172,12 @@ where
                 solver,
                 robust,
                 order,
+                double_double,
             },
         ) => {
             let runner = DthRunner::new(dtau, lambda0, solver, robust, order)
-                .map_err(|e| not_available(&e.to_string()))?;
+                .map_err(|e| not_available(&e.to_string()))?
+                .with_double_double(double_double);
             return system
                 .run_dth(&runner, z0, t0, stop, observer)
                 .ok_or_else(|| {

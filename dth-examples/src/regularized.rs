@@ -273,8 +273,8 @@ impl Regularized {
         DefaultAllocator: Alloc<D>,
     {
         let physical_z0: Vec<f64> = z0.iter().copied().collect();
-        let (w0, _) = self
-            .start(&physical_z0, t0)
+        let (w0, low, _) = self
+            .start_in(&physical_z0, t0, runner.double_double)
             .map_err(|e| MethodFailure::integrator(0, e))?;
         let mut view = PhysicalView {
             map: self,
@@ -298,7 +298,8 @@ impl Regularized {
             .map(|(w, condition)| Watched { condition, ..*w })
             .collect();
         let stop = stop.with_events(&watched);
-        let end = runner.run::<Dyn, _, _>(&self.k, w0, t0, stop, &mut view)?;
+        let low = runner.double_double.then_some(low);
+        let end = runner.run::<Dyn, _, _>(&self.k, (w0, low), t0, stop, &mut view)?;
         let mut z = view.vertex;
         let t = self.physical_into(end.z.as_slice(), Slice::of(&mut z).0);
         Ok(RunEnd {

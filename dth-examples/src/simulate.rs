@@ -523,6 +523,7 @@ fn step_summary(step: StepSpec) -> BTreeMap<String, serde_json::Value> {
             solver,
             robust,
             order,
+            double_double,
         } => {
             m.insert("dtau".into(), dtau.into());
             m.insert("lambda0".into(), lambda0.into());
@@ -533,6 +534,9 @@ fn step_summary(step: StepSpec) -> BTreeMap<String, serde_json::Value> {
             }
             if order != 2 {
                 m.insert("order".into(), order.into());
+            }
+            if double_double {
+                m.insert("double_double".into(), double_double.into());
             }
         }
     }

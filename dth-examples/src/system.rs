@@ -97,7 +97,7 @@ where
         stop: Stop,
         observer: &mut O,
     ) -> Option<Result<RunEnd<D>, MethodFailure>> {
-        Some(runner.run(self, z0, t0, stop, observer))
+        Some(runner.run(self, (z0, None), t0, stop, observer))
     }
 }
 

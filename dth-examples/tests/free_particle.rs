@@ -110,6 +110,7 @@ fn the_runner_refuses_dth_even_when_validation_is_bypassed() {
         solver: Solver::Joint,
         robust: false,
         order: 2,
+        double_double: false,
     };
     let err = compute(
         &WithoutDth(FreeParticle { m: 2.0 }),

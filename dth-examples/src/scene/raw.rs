@@ -90,6 +90,7 @@ pub(super) struct RawMethod {
     pub(super) solver: Option<Spanned<String>>,
     pub(super) robust: Option<Spanned<bool>>,
     pub(super) order: Option<Spanned<i64>>,
+    pub(super) double_double: Option<Spanned<bool>>,
 }
 
 #[derive(Deserialize, Default)]

@@ -489,6 +489,19 @@ fn validate(raw: RawScene, systems: &dyn SystemLookup, cx: &mut Ctxt<'_>) -> Opt
                             },
                         );
                     }
+                    if matches!(
+                        spec.step,
+                        StepSpec::Dth {
+                            double_double: true,
+                            ..
+                        }
+                    ) && system.regularize.is_none()
+                    {
+                        cx.error(
+                            span.clone(),
+                            "`double_double` solves a regularized run in double-double: it needs `[system] regularize` (a run of H itself starts from doubles)",
+                        );
+                    }
                     if spec.kind == MethodKind::StormerVerlet
                         && info.is_some_and(|i| !i.offers(spec.kind))
                     {
@@ -1148,6 +1161,7 @@ fn validate_method(m: Spanned<RawMethod>, cx: &mut Ctxt<'_>) -> Option<MethodSpe
             solver: solver?,
             robust: m.robust.as_ref().is_some_and(|r| *r.get_ref()),
             order: order?,
+            double_double: m.double_double.as_ref().is_some_and(|d| *d.get_ref()),
         }
     } else {
         for (key, v) in [("dtau", &m.dtau), ("lambda0", &m.lambda0)] {
@@ -1164,7 +1178,16 @@ fn validate_method(m: Spanned<RawMethod>, cx: &mut Ctxt<'_>) -> Option<MethodSpe
         let solver = m.solver.as_ref().map(|s| ("solver", s.span()));
         let robust = m.robust.as_ref().map(|r| ("robust", r.span()));
         let order = m.order.as_ref().map(|o| ("order", o.span()));
-        for (key, span) in solver.into_iter().chain(robust).chain(order) {
+        let double_double = m
+            .double_double
+            .as_ref()
+            .map(|d| ("double_double", d.span()));
+        for (key, span) in solver
+            .into_iter()
+            .chain(robust)
+            .chain(order)
+            .chain(double_double)
+        {
             cx.error(
                 span,
                 format!(
