@@ -149,13 +149,16 @@ where
         self.exact
     }
 
-    /// [`Self::settle`], then, where the Hamiltonian gives its gradient in double-double, the
-    /// step's equation solved beyond double precision: the new midpoint `z = new + low` is
-    /// corrected until `f(z) = z - v - (h/2) lambda J grad K(z)`, with the left vertex
-    /// `v = old + (h/2) old_lambda J grad K(old)` and both gradients in double-double, is
-    /// about `eps^2 |z|` (`lambda` and `old_lambda` are the doubles Newton found, the step's
-    /// multipliers as they stand). Each correction solves `A dz = -f` with the factorization
-    /// of `A = I - (h lambda / 2) J Hess K` that Newton left in `solver`.
+    /// [`Self::settle`], then, in a run solved in double-double where the Hamiltonian gives
+    /// its gradient so, the step's equation solved beyond double precision: one correction of
+    /// the new midpoint `z = new + low` by `A dz = -f(z)`, where
+    /// `f(z) = z - v - (h/2) lambda J grad K(z)` with the left vertex
+    /// `v = old + (h/2) old_lambda J grad K(old)`, both gradients and the sums in
+    /// double-double (`lambda` and `old_lambda` are the doubles Newton found: the step's
+    /// multipliers as they stand), and `A = I - (h lambda / 2) J Hess K` factored by Newton
+    /// at an iterate at most a relative `1e-4` from `z`. The settled `z` is a few ulps off the
+    /// solution; the correction keeps about `h lambda |Hess' K| 1e-4` of that, some 1e-21 of
+    /// `|z|` on Kepler. The gradient kept for the next step moves with `z` by `Hess K dz`.
     ///
     /// Why: [`Self::settle`] adds advances computed from `grad K` rounded to doubles, at the
     /// high part of the point. On a regularized Kepler orbit at e = 0.999 those roundings, the

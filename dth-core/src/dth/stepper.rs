@@ -274,9 +274,10 @@ enum End {
 struct Landing {
     t0: f64,
     t_end: f64,
-    /// Where the iteration stops: the acceptance tolerance of the landing, or for a run solved in double-double (whose
-    /// time is smooth in the step far below its rounding) `END_TOLERANCE eps` of the full
-    /// step's time, what the scale of the step (a double) resolves.
+    /// Where the iteration stops: the acceptance tolerance of the landing, or for a run
+    /// solved in double-double (whose time is smooth in the step far below its rounding)
+    /// `END_TOLERANCE eps` of the full step's time, what the scale of the step (a double)
+    /// resolves.
     target: f64,
 }
 
@@ -503,13 +504,17 @@ where
         Ok(self)
     }
 
-    /// Start a regularized run from the midpoint `zbar_0 + low` instead of `zbar_0`: the start
-    /// in double-double, where a double would round what sets the orbit. The one that matters
-    /// is `p_t = -E`, the physical energy, whose rounding alone sets the regularized orbit's
-    /// period: the low part of `-E` from a double-double evaluation of the physical `H` (at
-    /// e = 0.999 half an ulp of `E` moves the state after 100 orbits by 4e-10 at the
-    /// pericentre). The run carries the low part from step to step (`dth::compensated`, and
-    /// [`Dth::low`] reads it).
+    /// Start a regularized run from the midpoint `zbar_0 + low` instead of `zbar_0`, and solve
+    /// every step in double-double (`dth::compensated`; about 20% more per step): the start
+    /// in double-double, where doubles round what sets the orbit. For Kepler, `p_t = -E` sets
+    /// the period (at e = 0.999 half an ulp of `E` moves the state after 100 orbits by 4e-10
+    /// at the pericentre), and `K` at the rounded start, some 1e-16 off zero, is a
+    /// gravitational parameter off by as much (4.9e-9 there). The regularized types'
+    /// `start_double_double` gives both parts of the exact image of a physical start. The run
+    /// carries the low part from step to step, [`Dth::low`] reads it, and its last step lands
+    /// on `t_end` with the clock's low part. A Hamiltonian without a gradient in double-double
+    /// ([`Hamiltonian::gradient_double_double_into`]) has its steps compensated as a run from
+    /// doubles is.
     ///
     /// `zbar_0 + low` is rounded again into a midpoint and its low part (where a start rounded
     /// twice, `low` may be more than half an ulp), so `zbar_0` may move by an ulp.
