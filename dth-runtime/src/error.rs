@@ -92,7 +92,7 @@ pub enum RuntimeError {
     /// A slice passed to an evaluation has the wrong length.
     #[error("`{what}` has length {found}, expected {expected}")]
     WrongLength {
-        /// `"z"`, `"z0"`, `"z1"` or `"out"`.
+        /// `"z"`, `"z0"`, `"z1"`, `"low"` or `"out"`.
         what: &'static str,
         /// The length needed.
         expected: usize,

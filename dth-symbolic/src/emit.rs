@@ -354,9 +354,10 @@ struct Context<'a> {
     arithmetic: Arithmetic,
 }
 
-/// The arithmetic of the emitted locals: `f64` (every trait method), or double-double for a
-/// regularization's start energy ([`start_impl`]), with the operations of
-/// [`Program::run_double_double`] in the same order.
+/// The arithmetic of the emitted locals: `f64` (every trait method but one), or
+/// double-double for a regularization's start energy ([`start_impl`]) and its gradient in
+/// double-double ([`double_double_gradient`]), with the operations of
+/// [`Program::run_double_double`] in the same order (the point `z` then an array of `Dd`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Arithmetic {
     Double,
