@@ -45,6 +45,7 @@
 //! every sub-step for a gain hidden under the truncation error.
 
 use super::linear::Linear;
+use crate::double_double::Dd;
 use crate::hamiltonian::Alloc;
 use crate::linalg::two_sum;
 use crate::{zeros, Hamiltonian};
@@ -276,20 +277,11 @@ where
     }
 }
 
-/// `c lambda (gh + gl)` as a high part and a low part good to about `eps^2` of it: `c lambda`
-/// and `c lambda gh` by exact products, the rest in doubles.
+/// `c lambda (gh + gl)` in double-double, as its high and low part (`c lambda` exact).
 #[inline]
 fn scaled(c: f64, lambda: f64, gh: f64, gl: f64) -> (f64, f64) {
-    let (a, b) = two_product(c, lambda);
-    let (p, e) = two_product(a, gh);
-    (p, e + (a * gl + b * gh))
-}
-
-/// `a b` rounded and its rounding error (exact, by a fused multiply-add).
-#[inline]
-fn two_product(a: f64, b: f64) -> (f64, f64) {
-    let p = a * b;
-    (p, a.mul_add(b, -p))
+    let p = Dd::new(c) * Dd::new(lambda) * Dd { hi: gh, lo: gl };
+    (p.hi, p.lo)
 }
 
 /// `a + b` rounded and its rounding error, exact when `|a| >= |b|` (Dekker's fast two-sum).

@@ -1850,8 +1850,5 @@ const LOW_ULPS: f64 = 16.0;
 /// The spacing of doubles at `x` (the smallest subnormal at zero).
 fn ulp(x: f64) -> f64 {
     let x = x.abs();
-    if x == 0.0 || !x.is_finite() {
-        return f64::from_bits(1);
-    }
-    f64::from_bits(x.to_bits() + 1) - x
+    x.next_up() - x
 }
